@@ -1,0 +1,432 @@
+"""Configuration: frozen dataclasses whose defaults are the paper's reference case.
+
+Every number carries its unit in its name. Angles are in degrees in the configuration and are
+converted to radians inside the model graphs. The defaults are the reference implementation's values
+(``../shared/spec/model.md``), with the paper's reference flapping amplitude of 42 deg.
+
+A configuration is read from / written to TOML with sections ``[body]``, ``[wing]``, ``[gait]`` (with
+one sub-table per joint), ``[aero]`` and ``[solve]``. Any bad key or value raises :class:`ConfigError`
+whose one-line message names the dotted key, the value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+import tomllib
+from dataclasses import dataclass, field, fields, is_dataclass, replace
+from pathlib import Path
+from typing import Any
+
+__all__ = [
+    "ConfigError", "Joint", "Body", "Wing", "Gait", "Aero", "Solve", "Config",
+    "JOINT_NAMES", "PARAM_NAMES", "param_vector", "load", "dump", "loads", "dumps",
+    "from_dict", "to_dict", "set_value", "with_values",
+]
+
+
+class ConfigError(ValueError):
+    """A bad configuration key or value. ``key`` is the dotted key at fault."""
+
+    def __init__(self, key: str, message: str):
+        self.key = key
+        super().__init__(f"{key}: {message}" if key else message)
+
+
+@dataclass(frozen=True)
+class Joint:
+    """Harmonic joint law ``q(t) = offset + amplitude * sin(2 pi f t + phase)``."""
+
+    offset_deg: float = 0.0
+    amplitude_deg: float = 0.0
+    phase_deg: float = 0.0
+
+
+@dataclass(frozen=True)
+class Body:
+    """Rigid body of the bird."""
+
+    mass_kg: float = 1.2
+    pitch_inertia_kgm2: float = 0.1
+    gravity_mps2: float = 9.81
+    reference_chord_m: float = 0.2
+    """Mean chord c̄ used for the stability margin SM = -root_ahead_m / c̄ and moment coefficients."""
+
+
+@dataclass(frozen=True)
+class Wing:
+    """Skeleton and feathers of the (right) wing; the left wing is its mirror image."""
+
+    arm_length_m: float = 0.134
+    forearm_length_m: float = 0.162
+    hand_length_m: float = 0.084
+    feather_lengths_m: tuple[float, ...] = (0.25, 0.225, 0.20, 0.175, 0.15, 0.125, 0.10)
+    """Master feathers 0 (hand tip) .. 6 (shoulder); only 0, 2, 4 and 6 shape the trailing edge."""
+    root_ahead_m: float = 0.05
+    """Distance of the wing root (shoulder) ahead of the centre of mass G, along the body axis."""
+    shoulder_half_separation_m: float = 0.05
+    """Half the distance between the two shoulders, along the span."""
+    section_half_thickness_m: float = 0.01
+    smoothing_radius_m: float = 0.05
+    """Corner-smoothing radius R_s of the edge resampling."""
+
+
+# Joint names in the order of the model's slots (spec 2.1). Docstrings carry the paper's names.
+JOINT_NAMES = (
+    "shoulder_incidence", "shoulder_flap", "shoulder_sweep",
+    "elbow_flex", "hand_twist", "wrist_flex", "wrist_spread",
+)
+
+
+@dataclass(frozen=True)
+class Gait:
+    """Prescribed wing kinematics: one harmonic law per joint, all at the flapping frequency."""
+
+    frequency_hz: float = 4.0
+    shoulder_incidence: Joint = Joint(math.degrees(0.2), math.degrees(0.014), -90.0)
+    """Shoulder rotation about the span axis (wing pitch). Paper: "shoulder y"; code slot s_x."""
+    shoulder_flap: Joint = Joint(0.0, 42.0, 180.0)
+    """Shoulder rotation about the body axis (flapping, positive tip up). Paper: "shoulder x" (A_sx)."""
+    shoulder_sweep: Joint = Joint(-19.0, 20.0, 90.0)
+    """Shoulder rotation about the vertical (sweep, positive tip forward). Paper: "shoulder z";
+    the offset is -19 deg as in the reference implementation (the paper's table prints +19)."""
+    elbow_flex: Joint = Joint(30.0, 30.0, -90.0)
+    """Elbow flexion in the wing plane. Paper: "elbow x"; code slot e_y."""
+    hand_twist: Joint = Joint(0.0, 30.0, -90.0)
+    """Twist of the hand about the span axis, applied at the elbow. Paper: "wrist y"; code slot e_x."""
+    wrist_flex: Joint = Joint(-30.0, 30.0, 90.0)
+    """Wrist flexion in the wing plane. Paper: "wrist z"; code slot w_y."""
+    wrist_spread: Joint = Joint(0.0, 0.0, 0.0)
+    """Wrist rotation about the body axis; not in the paper (identically 0). Code slot w_z."""
+
+    @property
+    def period_s(self) -> float:
+        return 1.0 / self.frequency_hz
+
+
+CIRCULATION_MODES = ("exact", "relaxed")
+KINEMATIC_VELOCITY_MODES = ("exact", "backward-difference")
+
+
+@dataclass(frozen=True)
+class Aero:
+    """Quasi-steady lifting-line aerodynamics."""
+
+    air_density_kgm3: float = 1.225
+    lift_slope_per_rad: float = 2.0 * math.pi
+    circulation: str = "exact"
+    """``exact``: the lifting-line equation solved exactly (linear solve); ``relaxed``: the reference
+    implementation's under-relaxed iteration with a fixed count of evaluations from zero."""
+    relaxed_evaluations: int = 39
+    kinematic_velocity: str = "exact"
+    """``exact``: time derivative of the geometry by AD; ``backward-difference``: as the reference."""
+    backward_step_s: float = 2.5e-5
+
+
+@dataclass(frozen=True)
+class Solve:
+    """Limit-cycle search: multiple shooting and the initial guess."""
+
+    points: int = 5
+    """Shooting points over one period, the closing point included (points - 1 segments)."""
+    steps_per_period: int = 148
+    """RK4 steps per period; a multiple of (points - 1)."""
+    solver: str = "ipopt"
+    derivatives: str = "exact"
+    initial_guess: tuple[float, ...] = (18.0, 0.5, 0.1, 0.01)
+    """State (u [m/s], w [m/s], q [rad/s], theta [rad]) at t = 0."""
+
+
+@dataclass(frozen=True)
+class Config:
+    body: Body = field(default_factory=Body)
+    wing: Wing = field(default_factory=Wing)
+    gait: Gait = field(default_factory=Gait)
+    aero: Aero = field(default_factory=Aero)
+    solve: Solve = field(default_factory=Solve)
+
+    def __post_init__(self):
+        validate(self)
+
+
+# ---------------------------------------------------------------------------------------------
+# Parameter vector: every float of body, wing (feathers included) and gait except the frequency,
+# plus the aerodynamic constants. These are symbolic inputs of the model graphs, so any of them can
+# become a decision variable of a study. The frequency sets the period and stays structural.
+
+def _param_names() -> tuple[str, ...]:
+    names = []
+    for f in fields(Body):
+        names.append(f"body.{f.name}")
+    for f in fields(Wing):
+        if f.name == "feather_lengths_m":
+            names += [f"wing.feather_lengths_m.{i}" for i in range(7)]
+        else:
+            names.append(f"wing.{f.name}")
+    for j in JOINT_NAMES:
+        for f in fields(Joint):
+            names.append(f"gait.{j}.{f.name}")
+    names += ["aero.air_density_kgm3", "aero.lift_slope_per_rad"]
+    return tuple(names)
+
+
+PARAM_NAMES: tuple[str, ...] = _param_names()
+"""Names of the entries of the model parameter vector ``p``, in order."""
+
+
+def get_value(cfg: Any, key: str) -> Any:
+    obj = cfg
+    for part in key.split("."):
+        if isinstance(obj, tuple):
+            obj = obj[int(part)]
+        else:
+            obj = getattr(obj, part)
+    return obj
+
+
+def param_vector(cfg: Config):
+    """The numeric parameter vector ``p`` (numpy array ordered as :data:`PARAM_NAMES`)."""
+    import numpy as np
+
+    return np.array([float(get_value(cfg, k)) for k in PARAM_NAMES])
+
+
+# ---------------------------------------------------------------------------------------------
+# Validation
+
+# (lower, upper, inclusive-lower) physical ranges; angles in a documented range.
+_POSITIVE = {
+    "body.mass_kg", "body.pitch_inertia_kgm2", "body.reference_chord_m",
+    "wing.arm_length_m", "wing.forearm_length_m", "wing.hand_length_m",
+    "wing.shoulder_half_separation_m", "wing.section_half_thickness_m", "wing.smoothing_radius_m",
+    "gait.frequency_hz", "aero.air_density_kgm3", "aero.lift_slope_per_rad", "aero.backward_step_s",
+}
+ANGLE_LIMIT_DEG = 180.0
+"""Joint offsets and amplitudes must lie in [-180, 180] deg, phases in [-360, 360] deg."""
+
+
+def _check_number(key: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(key, f"expected a number, got {value!r}")
+    if not math.isfinite(value):
+        raise ConfigError(key, f"must be finite, got {value!r}")
+    return float(value)
+
+
+def validate(cfg: Config) -> None:
+    """Raise :class:`ConfigError` on the first non-physical value."""
+    for key in _flat_keys(cfg):
+        value = get_value(cfg, key)
+        if isinstance(value, str) or isinstance(value, tuple):
+            continue
+        if isinstance(value, int) and not isinstance(value, bool) and key.startswith(("solve.", "aero.relaxed")):
+            continue
+        _check_number(key, value)
+        if key in _POSITIVE and value <= 0:
+            raise ConfigError(key, f"must be > 0, got {value!r}")
+    if cfg.body.gravity_mps2 < 0:
+        raise ConfigError("body.gravity_mps2", f"must be >= 0, got {cfg.body.gravity_mps2!r}")
+    for i, L in enumerate(cfg.wing.feather_lengths_m):
+        _check_number(f"wing.feather_lengths_m.{i}", L)
+        if L <= 0:
+            raise ConfigError(f"wing.feather_lengths_m.{i}", f"must be > 0, got {L!r}")
+    if len(cfg.wing.feather_lengths_m) != 7:
+        raise ConfigError("wing.feather_lengths_m", f"needs 7 lengths, got {len(cfg.wing.feather_lengths_m)}")
+    if not (-0.5 <= cfg.wing.root_ahead_m <= 0.5):
+        raise ConfigError("wing.root_ahead_m", f"must lie in [-0.5, 0.5] m, got {cfg.wing.root_ahead_m!r}")
+    for j in JOINT_NAMES:
+        joint = getattr(cfg.gait, j)
+        for name, lim in (("offset_deg", ANGLE_LIMIT_DEG), ("amplitude_deg", ANGLE_LIMIT_DEG),
+                          ("phase_deg", 2 * ANGLE_LIMIT_DEG)):
+            v = getattr(joint, name)
+            if not -lim <= v <= lim:
+                raise ConfigError(f"gait.{j}.{name}", f"must lie in [{-lim:g}, {lim:g}] deg, got {v!r}")
+    if cfg.aero.circulation not in CIRCULATION_MODES:
+        raise ConfigError("aero.circulation", f"must be one of {', '.join(CIRCULATION_MODES)}; got {cfg.aero.circulation!r}")
+    if cfg.aero.kinematic_velocity not in KINEMATIC_VELOCITY_MODES:
+        raise ConfigError("aero.kinematic_velocity",
+                          f"must be one of {', '.join(KINEMATIC_VELOCITY_MODES)}; got {cfg.aero.kinematic_velocity!r}")
+    if not 1 <= cfg.aero.relaxed_evaluations <= 1000:
+        raise ConfigError("aero.relaxed_evaluations", f"must be an integer in [1, 1000], got {cfg.aero.relaxed_evaluations!r}")
+    s = cfg.solve
+    if s.points < 2:
+        raise ConfigError("solve.points", f"must be >= 2 (the closing point included), got {s.points!r}")
+    if s.steps_per_period < 1 or s.steps_per_period % (s.points - 1):
+        raise ConfigError("solve.steps_per_period",
+                          f"must be a positive multiple of points - 1 = {s.points - 1}, got {s.steps_per_period!r}")
+    if s.solver not in ("ipopt", "lm"):
+        raise ConfigError("solve.solver", f"must be 'ipopt' or 'lm', got {s.solver!r}")
+    if s.derivatives not in ("exact", "fd"):
+        raise ConfigError("solve.derivatives", f"must be 'exact' or 'fd', got {s.derivatives!r}")
+    if len(s.initial_guess) != 4:
+        raise ConfigError("solve.initial_guess", f"needs 4 numbers (u, w, q, theta), got {len(s.initial_guess)}")
+    for i, v in enumerate(s.initial_guess):
+        _check_number(f"solve.initial_guess.{i}", v)
+
+
+# ---------------------------------------------------------------------------------------------
+# Dict / TOML conversion
+
+def _flat_keys(obj: Any, prefix: str = "") -> list[str]:
+    keys = []
+    for f in fields(obj):
+        v = getattr(obj, f.name)
+        k = f"{prefix}{f.name}"
+        if is_dataclass(v):
+            keys += _flat_keys(v, k + ".")
+        else:
+            keys.append(k)
+    return keys
+
+
+def to_dict(cfg: Any) -> dict:
+    """Nested plain dict (tuples as lists) of a config or section."""
+    out = {}
+    for f in fields(cfg):
+        v = getattr(cfg, f.name)
+        out[f.name] = to_dict(v) if is_dataclass(v) else (list(v) if isinstance(v, tuple) else v)
+    return out
+
+
+def _suggest(key: str, candidates) -> str:
+    match = difflib.get_close_matches(key, list(candidates), n=1, cutoff=0.6)
+    return f"; did you mean '{match[0]}'?" if match else ""
+
+
+def _coerce(key: str, default: Any, value: Any) -> Any:
+    """Check ``value`` against the type of ``default``; return the converted value."""
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            raise ConfigError(key, f"expected true or false, got {value!r}")
+        return value
+    if isinstance(default, int):
+        if isinstance(value, bool) or not isinstance(value, int):
+            if isinstance(value, float) and value.is_integer():
+                return int(value)
+            raise ConfigError(key, f"expected an integer, got {value!r}")
+        return value
+    if isinstance(default, float):
+        return _check_number(key, value)
+    if isinstance(default, str):
+        if not isinstance(value, str):
+            raise ConfigError(key, f"expected a string, got {value!r}")
+        return value
+    if isinstance(default, tuple):
+        if not isinstance(value, (list, tuple)):
+            raise ConfigError(key, f"expected a list of numbers, got {value!r}")
+        return tuple(_check_number(f"{key}.{i}", v) for i, v in enumerate(value))
+    raise ConfigError(key, f"unsupported value {value!r}")
+
+
+def _build(cls: type, data: Any, prefix: str) -> Any:
+    if not isinstance(data, dict):
+        raise ConfigError(prefix.rstrip("."), f"expected a table, got {data!r}")
+    default = cls() if cls is not Config else None
+    names = {f.name: f for f in fields(cls)}
+    kwargs = {}
+    for k, v in data.items():
+        key = f"{prefix}{k}"
+        if k not in names:
+            raise ConfigError(key, "unknown key" + _suggest(key, [f"{prefix}{n}" for n in names]
+                                                           + list(_ALL_KEYS)))
+        f = names[k]
+        sub = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+        if is_dataclass(sub):
+            kwargs[k] = _build(type(sub), v, key + ".")
+        else:
+            kwargs[k] = _coerce(key, getattr(default, k) if default is not None else sub, v)
+    try:
+        return replace(cls(), **kwargs) if cls is not Config else cls(**kwargs)
+    except ConfigError:
+        raise
+    except TypeError as exc:  # pragma: no cover - defensive
+        raise ConfigError(prefix.rstrip("."), str(exc)) from None
+
+
+def from_dict(data: dict) -> Config:
+    """Build a validated :class:`Config` from a nested dict (missing keys take the defaults)."""
+    return _build(Config, data, "")
+
+
+def loads(text: str) -> Config:
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError("", f"config is not valid TOML: {exc}") from None
+    return from_dict(data)
+
+
+def load(path: str | Path) -> Config:
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError("", f"config file '{path}' does not exist; give the path of a TOML file")
+    return loads(path.read_text())
+
+
+def dumps(cfg: Config) -> str:
+    import tomli_w
+
+    return tomli_w.dumps(to_dict(cfg))
+
+
+def dump(cfg: Config, path: str | Path) -> None:
+    from .io import atomic_write_text
+
+    atomic_write_text(path, dumps(cfg))
+
+
+def _parse_scalar(text: str) -> Any:
+    """Parse a ``--set`` value as a TOML value; bare words are strings."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def with_values(cfg: Config, values: dict[str, Any]) -> Config:
+    """A copy of ``cfg`` with dotted keys replaced (values already typed)."""
+    data = to_dict(cfg)
+    for key, value in values.items():
+        parts = key.split(".")
+        node = data
+        for i, part in enumerate(parts[:-1]):
+            if isinstance(node, list):
+                raise ConfigError(key, "unknown key" + _suggest(key, _ALL_KEYS))
+            if part not in node or not isinstance(node[part], (dict, list)):
+                raise ConfigError(key, "unknown key" + _suggest(key, _ALL_KEYS))
+            node = node[part]
+        last = parts[-1]
+        if isinstance(node, list):
+            try:
+                idx = int(last)
+                node[idx] = value
+            except (ValueError, IndexError):
+                raise ConfigError(key, f"index must be 0..{len(node) - 1}") from None
+        else:
+            if last not in node:
+                raise ConfigError(key, "unknown key" + _suggest(key, _ALL_KEYS))
+            if isinstance(node[last], dict):
+                raise ConfigError(key, "is a table; set one of its keys, e.g. " + f"{key}.{next(iter(node[last]))}")
+            node[last] = value
+    return from_dict(data)
+
+
+def set_value(cfg: Config, assignment: str) -> Config:
+    """Apply one ``KEY=VALUE`` string (the CLI's ``--set``); the value is parsed as TOML."""
+    if "=" not in assignment:
+        raise ConfigError(assignment, "expected KEY=VALUE, e.g. aero.circulation=relaxed")
+    key, text = assignment.split("=", 1)
+    return with_values(cfg, {key.strip(): _parse_scalar(text.strip())})
+
+
+def _all_keys() -> tuple[str, ...]:
+    keys = []
+    for f in fields(Config):
+        sub = f.default_factory()
+        keys += _flat_keys(sub, f.name + ".")
+    return tuple(keys)
+
+
+_ALL_KEYS = _all_keys()
+ALL_KEYS = _ALL_KEYS
