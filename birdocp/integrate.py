@@ -1,0 +1,157 @@
+"""Fixed-step RK4 on a :class:`~birdocp.problem.PeriodicODE`, as CasADi Functions.
+
+Layout of the data (the time-dependent vector d(t, p)):
+
+* For N RK4 steps of size h = T/N starting at t0, RK4 needs d at the 2N+1 times
+  ``t0 + k h/2`` (k = 0..2N): the *data grid*, nd x (2N+1), computed with ``data.map(2N+1)``.
+* Step k uses the columns (2k, 2k+1, 2k+2) (d at t, t+h/2, t+h); these nd x 3 blocks hstacked give
+  the *stage blocks*, nd x 3N, which is what the segment Functions (``step.mapaccum``) consume.
+
+Quadrature of outputs g(x, d, p) (period means): the state is augmented with the running integral
+q' = g(x, d, p) and the augmented system is integrated with the same RK4 step, i.e. the increment
+is h/6 (g(k-stage 1) + 2 g(stage 2) + 2 g(stage 3) + g(stage 4)) evaluated at the RK4 stage states.
+This is exactly RK4 on (x, q), so the means converge with the same 4th order as the orbit.
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from .problem import PeriodicODE
+
+__all__ = [
+    "rk4_step",
+    "stage_time_grid",
+    "stage_block_index",
+    "RK4Grid",
+    "simulate",
+]
+
+
+def rk4_step(ode: PeriodicODE, outputs=()) -> ca.Function:
+    """One RK4 step ``step(x, D3, p, h) -> (x_next, q_inc)``; D3 = [d(t), d(t+h/2), d(t+h)].
+
+    ``q_inc`` (nq x 1) is the RK4 increment of the integral of each output in ``outputs``.
+    """
+    nx, nd, np_ = ode.nx, ode.nd, ode.np
+    x = ca.SX.sym("x", nx)
+    D3 = ca.SX.sym("D3", nd, 3)
+    p = ca.SX.sym("p", np_)
+    h = ca.SX.sym("h")
+    f = ode.rhs
+    d0, dm, d1 = D3[:, 0], D3[:, 1], D3[:, 2]
+    x1 = x
+    k1 = f(x1, d0, p)
+    x2 = x + h / 2 * k1
+    k2 = f(x2, dm, p)
+    x3 = x + h / 2 * k2
+    k3 = f(x3, dm, p)
+    x4 = x + h * k3
+    k4 = f(x4, d1, p)
+    xn = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    qs = []
+    for g in outputs:
+        qs.append(h / 6 * (g(x1, d0, p) + 2 * g(x2, dm, p) + 2 * g(x3, dm, p) + g(x4, d1, p)))
+    q = ca.vertcat(*qs) if qs else ca.SX(0, 1)
+    return ca.Function("rk4_step", [x, D3, p, h], [xn, q], ["x", "D3", "p", "h"], ["xn", "q"])
+
+
+def stage_time_grid(t0: float, period_s: float, n_steps: int) -> np.ndarray:
+    """The 2N+1 times ``t0 + k h/2`` at which RK4 needs the data (1 x (2N+1))."""
+    h = period_s / n_steps
+    return (t0 + 0.5 * h * np.arange(2 * n_steps + 1)).reshape(1, -1)
+
+
+def stage_block_index(n_steps: int) -> list[int]:
+    """Column indices into the data grid giving the hstacked per-step blocks (2k, 2k+1, 2k+2)."""
+    return [c for k in range(n_steps) for c in (2 * k, 2 * k + 1, 2 * k + 2)]
+
+
+class RK4Grid:
+    """All integrator Functions for one (ode, steps per period, segments, outputs) choice.
+
+    Functions (h is baked in as a constant; D is the stage-block matrix, nd x 3n):
+
+    * ``data_grid(times[1 x 2N+1], p) -> nd x (2N+1)``  (``data.map``)
+    * ``segment(x, Dseg, p) -> (x_end, X[nx x n], q[nq])``  one segment of n = N/(M-1) steps;
+      X holds the states after each step, q the integrals of the outputs over the segment.
+    * ``segments(X[nx x (M-1)], D[nd x 3N], p) -> (X_end, Xtraj[nx x N], Q[nq x (M-1)])``  mapped.
+    * ``segment_jacobians(X, D, p) -> (X_end, J[nx x nx(M-1)])``  blocks hstacked.
+    * ``period_map(x0, D, p) -> (x_T, X[nx x N], q[nq])`` and
+      ``period_jacobian(x0, D, p) -> (x_T, dx_T/dx0)``.
+    """
+
+    def __init__(self, ode: PeriodicODE, steps_per_period: int, n_segments: int, outputs=()):
+        if steps_per_period % n_segments:
+            raise ValueError("steps_per_period must be a multiple of the number of segments (points - 1)")
+        self.ode = ode
+        self.N = int(steps_per_period)
+        self.S = int(n_segments)
+        self.n = self.N // self.S
+        self.h = ode.period_s / self.N
+        self.nq = len(outputs)
+        nx, nd, np_ = ode.nx, ode.nd, ode.np
+        step = rk4_step(ode, outputs)
+        self.step = step
+        h = self.h
+
+        self.data_grid = ode.data.map(2 * self.N + 1)
+        self.block_index = stage_block_index(self.N)
+
+        def accumulate(n, name):
+            acc = step.mapaccum("acc", n)
+            x = ca.MX.sym("x", nx)
+            D = ca.MX.sym("D", nd, 3 * n)
+            p = ca.MX.sym("p", np_)
+            X, Q = acc(x, D, p, h)
+            q = ca.sum2(Q) if self.nq else ca.MX(0, 1)
+            return ca.Function(name, [x, D, p], [X[:, -1], X, q], ["x", "D", "p"], ["x_end", "X", "q"])
+
+        self.segment = accumulate(self.n, "segment")
+        self.period_map = accumulate(self.N, "period_map")
+
+        segs = self.segment.map(self.S)
+        Xs = ca.MX.sym("X", nx, self.S)
+        D = ca.MX.sym("D", nd, 3 * self.N)
+        p = ca.MX.sym("p", np_)
+        Xe, Xt, Q = segs(Xs, D, p)
+        self.segments = ca.Function("segments", [Xs, D, p], [Xe, Xt, Q], ["X", "D", "p"], ["X_end", "Xtraj", "Q"])
+
+        x = ca.MX.sym("x", nx)
+        Dn = ca.MX.sym("D", nd, 3 * self.n)
+        xe = self.segment(x, Dn, p)[0]
+        segJ = ca.Function("segment_jac", [x, Dn, p], [xe, ca.jacobian(xe, x)])
+        Xe, J = segJ.map(self.S)(Xs, D, p)
+        self.segment_jacobians = ca.Function("segment_jacobians", [Xs, D, p], [Xe, J])
+
+        xT = self.period_map(x, D, p)[0]
+        self.period_jacobian = ca.Function("period_jacobian", [x, D, p], [xT, ca.jacobian(xT, x)])
+
+    # -- data ---------------------------------------------------------------------------------
+    def times(self, t0: float) -> np.ndarray:
+        return stage_time_grid(t0, self.ode.period_s, self.N)
+
+    def blocks_numeric(self, t0: float, p) -> ca.DM:
+        """Stage blocks (nd x 3N) evaluated numerically, as a DM (pass DMs, not numpy, to calls)."""
+        grid = np.asarray(self.data_grid(ca.DM(self.times(t0)), ca.DM(np.asarray(p, float))))
+        return ca.DM(grid[:, self.block_index])
+
+    def blocks_symbolic(self, t0: float, p: ca.MX) -> ca.MX:
+        grid = self.data_grid(ca.DM(self.times(t0)), p)
+        return grid[:, self.block_index]
+
+
+def simulate(ode: PeriodicODE, x0, p, steps_per_period: int = 148, n_periods: int = 1, t0: float = 0.0):
+    """Plain RK4 from x0 over ``n_periods`` periods. Returns (t[K+1], X[K+1, nx])."""
+    grid = RK4Grid(ode, steps_per_period, 1)
+    D = grid.blocks_numeric(t0, p)
+    pd = ca.DM(np.asarray(p, float))
+    x = np.asarray(x0, float).ravel()
+    out = [x[None, :]]
+    for _ in range(n_periods):
+        X = np.asarray(grid.period_map(ca.DM(x), D, pd)[1]).T
+        out.append(X)
+        x = X[-1]
+    Xall = np.vstack(out)
+    t = t0 + grid.h * np.arange(Xall.shape[0])
+    return t, Xall

@@ -1,0 +1,171 @@
+"""Problem definitions for the model-agnostic limit-cycle engine.
+
+Nothing here knows what system is being integrated: a :class:`PeriodicODE` is any CasADi ODE
+``x' = f(x, d(t, p), p)`` with a known period, where all explicit time dependence goes through a
+data vector ``d(t, p)``.  Splitting the time-only part ``d`` from the state right-hand side lets an
+expensive time-only computation be evaluated once per RK4 stage time instead of inside every RHS
+call (and, when no parameter is a decision variable, once per solve as plain numbers).
+
+A :class:`LimitCycleProblem` says *what* is wanted (a periodic orbit of the ODE, optionally with
+some parameters free and as many period-mean conditions); the *how* lives in
+:class:`birdocp.shooting.MultipleShooting`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+__all__ = ["PeriodicODE", "MeanCondition", "LimitCycleProblem"]
+
+
+def _check_function(f, name: str, n_in: int) -> None:
+    if not isinstance(f, ca.Function):
+        raise ValueError(f"{name}: expected a casadi.Function, got {type(f).__name__}")
+    if f.n_in() != n_in:
+        raise ValueError(f"{name}: expected {n_in} inputs, got {f.n_in()}")
+
+
+@dataclass(frozen=True, eq=False)
+class PeriodicODE:
+    """``x' = rhs(x, d, p)`` with ``d = data(t, p)``, periodic in ``t`` with period ``period_s``.
+
+    rhs:  Function (x[nx], d[nd], p[np]) -> xdot[nx]. Build it in SX: it is called at every RK4 stage.
+    data: Function (t[1], p[np]) -> d[nd] (column). It may be large; the engine evaluates it on the
+          RK4 stage-time grid only (numerically when no parameter is free).
+    period_s: the period T of the forcing in seconds (the orbit is sought with this period).
+
+    Equality is identity (``eq=False``): the engine caches CasADi graphs per ODE object.
+    """
+
+    rhs: ca.Function
+    data: ca.Function
+    period_s: float
+    state_names: tuple[str, ...] = ()
+    param_names: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        _check_function(self.rhs, "PeriodicODE.rhs", 3)
+        _check_function(self.data, "PeriodicODE.data", 2)
+        if not (np.isfinite(self.period_s) and self.period_s > 0):
+            raise ValueError(f"PeriodicODE.period_s must be a positive finite number, got {self.period_s}")
+        nx, nd, np_ = self.nx, self.nd, self.np
+        if self.rhs.size_out(0) != (nx, 1):
+            raise ValueError(f"PeriodicODE.rhs: output must be a column of size nx={nx}, got {self.rhs.size_out(0)}")
+        if self.data.size1_in(0) * self.data.size2_in(0) != 1:
+            raise ValueError("PeriodicODE.data: first input (t) must be a scalar")
+        if self.data.size_in(1) != (np_, 1) and np_ > 0:
+            raise ValueError(f"PeriodicODE.data: second input (p) must be {np_}x1, got {self.data.size_in(1)}")
+        if self.data.size_out(0) != (nd, 1):
+            raise ValueError(f"PeriodicODE.data: output must be a column of size nd={nd}, got {self.data.size_out(0)}")
+        if self.state_names and len(self.state_names) != nx:
+            raise ValueError(f"PeriodicODE.state_names: {len(self.state_names)} names for nx={nx} states")
+        if self.param_names and len(self.param_names) != np_:
+            raise ValueError(f"PeriodicODE.param_names: {len(self.param_names)} names for np={np_} parameters")
+
+    @property
+    def nx(self) -> int:
+        return self.rhs.size1_in(0)
+
+    @property
+    def nd(self) -> int:
+        return self.rhs.size1_in(1)
+
+    @property
+    def np(self) -> int:
+        return self.rhs.size1_in(2)
+
+    @staticmethod
+    def from_rhs(f: ca.Function, period_s: float, state_names=(), param_names=()) -> "PeriodicODE":
+        """Wrap a plain ``f(x, t, p)``: the data vector is the time itself (``d = t``, nd = 1)."""
+        _check_function(f, "from_rhs f", 3)
+        nx, np_ = f.size1_in(0), f.size1_in(2)
+        x = ca.SX.sym("x", nx)
+        d = ca.SX.sym("d", 1)
+        p = ca.SX.sym("p", np_)
+        t = ca.SX.sym("t", 1)
+        rhs = ca.Function("rhs", [x, d, p], [f(x, d, p)], ["x", "d", "p"], ["xdot"])
+        data = ca.Function("data", [t, p], [t], ["t", "p"], ["d"])
+        return PeriodicODE(rhs, data, float(period_s), tuple(state_names), tuple(param_names))
+
+
+@dataclass(frozen=True, eq=False)
+class MeanCondition:
+    """The period mean of ``output(x, d, p)`` (a scalar) must equal ``target``."""
+
+    output: ca.Function
+    target: float = 0.0
+    name: str = ""
+
+    def __post_init__(self):
+        _check_function(self.output, f"MeanCondition({self.name!r}).output", 3)
+        if self.output.numel_out(0) != 1:
+            raise ValueError(f"MeanCondition({self.name!r}).output must return a scalar")
+
+
+@dataclass(eq=False)
+class LimitCycleProblem:
+    """Find x0 (and the free parameters) such that the flow over one period returns to x0.
+
+    p:       full parameter vector (initial values for the free ones).
+    x_guess: initial guess of the state at ``t0``.
+    free:    free parameters, by index or name -> (lower, upper) bounds.
+    means:   period-mean conditions, typically one per free parameter.
+    outputs: extra scalar outputs ``(x, d, p) -> scalar`` whose period means are reported in
+             ``result.means`` (no condition imposed).
+    t0:      phase of the initial time; shooting points are at ``t0 + k T/(M-1)``.
+    """
+
+    ode: PeriodicODE
+    p: np.ndarray
+    x_guess: np.ndarray
+    free: dict = field(default_factory=dict)
+    means: list = field(default_factory=list)
+    t0: float = 0.0
+    outputs: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.p = np.atleast_1d(np.asarray(self.p, dtype=float)).ravel()
+        self.x_guess = np.atleast_1d(np.asarray(self.x_guess, dtype=float)).ravel()
+        if self.p.size != self.ode.np:
+            raise ValueError(f"LimitCycleProblem.p: size {self.p.size}, the ODE has np={self.ode.np}")
+        if self.x_guess.size != self.ode.nx:
+            raise ValueError(f"LimitCycleProblem.x_guess: size {self.x_guess.size}, the ODE has nx={self.ode.nx}")
+        for m in self.means:
+            if not isinstance(m, MeanCondition):
+                raise ValueError("LimitCycleProblem.means: items must be MeanCondition")
+        for k, g in self.outputs.items():
+            _check_function(g, f"LimitCycleProblem.outputs[{k!r}]", 3)
+            if g.numel_out(0) != 1:
+                raise ValueError(f"LimitCycleProblem.outputs[{k!r}] must return a scalar")
+        self.free_indices()  # validates
+
+    def free_indices(self) -> tuple[int, ...]:
+        """Indices of the free parameters, in the order of ``free``."""
+        out = []
+        for key in self.free:
+            if isinstance(key, str):
+                if key not in self.ode.param_names:
+                    raise ValueError(f"LimitCycleProblem.free: unknown parameter name {key!r}")
+                i = self.ode.param_names.index(key)
+            else:
+                i = int(key)
+                if not 0 <= i < self.ode.np:
+                    raise ValueError(f"LimitCycleProblem.free: index {i} out of range (np={self.ode.np})")
+            if i in out:
+                raise ValueError(f"LimitCycleProblem.free: parameter {key!r} given twice")
+            out.append(i)
+        return tuple(out)
+
+    def free_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        lo = np.array([float(b[0]) for b in self.free.values()])
+        hi = np.array([float(b[1]) for b in self.free.values()])
+        return lo, hi
+
+    def free_name(self, i: int) -> str:
+        return self.ode.param_names[i] if self.ode.param_names else f"p{i}"
+
+    def mean_names(self) -> list[str]:
+        names = [m.name or f"mean{k}" for k, m in enumerate(self.means)]
+        return names + [str(k) for k in self.outputs]

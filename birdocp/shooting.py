@@ -1,0 +1,491 @@
+"""Multiple shooting for periodic orbits of a forced PeriodicODE (IPOPT or Levenberg-Marquardt).
+
+Unknowns: the shooting points X_0 .. X_{M-1} at t0 + i T/(M-1) (M counts the closing point, as in
+the paper, so there are M-1 segments) and the free parameters.  Equations:
+
+* continuity   Phi_seg(X_i) - X_{i+1} = 0,  i = 0 .. M-2  (Phi_seg: n = N/(M-1) RK4 steps)
+* periodicity  X_{M-1} - X_0 = 0
+* mean conditions  (1/T) integral over the period of output_k  - target_k = 0
+
+``solver='ipopt'``: a pure feasibility NLP (objective 0; the system is square when there is one mean
+condition per free parameter), limited-memory Hessian, MUMPS.  ``solver='lm'``: the paper's
+Algorithm 1 (Levenberg-Marquardt on the shooting matrix, every step accepted, lambda /10 or x10).
+
+CasADi graphs are built once per (ode, steps_per_period, points, solver, derivatives, free set,
+mean/extra output Functions) and cached in this module (``_BUILDERS``, ``_GRIDS``); a sweep that
+re-solves with new parameter values, targets, t0 or guesses reuses them (only numbers change: the
+data grid and the parameter vector are NLP parameters, not constants baked into the graph).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from .floquet import floquet_from_jacobians
+from .integrate import RK4Grid
+from .problem import LimitCycleProblem
+
+__all__ = ["MultipleShooting", "LimitCycleResult", "solve", "clear_cache"]
+
+_IPOPT_DEFAULTS = {
+    "ipopt.hessian_approximation": "limited-memory",
+    "ipopt.sb": "yes",
+    "ipopt.print_level": 0,
+    "print_time": False,
+    "ipopt.linear_solver": "mumps",
+}
+
+
+@dataclass(frozen=True)
+class MultipleShooting:
+    """How to solve a LimitCycleProblem.
+
+    points:           M, shooting points INCLUDING the closing one (M-1 segments), M >= 2.
+    steps_per_period: N, RK4 steps over the period; a multiple of points-1.
+    solver:           "ipopt" | "lm" (the paper's Levenberg-Marquardt).
+    derivatives:      "exact" (CasADi AD) | "fd" (forward differences of the segment flow, relative
+                      step 1e-3*x_j, absolute step 1e-3*fd_floor when |x_j| < fd_floor; lm only).
+    tol:              None -> 1e-10 for ipopt (``constr_viol_tol`` and ``tol``),
+                      1e-5 for lm (max |E|, as in the paper). Both are absolute max-norms.
+    max_iter:         iteration limit.
+    ipopt_options:    merged over the defaults (limited-memory Hessian, MUMPS, silent).
+    fd_floor:         see ``derivatives``.
+    """
+
+    points: int = 5
+    steps_per_period: int = 148
+    solver: str = "ipopt"
+    derivatives: str = "exact"
+    tol: float | None = None
+    max_iter: int = 100
+    ipopt_options: dict = field(default_factory=dict)
+    fd_floor: float = 1e-3
+
+    def validate(self) -> None:
+        if not isinstance(self.points, (int, np.integer)) or self.points < 2:
+            raise ValueError(f"MultipleShooting.points must be an integer >= 2, got {self.points!r}")
+        if not isinstance(self.steps_per_period, (int, np.integer)) or self.steps_per_period < 1:
+            raise ValueError(f"MultipleShooting.steps_per_period must be a positive integer, got {self.steps_per_period!r}")
+        if self.steps_per_period % (self.points - 1):
+            raise ValueError(
+                f"MultipleShooting.steps_per_period={self.steps_per_period} must be a multiple of "
+                f"points-1={self.points - 1}")
+        if self.solver not in ("ipopt", "lm"):
+            raise ValueError(f"MultipleShooting.solver must be 'ipopt' or 'lm', got {self.solver!r}")
+        if self.derivatives not in ("exact", "fd"):
+            raise ValueError(f"MultipleShooting.derivatives must be 'exact' or 'fd', got {self.derivatives!r}")
+        if self.derivatives == "fd" and self.solver != "lm":
+            raise ValueError("MultipleShooting.derivatives='fd' is only available with solver='lm'")
+        if self.tol is not None and not self.tol > 0:
+            raise ValueError(f"MultipleShooting.tol must be positive, got {self.tol!r}")
+        if not isinstance(self.max_iter, (int, np.integer)) or self.max_iter < 0:
+            raise ValueError(f"MultipleShooting.max_iter must be a non-negative integer, got {self.max_iter!r}")
+
+    @property
+    def resolved_tol(self) -> float:
+        if self.tol is not None:
+            return float(self.tol)
+        return 1e-10 if self.solver == "ipopt" else 1e-5
+
+
+def _jsonable(v):
+    if isinstance(v, dict):
+        return {str(k): _jsonable(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_jsonable(x) for x in v]
+    if isinstance(v, np.ndarray):
+        if np.iscomplexobj(v):
+            return {"real": v.real.tolist(), "imag": v.imag.tolist()}
+        return v.tolist()
+    if isinstance(v, (np.bool_, bool)):
+        return bool(v)
+    if isinstance(v, (np.integer,)):
+        return int(v)
+    if isinstance(v, (np.floating, float)):
+        return float(v)
+    if isinstance(v, complex):
+        return {"real": v.real, "imag": v.imag}
+    return v
+
+
+@dataclass
+class LimitCycleResult:
+    """Outcome of :func:`solve`. Failures are results (``success=False``), not exceptions.
+
+    status: IPOPT ``return_status`` (e.g. "Solve_Succeeded") for ipopt; "converged", "max_iter",
+            "nan", "singular" for lm; "nan" also when an ipopt iterate is non-finite.
+    residual_history: max |continuity + periodicity (+ mean) residual| per iteration (ipopt: inf_pr
+            as reported by IPOPT, unscaled; lm: max|E| before each step and after the last).
+    max_residual: max abs of all equations (continuity, periodicity, mean conditions) at the result.
+    means: period mean of each mean-condition output and each extra output (by name).
+    monodromy_vs_full_period_jacobian: max abs difference between the product of segment Jacobians
+            and the Jacobian of the one-period map from x0 (accuracy indicator).
+    doubling_times_s: ln 2 / Re(exponent), signed (negative = minus the halving time); see floquet.
+    JSON: ``to_dict()`` gives lists/dicts/floats; complex arrays as {"real": [...], "imag": [...]};
+    non-finite floats stay floats (json.dumps writes Infinity/NaN).
+    """
+
+    success: bool
+    status: str
+    message: str
+    iterations: int
+    residual_history: np.ndarray
+    wall_s: dict
+    shooting_times: np.ndarray
+    shooting_points: np.ndarray
+    x0: np.ndarray
+    p: np.ndarray
+    free_values: dict
+    trajectory_t: np.ndarray
+    trajectory_x: np.ndarray
+    max_residual: float
+    means: dict
+    monodromy: np.ndarray | None = None
+    multipliers: np.ndarray | None = None
+    eigenvectors: np.ndarray | None = None
+    floquet_exponents: np.ndarray | None = None
+    doubling_times_s: np.ndarray | None = None
+    stable: bool | None = None
+    monodromy_vs_full_period_jacobian: float = float("nan")
+    method: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {k: _jsonable(v) for k, v in self.__dict__.items()}
+
+
+# ----------------------------------------------------------------------------------------------
+# caches
+_GRIDS: dict = {}
+_BUILDERS: dict = {}
+_CACHE_SIZE = 32
+
+
+def clear_cache() -> None:
+    _GRIDS.clear()
+    _BUILDERS.clear()
+
+
+def _trim(cache: dict) -> None:
+    while len(cache) > _CACHE_SIZE:
+        cache.pop(next(iter(cache)))
+
+
+def _get_grid(ode, method: MultipleShooting, outputs) -> RK4Grid:
+    outputs = tuple(outputs)
+    key = (id(ode), int(method.steps_per_period), int(method.points) - 1, tuple(id(g) for g in outputs))
+    hit = _GRIDS.get(key)
+    if hit is not None and hit[0] is ode:
+        return hit[2]
+    grid = RK4Grid(ode, method.steps_per_period, method.points - 1, outputs)
+    _GRIDS[key] = (ode, outputs, grid)  # holding the references keeps the ids unique
+    _trim(_GRIDS)
+    return grid
+
+
+class _Builder:
+    """The MX graphs of one shooting configuration (see module docstring for the cache key)."""
+
+    def __init__(self, ode, method: MultipleShooting, free_idx, mean_fns, extra_fns):
+        self.ode = ode
+        self.refs = (tuple(mean_fns), tuple(extra_fns))
+        outputs = tuple(mean_fns) + tuple(extra_fns)
+        self.grid = grid = _get_grid(ode, method, outputs)
+        nx, nd, np_ = ode.nx, ode.nd, ode.np
+        S, N, T = grid.S, grid.N, ode.period_s
+        self.M, self.S, self.N = S + 1, S, N
+        self.free_idx = tuple(free_idx)
+        nf, nm = len(free_idx), len(mean_fns)
+        self.nf, self.nm = nf, nm
+
+        X = ca.MX.sym("X", nx, S + 1)
+        pf = ca.MX.sym("pf", nf)
+        pp = ca.MX.sym("p", np_)
+        tgt = ca.MX.sym("target", nm)
+        if nf:
+            pels = [pp[j] for j in range(np_)]
+            for k, j in enumerate(free_idx):
+                pels[j] = pf[k]
+            pfull = ca.vertcat(*pels)
+            times = ca.MX.sym("times", 1, 2 * N + 1)
+            D = grid.data_grid(times, pfull)[:, grid.block_index]
+            dpar = ca.vec(times)
+        else:
+            pfull = pp
+            Dsym = ca.MX.sym("D", nd, 3 * N)
+            D = Dsym
+            dpar = ca.vec(Dsym)
+        self.symbolic_data = bool(nf)
+        Xe, Xt, Q = grid.segments(X[:, :S], D, pfull)
+        means = ca.sum2(Q) / T if grid.nq else ca.MX(0, 1)
+        g = ca.vertcat(ca.vec(Xe - X[:, 1:]), X[:, S] - X[:, 0], means[:nm] - tgt)
+        z = ca.vertcat(ca.vec(X), pf)
+        par = ca.vertcat(dpar, pp, tgt)
+        self.nz, self.ng = z.numel(), g.numel()
+        self.resid = ca.Function("resid", [z, par], [g])
+        self.aux = ca.Function("aux", [z, par], [g, Xt, means, pfull])
+        self.nlp = {"x": z, "p": par, "f": ca.MX(0), "g": g}
+        self._jac = None
+        self._solvers = {}
+
+    def jac(self):
+        if self._jac is None:
+            z = ca.MX.sym("z", self.nz)
+            par = ca.MX.sym("par", self.resid.size1_in(1))
+            g = self.resid(z, par)
+            self._jac = ca.Function("resid_jac", [z, par], [g, ca.jacobian(g, z)])
+        return self._jac
+
+    def ipopt(self, method: MultipleShooting):
+        tol = method.resolved_tol
+        opts = dict(_IPOPT_DEFAULTS)
+        opts.update({"ipopt.max_iter": int(method.max_iter), "ipopt.tol": tol, "ipopt.constr_viol_tol": tol})
+        opts.update(method.ipopt_options)
+        key = repr(sorted(opts.items()))
+        s = self._solvers.get(key)
+        if s is None:
+            s = ca.nlpsol("shooting", "ipopt", self.nlp, opts)
+            self._solvers[key] = s
+        return s
+
+
+def _get_builder(problem: LimitCycleProblem, method: MultipleShooting):
+    ode = problem.ode
+    mean_fns = tuple(m.output for m in problem.means)
+    extra_fns = tuple(problem.outputs.values())
+    free_idx = problem.free_indices()
+    key = (id(ode), int(method.steps_per_period), int(method.points), free_idx,
+           tuple(id(f) for f in mean_fns), tuple(id(f) for f in extra_fns))
+    hit = _BUILDERS.get(key)
+    if hit is not None and hit.ode is ode:
+        return hit, 0.0
+    t = time.perf_counter()
+    b = _Builder(ode, method, free_idx, mean_fns, extra_fns)
+    _BUILDERS[key] = b
+    _trim(_BUILDERS)
+    return b, time.perf_counter() - t
+
+
+# ----------------------------------------------------------------------------------------------
+def _initial_points(b: _Builder, x_start, D, p):
+    """X_0 = x_start, X_i by integrating forward (non-finite points replaced by x_start)."""
+    grid = b.grid
+    Xt = np.asarray(grid.period_map(ca.DM(x_start), D, ca.DM(p))[1])
+    pts = [x_start] + [Xt[:, grid.n * (i + 1) - 1] for i in range(b.S)]
+    pts = [q if np.all(np.isfinite(q)) else x_start for q in pts]
+    return np.column_stack(pts)
+
+
+def _lm(b: _Builder, method, problem, z, par_fn, lo, hi, fd):
+    """The paper's Algorithm 1. Returns (z, status, message, iterations, history)."""
+    tol, nx, S = method.resolved_tol, problem.ode.nx, b.S
+    nf = b.nf
+    par = par_fn(z)
+    r = np.asarray(b.resid(z, par)).ravel()
+    hist = [float(np.max(np.abs(r))) if r.size else 0.0]
+    lam = 1.0
+    it = 0
+    jacf = None if fd else b.jac()
+    while True:
+        if not np.all(np.isfinite(r)) or not np.all(np.isfinite(z)):
+            return z, "nan", "non-finite residual or iterate", it, hist
+        if hist[-1] < tol:
+            return z, "converged", f"max|E| = {hist[-1]:.3e} < tol = {tol:.1e}", it, hist
+        if it >= method.max_iter:
+            return z, "max_iter", f"max_iter={method.max_iter} reached, max|E| = {hist[-1]:.3e}", it, hist
+        if fd:
+            J = _fd_jacobian(b, problem, z, par_fn, r, method.fd_floor)
+        else:
+            J = np.asarray(ca.densify(jacf(z, par)[1]))
+        if not np.all(np.isfinite(J)):
+            return z, "nan", "non-finite Jacobian", it, hist
+        A = J.T @ J
+        rhs = -J.T @ r
+        try:
+            delta = np.linalg.solve(A + lam * np.diag(np.diag(A)), rhs)
+        except np.linalg.LinAlgError as e:
+            return z, "singular", f"singular shooting matrix: {e}", it, hist
+        if not np.all(np.isfinite(delta)):
+            return z, "singular", "singular shooting matrix (non-finite step)", it, hist
+        z = z + delta
+        if nf:
+            z[-nf:] = np.clip(z[-nf:], lo, hi)
+            par = par_fn(z)
+        r = np.asarray(b.resid(z, par)).ravel()
+        err = float(np.max(np.abs(r))) if np.all(np.isfinite(r)) else float("inf")
+        lam = lam / 10 if err < hist[-1] else lam * 10
+        hist.append(err if np.isfinite(err) else float("nan"))
+        it += 1
+
+
+def _fd_steps(v, floor):
+    return np.where(np.abs(v) >= floor, 1e-3 * v, 1e-3 * floor)
+
+
+def _fd_jacobian(b: _Builder, problem, z, par_fn, r0, floor):
+    """Forward differences as in the paper: segment Jacobians column by column (all segments in one
+    mapped call per state), the shooting matrix assembled around them; free-parameter columns by
+    forward differences of the whole residual."""
+    nx, S, nf, nm = problem.ode.nx, b.S, b.nf, b.nm
+    T = problem.ode.period_s
+    X = z[: nx * (S + 1)].reshape(S + 1, nx).T
+    par = par_fn(z)
+    _, _, _, pfull = b.aux(z, par)
+    pfull = np.asarray(pfull).ravel()
+    Dn = b.grid.blocks_numeric(problem.t0, pfull)
+    pd = ca.DM(pfull)
+    Xe0, _, Q0 = (np.asarray(v) for v in b.grid.segments(ca.DM(X[:, :S]), Dn, pd))
+    J = np.zeros((b.ng, b.nz))
+    I = np.eye(nx)
+    Js = np.zeros((S, nx, nx))
+    dM = np.zeros((nm, S, nx))
+    for j in range(nx):
+        hj = _fd_steps(X[j, :S], floor)
+        Xp = X[:, :S].copy()
+        Xp[j, :] += hj
+        Xe, _, Q = (np.asarray(v) for v in b.grid.segments(ca.DM(Xp), Dn, pd))
+        Js[:, :, j] = ((Xe - Xe0) / hj).T
+        if nm:
+            dM[:, :, j] = (Q[:nm] - Q0[:nm]) / hj / T
+    for i in range(S):
+        J[i * nx:(i + 1) * nx, i * nx:(i + 1) * nx] = Js[i]
+        J[i * nx:(i + 1) * nx, (i + 1) * nx:(i + 2) * nx] = -I
+        for k in range(nm):
+            J[(S + 1) * nx + k, i * nx:(i + 1) * nx] = dM[k, i]
+    J[S * nx:(S + 1) * nx, 0:nx] = -I
+    J[S * nx:(S + 1) * nx, S * nx:(S + 1) * nx] = I
+    for k in range(nf):
+        col = b.nz - nf + k
+        zp = z.copy()
+        hk = _fd_steps(np.array([z[col]]), floor)[0]
+        zp[col] += hk
+        rp = np.asarray(b.resid(zp, par_fn(zp))).ravel()
+        J[:, col] = (rp - r0) / hk
+    return J
+
+
+def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShooting(),
+          warm_start: "LimitCycleResult | None" = None) -> LimitCycleResult:
+    """Find the periodic orbit (and free parameters) of ``problem`` and its Floquet multipliers."""
+    t_total = time.perf_counter()
+    method.validate()
+    ode = problem.ode
+    nx, T, t0 = ode.nx, ode.period_s, float(problem.t0)
+    b, build_s = _get_builder(problem, method)
+    grid, S, N = b.grid, b.S, b.N
+    free_idx = b.free_idx
+    nf = len(free_idx)
+    lo, hi = problem.free_bounds() if nf else (np.zeros(0), np.zeros(0))
+    wall = {"build": build_s, "data": 0.0, "solve": 0.0, "floquet": 0.0}
+
+    # --- initial values
+    p_init = problem.p.copy()
+    if warm_start is not None and np.shape(warm_start.p) == p_init.shape and nf:
+        p_init[list(free_idx)] = np.asarray(warm_start.p)[list(free_idx)]
+    if nf:
+        p_init[list(free_idx)] = np.clip(p_init[list(free_idx)], lo, hi)
+    td = time.perf_counter()
+    D_init = grid.blocks_numeric(t0, p_init)
+    wall["data"] += time.perf_counter() - td
+    if warm_start is not None and np.shape(warm_start.shooting_points) == (S + 1, nx) \
+            and np.all(np.isfinite(warm_start.shooting_points)):
+        X0 = np.asarray(warm_start.shooting_points, float).T.copy()
+    else:
+        x_start = np.asarray(warm_start.x0, float) if warm_start is not None else problem.x_guess
+        if not np.all(np.isfinite(x_start)):
+            x_start = problem.x_guess
+        X0 = _initial_points(b, x_start, D_init, p_init)
+    z0 = np.concatenate([X0.T.ravel(), p_init[list(free_idx)]])
+    targets = np.array([m.target for m in problem.means], float)
+    if b.symbolic_data:
+        dpar = grid.times(t0).ravel()
+
+        def par_fn(z):
+            return np.concatenate([dpar, problem.p, targets])
+    else:
+        dpar = np.asarray(D_init).ravel(order="F")
+        par_const = np.concatenate([dpar, p_init, targets])
+
+        def par_fn(z):
+            return par_const
+
+    # --- solve
+    ts = time.perf_counter()
+    if method.solver == "ipopt":
+        solver = b.ipopt(method)
+        lbx = np.concatenate([np.full(nx * (S + 1), -np.inf), lo])
+        ubx = np.concatenate([np.full(nx * (S + 1), np.inf), hi])
+        try:
+            sol = solver(x0=z0, p=par_fn(z0), lbx=lbx, ubx=ubx, lbg=0, ubg=0)
+            z = np.asarray(sol["x"]).ravel()
+            st = solver.stats()
+            status = str(st.get("return_status", "unknown"))
+            success = bool(st.get("success", False))
+            iters = int(st.get("iter_count", 0))
+            hist = np.asarray(st.get("iterations", {}).get("inf_pr", []), float)
+            message = f"IPOPT: {status}"
+        except Exception as e:  # CasADi raises on evaluation errors in some configurations
+            z, status, success, iters, hist = z0, "error", False, 0, np.zeros(0)
+            message = f"IPOPT raised: {e}"
+        if not np.all(np.isfinite(z)):
+            success, status = False, "nan"
+            message += " (non-finite iterate)"
+    else:
+        z, status, message, iters, hist = _lm(b, method, problem, z0.copy(), par_fn, lo, hi,
+                                              method.derivatives == "fd")
+        success = status == "converged"
+        hist = np.asarray(hist, float)
+    wall["solve"] = time.perf_counter() - ts
+
+    # --- evaluate at the result
+    par = par_fn(z)
+    g, Xt, means_v, pfull = (np.asarray(v) for v in b.aux(z, par))
+    g = g.ravel()
+    pfull = pfull.ravel()
+    max_res = float(np.max(np.abs(g))) if np.all(np.isfinite(g)) else float("nan")
+    if method.solver == "ipopt" and success and not (max_res <= 10 * method.resolved_tol):
+        message += f" (max residual {max_res:.2e})"
+    X = z[: nx * (S + 1)].reshape(S + 1, nx)
+    traj_x = np.vstack([X[0][None, :], Xt.T])
+    names = problem.mean_names()
+    means = {n: float(v) for n, v in zip(names, means_v.ravel())}
+    res = LimitCycleResult(
+        success=bool(success), status=status, message=message, iterations=int(iters),
+        residual_history=hist, wall_s=wall,
+        shooting_times=t0 + T / S * np.arange(S + 1), shooting_points=X, x0=X[0].copy(), p=pfull,
+        free_values={problem.free_name(i): float(pfull[i]) for i in free_idx},
+        trajectory_t=t0 + grid.h * np.arange(N + 1), trajectory_x=traj_x,
+        max_residual=max_res, means=means,
+        method={"points": method.points, "steps_per_period": method.steps_per_period,
+                "solver": method.solver, "derivatives": method.derivatives,
+                "tol": method.resolved_tol, "max_iter": method.max_iter},
+    )
+
+    # --- Floquet (also after a failure, when the iterate is finite: useful for diagnosis)
+    if np.all(np.isfinite(z)) and np.all(np.isfinite(g)):
+        tf = time.perf_counter()
+        try:
+            if b.symbolic_data:
+                td = time.perf_counter()
+                Dn = grid.blocks_numeric(t0, pfull)
+                wall["data"] += time.perf_counter() - td
+            else:
+                Dn = D_init
+            pd = ca.DM(pfull)
+            _, Jcat = grid.segment_jacobians(ca.DM(X[:S].T), Dn, pd)
+            Jcat = np.asarray(Jcat)
+            Js = [Jcat[:, i * nx:(i + 1) * nx] for i in range(S)]
+            _, Jfull = grid.period_jacobian(ca.DM(X[0]), Dn, pd)
+            fr = floquet_from_jacobians(Js, np.asarray(Jfull), T)
+            res.monodromy, res.multipliers, res.eigenvectors = fr.monodromy, fr.multipliers, fr.eigenvectors
+            res.floquet_exponents, res.doubling_times_s = fr.floquet_exponents, fr.doubling_times_s
+            res.stable = fr.stable
+            res.monodromy_vs_full_period_jacobian = fr.monodromy_vs_full_period_jacobian
+        except Exception as e:  # never raise from the analysis of a result
+            res.message += f"; Floquet analysis failed: {e}"
+        wall["floquet"] = time.perf_counter() - tf
+    wall["total"] = time.perf_counter() - t_total
+    return res
