@@ -1,0 +1,8 @@
+"""``python -m birdocp`` runs the command-line interface."""
+
+import sys
+
+from birdocp.cli import main
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,121 @@
+"""Provenance of a run: what code, which libraries, which machine, which configuration, when.
+
+Everything here is cheap (no model build) and never raises for a missing piece of information: a
+field that cannot be determined is ``None``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import platform
+import subprocess
+import sys
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+__all__ = ["provenance", "config_hash", "canonical_toml", "birdocp_version", "git_revision"]
+
+PACKAGE_DIR = Path(__file__).resolve().parent
+
+IPOPT_LINEAR_SOLVER = "mumps"
+"""The linear solver IPOPT is run with (the one shipped in the casadi wheels)."""
+
+
+def birdocp_version() -> str | None:
+    """Installed distribution version, else the package's ``__version__``."""
+    try:
+        from importlib.metadata import PackageNotFoundError, version
+
+        return version("birdocp")
+    except Exception:  # PackageNotFoundError, or broken metadata
+        pass
+    try:
+        from birdocp import __version__
+
+        return str(__version__)
+    except Exception:
+        return None
+
+
+def git_revision(path: str | Path = PACKAGE_DIR) -> dict[str, Any] | None:
+    """``{"commit": sha, "dirty": bool}`` of the git checkout holding ``path``; None otherwise.
+
+    ``dirty`` counts modified tracked files only (untracked files such as run folders do not make a
+    checkout dirty).
+    """
+    def git(*args: str) -> str | None:
+        try:
+            out = subprocess.run(["git", "-C", str(path), *args], capture_output=True, text=True,
+                                 timeout=10, check=False)
+        except (OSError, subprocess.SubprocessError):
+            return None
+        return out.stdout.strip() if out.returncode == 0 else None
+
+    commit = git("rev-parse", "HEAD")
+    if not commit:
+        return None
+    status = git("status", "--porcelain", "--untracked-files=no")
+    return {"commit": commit, "dirty": None if status is None else bool(status)}
+
+
+def _sorted(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {k: _sorted(obj[k]) for k in sorted(obj)}
+    return obj
+
+
+def canonical_toml(cfg) -> str:
+    """The resolved configuration as TOML with sorted keys: the same config gives the same text."""
+    import tomli_w
+
+    from .config import to_dict
+
+    return tomli_w.dumps(_sorted(to_dict(cfg)))
+
+
+def config_hash(cfg) -> str:
+    """sha256 (hex) of :func:`canonical_toml`."""
+    return hashlib.sha256(canonical_toml(cfg).encode("utf-8")).hexdigest()
+
+
+def _module_version(name: str) -> str | None:
+    try:
+        module = __import__(name)
+    except Exception:
+        return None
+    return str(getattr(module, "__version__", None) or "") or None
+
+
+def _cpu_count() -> dict[str, int | None]:
+    try:
+        usable = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        usable = None
+    return {"logical": os.cpu_count(), "usable": usable}
+
+
+def provenance(cfg, command_line: list[str] | None, wall_s: Any = None) -> dict[str, Any]:
+    """A JSON-able record of how a result was produced (stored under ``provenance`` in result.json)."""
+    from .config import to_dict
+
+    return {
+        "birdocp_version": birdocp_version(),
+        "git": git_revision(),
+        "python": platform.python_version(),
+        "python_executable": sys.executable,
+        "casadi": _module_version("casadi"),
+        "numpy": _module_version("numpy"),
+        "ipopt_linear_solver": IPOPT_LINEAR_SOLVER,
+        "platform": platform.platform(),
+        "machine": platform.machine(),
+        "hostname": platform.node() or None,
+        "cpu_count": _cpu_count(),
+        "config": to_dict(cfg),
+        "config_sha256": config_hash(cfg),
+        "command_line": list(command_line) if command_line is not None else None,
+        "cwd": os.getcwd(),
+        "wall_s": wall_s,
+        "timestamp_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+    }
