@@ -1,0 +1,130 @@
+"""Quasi-steady lifting-line aerodynamics (spec 5).
+
+Two halves, following the split of ``design.md`` 5:
+
+* :func:`circulation_matrices` depends on the geometry only (time and gait parameters): the wake
+  influence matrix of the straight semi-infinite vortex tubes and the solve of the lifting-line
+  equation, folded into matrices that map ``|Vp| * alpha`` per element to the circulation and to the
+  induced velocity;
+* :func:`element_loads` depends on the flight state: relative velocity, angle of attack,
+  Kutta-Joukowski forces and the pitching moment about the centre of mass.
+
+Vectors are in the code frame (e1 span to the right, e2 up, e3 backwards), forces in N, moments N m.
+"""
+
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+
+N_ELEMENTS = 16
+
+
+def induced_matrices(centres, nodes):
+    """Induced velocity per unit circulation at the element centres.
+
+    Returns (Vx, Vy, K) (16 x 16 SX): e1 and e2 components of the induced velocity at centre j per
+    unit Gamma_m, and the downwash per unit circulation K = v . d_j (spec 5.6). Only the (e1, e2)
+    coordinates are used: the wake filaments are straight and parallel to e3.
+    """
+    n_c, n_n = len(centres), len(nodes)
+    # Tube strengths from circulations: gamma = D Gamma (17 x 16).
+    D = ca.DM.zeros(n_n, n_c)
+    for m in range(n_n):
+        if m < n_c:
+            D[m, m] = 1.0
+        if m >= 1:
+            D[m, m - 1] = -1.0
+    kx = ca.SX(n_c, n_n)
+    ky = ca.SX(n_c, n_n)
+    for j, C in enumerate(centres):
+        for m, N in enumerate(nodes):
+            d1 = C[0] - N[0]
+            d2 = C[1] - N[1]
+            r2 = d1 ** 2 + d2 ** 2
+            kx[j, m] = d2 / r2 / (4 * math.pi)
+            ky[j, m] = -d1 / r2 / (4 * math.pi)
+    Vx = kx @ D
+    Vy = ky @ D
+    rows = []
+    for j in range(n_c):
+        s = nodes[j + 1][0:2] - nodes[j][0:2]
+        s = s / ca.norm_2(s)
+        # d_j = (s2, -s1, 0); downwash w_j = v_j . d_j
+        rows.append(s[1] * Vx[j, :] - s[0] * Vy[j, :])
+    K = ca.vertcat(*rows)
+    return Vx, Vy, K
+
+
+def circulation_matrices(centres, nodes, chord, lift_slope_per_rad, mode="exact", relaxed_evaluations=39):
+    """Matrices (G, Wx, Wy) with ``Gamma = G q`` and induced velocity ``(Wx q, Wy q, 0)``, where
+    ``q_j = |Vp_j| alpha_j``.
+
+    The lifting-line equation ``(I + H K) Gamma = H q`` with ``H = diag(c_j C_la / 2)`` is linear.
+    ``exact`` solves it; ``relaxed`` reproduces the reference's under-relaxed iteration
+    ``Gamma <- 0.1 Gamma_hat + 0.9 Gamma`` with a fixed count n of evaluations from zero, whose closed
+    form is ``Gamma_n = (I - Mr^n) Gamma*`` with ``Mr = 0.9 I - 0.1 H K``; the induced velocity kept for
+    the forces is the one of the last evaluation, computed from ``Gamma_{n-1}``.
+    """
+    Vx, Vy, K = induced_matrices(centres, nodes)
+    n = len(centres)
+    h = ca.vertcat(*[0.5 * c * lift_slope_per_rad for c in chord])
+    HK = ca.diag(h) @ K
+    A = ca.SX.eye(n) + HK
+    G_star = ca.solve(A, ca.diag(h))
+    if mode == "exact":
+        return G_star, Vx @ G_star, Vy @ G_star
+    if mode != "relaxed":
+        raise ValueError(f"aero.circulation must be 'exact' or 'relaxed', got {mode!r}")
+    Mr = 0.9 * ca.SX.eye(n) - 0.1 * HK
+    P_last = _matrix_power(Mr, relaxed_evaluations - 1)
+    P_n = Mr @ P_last
+    G_n = (ca.SX.eye(n) - P_n) @ G_star
+    G_prev = (ca.SX.eye(n) - P_last) @ G_star
+    return G_n, Vx @ G_prev, Vy @ G_prev
+
+
+def _matrix_power(M, k):
+    """M**k by repeated squaring."""
+    result = None
+    base = M
+    while k > 0:
+        if k & 1:
+            result = base if result is None else result @ base
+        k >>= 1
+        if k:
+            base = base @ base
+    return result if result is not None else ca.SX.eye(M.shape[0])
+
+
+def element_loads(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho):
+    """Total aerodynamic force (code frame, N) and pitching moment about G (N m, nose-up positive).
+
+    ``state`` = (u, w, q, theta); ``r``, ``v_kin``, ``c_hat``, ``up``, ``tau`` are 3 x 16 (element centres
+    relative to G, kinematic velocities, chord directions, up normals, spanwise unit vectors), ``ds``
+    16 x 1 element lengths. Returns (F 3x1, M, Gamma 16x1, alpha 16x1 [rad], |Vp| 16x1).
+    """
+    u, w, q = state[0], state[1], state[2]
+    n = r.shape[1]
+    ones = ca.DM.ones(1, n)
+    # V = U_inf - Omega x r - v_kin, with U_inf = (0, w, u), Omega = (q, 0, 0)
+    V = ca.vertcat(-v_kin[0, :],
+                   w * ones + q * r[2, :] - v_kin[1, :],
+                   u * ones - q * r[1, :] - v_kin[2, :])
+    tv = ca.sum1(tau * V)
+    Vp = V - tau * ca.repmat(tv, 3, 1)
+    Vp_norm = ca.sqrt(ca.sum1(Vp * Vp))
+    alpha = ca.atan2(ca.sum1(Vp * up), ca.sum1(Vp * c_hat))
+    qv = (Vp_norm * alpha).T
+    Gamma = G @ qv
+    vind = ca.vertcat((Wx @ qv).T, (Wy @ qv).T, ca.DM.zeros(1, n))
+    W = V + vind
+    # (V + v) x tau
+    cross = ca.vertcat(W[1, :] * tau[2, :] - W[2, :] * tau[1, :],
+                       W[2, :] * tau[0, :] - W[0, :] * tau[2, :],
+                       W[0, :] * tau[1, :] - W[1, :] * tau[0, :])
+    dF = rho * cross * ca.repmat((Gamma * ds).T, 3, 1)
+    F = ca.sum2(dF)
+    M = ca.sum2(r[1, :] * dF[2, :] - r[2, :] * dF[1, :])
+    return F, M, Gamma, alpha.T, Vp_norm.T

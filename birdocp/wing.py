@@ -1,0 +1,277 @@
+"""Wing outline and lifting line as CasADi SX graphs (spec 4.2-4.6).
+
+The reference implementation makes several discrete, data-dependent choices (segment search in the
+arc-length resampling, the corner-smoothing ``while`` loops and passes, nearest-point selection, the
+point count of the body section). Each is emulated here with closed forms, ``if_else`` and masked
+fixed iteration counts, so the geometry stays one differentiable graph of (t, gait parameters); the
+emulation margins are returned as diagnostics (see :data:`DIAGNOSTICS`) and checked in the tests.
+
+Points are lists of 3x1 SX column vectors in the wing frame (m).
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+
+N_POINTS = 16
+"""Points per resampled edge and per wing line."""
+
+CORNER_HALVINGS = 2
+"""Masked halvings per point in a corner sweep (1 is ever needed; 1 of margin)."""
+ALIASED_WALK_STEPS = 3
+"""Masked segment advances per sample in the aliased resampling walk of the second pass."""
+
+DIAGNOSTICS = (
+    "halvings_pass1",       # corner halvings done in the first smoothing pass (both edges)
+    "halvings_pass2",       # ... in the second pass: must be 0 (a third pass is not emulated)
+    "halving_margin_used",  # points still above the corner threshold after CORNER_HALVINGS: must be 0
+    "walk_unfinished",      # aliased walk samples that needed more than ALIASED_WALK_STEPS: must be 0
+    "improve_change",       # change measure of the quarter-chord improvement: must be <= 0.1
+    "n_mid",                # ceil(2 x_ep / dx): must be 3 (the merged line has 33 points)
+)
+
+
+def safe_norm(v):
+    """Euclidean norm with a finite derivative (0) at exactly zero."""
+    s = ca.dot(v, v)
+    pos = s > 0
+    return ca.if_else(pos, ca.sqrt(ca.if_else(pos, s, 1.0)), 0.0)
+
+
+def unit(v):
+    return v / ca.norm_2(v)
+
+
+def _select(points, idx):
+    """points[idx] for a symbolic integer-valued idx (one-hot sum)."""
+    out = 0
+    for k, p in enumerate(points):
+        out = out + ca.if_else(idx == k, p, ca.DM.zeros(3, 1))
+    return out
+
+
+def resample(P, carry=(), n_out=N_POINTS):
+    """Arc-length resampling of polyline P into n_out points equally spaced in arc length.
+
+    Closed form of the reference walk: sample i lies at arc length i L/(n_out-1) on the segment j
+    with cum[j] < s_i <= cum[j+1]; ``carry`` are lists of points carried along with the same segment
+    and fraction (the chord end points of the quarter-chord line). The last sample is the last vertex.
+    """
+    n = len(P)
+    seg = [ca.norm_2(P[k + 1] - P[k]) for k in range(n - 1)]
+    cum = [0.0]
+    for s in seg:
+        cum.append(cum[-1] + s)
+    length = cum[-1]
+    delta = length / (n_out - 1)
+    outs = [[P[0]]] + [[C[0]] for C in carry]
+    for i in range(1, n_out - 1):
+        target = i * delta
+        pts = [0] * (1 + len(carry))
+        for k in range(n - 1):
+            sel = cum[k + 1] >= target
+            if k > 0:
+                sel = ca.logic_and(sel, cum[k] < target)
+            seg_safe = ca.if_else(seg[k] > 0, seg[k], 1.0)
+            phi = (cum[k + 1] - target) / seg_safe
+            for a, Q in enumerate((P,) + tuple(carry)):
+                pts[a] = pts[a] + ca.if_else(sel, (1 - phi) * Q[k + 1] + phi * Q[k], ca.DM.zeros(3, 1))
+        for a in range(len(pts)):
+            outs[a].append(pts[a])
+    outs[0].append(P[-1])
+    for a, C in enumerate(carry):
+        outs[a + 1].append(C[-1])
+    return outs[0] if not carry else tuple(outs)
+
+
+def resample_aliased(B, n_out=N_POINTS, steps=ALIASED_WALK_STEPS):
+    """The reference's second-pass resampling, which reads its input vertices from the buffer it
+    is writing into (in place). Literal walk with a symbolic segment counter and masked advances.
+
+    Returns (points, unfinished) where ``unfinished`` counts samples whose walk needed more than
+    ``steps`` advances (0 means the emulation is exact).
+    """
+    buf = list(B)
+    n = len(buf)
+    length = 0
+    for k in range(n - 1):
+        length = length + safe_norm(buf[k + 1] - buf[k])
+    delta = length / (n_out - 1)
+    j = ca.SX(0)
+    unfinished = 0
+    for i in range(1, n_out):
+        acc = safe_norm(_select(buf, j + 1) - buf[i - 1])
+        for _ in range(steps):
+            cond = acc < delta
+            jn = j + cond
+            within = jn <= n - 2
+            seglen = safe_norm(_select(buf, jn + 1) - _select(buf, jn))
+            acc = ca.if_else(cond, ca.if_else(within, acc + seglen, delta + 1), acc)
+            j = jn
+        unfinished = unfinished + (acc < delta)
+        within = j <= n - 2
+        seglen = safe_norm(_select(buf, j + 1) - _select(buf, j))
+        phi = (acc - delta) / ca.if_else(seglen > 0, seglen, 1.0)
+        inner = (1 - phi) * _select(buf, j + 1) + phi * _select(buf, j)
+        buf[i] = ca.if_else(within, inner, buf[n - 1])
+    return buf, unfinished
+
+
+def corner_sweep(B, radius_m, halvings=CORNER_HALVINGS):
+    """Sequential corner smoothing (spec 4.2 step 2): while the turning angle at B_i exceeds
+    |B_i - B_{i-1}| / R_s, move B_i halfway towards the midpoint of its neighbours.
+
+    Returns (points, halvings done, points still above the threshold after ``halvings``).
+    """
+    B = list(B)
+    done = 0
+    left_over = 0
+    for i in range(1, len(B) - 1):
+        active = ca.SX(1)
+        for _ in range(halvings + 1):
+            a = B[i] - B[i - 1]
+            b = B[i + 1] - B[i]
+            na = ca.norm_2(a)
+            cosang = ca.dot(a, b) / (na * ca.norm_2(b))
+            phi = ca.acos(ca.fmax(-1.0, ca.fmin(1.0, cosang)))
+            cond = ca.logic_and(active, phi > na / radius_m)
+            if _ == halvings:  # the extra evaluation only measures the margin
+                left_over = left_over + cond
+                break
+            B[i] = ca.if_else(cond, 0.5 * B[i] + 0.25 * (B[i - 1] + B[i + 1]), B[i])
+            done = done + cond
+            active = cond
+    return B, done, left_over
+
+
+def smooth_line(P, radius_m):
+    """Resampling with corner smoothing ("smooth_line", spec 4.2): 16 points.
+
+    Pass 1 resamples the raw polyline and sweeps the corners; if anything moved, pass 2 resamples the
+    buffer in place (aliased) and sweeps again. Returns (points, diagnostics dict).
+    """
+    B1 = resample(P)
+    B1c, h1, left1 = corner_sweep(B1, radius_m)
+    modified = h1 > 0
+    B2, unfinished = resample_aliased(B1c)
+    B2c, h2, left2 = corner_sweep(B2, radius_m)
+    out = [ca.if_else(modified, b2, b1) for b1, b2 in zip(B1c, B2c)]
+    diag = {
+        "halvings_pass1": h1,
+        "halvings_pass2": ca.if_else(modified, h2, 0),
+        "halving_margin_used": left1 + ca.if_else(modified, left2, 0),
+        "walk_unfinished": ca.if_else(modified, unfinished, 0),
+    }
+    return out, diag
+
+
+def _nearest_two(points, origin, direction):
+    """The nearest and second-nearest of ``points`` to the infinite line {origin + s direction}
+    (ties keep the lower index, as a stable argsort)."""
+    best = [None, None]
+    dist = [None, None]
+    for k, P in enumerate(points):
+        r = P - origin
+        perp = r - ca.dot(r, direction) * direction
+        d = ca.dot(perp, perp)  # squared distance: same ordering as the distance
+        if k == 0:
+            best[0], dist[0] = P, d
+            continue
+        if k == 1:
+            first = d < dist[0]
+            best = [ca.if_else(first, P, best[0]), ca.if_else(first, best[0], P)]
+            dist = [ca.if_else(first, d, dist[0]), ca.if_else(first, dist[0], d)]
+            continue
+        first = d < dist[0]
+        second = ca.logic_and(ca.logic_not(first), d < dist[1])
+        new_b1 = ca.if_else(first, best[0], ca.if_else(second, P, best[1]))
+        new_d1 = ca.if_else(first, dist[0], ca.if_else(second, d, dist[1]))
+        best[0] = ca.if_else(first, P, best[0])
+        dist[0] = ca.if_else(first, d, dist[0])
+        best[1], dist[1] = new_b1, new_d1
+    return best[0], best[1]
+
+
+def _closest_on_edge(edge, L, c_hat):
+    """Point of the edge line through its two points nearest to {L + s c_hat}, closest to that line."""
+    A1, A2 = _nearest_two(edge, L, c_hat)
+    e = unit(A2 - A1)
+    ec = ca.dot(e, c_hat)
+    s = (ca.dot(L, e) - ca.dot(A1, e) + ca.dot(A1, c_hat) * ec - ca.dot(L, c_hat) * ec) / (1 - ec ** 2)
+    return A1 + s * e
+
+
+def lifting_line(LEs, TEs):
+    """Quarter-chord line with one improvement step and the final resampling (spec 4.3-4.4).
+
+    Returns (P, E, T, L_relaxed, change): line points, chord end points (leading, trailing), the
+    relaxed line before the final resampling (used for tangents) and the change measure.
+    """
+    L0 = [0.75 * e + 0.25 * t for e, t in zip(LEs, TEs)]
+    L, E, T = resample(L0, carry=(LEs, TEs))
+    n = len(L)
+    Ln, En, Tn = list(L), list(E), list(T)
+    for i in range(1, n - 1):
+        t_hat = unit(L[i + 1] - L[i - 1])
+        v = T[i] - E[i]
+        c_hat = unit(v - ca.dot(v, t_hat) * t_hat)
+        En[i] = _closest_on_edge(LEs, L[i], c_hat)
+        Tn[i] = _closest_on_edge(TEs, L[i], c_hat)
+        Ln[i] = 0.75 * En[i] + 0.25 * Tn[i]
+    change = 0
+    for i in range(0, n - 1):
+        change = change + 0.25 * ca.norm_2(Ln[i] - L[i]) / ca.norm_2(L[max(0, i - 1)] - L[min(16, i + 1)])
+    change = change / n
+    Lr = [0.25 * a + 0.75 * b for a, b in zip(Ln, L)]
+    Er = [0.25 * a + 0.75 * b for a, b in zip(En, E)]
+    Tr = [0.25 * a + 0.75 * b for a, b in zip(Tn, T)]
+    P, Ef, Tf = resample(Lr, carry=(Er, Tr))
+    return P, Ef, Tf, Lr, change
+
+
+def sections(P, E, T, L_relaxed):
+    """Chords (m), chord directions (LE -> TE) and 'up' normals of the 16 line points (spec 4.5)."""
+    n = len(P)
+    chord, c_hat, up = [], [], []
+    for i in range(n):
+        v = T[i] - E[i] + 1e-20
+        c = ca.norm_2(v)
+        ch = v / c
+        if i == 0:
+            t = unit(L_relaxed[1] - L_relaxed[0])
+        elif i == n - 1:
+            t = unit(L_relaxed[n - 1] - L_relaxed[n - 2])
+        else:
+            t = unit(L_relaxed[i + 1] - L_relaxed[i - 1])
+        chord.append(c)
+        c_hat.append(ch)
+        up.append(ca.cross(ch, t))
+    return chord, c_hat, up
+
+
+def merge(P, chord, c_hat, up, half_separation_m):
+    """Both wings on one line from the left tip to the right tip (spec 4.5-4.6).
+
+    Returns (Q, chord, c_hat, up): 33 points (wing frame shifted to the body centre line) with their
+    chords, chord directions and normals. Even indices are element nodes, odd indices centres.
+    """
+    flip = ca.DM([-1.0, 1.0, 1.0])
+    shift = ca.DM([half_separation_m, 0, 0]) if not isinstance(half_separation_m, ca.SX) else ca.vertcat(half_separation_m, 0, 0)
+    right = [p + shift for p in P]
+    left = [flip * p - shift for p in reversed(P)]
+    mid = ca.vertcat(0.5 * (left[-1][0] + right[0][0]), right[0][1], right[0][2])
+    Q = left + [mid] + right
+    ch = list(reversed(chord)) + [chord[0] * 1e-4] + list(chord)
+    cd = [flip * c for c in reversed(c_hat)] + [c_hat[0]] + list(c_hat)
+    nu = [flip * u for u in reversed(up)] + [up[0]] + list(up)
+    return Q, ch, cd, nu
+
+
+def mean_spacing(P):
+    """dx of spec 4.5: mean point spacing of one wing line, used for the body-section point count."""
+    n = len(P)
+    total = 0
+    for i in range(n - 1):
+        total = total + ca.norm_2(P[i + 1] - P[i])
+    total = total + ca.norm_2(P[n - 1] - P[n - 2])
+    return total / n
