@@ -32,6 +32,13 @@ from .problem import LimitCycleProblem
 __all__ = ["MultipleShooting", "LimitCycleResult", "solve", "clear_cache"]
 
 _IPOPT_DEFAULTS = {
+    # Full (undamped) Newton-type steps, like the paper's LM which accepts every step. Measured on a
+    # forced Duffing oscillator from a poor guess (max residual 1.2): IPOPT's filter line search
+    # ended in Infeasible_Problem_Detected for M = 2, 3, 9 (and with an exact Hessian, or a
+    # regularisation objective 1e-8..1e-2, for all M) while full steps converged in 7-18 iterations.
+    # When this first attempt fails, solve() retries once with IPOPT's filter line search
+    # (MultipleShooting.ipopt_fallback).
+    "ipopt.accept_every_trial_step": "yes",
     "ipopt.hessian_approximation": "limited-memory",
     "ipopt.sb": "yes",
     "ipopt.print_level": 0,
@@ -52,8 +59,14 @@ class MultipleShooting:
     tol:              None -> 1e-10 for ipopt (``constr_viol_tol`` and ``tol``),
                       1e-5 for lm (max |E|, as in the paper). Both are absolute max-norms.
     max_iter:         iteration limit.
-    ipopt_options:    merged over the defaults (limited-memory Hessian, MUMPS, silent).
+    ipopt_options:    merged over the defaults (full steps ``accept_every_trial_step``, limited-
+                      memory Hessian, MUMPS, silent).
     fd_floor:         see ``derivatives``.
+    regularization:   ipopt objective weight w in w/2 |z - z_guess|^2 (z = shooting points and free
+                      parameters). Default 0: pure feasibility (measured: no weight in 1e-8..1e-2
+                      helped IPOPT converge; the square system fixes the solution anyway).
+    ipopt_fallback:   if the first IPOPT attempt (full steps) fails, retry once from the same guess
+                      with IPOPT's filter line search; iterations and histories are concatenated.
     """
 
     points: int = 5
@@ -64,6 +77,8 @@ class MultipleShooting:
     max_iter: int = 100
     ipopt_options: dict = field(default_factory=dict)
     fd_floor: float = 1e-3
+    regularization: float = 0.0
+    ipopt_fallback: bool = True
 
     def validate(self) -> None:
         if not isinstance(self.points, (int, np.integer)) or self.points < 2:
@@ -221,13 +236,18 @@ class _Builder:
         self.symbolic_data = bool(nf)
         Xe, Xt, Q = grid.segments(X[:, :S], D, pfull)
         means = ca.sum2(Q) / T if grid.nq else ca.MX(0, 1)
-        g = ca.vertcat(ca.vec(Xe - X[:, 1:]), X[:, S] - X[:, 0], means[:nm] - tgt)
+        mres = means[list(range(nm))] - tgt if nm else ca.MX(0, 1)
+        g = ca.vertcat(ca.vec(Xe - X[:, 1:]), X[:, S] - X[:, 0], mres)
         z = ca.vertcat(ca.vec(X), pf)
         par = ca.vertcat(dpar, pp, tgt)
         self.nz, self.ng = z.numel(), g.numel()
         self.resid = ca.Function("resid", [z, par], [g])
         self.aux = ca.Function("aux", [z, par], [g, Xt, means, pfull])
-        self.nlp = {"x": z, "p": par, "f": ca.MX(0), "g": g}
+        # objective: regularization/2 * |z - z_ref|^2 (z_ref = the initial guess, an NLP parameter);
+        # the weight is a parameter too, so 0 (pure feasibility) and >0 share one graph
+        zref = ca.MX.sym("zref", z.numel())
+        wreg = ca.MX.sym("wreg")
+        self.nlp = {"x": z, "p": ca.vertcat(par, zref, wreg), "f": 0.5 * wreg * ca.sumsqr(z - zref), "g": g}
         self._jac = None
         self._solvers = {}
 
@@ -239,11 +259,13 @@ class _Builder:
             self._jac = ca.Function("resid_jac", [z, par], [g, ca.jacobian(g, z)])
         return self._jac
 
-    def ipopt(self, method: MultipleShooting):
+    def ipopt(self, method: MultipleShooting, fallback: bool = False):
         tol = method.resolved_tol
         opts = dict(_IPOPT_DEFAULTS)
         opts.update({"ipopt.max_iter": int(method.max_iter), "ipopt.tol": tol, "ipopt.constr_viol_tol": tol})
         opts.update(method.ipopt_options)
+        if fallback:
+            opts["ipopt.accept_every_trial_step"] = "no"
         key = repr(sorted(opts.items()))
         s = self._solvers.get(key)
         if s is None:
@@ -367,6 +389,26 @@ def _fd_jacobian(b: _Builder, problem, z, par_fn, r0, floor):
     return J
 
 
+def _run_ipopt(solver, z0, par_fn, method, lbx, ubx):
+    try:
+        sol = solver(x0=z0, p=np.concatenate([par_fn(z0), z0, [method.regularization]]),
+                     lbx=lbx, ubx=ubx, lbg=0, ubg=0)
+        z = np.asarray(sol["x"]).ravel()
+        st = solver.stats()
+        status = str(st.get("return_status", "unknown"))
+        success = bool(st.get("success", False))
+        iters = int(st.get("iter_count", 0))
+        hist = np.asarray(st.get("iterations", {}).get("inf_pr", []), float)
+        message = f"IPOPT: {status}"
+    except Exception as e:  # CasADi may raise on evaluation errors
+        z, status, success, iters, hist = z0, "error", False, 0, np.zeros(0)
+        message = f"IPOPT raised: {e}"
+    if not np.all(np.isfinite(z)):
+        success, status = False, "nan"
+        message += " (non-finite iterate)"
+    return z, status, success, iters, hist, message
+
+
 def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShooting(),
           warm_start: "LimitCycleResult | None" = None) -> LimitCycleResult:
     """Find the periodic orbit (and free parameters) of ``problem`` and its Floquet multipliers."""
@@ -415,24 +457,20 @@ def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShootin
     # --- solve
     ts = time.perf_counter()
     if method.solver == "ipopt":
-        solver = b.ipopt(method)
         lbx = np.concatenate([np.full(nx * (S + 1), -np.inf), lo])
         ubx = np.concatenate([np.full(nx * (S + 1), np.inf), hi])
-        try:
-            sol = solver(x0=z0, p=par_fn(z0), lbx=lbx, ubx=ubx, lbg=0, ubg=0)
-            z = np.asarray(sol["x"]).ravel()
-            st = solver.stats()
-            status = str(st.get("return_status", "unknown"))
-            success = bool(st.get("success", False))
-            iters = int(st.get("iter_count", 0))
-            hist = np.asarray(st.get("iterations", {}).get("inf_pr", []), float)
-            message = f"IPOPT: {status}"
-        except Exception as e:  # CasADi raises on evaluation errors in some configurations
-            z, status, success, iters, hist = z0, "error", False, 0, np.zeros(0)
-            message = f"IPOPT raised: {e}"
-        if not np.all(np.isfinite(z)):
-            success, status = False, "nan"
-            message += " (non-finite iterate)"
+        attempts = [False, True] if method.ipopt_fallback and "ipopt.accept_every_trial_step" not in \
+            method.ipopt_options else [False]
+        iters, hists, msgs = 0, [], []
+        for fallback in attempts:
+            z, status, success, it, h, msg = _run_ipopt(b.ipopt(method, fallback), z0, par_fn, method, lbx, ubx)
+            iters += it
+            hists.append(h)
+            msgs.append(("filter line search: " if fallback else "") + msg)
+            if success:
+                break
+        hist = np.concatenate(hists)
+        message = "; retried: ".join(msgs)
     else:
         z, status, message, iters, hist = _lm(b, method, problem, z0.copy(), par_fn, lo, hi,
                                               method.derivatives == "fd")
