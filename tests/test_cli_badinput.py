@@ -1,0 +1,112 @@
+"""Bad input through the real CLI (``python -m birdocp``): exit 2, one line on stderr naming the key.
+
+Every case must be rejected before the model is touched: the second test runs the same table with
+``birdocp.model``, ``birdocp.studies`` and ``casadi`` made unimportable.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+FILES = {
+    "bad.toml": "[body]\nmass_kg = \n",
+    "unknown.toml": '[aero]\ncirculaton = "exact"\n',
+    "a_file": "not a folder\n",
+}
+
+# (id, argv, key that must be named, other text that must appear)
+CASES = [
+    ("unknown-set-key", ["trim", "--set", "body.mas_kg=1.3"], "body.mas_kg", "did you mean 'body.mass_kg'"),
+    ("wrong-type", ["trim", "--set", "body.mass_kg=heavy"], "body.mass_kg", "expected a number"),
+    ("nan-amplitude", ["trim", "--amplitude", "nan"], "gait.shoulder_flap.amplitude_deg", "--amplitude"),
+    ("inf-root-ahead", ["forces", "--state", "18", "0.5", "0", "0", "--time", "0", "--root-ahead", "inf"],
+     "wing.root_ahead_m", "finite"),
+    ("negative-mass", ["trim", "--set", "body.mass_kg=-1"], "body.mass_kg", "> 0"),
+    ("steps-not-multiple", ["trim", "--points", "4", "--steps", "100"], "solve.steps_per_period", "points - 1 = 3"),
+    ("steps-not-multiple-set", ["trim", "--set", "solve.points=4", "--set", "solve.steps_per_period=100"],
+     "solve.steps_per_period", "multiple"),
+    ("missing-config", ["trim", "missing.toml"], "CONFIG", "missing.toml"),
+    ("malformed-toml", ["trim", "bad.toml"], "bad.toml", "not valid TOML"),
+    ("unknown-key-in-file", ["trim", "unknown.toml"], "aero.circulaton", "did you mean 'aero.circulation'"),
+    ("points-below-2", ["trim", "--points", "1"], "solve.points", ">= 2"),
+    ("circulation-typo", ["trim", "--set", "aero.circulation=exat"], "aero.circulation", "exact, relaxed"),
+    ("set-without-equals", ["config", "--set", "body.mass_kg"], "--set", "KEY=VALUE"),
+    ("nan-state", ["forces", "--state", "18", "nan", "0", "0", "--time", "0"], "--state", "finite"),
+    ("inf-time", ["forces", "--state", "18", "0.5", "0", "0", "--time", "inf"], "--time", "finite"),
+    ("out-is-a-file", ["trim", "--out", "a_file"], "--out", "existing file"),
+    ("argparse-bad-int", ["trim", "--points", "four"], "--points", "invalid int"),
+    ("argparse-bad-choice", ["trim", "--solver", "newton"], "--solver", "invalid choice"),
+    ("config-cmd-bad-set", ["config", "--set", "gait.shoulder_flap.amplitude_deg=200"],
+     "gait.shoulder_flap.amplitude_deg", "[-180, 180]"),
+]
+
+BLOCK = (
+    "import runpy, sys\n"
+    "for name in ('casadi', 'birdocp.model', 'birdocp.studies'):\n"
+    "    sys.modules[name] = None  # importing it now raises ImportError\n"
+    "sys.argv[0] = 'birdocp'\n"
+    "runpy.run_module('birdocp', run_name='__main__', alter_sys=True)\n"
+)
+
+
+def _env() -> dict:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(REPO), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    return env
+
+
+@pytest.fixture
+def workdir(tmp_path):
+    for name, text in FILES.items():
+        (tmp_path / name).write_text(text)
+    return tmp_path
+
+
+def _check(proc, key: str, text: str) -> None:
+    assert proc.returncode == 2, (proc.returncode, proc.stderr)
+    assert proc.stdout == ""
+    assert "Traceback" not in proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    line = lines[0]
+    assert line.startswith("birdocp: error: "), line
+    assert key in line, line
+    assert text in line, line
+
+
+@pytest.mark.parametrize("argv,key,text", [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+def test_bad_input_exits_2_with_one_line(workdir, argv, key, text):
+    proc = subprocess.run([sys.executable, "-m", "birdocp", *argv], cwd=workdir, env=_env(),
+                          capture_output=True, text=True, timeout=60)
+    _check(proc, key, text)
+    assert not (workdir / "runs").exists() or not any((workdir / "runs").iterdir())
+
+
+@pytest.mark.parametrize("argv,key,text", [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+def test_bad_input_rejected_before_the_model_is_imported(workdir, argv, key, text):
+    proc = subprocess.run([sys.executable, "-c", BLOCK, *argv], cwd=workdir, env=_env(),
+                          capture_output=True, text=True, timeout=60)
+    _check(proc, key, text)
+
+
+def test_debug_shows_the_traceback(workdir):
+    proc = subprocess.run([sys.executable, "-m", "birdocp", "trim", "--debug", "--set", "body.mass_kg=-1"],
+                          cwd=workdir, env=_env(), capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2
+    assert "Traceback" in proc.stderr
+    assert proc.stderr.strip().splitlines()[-1].startswith("birdocp: error: body.mass_kg")
+
+
+def test_help_works_without_the_model(workdir):
+    for argv in ([], ["forces"], ["trim"], ["config"]):
+        proc = subprocess.run([sys.executable, "-c", BLOCK, *argv, "--help"], cwd=workdir, env=_env(),
+                              capture_output=True, text=True, timeout=60)
+        assert proc.returncode == 0, proc.stderr
+        assert "usage: birdocp" in proc.stdout
