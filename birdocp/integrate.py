@@ -96,6 +96,7 @@ class RK4Grid:
         h = self.h
 
         self.data_grid = ode.data.map(2 * self.N + 1)
+        self._memo: dict = {}
         self.block_index = stage_block_index(self.N)
 
         def accumulate(n, name):
@@ -132,9 +133,21 @@ class RK4Grid:
         return stage_time_grid(t0, self.ode.period_s, self.N)
 
     def blocks_numeric(self, t0: float, p) -> ca.DM:
-        """Stage blocks (nd x 3N) evaluated numerically, as a DM (pass DMs, not numpy, to calls)."""
-        grid = np.asarray(self.data_grid(ca.DM(self.times(t0)), ca.DM(np.asarray(p, float))))
-        return ca.DM(grid[:, self.block_index])
+        """Stage blocks (nd x 3N) evaluated numerically, as a DM (pass DMs, not numpy, to calls).
+
+        The last few results are memoised by (t0, p) (the data function may be expensive, and a
+        sweep or a re-solve often repeats the same gait)."""
+        p = np.asarray(p, float).ravel()
+        key = (float(t0), p.tobytes())
+        hit = self._memo.get(key)
+        if hit is not None:
+            return hit
+        grid = np.asarray(self.data_grid(ca.DM(self.times(t0)), ca.DM(p)))
+        out = ca.DM(grid[:, self.block_index])
+        self._memo[key] = out
+        while len(self._memo) > 4:
+            self._memo.pop(next(iter(self._memo)))
+        return out
 
     def blocks_symbolic(self, t0: float, p: ca.MX) -> ca.MX:
         grid = self.data_grid(ca.DM(self.times(t0)), p)

@@ -354,9 +354,9 @@ def _fd_jacobian(b: _Builder, problem, z, par_fn, r0, floor):
     nx, S, nf, nm = problem.ode.nx, b.S, b.nf, b.nm
     T = problem.ode.period_s
     X = z[: nx * (S + 1)].reshape(S + 1, nx).T
-    par = par_fn(z)
-    _, _, _, pfull = b.aux(z, par)
-    pfull = np.asarray(pfull).ravel()
+    pfull = problem.p.copy()
+    if nf:
+        pfull[list(b.free_idx)] = z[-nf:]
     Dn = b.grid.blocks_numeric(problem.t0, pfull)
     pd = ca.DM(pfull)
     Xe0, _, Q0 = (np.asarray(v) for v in b.grid.segments(ca.DM(X[:, :S]), Dn, pd))
