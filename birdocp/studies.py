@@ -1,0 +1,169 @@
+"""Bird studies on top of the limit-cycle engine: trimmed flight (limit cycle + Floquet).
+
+``trim(cfg)`` finds the periodic flight of the bird for the gait of ``cfg`` and its Floquet
+multipliers; the result adds the flight quantities of the paper to the engine's result:
+
+* ``mean_vertical_speed_mps``: period mean of ``W = u sin(theta) - w cos(theta)`` (inertial vertical
+  speed, positive climbing);
+* ``mean_forward_speed_mps``: period mean of ``U = u cos(theta) + w sin(theta)`` (inertial horizontal);
+* ``flight_path_angle_deg``: ``atan(mean W / mean U)`` (positive climbing).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from .config import PARAM_NAMES, Config
+from .model import N_DATA, get_model
+from .problem import LimitCycleProblem
+from .shooting import LimitCycleResult, MultipleShooting, solve
+
+__all__ = ["TrimResult", "trim", "method_of", "flight_outputs"]
+
+
+def flight_outputs() -> dict:
+    """Scalar outputs (x, d, p) whose period means the trim reports: W and U (m/s)."""
+    x = ca.SX.sym("x", 4)
+    d = ca.SX.sym("d", N_DATA)
+    p = ca.SX.sym("p", len(PARAM_NAMES))
+    u, w, th = x[0], x[1], x[3]
+    W = ca.Function("vertical_speed_mps", [x, d, p], [u * ca.sin(th) - w * ca.cos(th)])
+    U = ca.Function("forward_speed_mps", [x, d, p], [u * ca.cos(th) + w * ca.sin(th)])
+    return {"vertical_speed_mps": W, "forward_speed_mps": U}
+
+
+_OUTPUTS = flight_outputs()
+
+
+def method_of(cfg: Config, **over) -> MultipleShooting:
+    s = cfg.solve
+    kw = dict(points=s.points, steps_per_period=s.steps_per_period, solver=s.solver,
+              derivatives=s.derivatives)
+    kw.update(over)
+    return MultipleShooting(**kw)
+
+
+def _pairs(z) -> list:
+    return [[float(np.real(v)), float(np.imag(v))] for v in np.asarray(z).ravel()]
+
+
+def _f(v):
+    return float(v) if np.isfinite(v) else None
+
+
+@dataclass
+class TrimResult:
+    """A trimmed flight: the engine's :class:`~birdocp.shooting.LimitCycleResult` (``cycle``; its
+    fields are also readable here directly) plus the flight quantities of the paper."""
+
+    cycle: LimitCycleResult
+    cfg: Config
+
+    def __getattr__(self, name):
+        if name in ("cycle", "cfg"):
+            raise AttributeError(name)
+        return getattr(self.cycle, name)
+
+    @property
+    def mean_vertical_speed_mps(self) -> float:
+        return self.cycle.means.get("vertical_speed_mps", float("nan"))
+
+    @property
+    def mean_forward_speed_mps(self) -> float:
+        return self.cycle.means.get("forward_speed_mps", float("nan"))
+
+    @property
+    def flight_path_angle_deg(self) -> float:
+        return math.degrees(math.atan2(self.mean_vertical_speed_mps, self.mean_forward_speed_mps))
+
+    @property
+    def amplitude_deg(self) -> float:
+        return float(self.cycle.p[PARAM_NAMES.index("gait.shoulder_flap.amplitude_deg")])
+
+    def to_dict(self) -> dict:
+        """Plain JSON-able dict; complex numbers as [re, im] pairs, multipliers largest first."""
+        c = self.cycle
+        has_floquet = c.multipliers is not None
+        out = {
+            "success": bool(c.success), "status": c.status, "message": c.message,
+            "iterations": int(c.iterations),
+            "residual_history": [_f(v) for v in np.asarray(c.residual_history).ravel()],
+            "max_residual": _f(c.max_residual),
+            "x0": [float(v) for v in c.x0],
+            "amplitude_deg": self.amplitude_deg,
+            "root_ahead_m": float(c.p[PARAM_NAMES.index("wing.root_ahead_m")]),
+            "multipliers": _pairs(c.multipliers) if has_floquet else None,
+            "moduli": [float(v) for v in np.abs(c.multipliers)] if has_floquet else None,
+            "floquet_exponents_per_s": _pairs(c.floquet_exponents) if has_floquet else None,
+            "doubling_times_s": [_f(v) for v in c.doubling_times_s] if has_floquet else None,
+            "stable": c.stable,
+            "eigenvectors": [_pairs(col) for col in np.asarray(c.eigenvectors).T] if has_floquet else None,
+            "monodromy": np.asarray(c.monodromy).tolist() if has_floquet else None,
+            "monodromy_vs_full_period_jacobian": _f(c.monodromy_vs_full_period_jacobian),
+            "mean_vertical_speed_mps": _f(self.mean_vertical_speed_mps),
+            "mean_forward_speed_mps": _f(self.mean_forward_speed_mps),
+            "flight_path_angle_deg": _f(self.flight_path_angle_deg),
+            "free_values": dict(c.free_values),
+            "means": {k: _f(v) for k, v in c.means.items()},
+            "shooting_times_s": np.asarray(c.shooting_times).tolist(),
+            "shooting_points": np.asarray(c.shooting_points).tolist(),
+            "method": dict(c.method),
+            "wall_s": {k: float(v) for k, v in c.wall_s.items()},
+        }
+        return out
+
+    def arrays(self) -> dict:
+        c = self.cycle
+        out = {"trajectory_t_s": np.asarray(c.trajectory_t), "trajectory_x": np.asarray(c.trajectory_x),
+               "shooting_points": np.asarray(c.shooting_points), "p": np.asarray(c.p),
+               "residual_history": np.asarray(c.residual_history)}
+        if c.monodromy is not None:
+            out.update(monodromy=np.asarray(c.monodromy), multipliers=np.asarray(c.multipliers),
+                       eigenvectors=np.asarray(c.eigenvectors))
+        return out
+
+    def table(self) -> str:
+        """Human-readable summary."""
+        c = self.cycle
+        lines = [f"trim: {'converged' if c.success else 'NOT converged'} ({c.status}), "
+                 f"{c.iterations} iterations, max residual {c.max_residual:.2e}, {c.wall_s.get('total', 0):.2f} s",
+                 f"  amplitude {self.amplitude_deg:.4g} deg, wing root "
+                 f"{c.p[PARAM_NAMES.index('wing.root_ahead_m')]:.4g} m ahead of G",
+                 "  x0 = (u {:.5f} m/s, w {:.5f} m/s, q {:.5f} rad/s, theta {:.5f} rad)".format(*c.x0)]
+        if c.multipliers is not None:
+            lines.append("  Floquet multipliers (largest first):")
+            lines.append("    {:>24}  {:>9}  {:>22}  {:>14}".format(
+                "multiplier", "modulus", "exponent [1/s]", "doubling [s]"))
+            for lam, mu, dt in zip(c.multipliers, c.floquet_exponents, c.doubling_times_s):
+                kind = "doubling" if dt > 0 else "halving"
+                lines.append("    {:>11.6f} {:+10.6f}j  {:9.6f}  {:>9.4f} {:+10.4f}j  {:9.4f} ({})".format(
+                    lam.real, lam.imag, abs(lam), mu.real, mu.imag, abs(dt), kind))
+            lines.append(f"  verdict: {'STABLE' if c.stable else 'UNSTABLE'} "
+                         f"(largest modulus {np.max(np.abs(c.multipliers)):.6f})")
+        lines.append(f"  mean forward speed {self.mean_forward_speed_mps:.4f} m/s, mean vertical speed "
+                     f"{self.mean_vertical_speed_mps:+.4f} m/s (positive climbing), flight path angle "
+                     f"{self.flight_path_angle_deg:+.4f} deg")
+        if not c.success:
+            lines.append(f"  message: {c.message}")
+        return "\n".join(lines)
+
+
+def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: MultipleShooting | None = None,
+         **method_over) -> TrimResult:
+    """Trimmed flight of ``cfg`` (default: the paper's reference case).
+
+    ``x_guess``: state (u, w, q, theta) at t = 0 (default ``cfg.solve.initial_guess``);
+    ``warm_start``: a previous :class:`TrimResult` whose cycle starts the solve; ``method`` or keyword
+    overrides of :class:`~birdocp.shooting.MultipleShooting` (default from ``cfg.solve``).
+    """
+    cfg = cfg or Config()
+    m = get_model(cfg)
+    guess = np.asarray(cfg.solve.initial_guess if x_guess is None else x_guess, float)
+    problem = LimitCycleProblem(ode=m.ode, p=m.p0, x_guess=guess, outputs=_OUTPUTS)
+    method = method or method_of(cfg, **method_over)
+    ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
+    return TrimResult(solve(problem, method, warm_start=ws), cfg)
