@@ -275,7 +275,7 @@ def format_trim_table(r: dict) -> str:
     mults = _pairs(r.get("multipliers"))
     if mults:
         moduli = _pairs(r.get("moduli"))
-        exps = _pairs(r.get("floquet_exponents"))
+        exps = _pairs(r.get("floquet_exponents", r.get("floquet_exponents_per_s")))
         dts = _pairs(r.get("doubling_times_s"))
         lines.append("")
         lines.append("Floquet multipliers (largest modulus first)")
@@ -304,8 +304,9 @@ def format_trim_table(r: dict) -> str:
                                               f"{_num(q, '.6g')} rad/s, {_num(th, '.6g')} rad"))
     rows.append(("iterations", str(r.get("iterations", "-"))))
     rows.append(("max residual", _num(r.get("max_residual"), ".3e")))
-    if r.get("shooting_points") is not None:
-        rows.append(("shooting points", str(r.get("shooting_points"))))
+    sp = r.get("shooting_points")
+    if isinstance(sp, int) or (isinstance(sp, (list, tuple)) and sp):
+        rows.append(("shooting points", str(sp if isinstance(sp, int) else len(sp))))
     wall = r.get("wall_s")
     if isinstance(wall, dict):
         total = wall.get("total")
