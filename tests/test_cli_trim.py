@@ -200,3 +200,21 @@ def test_config_resolution_order(tmp_path, capfd):
     assert cli.main(["config", str(f)]) == 0
     text = capfd.readouterr().out
     assert C.loads(text) == C.load(f)
+
+
+def test_forces_with_the_real_model(tmp_path):
+    """Smoke test of the real model through ``python -m birdocp`` (catches drift of the model API)."""
+    import subprocess
+    from pathlib import Path
+
+    pytest.importorskip("birdocp.model")
+    repo = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(repo), os.environ.get("PYTHONPATH")])))
+    proc = subprocess.run([sys.executable, "-m", "birdocp", "forces", "--state", "18", "0.5", "0.1", "0.01",
+                           "--time", "0.05", "--json"], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    res = json.loads(proc.stdout)
+    assert list(res) == ["Fx_N", "Fz_N", "My_Nm", "xdot"] and len(res["xdot"]) == 4
+    assert all(np.isfinite(v) for v in [res["Fx_N"], res["Fz_N"], res["My_Nm"], *res["xdot"]])
+    assert res["xdot"][3] == pytest.approx(0.1)  # dtheta/dt = q
