@@ -166,4 +166,17 @@ def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: Mu
     problem = LimitCycleProblem(ode=m.ode, p=m.p0, x_guess=guess, outputs=_OUTPUTS)
     method = method or method_of(cfg, **method_over)
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
-    return TrimResult(solve(problem, method, warm_start=ws), cfg)
+    return TrimResult(check_physical(solve(problem, method, warm_start=ws)), cfg)
+
+
+def check_physical(cycle: LimitCycleResult) -> LimitCycleResult:
+    """A converged cycle with u <= 0 somewhere is not a forward flight (the aerodynamic model assumes
+    air coming from ahead): mark it failed with status ``non_physical``."""
+    if cycle.success:
+        u = np.asarray(cycle.trajectory_x)[:, 0]
+        if not np.all(u > 0):
+            cycle.success = False
+            cycle.status = "non_physical"
+            cycle.message = (f"converged to a cycle with forward speed u <= 0 (min u = {np.min(u):.3g} m/s), "
+                             "not a forward flight; start from a better guess (solve.initial_guess)")
+    return cycle

@@ -69,3 +69,12 @@ def test_multipliers_invariant_to_number_of_segments(reference_trim):
     r2 = trim(with_values(Config(), REFERENCE_SETTINGS), points=2, steps_per_period=148, warm_start=None)
     assert r2.success
     assert _match(r2.multipliers, reference_trim.multipliers) < 1e-8
+
+
+def test_backward_flying_cycle_is_reported_as_failure():
+    """From a poor guess the paper's solver converges to a cycle with u < 0 (air from behind): that
+    is a result with status non_physical, not a success."""
+    r = trim(x_guess=[2.0, 5.0, 3.0, 1.0], solver="lm")
+    assert not r.success
+    assert r.status == "non_physical"
+    assert "u <= 0" in r.message
