@@ -1,0 +1,162 @@
+"""Level (or steady climbing) flight as one NLP: a model parameter free, a period mean constrained.
+
+The paper finds level flight by a Newton-Raphson search over the shoulder flapping amplitude, one
+limit cycle per step. Here the amplitude (or any other entry of :data:`birdocp.config.PARAM_NAMES`)
+is a decision variable of the multiple-shooting problem, bounded, and one period-mean condition
+closes the square system::
+
+    shooting continuity + periodicity + mean(output) = target
+
+``constrain`` chooses the condition (all are period means over the RK4 grid, exactly differentiated):
+
+* ``"vertical_speed_mps"`` (default): mean ``W = u sin(theta) - w cos(theta)`` equals ``target``
+  (``climb_rate_mps``; 0 = level flight);
+* ``"forward_speed_mps"``: mean ``U = u cos(theta) + w sin(theta)`` equals ``target`` (m/s);
+* ``"flight_path_angle_deg"``: ``atan(mean W / mean U) = beta``. A ratio of means is not a mean,
+  but with ``mean U > 0`` it is equivalent to the mean of ``W - tan(beta) U`` being 0, which is one
+  linear :class:`~birdocp.problem.MeanCondition` (one output Function per beta, cached).
+
+Default bounds of the free parameter (``bounds=None``):
+
+* ``gait.shoulder_flap.amplitude_deg``: 20 .. 70 deg;
+* any other ``..._deg`` key: its configured value +- 30 deg;
+* ``wing.root_ahead_m``: -0.2 .. 0.3 m;
+* anything else: ``bounds`` is required.
+
+The free parameter makes the per-time data (the whole wing geometry and the lifting-line matrices)
+symbolic, so the geometry graph is part of the NLP: a level solve costs several trims (see the
+``wall_s`` of the result: ``build`` is paid once per process and free set).
+"""
+
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+
+from .config import PARAM_NAMES, Config, ConfigError, _suggest, get_value
+from .model import N_DATA, get_model
+from .problem import LimitCycleProblem, MeanCondition
+from .shooting import LimitCycleResult
+from .shooting import solve as _solve
+from .studies import TrimResult, _OUTPUTS, method_of
+
+__all__ = ["level", "CONSTRAINTS", "default_bounds", "resolve_key", "AMPLITUDE_KEY", "KEY_ALIASES"]
+
+AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
+ROOT_AHEAD_KEY = "wing.root_ahead_m"
+CONSTRAINTS = ("vertical_speed_mps", "forward_speed_mps", "flight_path_angle_deg")
+KEY_ALIASES = {
+    "amplitude": AMPLITUDE_KEY, "amplitude_deg": AMPLITUDE_KEY,
+    "root_ahead_m": ROOT_AHEAD_KEY, "root-ahead": ROOT_AHEAD_KEY, "root_ahead": ROOT_AHEAD_KEY,
+}
+_CONSTRAINT_ALIASES = {
+    "vertical_speed": "vertical_speed_mps", "W": "vertical_speed_mps", "climb_rate": "vertical_speed_mps",
+    "forward_speed": "forward_speed_mps", "U": "forward_speed_mps",
+    "flight_path_angle": "flight_path_angle_deg", "beta": "flight_path_angle_deg",
+}
+
+
+def resolve_key(key: str, what: str = "free") -> str:
+    """A :data:`PARAM_NAMES` entry from a dotted key or an alias; ConfigError (did-you-mean) if unknown."""
+    k = KEY_ALIASES.get(str(key).strip(), str(key).strip())
+    if k not in PARAM_NAMES:
+        raise ConfigError(what, f"unknown parameter '{key}'" + _suggest(k, list(PARAM_NAMES) + list(KEY_ALIASES))
+                          + " (a model parameter: a number of body, wing, gait or aero.air_density_kgm3/"
+                            "lift_slope_per_rad, or an alias: amplitude, root_ahead_m)")
+    return k
+
+
+def default_bounds(cfg: Config, key: str) -> tuple[float, float]:
+    """Default bounds of a free parameter (see the module docstring)."""
+    if key == AMPLITUDE_KEY:
+        return 20.0, 70.0
+    if key == ROOT_AHEAD_KEY:
+        return -0.2, 0.3
+    if key.endswith("_deg"):
+        v = float(get_value(cfg, key))
+        return v - 30.0, v + 30.0
+    raise ConfigError("bounds", f"no default range for '{key}'; give bounds=(lo, hi)")
+
+
+_BETA_FNS: dict = {}
+
+
+def _path_angle_output(beta_deg: float) -> ca.Function:
+    """Output W - tan(beta) U (one Function object per beta so the shooting graphs are reused)."""
+    key = float(beta_deg)
+    f = _BETA_FNS.get(key)
+    if f is None:
+        x = ca.SX.sym("x", 4)
+        d = ca.SX.sym("d", N_DATA)
+        p = ca.SX.sym("p", len(PARAM_NAMES))
+        u, w, th = x[0], x[1], x[3]
+        W = u * ca.sin(th) - w * ca.cos(th)
+        U = u * ca.cos(th) + w * ca.sin(th)
+        f = ca.Function("path_angle_residual", [x, d, p], [W - math.tan(math.radians(key)) * U])
+        _BETA_FNS[key] = f
+    return f
+
+
+def _condition(constrain: str, target: float):
+    """(MeanCondition, extra outputs) for a constraint name."""
+    c = _CONSTRAINT_ALIASES.get(constrain, constrain)
+    if c not in CONSTRAINTS:
+        raise ConfigError("constrain", f"unknown condition '{constrain}'" + _suggest(c, CONSTRAINTS)
+                          + f" (one of {', '.join(CONSTRAINTS)})")
+    if c == "flight_path_angle_deg":
+        if not -89.0 < target < 89.0:
+            raise ConfigError("constrain", f"flight path angle must lie in (-89, 89) deg, got {target!r}")
+        return MeanCondition(_path_angle_output(target), 0.0, "path_angle_residual"), dict(_OUTPUTS)
+    other = {k: v for k, v in _OUTPUTS.items() if k != c}
+    return MeanCondition(_OUTPUTS[c], float(target), c), other
+
+
+def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, climb_rate_mps: float = 0.0,
+          constrain: str = "vertical_speed_mps", x_guess=None, warm_start=None, *, target: float | None = None,
+          **method_over) -> TrimResult:
+    """Level (or climbing) periodic flight: ``free`` solved so that the mean of ``constrain`` is met.
+
+    cfg:            configuration (default: the paper's reference case); the free parameter starts
+                    from its configured value (or from ``warm_start``'s value, if given).
+    free:           a :data:`PARAM_NAMES` key or alias (``amplitude``, ``root_ahead_m``).
+    bounds:         (lo, hi) of the free parameter; default per :func:`default_bounds`.
+    climb_rate_mps: target mean vertical speed (``constrain="vertical_speed_mps"``).
+    target:         target of the condition for the other constraints (forward speed in m/s, flight
+                    path angle in deg); for the vertical speed it overrides ``climb_rate_mps``.
+    warm_start:     a previous :class:`TrimResult` / LimitCycleResult (shooting points and free value).
+    method_over:    overrides of :class:`~birdocp.shooting.MultipleShooting` (default ``cfg.solve``).
+
+    Returns a :class:`TrimResult`; ``free_values`` holds the solved parameter, ``amplitude_deg`` the
+    (solved or fixed) amplitude.
+    """
+    cfg = cfg or Config()
+    key = resolve_key(free, "free")
+    c = _CONSTRAINT_ALIASES.get(constrain, constrain)
+    if target is None:
+        target = climb_rate_mps if c == "vertical_speed_mps" else None
+        if target is None:
+            raise ConfigError("target", f"constrain='{c}' needs target=...")
+    target = float(target)
+    if not math.isfinite(target):
+        raise ConfigError("target", f"must be finite, got {target!r}")
+    if bounds is None:
+        lo, hi = default_bounds(cfg, key)
+    else:
+        try:
+            lo, hi = (float(b) for b in bounds)
+        except (TypeError, ValueError):
+            raise ConfigError("bounds", f"expected (lo, hi), got {bounds!r}") from None
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise ConfigError("bounds", f"need finite lo < hi, got ({lo}, {hi})")
+    cond, outputs = _condition(c, target)
+    m = get_model(cfg)
+    guess = np.asarray(cfg.solve.initial_guess if x_guess is None else x_guess, float)
+    problem = LimitCycleProblem(ode=m.ode, p=m.p0, x_guess=guess, free={key: (lo, hi)}, means=[cond],
+                                outputs=outputs)
+    ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
+    if ws is not None and not isinstance(ws, LimitCycleResult):
+        raise TypeError(f"warm_start must be a TrimResult or LimitCycleResult, got {type(ws).__name__}")
+    res = _solve(problem, method_of(cfg, **method_over), warm_start=ws)
+    return TrimResult(res, cfg)
