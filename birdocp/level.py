@@ -38,7 +38,6 @@ import numpy as np
 from .config import PARAM_NAMES, Config, ConfigError, _suggest, get_value
 from .model import N_DATA, get_model
 from .problem import LimitCycleProblem, MeanCondition
-from .shooting import LimitCycleResult
 from .shooting import solve as _solve
 from .studies import TrimResult, _OUTPUTS, method_of
 
@@ -156,7 +155,7 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
     problem = LimitCycleProblem(ode=m.ode, p=m.p0, x_guess=guess, free={key: (lo, hi)}, means=[cond],
                                 outputs=outputs)
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
-    if ws is not None and not isinstance(ws, LimitCycleResult):
+    if ws is not None and not all(hasattr(ws, a) for a in ("p", "shooting_points", "x0")):
         raise TypeError(f"warm_start must be a TrimResult or LimitCycleResult, got {type(ws).__name__}")
     res = _solve(problem, method_of(cfg, **method_over), warm_start=ws)
     return TrimResult(res, cfg)

@@ -1,0 +1,270 @@
+"""Families of trims (or level-flight solves) along one parameter, warm-started from neighbour to neighbour.
+
+``sweep(cfg, key, values)`` solves one limit cycle per value of ``key`` (any
+:data:`birdocp.config.PARAM_NAMES` key or an alias such as ``amplitude``), in the given order; each
+point starts from the last *successful* point's shooting points (``warm=True``). With ``level=True``
+each point is a :func:`birdocp.level.level` solve (by default the flapping amplitude free, mean
+vertical speed 0) with ``key`` swept.
+
+Run folder (``out_dir``), written as the sweep goes (every file atomically)::
+
+    config.toml            the base configuration
+    points/point-0003.json one file per solved point, written as soon as it is solved: the table row,
+                           the full trim result and the parameter vector (enough to warm-start from)
+    sweep.json             the sweep definition and all rows so far (rewritten after each point)
+    sweep.csv              the same rows as a CSV table
+    result.json            written last (with provenance): the sweep is complete
+
+``resume=True`` reads the point files of ``out_dir`` and solves only the missing points, warm-starting
+from the points on disk, so the table is the one of an uninterrupted run (up to wall times).
+A failed point is recorded (``success`` false) and the sweep goes on.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from .config import Config, ConfigError, to_dict, with_values
+from .io import atomic_write_json, atomic_write_text, to_jsonable
+from .level import AMPLITUDE_KEY, resolve_key
+
+__all__ = ["sweep", "sweep_values", "read_points", "CSV_COLUMNS", "row_of"]
+
+N_MULT = 4
+CSV_COLUMNS = (
+    ["index", "key", "value", "success", "status", "stable"]
+    + [f"multiplier{k}_{part}" for k in range(N_MULT) for part in ("re", "im")]
+    + [f"modulus{k}" for k in range(N_MULT)]
+    + ["mean_forward_speed_mps", "mean_vertical_speed_mps", "mean_speed_norm_mps", "flight_path_angle_deg",
+       "amplitude_deg", "free_key", "free_value", "iterations", "max_residual", "wall_s", "warm_from"]
+)
+
+
+def sweep_values(start: float, stop: float, step: float) -> list[float]:
+    """``start, start +- step, ...`` up to ``stop`` inclusive (direction from the signs; step > 0)."""
+    for name, v in (("--from", start), ("--to", stop), ("--step", step)):
+        if not math.isfinite(v):
+            raise ConfigError(name, f"must be finite, got {v!r}")
+    if not step > 0:
+        raise ConfigError("--step", f"must be positive, got {step!r}")
+    n = int(math.floor(abs(stop - start) / step + 1e-9))
+    if n > 10000:
+        raise ConfigError("--step", f"{n + 1} points from {start} to {stop}; use a larger step")
+    sign = 1.0 if stop >= start else -1.0
+    return [float(np.round(start + sign * k * step, 12)) for k in range(n + 1)]
+
+
+@dataclass
+class _WarmStart:
+    """The part of a LimitCycleResult the engine reads for a warm start (rebuilt from a point file)."""
+
+    p: np.ndarray
+    shooting_points: np.ndarray
+    x0: np.ndarray
+
+
+def _warm_from_point(point: dict):
+    r = point.get("result") or {}
+    try:
+        return _WarmStart(np.asarray(point["p"], float), np.asarray(r["shooting_points"], float),
+                          np.asarray(r["x0"], float))
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
+def _pair_list(v):
+    return v if isinstance(v, list) else []
+
+
+def row_of(index: int, key: str, value: float, d: dict, free_key: str | None, warm_from) -> dict:
+    """The table row of a solved point (``d``: TrimResult.to_dict())."""
+    mults = _pair_list(d.get("multipliers"))
+    moduli = _pair_list(d.get("moduli"))
+    U, W = d.get("mean_forward_speed_mps"), d.get("mean_vertical_speed_mps")
+    row = {"index": index, "key": key, "value": value, "success": bool(d.get("success")),
+           "status": d.get("status"), "stable": d.get("stable")}
+    for k in range(N_MULT):
+        m = mults[k] if k < len(mults) else [None, None]
+        row[f"multiplier{k}_re"], row[f"multiplier{k}_im"] = m[0], m[1]
+    for k in range(N_MULT):
+        row[f"modulus{k}"] = moduli[k] if k < len(moduli) else None
+    row["mean_forward_speed_mps"] = U
+    row["mean_vertical_speed_mps"] = W
+    row["mean_speed_norm_mps"] = math.hypot(U, W) if U is not None and W is not None else None
+    row["flight_path_angle_deg"] = d.get("flight_path_angle_deg")
+    row["amplitude_deg"] = d.get("amplitude_deg")
+    fv = d.get("free_values") or {}
+    row["free_key"] = free_key
+    row["free_value"] = fv.get(free_key) if free_key else None
+    row["iterations"] = d.get("iterations")
+    row["max_residual"] = d.get("max_residual")
+    row["wall_s"] = (d.get("wall_s") or {}).get("total")
+    row["warm_from"] = warm_from
+    return row
+
+
+def _csv_text(rows: list[dict]) -> str:
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=CSV_COLUMNS, lineterminator="\n")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: ("" if r.get(k) is None else (repr(r[k]) if isinstance(r[k], float) else r[k]))
+                    for k in CSV_COLUMNS})
+    return buf.getvalue()
+
+
+def _point_path(out: Path, index: int) -> Path:
+    return out / "points" / f"point-{index:04d}.json"
+
+
+def read_points(out_dir: str | Path) -> dict[int, dict]:
+    """Point files of a sweep folder by index (unreadable files are ignored: they will be re-solved)."""
+    out = {}
+    folder = Path(out_dir) / "points"
+    if not folder.is_dir():
+        return out
+    for f in sorted(folder.glob("point-*.json")):
+        try:
+            pt = json.loads(f.read_text())
+            out[int(pt["row"]["index"])] = pt
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+    return out
+
+
+class _Progress:
+    def __init__(self, total: int, enabled: bool, label: str):
+        self.total, self.enabled, self.label = total, enabled, label
+        self.t0 = time.perf_counter()
+        self.solved = 0
+
+    def show(self, done: int, text: str, solved_now: bool = False):
+        if solved_now:
+            self.solved += 1
+        if not self.enabled:
+            return
+        tty = sys.stderr.isatty()
+        if not tty and not (solved_now or done == self.total):
+            return  # in logs: one line per finished point
+        width = 24
+        filled = int(width * done / max(self.total, 1))
+        el = time.perf_counter() - self.t0
+        remaining = self.total - done
+        eta = f", ~{el / self.solved * remaining:.0f} s left" if self.solved and remaining else ""
+        line = f"{self.label} [{'#' * filled}{'.' * (width - filled)}] {done}/{self.total} {text} ({el:.0f} s{eta})"
+        if tty:
+            sys.stderr.write("\r" + line + "\x1b[K" + ("\n" if done == self.total else ""))
+        else:
+            sys.stderr.write(line + "\n")
+        sys.stderr.flush()
+
+
+def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool = False, warm: bool = True,
+          out_dir: str | Path | None = None, resume: bool = False, progress: bool = True,
+          level_options: dict | None = None, **method_over) -> list[dict]:
+    """Solve one limit cycle per value of ``key``; returns the table rows (see :data:`CSV_COLUMNS`).
+
+    level:          each point a :func:`birdocp.level.level` solve (``level_options`` passed on:
+                    ``free``, ``bounds``, ``climb_rate_mps``, ``constrain``, ``target``).
+    warm:           warm-start each point from the last successful one (else from the config's guess).
+    out_dir:        run folder to write as the sweep goes (None: nothing written).
+    resume:         reuse the points found in ``out_dir`` (same key, values and configuration).
+    method_over:    overrides of :class:`~birdocp.shooting.MultipleShooting`.
+    """
+    from .level import level as level_solve
+    from .studies import trim
+
+    cfg = cfg or Config()
+    key = resolve_key(key, "key")
+    values = [float(v) for v in values]
+    if not values:
+        raise ConfigError("values", "no values to sweep")
+    for v in values:
+        if not math.isfinite(v):
+            raise ConfigError("values", f"must be finite, got {v!r}")
+    level_options = dict(level_options or {})
+    free_key = resolve_key(level_options.get("free", AMPLITUDE_KEY), "free") if level else None
+    if level and free_key == key:
+        raise ConfigError("key", f"'{key}' is the free parameter of the level-flight solve; sweep another "
+                                 "parameter (or sweep without --level)")
+    cfgs = [with_values(cfg, {key: v}) for v in values]  # validates every value before solving
+
+    out = Path(out_dir) if out_dir is not None else None
+    spec = {"key": key, "values": values, "level": bool(level), "warm": bool(warm),
+            "level_options": to_jsonable(level_options), "method_over": to_jsonable(method_over),
+            "config": to_dict(cfg)}
+    done: dict[int, dict] = {}
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        old = None
+        if (out / "sweep.json").exists():
+            try:
+                old = json.loads((out / "sweep.json").read_text())
+            except (OSError, ValueError):
+                old = None
+        if resume:
+            if old is not None:
+                old_spec = {k: old.get(k) for k in spec}
+                if json.loads(json.dumps(old_spec)) != json.loads(json.dumps(to_jsonable(spec))):
+                    diff = [k for k in spec if json.dumps(old_spec[k]) != json.dumps(to_jsonable(spec[k]))]
+                    raise ConfigError("--resume", f"the sweep in '{out}' differs in {', '.join(diff)}; "
+                                                  "resume with the same arguments or use a new folder")
+            done = {i: p for i, p in read_points(out).items() if i < len(values)
+                    and p["row"].get("value") == values[i]}
+        elif old is not None or read_points(out):
+            raise ConfigError("--out", f"'{out}' already holds a sweep; pass resume=True (--resume) or a new folder")
+        from .config import dumps
+        atomic_write_text(out / "config.toml", dumps(cfg))
+
+    rows: list[dict | None] = [done[i]["row"] if i in done else None for i in range(len(values))]
+    bar = _Progress(len(values), progress, f"sweep {key}" + (" (level)" if level else ""))
+
+    def flush():
+        if out is None:
+            return
+        table = [r for r in rows if r is not None]
+        atomic_write_json(out / "sweep.json", dict(spec, points=table, complete=len(table) == len(values)))
+        atomic_write_text(out / "sweep.csv", _csv_text(table))
+
+    flush()
+    last_ok = None  # (index, warm start object)
+    for i, (v, cfg_i) in enumerate(zip(values, cfgs)):
+        if i in done:
+            pt = done[i]
+            if pt["row"].get("success"):
+                ws = _warm_from_point(pt)
+                if ws is not None:
+                    last_ok = (i, ws)
+            bar.show(i + 1, f"{v:g} (on disk)")
+            continue
+        ws = last_ok[1] if (warm and last_ok is not None) else None
+        warm_from = last_ok[0] if (warm and last_ok is not None) else None
+        bar.show(i, f"solving {v:g}")
+        t = time.perf_counter()
+        if level:
+            res = level_solve(cfg_i, warm_start=ws, **level_options, **method_over)
+        else:
+            res = trim(cfg_i, warm_start=ws, **method_over)
+        d = res.to_dict()
+        d.setdefault("wall_s", {})["total"] = time.perf_counter() - t
+        row = row_of(i, key, v, d, free_key, warm_from)
+        rows[i] = row
+        if res.success:
+            last_ok = (i, res.cycle)
+        if out is not None:
+            point = {"row": row, "p": [float(x) for x in np.asarray(res.cycle.p)], "result": d}
+            atomic_write_json(_point_path(out, i), point)
+        flush()
+        bar.show(i + 1, f"{v:g} {'ok' if res.success else 'FAILED'} {row['iterations']} it "
+                        f"{row['wall_s']:.1f} s", solved_now=True)
+    return [r for r in rows if r is not None]
