@@ -32,16 +32,14 @@ from __future__ import annotations
 
 import math
 
-import casadi as ca
-import numpy as np
+from typing import TYPE_CHECKING
 
 from .config import PARAM_NAMES, Config, ConfigError, _suggest, get_value
-from .model import N_DATA, get_model
-from .problem import LimitCycleProblem, MeanCondition
-from .shooting import solve as _solve
-from .studies import TrimResult, _OUTPUTS, method_of
 
-__all__ = ["level", "CONSTRAINTS", "default_bounds", "resolve_key", "AMPLITUDE_KEY", "KEY_ALIASES"]
+if TYPE_CHECKING:  # the model and the engine are imported on first solve (key checks stay light)
+    from .studies import TrimResult
+
+__all__ = ["level", "CONSTRAINTS", "default_bounds", "resolve_key", "resolve_constraint", "AMPLITUDE_KEY", "KEY_ALIASES"]
 
 AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
 ROOT_AHEAD_KEY = "wing.root_ahead_m"
@@ -67,6 +65,15 @@ def resolve_key(key: str, what: str = "free") -> str:
     return k
 
 
+def resolve_constraint(constrain: str, what: str = "constrain") -> str:
+    """One of :data:`CONSTRAINTS` from a name or alias; ConfigError (did-you-mean) if unknown."""
+    c = _CONSTRAINT_ALIASES.get(str(constrain).strip(), str(constrain).strip())
+    if c not in CONSTRAINTS:
+        raise ConfigError(what, f"unknown condition '{constrain}'" + _suggest(c, CONSTRAINTS)
+                          + f" (one of {', '.join(CONSTRAINTS)})")
+    return c
+
+
 def default_bounds(cfg: Config, key: str) -> tuple[float, float]:
     """Default bounds of a free parameter (see the module docstring)."""
     if key == AMPLITUDE_KEY:
@@ -84,6 +91,10 @@ _BETA_FNS: dict = {}
 
 def _path_angle_output(beta_deg: float) -> ca.Function:
     """Output W - tan(beta) U (one Function object per beta so the shooting graphs are reused)."""
+    import casadi as ca
+
+    from .model import N_DATA
+
     key = float(beta_deg)
     f = _BETA_FNS.get(key)
     if f is None:
@@ -100,13 +111,11 @@ def _path_angle_output(beta_deg: float) -> ca.Function:
 
 def _condition(constrain: str, target: float):
     """(MeanCondition, extra outputs) for a constraint name."""
-    c = _CONSTRAINT_ALIASES.get(constrain, constrain)
-    if c not in CONSTRAINTS:
-        raise ConfigError("constrain", f"unknown condition '{constrain}'" + _suggest(c, CONSTRAINTS)
-                          + f" (one of {', '.join(CONSTRAINTS)})")
+    from .problem import MeanCondition
+    from .studies import _OUTPUTS
+
+    c = resolve_constraint(constrain)
     if c == "flight_path_angle_deg":
-        if not -89.0 < target < 89.0:
-            raise ConfigError("constrain", f"flight path angle must lie in (-89, 89) deg, got {target!r}")
         return MeanCondition(_path_angle_output(target), 0.0, "path_angle_residual"), dict(_OUTPUTS)
     other = {k: v for k, v in _OUTPUTS.items() if k != c}
     return MeanCondition(_OUTPUTS[c], float(target), c), other
@@ -114,7 +123,7 @@ def _condition(constrain: str, target: float):
 
 def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, climb_rate_mps: float = 0.0,
           constrain: str = "vertical_speed_mps", x_guess=None, warm_start=None, *, target: float | None = None,
-          **method_over) -> TrimResult:
+          **method_over) -> "TrimResult":
     """Level (or climbing) periodic flight: ``free`` solved so that the mean of ``constrain`` is met.
 
     cfg:            configuration (default: the paper's reference case); the free parameter starts
@@ -132,7 +141,7 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
     """
     cfg = cfg or Config()
     key = resolve_key(free, "free")
-    c = _CONSTRAINT_ALIASES.get(constrain, constrain)
+    c = resolve_constraint(constrain)
     if target is None:
         target = climb_rate_mps if c == "vertical_speed_mps" else None
         if target is None:
@@ -149,6 +158,16 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
             raise ConfigError("bounds", f"expected (lo, hi), got {bounds!r}") from None
         if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
             raise ConfigError("bounds", f"need finite lo < hi, got ({lo}, {hi})")
+    if c == "flight_path_angle_deg" and not -89.0 < target < 89.0:
+        raise ConfigError("target", f"flight path angle must lie in (-89, 89) deg, got {target!r}")
+
+    import numpy as np
+
+    from .model import get_model
+    from .problem import LimitCycleProblem
+    from .shooting import solve as _solve
+    from .studies import TrimResult, method_of
+
     cond, outputs = _condition(c, target)
     m = get_model(cfg)
     guess = np.asarray(cfg.solve.initial_guess if x_guess is None else x_guess, float)
@@ -159,3 +178,41 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
         raise TypeError(f"warm_start must be a TrimResult or LimitCycleResult, got {type(ws).__name__}")
     res = _solve(problem, method_of(cfg, **method_over), warm_start=ws)
     return TrimResult(res, cfg)
+
+
+def mean_sensitivity(result, key: str = AMPLITUDE_KEY, output: str = "vertical_speed_mps") -> dict:
+    """Derivative of a period mean with respect to a parameter along the family of periodic orbits.
+
+    At a solved cycle ``x0 = Phi(x0, a)`` (RK4 period map on the result's grid), the implicit function
+    theorem gives ``dx0/da = (I - Phi_x)^-1 Phi_a`` and ``d mean/da = mean_a + mean_x dx0/da``; all
+    partial derivatives by CasADi AD through the whole model (the geometry included), on one
+    single-shooting period. Returns ``{"derivative", "dx0_da", "mean"}``.
+    ``result``: a :class:`TrimResult` (its ``cfg`` gives the model).
+    """
+    import casadi as ca
+    import numpy as np
+
+    from .integrate import RK4Grid
+    from .model import get_model
+    from .studies import _OUTPUTS
+
+    key = resolve_key(key, "key")
+    cyc = result.cycle
+    ode = get_model(result.cfg).ode
+    grid = RK4Grid(ode, int(cyc.method["steps_per_period"]), 1, outputs=(_OUTPUTS[output],))
+    i = PARAM_NAMES.index(key)
+    x = ca.MX.sym("x", ode.nx)
+    a = ca.MX.sym("a")
+    pn = [float(v) for v in np.asarray(cyc.p)]
+    pels = [ca.MX(v) for v in pn]
+    pels[i] = a
+    p = ca.vertcat(*pels)
+    D = grid.blocks_symbolic(float(cyc.trajectory_t[0]), p)
+    xT, _, q = grid.period_map(x, D, p)
+    mean = q / ode.period_s
+    F = ca.Function("sens", [x, a], [mean, ca.jacobian(xT, x), ca.jacobian(xT, a), ca.jacobian(mean, x),
+                                     ca.jacobian(mean, a)])
+    mv, Px, Pa, mx, ma = (np.asarray(v) for v in F(np.asarray(cyc.x0, float), pn[i]))
+    dx0 = np.linalg.solve(np.eye(ode.nx) - Px, Pa).ravel()
+    return {"derivative": float(ma.ravel()[0] + mx.ravel() @ dx0), "dx0_da": dx0.tolist(),
+            "mean": float(mv.ravel()[0])}

@@ -181,9 +181,6 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
     resume:         reuse the points found in ``out_dir`` (same key, values and configuration).
     method_over:    overrides of :class:`~birdocp.shooting.MultipleShooting`.
     """
-    from .level import level as level_solve
-    from .studies import trim
-
     cfg = cfg or Config()
     key = resolve_key(key, "key")
     values = [float(v) for v in values]
@@ -198,6 +195,9 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
         raise ConfigError("key", f"'{key}' is the free parameter of the level-flight solve; sweep another "
                                  "parameter (or sweep without --level)")
     cfgs = [with_values(cfg, {key: v}) for v in values]  # validates every value before solving
+
+    from .level import level as level_solve  # the model and the engine: after the input checks
+    from .studies import trim
 
     out = Path(out_dir) if out_dir is not None else None
     spec = {"key": key, "values": values, "level": bool(level), "warm": bool(warm),
