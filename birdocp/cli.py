@@ -1,4 +1,4 @@
-"""Command-line interface: ``birdocp forces | trim | config``.
+"""Command-line interface: ``birdocp forces | trim | level | sweep | config``.
 
 Configuration resolution (one helper, :func:`resolve_config`, used by every subcommand)::
 
@@ -101,6 +101,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--derivatives", choices=("exact", "fd"), help="Jacobians by AD or finite differences (solve.derivatives)")
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-trim-<id>/")
     p.set_defaults(func=cmd_trim)
+
+    _add_level_parsers(sub, common)
 
     p = sub.add_parser("config", parents=[common], help="print the resolved configuration as TOML",
                        description="Print the resolved configuration (defaults <- CONFIG <- --set <- flags) as "
@@ -420,6 +422,226 @@ def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
             last = hist[-1]
         print(f"{PROG}: trim did not converge (status: {_one_line(res.status)}, last residual: {_num(last, '.3e')}): "
               f"{_one_line(res.message)}; result written to {run_dir}", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    return EXIT_OK
+
+
+# ---------------------------------------------------------------------------------------------
+# level and sweep (birdocp.level, birdocp.sweep)
+
+def _solve_shortcuts(p: argparse.ArgumentParser) -> None:
+    s = p.add_argument_group("solve (shortcuts for solve.* keys)")
+    s.add_argument("--points", type=int, metavar="M", help="shooting points per period, closing point included (solve.points)")
+    s.add_argument("--steps", type=int, metavar="N", help="RK4 steps per period, a multiple of M-1 (solve.steps_per_period)")
+    s.add_argument("--solver", choices=("ipopt", "lm"), help="nonlinear solver (solve.solver)")
+    s.add_argument("--derivatives", choices=("exact", "fd"), help="Jacobians by AD or finite differences (solve.derivatives)")
+
+
+def _level_options(p: argparse.ArgumentParser, in_sweep: bool) -> None:
+    g = p.add_argument_group("level flight" + (" (with --level)" if in_sweep else ""))
+    g.add_argument("--free", metavar="KEY", default="amplitude",
+                   help="parameter solved for: a dotted model parameter key or an alias (amplitude, "
+                        "root_ahead_m); default amplitude (gait.shoulder_flap.amplitude_deg)")
+    g.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS",
+                   help="target mean vertical speed in m/s, positive climbing (default 0: level flight)")
+    g.add_argument("--constrain", default="vertical_speed_mps", metavar="MEAN",
+                   help="condition: vertical_speed_mps (default; target --climb-rate), forward_speed_mps or "
+                        "flight_path_angle_deg (target --target)")
+    g.add_argument("--target", type=float, metavar="VALUE",
+                   help="target of --constrain forward_speed_mps [m/s] or flight_path_angle_deg [deg]")
+    g.add_argument("--bounds", type=float, nargs=2, metavar=("LO", "HI"),
+                   help="bounds of the free parameter (default: 20..70 deg for the amplitude, value +-30 for "
+                        "other _deg keys, -0.2..0.3 m for the wing root; required otherwise)")
+
+
+def _add_level_parsers(sub, common) -> None:
+    p = sub.add_parser("level", parents=[common], help="level (or climbing) flight: solve for the flapping amplitude",
+                       description="Find the periodic flight with the flapping amplitude (or --free KEY) as an "
+                                   "unknown such that the mean vertical speed is zero (or --climb-rate), in one "
+                                   "NLP, and its Floquet multipliers. Writes a run folder like 'trim'.")
+    _level_options(p, False)
+    _solve_shortcuts(p)
+    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-level-<id>/")
+    p.set_defaults(func=cmd_level)
+
+    key = argparse.ArgumentParser(add_help=False)
+    key.add_argument("key", metavar="KEY",
+                     help="parameter to sweep: amplitude (gait.shoulder_flap.amplitude_deg), root_ahead_m / "
+                          "root-ahead (wing.root_ahead_m), or any dotted model parameter key")
+    p = sub.add_parser("sweep", parents=[key, common], help="a family of trims (or level solves) over one parameter",
+                       description="Solve one limit cycle per value of KEY from --from to --to by --step, each "
+                                   "warm-started from its neighbour, writing every point as soon as it is solved "
+                                   "(points/, sweep.json, sweep.csv in the run folder). --resume DIR solves only "
+                                   "the points missing there.")
+    r = p.add_argument_group("range")
+    r.add_argument("--from", dest="start", type=float, required=True, metavar="A", help="first value")
+    r.add_argument("--to", dest="stop", type=float, required=True, metavar="B", help="last value (inclusive)")
+    r.add_argument("--step", type=float, required=True, metavar="S", help="step (> 0)")
+    p.add_argument("--level", action="store_true", help="each point a level-flight solve (see the level options)")
+    p.add_argument("--cold", action="store_true", help="no warm starts: every point from the configured guess")
+    p.add_argument("--out", metavar="DIR", help="run folder (new or empty; with --resume an earlier sweep's folder); "
+                                                "default runs/<time>-sweep-<id>/")
+    p.add_argument("--resume", action="store_true", help="continue the sweep in --out DIR (same arguments)")
+    p.add_argument("--quiet", action="store_true", help="no progress line on stderr")
+    _level_options(p, True)
+    _solve_shortcuts(p)
+    p.set_defaults(func=cmd_sweep)
+
+
+def _level_kwargs(args: argparse.Namespace, cfg) -> dict:
+    """Checked keyword arguments of birdocp.level.level from the level options (no model import)."""
+    from .level import default_bounds, resolve_constraint, resolve_key
+
+    free = resolve_key(args.free, "--free")
+    constrain = resolve_constraint(args.constrain, "--constrain")
+    (climb,) = _finite("--climb-rate", [args.climb_rate])
+    kw: dict = {"free": free, "constrain": constrain, "climb_rate_mps": climb}
+    if constrain != "vertical_speed_mps":
+        if args.target is None:
+            raise ConfigError("--target", f"--constrain {constrain} needs --target VALUE")
+        (kw["target"],) = _finite("--target", [args.target])
+        if constrain == "flight_path_angle_deg" and not -89 < kw["target"] < 89:
+            raise ConfigError("--target", f"flight path angle must lie in (-89, 89) deg, got {kw['target']!r}")
+    elif args.target is not None:
+        (kw["climb_rate_mps"],) = _finite("--target", [args.target])
+    if args.bounds is not None:
+        lo, hi = _finite("--bounds", args.bounds)
+        if not lo < hi:
+            raise ConfigError("--bounds", f"need LO < HI, got {lo} {hi}")
+        kw["bounds"] = (lo, hi)
+    else:
+        try:
+            default_bounds(cfg, free)
+        except ConfigError as exc:
+            raise ConfigError("--bounds", f"{_message(exc)} (--bounds LO HI)") from None
+    return kw
+
+
+def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
+    from .runs import claim_out_dir, new_run_dir, write_run
+
+    t_start = time.perf_counter()
+    cfg = resolve_config(args)
+    kw = _level_kwargs(args, cfg)
+    run_dir = claim_out_dir(args.out, "level") if args.out else new_run_dir(None, "level")
+    try:
+        with _stdout_to_stderr():
+            from birdocp.level import level
+
+            res = level(cfg, **kw)
+            result = dict(res.to_dict())
+            arrays = res.arrays()
+    except BaseException:
+        with contextlib.suppress(OSError):
+            run_dir.rmdir()
+        raise
+    free = kw["free"]
+    result["free_key"] = free
+    result["free_value"] = result.get("free_values", {}).get(free)
+    result["constrain"] = kw["constrain"]
+    result["target"] = kw.get("target", kw["climb_rate_mps"])
+    wall = dict(result.get("wall_s") or {})
+    if "total" in wall:
+        wall["level"] = wall.pop("total")
+    wall["total"] = time.perf_counter() - t_start
+    result["wall_s"] = wall
+    result["run_dir"] = str(run_dir)
+    write_run(run_dir, cfg, result, arrays, command_line, command="level")
+
+    if args.json:
+        _print_json(result)
+    else:
+        table = format_trim_table(result).replace("trim:", "level:", 1)
+        head = [f"level flight: {free} = {_num(result['free_value'], '.6f')} "
+                f"(mean {kw['constrain']} = {_num(result['target'], 'g')})"]
+        if free != AMPLITUDE_KEY:
+            head.append(f"amplitude: {_num(result.get('amplitude_deg'), '.6f')} deg")
+        print("\n".join(head) + "\n" + table)
+    if not res.success:
+        print(f"{PROG}: level flight not found (status: {_one_line(res.status)}, max residual: "
+              f"{_num(result.get('max_residual'), '.3e')}): {_one_line(res.message)}; result written to {run_dir}",
+              file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    return EXIT_OK
+
+
+def _sweep_out_dir(args: argparse.Namespace) -> Path:
+    from .runs import claim_out_dir, new_run_dir
+
+    if not args.resume:
+        return claim_out_dir(args.out, "sweep") if args.out else new_run_dir(None, "sweep")
+    if not args.out:
+        raise ConfigError("--resume", "needs --out DIR, the folder of the sweep to continue")
+    path = Path(args.out)
+    if path.exists() and not path.is_dir():
+        raise ConfigError("--out", f"'{path}' is an existing file; give the folder of a sweep")
+    if path.is_dir() and any(path.iterdir()) and not (path / "sweep.json").exists():
+        raise ConfigError("--out", f"'{path}' holds no sweep (no sweep.json) to resume")
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def format_sweep_table(rows: list[dict], key: str, level: bool) -> str:
+    head = f"{'value':>10}  {'ok':>3}  {'it':>3}  {'|lambda1|':>9}  {'|lambda2,3|':>11}  {'|lambda4|':>9}  " \
+           f"{'U [m/s]':>8}  {'W [m/s]':>8}  {'beta [deg]':>10}" + (f"  {'A [deg]':>9}" if level else "") + \
+           f"  {'wall [s]':>8}"
+    lines = [f"sweep of {key}" + (" (level flight)" if level else ""), head]
+    for r in rows:
+        line = (f"{_num(r['value'], 'g'):>10}  {'yes' if r['success'] else 'NO':>3}  {_num(r['iterations'], 'd'):>3}  "
+                f"{_num(r['modulus0'], '.6f'):>9}  {_num(r['modulus1'], '.6f'):>11}  {_num(r['modulus3'], '.6f'):>9}  "
+                f"{_num(r['mean_forward_speed_mps'], '.4f'):>8}  {_num(r['mean_vertical_speed_mps'], '+.4f'):>8}  "
+                f"{_num(r['flight_path_angle_deg'], '+.4f'):>10}")
+        if level:
+            line += f"  {_num(r['amplitude_deg'], '.4f'):>9}"
+        lines.append(line + f"  {_num(r['wall_s'], '.2f'):>8}")
+    return "\n".join(lines)
+
+
+def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
+    from .level import resolve_key
+    from .sweep import sweep, sweep_values
+
+    t_start = time.perf_counter()
+    key = resolve_key(args.key, "KEY")
+    values = sweep_values(args.start, args.stop, args.step)
+    cfg = resolve_config(args)
+    for v in values:  # every value checked before anything is solved or written
+        try:
+            C.with_values(cfg, {key: v})
+        except ConfigError as exc:
+            raise ConfigError(exc.key, f"{_message(exc)} (sweep value {v:g})") from None
+    level_kw = _level_kwargs(args, cfg) if args.level else None
+    if level_kw is not None and level_kw["free"] == key:
+        raise ConfigError("KEY", f"'{key}' is the free parameter of --level; sweep another parameter or pick --free")
+    run_dir = _sweep_out_dir(args)
+    fresh = not any(run_dir.iterdir())
+    try:
+        with _stdout_to_stderr():
+            rows = sweep(cfg, key, values, level=args.level, warm=not args.cold, out_dir=run_dir,
+                         resume=args.resume, progress=not args.quiet, level_options=level_kw)
+    except BaseException:
+        if fresh:
+            with contextlib.suppress(OSError):
+                if not any(p for p in run_dir.iterdir() if p.name != "config.toml"):
+                    (run_dir / "config.toml").unlink(missing_ok=True)
+                    run_dir.rmdir()
+        raise
+    from .runs import write_run
+
+    ok = all(r["success"] for r in rows)
+    result = {"success": ok, "key": key, "values": values, "level": bool(args.level),
+              "level_options": level_kw, "converged": sum(r["success"] for r in rows), "points": rows,
+              "wall_s": {"total": time.perf_counter() - t_start}, "run_dir": str(run_dir)}
+    write_run(run_dir, cfg, result, None, command_line, command="sweep")
+    if args.json:
+        _print_json(result)
+    else:
+        print(format_sweep_table(rows, key, args.level))
+        print(f"run folder  {run_dir}  (sweep.csv, sweep.json, points/)")
+    if not ok:
+        bad = [_num(r["value"], "g") for r in rows if not r["success"]]
+        print(f"{PROG}: {len(bad)} of {len(rows)} points did not converge ({', '.join(bad)}); "
+              f"results written to {run_dir}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     return EXIT_OK
 
