@@ -552,7 +552,9 @@ def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
         _print_json(result)
     else:
         table = format_trim_table(result).replace("trim:", "level:", 1)
-        head = [f"level flight: {free} = {_num(result['free_value'], '.6f')} "
+        name = "amplitude A" if free == AMPLITUDE_KEY else free
+        unit = " deg" if free.endswith("_deg") else " m" if free.endswith("_m") else ""
+        head = [f"level flight: {name} = {_num(result['free_value'], '.6f')}{unit} "
                 f"(mean {kw['constrain']} = {_num(result['target'], 'g')})"]
         if free != AMPLITUDE_KEY:
             head.append(f"amplitude: {_num(result.get('amplitude_deg'), '.6f')} deg")
