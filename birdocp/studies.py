@@ -153,17 +153,23 @@ class TrimResult:
 
 
 def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: MultipleShooting | None = None,
-         **method_over) -> TrimResult:
+         compiled: bool = False, **method_over) -> TrimResult:
     """Trimmed flight of ``cfg`` (default: the paper's reference case).
 
     ``x_guess``: state (u, w, q, theta) at t = 0 (default ``cfg.solve.initial_guess``);
     ``warm_start``: a previous :class:`TrimResult` whose cycle starts the solve; ``method`` or keyword
-    overrides of :class:`~birdocp.shooting.MultipleShooting` (default from ``cfg.solve``).
+    overrides of :class:`~birdocp.shooting.MultipleShooting` (default from ``cfg.solve``);
+    ``compiled``: use the state RHS compiled to C (:mod:`birdocp.compiled`, cached; falls back to the
+    interpreted path with a warning on stderr if compilation fails).
     """
     cfg = cfg or Config()
     m = get_model(cfg)
     guess = np.asarray(cfg.solve.initial_guess if x_guess is None else x_guess, float)
-    problem = LimitCycleProblem(ode=m.ode, p=m.p0, x_guess=guess, outputs=_OUTPUTS)
+    ode = m.ode
+    if compiled:
+        from .compiled import compiled_ode
+        ode = compiled_ode(m.ode, key_extra=repr(m.structure)) or m.ode
+    problem = LimitCycleProblem(ode=ode, p=m.p0, x_guess=guess, outputs=_OUTPUTS)
     method = method or method_of(cfg, **method_over)
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
     return TrimResult(check_physical(solve(problem, method, warm_start=ws)), cfg)

@@ -1,0 +1,153 @@
+"""Compiled speed inside birdocp: the state RHS generated as C, compiled once and cached.
+
+Only the small state right-hand side ``rhs(x, d, p)`` (~3.4k SX instructions) is compiled, with the
+derivative functions CasADi's AD asks an external for (``fwd1_rhs``, one forward direction, and
+``adj1_rhs``, one reverse direction; CasADi maps them for more directions and builds Jacobians from
+them). The time loop (RK4 steps, ``mapaccum``, segment Jacobians, IPOPT) stays in CasADi: calling
+the external with SX arguments makes a *call node* in the SX RK4 step, so
+:class:`birdocp.integrate.RK4Grid` and the shooting code need no change. The geometry ``data(t, p)``
+(214k-480k nodes) is never compiled (``design.md`` 2, 5).
+
+Cache: ``$BIRDOCP_CACHE`` or ``$XDG_CACHE_HOME/birdocp`` (default ``~/.cache/birdocp``), one shared
+library per key; the key is a SHA-256 of the generated C source, the structural configuration, the
+birdocp and CasADi versions and the compiler command, so any change of the model code, of CasADi or
+of the flags gives a new library (generating the source to hash costs ~0.05 s). Libraries are built
+under a temporary name and renamed into place (safe with parallel processes).
+
+Failure to compile or load never raises from :func:`compiled_ode`: it warns
+(:class:`CompiledFallbackWarning`, on stderr) and returns ``None``; callers use the interpreted ODE.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import casadi as ca
+
+from .problem import PeriodicODE
+
+__all__ = ["CompiledFallbackWarning", "cache_dir", "find_compiler", "compile_functions", "compiled_ode",
+           "OPT_FLAGS", "last_compile_s"]
+
+OPT_FLAGS = ("-O1",)
+"""-O1: measured best trade-off here (design.md 2: -O0 is slower than the interpreter; -O2/-O3 only
+lengthen the build of generated straight-line code)."""
+
+last_compile_s: dict = {}
+"""Wall times of the last build per library name: ``{"generate": s, "compile": s, "cached": bool}``."""
+
+
+class CompiledFallbackWarning(UserWarning):
+    """Compilation or loading failed; the interpreted CasADi path is used instead."""
+
+
+def cache_dir() -> Path:
+    env = os.environ.get("BIRDOCP_CACHE")
+    if env:
+        return Path(env).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "birdocp"
+
+
+def find_compiler() -> list[str] | None:
+    """The C compiler command: ``$CC`` (split like a shell word list), else ``cc``, ``gcc``, ``clang``."""
+    env = os.environ.get("CC")
+    if env:
+        cmd = shlex.split(env)
+        if cmd and shutil.which(cmd[0]):
+            return cmd
+    for name in ("cc", "gcc", "clang"):
+        path = shutil.which(name)
+        if path:
+            return [path]
+    return None
+
+
+def _version() -> str:
+    from . import __version__
+    try:
+        from importlib.metadata import version
+        return version("birdocp")
+    except Exception:  # pragma: no cover - not installed
+        return __version__
+
+
+def compile_functions(name: str, functions, key_extra: str = "", directory: Path | None = None) -> str:
+    """Generate one C file holding ``functions`` (CasADi Functions, by their names), compile it as a
+    shared library in the cache and return the library path (reused when the key matches).
+
+    Raises ``RuntimeError`` if no compiler is found or the compiler fails."""
+    t = time.perf_counter()
+    directory = Path(directory) if directory is not None else cache_dir()
+    directory.mkdir(parents=True, exist_ok=True)
+    cc = find_compiler()
+    if cc is None:
+        raise RuntimeError("no C compiler found (set CC, or install cc/gcc/clang)")
+    with tempfile.TemporaryDirectory(dir=directory, prefix=".gen-") as tmp:
+        gen = ca.CodeGenerator(f"{name}.c")
+        for f in functions:
+            gen.add(f)
+        gen.generate(tmp + os.sep)
+        src = Path(tmp, f"{name}.c").read_text()
+        gen_s = time.perf_counter() - t
+        cmd = cc + list(OPT_FLAGS) + ["-shared", "-fPIC"]
+        h = hashlib.sha256()
+        for part in (src, key_extra, _version(), ca.__version__, " ".join(cmd), sys.platform):
+            h.update(part.encode())
+            h.update(b"\0")
+        key = h.hexdigest()[:20]
+        lib = directory / f"{name}-{key}.so"
+        if lib.exists():
+            last_compile_s[name] = {"generate": gen_s, "compile": 0.0, "cached": True, "path": str(lib)}
+            return str(lib)
+        c_file = Path(tmp, f"{name}.c")
+        out = Path(tmp, f"{name}.so")
+        tc = time.perf_counter()
+        proc = subprocess.run(cmd + [str(c_file), "-o", str(out)], capture_output=True, text=True)
+        if proc.returncode != 0:
+            err = (proc.stderr or proc.stdout).strip().splitlines()
+            raise RuntimeError(f"{' '.join(cmd)} failed (exit {proc.returncode}): "
+                               f"{err[0] if err else 'no output'}")
+        os.replace(out, lib)  # atomic within the cache folder
+        last_compile_s[name] = {"generate": gen_s, "compile": time.perf_counter() - tc, "cached": False,
+                                "path": str(lib)}
+    return str(lib)
+
+
+def compiled_rhs(rhs: ca.Function, key_extra: str = "", directory: Path | None = None) -> ca.Function:
+    """``rhs`` as a ``casadi.external`` with compiled forward and reverse derivatives (may raise)."""
+    lib = compile_functions(f"birdocp_{rhs.name()}", [rhs, rhs.forward(1), rhs.reverse(1)], key_extra,
+                            directory)
+    return ca.external(rhs.name(), lib)
+
+
+_ODES: dict = {}
+
+
+def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None = None) -> PeriodicODE | None:
+    """A :class:`PeriodicODE` equal to ``ode`` but whose ``rhs`` is compiled C (an external), or None
+    with a :class:`CompiledFallbackWarning` when compiling or loading fails.
+
+    The result is memoised per ``ode`` object, so the engine's graph caches (keyed by ODE identity)
+    are reused across solves."""
+    hit = _ODES.get(id(ode))
+    if hit is not None and hit[0] is ode:
+        return hit[1]
+    try:
+        ext = compiled_rhs(ode.rhs, key_extra, directory)
+        out = PeriodicODE(rhs=ext, data=ode.data, period_s=ode.period_s, state_names=ode.state_names,
+                          param_names=ode.param_names)
+    except Exception as e:  # never fail the solve because of the compiler
+        warnings.warn(f"birdocp: compiled RHS unavailable, using the interpreted CasADi path ({e})",
+                      CompiledFallbackWarning, stacklevel=2)
+        return None
+    _ODES[id(ode)] = (ode, out)
+    return out
