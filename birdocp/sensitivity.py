@@ -1,0 +1,216 @@
+"""Exact sensitivities of the Floquet multipliers to gait and morphology parameters.
+
+At a converged cycle x0(p) of the one-period map Phi (RK4 on the stage grid of the shooting):
+
+* the cycle moves with p by the implicit-function theorem on the periodicity condition
+  ``Phi(x0, p) = x0``: ``dx0/dp = (I - Mon)^-1 dPhi/dp``;
+* the monodromy ``Mon = dPhi/dx0`` then changes by ``dMon = d2Phi/dx0 dx0 [dx0/dp] + d2Phi/dx0 dp``
+  (forward-over-forward CasADi AD through the RK4 steps, along one parameter direction at a time; the
+  per-time data's derivative ``dD/dp`` comes from forward AD of the geometry graph);
+* a simple multiplier moves by ``dL_i = w_i^H dMon v_i`` (left/right eigenvectors with ``W V = I``),
+  its modulus by ``Re(conj(L_i) dL_i) / |L_i|``.
+
+With ``hold_level=True`` the flapping amplitude is re-solved to keep the mean vertical speed fixed:
+``dA/dp = -(dW/dp)/(dW/dA)`` with W the period mean of ``u sin(theta) - w cos(theta)`` (its total
+derivatives include the cycle change too), and ``dL/dp|level = dL/dp + dL/dA dA/dp``.
+
+All derivatives are exact (to round-off) for the discretised problem the trim solves.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from .config import PARAM_NAMES, Config
+from .integrate import RK4Grid
+from .model import get_model
+
+__all__ = ["SensitivityResult", "multiplier_sensitivities", "DEFAULT_PARAMETERS", "unit_of"]
+
+AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
+
+DEFAULT_PARAMETERS = tuple(k for k in PARAM_NAMES
+                           if k.startswith("gait.") or k in (
+                               "wing.root_ahead_m", "wing.arm_length_m", "wing.forearm_length_m",
+                               "wing.hand_length_m", "wing.feather_lengths_m.0", "wing.feather_lengths_m.2",
+                               "wing.feather_lengths_m.4", "wing.feather_lengths_m.6",
+                               "wing.shoulder_half_separation_m", "body.mass_kg", "body.pitch_inertia_kgm2"))
+"""Gait (every joint offset, amplitude and phase) and morphology parameters ranked by default."""
+
+
+def unit_of(key: str) -> tuple[str, float]:
+    """(display unit, factor from the parameter's own unit): degrees stay degrees, metres are shown
+    per cm, the rest per its own unit."""
+    if key.endswith("_deg"):
+        return "deg", 1.0
+    if key.endswith("_m"):
+        return "cm", 0.01
+    if key.endswith("_kg"):
+        return "kg", 1.0
+    if key.endswith("_kgm2"):
+        return "kg m^2", 1.0
+    return key.rsplit("_", 1)[-1], 1.0
+
+
+@dataclass
+class SensitivityResult:
+    parameters: list          # parameter keys
+    multipliers: np.ndarray   # at the cycle, largest modulus first
+    d_multipliers: np.ndarray  # (n_params, 4) complex, per unit of the parameter's own unit
+    d_moduli: np.ndarray      # (n_params, 4)
+    d_x0: np.ndarray          # (n_params, 4)
+    d_mean_vertical_speed: np.ndarray  # (n_params,) m/s per unit
+    hold_level: bool
+    d_amplitude: np.ndarray | None  # (n_params,) deg per unit (hold_level only)
+
+    def ranked(self, mode: int = 0) -> list[dict]:
+        """Rows sorted by |d modulus of multiplier `mode`| per display unit (deg or cm)."""
+        rows = []
+        for k, key in enumerate(self.parameters):
+            unit, f = unit_of(key)
+            rows.append({"parameter": key, "unit": unit,
+                         "d_modulus_per_unit": float(self.d_moduli[k, mode] * f),
+                         "d_multiplier_per_unit": [float(self.d_multipliers[k, mode].real * f),
+                                                   float(self.d_multipliers[k, mode].imag * f)],
+                         "d_mean_vertical_speed_mps_per_unit": float(self.d_mean_vertical_speed[k] * f),
+                         "d_amplitude_deg_per_unit": (None if self.d_amplitude is None
+                                                      else float(self.d_amplitude[k] * f))})
+        rows.sort(key=lambda r: -abs(r["d_modulus_per_unit"]))
+        return rows
+
+    def to_dict(self) -> dict:
+        return {"parameters": list(self.parameters), "hold_level": self.hold_level,
+                "multipliers": [[float(z.real), float(z.imag)] for z in self.multipliers],
+                "ranked_expanding": self.ranked(0),
+                "d_moduli": self.d_moduli.tolist(),
+                "d_multipliers": [[[float(z.real), float(z.imag)] for z in row] for row in self.d_multipliers],
+                "d_x0": self.d_x0.tolist(),
+                "d_mean_vertical_speed_mps": self.d_mean_vertical_speed.tolist(),
+                "d_amplitude_deg": None if self.d_amplitude is None else self.d_amplitude.tolist()}
+
+
+class _SecondOrder:
+    """Functions for one (model, steps): period map with the mean-W quadrature, its x0-Jacobian, and
+    directional derivatives of both along (dx0, dD, dp)."""
+
+    _cache: dict = {}
+
+    @classmethod
+    def get(cls, model, steps: int):
+        key = (id(model.model), steps)
+        hit = cls._cache.get(key)
+        if hit is None or hit.model is not model.model:
+            hit = cls(model, steps)
+            cls._cache[key] = hit
+        return hit
+
+    def __init__(self, model, steps: int):
+        from .studies import flight_outputs
+
+        self.model = model.model
+        W = flight_outputs()["vertical_speed_mps"]
+        self.grid = grid = RK4Grid(model.ode, steps, 1, outputs=(W,))
+        nx, nd, np_ = 4, model.ode.nd, model.ode.np
+        x0 = ca.MX.sym("x0", nx)
+        D = ca.MX.sym("D", nd, 3 * steps)
+        p = ca.MX.sym("p", np_)
+        xT, _, q = grid.period_map(x0, D, p)
+        Mon = ca.jacobian(xT, x0)
+        dx0 = ca.MX.sym("dx0", nx)
+        dD = ca.MX.sym("dD", nd, 3 * steps)
+        dp = ca.MX.sym("dp", np_)
+        z = ca.vertcat(x0, ca.vec(D), p)
+        dz = ca.vertcat(dx0, ca.vec(dD), dp)
+        outs = ca.vertcat(xT, q, ca.vec(Mon))
+        self.base = ca.Function("base", [x0, D, p], [xT, q, Mon])
+        self.directional = ca.Function("directional", [x0, D, p, dx0, dD, dp], [ca.jtimes(outs, z, dz)])
+        self.n_times = 2 * steps + 1
+        self.data_fwd = model.data.forward(1).map(self.n_times)
+        self.data_map = model.data.map(self.n_times)
+
+
+def multiplier_sensitivities(cycle_result, parameters=None, *, hold_level: bool = False) -> SensitivityResult:
+    """Exact derivatives of the multipliers of a converged trim (``TrimResult``) with respect to
+    ``parameters`` (keys of PARAM_NAMES; default :data:`DEFAULT_PARAMETERS`), the change of the cycle
+    included; with ``hold_level`` the amplitude is re-solved to keep the mean vertical speed."""
+    cfg: Config = cycle_result.cfg
+    c = cycle_result.cycle
+    if not c.success:
+        raise ValueError("the trim did not converge: sensitivities need a converged cycle")
+    params = list(parameters or DEFAULT_PARAMETERS)
+    for k in params:
+        if k not in PARAM_NAMES:
+            raise ValueError(f"unknown parameter {k!r}")
+    if hold_level:
+        if cycle_result.cycle.free_values:
+            raise ValueError("hold_level needs a fixed-amplitude trim (a level() result is one: pass it as a trim)")
+        params = [k for k in params if k != AMPLITUDE_KEY] + [AMPLITUDE_KEY]
+    m = get_model(cfg)
+    steps = int(c.method["steps_per_period"])
+    so = _SecondOrder.get(m, steps)
+    grid = so.grid
+    p = np.asarray(c.p, float)
+    times = ca.DM(grid.times(0.0)).reshape((1, -1))
+    Dgrid = so.data_map(times, ca.DM(p))
+    idx = grid.block_index
+    D = Dgrid[:, idx]
+    x0 = ca.DM(np.asarray(c.x0, float))
+    _, qT, Mon = so.base(x0, D, ca.DM(p))
+    Mon = np.asarray(Mon)
+    T = m.period_s
+    nx = 4
+    lam, V = np.linalg.eig(Mon)
+    order = np.lexsort((-lam.imag, -np.abs(lam)))
+    lam, V = lam[order], V[:, order]
+    Wl = np.linalg.inv(V)
+    I_M = np.eye(nx) - Mon
+    zeroD = ca.DM.zeros(D.shape)
+    zerox = ca.DM.zeros(nx)
+    zerop = ca.DM.zeros(len(p))
+
+    def split(v):
+        v = np.asarray(v).ravel()
+        return v[:nx], v[nx], v[nx + 1:].reshape(nx, nx, order="F")
+
+    # Second derivatives along the 4 state directions (shared by every parameter).
+    dx_terms = []
+    for i in range(nx):
+        e = np.zeros(nx)
+        e[i] = 1.0
+        dx_terms.append(split(so.directional(x0, D, ca.DM(p), ca.DM(e), zeroD, zerop)))
+
+    n = len(params)
+    dL = np.zeros((n, nx), complex)
+    dmod = np.zeros((n, nx))
+    dx0s = np.zeros((n, nx))
+    dW = np.zeros(n)
+    for k, key in enumerate(params):
+        j = PARAM_NAMES.index(key)
+        ep = np.zeros(len(p))
+        ep[j] = 1.0
+        dDgrid = so.data_fwd(times, ca.DM(p), Dgrid, ca.DM.zeros(1, so.n_times), ca.DM(ep))
+        dPhi_dp, dq_dp, dMon_p = split(so.directional(x0, D, ca.DM(p), zerox, dDgrid[:, idx], ca.DM(ep)))
+        dx0 = np.linalg.solve(I_M, dPhi_dp)
+        dMon = dMon_p + sum(dx0[i] * dx_terms[i][2] for i in range(nx))
+        dq = dq_dp + sum(dx0[i] * dx_terms[i][1] for i in range(nx))
+        dx0s[k] = dx0
+        dW[k] = dq / T
+        dL[k] = np.array([Wl[i] @ dMon @ V[:, i] for i in range(nx)])
+        dmod[k] = np.real(np.conj(lam) * dL[k]) / np.abs(lam)
+
+    dA = None
+    if hold_level:
+        a = params.index(AMPLITUDE_KEY)
+        dA = -dW / dW[a]
+        dL = dL + np.outer(dA, dL[a])
+        dmod = dmod + np.outer(dA, dmod[a])
+        dx0s = dx0s + np.outer(dA, dx0s[a])
+        dW = dW + dA * dW[a]
+        keep = [k for k in range(n) if k != a]  # the amplitude is the re-solved variable, not a parameter
+        params = [params[k] for k in keep]
+        dL, dmod, dx0s, dW, dA = dL[keep], dmod[keep], dx0s[keep], dW[keep], dA[keep]
+    return SensitivityResult(params, lam, dL, dmod, dx0s, dW, hold_level, dA)
