@@ -1,0 +1,100 @@
+"""C export (birdocp export-c) and the compiled RHS (trim(compiled=True)) against Python/CasADi."""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import warnings
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from birdocp.compiled import CompiledFallbackWarning, compiled_ode, find_compiler
+from birdocp.config import Config
+
+CC = find_compiler()
+needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler (cc/gcc/clang or $CC) on this machine")
+X0 = (18.0, 0.5, 0.1, 0.01)
+
+
+@needs_cc
+def test_export_builds_and_matches_python(tmp_path):
+    from birdocp.codegen import export_c
+    from birdocp.integrate import RK4Grid
+    from birdocp.model import get_model
+
+    cfg = Config()
+    info = export_c(cfg, tmp_path / "bird_c")
+    assert {"bird.h", "bird.c", "bird_casadi.c", "bird_casadi.h", "bird_data.c", "main.c",
+            "Makefile"} <= set(info.files)
+    assert info.runtime_params == ["body.mass_kg", "body.pitch_inertia_kgm2", "body.gravity_mps2",
+                                   "aero.air_density_kgm3"]
+    make = shutil.which("make")
+    d = tmp_path / "bird_c"
+    if make:
+        env = dict(os.environ, CC=" ".join(CC))
+        subprocess.run([make, "-j2", "bird_period"], cwd=d, check=True, capture_output=True, env=env)
+    else:  # same build as the Makefile, without make
+        subprocess.run(CC + ["-O1", "-o", "bird_period", "main.c", "bird.c", "bird_casadi.c", "bird_data.c",
+                             "-lm"], cwd=d, check=True, capture_output=True)
+
+    m = get_model(cfg)
+    grid = RK4Grid(m.ode, cfg.solve.steps_per_period, 1)
+    D = grid.blocks_numeric(0.0, m.p0)
+    pd = ca.DM(m.p0)
+    for x0, extra in ((X0, []), ((17.0, 1.0, -0.2, 0.05), ["1.3", "0.12", "9.7", "1.1"])):
+        p = np.array(m.p0, float)
+        for name, v in zip(info.runtime_params, extra):
+            p[list(m.ode.param_names).index(name)] = float(v)
+        pd = ca.DM(p)
+        out = subprocess.run([str(d / "bird_period"), *map(repr, x0), *extra], capture_output=True,
+                             text=True, check=True).stdout.split("\n")
+        rows = [np.array(line.split(), float) for line in out if line.strip()]
+        assert len(rows) == 5
+        xT_c, M_c = rows[0], np.vstack(rows[1:])
+        xT, J = grid.period_jacobian(ca.DM(x0), D, pd)
+        xT_py = np.asarray(grid.period_map(ca.DM(x0), D, pd)[0]).ravel()
+        assert np.max(np.abs(xT_c - xT_py)) < 1e-10
+        assert np.max(np.abs(xT_c - np.asarray(xT).ravel())) < 1e-10
+        assert np.max(np.abs(M_c - np.asarray(J))) < 1e-10
+
+    bad = subprocess.run([str(d / "bird_period"), "1", "x", "0", "0"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "not a number" in bad.stderr
+
+
+@needs_cc
+def test_compiled_trim_same_multipliers(tmp_path, monkeypatch):
+    from birdocp import compiled
+    from birdocp.studies import trim
+
+    monkeypatch.setenv("BIRDOCP_CACHE", str(tmp_path / "cache"))
+    compiled._ODES.clear()
+    a = trim()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", CompiledFallbackWarning)
+        b = trim(compiled=True)
+    assert a.success and b.success
+    assert list((tmp_path / "cache").glob("birdocp_rhs-*.so"))
+    assert np.max(np.abs(a.multipliers - b.multipliers)) < 1e-10
+    assert np.max(np.abs(a.x0 - b.x0)) < 1e-10
+    compiled._ODES.clear()  # the second build is a cache hit
+    b2 = trim(compiled=True)
+    assert compiled.last_compile_s["birdocp_rhs"]["cached"]
+    assert np.max(np.abs(b2.multipliers - b.multipliers)) < 1e-10
+
+
+def test_compile_failure_falls_back_with_warning(tmp_path, monkeypatch):
+    from birdocp.problem import PeriodicODE
+
+    monkeypatch.setenv("BIRDOCP_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("CC", shutil.which("false") or "false")
+    if not shutil.which("false"):
+        pytest.skip("no 'false' program to act as a failing compiler")
+    x = ca.SX.sym("x", 1)
+    t = ca.SX.sym("t")
+    p = ca.SX.sym("p", 1)
+    ode = PeriodicODE.from_rhs(ca.Function("f", [x, t, p], [-p * x + ca.sin(t)]), 2 * np.pi)
+    with pytest.warns(CompiledFallbackWarning, match="interpreted"):
+        assert compiled_ode(ode) is None
