@@ -1,4 +1,4 @@
-"""Command-line interface: ``birdocp forces | trim | level | sweep | config``.
+"""Command-line interface: ``birdocp forces | trim | level | sweep | config | export-c``.
 
 Configuration resolution (one helper, :func:`resolve_config`, used by every subcommand)::
 
@@ -100,7 +100,19 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--solver", choices=("ipopt", "lm"), help="nonlinear solver (solve.solver)")
     s.add_argument("--derivatives", choices=("exact", "fd"), help="Jacobians by AD or finite differences (solve.derivatives)")
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-trim-<id>/")
+    p.add_argument("--compiled", action="store_true",
+                   help="use the state RHS compiled to C (cached in $BIRDOCP_CACHE or ~/.cache/birdocp; "
+                        "falls back to the interpreted path with a warning if compilation fails)")
     p.set_defaults(func=cmd_trim)
+
+    p = sub.add_parser("export-c", parents=[common], help="export the model as a self-contained C folder",
+                       description="Write C code for the configured gait: the state equations and their "
+                                   "Jacobian, one RK4 step, the period map with its monodromy, the wing data "
+                                   "on the RK4 stage grid as a table, bird.h (documented), a Makefile and an "
+                                   "example main.c. Build with: make -C DIR && DIR/bird_period U W Q THETA")
+    p.add_argument("--out", metavar="DIR", required=True, help="folder to write (new, empty, or an earlier export)")
+    p.add_argument("--steps", type=int, metavar="N", help="RK4 steps per period (solve.steps_per_period)")
+    p.set_defaults(func=cmd_export_c)
 
     _add_level_parsers(sub, common)
 
@@ -394,7 +406,7 @@ def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
         with _stdout_to_stderr():
             from birdocp.studies import trim
 
-            res = trim(cfg)
+            res = trim(cfg, compiled=True) if getattr(args, "compiled", False) else trim(cfg)
             result = dict(res.to_dict())
             arrays = res.arrays() if hasattr(res, "arrays") else None
     except BaseException:
@@ -423,6 +435,28 @@ def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
         print(f"{PROG}: trim did not converge (status: {_one_line(res.status)}, last residual: {_num(last, '.3e')}): "
               f"{_one_line(res.message)}; result written to {run_dir}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
+    return EXIT_OK
+
+
+def cmd_export_c(args: argparse.Namespace, command_line: list[str]) -> int:
+    cfg = resolve_config(args)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ConfigError("--out", f"{out} exists and is not a folder")
+    if out.is_dir() and any(out.iterdir()) and not (out / "bird.h").exists():
+        raise ConfigError("--out", f"{out} is not empty and holds no earlier export (no bird.h); choose a new folder")
+    with _stdout_to_stderr():
+        from .codegen import export_c
+
+        info = export_c(cfg, out)
+    if args.json:
+        _print_json(info.to_dict())
+    else:
+        print(f"wrote {out}/: {', '.join(info.files)}")
+        print(f"  {info.steps_per_period} RK4 steps of {info.step_s:.6g} s per period {info.period_s:.6g} s; "
+              f"data table {2 * info.steps_per_period + 1} x {info.n_data}")
+        print(f"  runtime parameters p[]: {', '.join(info.runtime_params)} (everything else is baked in)")
+        print(f"  build and run: make -C {out} && {out / 'bird_period'} 18 0.5 0.1 0.01")
     return EXIT_OK
 
 
