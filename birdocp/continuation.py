@@ -1,0 +1,596 @@
+"""Pseudo-arclength continuation of periodic orbits in one parameter, with special-point detection.
+
+Works for any :class:`~birdocp.problem.LimitCycleProblem`: the unknowns are the shooting points
+``X_0 .. X_{M-1}``, the problem's free parameters (each held by one of its period-mean conditions,
+e.g. the flapping amplitude held by mean W = 0 for level flight) and the continuation parameter
+``lam``. The equations ``G = [continuity; periodicity; mean conditions]`` are one fewer than the
+unknowns; the branch is the curve ``G(z) = 0``.
+
+* **Scaling.** All geometry (tangent, arclength, step) is done in scaled unknowns ``u = z / s``:
+  states and free parameters by ``scales`` (default 1), the continuation parameter by the length of
+  the requested interval ``|to - from|`` (so the whole interval is one unit of arclength along lam).
+* **Predictor.** ``u + ds t`` with ``t`` the unit tangent, the null vector of ``dG/du``, oriented by
+  the previous tangent (first: by the direction from ``from`` to ``to``).
+* **Corrector.** Newton on the square system ``[G(u); t.(u - u_k) - ds] = 0`` with the exact
+  Jacobian: ``dG/dX`` by CasADi AD of the RK4 segments, the parameter columns by forward AD of the
+  segments along the data's forward derivative ``d data/d p_j`` (the per-time data is evaluated
+  numerically, never as a symbolic graph, so a step costs a few data evaluations and segment
+  Jacobians instead of an NLP with the geometry inside).
+* **Step control.** ds grows by 1.5 after a corrector converging in at most 3 iterations, is kept
+  after 4-5, halves after a failure (down to ``ds_min``: the branch is lost there).
+* **Special points** between consecutive points, from sign changes of test functions:
+
+  - ``fold``: the parameter component of the tangent changes sign (the branch turns back; for a
+    forced system one multiplier crosses +1 there);
+  - ``branch_point``: ``det(I - Mon)`` changes sign without a fold (a multiplier crosses +1 while the
+    parameter keeps its direction: transcritical/pitchfork of cycles);
+  - ``period_doubling``: ``det(I + Mon)`` changes sign (a real multiplier crosses -1);
+  - ``neimark_sacker``: ``prod_{i<j} (L_i L_j - 1)`` changes sign and a complex pair is on the unit
+    circle at the located point (a sign change from a real pair with ``L_i L_j = 1`` is a neutral
+    saddle, not a bifurcation, and is not reported).
+
+  Each is located by Illinois regula falsi on the arclength from the point before the change (every
+  evaluation a corrector solve) to ``locate_tol`` in scaled arclength and reported with the parameter
+  value, the multipliers and the free parameters there.
+
+The continuation stops (``Branch.end_reason``) when the parameter leaves ``[min(from,to),
+max(from,to)]`` (the last point is then re-solved exactly on the boundary: ``reached_to`` or, after a
+fold, ``reached_from``), when the corrector fails at the minimum step (``corrector_failed``), when a
+free parameter leaves its bounds (``free_parameter_bound``), when ``accept`` rejects a point
+(``rejected``: e.g. a bird cycle with u <= 0) or after ``max_points`` (``max_points``).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import casadi as ca
+import numpy as np
+
+from .floquet import multipliers_info
+from .integrate import RK4Grid
+from .problem import LimitCycleProblem
+
+__all__ = ["Branch", "BranchPoint", "SpecialPoint", "continuation", "Continuation"]
+
+
+def _pairs(z) -> list:
+    return [[float(np.real(v)), float(np.imag(v))] for v in np.asarray(z).ravel()]
+
+
+def _fl(v):
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+@dataclass
+class BranchPoint:
+    parameter: float
+    x0: list
+    shooting_points: list
+    free_values: dict
+    multipliers: list          # [[re, im], ...], largest modulus first
+    moduli: list
+    stable: bool
+    means: dict
+    arclength: float           # scaled arclength from the first point
+    tangent_parameter: float   # d lam / ds (scaled): its sign is the direction along the parameter
+    iterations: int
+    max_residual: float
+    step: float                # the ds that produced this point (0 for the first)
+    tests: dict                # test functions: fold, branch_point, period_doubling, neimark_sacker
+    success: bool = True
+    p: list = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        d = dict(self.__dict__)
+        d["tests"] = {k: _fl(v) for k, v in self.tests.items()}
+        d["max_residual"] = _fl(self.max_residual)
+        return d
+
+
+@dataclass
+class SpecialPoint:
+    kind: str                  # fold | branch_point | period_doubling | neimark_sacker
+    parameter: float
+    multipliers: list
+    moduli: list
+    free_values: dict
+    x0: list
+    arclength: float
+    between: tuple             # indices of the branch points around it
+    located: bool              # the location converged (else: the best bracket midpoint)
+    evaluations: int
+    test_value: float
+    message: str = ""
+
+    def to_dict(self) -> dict:
+        d = dict(self.__dict__)
+        d["between"] = list(self.between)
+        d["test_value"] = _fl(self.test_value)
+        return d
+
+
+@dataclass
+class Branch:
+    parameter_name: str
+    points: list
+    special_points: list
+    end_reason: str
+    end_message: str
+    settings: dict
+    wall_s: float = 0.0
+    free_names: list = field(default_factory=list)
+
+    @property
+    def parameters(self) -> np.ndarray:
+        return np.array([pt.parameter for pt in self.points])
+
+    def multipliers(self) -> np.ndarray:
+        return np.array([[complex(a, b) for a, b in pt.multipliers] for pt in self.points])
+
+    def to_dict(self) -> dict:
+        return {"parameter_name": self.parameter_name, "free_names": list(self.free_names),
+                "end_reason": self.end_reason, "end_message": self.end_message,
+                "settings": self.settings, "wall_s": self.wall_s,
+                "special_points": [s.to_dict() for s in self.special_points],
+                "points": [p.to_dict() for p in self.points]}
+
+    @staticmethod
+    def from_dict(d: dict) -> "Branch":
+        pts = [BranchPoint(**p) for p in d["points"]]
+        sps = []
+        for s in d.get("special_points", []):
+            s = dict(s)
+            s["between"] = tuple(s["between"])
+            sps.append(SpecialPoint(**s))
+        return Branch(d["parameter_name"], pts, sps, d["end_reason"], d["end_message"], d.get("settings", {}),
+                      d.get("wall_s", 0.0), d.get("free_names", []))
+
+
+# ----------------------------------------------------------------------------------------------
+class Continuation:
+    """The augmented system of one (problem, continuation parameter, grid). See the module docstring."""
+
+    def __init__(self, problem: LimitCycleProblem, param, points: int = 5, steps_per_period: int = 148):
+        ode = problem.ode
+        self.problem = problem
+        self.ode = ode
+        if isinstance(param, str):
+            if param not in ode.param_names:
+                raise ValueError(f"unknown continuation parameter {param!r}")
+            self.j = ode.param_names.index(param)
+        else:
+            self.j = int(param)
+            if not 0 <= self.j < ode.np:
+                raise ValueError(f"continuation parameter index {self.j} out of range")
+        self.free_idx = list(problem.free_indices())
+        if self.j in self.free_idx:
+            raise ValueError("the continuation parameter is one of the problem's free parameters")
+        nm = len(problem.means)
+        if nm != len(self.free_idx):
+            raise ValueError(f"need one mean condition per free parameter ({len(self.free_idx)} free, {nm} means)")
+        if steps_per_period % (points - 1):
+            raise ValueError("steps_per_period must be a multiple of points - 1")
+        self.lo, self.hi = problem.free_bounds() if self.free_idx else (np.zeros(0), np.zeros(0))
+        mean_fns = [m.output for m in problem.means]
+        extra = list(problem.outputs.values())
+        self.mean_names = problem.mean_names()
+        self.targets = np.array([m.target for m in problem.means], float)
+        self.grid = grid = RK4Grid(ode, steps_per_period, points - 1, tuple(mean_fns) + tuple(extra))
+        nx, nd, np_ = ode.nx, ode.nd, ode.np
+        S, N, T = grid.S, grid.N, ode.period_s
+        self.nx, self.S, self.N, self.nm = nx, S, N, nm
+        X = ca.MX.sym("X", nx, S + 1)
+        D = ca.MX.sym("D", nd, 3 * N)
+        p = ca.MX.sym("p", np_)
+        tgt = ca.MX.sym("tgt", max(nm, 0))
+        Xe, _, Q = grid.segments(X[:, :S], D, p)
+        means = ca.sum2(Q) / T if grid.nq else ca.MX(0, 1)
+        mres = means[list(range(nm))] - tgt if nm else ca.MX(0, 1)
+        g = ca.vertcat(ca.vec(Xe - X[:, 1:]), X[:, S] - X[:, 0], mres)
+        self.G = ca.Function("G", [X, D, p, tgt], [g, means])
+        self.GX = ca.Function("GX", [X, D, p, tgt], [g, ca.jacobian(g, X), means])
+        self.Gfwd = ca.Function("Gv", [X, D, p, tgt], [g]).forward(1)
+        self.data_map = ode.data.map(2 * N + 1)
+        self.data_fwd = ode.data.forward(1).map(2 * N + 1)
+        self.times = ca.DM(grid.times(float(problem.t0)).reshape(1, -1))
+        self._memo: dict = {}
+        self.pidx = self.free_idx + [self.j]   # parameter unknowns, in the order of z
+        self.nz = nx * (S + 1) + len(self.pidx)
+        self.evaluations = 0
+
+    # -- unknowns ------------------------------------------------------------------------------
+    def p_of(self, z) -> np.ndarray:
+        p = self.problem.p.copy()
+        p[self.pidx] = z[self.nx * (self.S + 1):]
+        return p
+
+    def X_of(self, z) -> np.ndarray:
+        return z[: self.nx * (self.S + 1)].reshape(self.S + 1, self.nx).T
+
+    def z_of(self, shooting_points, p) -> np.ndarray:
+        X = np.asarray(shooting_points, float).reshape(self.S + 1, self.nx)
+        return np.concatenate([X.ravel(), np.asarray(p, float)[self.pidx]])
+
+    def _data(self, p, with_derivs: bool):
+        key = (p.tobytes(), with_derivs)
+        hit = self._memo.get(key)
+        if hit is not None:
+            return hit
+        pd = ca.DM(p)
+        Dg = self.data_map(self.times, pd)
+        idx = self.grid.block_index
+        D = Dg[:, idx]
+        dDs = []
+        if with_derivs:
+            zt = ca.DM.zeros(1, 2 * self.N + 1)
+            for j in self.pidx:
+                e = np.zeros(p.size)
+                e[j] = 1.0
+                dDs.append(self.data_fwd(self.times, pd, Dg, zt, ca.DM(e))[:, idx])
+        out = (D, dDs)
+        self._memo[key] = out
+        while len(self._memo) > 6:
+            self._memo.pop(next(iter(self._memo)))
+        return out
+
+    def evaluate(self, z, jacobian: bool = True):
+        """(G, J = dG/dz or None, means, monodromy or None) at z."""
+        self.evaluations += 1
+        p = self.p_of(z)
+        X = ca.DM(self.X_of(z))
+        pd = ca.DM(p)
+        tg = ca.DM(self.targets)
+        if not jacobian:
+            D, _ = self._data(p, False)
+            g, means = self.G(X, D, pd, tg)
+            return np.asarray(g).ravel(), None, np.asarray(means).ravel(), None
+        D, dDs = self._data(p, True)
+        g, JX, means = self.GX(X, D, pd, tg)
+        g = np.asarray(g).ravel()
+        JX = np.asarray(ca.densify(JX))
+        cols = []
+        zX = ca.DM.zeros(X.shape)
+        zt = ca.DM.zeros(tg.shape)
+        for j, dD in zip(self.pidx, dDs):
+            e = np.zeros(p.size)
+            e[j] = 1.0
+            cols.append(np.asarray(self.Gfwd(X, D, pd, tg, ca.DM(g), zX, dD, ca.DM(e), zt)).ravel())
+        J = np.column_stack([JX] + cols)
+        nx = self.nx
+        Mon = np.eye(nx)
+        for i in range(self.S):
+            Mon = JX[i * nx:(i + 1) * nx, i * nx:(i + 1) * nx] @ Mon
+        return g, J, np.asarray(means).ravel(), Mon
+
+
+def _tangent(Ju, t_prev):
+    """Unit null vector of Ju (n x n+1), oriented along t_prev (or by SVD when t_prev is None)."""
+    if t_prev is None:
+        _, _, Vt = np.linalg.svd(Ju)
+        t = Vt[-1]
+    else:
+        A = np.vstack([Ju, t_prev[None, :]])
+        b = np.zeros(A.shape[0])
+        b[-1] = 1.0
+        t = np.linalg.solve(A, b)
+    t = t / np.linalg.norm(t)
+    if t_prev is not None and t @ t_prev < 0:
+        t = -t
+    return t
+
+
+def _tests(t, Mon, lam_index) -> dict:
+    nx = Mon.shape[0]
+    L = np.linalg.eigvals(Mon)
+    ns = 1.0
+    for i in range(nx):
+        for k in range(i + 1, nx):
+            ns *= (L[i] * L[k] - 1.0)
+    return {"fold": float(t[lam_index]), "branch_point": float(np.linalg.det(np.eye(nx) - Mon)),
+            "period_doubling": float(np.linalg.det(np.eye(nx) + Mon)), "neimark_sacker": float(np.real(ns))}
+
+
+@dataclass
+class _State:
+    u: np.ndarray       # scaled unknowns
+    t: np.ndarray       # unit tangent (scaled)
+    g: np.ndarray
+    means: np.ndarray
+    Mon: np.ndarray
+    iterations: int
+    tests: dict
+
+
+def continuation(problem: LimitCycleProblem, param, start_value: float, stop_value: float, *,
+                 points: int = 5, steps_per_period: int = 148, start=None, step: float | None = None,
+                 ds_min: float | None = None, ds_max: float | None = None, max_points: int = 200,
+                 scales=None, tol: float = 1e-10, max_newton: int = 8, locate_tol: float = 1e-10,
+                 detect=("fold", "branch_point", "period_doubling", "neimark_sacker"),
+                 accept: Callable | None = None, progress: Callable | None = None,
+                 system: Continuation | None = None) -> Branch:
+    """Follow the periodic orbits of ``problem`` as ``param`` goes from ``start_value`` to ``stop_value``.
+
+    problem:   the limit-cycle problem; its ``free`` parameters (held by its ``means``) are unknowns too.
+    param:     the continuation parameter (name in ``ode.param_names`` or index).
+    start:     a converged cycle at ``start_value`` (anything with ``shooting_points`` on the same grid,
+               and ``p``); default: solved by :func:`birdocp.shooting.solve` (IPOPT) from the problem.
+    step:      the first step, in parameter units (default ``|stop - start| / 10``); ``ds_max`` /
+               ``ds_min`` default to 4x / 1/256x the first scaled arclength step.
+    scales:    scale of each unknown: dict with ``"states"`` (one number or nx), ``"free"`` (nf) and
+               ``"parameter"`` (default ``|stop - start|``).
+    accept:    optional ``accept(Xtraj_initial_point_dict) -> str | None``: called with the point's
+               dict fields (parameter, x0, p, shooting_points); a returned string rejects the point and
+               ends the branch (``rejected``).
+    progress:  optional callback ``progress(text)``.
+    """
+    t_all = time.perf_counter()
+    sysm = system or Continuation(problem, param, points, steps_per_period)
+    nx, S = sysm.nx, sysm.S
+    nX = nx * (S + 1)
+    nf = len(sysm.free_idx)
+    span = abs(stop_value - start_value)
+    if not span > 0:
+        raise ValueError("start_value and stop_value must differ")
+    direction = 1.0 if stop_value > start_value else -1.0
+    rlo, rhi = min(start_value, stop_value), max(start_value, stop_value)
+    sc = dict(scales or {})
+    s_states = np.broadcast_to(np.asarray(sc.get("states", 1.0), float), (nx,))
+    s_free = np.broadcast_to(np.asarray(sc.get("free", 1.0), float), (nf,))
+    s_lam = float(sc.get("parameter", span))
+    s = np.concatenate([np.tile(s_states, S + 1), s_free, [s_lam]])
+    li = sysm.nz - 1   # index of lam in z
+    say = progress or (lambda text: None)
+
+    # --- first point: Newton at fixed lam from the given cycle, or from the problem's guess
+    # integrated forward; if that fails, the engine (IPOPT, birdocp.shooting.solve)
+    p_start = np.asarray(start.p if start is not None else problem.p, float).copy()
+    p_start[sysm.j] = start_value
+    if start is not None:
+        z0 = sysm.z_of(start.shooting_points, p_start)
+    else:
+        D0, _ = sysm._data(p_start, False)
+        Xt = np.asarray(sysm.grid.period_map(ca.DM(problem.x_guess), D0, ca.DM(p_start))[1])
+        pts0 = [problem.x_guess] + [Xt[:, sysm.grid.n * (i + 1) - 1] for i in range(S)]
+        z0 = sysm.z_of(np.array(pts0), p_start)
+    def Ju_of(J):
+        return J * s[None, :]
+
+    def newton(u_pred, row, rhs_fn):
+        """Newton on [G(s u); row.u - rhs] = 0. Returns (_State-ish tuple) or None."""
+        u = u_pred.copy()
+        for it in range(max_newton + 1):
+            z = s * u
+            try:
+                g, J, means, Mon = sysm.evaluate(z)
+            except Exception:
+                return None
+            a = row @ u - rhs_fn
+            r = np.concatenate([g, [a]])
+            if not np.all(np.isfinite(r)) or not np.all(np.isfinite(J)):
+                return None
+            if np.max(np.abs(r)) < tol:
+                return u, g, J, means, Mon, it
+            if it == max_newton:
+                return None
+            A = np.vstack([Ju_of(J), row[None, :]])
+            try:
+                du = np.linalg.solve(A, -r)
+            except np.linalg.LinAlgError:
+                return None
+            if not np.all(np.isfinite(du)):
+                return None
+            u = u + du
+        return None
+
+    # polish the start at fixed lam
+    e_l = np.zeros(sysm.nz)
+    e_l[li] = 1.0
+    out = newton(z0 / s, e_l, start_value / s_lam)
+    if out is None and start is None:
+        from .shooting import MultipleShooting, solve
+        prob0 = LimitCycleProblem(problem.ode, p_start, problem.x_guess, problem.free, problem.means,
+                                  problem.t0, problem.outputs)
+        eng = solve(prob0, MultipleShooting(points=points, steps_per_period=steps_per_period))
+        if eng.success:
+            out = newton(sysm.z_of(eng.shooting_points, p_start) / s, e_l, start_value / s_lam)
+    if out is None:
+        return Branch(sysm.ode.param_names[sysm.j], [], [], "start_failed",
+                      "Newton did not converge at the start value from the given cycle", {},
+                      time.perf_counter() - t_all)
+    u, g, J, means, Mon, it = out
+    t = _tangent(Ju_of(J), None)
+    if t[li] * direction < 0:
+        t = -t
+    cur = _State(u, t, g, means, Mon, it, _tests(t, Mon, li))
+
+    # steps
+    dlam0 = float(step) if step else span / 10.0
+    ds0 = abs(dlam0 / s_lam) / max(abs(t[li]), 1e-3)
+    ds_min = ds_min or ds0 / 256
+    ds_max = ds_max or 4 * ds0
+    ds = ds0
+    name = sysm.ode.param_names[sysm.j] if sysm.ode.param_names else f"p{sysm.j}"
+    free_names = [sysm.ode.param_names[i] if sysm.ode.param_names else f"p{i}" for i in sysm.free_idx]
+    settings = {"parameter": name, "from": start_value, "to": stop_value, "points": points,
+                "steps_per_period": steps_per_period, "first_step": dlam0, "ds_first": ds0, "ds_min": ds_min,
+                "ds_max": ds_max, "scales": s.tolist(), "tol": tol, "max_points": max_points,
+                "free": free_names, "mean_conditions": sysm.mean_names[:sysm.nm]}
+
+    def make_point(st: _State, arclen: float, ds_used: float) -> BranchPoint:
+        z = s * st.u
+        lam_m, _, _, _, stable = multipliers_info(st.Mon, sysm.ode.period_s)
+        p = sysm.p_of(z)
+        X = sysm.X_of(z)
+        return BranchPoint(
+            parameter=float(z[li]), x0=X[:, 0].tolist(), shooting_points=X.T.tolist(),
+            free_values={n: float(p[i]) for n, i in zip(free_names, sysm.free_idx)},
+            multipliers=_pairs(lam_m), moduli=[float(abs(v)) for v in lam_m], stable=bool(stable),
+            means={n: float(v) for n, v in zip(sysm.mean_names, st.means)}, arclength=float(arclen),
+            tangent_parameter=float(st.t[li]), iterations=int(st.iterations),
+            max_residual=float(np.max(np.abs(st.g))) if st.g.size else 0.0, step=float(ds_used),
+            tests=dict(st.tests), p=p.tolist())
+
+    def check(pt: BranchPoint) -> str | None:
+        if nf:
+            fv = np.array([pt.p[i] for i in sysm.free_idx])
+            if np.any(fv < sysm.lo) or np.any(fv > sysm.hi):
+                return "free_parameter_bound"
+        if accept is not None:
+            msg = accept(pt)
+            if msg:
+                return "rejected: " + msg
+        return None
+
+    def corrected(base: _State, dsv: float):
+        """Point at scaled arclength dsv from base along base's tangent, or None."""
+        res = newton(base.u + dsv * base.t, base.t, base.t @ base.u + dsv)
+        if res is None:
+            return None
+        u2, g2, J2, m2, Mon2, it2 = res
+        t2 = _tangent(Ju_of(J2), base.t)
+        return _State(u2, t2, g2, m2, Mon2, it2, _tests(t2, Mon2, li))
+
+    def at_lambda(a: _State, b: _State, lam_target: float):
+        """Re-solve the point with lam fixed (between a and b, linear predictor)."""
+        la, lb = s_lam * a.u[li], s_lam * b.u[li]
+        w = (lam_target - la) / (lb - la) if lb != la else 1.0
+        res = newton(a.u + w * (b.u - a.u), e_l, lam_target / s_lam)
+        if res is None:
+            return None
+        u2, g2, J2, m2, Mon2, it2 = res
+        t2 = _tangent(Ju_of(J2), b.t)
+        return _State(u2, t2, g2, m2, Mon2, it2, _tests(t2, Mon2, li))
+
+    pts = [make_point(cur, 0.0, 0.0)]
+    states = [cur]
+    specials: list[SpecialPoint] = []
+    arclen = 0.0
+    end_reason, end_message = "max_points", f"max_points={max_points} reached"
+    say(f"{name} = {pts[0].parameter:.6g}: start, |L|max {max(pts[0].moduli):.4f}")
+
+    def locate(kind: str, base: _State, ds_b: float, fa: float, fb: float, k: int):
+        """Illinois regula falsi on the arclength in (0, ds_b) for the sign change of tests[kind]."""
+        a, b = 0.0, ds_b
+        best, nev, side = None, 0, 0
+        ok = False
+        for _ in range(60):
+            if abs(b - a) < locate_tol:
+                ok = True
+                break
+            c = (a * fb - b * fa) / (fb - fa) if fb != fa else 0.5 * (a + b)
+            if not (min(a, b) < c < max(a, b)):
+                c = 0.5 * (a + b)
+            st = corrected(base, c)
+            nev += 1
+            if st is None:
+                c = 0.5 * (a + b)
+                st = corrected(base, c)
+                nev += 1
+                if st is None:
+                    break
+            fc = st.tests[kind]
+            best = (c, st)
+            if fc == 0:
+                ok = True
+                break
+            if np.sign(fc) == np.sign(fa):
+                a, fa = c, fc
+                if side == -1:
+                    fb *= 0.5
+                side = -1
+            else:
+                b, fb = c, fc
+                if side == 1:
+                    fa *= 0.5
+                side = 1
+            if abs(fc) < 1e-14:
+                ok = True
+                break
+        if best is None:
+            return None
+        c, st = best
+        pt = make_point(st, arclen + c, c)
+        lam_m = np.array([complex(x, y) for x, y in pt.multipliers])
+        msg = ""
+        if kind == "neimark_sacker":
+            cplx = [v for v in lam_m if abs(v.imag) > 1e-8 and abs(abs(v) - 1) < 1e-4]
+            if not cplx:
+                return None  # a neutral saddle (real pair with L_i L_j = 1), not a bifurcation
+            msg = f"complex pair on the unit circle, angle {math.degrees(abs(np.angle(cplx[0]))):.4g} deg"
+        elif kind == "fold":
+            near = lam_m[np.argmin(np.abs(lam_m - 1))]
+            msg = f"turning point in {name}; multiplier nearest +1: {near.real:.6g}{near.imag:+.2g}j"
+        elif kind == "branch_point":
+            msg = "a multiplier crosses +1 without a turning point"
+        elif kind == "period_doubling":
+            near = lam_m[np.argmin(np.abs(lam_m + 1))]
+            msg = f"multiplier nearest -1: {near.real:.6g}{near.imag:+.2g}j"
+        return SpecialPoint(kind=kind, parameter=pt.parameter, multipliers=pt.multipliers, moduli=pt.moduli,
+                            free_values=pt.free_values, x0=pt.x0, arclength=pt.arclength, between=(k, k + 1),
+                            located=ok, evaluations=nev, test_value=float(st.tests[kind]), message=msg)
+
+    while len(pts) < max_points:
+        nxt = corrected(cur, ds)
+        if nxt is None:
+            if ds / 2 < ds_min:
+                end_reason = "corrector_failed"
+                end_message = (f"the corrector failed at the minimum step ds={ds:.3g} after {name} = "
+                               f"{pts[-1].parameter:.8g}: no nearby continuation of the branch")
+                break
+            ds /= 2
+            continue
+        lam_new = s_lam * nxt.u[li]
+        boundary = None
+        if lam_new > rhi or lam_new < rlo:
+            boundary = rhi if lam_new > rhi else rlo
+        # special points between cur and nxt (located on the arc, before cutting at a boundary)
+        k = len(pts) - 1
+        found = []
+        for kind in detect:
+            if kind == "branch_point" and np.sign(cur.tests["fold"]) != np.sign(nxt.tests["fold"]):
+                continue  # det(I - Mon) changes sign at a fold too: reported as the fold
+            fa, fb = cur.tests[kind], nxt.tests[kind]
+            if np.sign(fa) != np.sign(fb) and fa != 0:
+                sp = locate(kind, cur, ds, fa, fb, k)
+                if sp is not None and rlo - 1e-12 <= sp.parameter <= rhi + 1e-12:
+                    found.append(sp)
+                    say(f"  {kind} at {name} = {sp.parameter:.9g} ({sp.message})")
+        specials.extend(sorted(found, key=lambda q: q.arclength))
+        if boundary is not None:
+            last = at_lambda(cur, nxt, boundary)
+            if last is not None:
+                arclen += float(np.linalg.norm(last.u - cur.u))
+                pt = make_point(last, arclen, ds)
+                why = check(pt)
+                if why is None:
+                    pts.append(pt)
+                    states.append(last)
+            folded = any(q.kind == "fold" for q in specials)
+            end_reason = "reached_to" if boundary == (rhi if direction > 0 else rlo) else "reached_from"
+            end_message = (f"{name} reached {boundary:g}" + (" after turning back at a fold" if folded
+                                                              and end_reason == "reached_from" else ""))
+            break
+        arclen += ds
+        pt = make_point(nxt, arclen, ds)
+        why = check(pt)
+        if why is not None:
+            end_reason = why.split(":")[0]
+            end_message = f"point at {name} = {pt.parameter:.8g} not accepted: {why}"
+            if why == "free_parameter_bound":
+                end_message += f" (free values {pt.free_values}, bounds {sysm.lo.tolist()}..{sysm.hi.tolist()})"
+            break
+        pts.append(pt)
+        states.append(nxt)
+        say(f"{name} = {pt.parameter:.6g}: {nxt.iterations} it, ds {ds:.3g}, |L|max {max(pt.moduli):.4f}"
+            + (f", free {pt.free_values}" if nf else ""))
+        cur = nxt
+        if nxt.iterations <= 3:
+            ds = min(ds * 1.5, ds_max)
+        elif nxt.iterations > 5:
+            ds = max(ds / 2, ds_min)
+    settings["evaluations"] = sysm.evaluations
+    return Branch(name, pts, specials, end_reason, end_message, settings, time.perf_counter() - t_all, free_names)

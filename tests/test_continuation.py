@@ -1,0 +1,94 @@
+"""Pseudo-arclength continuation: exact special points on constructed forced systems, a short bird branch."""
+import json
+import math
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from birdocp.continuation import Branch, continuation
+from birdocp.problem import LimitCycleProblem, PeriodicODE
+
+T = 1.0
+
+
+def _ode(expr_fn, nx, name):
+    x = ca.SX.sym("x", nx)
+    t = ca.SX.sym("t")
+    p = ca.SX.sym("p", 1)
+    f = ca.Function(name, [x, t, p], [expr_fn(x, t, p[0])])
+    return PeriodicODE.from_rhs(f, T, tuple(f"x{i}" for i in range(nx)), ("lam",))
+
+
+def fold_ode():
+    """x' = (1 + y/2)(lam - x^2), y' = -y + sin(2 pi t): the cycles (+-sqrt(lam), y*(t)) fold at lam = 0
+    exactly, also for the RK4 discretisation (RK4 keeps x = +-sqrt(lam) fixed); multiplier of the x
+    part exp(-+2 sqrt(lam) int(1 + y/2)) crosses +1 there."""
+    return _ode(lambda x, t, lam: ca.vertcat((1 + 0.5 * x[1]) * (lam - x[0] ** 2),
+                                              -x[1] + ca.sin(2 * np.pi * t / T)), 2, "fold")
+
+
+def pd_ode():
+    """x' = (pi/T) J x + R(pi t/T) diag(lam, -1) R^T x + forcing: multipliers -exp(lam T), -exp(-T)
+    (half a turn per period), so a real multiplier crosses -1 at lam = 0 (up to the RK4 error)."""
+    def f(x, t, lam):
+        th = np.pi * t / T
+        R = ca.vertcat(ca.horzcat(ca.cos(th), -ca.sin(th)), ca.horzcat(ca.sin(th), ca.cos(th)))
+        Jm = ca.DM([[0, -1], [1, 0]])
+        A = np.pi / T * Jm + R @ ca.diag(ca.vertcat(lam, -1)) @ R.T
+        return A @ x + ca.vertcat(ca.sin(2 * np.pi * t / T), 0)
+    return _ode(f, 2, "pd")
+
+
+def ns_ode():
+    """x' = lam x - 2 y + sin(2 pi t), y' = 2 x + lam y: multipliers exp((lam +- 2i) T), a complex
+    pair crossing the unit circle at lam = 0 (up to the RK4 error)."""
+    return _ode(lambda x, t, lam: ca.vertcat(lam * x[0] - 2 * x[1] + ca.sin(2 * np.pi * t / T),
+                                              2 * x[0] + lam * x[1]), 2, "ns")
+
+
+def test_fold_located_to_1e_minus_6_and_branch_turns_back():
+    prob = LimitCycleProblem(fold_ode(), [1.0], [1.0, 0.0])
+    br = continuation(prob, "lam", 1.0, -1.0, points=3, steps_per_period=40)
+    folds = [s for s in br.special_points if s.kind == "fold"]
+    assert len(folds) == 1 and folds[0].located
+    assert abs(folds[0].parameter) < 1e-6
+    mult = np.array([complex(*m) for m in folds[0].multipliers])
+    assert np.min(np.abs(mult - 1)) < 1e-4
+    assert not [s for s in br.special_points if s.kind != "fold"]
+    # after the fold the branch is the other family x = -sqrt(lam) and comes back to lam = 1
+    assert br.end_reason == "reached_from"
+    last = br.points[-1]
+    assert abs(last.parameter - 1.0) < 1e-12 and abs(last.x0[0] + 1.0) < 1e-8
+    # every point is on the exact family x = +-sqrt(lam)
+    for pt in br.points:
+        assert abs(abs(pt.x0[0]) - math.sqrt(pt.parameter)) < 1e-8
+    assert br.points[0].stable and not br.points[-1].stable
+    # JSON round trip
+    d = json.loads(json.dumps(br.to_dict()))
+    assert Branch.from_dict(d).to_dict() == d
+
+
+def test_period_doubling_detected():
+    prob = LimitCycleProblem(pd_ode(), [-0.5], [0.0, 0.0])
+    br = continuation(prob, "lam", -0.5, 0.5, points=3, steps_per_period=120)
+    assert br.end_reason == "reached_to"
+    kinds = [s.kind for s in br.special_points]
+    assert kinds == ["period_doubling"], kinds
+    sp = br.special_points[0]
+    assert abs(sp.parameter) < 1e-4
+    mult = np.array([complex(*m) for m in sp.multipliers])
+    assert np.min(np.abs(mult + 1)) < 1e-8
+
+
+def test_neimark_sacker_detected():
+    prob = LimitCycleProblem(ns_ode(), [-0.3], [0.0, 0.0])
+    br = continuation(prob, "lam", -0.3, 0.3, points=3, steps_per_period=60)
+    assert br.end_reason == "reached_to"
+    kinds = [s.kind for s in br.special_points]
+    assert kinds == ["neimark_sacker"], kinds
+    sp = br.special_points[0]
+    assert abs(sp.parameter) < 1e-6
+    mods = np.array(sp.moduli)
+    assert np.max(np.abs(mods - 1)) < 1e-8
+    assert br.points[0].stable and not br.points[-1].stable
