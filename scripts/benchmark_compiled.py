@@ -1,0 +1,172 @@
+"""Compiled vs interpreted: the state RHS, one period with its monodromy, a full trim; compile times.
+
+Writes results/benchmark_compiled.json and prints a table. Medians of repeated runs; the compiled
+RHS is built in a fresh temporary cache (so its compile time is measured), the exported C folder in
+a temporary folder (export, make, and the C period map called through ctypes).
+
+    python scripts/benchmark_compiled.py [--repeat R] [--out results/benchmark_compiled.json]
+"""
+from __future__ import annotations
+
+import argparse
+import ctypes
+import json
+import os
+import platform
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+
+def median_time(fn, repeat, inner=1):
+    out = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        for _ in range(inner):
+            fn()
+        out.append((time.perf_counter() - t) / inner)
+    return statistics.median(out)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "results" / "benchmark_compiled.json"))
+    args = ap.parse_args(argv)
+    R = args.repeat
+
+    tmp = Path(tempfile.mkdtemp(prefix="birdocp-bench-"))
+    os.environ["BIRDOCP_CACHE"] = str(tmp / "cache")
+    from birdocp import compiled, studies
+    from birdocp.codegen import export_c
+    from birdocp.config import Config
+    from birdocp.integrate import RK4Grid
+    from birdocp.model import get_model
+
+    cfg = Config()
+    m = get_model(cfg)
+    N = cfg.solve.steps_per_period
+    res = {"machine": {"python": sys.version.split()[0], "casadi": ca.__version__, "platform": platform.platform(),
+                       "cpus": os.cpu_count(), "compiler": " ".join(compiled.find_compiler() or ["none"]),
+                       "flags": list(compiled.OPT_FLAGS)},
+           "repeat": R, "steps_per_period": N}
+
+    # --- compile the RHS (fresh cache) and a cache hit
+    t = time.perf_counter()
+    ode_c = compiled.compiled_ode(m.ode, key_extra=repr(m.structure))
+    res["compile_rhs_s"] = {"total": time.perf_counter() - t, **{k: v for k, v in compiled.last_compile_s["birdocp_rhs"].items() if k != "path"}}
+    compiled._ODES.clear()
+    t = time.perf_counter()
+    ode_c = compiled.compiled_ode(m.ode, key_extra=repr(m.structure))
+    res["compile_rhs_s"]["cache_hit_total"] = time.perf_counter() - t
+    assert ode_c is not None, "compilation failed"
+
+    # --- RHS
+    grid_i = RK4Grid(m.ode, N, 1)
+    grid_c = RK4Grid(ode_c, N, 1)
+    D = grid_i.blocks_numeric(0.0, m.p0)
+    pd = ca.DM(m.p0)
+    x0 = ca.DM([18.0, 0.5, 0.1, 0.01])
+    d0 = D[:, 0]
+    rhs_i, rhs_c = m.ode.rhs, ode_c.rhs
+    Dall = ca.DM(np.asarray(D)[:, : 3 * N])
+    mi, mc = rhs_i.map(3 * N), rhs_c.map(3 * N)
+    X = ca.repmat(x0, 1, 3 * N)
+    res["rhs_call_s"] = {"interpreted": median_time(lambda: rhs_i(x0, d0, pd), R, 2000),
+                         "compiled": median_time(lambda: rhs_c(x0, d0, pd), R, 2000)}
+    res["rhs_mapped_per_eval_s"] = {"interpreted": median_time(lambda: mi(X, Dall, pd), R, 20) / (3 * N),
+                                    "compiled": median_time(lambda: mc(X, Dall, pd), R, 20) / (3 * N)}
+
+    # --- one period with its monodromy
+    res["period_map_s"] = {"interpreted": median_time(lambda: grid_i.period_map(x0, D, pd), R, 5),
+                           "compiled": median_time(lambda: grid_c.period_map(x0, D, pd), R, 5)}
+    res["period_with_monodromy_s"] = {"interpreted": median_time(lambda: grid_i.period_jacobian(x0, D, pd), R, 3),
+                                      "compiled": median_time(lambda: grid_c.period_jacobian(x0, D, pd), R, 3)}
+
+    # --- exported C: export, build, and bird_period through ctypes
+    out = tmp / "bird_c"
+    t = time.perf_counter()
+    info = export_c(cfg, out)
+    res["export_c_s"] = {"export": time.perf_counter() - t}
+    env = dict(os.environ, CC=" ".join(compiled.find_compiler()))
+    if shutil.which("make"):
+        for jobs in (1, 2):
+            subprocess.run(["make", "clean"], cwd=out, check=True, capture_output=True)
+            t = time.perf_counter()
+            subprocess.run(["make", f"-j{jobs}", "bird_period", "libbird.so"], cwd=out, check=True,
+                           capture_output=True, env=env)
+            res["export_c_s"][f"make_j{jobs}"] = time.perf_counter() - t
+        lib = ctypes.CDLL(str(out / "libbird.so"))
+        dbl = ctypes.POINTER(ctypes.c_double)
+        lib.bird_period.argtypes = [dbl, dbl, dbl, dbl, dbl]
+        p = (ctypes.c_double * 4)(*info.runtime_p0)
+        xin = (ctypes.c_double * 4)(18.0, 0.5, 0.1, 0.01)
+        xT = (ctypes.c_double * 4)()
+        M = (ctypes.c_double * 16)()
+        res["period_map_s"]["exported_c"] = median_time(lambda: lib.bird_period(xin, p, xT, None, None), R, 20)
+        res["period_with_monodromy_s"]["exported_c"] = median_time(lambda: lib.bird_period(xin, p, xT, M, None), R, 20)
+        lib.bird_period(xin, p, xT, M, None)
+        xT_py, J_py = (np.asarray(v) for v in grid_i.period_jacobian(x0, D, pd))
+        res["exported_c_vs_python_max_abs"] = {
+            "state": float(np.max(np.abs(np.array(xT[:]) - xT_py.ravel()))),
+            "monodromy": float(np.max(np.abs(np.array(M[:]).reshape(4, 4) - J_py)))}
+
+    # --- full trim (first call builds the graphs; then warm medians)
+    trims = {}
+    for name, kw in (("interpreted", {}), ("compiled", {"compiled": True})):
+        t = time.perf_counter()
+        r = studies.trim(cfg, **kw)
+        first = time.perf_counter() - t
+        times = []
+        for _ in range(R):
+            t = time.perf_counter()
+            r = studies.trim(cfg, **kw)
+            times.append(time.perf_counter() - t)
+        trims[name] = {"first_s": first, "median_s": statistics.median(times), "success": bool(r.success),
+                       "iterations": int(r.iterations), "multipliers": [[float(z.real), float(z.imag)] for z in r.multipliers],
+                       "solve_s": float(r.wall_s["solve"]), "floquet_s": float(r.wall_s["floquet"])}
+    mi_ = np.array([complex(*z) for z in trims["interpreted"]["multipliers"]])
+    mc_ = np.array([complex(*z) for z in trims["compiled"]["multipliers"]])
+    trims["multipliers_max_abs_diff"] = float(np.max(np.abs(mi_ - mc_)))
+    res["trim"] = trims
+
+    def sp(d):
+        return {k: d["interpreted"] / v for k, v in d.items() if k != "interpreted" and v}
+
+    res["speedup"] = {"rhs_call": sp(res["rhs_call_s"]), "rhs_mapped": sp(res["rhs_mapped_per_eval_s"]),
+                      "period_map": sp(res["period_map_s"]), "period_with_monodromy": sp(res["period_with_monodromy_s"]),
+                      "trim_warm": trims["interpreted"]["median_s"] / trims["compiled"]["median_s"]}
+    shutil.rmtree(tmp, ignore_errors=True)
+
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    tmp_out = Path(args.out).with_suffix(".json.tmp")
+    tmp_out.write_text(json.dumps(res, indent=2) + "\n")
+    os.replace(tmp_out, args.out)
+
+    def row(label, d, unit=1e3, u="ms"):
+        cells = "  ".join(f"{k} {v * unit:9.4g} {u}" for k, v in d.items())
+        print(f"{label:28s} {cells}")
+
+    row("RHS, one Python call", res["rhs_call_s"], 1e6, "us")
+    row("RHS, per eval in a map", res["rhs_mapped_per_eval_s"], 1e6, "us")
+    row("one period (RK4)", res["period_map_s"])
+    row("one period + monodromy", res["period_with_monodromy_s"])
+    print(f"{'full trim (warm median)':28s} interpreted {trims['interpreted']['median_s']:.3f} s  "
+          f"compiled {trims['compiled']['median_s']:.3f} s  (first: {trims['interpreted']['first_s']:.2f} / "
+          f"{trims['compiled']['first_s']:.2f} s); multipliers differ by {trims['multipliers_max_abs_diff']:.1e}")
+    print(f"compile: RHS library {res['compile_rhs_s']['compile']:.1f} s (cache hit {res['compile_rhs_s']['cache_hit_total']:.2f} s); "
+          f"export {res['export_c_s']['export']:.1f} s, make -j1 {res['export_c_s'].get('make_j1', float('nan')):.1f} s, "
+          f"-j2 {res['export_c_s'].get('make_j2', float('nan')):.1f} s")
+    print("speed-ups:", json.dumps(res["speedup"]))
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
