@@ -98,3 +98,17 @@ def test_compile_failure_falls_back_with_warning(tmp_path, monkeypatch):
     ode = PeriodicODE.from_rhs(ca.Function("f", [x, t, p], [-p * x + ca.sin(t)]), 2 * np.pi)
     with pytest.warns(CompiledFallbackWarning, match="interpreted"):
         assert compiled_ode(ode) is None
+
+
+def test_cli_export_c(tmp_path, capsys):
+    from birdocp.cli import main
+
+    assert main(["export-c", "--out", str(tmp_path / "c"), "--amplitude", "40", "--json"]) == 0
+    info = __import__("json").loads(capsys.readouterr().out)
+    assert info["baked_params"]["gait.shoulder_flap.amplitude_deg"] == 40.0
+    assert "#define BIRD_STEPS 148" in (tmp_path / "c" / "bird.h").read_text()
+    (tmp_path / "other").mkdir()
+    (tmp_path / "other" / "x.txt").write_text("keep")
+    assert main(["export-c", "--out", str(tmp_path / "other")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--out" in err
