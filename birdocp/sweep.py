@@ -38,7 +38,7 @@ from .config import Config, ConfigError, to_dict, with_values
 from .io import atomic_write_json, atomic_write_text, to_jsonable
 from .level import AMPLITUDE_KEY, resolve_key
 
-__all__ = ["sweep", "sweep_values", "read_points", "CSV_COLUMNS", "row_of"]
+__all__ = ["sweep", "sweep_values", "read_points", "CSV_COLUMNS", "row_of", "grid_sweep", "GRID_COLUMNS"]
 
 N_MULT = 4
 CSV_COLUMNS = (
@@ -268,3 +268,78 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
         bar.show(i + 1, f"{v:g} {'ok' if res.success else 'FAILED'} {row['iterations']} it "
                         f"{row['wall_s']:.1f} s", solved_now=True)
     return [r for r in rows if r is not None]
+
+
+# ----------------------------------------------------------------------------------------------
+# Grids of lines through an executor (serial, local processes, Dask)
+
+GRID_COLUMNS = ["row", "row_key", "row_value"] + [c for c in CSV_COLUMNS if c != "wall_s"]
+
+
+def _grid_row(job: dict) -> dict:
+    """One row of a grid: a warm-started line over ``key`` at ``row_key = row_value`` (run by an
+    executor, possibly in another process or on another machine: everything comes in ``job``)."""
+    from .config import from_dict
+
+    cfg = with_values(from_dict(job["config"]), {job["row_key"]: job["row_value"]})
+    t = time.perf_counter()
+    rows = sweep(cfg, job["key"], job["values"], level=job["level"], warm=job["warm"], out_dir=None,
+                 progress=False, level_options=job["level_options"], **job["method_over"])
+    return {"row": job["row"], "rows": rows, "wall_s": time.perf_counter() - t}
+
+
+def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: str, row_values: Sequence[float], *,
+               executor=None, level: bool = False, warm: bool = True, out_dir: str | Path | None = None,
+               level_options: dict | None = None, **method_over) -> list[dict]:
+    """A grid ``row_key x key``: one warm-started line over ``values`` of ``key`` per value of
+    ``row_key``, the rows independent jobs run by ``executor`` (:mod:`birdocp.executors`; default
+    serial). Returns the table rows (``GRID_COLUMNS``), row after row.
+
+    Written to ``out_dir`` when all rows are done: ``grid.json`` (definition + rows), ``grid.csv``, and
+    ``timing.json`` (executor and wall times). ``grid.json`` and ``grid.csv`` hold no wall times, so
+    they do not depend on the executor."""
+    from .executors import SerialExecutor
+
+    cfg = cfg or Config()
+    key = resolve_key(key, "key")
+    row_key = resolve_key(row_key, "rows")
+    if row_key == key:
+        raise ConfigError("rows", "the row parameter must differ from the swept parameter")
+    values = [float(v) for v in values]
+    row_values = [float(v) for v in row_values]
+    if not values or not row_values:
+        raise ConfigError("values", "no values to sweep")
+    for v in row_values:
+        with_values(cfg, {row_key: v})  # validates before any job starts
+    for v in values:
+        with_values(cfg, {key: v})
+    level_options = dict(level_options or {})
+    executor = executor or SerialExecutor()
+    base = {"config": to_dict(cfg), "key": key, "values": values, "row_key": row_key, "level": bool(level),
+            "warm": bool(warm), "level_options": level_options, "method_over": dict(method_over)}
+    jobs = [dict(base, row=i, row_value=v) for i, v in enumerate(row_values)]
+    t = time.perf_counter()
+    results = executor.map(_grid_row, jobs)
+    wall = time.perf_counter() - t
+    table = []
+    for res in sorted(results, key=lambda r: r["row"]):
+        for r in res["rows"]:
+            row = {"row": res["row"], "row_key": row_key, "row_value": row_values[res["row"]]}
+            row.update({c: r.get(c) for c in CSV_COLUMNS if c != "wall_s"})
+            table.append(row)
+    if out_dir is not None:
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        spec = {k: base[k] for k in ("key", "values", "row_key", "level", "warm", "level_options", "method_over",
+                                     "config")}
+        atomic_write_json(out / "grid.json", to_jsonable(dict(spec, row_values=row_values, points=table)))
+        buf = io.StringIO()
+        w = csv.DictWriter(buf, fieldnames=GRID_COLUMNS, lineterminator="\n")
+        w.writeheader()
+        for r in table:
+            w.writerow({k: ("" if r.get(k) is None else (repr(r[k]) if isinstance(r[k], float) else r[k]))
+                        for k in GRID_COLUMNS})
+        atomic_write_text(out / "grid.csv", buf.getvalue())
+        atomic_write_json(out / "timing.json", {**executor.describe(), "wall_s": wall,
+                                                "row_wall_s": [r["wall_s"] for r in sorted(results, key=lambda r: r["row"])]})
+    return table

@@ -1,0 +1,60 @@
+"""Executors: a grid sweep (2 rows x 2 points, coarse grid) gives identical tables and files whether run
+serially, in local processes or on a Dask LocalCluster started here."""
+import pytest
+
+from birdocp.executors import DaskExecutor, ProcessExecutor, SerialExecutor, get_executor
+from birdocp.sweep import grid_sweep
+
+COARSE = dict(points=3, steps_per_period=48)
+GRID = dict(key="amplitude", values=[42.0, 43.0], row_key="root_ahead_m", row_values=[0.05, 0.048])
+
+
+def _square(x):
+    return x * x
+
+
+def test_get_executor_choices():
+    assert isinstance(get_executor(), SerialExecutor)
+    assert isinstance(get_executor(jobs=1), SerialExecutor)
+    assert isinstance(get_executor(jobs=2), ProcessExecutor)
+    with pytest.raises(ValueError):
+        get_executor(jobs=0)
+
+
+def _files(d):
+    return (d / "grid.json").read_text(), (d / "grid.csv").read_text()
+
+
+@pytest.fixture(scope="module")
+def serial(tmp_path_factory):
+    d = tmp_path_factory.mktemp("serial")
+    table = grid_sweep(None, **GRID, executor=SerialExecutor(), out_dir=d, **COARSE)
+    return table, d
+
+
+def test_serial_grid(serial):
+    table, d = serial
+    assert [(r["row_value"], r["value"]) for r in table] == [(0.05, 42.0), (0.05, 43.0), (0.048, 42.0), (0.048, 43.0)]
+    assert all(r["success"] for r in table)
+    assert table[1]["warm_from"] == 0 and table[0]["warm_from"] is None
+
+
+def test_processes_match_serial(serial, tmp_path):
+    table, d = serial
+    with ProcessExecutor(2) as ex:
+        assert ex.map(_square, [1, 2, 3]) == [1, 4, 9]
+        t2 = grid_sweep(None, **GRID, executor=ex, out_dir=tmp_path, **COARSE)
+    assert t2 == table
+    assert _files(tmp_path) == _files(d)
+
+
+def test_dask_local_cluster_matches_serial(serial, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cl, \
+            distributed.Client(cl) as client:
+        ex = DaskExecutor(client=client)
+        assert ex.map(_square, [3, 4]) == [9, 16]
+        t3 = grid_sweep(None, **GRID, executor=ex, out_dir=tmp_path, **COARSE)
+        ex.close()
+    assert t3 == serial[0]
+    assert _files(tmp_path) == _files(serial[1])
