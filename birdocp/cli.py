@@ -519,7 +519,49 @@ def _add_level_parsers(sub, common) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress line on stderr")
     _level_options(p, True)
     _solve_shortcuts(p)
+    x = p.add_argument_group("grid and executors")
+    x.add_argument("--rows", metavar="KEY=A:B:S",
+                   help="a grid: one warm-started line over KEY's range per value of this second parameter "
+                        "(from A to B by S, inclusive), e.g. --rows root_ahead_m=0.035:0.065:0.005; writes "
+                        "grid.json, grid.csv (no wall times: identical whatever the executor) and timing.json")
+    x.add_argument("--jobs", type=int, metavar="N", help="run the rows of --rows in N local processes")
+    x.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the rows of --rows on a Dask distributed cluster (e.g. tcp://host:8786; needs "
+                        "pip install 'birdocp[cluster]' here and birdocp on the workers)")
     p.set_defaults(func=cmd_sweep)
+
+    par = argparse.ArgumentParser(add_help=False)
+    par.add_argument("param", metavar="PARAM", help="root_ahead_m | stability_margin (percent) | amplitude_deg | KEY")
+    p = sub.add_parser("continue", parents=[par, common], help="follow a branch of periodic flights in one parameter "
+                                                          "(pseudo-arclength continuation)",
+                       description="Pseudo-arclength continuation of the trimmed flight from --from to --to, "
+                                   "through folds, with fold / branch point / period doubling / Neimark-Sacker "
+                                   "detection (located on the branch). PARAM: root_ahead_m (metres ahead of G), "
+                                   "stability_margin (SM = -root_ahead_m / body.reference_chord_m, given in "
+                                   "PERCENT: --from -32.5 --to -17.5), amplitude_deg, or a dotted model key. "
+                                   "Writes branch.json, locus.png and moduli.png to the run folder.")
+    p.add_argument("--from", dest="start", type=float, required=True, metavar="A", help="start value (a cycle is "
+                   "solved there first)")
+    p.add_argument("--to", dest="stop", type=float, required=True, metavar="B", help="end value")
+    p.add_argument("--step", type=float, metavar="S", help="first step in PARAM's units (default |B-A|/10)")
+    p.add_argument("--max-points", type=int, default=200, metavar="N", help="at most N points (default 200)")
+    p.add_argument("--level", action="store_true",
+                   help="hold level flight: the flapping amplitude is solved at every point (mean W = --climb-rate)")
+    p.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS", help="held mean vertical speed with --level")
+    p.add_argument("--bounds", type=float, nargs=2, metavar=("LO", "HI"),
+                   help="amplitude bounds with --level (default 20 70 deg); leaving them ends the branch")
+    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-continue-<id>/")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    _solve_shortcuts(p)
+    p.set_defaults(func=cmd_continue)
+
+    p = sub.add_parser("plot", help="redraw the figures of a run folder (trim, level, sweep, continue)",
+                       description="Read RUN_DIR/result.json (and arrays.npz, sweep.json, branch.json) and write "
+                                   "the run's figures into RUN_DIR.")
+    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.add_argument("--debug", action="store_true", help="show Python tracebacks on errors")
+    p.add_argument("--json", action="store_true", help="print the list of figures as JSON")
+    p.set_defaults(func=cmd_plot)
 
 
 def _level_kwargs(args: argparse.Namespace, cfg) -> dict:
@@ -649,6 +691,8 @@ def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
     level_kw = _level_kwargs(args, cfg) if args.level else None
     if level_kw is not None and level_kw["free"] == key:
         raise ConfigError("KEY", f"'{key}' is the free parameter of --level; sweep another parameter or pick --free")
+    if args.rows or args.jobs is not None or args.scheduler:
+        return _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start)
     run_dir = _sweep_out_dir(args)
     fresh = not any(run_dir.iterdir())
     try:
@@ -680,6 +724,223 @@ def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
               f"results written to {run_dir}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     return EXIT_OK
+
+
+def _parse_rows(text: str | None):
+    from .level import resolve_key
+    from .sweep import sweep_values
+
+    if not text:
+        raise ConfigError("--rows", "--jobs and --scheduler run the rows of a grid: give --rows KEY=A:B:S")
+    try:
+        k, rng = text.split("=", 1)
+        a, b, st = (float(v) for v in rng.split(":"))
+    except ValueError:
+        raise ConfigError("--rows", f"expected KEY=A:B:S, got {text!r}") from None
+    return resolve_key(k, "--rows"), sweep_values(a, b, st)
+
+
+def _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start) -> int:
+    from .executors import get_executor
+    from .runs import claim_out_dir, new_run_dir
+    from .sweep import GRID_COLUMNS, grid_sweep
+
+    row_key, row_values = _parse_rows(args.rows)
+    if row_key == key:
+        raise ConfigError("--rows", "the row parameter must differ from KEY")
+    for v in row_values:
+        C.with_values(cfg, {row_key: v})
+    if args.jobs is not None and args.jobs < 1:
+        raise ConfigError("--jobs", f"must be >= 1, got {args.jobs}")
+    if args.resume:
+        raise ConfigError("--resume", "not available for grids (--rows)")
+    run_dir = claim_out_dir(args.out, "sweep") if args.out else new_run_dir(None, "sweep")
+    ex = get_executor(args.jobs, args.scheduler)
+    try:
+        with _stdout_to_stderr(), ex:
+            rows = grid_sweep(cfg, key, values, row_key, row_values, executor=ex, level=args.level,
+                              warm=not args.cold, out_dir=run_dir, level_options=level_kw)
+    except ImportError as exc:
+        raise ConfigError("--scheduler", str(exc)) from None
+    from .runs import write_run
+
+    ok = all(r["success"] for r in rows)
+    result = {"success": ok, "key": key, "values": values, "row_key": row_key, "row_values": row_values,
+              "level": bool(args.level), "grid": True, "executor": ex.describe(),
+              "converged": sum(r["success"] for r in rows), "points": rows,
+              "wall_s": {"total": time.perf_counter() - t_start}, "run_dir": str(run_dir)}
+    write_run(run_dir, cfg, result, None, command_line, command="sweep")
+    if args.json:
+        _print_json(result)
+    else:
+        print(f"grid {row_key} x {key}" + (" (level flight)" if args.level else ""))
+        print(f"{'row value':>10}  {'value':>10}  {'ok':>3}  {'|lambda1|':>9}  {'U [m/s]':>8}  {'W [m/s]':>8}")
+        for r in rows:
+            print(f"{_num(r['row_value'], 'g'):>10}  {_num(r['value'], 'g'):>10}  {'yes' if r['success'] else 'NO':>3}  "
+                  f"{_num(r['modulus0'], '.6f'):>9}  {_num(r['mean_forward_speed_mps'], '.4f'):>8}  "
+                  f"{_num(r['mean_vertical_speed_mps'], '+.4f'):>8}")
+        print(f"run folder  {run_dir}  (grid.csv, grid.json, timing.json)")
+    return EXIT_OK if ok else EXIT_NOT_CONVERGED
+
+
+# ---------------------------------------------------------------------------------------------
+# continue and plot (birdocp.continuation)
+
+def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
+    from .continuation import resolve_parameter, root_of_sm
+
+    t_start = time.perf_counter()
+    model_key, display = resolve_parameter(args.param)
+    cfg = resolve_config(args)
+    a, b = _finite("--from/--to", [args.start, args.stop])
+    if a == b:
+        raise ConfigError("--to", "must differ from --from")
+    conv = (lambda v: root_of_sm(v, cfg.body.reference_chord_m)) if display == "stability_margin" else (lambda v: v)
+    for v in (a, b):
+        C.with_values(cfg, {model_key: conv(v)})
+    if args.level and model_key == AMPLITUDE_KEY:
+        raise ConfigError("--level", "the amplitude is what --level solves for: continue another parameter")
+    if args.step is not None and not (math.isfinite(args.step) and args.step > 0):
+        raise ConfigError("--step", f"must be positive, got {args.step!r}")
+    if args.max_points < 2:
+        raise ConfigError("--max-points", "must be >= 2")
+    from .runs import claim_out_dir, new_run_dir
+
+    run_dir = claim_out_dir(args.out, "continue") if args.out else new_run_dir(None, "continue")
+    from .continuation import bird_branch, plot_branches
+    from .io import atomic_write_json
+
+    say = (lambda text: None) if args.quiet else (lambda text: print(f"continue: {text}", file=sys.stderr, flush=True))
+    with _stdout_to_stderr():
+        br = bird_branch(cfg, args.param, a, b, level=args.level, climb_rate_mps=args.climb_rate, bounds=args.bounds,
+                         step=args.step, max_points=args.max_points, progress=say)
+    d = br.to_dict()
+    atomic_write_json(run_dir / "branch.json", d)
+    figs = plot_branches({"level flight" if args.level else "branch": br}, run_dir) if br.points else []
+    from .runs import write_run
+
+    ok = br.end_reason in ("reached_to", "reached_from") and bool(br.points)
+    summary = {"success": ok, "parameter": br.parameter_name, "display": display, "from": a, "to": b,
+               "level": bool(args.level), "end_reason": br.end_reason, "end_message": br.end_message,
+               "n_points": len(br.points), "special_points": d["special_points"],
+               "stable_anywhere": any(p.stable for p in br.points), "figures": [f.name for f in figs],
+               "wall_s": {"total": time.perf_counter() - t_start}, "run_dir": str(run_dir)}
+    write_run(run_dir, cfg, summary, None, command_line, command="continue")
+    if args.json:
+        _print_json(dict(summary, branch=d))
+    else:
+        sm = display == "stability_margin"
+        print(f"continuation in {display}" + (" (level flight held)" if args.level else ""))
+        print(f"{'SM [%]' if sm else 'value':>12}  {'|lambda1|':>9}  {'|lambda2|':>9}  {'|lambda4|':>9}  stable"
+              + ("  A [deg]" if args.level else ""))
+        for p in br.points:
+            v = -100 * p.parameter / cfg.body.reference_chord_m if sm else p.parameter
+            line = (f"{v:12.6g}  {p.moduli[0]:9.6f}  {p.moduli[1]:9.6f}  {p.moduli[-1]:9.6f}  "
+                    f"{'yes' if p.stable else 'no':>6}")
+            if args.level:
+                line += f"  {list(p.free_values.values())[0]:7.3f}"
+            print(line)
+        for sp in br.special_points:
+            v = -100 * sp.parameter / cfg.body.reference_chord_m if sm else sp.parameter
+            print(f"special point: {sp.kind} at {v:.8g} ({sp.message})")
+        print(f"end: {br.end_reason}: {br.end_message}")
+        print(f"run folder  {run_dir}  (branch.json, {', '.join(f.name for f in figs)})")
+    return EXIT_OK if ok else EXIT_NOT_CONVERGED
+
+
+def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
+    run = Path(args.run_dir)
+    res_path = run / "result.json"
+    if not res_path.is_file():
+        raise ConfigError("RUN_DIR", f"'{run}' holds no result.json (not a birdocp run folder)")
+    try:
+        res = json.loads(res_path.read_text())
+    except ValueError as exc:
+        raise ConfigError("RUN_DIR", f"unreadable result.json: {exc}") from None
+    command = (res.get("provenance") or {}).get("command")
+    figs = []
+    with _stdout_to_stderr():
+        if (run / "branch.json").is_file():
+            from .continuation import Branch, plot_branches
+
+            br = Branch.from_dict(json.loads((run / "branch.json").read_text()))
+            figs = plot_branches({"level flight" if br.settings.get("level") else "branch": br}, run)
+        elif (run / "grid.json").is_file():
+            figs = _plot_grid(run)
+        elif (run / "sweep.json").is_file():
+            figs = _plot_sweep(run)
+        elif command in ("trim", "level") or "x0" in res:
+            from . import plots
+
+            arrays = {}
+            if (run / "arrays.npz").is_file():
+                import numpy as np
+
+                with np.load(run / "arrays.npz") as z:
+                    arrays = {k: z[k] for k in z.files}
+            cyc = dict(res, **arrays)
+            if "trajectory_x" in cyc:
+                figs.append(plots.plot_states(cyc, run / "states.png"))
+                figs.append(plots.plot_phase_portrait(cyc, run / "phase.png"))
+            if cyc.get("multipliers") is not None:
+                figs.append(plots.plot_multipliers({command or "cycle": cyc["multipliers"]}, run / "multipliers.png"))
+            if cyc.get("residual_history") is not None:
+                figs.append(plots.plot_convergence({command or "cycle": cyc["residual_history"]}, run / "convergence.png"))
+        else:
+            raise ConfigError("RUN_DIR", f"do not know how to plot a '{command}' run")
+    names = [Path(f).name for f in figs]
+    if args.json:
+        _print_json({"run_dir": str(run), "figures": names})
+    else:
+        print(f"wrote {', '.join(names) or 'no figures'} in {run}")
+    return EXIT_OK
+
+
+def _plot_rows(rows, xkey, path, title, xlabel):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from .plots import save_figure
+
+    fig, ax = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
+    groups = {}
+    for r in rows:
+        groups.setdefault(r.get("row_value"), []).append(r)
+    for g, rs in groups.items():
+        x = np.array([r[xkey] for r in rs], float)
+        lab = "" if g is None else f" ({g:g})"
+        for k in range(4):
+            y = np.array([np.nan if r.get(f"modulus{k}") is None else r[f"modulus{k}"] for r in rs], float)
+            ax[0].plot(x, y, "o-" if k == 0 else ".--", ms=4, label=f"|L{k + 1}|{lab}" if k in (0, 1) else None)
+        w = np.array([np.nan if r.get("mean_vertical_speed_mps") is None else r["mean_vertical_speed_mps"] for r in rs])
+        ax[1].plot(x, w, "o-", ms=4, label=f"mean W{lab}")
+    ax[0].axhline(1, color="k", lw=0.8)
+    ax[0].set_ylabel("|multiplier|")
+    ax[0].set_title(title)
+    ax[0].legend(fontsize=7)
+    ax[1].set_ylabel("mean vertical speed [m/s]")
+    ax[1].set_xlabel(xlabel)
+    ax[1].legend(fontsize=7)
+    for a in ax:
+        a.grid(alpha=0.3)
+    fig.tight_layout()
+    p = save_figure(fig, path)
+    plt.close(fig)
+    return p
+
+
+def _plot_sweep(run: Path):
+    d = json.loads((run / "sweep.json").read_text())
+    return [_plot_rows(d.get("points", []), "value", run / "sweep.png", f"sweep of {d.get('key')}", d.get("key"))]
+
+
+def _plot_grid(run: Path):
+    d = json.loads((run / "grid.json").read_text())
+    return [_plot_rows(d.get("points", []), "value", run / "grid.png",
+                       f"grid: lines over {d.get('key')}, one per {d.get('row_key')}", d.get("key"))]
 
 
 # ---------------------------------------------------------------------------------------------
