@@ -92,3 +92,32 @@ def test_neimark_sacker_detected():
     mods = np.array(sp.moduli)
     assert np.max(np.abs(mods - 1)) < 1e-8
     assert br.points[0].stable and not br.points[-1].stable
+
+
+def test_bird_branch_agrees_with_independent_trims(tmp_path):
+    """A short fixed-amplitude branch in the root position (coarse grid) = trims at three root positions;
+    the CLI writes it and 'plot' redraws it."""
+    from birdocp.cli import main
+    from birdocp.config import Config, with_values
+    from birdocp.continuation import bird_branch
+    from birdocp.studies import trim
+
+    coarse = dict(points=3, steps_per_period=48)
+    br = bird_branch(Config(), "root_ahead_m", 0.05, 0.048, **coarse)
+    assert br.end_reason == "reached_to" and len(br.points) >= 3
+    assert not br.special_points
+    for pt in (br.points[0], br.points[len(br.points) // 2], br.points[-1]):
+        tr = trim(with_values(Config(), {"wing.root_ahead_m": pt.parameter}), **coarse)
+        assert tr.success
+        assert np.max(np.abs(np.array(pt.x0) - tr.x0)) < 1e-7
+        L = np.sort_complex(np.array([complex(*m) for m in pt.multipliers]))
+        assert np.max(np.abs(L - np.sort_complex(tr.multipliers))) < 1e-7
+    # the expanding multiplier falls as the root moves back (fact: +0.354 per cm forward at 42 deg)
+    assert br.points[-1].moduli[0] < br.points[0].moduli[0] - 0.05
+    out = tmp_path / "run"
+    assert main(["continue", "stability_margin", "--from", "-25", "--to", "-24.5", "--points", "3", "--steps", "48",
+                 "--out", str(out), "--quiet", "--json"]) == 0
+    d = json.loads((out / "branch.json").read_text())
+    assert d["end_reason"] == "reached_to" and abs(d["points"][-1]["parameter"] - 0.049) < 1e-12
+    (out / "moduli.png").unlink()
+    assert main(["plot", str(out)]) == 0 and (out / "moduli.png").is_file()
