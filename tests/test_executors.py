@@ -58,3 +58,13 @@ def test_dask_local_cluster_matches_serial(serial, tmp_path):
         ex.close()
     assert t3 == serial[0]
     assert _files(tmp_path) == _files(serial[1])
+
+
+def test_cli_grid_bad_input(capsys):
+    from birdocp.cli import main
+
+    base = ["sweep", "amplitude", "--from", "42", "--to", "43", "--step", "1"]
+    assert main(base + ["--jobs", "2"]) == 2
+    assert "--rows" in capsys.readouterr().err
+    assert main(base + ["--rows", "root_ahead_m=0.05"]) == 2
+    assert main(base + ["--rows", "amplitude=40:41:1", "--jobs", "2"]) == 2
