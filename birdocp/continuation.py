@@ -311,6 +311,7 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
                  scales=None, tol: float = 1e-10, max_newton: int = 8, locate_tol: float = 1e-10,
                  detect=("fold", "branch_point", "period_doubling", "neimark_sacker"),
                  accept: Callable | None = None, progress: Callable | None = None,
+                 max_dparam: float | None = None, max_dstate: float | None = None,
                  system: Continuation | None = None) -> Branch:
     """Follow the periodic orbits of ``problem`` as ``param`` goes from ``start_value`` to ``stop_value``.
 
@@ -326,6 +327,9 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
                dict fields (parameter, x0, p, shooting_points); a returned string rejects the point and
                ends the branch (``rejected``).
     progress:  optional callback ``progress(text)``.
+    max_dparam, max_dstate: a corrected step changing the parameter by more than ``max_dparam`` (its
+               units) or a shooting-point state by more than ``max_dstate`` is refused and ds halved
+               (guards against jumping across to another branch with a large step).
     """
     t_all = time.perf_counter()
     sysm = system or Continuation(problem, param, points, steps_per_period)
@@ -418,7 +422,8 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
     settings = {"parameter": name, "from": start_value, "to": stop_value, "points": points,
                 "steps_per_period": steps_per_period, "first_step": dlam0, "ds_first": ds0, "ds_min": ds_min,
                 "ds_max": ds_max, "scales": s.tolist(), "tol": tol, "max_points": max_points,
-                "free": free_names, "mean_conditions": sysm.mean_names[:sysm.nm]}
+                "free": free_names, "mean_conditions": sysm.mean_names[:sysm.nm], "max_dparam": max_dparam,
+                "max_dstate": max_dstate}
 
     def make_point(st: _State, arclen: float, ds_used: float) -> BranchPoint:
         z = s * st.u
@@ -544,6 +549,11 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
             ds /= 2
             continue
         lam_new = s_lam * nxt.u[li]
+        dX = np.max(np.abs(s[:nX] * (nxt.u[:nX] - cur.u[:nX])))
+        if ((max_dparam and abs(lam_new - s_lam * cur.u[li]) > max_dparam) or (max_dstate and dX > max_dstate)) \
+                and ds / 2 >= ds_min:
+            ds /= 2
+            continue
         boundary = None
         if lam_new > rhi or lam_new < rlo:
             boundary = rhi if lam_new > rhi else rlo
@@ -650,6 +660,8 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
         a, b = root_of_sm(a, chord), root_of_sm(b, chord)
         if options.get("step"):
             options["step"] = abs(root_of_sm(options["step"], chord))  # SM percent -> metres
+        if options.get("max_dparam"):
+            options["max_dparam"] = abs(root_of_sm(options["max_dparam"], chord))
     m = get_model(cfg)
     points = int(points or cfg.solve.points)
     steps = int(steps_per_period or cfg.solve.steps_per_period)

@@ -1,0 +1,166 @@
+"""Experiment 3 of the paper: the wing-root position / stability margin, by pseudo-arclength continuation.
+
+SM = (G - O'w)/c = -root_ahead_m / c (c = 0.2 m); the paper covers SM -32.5 % .. -17.5 % (root 6.5 cm
+.. 3.5 cm ahead of G) and found no limit cycle beyond -17.5 %. Here two families are followed from the
+reference cycle (root 5 cm, SM -25 %), each in both directions:
+
+* ``fixed``: the paper's reference amplitude 42 deg;
+* ``level``: level flight held, the flapping amplitude an unknown of every point (mean W = 0).
+
+Towards the rear the continuation goes on beyond the paper's range (to root 1 cm, SM -5 %) to see
+whether and how the branch ends. The four half-branches run as independent jobs through
+:mod:`birdocp.executors` (``--jobs``). Independent ``trim`` runs at three root positions check the
+fixed-amplitude branch. Writes locus.png, moduli.png, level_*.png, branch JSONs, result.json, table.md.
+
+    python scripts/experiment3.py --out results/experiment3 --jobs 2
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from birdocp.config import Config, with_values
+from birdocp.continuation import Branch, bird_branch, plot_branches, sm_percent
+from birdocp.executors import get_executor
+from birdocp.io import atomic_write_json, atomic_write_text
+
+CHORD = 0.2
+PAPER_RANGE_CM = (3.5, 6.5)
+
+
+def run_half(job: dict) -> dict:
+    t = time.perf_counter()
+    br = bird_branch(Config(), "stability_margin", job["from_sm"], job["to_sm"], level=job["level"],
+                     step=job["step"], max_dparam=job["max_dparam"], max_dstate=job["max_dstate"])
+    d = br.to_dict()
+    d["job_wall_s"] = time.perf_counter() - t
+    return {"name": job["name"], "branch": d}
+
+
+def merge(down: Branch, up: Branch) -> Branch:
+    """One branch ordered by root position (up: 5 -> 6.5 cm reversed, then down: 5 -> 1 cm)."""
+    pts = list(reversed(up.points)) + down.points[1:]
+    n_up = len(up.points)
+    sps = [type(s)(**{**s.__dict__, "between": (n_up - 1 - s.between[1], n_up - 1 - s.between[0])})
+           for s in up.special_points]
+    sps += [type(s)(**{**s.__dict__, "between": (s.between[0] + n_up - 1, s.between[1] + n_up - 1)})
+            for s in down.special_points]
+    settings = dict(down.settings, display="stability_margin")
+    return Branch(down.parameter_name, pts, sps, down.end_reason, down.end_message, settings,
+                  down.wall_s + up.wall_s, down.free_names)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--out", default="results/experiment3")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--rear-sm", type=float, default=-5.0, help="how far towards the rear (SM %%) to continue")
+    a = ap.parse_args()
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    jobs = [{"name": f"{fam}_{d}", "level": fam == "level", "from_sm": -25.0,
+             "to_sm": (-32.5 if d == "up" else a.rear_sm), "step": 0.5,
+             "max_dparam": 1.0, "max_dstate": 1.5}
+            for fam in ("fixed", "level") for d in ("down", "up")]
+    with get_executor(jobs=a.jobs) as ex:
+        res = ex.map(run_half, jobs)
+    wall_branches = time.perf_counter() - t0
+    halves = {r["name"]: Branch.from_dict(r["branch"]) for r in res}
+    job_wall = {r["name"]: r["branch"]["job_wall_s"] for r in res}
+    for name, br in halves.items():
+        atomic_write_json(out / f"branch_{name}.json", br.to_dict())
+    fams = {"fixed": merge(halves["fixed_down"], halves["fixed_up"]),
+            "level": merge(halves["level_down"], halves["level_up"])}
+    labels = {"fixed": "A = 42 deg", "level": "level flight"}
+    figs = plot_branches({labels[k]: v for k, v in fams.items()}, out)
+    figs += plot_branches({labels["level"]: fams["level"]}, out, prefix="level_")
+
+    # independent trims at three root positions of the fixed-amplitude branch
+    from birdocp.studies import trim
+
+    checks = []
+    fb = fams["fixed"]
+    n_up = len(halves["fixed_up"].points)
+    for idx in (n_up - 3, n_up - 1, n_up + 2):
+        pt = fb.points[idx]
+        t = time.perf_counter()
+        cfg_i = with_values(Config(), {"wing.root_ahead_m": pt.parameter})
+        tr = trim(cfg_i)  # cold, from the configured guess
+        start = "configured guess"
+        if not tr.success:  # from the branch's x0 rounded to 1 decimal (a perturbed guess)
+            tr = trim(cfg_i, x_guess=np.round(np.array(pt.x0), 1))
+            start = "branch x0 rounded to 0.1"
+        L = np.sort_complex(np.array([complex(*m) for m in pt.multipliers]))
+        Lt = np.sort_complex(np.asarray(tr.multipliers))
+        checks.append({"root_ahead_m": pt.parameter, "sm_percent": sm_percent(pt.parameter, CHORD),
+                       "trim_success": bool(tr.success), "trim_start": start, "trim_wall_s": time.perf_counter() - t,
+                       "max_abs_multiplier_difference": float(np.max(np.abs(L - Lt))),
+                       "max_abs_x0_difference": float(np.max(np.abs(np.array(pt.x0) - tr.x0)))})
+
+    def summary(br: Branch, name):
+        M = np.array([p.moduli for p in br.points])
+        sm = np.array([sm_percent(p.parameter, CHORD) for p in br.points])
+        inrange = (sm >= -32.5 - 1e-9) & (sm <= -17.5 + 1e-9)
+        s = {"points": len(br.points), "sm_range_percent": [float(sm.min()), float(sm.max())],
+             "rear_end": {"reason": halves[f"{name}_down"].end_reason, "message": halves[f"{name}_down"].end_message,
+                          "sm_percent": float(sm[-1])},
+             "front_end": {"reason": halves[f"{name}_up"].end_reason, "message": halves[f"{name}_up"].end_message,
+                           "sm_percent": float(sm[0])},
+             "special_points": [dict(sp.to_dict(), sm_percent=sm_percent(sp.parameter, CHORD))
+                                for sp in br.special_points],
+             "stable_points": int(sum(p.stable for p in br.points)),
+             "stable_anywhere": bool(any(p.stable for p in br.points)),
+             "expanding_modulus_range_in_paper_range": [float(M[inrange, 0].min()), float(M[inrange, 0].max())],
+             "expanding_modulus_min": float(M[:, 0].min()),
+             "sm_at_min_expanding_percent": float(sm[np.argmin(M[:, 0])])}
+        if br.free_names:
+            F = np.array([p.free_values[br.free_names[0]] for p in br.points])
+            s["amplitude_deg_range"] = [float(F.min()), float(F.max())]
+        return s
+
+    result = {"families": {k: summary(v, k) for k, v in fams.items()}, "trim_checks": checks,
+              "wall_s": {"branches_total": wall_branches, "per_half_branch": job_wall,
+                         "total": time.perf_counter() - t0},
+              "executor": f"processes, jobs={a.jobs}",
+              "grid": {"points": fb.settings.get("points"), "steps_per_period": fb.settings.get("steps_per_period")},
+              "figures": [p.name for p in figs]}
+    atomic_write_json(out / "result.json", result)
+
+    lines = ["# Experiment 3: wing-root position (stability margin), continued branches", "",
+             "SM = -root_ahead / 0.2 m. `fixed`: amplitude 42 deg; `level`: amplitude solved for mean W = 0.", ""]
+    for k, br in fams.items():
+        lines += [f"## {labels[k]}", "",
+                  "| SM [%] | root [cm] | " + ("A [deg] | " if br.free_names else "")
+                  + "Λ1 | |Λ2| | |Λ3| | |Λ4| | U [m/s] | W [m/s] | stable |",
+                  "|---:|---:|" + ("---:|" if br.free_names else "") + "---:|---:|---:|---:|---:|---:|:---:|"]
+        for p in br.points:
+            L = [complex(*m) for m in p.multipliers]
+            row = f"| {sm_percent(p.parameter, CHORD):.2f} | {100 * p.parameter:.3f} | "
+            if br.free_names:
+                row += f"{p.free_values[br.free_names[0]]:.3f} | "
+            row += (f"{L[0].real:.4f}{L[0].imag:+.4f}j | {abs(L[1]):.4f} | {abs(L[2]):.4f} | {abs(L[3]):.4f} | "
+                    f"{p.means.get('forward_speed_mps', float('nan')):.3f} | "
+                    f"{p.means.get('vertical_speed_mps', float('nan')):+.4f} | {'yes' if p.stable else 'no'} |")
+            lines.append(row)
+        s = result["families"][k]
+        lines += ["", f"Front end: {s['front_end']['reason']} ({s['front_end']['message']}); rear end: "
+                      f"{s['rear_end']['reason']} ({s['rear_end']['message']}).",
+                  "Special points: " + (", ".join(f"{sp['kind']} at SM {sp['sm_percent']:.4f} %"
+                                                   for sp in s["special_points"]) or "none") + ".",
+                  f"Stable cycle anywhere on the branch: {'YES' if s['stable_anywhere'] else 'NO'}.", ""]
+    lines += ["## Independent trims (A = 42 deg)", "", "| SM [%] | max |ΔΛ| | max |Δx0| |", "|---:|---:|---:|"]
+    lines += [f"| {c['sm_percent']:.3f} | {c['max_abs_multiplier_difference']:.2e} | {c['max_abs_x0_difference']:.2e} |"
+              for c in checks]
+    atomic_write_text(out / "table.md", "\n".join(lines) + "\n")
+    print(json.dumps({k: {kk: v[kk] for kk in ("front_end", "rear_end", "stable_anywhere")}
+                      for k, v in result["families"].items()}, indent=1))
+    print("wall", result["wall_s"])
+
+
+if __name__ == "__main__":
+    main()
