@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = [
-    "ConfigError", "Joint", "Body", "Wing", "Gait", "Aero", "Solve", "Config",
+    "ConfigError", "Joint", "Body", "Wing", "Gait", "Aero", "Tail", "Solve", "Config",
     "JOINT_NAMES", "PARAM_NAMES", "param_vector", "load", "dump", "loads", "dumps",
     "from_dict", "to_dict", "set_value", "with_values",
 ]
@@ -125,6 +125,20 @@ class Aero:
 
 
 @dataclass(frozen=True)
+class Tail:
+    """Optional slender delta-wing tail behind G (spec 7); off (zero loads) at opening angle 0."""
+
+    opening_angle_deg: float = 0.0
+    """Opening angle beta of the delta; span = 2 length tan(beta / 2). 0 = no tail."""
+    root_behind_m: float = 0.30
+    """Distance of the tail root behind the centre of mass, along the body axis."""
+    length_m: float = 0.25
+    kinematic_viscosity_m2ps: float = 1.5e-5
+    reynolds_speed_mps: float = 15.0
+    """Reference speed of the tail's Reynolds number for the friction drag."""
+
+
+@dataclass(frozen=True)
 class Solve:
     """Limit-cycle search: multiple shooting and the initial guess."""
 
@@ -144,6 +158,7 @@ class Config:
     wing: Wing = field(default_factory=Wing)
     gait: Gait = field(default_factory=Gait)
     aero: Aero = field(default_factory=Aero)
+    tail: Tail = field(default_factory=Tail)
     solve: Solve = field(default_factory=Solve)
 
     def __post_init__(self):
@@ -168,6 +183,7 @@ def _param_names() -> tuple[str, ...]:
         for f in fields(Joint):
             names.append(f"gait.{j}.{f.name}")
     names += ["aero.air_density_kgm3", "aero.lift_slope_per_rad"]
+    names += [f"tail.{f.name}" for f in fields(Tail)]
     return tuple(names)
 
 
@@ -201,6 +217,7 @@ _POSITIVE = {
     "wing.arm_length_m", "wing.forearm_length_m", "wing.hand_length_m",
     "wing.shoulder_half_separation_m", "wing.section_half_thickness_m", "wing.smoothing_radius_m",
     "gait.frequency_hz", "aero.air_density_kgm3", "aero.lift_slope_per_rad", "aero.backward_step_s",
+    "tail.root_behind_m", "tail.length_m", "tail.kinematic_viscosity_m2ps", "tail.reynolds_speed_mps",
 }
 ANGLE_LIMIT_DEG = 180.0
 """Joint offsets and amplitudes must lie in [-180, 180] deg, phases in [-360, 360] deg."""
@@ -242,6 +259,8 @@ def validate(cfg: Config) -> None:
             v = getattr(joint, name)
             if not -lim <= v <= lim:
                 raise ConfigError(f"gait.{j}.{name}", f"must lie in [{-lim:g}, {lim:g}] deg, got {v!r}")
+    if not 0.0 <= cfg.tail.opening_angle_deg < 180.0:
+        raise ConfigError("tail.opening_angle_deg", f"must lie in [0, 180) deg, got {cfg.tail.opening_angle_deg!r}")
     if cfg.aero.circulation not in CIRCULATION_MODES:
         raise ConfigError("aero.circulation", f"must be one of {', '.join(CIRCULATION_MODES)}; got {cfg.aero.circulation!r}")
     if cfg.aero.kinematic_velocity not in KINEMATIC_VELOCITY_MODES:
