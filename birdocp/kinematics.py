@@ -64,13 +64,22 @@ class Skeleton:
     feathers: dict  # index -> feather vector (m), for the 4 that shape the trailing edge (0, 2, 4, 6)
 
 
-def skeleton(q: dict, arm_m, forearm_m, hand_m, feather_lengths_m) -> Skeleton:
-    """Bones and the four trailing-edge feathers for joint angles ``q`` (spec 2.2 and 3)."""
-    s_x, s_z, s_y = q["shoulder_incidence"], q["shoulder_flap"], q["shoulder_sweep"]
+def shoulder_rotation(q: dict):
+    """R1 = R_x(incidence) R_z(flap) R_y(sweep): the arm's rotation (spec 2.2)."""
+    return rot_x(q["shoulder_incidence"]) @ rot_z(q["shoulder_flap"]) @ rot_y(q["shoulder_sweep"])
+
+
+def skeleton(q: dict, arm_m, forearm_m, hand_m, feather_lengths_m, with_shoulder: bool = True) -> Skeleton:
+    """Bones and the four trailing-edge feathers for joint angles ``q`` (spec 2.2 and 3).
+
+    Every bone, feather and skin point is the shoulder rotation R1 applied to a shape in the arm's
+    frame; ``with_shoulder=False`` returns that shape (R1 = I), which depends on the elbow and wrist
+    joints and the morphology only.
+    """
     e_y, e_x = q["elbow_flex"], q["hand_twist"]
     w_y, w_z = q["wrist_flex"], q["wrist_spread"]
 
-    R1 = rot_x(s_x) @ rot_z(s_z) @ rot_y(s_y)
+    R1 = shoulder_rotation(q) if with_shoulder else ca.SX.eye(3)
     R2a = R1 @ rot_y(e_y)
     R2b = R2a @ rot_x(e_x)
     R4 = R2b @ rot_y(w_y) @ rot_z(w_z)

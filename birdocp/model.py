@@ -35,6 +35,7 @@ DATA_BLOCKS = (
     ("G", (N_EL, N_EL)),         # Gamma = G (|Vp| alpha)
     ("Wx", (N_EL, N_EL)),        # induced velocity e1 = Wx (|Vp| alpha)
     ("Wy", (N_EL, N_EL)),        # induced velocity e2 = Wy (|Vp| alpha)
+    ("nodes_m", (3, N_EL + 1)),  # element end nodes relative to G (the tail's induced velocity)
 )
 
 
@@ -75,38 +76,50 @@ class Structure:
                          a.kinematic_velocity, a.backward_step_s)
 
 
-def _geometry_expr(t, p, frequency_hz):
-    """Geometry SX expressions at time t for parameters p (dict of named outputs)."""
+def _joint_angles(t, p, frequency_hz):
     joints = {j: tuple(_p(p, f"gait.{j}.{k}") for k in ("offset_deg", "amplitude_deg", "phase_deg"))
               for j in JOINT_NAMES}
-    q = kinematics.joint_angles(t, frequency_hz, joints)
+    return kinematics.joint_angles(t, frequency_hz, joints)
+
+
+def _local_expr(t, p, frequency_hz):
+    """The wing in the arm's frame (shoulder rotation R1 = I): every non-smooth step of the
+    reference (resampling, corner smoothing, nearest points) happens here, and it depends on the
+    elbow and wrist joints and the morphology only (spec 2-4; lengths and angles are invariant under
+    the shoulder rotation, so the wing in the wing frame is R1 times this shape)."""
+    q = _joint_angles(t, p, frequency_hz)
     l1, l2, l4 = (_p(p, f"wing.{k}") for k in ("arm_length_m", "forearm_length_m", "hand_length_m"))
     feathers = [_p(p, f"wing.feather_lengths_m.{i}") for i in range(7)]
-    sk = kinematics.skeleton(q, l1, l2, l4, feathers)
+    sk = kinematics.skeleton(q, l1, l2, l4, feathers, with_shoulder=False)
     LE, TE = kinematics.raw_edges(sk, l1, l2, l4, _p(p, "wing.section_half_thickness_m"))
     radius = _p(p, "wing.smoothing_radius_m")
     LEs, dle = wing.smooth_line(LE, radius)
     TEs, dte = wing.smooth_line(TE, radius)
     P, E, T, Lr, change = wing.lifting_line(LEs, TEs)
     chord, c_hat, up = wing.sections(P, E, T, Lr)
-    x_ep = _p(p, "wing.shoulder_half_separation_m")
-    Q, ch, cd, nu = wing.merge(P, chord, c_hat, up, x_ep)
-    n_mid = ca.ceil(2 * x_ep / wing.mean_spacing(P))
     diag = {k: dle[k] + dte[k] for k in dle}
     diag["improve_change"] = change
-    diag["n_mid"] = n_mid
     return {
         "joint_angles_rad": ca.vertcat(*[q[j] for j in JOINT_NAMES]),
-        "leading_edge_raw": ca.horzcat(*LE),
-        "trailing_edge_raw": ca.horzcat(*TE),
-        "leading_edge": ca.horzcat(*LEs),
-        "trailing_edge": ca.horzcat(*TEs),
-        "line": ca.horzcat(*Q),
-        "chord_m": ca.horzcat(*ch),
-        "chord_dir": ca.horzcat(*cd),
-        "up_dir": ca.horzcat(*nu),
-        "diagnostics": ca.vertcat(*[diag[k] for k in wing.DIAGNOSTICS]),
+        "leading_edge_raw": ca.horzcat(*LE), "trailing_edge_raw": ca.horzcat(*TE),
+        "leading_edge": ca.horzcat(*LEs), "trailing_edge": ca.horzcat(*TEs),
+        "P": ca.horzcat(*P), "c_hat": ca.horzcat(*c_hat), "up": ca.horzcat(*up),
+        "chord": ca.horzcat(*chord), "dx": wing.mean_spacing(P), "diag": diag,
     }
+
+
+def _shoulder(t, p, frequency_hz):
+    return kinematics.shoulder_rotation(_joint_angles(t, p, frequency_hz))
+
+
+def _columns(M):
+    return [M[:, j] for j in range(M.shape[1])]
+
+
+def _merged(R1, P, c_hat, up, chord, x_ep):
+    """Both wings on one line (33 points, spec 4.5-4.6) from the arm-frame line and R1."""
+    return wing.merge(_columns(R1 @ P), [chord[j] for j in range(chord.shape[1])],
+                      _columns(R1 @ c_hat), _columns(R1 @ up), x_ep)
 
 
 GEOMETRY_OUTPUTS = ("joint_angles_rad", "leading_edge_raw", "trailing_edge_raw", "leading_edge",
@@ -129,36 +142,77 @@ class BirdModel:
     def __init__(self, structure: Structure):
         self.structure = structure
         s = structure
+        f_hz = s.frequency_hz
         t = ca.SX.sym("t")
         p = ca.SX.sym("p", len(PARAM_NAMES))
-        g = _geometry_expr(t, p, s.frequency_hz)
-        self.geometry = ca.Function("geometry", [t, p], [g[k] for k in GEOMETRY_OUTPUTS],
-                                    ["t", "p"], list(GEOMETRY_OUTPUTS))
-        line = g["line"]
-        centres = line[:, 1::2]
-        nodes = line[:, 0::2]
+        x_ep = _p(p, "wing.shoulder_half_separation_m")
+
+        # Arm-frame shape ("pre") and its kinematic-velocity companion.
+        loc = _local_expr(t, p, f_hz)
+        P, c_hat_l, up_l, chord_l = loc["P"], loc["c_hat"], loc["up"], loc["chord"]
         if s.kinematic_velocity == "exact":
-            v_kin = ca.reshape(ca.jtimes(ca.vec(centres), t, ca.SX(1)), 3, N_EL)
+            aux = ca.jtimes(ca.vec(P), t, ca.SX(1))       # dP/dt in the arm frame
         elif s.kinematic_velocity == "backward-difference":
-            line_prev = self.geometry(t - s.backward_step_s, p)[GEOMETRY_OUTPUTS.index("line")]
-            v_kin = (centres - line_prev[:, 1::2]) / s.backward_step_s
+            aux = ca.vec(ca.Function("P_local", [t, p], [P])(t - s.backward_step_s, p))  # P(t - delta)
         else:
             raise ValueError(f"aero.kinematic_velocity must be 'exact' or 'backward-difference', got {s.kinematic_velocity!r}")
-        c_hat = g["chord_dir"][:, 1::2]
-        up = g["up_dir"][:, 1::2]
-        chord = g["chord_m"][1::2]
+        ell = ca.vertcat(ca.vec(P), ca.vec(c_hat_l), ca.vec(up_l), ca.vec(chord_l), aux)
+        self.pre = ca.Function("wing_local", [t, p], [ell], ["t", "p"], ["local"])
+        self.pre_params = tuple(int(k) for k in np.nonzero(
+            np.asarray(ca.DM(ca.jacobian_sparsity(ell, p), 1)).sum(axis=0))[0])
+
+        # Geometry for users and plots: the arm-frame shape rotated by R1, merged.
+        R1 = _shoulder(t, p, f_hz)
+        Q, ch, cd, nu = _merged(R1, P, c_hat_l, up_l, chord_l, x_ep)
+        diag = dict(loc["diag"], n_mid=ca.ceil(2 * x_ep / loc["dx"]))
+        geo = {
+            "joint_angles_rad": loc["joint_angles_rad"],
+            "leading_edge_raw": R1 @ loc["leading_edge_raw"], "trailing_edge_raw": R1 @ loc["trailing_edge_raw"],
+            "leading_edge": R1 @ loc["leading_edge"], "trailing_edge": R1 @ loc["trailing_edge"],
+            "line": ca.horzcat(*Q), "chord_m": ca.horzcat(*ch), "chord_dir": ca.horzcat(*cd),
+            "up_dir": ca.horzcat(*nu), "diagnostics": ca.vertcat(*[diag[k] for k in wing.DIAGNOSTICS]),
+        }
+        self.geometry = ca.Function("geometry", [t, p], [geo[k] for k in GEOMETRY_OUTPUTS],
+                                    ["t", "p"], list(GEOMETRY_OUTPUTS))
+
+        # Assembly ("post"): shoulder rotation, merge, kinematic velocity, lifting-line matrices.
+        L = ca.SX.sym("local", ell.numel())
+        k = 0
+        blocks_l = []
+        for n in (48, 48, 48, 16, 48):
+            blocks_l.append(L[k:k + n])
+            k += n
+        P_s = ca.reshape(blocks_l[0], 3, N_EL)
+        c_s = ca.reshape(blocks_l[1], 3, N_EL)
+        u_s = ca.reshape(blocks_l[2], 3, N_EL)
+        ch_s = ca.reshape(blocks_l[3], 1, N_EL)
+        aux_s = ca.reshape(blocks_l[4], 3, N_EL)
+        Q, ch, cd, nu = _merged(R1, P_s, c_s, u_s, ch_s, x_ep)
+        line = ca.horzcat(*Q)
+        centres, nodes = line[:, 1::2], line[:, 0::2]
+        if s.kinematic_velocity == "exact":
+            Pdot = ca.jtimes(R1, t, ca.SX(1)) @ P_s + R1 @ aux_s
+            Qd = wing.merge(_columns(Pdot), [0] * N_EL, _columns(P_s), _columns(P_s), 0.0)[0]
+            v_kin = ca.horzcat(*Qd)[:, 1::2]
+        else:
+            R1_prev = _shoulder(t - s.backward_step_s, p, f_hz)
+            Qp = wing.merge(_columns(R1_prev @ aux_s), [0] * N_EL, _columns(P_s), _columns(P_s), x_ep)[0]
+            v_kin = (centres - ca.horzcat(*Qp)[:, 1::2]) / s.backward_step_s
+        c_hat = ca.horzcat(*cd)[:, 1::2]
+        up = ca.horzcat(*nu)[:, 1::2]
+        chord = ca.horzcat(*ch)[1::2]
         tau = ca.horzcat(*[ca.cross(up[:, j], c_hat[:, j]) for j in range(N_EL)])
         ds = ca.vertcat(*[ca.norm_2(nodes[:, j + 1] - nodes[:, j]) for j in range(N_EL)])
         r_w = ca.vertcat(0, 0, -_p(p, "wing.root_ahead_m"))
         r = centres + ca.repmat(r_w, 1, N_EL)
         G, Wx, Wy = aero.circulation_matrices(
-            [centres[:, j] for j in range(N_EL)], [nodes[:, j] for j in range(N_EL + 1)],
-            [chord[j] for j in range(N_EL)], _p(p, "aero.lift_slope_per_rad"),
-            s.circulation, s.relaxed_evaluations)
+            _columns(centres), _columns(nodes), [chord[j] for j in range(N_EL)],
+            _p(p, "aero.lift_slope_per_rad"), s.circulation, s.relaxed_evaluations)
         blocks = {"r_m": r, "v_kin_mps": v_kin, "c_hat": c_hat, "up": up, "tau": tau, "ds_m": ds,
-                  "G": G, "Wx": Wx, "Wy": Wy}
+                  "G": G, "Wx": Wx, "Wy": Wy, "nodes_m": nodes + ca.repmat(r_w, 1, N_EL + 1)}
         d = ca.vertcat(*[ca.vec(blocks[name]) for name, _ in DATA_BLOCKS])
-        self.data = ca.Function("data", [t, p], [d], ["t", "p"], ["d"])
+        self.post = ca.Function("wing_assemble", [L, t, p], [d], ["local", "t", "p"], ["d"])
+        self.data = ca.Function("data", [t, p], [self.post(ell, t, p)], ["t", "p"], ["d"])
 
         # State part.
         x = ca.SX.sym("x", 4)
@@ -193,7 +247,8 @@ class BirdModel:
                                        ["x", "t", "p"], ["gamma", "alpha_rad", "vp_mps", "F_code"])
         self.period_s = 1.0 / s.frequency_hz
         self.ode = PeriodicODE(rhs=self.rhs, data=self.data, period_s=self.period_s,
-                               state_names=STATE_NAMES, param_names=PARAM_NAMES)
+                               state_names=STATE_NAMES, param_names=PARAM_NAMES,
+                               pre=self.pre, post=self.post, pre_params=self.pre_params)
 
     def evaluate(self, state, t, p) -> dict:
         """Body-frame loads and the state derivative at one (state, t) for parameters p."""

@@ -35,6 +35,11 @@ class PeriodicODE:
     data: Function (t[1], p[np]) -> d[nd] (column). It may be large; the engine evaluates it on the
           RK4 stage-time grid only (numerically when no parameter is free).
     period_s: the period T of the forcing in seconds (the orbit is sought with this period).
+    pre, post, pre_params (optional): a factorisation ``data(t, p) = post(pre(t, p), t, p)`` where
+          ``pre`` depends only on the parameters ``pre_params``. When no free parameter of a problem
+          is in ``pre_params``, the engine evaluates ``pre`` numerically once per solve and keeps only
+          ``post`` symbolic (e.g. the bird: the wing shape in the arm's frame is numeric, the
+          shoulder rotation, merge and lifting-line matrices are symbolic in the amplitude).
 
     Equality is identity (``eq=False``): the engine caches CasADi graphs per ODE object.
     """
@@ -44,6 +49,9 @@ class PeriodicODE:
     period_s: float
     state_names: tuple[str, ...] = ()
     param_names: tuple[str, ...] = ()
+    pre: ca.Function | None = None
+    post: ca.Function | None = None
+    pre_params: tuple[int, ...] = ()
 
     def __post_init__(self):
         _check_function(self.rhs, "PeriodicODE.rhs", 3)
@@ -61,6 +69,13 @@ class PeriodicODE:
             raise ValueError(f"PeriodicODE.data: output must be a column of size nd={nd}, got {self.data.size_out(0)}")
         if self.state_names and len(self.state_names) != nx:
             raise ValueError(f"PeriodicODE.state_names: {len(self.state_names)} names for nx={nx} states")
+        if (self.pre is None) != (self.post is None):
+            raise ValueError("PeriodicODE: pre and post go together")
+        if self.pre is not None:
+            _check_function(self.pre, "PeriodicODE.pre", 2)
+            _check_function(self.post, "PeriodicODE.post", 3)
+            if self.post.size_in(0) != self.pre.size_out(0) or self.post.size_out(0) != (nd, 1):
+                raise ValueError("PeriodicODE.post: takes pre's output and returns the data vector")
         if self.param_names and len(self.param_names) != np_:
             raise ValueError(f"PeriodicODE.param_names: {len(self.param_names)} names for np={np_} parameters")
 
