@@ -59,6 +59,7 @@ def main():
     ap.add_argument("--out", default="results/experiment3")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--rear-sm", type=float, default=-5.0, help="how far towards the rear (SM %%) to continue")
+    ap.add_argument("--reuse", action="store_true", help="reuse the branch_*.json of --out (no continuation)")
     a = ap.parse_args()
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -67,13 +68,20 @@ def main():
              "to_sm": (-32.5 if d == "up" else a.rear_sm), "step": 0.5,
              "max_dparam": 1.0, "max_dstate": 1.5}
             for fam in ("fixed", "level") for d in ("down", "up")]
-    with get_executor(jobs=a.jobs) as ex:
-        res = ex.map(run_half, jobs)
-    wall_branches = time.perf_counter() - t0
+    if a.reuse:  # the half-branches of an earlier run of this script (figures, checks and tables redone)
+        res = []
+        for j in jobs:
+            d = json.loads((out / f"branch_{j['name']}.json").read_text())
+            res.append({"name": j["name"], "branch": d})
+        wall_branches = None
+    else:
+        with get_executor(jobs=a.jobs) as ex:
+            res = ex.map(run_half, jobs)
+        wall_branches = time.perf_counter() - t0
     halves = {r["name"]: Branch.from_dict(r["branch"]) for r in res}
-    job_wall = {r["name"]: r["branch"]["job_wall_s"] for r in res}
-    for name, br in halves.items():
-        atomic_write_json(out / f"branch_{name}.json", br.to_dict())
+    job_wall = {r["name"]: r["branch"].get("job_wall_s", r["branch"]["wall_s"]) for r in res}
+    for r in res:
+        atomic_write_json(out / f"branch_{r['name']}.json", r["branch"])
     fams = {"fixed": merge(halves["fixed_down"], halves["fixed_up"]),
             "level": merge(halves["level_down"], halves["level_up"])}
     labels = {"fixed": "A = 42 deg", "level": "level flight"}
