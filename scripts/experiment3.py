@@ -144,7 +144,7 @@ def main():
     for k, br in fams.items():
         lines += [f"## {labels[k]}", "",
                   "| SM [%] | root [cm] | " + ("A [deg] | " if br.free_names else "")
-                  + "Λ1 | |Λ2| | |Λ3| | |Λ4| | U [m/s] | W [m/s] | stable |",
+                  + "Λ1 | abs Λ2 | abs Λ3 | abs Λ4 | U [m/s] | W [m/s] | stable |",
                   "|---:|---:|" + ("---:|" if br.free_names else "") + "---:|---:|---:|---:|---:|---:|:---:|"]
         for p in br.points:
             L = [complex(*m) for m in p.multipliers]
@@ -161,7 +161,7 @@ def main():
                   "Special points: " + (", ".join(f"{sp['kind']} at SM {sp['sm_percent']:.4f} %"
                                                    for sp in s["special_points"]) or "none") + ".",
                   f"Stable cycle anywhere on the branch: {'YES' if s['stable_anywhere'] else 'NO'}.", ""]
-    lines += ["## Independent trims (A = 42 deg)", "", "| SM [%] | max |ΔΛ| | max |Δx0| |", "|---:|---:|---:|"]
+    lines += ["## Independent trims (A = 42 deg)", "", "| SM [%] | max abs ΔΛ | max abs Δx0 |", "|---:|---:|---:|"]
     lines += [f"| {c['sm_percent']:.3f} | {c['max_abs_multiplier_difference']:.2e} | {c['max_abs_x0_difference']:.2e} |"
               for c in checks]
     atomic_write_text(out / "table.md", "\n".join(lines) + "\n")
