@@ -128,6 +128,9 @@ class Aero:
 class Tail:
     """Optional slender delta-wing tail behind G (spec 7); off (zero loads) at opening angle 0."""
 
+    enabled: bool = False
+    """Put the tail terms in the model graphs. Implied by an opening angle > 0; set it to study the
+    tail from an opening angle of 0 (which gives exactly zero loads)."""
     opening_angle_deg: float = 0.0
     """Opening angle beta of the delta; span = 2 length tan(beta / 2). 0 = no tail."""
     root_behind_m: float = 0.30
@@ -183,7 +186,7 @@ def _param_names() -> tuple[str, ...]:
         for f in fields(Joint):
             names.append(f"gait.{j}.{f.name}")
     names += ["aero.air_density_kgm3", "aero.lift_slope_per_rad"]
-    names += [f"tail.{f.name}" for f in fields(Tail)]
+    names += [f"tail.{f.name}" for f in fields(Tail) if f.type in ("float", float)]
     return tuple(names)
 
 
@@ -235,7 +238,7 @@ def validate(cfg: Config) -> None:
     """Raise :class:`ConfigError` on the first non-physical value."""
     for key in _flat_keys(cfg):
         value = get_value(cfg, key)
-        if isinstance(value, str) or isinstance(value, tuple):
+        if isinstance(value, (str, tuple, bool)):
             continue
         if isinstance(value, int) and not isinstance(value, bool) and key.startswith(("solve.", "aero.relaxed")):
             continue

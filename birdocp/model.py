@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from . import aero, kinematics, wing
+from . import aero, kinematics, tail, wing
 from .config import JOINT_NAMES, PARAM_NAMES, Config, param_vector
 from .problem import PeriodicODE
 
@@ -68,12 +68,14 @@ class Structure:
     relaxed_evaluations: int
     kinematic_velocity: str
     backward_step_s: float
+    tail: bool = False
 
     @staticmethod
     def of(cfg: Config) -> "Structure":
         a = cfg.aero
         return Structure(cfg.gait.frequency_hz, a.circulation, a.relaxed_evaluations,
-                         a.kinematic_velocity, a.backward_step_s)
+                         a.kinematic_velocity, a.backward_step_s,
+                         bool(cfg.tail.enabled or cfg.tail.opening_angle_deg > 0))
 
 
 def _joint_angles(t, p, frequency_hz):
@@ -226,6 +228,12 @@ class BirdModel:
         grav = _p(p, "body.gravity_mps2")
         u, w, q, theta = x[0], x[1], x[2], x[3]
         Fx, Fz, My = -F[2], -F[1], M
+        if s.tail:
+            Lt, Dt, Mt = tail.tail_loads(x, b["nodes_m"], Gamma, _p(p, "aero.air_density_kgm3"),
+                                         *[_p(p, f"tail.{k}") for k in (
+                                             "opening_angle_deg", "root_behind_m", "length_m",
+                                             "kinematic_viscosity_m2ps", "reynolds_speed_mps")])
+            Fx, Fz, My = Fx - Dt, Fz - Lt, My + Mt
         xdot = ca.vertcat(-q * w - grav * ca.sin(theta) + Fx / m,
                           q * u + grav * ca.cos(theta) + Fz / m,
                           My / I,
