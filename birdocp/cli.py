@@ -116,6 +116,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     _add_level_parsers(sub, common)
 
+    from .cli_study import add_study_parsers
+
+    add_study_parsers(sub, common, _Parser)
+
     p = sub.add_parser("config", parents=[common], help="print the resolved configuration as TOML",
                        description="Print the resolved configuration (defaults <- CONFIG <- --set <- flags) as "
                                    "TOML, e.g. to start a configuration file: birdocp config > bird.toml")
