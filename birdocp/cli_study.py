@@ -31,8 +31,8 @@ def add_study_parsers(sub, common, parser_class) -> None:
                                    "monodromy's characteristic polynomial), then verify with numpy "
                                    "eigenvalues and a trim from scratch at the optimum.")
     p.add_argument("--free", action="append", metavar="KEY",
-                   help="free parameter (repeatable; default: shoulder incidence and sweep offsets, "
-                        "amplitudes and phases)")
+                   help="free parameter (repeatable; default: shoulder incidence and sweep offsets "
+                        "and amplitudes)")
     p.add_argument("--bounds", action="append", metavar="KEY=LO:HI",
                    help="bounds of a free parameter (repeatable; default: birdocp.optimize.DEFAULT_FREE)")
     p.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS", help="mean vertical speed (default 0)")
@@ -132,7 +132,7 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
             raise ConfigError("--bounds", f"'{k}' is not free; add --free {k}")
     run_dir = claim_out_dir(args.out, "optimize-stability") if args.out else new_run_dir(None, "optimize-stability")
     with cli._stdout_to_stderr():
-        res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate)
+        res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, progress=not args.json)
     result = res.to_dict()
     result["run_dir"] = str(run_dir)
     write_run(run_dir, res.cfg or cfg, result, None, command_line, command="optimize-stability")

@@ -199,6 +199,15 @@ class Continuation:
         self.times = ca.DM(grid.times(float(problem.t0)).reshape(1, -1))
         self._memo: dict = {}
         self.pidx = self.free_idx + [self.j]   # parameter unknowns, in the order of z
+        # data = post(pre(t, p), t, p): when no unknown parameter enters pre (the bird: the wing shape
+        # in the arm frame), pre is evaluated once and only post (and its derivatives) per step
+        self.split = ode.pre is not None and not (set(self.pidx) & set(ode.pre_params))
+        if self.split:
+            K = 2 * N + 1
+            self.pre_map = ode.pre.map(K)
+            self.post_map = ode.post.map(K)
+            self.post_fwd = ode.post.forward(1).map(K)
+            self._local = (None, None)
         self.nz = nx * (S + 1) + len(self.pidx)
         self.evaluations = 0
 
@@ -221,16 +230,29 @@ class Continuation:
         if hit is not None:
             return hit
         pd = ca.DM(p)
-        Dg = self.data_map(self.times, pd)
         idx = self.grid.block_index
-        D = Dg[:, idx]
+        zt = ca.DM.zeros(1, 2 * self.N + 1)
         dDs = []
-        if with_derivs:
-            zt = ca.DM.zeros(1, 2 * self.N + 1)
-            for j in self.pidx:
-                e = np.zeros(p.size)
-                e[j] = 1.0
-                dDs.append(self.data_fwd(self.times, pd, Dg, zt, ca.DM(e))[:, idx])
+        if self.split:
+            kpre = p[list(self.ode.pre_params)].tobytes()
+            if self._local[0] != kpre:
+                self._local = (kpre, self.pre_map(self.times, pd))
+            local = self._local[1]
+            Dg = self.post_map(local, self.times, pd)
+            if with_derivs:
+                zl = ca.DM.zeros(local.shape)
+                for j in self.pidx:
+                    e = np.zeros(p.size)
+                    e[j] = 1.0
+                    dDs.append(self.post_fwd(local, self.times, pd, Dg, zl, zt, ca.DM(e))[:, idx])
+        else:
+            Dg = self.data_map(self.times, pd)
+            if with_derivs:
+                for j in self.pidx:
+                    e = np.zeros(p.size)
+                    e[j] = 1.0
+                    dDs.append(self.data_fwd(self.times, pd, Dg, zt, ca.DM(e))[:, idx])
+        D = Dg[:, idx]
         out = (D, dDs)
         self._memo[key] = out
         while len(self._memo) > 6:
