@@ -119,11 +119,14 @@ def stability_optimum(out: Path):
     return res
 
 
-def tail_study(out: Path, max_angle: float):
+def tail_study(out: Path, max_angle: float, reuse: bool = False):
     out.mkdir(parents=True, exist_ok=True)
     cfg = with_values(Config(), {"tail.enabled": True})
     results = {}
     for name, level in (("level", True), ("fixed_42deg", False)):
+        if reuse and (out / f"branch_{name}.json").exists():
+            results[name] = json.loads((out / f"branch_{name}.json").read_text())
+            continue
         t0 = time.perf_counter()
         br = bird_branch(cfg, "tail.opening_angle_deg", 0.0, max_angle, level=level,
                          bounds=(20.0, 90.0) if level else None)
@@ -149,13 +152,24 @@ def tail_study(out: Path, max_angle: float):
     axes[1].set_ylabel("level-flight amplitude [deg]")
     axes[1].set_title("flapping amplitude needed for level flight")
     save(fig, out / "tail.png")
-    lines = ["# The tail: continuation in its opening angle\n", "| family | β range [deg] | end | |Λ1| at β = 0 | min |Λ1| | stable anywhere |",
-             "|---|---|---|---|---|---|"]
+    lines = ["# The tail: continuation in its opening angle\n",
+             "Stable in flight = all |Λ| < 1 with |mean W| < 1 m/s and |θ(0)| < 45 deg (a cycle, not a dive).\n",
+             "| family | β range [deg] | end | \\|Λ1\\| at β = 0 | min \\|Λ1\\| in flight | special points | stable anywhere | stable in flight |",
+             "|---|---|---|---|---|---|---|---|"]
     for name, d in results.items():
-        beta = [p["parameter"] for p in d["points"]]
-        m1 = [abs(complex(*p["multipliers"][0])) for p in d["points"]]
+        pts = d["points"]
+        beta = [p["parameter"] for p in pts]
+        m1 = [abs(complex(*p["multipliers"][0])) for p in pts]
+        flight = [abs(p["means"].get("vertical_speed_mps", 0.0)) < 1.0 and abs(p["x0"][3]) < np.pi / 4 for p in pts]
+        mf = [m for m, f in zip(m1, flight) if f]
+        bf = [b for b, f in zip(beta, flight) if f]
+        k = int(np.argmin(mf)) if mf else None
+        sp = "; ".join(f"{q['kind']} at β = {q['parameter']:.3f} (mean W "
+                       f"{pts[q['between'][0]]['means'].get('vertical_speed_mps', float('nan')):.1f} m/s, θ(0) "
+                       f"{np.degrees(q['x0'][3]):.0f} deg)" for q in d.get("special_points", [])) or "none"
         lines.append(f"| {name} | {min(beta):.2f} - {max(beta):.2f} | {d['end_reason']} | {m1[0]:.4f} | "
-                     f"{min(m1):.4f} (β = {beta[int(np.argmin(m1))]:.2f}) | {'yes' if min(m1) < 1 else 'no'} |")
+                     + (f"{mf[k]:.4f} (β = {bf[k]:.2f})" if mf else "-") + f" | {sp} | "
+                     f"{'yes' if min(m1) < 1 else 'no'} | {'yes' if mf and min(mf) < 1 else 'no'} |")
     atomic_write_text(out / "table.md", "\n".join(lines) + "\n")
     return results
 
@@ -165,12 +179,13 @@ def main():
     ap.add_argument("--skip-tail", action="store_true")
     ap.add_argument("--skip-optimum", action="store_true")
     ap.add_argument("--tail-max-deg", type=float, default=60.0)
+    ap.add_argument("--reuse", action="store_true", help="redraw the tail study from its branch files")
     args = ap.parse_args()
     if not args.skip_optimum:
         res = stability_optimum(Path("results/stability_optimum"))
         print(open("results/stability_optimum/table.md").read())
     if not args.skip_tail:
-        tail_study(Path("results/tail"), args.tail_max_deg)
+        tail_study(Path("results/tail"), args.tail_max_deg, reuse=args.reuse)
         print(open("results/tail/table.md").read())
 
 
