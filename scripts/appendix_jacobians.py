@@ -33,8 +33,9 @@ from birdocp.integrate import RK4Grid
 from birdocp.io import atomic_write_json, atomic_write_text
 from birdocp.model import get_model
 from birdocp.studies import trim
+from birdocp.reference import reference_dir
 
-REFERENCE = Path("/work/shared/reference/reference_cycle.json")
+REFERENCE = reference_dir() / "reference_cycle.json"
 RELAXED = {"aero.circulation": "relaxed", "aero.kinematic_velocity": "backward-difference"}
 METHODS = {
     "lm_exact": ("LM, exact CasADi Jacobians", {"solver": "lm", "derivatives": "exact"}),

@@ -14,8 +14,9 @@ from birdocp import wing
 from birdocp.config import Config, with_values
 from birdocp.io import atomic_write_json
 from birdocp.model import GEOMETRY_OUTPUTS, get_model, unpack_data
+from birdocp.reference import reference_dir
 
-REF = Path(__file__).resolve().parents[2] / "shared" / "reference"
+REF = reference_dir()
 
 
 def main():

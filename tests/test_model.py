@@ -11,10 +11,9 @@ import pytest
 from birdocp import wing
 from birdocp.config import PARAM_NAMES, Config, with_values
 from birdocp.model import GEOMETRY_OUTPUTS, get_model, unpack_data
+from birdocp.reference import reference_dir
 
-REF = Path(__file__).resolve().parents[2] / "shared" / "reference"
-if not REF.is_dir():  # CI clones main with shared/ beside it
-    REF = Path(__file__).resolve().parents[1].parent / "shared" / "reference"
+REF = reference_dir()
 FIX = json.loads((REF / "force_fixtures.json").read_text())
 
 

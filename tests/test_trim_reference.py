@@ -8,8 +8,9 @@ import pytest
 
 from birdocp.config import Config, with_values
 from birdocp.studies import trim
+from birdocp.reference import reference_dir
 
-REF = Path(__file__).resolve().parents[2] / "shared" / "reference"
+REF = reference_dir()
 CYCLE = json.loads((REF / "reference_cycle.json").read_text())
 RK4 = CYCLE["rk4_period_map_monodromy_central_differences"]
 REF_MULT = np.array(RK4["multipliers_re"]) + 1j * np.array(RK4["multipliers_im"])

@@ -1,0 +1,30 @@
+"""Where the reference numbers live: ``$BIRDOCP_REFERENCE``, else ``../shared/reference`` beside
+the repository (the team's shared folder), else the copy in ``tests/reference`` (looked up beside
+the package's source and beside the working directory)."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+_REPO = Path(__file__).resolve().parents[1]
+
+
+def reference_dir() -> Path:
+    env = os.environ.get("BIRDOCP_REFERENCE")
+    here = Path.cwd()
+    candidates = ([Path(env)] if env else []) + [
+        _REPO.parent / "shared" / "reference", _REPO / "tests" / "reference",   # a source checkout
+        here.parent / "shared" / "reference", here / "tests" / "reference",     # an installed package run from the repo
+    ]
+    for c in candidates:
+        if (c / "reference_cycle.json").is_file():
+            return c
+    raise FileNotFoundError("reference numbers not found: set BIRDOCP_REFERENCE to the folder holding "
+                            "reference_cycle.json and force_fixtures.json")
+
+
+def load(name: str) -> dict:
+    """``load("force_fixtures")`` or ``load("reference_cycle")``."""
+    return json.loads((reference_dir() / f"{name}.json").read_text())
