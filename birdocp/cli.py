@@ -400,6 +400,18 @@ def cmd_forces(args: argparse.Namespace, command_line: list[str]) -> int:
     return EXIT_OK
 
 
+def _finish_result(result: dict, command: str, t_start: float, run_dir: Path) -> None:
+    """The solver's own total wall time becomes ``wall_s[command]``; ``wall_s.total`` is the whole
+    command's; ``run_dir`` is recorded."""
+    wall = result.get("wall_s")
+    wall = dict(wall) if isinstance(wall, dict) else ({} if wall is None else {command: wall})
+    if "total" in wall:
+        wall[command] = wall.pop("total")
+    wall["total"] = time.perf_counter() - t_start
+    result["wall_s"] = wall
+    result["run_dir"] = str(run_dir)
+
+
 def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
     from .runs import claim_out_dir, new_run_dir, write_run
 
@@ -418,13 +430,7 @@ def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
         with contextlib.suppress(OSError):
             run_dir.rmdir()
         raise
-    wall = result.get("wall_s")
-    wall = dict(wall) if isinstance(wall, dict) else ({} if wall is None else {"trim": wall})
-    if "total" in wall:
-        wall["trim"] = wall.pop("total")
-    wall["total"] = time.perf_counter() - t_start
-    result["wall_s"] = wall
-    result["run_dir"] = str(run_dir)
+    _finish_result(result, "trim", t_start, run_dir)
     write_run(run_dir, cfg, result, arrays, command_line, command="trim")
 
     if args.json:
@@ -620,12 +626,7 @@ def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
     result["free_value"] = result.get("free_values", {}).get(free)
     result["constrain"] = kw["constrain"]
     result["target"] = kw.get("target", kw["climb_rate_mps"])
-    wall = dict(result.get("wall_s") or {})
-    if "total" in wall:
-        wall["level"] = wall.pop("total")
-    wall["total"] = time.perf_counter() - t_start
-    result["wall_s"] = wall
-    result["run_dir"] = str(run_dir)
+    _finish_result(result, "level", t_start, run_dir)
     write_run(run_dir, cfg, result, arrays, command_line, command="level")
 
     if args.json:
