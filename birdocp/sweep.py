@@ -113,13 +113,15 @@ def row_of(index: int, key: str, value: float, d: dict, free_key: str | None, wa
     return row
 
 
-def _csv_text(rows: list[dict]) -> str:
+def _csv_text(rows: list[dict], columns=None) -> str:
+    """The table as CSV (floats written with repr, so they read back exactly; None as empty)."""
+    columns = CSV_COLUMNS if columns is None else columns
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=CSV_COLUMNS, lineterminator="\n")
+    w = csv.DictWriter(buf, fieldnames=columns, lineterminator="\n")
     w.writeheader()
     for r in rows:
         w.writerow({k: ("" if r.get(k) is None else (repr(r[k]) if isinstance(r[k], float) else r[k]))
-                    for k in CSV_COLUMNS})
+                    for k in columns})
     return buf.getvalue()
 
 
@@ -333,13 +335,7 @@ def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: s
         spec = {k: base[k] for k in ("key", "values", "row_key", "level", "warm", "level_options", "method_over",
                                      "config")}
         atomic_write_json(out / "grid.json", to_jsonable(dict(spec, row_values=row_values, points=table)))
-        buf = io.StringIO()
-        w = csv.DictWriter(buf, fieldnames=GRID_COLUMNS, lineterminator="\n")
-        w.writeheader()
-        for r in table:
-            w.writerow({k: ("" if r.get(k) is None else (repr(r[k]) if isinstance(r[k], float) else r[k]))
-                        for k in GRID_COLUMNS})
-        atomic_write_text(out / "grid.csv", buf.getvalue())
+        atomic_write_text(out / "grid.csv", _csv_text(table, GRID_COLUMNS))
         atomic_write_json(out / "timing.json", {**executor.describe(), "wall_s": wall,
                                                 "row_wall_s": [r["wall_s"] for r in sorted(results, key=lambda r: r["row"])]})
     return table
