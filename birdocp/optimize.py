@@ -29,6 +29,7 @@ import casadi as ca
 import numpy as np
 
 from .config import PARAM_NAMES, Config, ConfigError, get_value, with_values
+from .oracle import ConstraintOracle
 
 __all__ = ["DEFAULT_FREE", "optimize_stability", "StabilityOptimum", "jury_conditions"]
 
@@ -126,6 +127,7 @@ class _Evaluator:
         self.nf = len(idx)
         self.nz = 4 + self.nf + 1
         self.ng = 4 + 1 + 5
+        self.jac_sparsity = ca.Sparsity.dense(self.ng, self.nz)
         self.climb = climb_rate_mps
         np_ = len(p0)
         L, t, p, dp = ca.SX.sym("local", model.pre.size1_out(0)), ca.SX.sym("t"), ca.SX.sym("p", np_), ca.SX.sym("dp", np_)
@@ -204,40 +206,6 @@ class _Evaluator:
         return J
 
 
-class _StabilityOracle(ca.Callback):
-    """g(z) for IPOPT with its dense Jacobian from :class:`_Evaluator` (line-search trial points
-    cost one period map; the Jacobian only where IPOPT asks for it)."""
-
-    def __init__(self, ev, jac: bool = False):
-        ca.Callback.__init__(self)
-        self.ev, self.is_jac, self._jac = ev, jac, None
-        self.construct("stability_jac_g" if jac else "stability_g", {})
-
-    def get_n_in(self):
-        return 2 if self.is_jac else 1
-
-    def get_n_out(self):
-        return 1
-
-    def get_sparsity_in(self, i):
-        return ca.Sparsity.dense(self.ev.nz if i == 0 else self.ev.ng, 1)
-
-    def get_sparsity_out(self, i):
-        return ca.Sparsity.dense(self.ev.ng, self.ev.nz) if self.is_jac else ca.Sparsity.dense(self.ev.ng, 1)
-
-    def eval(self, arg):
-        z = np.asarray(arg[0], float).ravel()
-        return [ca.DM(self.ev.jacobian(z) if self.is_jac else self.ev.g(z))]
-
-    def has_jacobian(self, *args):
-        return not self.is_jac
-
-    def get_jacobian(self, name, inames, onames, opts):
-        if self._jac is None:
-            self._jac = _StabilityOracle(self.ev, True)
-        return self._jac
-
-
 def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, climb_rate_mps: float = 0.0,
                        amplitude_bounds=(20.0, 70.0), steps_per_period: int | None = None,
                        max_iter: int = 400, tol: float = 1e-7, verify: bool = True,
@@ -268,7 +236,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
         return coarse
     from .level import level
     from .model import get_model
-    from .studies import flight_outputs, trim
+    from .studies import trim
 
     cfg = cfg or Config()
     free = dict(DEFAULT_FREE if free is None else free)
@@ -298,7 +266,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
                                 np.full(4, np.nan), cfg=cfg)
     wall = {"start_level": time.perf_counter() - t0}
 
-    # NLP: z = (x0, free params, amplitude, r); constraints evaluated by _StabilityOracle.
+    # NLP: z = (x0, free params, amplitude, r); constraints evaluated by a ConstraintOracle.
     t0 = time.perf_counter()
     keys = list(free) + [AMPLITUDE_KEY]
     idx = [PARAM_NAMES.index(k) for k in keys]
@@ -306,7 +274,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     ev = _Evaluator(m, N, p0, idx, climb_rate_mps)
     ev.progress = progress
     z = ca.MX.sym("z", ev.nz)
-    g_cb = _StabilityOracle(ev)
+    g_cb = ConstraintOracle(ev, "stability")
     nlp = {"x": z, "f": z[-1], "g": g_cb(z)}
     opts = {"ipopt.hessian_approximation": "limited-memory", "ipopt.sb": "yes", "ipopt.print_level": 0,
             "print_time": False, "ipopt.max_iter": int(max_iter), "ipopt.tol": tol,

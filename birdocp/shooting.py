@@ -18,7 +18,6 @@ data grid and the parameter vector are NLP parameters, not constants baked into 
 """
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -27,6 +26,7 @@ import numpy as np
 
 from .floquet import floquet_from_jacobians
 from .integrate import RK4Grid
+from .oracle import ConstraintOracle
 from .problem import LimitCycleProblem
 
 __all__ = ["MultipleShooting", "LimitCycleResult", "solve", "clear_cache"]
@@ -201,42 +201,6 @@ def _get_grid(ode, method: MultipleShooting, outputs) -> RK4Grid:
     return grid
 
 
-class _Oracle(ca.Callback):
-    """The constraints g(z) for IPOPT, evaluated by :class:`_Builder` (values and Jacobian together)."""
-
-    def __init__(self, builder, jac: bool):
-        ca.Callback.__init__(self)
-        self.b, self.is_jac = builder, jac
-        self._jac_cb = None
-        self.construct("shooting_jac_g" if jac else "shooting_g", {})
-
-    def get_n_in(self):
-        return 2 if self.is_jac else 1
-
-    def get_n_out(self):
-        return 1
-
-    def get_sparsity_in(self, i):
-        return ca.Sparsity.dense(self.b.nz if i == 0 else self.b.ng, 1)
-
-    def get_sparsity_out(self, i):
-        return self.b.jac_sparsity if self.is_jac else ca.Sparsity.dense(self.b.ng, 1)
-
-    def eval(self, arg):
-        g, J = self.b.evaluate(np.asarray(arg[0], float).ravel())
-        if self.is_jac:
-            return [ca.DM(self.b.jac_sparsity, J[self.b.jac_rows, self.b.jac_cols])]
-        return [ca.DM(g)]
-
-    def has_jacobian(self, *args):
-        return not self.is_jac
-
-    def get_jacobian(self, name, inames, onames, opts):
-        if self._jac_cb is None:
-            self._jac_cb = _Oracle(self.b, True)
-        return self._jac_cb
-
-
 class _Builder:
     """The graphs of one shooting configuration (see module docstring for the cache key).
 
@@ -345,7 +309,7 @@ class _Builder:
         self._oracle = None
 
     def _jac_pattern(self):
-        nx, S, nf, nm = self.nx, self.S, self.nf, self.nm
+        nx, S, nf = self.nx, self.S, self.nf
         P = np.zeros((self.ng, self.nz), bool)
         I = np.eye(nx, dtype=bool)
         for i in range(S):
@@ -360,8 +324,6 @@ class _Builder:
             P[(S + 1) * nx:, -nf:] = True
         rows, cols = np.nonzero(P.T)  # column-major order, as CasADi stores nonzeros
         self.jac_sparsity = ca.Sparsity.triplet(self.ng, self.nz, cols.tolist(), rows.tolist())
-        r, c = self.jac_sparsity.get_triplet()
-        self.jac_rows, self.jac_cols = np.asarray(r), np.asarray(c)
 
     # -- numbers of one solve ----------------------------------------------------------------
     def set_context(self, dpar: ca.DM, p, targets) -> None:
@@ -411,6 +373,12 @@ class _Builder:
         self._last = (key, g, A, Jb)
         return g, A
 
+    def g(self, z):
+        return self.evaluate(z)[0]
+
+    def jacobian(self, z):
+        return self.evaluate(z)[1]
+
     def blocks_at(self, z):
         """The segment Jacobians J_i (list) at z if z is the last evaluated point, else None."""
         z = np.asarray(z, float).ravel()
@@ -424,7 +392,7 @@ class _Builder:
     def resid(self, z):
         if self._resid is None:
             X, pf, dsym, pp, tgt, D, pfull = self._sym
-            nx, S, nm = self.nx, self.S, self.nm
+            S, nm = self.S, self.nm
             Xe, _, Q = self.grid.segments(X[:, :S], D, pfull)
             means = ca.sum2(Q) / self.ode.period_s if self.grid.nq else ca.MX(0, 1)
             mres = means[list(range(nm))] - tgt if nm else ca.MX(0, 1)
@@ -448,7 +416,7 @@ class _Builder:
             if self._nlp is None:
                 # objective: regularization/2 * |z - z_ref|^2 (z_ref = the initial guess, an NLP
                 # parameter); the weight is a parameter too, so 0 (pure feasibility) and >0 share one graph
-                self._oracle = _Oracle(self, False)
+                self._oracle = ConstraintOracle(self, "shooting")
                 z = ca.MX.sym("z", self.nz)
                 zref = ca.MX.sym("zref", self.nz)
                 wreg = ca.MX.sym("wreg")

@@ -1,0 +1,51 @@
+"""IPOPT constraints as a CasADi Callback around a numeric evaluator.
+
+The evaluator supplies ``nz``, ``ng``, ``jac_sparsity`` (a ``casadi.Sparsity`` of dg/dz), ``g(z)``
+(values) and ``jacobian(z)`` (a dense array whose entries outside the sparsity are ignored). Used by
+the multiple-shooting NLP (the Jacobian assembled from segment blocks) and by the stability
+optimisation (the monodromy's derivatives by forward-over-forward AD).
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+
+class ConstraintOracle(ca.Callback):
+    """g(z) for IPOPT; its Jacobian is a second oracle returning the evaluator's Jacobian."""
+
+    def __init__(self, ev, name: str, jac: bool = False):
+        ca.Callback.__init__(self)
+        self.ev, self.is_jac, self.base_name = ev, jac, name
+        self._jac = None
+        r, c = ev.jac_sparsity.get_triplet()
+        self._rows, self._cols = np.asarray(r), np.asarray(c)
+        self.construct(f"{name}_jac_g" if jac else f"{name}_g", {})
+
+    def get_n_in(self):
+        return 2 if self.is_jac else 1
+
+    def get_n_out(self):
+        return 1
+
+    def get_sparsity_in(self, i):
+        return ca.Sparsity.dense(self.ev.nz if i == 0 else self.ev.ng, 1)
+
+    def get_sparsity_out(self, i):
+        return self.ev.jac_sparsity if self.is_jac else ca.Sparsity.dense(self.ev.ng, 1)
+
+    def eval(self, arg):
+        z = np.asarray(arg[0], float).ravel()
+        if self.is_jac:
+            J = self.ev.jacobian(z)
+            return [ca.DM(self.ev.jac_sparsity, J[self._rows, self._cols])]
+        return [ca.DM(self.ev.g(z))]
+
+    def has_jacobian(self, *args):
+        return not self.is_jac
+
+    def get_jacobian(self, name, inames, onames, opts):
+        if self._jac is None:
+            self._jac = ConstraintOracle(self.ev, self.base_name, True)
+        return self._jac
