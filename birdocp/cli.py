@@ -118,7 +118,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     from .cli_study import add_study_parsers
 
-    add_study_parsers(sub, common, _Parser)
+    add_study_parsers(sub, common)
 
     p = sub.add_parser("config", parents=[common], help="print the resolved configuration as TOML",
                        description="Print the resolved configuration (defaults <- CONFIG <- --set <- flags) as "
@@ -748,7 +748,7 @@ def _parse_rows(text: str | None):
 def _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start) -> int:
     from .executors import get_executor
     from .runs import claim_out_dir, new_run_dir
-    from .sweep import GRID_COLUMNS, grid_sweep
+    from .sweep import grid_sweep
 
     row_key, row_values = _parse_rows(args.rows)
     if row_key == key:

@@ -9,7 +9,7 @@ import time
 from .config import PARAM_NAMES, ConfigError, _suggest
 
 
-def add_study_parsers(sub, common, parser_class) -> None:
+def add_study_parsers(sub, common) -> None:
     p = sub.add_parser("sensitivity", parents=[common], help="exact derivatives of the Floquet multipliers "
                        "with respect to gait and morphology parameters, ranked",
                        description="Trim the configured gait and rank the parameters by the exact "

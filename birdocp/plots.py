@@ -14,7 +14,6 @@ the target, so a reader never sees a half-written PNG.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import matplotlib

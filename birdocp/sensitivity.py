@@ -19,7 +19,6 @@ All derivatives are exact (to round-off) for the discretised problem the trim so
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import casadi as ca

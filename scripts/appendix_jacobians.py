@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import json
 import time
 from pathlib import Path
 
@@ -33,9 +32,8 @@ from birdocp.integrate import RK4Grid
 from birdocp.io import atomic_write_json, atomic_write_text
 from birdocp.model import get_model
 from birdocp.studies import trim
-from birdocp.reference import reference_dir
+from birdocp.reference import load as load_reference
 
-REFERENCE = reference_dir() / "reference_cycle.json"
 RELAXED = {"aero.circulation": "relaxed", "aero.kinematic_velocity": "backward-difference"}
 METHODS = {
     "lm_exact": ("LM, exact CasADi Jacobians", {"solver": "lm", "derivatives": "exact"}),
@@ -98,7 +96,7 @@ def main(argv=None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
-    ref = json.loads(REFERENCE.read_text())
+    ref = load_reference("reference_cycle")
     rk4 = ref["rk4_period_map_monodromy_central_differences"]
     ref_rk4 = np.asarray(rk4["multipliers_re"]) + 1j * np.asarray(rk4["multipliers_im"])
     impl = ref["reference_implementation"]

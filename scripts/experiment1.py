@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import json
 import math
 import time
 from pathlib import Path
@@ -33,6 +32,7 @@ from birdocp.config import Config, with_values
 from birdocp.io import atomic_write_json, atomic_write_text
 from birdocp.model import get_model
 from birdocp.studies import trim
+from birdocp.reference import load as load_reference
 from birdocp.reference import reference_dir
 
 REFERENCE = reference_dir() / "reference_cycle.json"
@@ -116,7 +116,7 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
 
-    ref = json.loads(REFERENCE.read_text())
+    ref = load_reference("reference_cycle")
     rk4 = ref["rk4_period_map_monodromy_central_differences"]
     ref_rk4 = cplx(rk4["multipliers_re"], rk4["multipliers_im"])
     paper = np.array([complex(a, b) for a, b in ref["paper_table"]["multipliers"]])

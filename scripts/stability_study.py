@@ -21,9 +21,7 @@ from birdocp.config import JOINT_NAMES, Config, get_value, with_values
 from birdocp.continuation import bird_branch
 from birdocp.io import atomic_write_json, atomic_write_text
 from birdocp.kinematics import joint_angles
-from birdocp.optimize import DEFAULT_FREE, optimize_stability
-from birdocp.sensitivity import multiplier_sensitivities
-from birdocp.studies import trim
+from birdocp.optimize import optimize_stability
 
 
 def save(fig, path):
@@ -55,7 +53,6 @@ def stability_optimum(out: Path):
     res = optimize_stability(Config(), progress=True)
     d = res.to_dict()
     d["script_wall_s"] = time.perf_counter() - t0
-    ref = trim(Config())
     from birdocp.level import level
     lv = level(Config())
     d["paper_gait_level"] = {"amplitude_deg": lv.amplitude_deg,
@@ -182,7 +179,7 @@ def main():
     ap.add_argument("--reuse", action="store_true", help="redraw the tail study from its branch files")
     args = ap.parse_args()
     if not args.skip_optimum:
-        res = stability_optimum(Path("results/stability_optimum"))
+        stability_optimum(Path("results/stability_optimum"))
         print(open("results/stability_optimum/table.md").read())
     if not args.skip_tail:
         tail_study(Path("results/tail"), args.tail_max_deg, reuse=args.reuse)

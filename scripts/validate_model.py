@@ -5,7 +5,6 @@ The README's deviations table quotes these numbers. Run: python scripts/validate
 
 import argparse
 import json
-from pathlib import Path
 
 import casadi as ca
 import numpy as np
