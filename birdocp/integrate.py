@@ -107,6 +107,8 @@ class RK4Grid:
 
         self.data_grid = ode.data.map(2 * self.N + 1)
         self._memo: dict = {}
+        self._pre_memo = (None, None)
+        self._pre_grid = self._post_grid = None
         self.block_index = stage_block_index(self.N)
 
         acc = step.mapaccum("acc", self.n)
@@ -206,12 +208,37 @@ class RK4Grid:
         hit = self._memo.get(key)
         if hit is not None:
             return hit
-        grid = np.asarray(self.data_grid(ca.DM(self.times(t0)), ca.DM(p)))
-        out = ca.DM(grid[:, self.block_index])
+        times = ca.DM(self.times(t0))
+        ode = self.ode
+        if ode.pre is not None:
+            # data = post(pre(t, p), t, p): pre (the costly, non-smooth part) depends on a few
+            # parameters only (for the bird not on the shoulder joints), so a sweep of the others
+            # re-evaluates post alone
+            grid = self.post_grid(self.pre_numeric(t0, p), times, ca.DM(p))
+        else:
+            grid = self.data_grid(times, ca.DM(p))
+        out = grid[:, self.block_index]  # sliced as a DM (a round trip through numpy costs 4x)
         self._memo[key] = out
         while len(self._memo) > 4:
             self._memo.pop(next(iter(self._memo)))
         return out
+
+    def pre_numeric(self, t0: float, p) -> ca.DM:
+        """pre(t, p) on the data grid (nl x (2N+1)), memoised by (t0, the pre parameters' values)."""
+        p = np.asarray(p, float).ravel()
+        key = (float(t0), p[list(self.ode.pre_params)].tobytes())
+        if self._pre_memo[0] != key:
+            if self._pre_grid is None:
+                self._pre_grid = self.ode.pre.map(2 * self.N + 1)
+            self._pre_memo = (key, self._pre_grid(ca.DM(self.times(t0)), ca.DM(p)))
+        return self._pre_memo[1]
+
+    @property
+    def post_grid(self) -> ca.Function:
+        """post mapped over the data grid: (local[nl x (2N+1)], times, p) -> data grid."""
+        if self._post_grid is None:
+            self._post_grid = self.ode.post.map(2 * self.N + 1)
+        return self._post_grid
 
     def blocks_symbolic(self, t0: float, p: ca.MX) -> ca.MX:
         grid = self.data_grid(ca.DM(self.times(t0)), p)
