@@ -339,12 +339,15 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
     def Ju_of(J):
         return J * s[None, :]
 
-    def newton(u_pred, row, rhs_fn, J0=None):
+    def newton(u_pred, row, rhs_fn, J0=None, reach=None):
         """Quasi-Newton on [G(s u); row.u - rhs] = 0 from u_pred, starting with the Jacobian J0 (that
         of the point the prediction starts from) or, without J0, one evaluated at u_pred. Steps
-        evaluate only the residual and update the Jacobian by Broyden's rank-one formula; when a step
-        reduces the residual by less than ``chord_contraction`` the Jacobian is evaluated afresh
-        there. The converged point's Jacobian (tangent, monodromy) is always evaluated at it.
+        evaluate only the residual and update the Jacobian by Broyden's rank-one formula; the
+        Jacobian is evaluated afresh where a step reduces the residual by less than
+        ``chord_contraction`` or where a step from a non-exact Jacobian would move u by more than
+        ``reach`` / 2 (scaled norm; ``reach`` = the predictor's step: a stale Jacobian that proposes
+        a correction as large as the step itself is not trusted, e.g. where dG/dlam vanishes at the
+        base point). The converged point's Jacobian (tangent, monodromy) is always evaluated at it.
         Returns (u, g, J, means, Mon, steps) or None."""
         u = u_pred.copy()
         A, full, prev, du = None, None, None, None
@@ -367,16 +370,20 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
                     return None
                 if full is None and prev is not None and nr > chord_contraction * prev:
                     full = sysm.evaluate(z)
+                if full is None:
+                    if A is None:
+                        A = np.vstack([Ju_of(J0), row[None, :]])
+                    else:  # Broyden: A du = -r_prev, so the secant correction is r (the new residual)
+                        A = A + np.outer(r, du) / (du @ du)
+                    du = np.linalg.solve(A, -r)
+                    if reach is not None and not np.linalg.norm(du) <= 0.5 * reach:
+                        full = sysm.evaluate(z)
                 if full is not None:
                     if not np.all(np.isfinite(full[1])):
                         return None
                     A = np.vstack([Ju_of(full[1]), row[None, :]])
-                elif A is None:
-                    A = np.vstack([Ju_of(J0), row[None, :]])
-                else:  # Broyden: A du = -r_prev, so the secant correction is r (the new residual)
-                    A = A + np.outer(r, du) / (du @ du)
+                    du = np.linalg.solve(A, -r)
                 prev = nr
-                du = np.linalg.solve(A, -r)
                 if not np.all(np.isfinite(du)):
                     return None
                 u = u + du
@@ -451,7 +458,10 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
 
     def corrected(base: _State, dsv: float):
         """Point at scaled arclength dsv from base along base's tangent, or None."""
-        res = newton(base.u + dsv * base.t, base.t, base.t @ base.u + dsv, base.J)
+        pred = base.u + dsv * base.t
+        res = newton(pred, base.t, base.t @ base.u + dsv, base.J, abs(dsv))
+        if res is None:  # again from a Jacobian evaluated at the predictor
+            res = newton(pred, base.t, base.t @ base.u + dsv, None, abs(dsv))
         if res is None:
             return None
         u2, g2, J2, m2, Mon2, it2 = res
@@ -462,7 +472,8 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
         """Re-solve the point with lam fixed (between a and b, linear predictor)."""
         la, lb = s_lam * a.u[li], s_lam * b.u[li]
         w = (lam_target - la) / (lb - la) if lb != la else 1.0
-        res = newton(a.u + w * (b.u - a.u), e_l, lam_target / s_lam, a.J if abs(w) < 0.5 else b.J)
+        res = newton(a.u + w * (b.u - a.u), e_l, lam_target / s_lam, a.J if abs(w) < 0.5 else b.J,
+                     float(np.linalg.norm(b.u - a.u)))
         if res is None:
             return None
         u2, g2, J2, m2, Mon2, it2 = res

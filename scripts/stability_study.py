@@ -1,7 +1,7 @@
 """Beyond the paper: the most stable level-flight gait within bounds, the tail, and the ranked
 sensitivities. Writes results/stability_optimum/ and results/tail/ (JSON, table.md, figures).
 
-    python scripts/stability_study.py            # everything (~10-15 min on 2 cores)
+    python scripts/stability_study.py            # everything (~8 min on 2 cores: the optimum ~6.5 min)
     python scripts/stability_study.py --skip-tail
 """
 

@@ -121,3 +121,19 @@ def test_bird_branch_agrees_with_independent_trims(tmp_path):
     assert d["end_reason"] == "reached_to" and abs(d["points"][-1]["parameter"] - 0.049) < 1e-12
     (out / "moduli.png").unlink()
     assert main(["plot", str(out)]) == 0 and (out / "moduli.png").is_file()
+
+
+def test_branch_leaves_a_start_where_the_parameter_derivative_vanishes():
+    """The tail's loads grow like the square of its opening angle, so dG/d(angle) ~ 0 at angle 0: a
+    corrector that trusted the start's Jacobian wandered to negative angles and reported a fold at
+    0.3 deg (the branch then 'turned back' to 0). The branch must leave 0 forward, without special
+    points."""
+    from birdocp.config import Config, with_values
+    from birdocp.continuation import bird_branch
+
+    br = bird_branch(with_values(Config(), {"tail.enabled": True}), "tail.opening_angle_deg", 0.0, 60.0,
+                     level=True, bounds=(20.0, 90.0), max_points=3, points=3, steps_per_period=48)
+    lam = br.parameters
+    assert br.end_reason == "max_points", br.end_message
+    assert not br.special_points
+    assert lam[0] == 0.0 and np.all(np.diff(lam) > 0.1)
