@@ -8,6 +8,8 @@ import json
 import os
 from pathlib import Path
 
+import numpy as np
+
 _REPO = Path(__file__).resolve().parents[1]
 
 
@@ -28,3 +30,8 @@ def reference_dir() -> Path:
 def load(name: str) -> dict:
     """``load("force_fixtures")`` or ``load("reference_cycle")``."""
     return json.loads((reference_dir() / f"{name}.json").read_text())
+
+
+def multipliers(entry: dict) -> np.ndarray:
+    """The complex multipliers of a reference entry (its ``multipliers_re`` and ``multipliers_im``)."""
+    return np.asarray(entry["multipliers_re"], float) + 1j * np.asarray(entry["multipliers_im"], float)

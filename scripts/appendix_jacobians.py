@@ -33,6 +33,7 @@ from birdocp.io import atomic_write_json, atomic_write_text
 from birdocp.model import get_model
 from birdocp.studies import trim
 from birdocp.reference import load as load_reference
+from birdocp.reference import multipliers as reference_multipliers
 
 RELAXED = {"aero.circulation": "relaxed", "aero.kinematic_velocity": "backward-difference"}
 METHODS = {
@@ -98,9 +99,9 @@ def main(argv=None) -> int:
     t_start = time.perf_counter()
     ref = load_reference("reference_cycle")
     rk4 = ref["rk4_period_map_monodromy_central_differences"]
-    ref_rk4 = np.asarray(rk4["multipliers_re"]) + 1j * np.asarray(rk4["multipliers_im"])
+    ref_rk4 = reference_multipliers(rk4)
     impl = ref["reference_implementation"]
-    ref_impl = np.asarray(impl["multipliers_re"]) + 1j * np.asarray(impl["multipliers_im"])
+    ref_impl = reference_multipliers(impl)
 
     cfg = with_values(Config(), RELAXED)
     tw = time.perf_counter()

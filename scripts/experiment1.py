@@ -33,6 +33,7 @@ from birdocp.io import atomic_write_json, atomic_write_text
 from birdocp.model import get_model
 from birdocp.studies import trim
 from birdocp.reference import load as load_reference
+from birdocp.reference import multipliers as reference_multipliers
 from birdocp.reference import reference_dir
 
 REFERENCE = reference_dir() / "reference_cycle.json"
@@ -42,10 +43,6 @@ VARIANTS = {
     "b": ("(b) relaxed circulation + backward-difference velocity, IPOPT", RELAXED, {}),
     "c": ("(c) as (b), Levenberg-Marquardt", RELAXED, {"solver": "lm"}),
 }
-
-
-def cplx(re, im) -> np.ndarray:
-    return np.asarray(re, float) + 1j * np.asarray(im, float)
 
 
 def matched_distances(lam, ref) -> list[float]:
@@ -118,11 +115,11 @@ def main(argv=None) -> int:
 
     ref = load_reference("reference_cycle")
     rk4 = ref["rk4_period_map_monodromy_central_differences"]
-    ref_rk4 = cplx(rk4["multipliers_re"], rk4["multipliers_im"])
+    ref_rk4 = reference_multipliers(rk4)
     paper = np.array([complex(a, b) for a, b in ref["paper_table"]["multipliers"]])
     impl = ref["reference_implementation"]
     ref_x = np.asarray(impl["x_points"], float)
-    ref_impl_mults = cplx(impl["multipliers_re"], impl["multipliers_im"])
+    ref_impl_mults = reference_multipliers(impl)
 
     base = Config()
     results, objs = {}, {}

@@ -1,19 +1,15 @@
 """The paper's Experiment 1 (reference case) against the reference implementation's limit cycle."""
 
-import json
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from birdocp.config import Config, with_values
 from birdocp.studies import trim
-from birdocp.reference import reference_dir
+from birdocp.reference import load, multipliers
 
-REF = reference_dir()
-CYCLE = json.loads((REF / "reference_cycle.json").read_text())
+CYCLE = load("reference_cycle")
 RK4 = CYCLE["rk4_period_map_monodromy_central_differences"]
-REF_MULT = np.array(RK4["multipliers_re"]) + 1j * np.array(RK4["multipliers_im"])
+REF_MULT = multipliers(RK4)
 REF_POINTS = np.array(CYCLE["reference_implementation"]["x_points"])
 
 REFERENCE_SETTINGS = {"aero.circulation": "relaxed", "aero.kinematic_velocity": "backward-difference"}
