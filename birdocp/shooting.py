@@ -269,7 +269,7 @@ class _Builder:
                 dfw = ca.Function("post_dpf", [ts_, ls_, ps_], [d_, ca.jtimes(d_, ps_, seed_p)])
                 Dg, dDt = dfw.map(K)(dsym[0, :], dsym[1:, :], pfull)
                 dDg = ca.horzcat(*[dDt[:, list(range(k, K * nf, nf))] for k in range(nf)])
-                D_plain = ode.post.map(K)(dsym[1:, :], dsym[0, :], pfull)[:, grid.block_index]
+                D_plain = grid.post_grid(dsym[1:, :], dsym[0, :], pfull)[:, grid.block_index]
             elif ode.data.is_a("SXFunction"):
                 # data and its derivative along the free parameters as one SX Function (shared
                 # subexpressions; constant seeds prune the parts that do not depend on them):
@@ -454,16 +454,10 @@ class _Builder:
         return s
 
 
-_AFFINE: dict = {}
-
-
 def _affine_columns(ode, free_idx):
     """C (nd x nf, numbers) when post(local, t, p) is affine in every free parameter with a constant
-    coefficient (d post / d p_j depends on nothing), else None. Cached per (ode, free set)."""
-    key = (id(ode), tuple(free_idx))
-    hit = _AFFINE.get(key)
-    if hit is not None and hit[0] is ode:
-        return hit[1]
+    coefficient (d post / d p_j depends on nothing), else None. Measured 0.02-0.04 s on the bird, once
+    per (cached) builder."""
     ts_, ls_, ps_ = ca.SX.sym("t"), ca.SX.sym("local", ode.post.size1_in(0)), ca.SX.sym("p", ode.np)
     d_ = ode.post(ls_, ts_, ps_)
     cols = []
@@ -473,9 +467,7 @@ def _affine_columns(ode, free_idx):
             cols = None
             break
         cols.append(ca.DM(ca.evalf(cj)))
-    C = ca.horzcat(*cols) if cols else None
-    _AFFINE[key] = (ode, C)
-    return C
+    return ca.horzcat(*cols) if cols else None
 
 
 def _get_builder(problem: LimitCycleProblem, method: MultipleShooting, free_idx=None):
