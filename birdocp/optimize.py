@@ -121,7 +121,7 @@ class _Evaluator:
         self.K = K = so.n_times
         self.T = model.period_s
         self.times = ca.DM(grid.times(0.0)).reshape((1, -1))
-        self.local = model.pre.map(K)(self.times, ca.DM(p0))
+        self.local = grid.pre_numeric(0.0, p0)
         self.p0 = np.asarray(p0, float)
         self.idx = list(idx)
         self.nf = len(idx)
@@ -132,7 +132,7 @@ class _Evaluator:
         np_ = len(p0)
         L, t, p, dp = ca.SX.sym("local", model.pre.size1_out(0)), ca.SX.sym("t"), ca.SX.sym("p", np_), ca.SX.sym("dp", np_)
         d = model.post(L, t, p)
-        self.post_map = model.post.map(K)
+        self.post_map = grid.post_grid
         self.post_dir = ca.Function("post_dir", [L, t, p, dp], [ca.jtimes(d, p, dp)]).map(K * self.nf)
         ndir = 4 + self.nf
         self.dirs = so.directional.map(ndir, "thread", 2)

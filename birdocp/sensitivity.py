@@ -129,7 +129,6 @@ class _SecondOrder:
         self.directional = ca.Function("directional", [x0, D, p, dx0, dD, dp], [ca.jtimes(outs, z, dz)])
         self.n_times = 2 * steps + 1
         self.data_fwd = model.data.forward(1).map(self.n_times)
-        self.data_map = model.data.map(self.n_times)
 
 
 def multiplier_sensitivities(cycle_result, parameters=None, *, hold_level: bool = False) -> SensitivityResult:
@@ -154,7 +153,7 @@ def multiplier_sensitivities(cycle_result, parameters=None, *, hold_level: bool 
     grid = so.grid
     p = np.asarray(c.p, float)
     times = ca.DM(grid.times(0.0)).reshape((1, -1))
-    Dgrid = so.data_map(times, ca.DM(p))
+    Dgrid = grid.data_grid(times, ca.DM(p))
     idx = grid.block_index
     D = Dgrid[:, idx]
     x0 = ca.DM(np.asarray(c.x0, float))
