@@ -56,11 +56,11 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable
 
-import casadi as ca
 import numpy as np
 
-from .floquet import multipliers_info
+from .floquet import monodromy_of, multipliers_info
 from .problem import LimitCycleProblem
+from .shooting import MultipleShooting, _get_builder, _initial_points, solve
 
 __all__ = ["Branch", "BranchPoint", "SpecialPoint", "continuation", "Continuation"]
 
@@ -171,8 +171,6 @@ class Continuation:
     parameter unknown through the data."""
 
     def __init__(self, problem: LimitCycleProblem, param, points: int = 5, steps_per_period: int = 148):
-        from .shooting import MultipleShooting, _get_builder
-
         ode = problem.ode
         self.problem = problem
         self.ode = ode
@@ -232,10 +230,7 @@ class Continuation:
             return b.resid(z), None, None, None
         self.evaluations += 1
         g, J = b.evaluate(z)
-        Mon = np.eye(self.nx)
-        for Ji in b.blocks_at(z):
-            Mon = Ji @ Mon
-        return g, J, b.means_at(z), Mon
+        return g, J, b.means_at(z), monodromy_of(b.blocks_at(z))
 
 
 def _tangent(Ju, t_prev):
@@ -304,8 +299,9 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
     max_newton, chord_contraction: corrector steps allowed per point; a step reducing the residual by
                less than ``chord_contraction`` gets a freshly evaluated Jacobian.
     max_dparam, max_dstate: a corrected step changing the parameter by more than ``max_dparam`` (its
-               units) or a shooting-point state by more than ``max_dstate`` is refused and ds halved
-               (guards against jumping across to another branch with a large step).
+               units) or a shooting-point state by more than ``max_dstate`` is refused and ds shortened
+               in proportion; steps aim at 0.85 of these limits (guards against jumping across to
+               another branch with a large step).
     """
     t_all = time.perf_counter()
     sysm = system or Continuation(problem, param, points, steps_per_period)
@@ -333,9 +329,7 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
         z0 = sysm.z_of(start.shooting_points, p_start)
     else:
         D0 = sysm.grid.blocks_numeric(float(problem.t0), p_start)
-        Xt = np.asarray(sysm.grid.period_map(ca.DM(problem.x_guess), D0, ca.DM(p_start))[1])
-        pts0 = [problem.x_guess] + [Xt[:, sysm.grid.n * (i + 1) - 1] for i in range(S)]
-        z0 = sysm.z_of(np.array(pts0), p_start)
+        z0 = sysm.z_of(_initial_points(sysm.builder, problem.x_guess, D0, p_start).T, p_start)
     def Ju_of(J):
         return J * s[None, :]
 
@@ -401,7 +395,6 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
     e_l[li] = 1.0
     out = newton(z0 / s, e_l, start_value / s_lam)
     if out is None and start is None:
-        from .shooting import MultipleShooting, solve
         prob0 = LimitCycleProblem(problem.ode, p_start, problem.x_guess, problem.free, problem.means,
                                   problem.t0, problem.outputs)
         eng = solve(prob0, MultipleShooting(points=points, steps_per_period=steps_per_period))

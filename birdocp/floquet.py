@@ -51,11 +51,16 @@ def multipliers_info(monodromy: np.ndarray, period_s: float):
     return lam, vec, mu, dbl, stable
 
 
-def floquet_from_jacobians(jacobians, full_period_jacobian, period_s) -> FloquetResult:
-    nx = jacobians[0].shape[0]
-    Mo = np.eye(nx)
+def monodromy_of(jacobians) -> np.ndarray:
+    """The monodromy matrix: the product J_{M-2} ... J_1 J_0 of the segment Jacobians (in time order)."""
+    Mo = np.eye(np.asarray(jacobians[0]).shape[0])
     for J in jacobians:
-        Mo = J @ Mo
+        Mo = np.asarray(J) @ Mo
+    return Mo
+
+
+def floquet_from_jacobians(jacobians, full_period_jacobian, period_s) -> FloquetResult:
+    Mo = monodromy_of(jacobians)
     lam, vec, mu, dbl, stable = multipliers_info(Mo, period_s)
     diff = float(np.max(np.abs(Mo - full_period_jacobian))) if full_period_jacobian is not None else float("nan")
     return FloquetResult(Mo, lam, vec, mu, dbl, stable, diff, [np.asarray(J) for J in jacobians])
