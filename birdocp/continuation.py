@@ -195,10 +195,9 @@ class Continuation:
         self.targets = np.array([m.target for m in problem.means], float)
         self.pidx = self.free_idx + [self.j]   # parameter unknowns, in the order of z
         method = MultipleShooting(points=points, steps_per_period=steps_per_period)
-        self.builder, self.build_s = _get_builder(problem, method, self.pidx)
+        self.builder, _ = _get_builder(problem, method, self.pidx)
         self.grid = self.builder.grid
-        self.nx, self.S, self.N, self.nm = ode.nx, self.grid.S, self.grid.N, nm
-        self.split = self.builder.split
+        self.nx, self.S, self.nm = ode.nx, self.grid.S, nm
         b = self.builder
         b.set_context(b.symbolic_context(float(problem.t0), problem.p), problem.p, self.targets)
         self._ctx = b._ctx

@@ -64,7 +64,7 @@ def main():
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    # longest first (measured: level-down ~16 s, fixed-down ~8 s, level-up ~6 s, fixed-up ~4 s), so
+    # longest first (measured: level-down ~16 s, fixed-down ~5.5 s, level-up ~5 s, fixed-up ~1.8 s), so
     # that two workers finish together
     jobs = [{"name": f"{fam}_{d}", "level": fam == "level", "from_sm": -25.0,
              "to_sm": (-32.5 if d == "up" else a.rear_sm), "step": 0.5,
