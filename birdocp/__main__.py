@@ -2,7 +2,7 @@
 
 import sys
 
-from birdocp.cli import main
+from birdocp.cli.main import main
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -27,13 +27,13 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from birdocp.config import Config, with_values
-from birdocp.integrate import RK4Grid
-from birdocp.io import atomic_write_json, atomic_write_text
-from birdocp.model import get_model
-from birdocp.studies import trim
-from birdocp.reference import load as load_reference
-from birdocp.reference import multipliers as reference_multipliers
+from birdocp.bird.config import Config, with_values
+from birdocp.engine.integrate import RK4Grid
+from birdocp.io.files import atomic_write_json, atomic_write_text
+from birdocp.bird.model import get_model
+from birdocp.studies.trim import trim
+from birdocp.io.reference import load as load_reference
+from birdocp.io.reference import multipliers as reference_multipliers
 
 RELAXED = {"aero.circulation": "relaxed", "aero.kinematic_velocity": "backward-difference"}
 METHODS = {

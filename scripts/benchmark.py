@@ -79,8 +79,8 @@ def in_process(repeats: int) -> dict:
     """Floor, trim with graphs built, and the default vs the paper's LM-fd (one process)."""
     import casadi as ca
 
-    from birdocp import shooting
-    from birdocp.studies import trim
+    from birdocp.engine import shooting
+    from birdocp.studies.trim import trim
 
     out: dict = {}
     t = time.perf_counter()

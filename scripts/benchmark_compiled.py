@@ -44,11 +44,12 @@ def main(argv=None):
 
     tmp = Path(tempfile.mkdtemp(prefix="birdocp-bench-"))
     os.environ["BIRDOCP_CACHE"] = str(tmp / "cache")
-    from birdocp import compiled, studies
-    from birdocp.codegen import export_c
-    from birdocp.config import Config
-    from birdocp.integrate import RK4Grid
-    from birdocp.model import get_model
+    from birdocp.export import compiled
+    from birdocp.studies import trim as studies
+    from birdocp.export.codegen import export_c
+    from birdocp.bird.config import Config
+    from birdocp.engine.integrate import RK4Grid
+    from birdocp.bird.model import get_model
 
     cfg = Config()
     m = get_model(cfg)

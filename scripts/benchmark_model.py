@@ -10,7 +10,7 @@ Rows:
 * median wall times (``time.perf_counter``) of one ``data`` call, one ``rhs`` call (numeric d reused),
   one ``f(x, t, p)`` call, and one RK4 period of 148 steps done
   (i) with the stage data precomputed (``data`` on the 297 stage times via ``data.map``, then a
-      ``mapaccum`` of 148 RK4 steps that only call ``rhs``; :class:`birdocp.integrate.RK4Grid`), and
+      ``mapaccum`` of 148 RK4 steps that only call ``rhs``; :class:`birdocp.engine.integrate.RK4Grid`), and
   (ii) naively, a Python loop of 148 RK4 steps calling ``f(x, t, p)`` 4 times per step.
 
 Total runtime is well under a minute on a laptop-class CPU.
@@ -35,8 +35,8 @@ ROOT = Path(__file__).resolve().parents[1]
 BUILD_SNIPPET = r"""
 import json, sys, time
 t0 = time.perf_counter()
-from birdocp.config import Config, with_values
-from birdocp.model import get_model
+from birdocp.bird.config import Config, with_values
+from birdocp.bird.model import get_model
 t1 = time.perf_counter()
 cfg = with_values(Config(), json.loads(sys.argv[1]))
 m = get_model(cfg)
@@ -93,9 +93,9 @@ def main(argv=None) -> int:
         "kinematic_velocity=backward-difference": fresh_build({"aero.kinematic_velocity": "backward-difference"}),
     }
 
-    from birdocp.config import Config
-    from birdocp.integrate import RK4Grid, simulate
-    from birdocp.model import get_model
+    from birdocp.bird.config import Config
+    from birdocp.engine.integrate import RK4Grid, simulate
+    from birdocp.bird.model import get_model
 
     cfg = Config()
     m = get_model(cfg)

@@ -27,14 +27,14 @@ from pathlib import Path
 
 import numpy as np
 
-from birdocp import plots
-from birdocp.config import Config, with_values
-from birdocp.io import atomic_write_json, atomic_write_text
-from birdocp.model import get_model
-from birdocp.studies import trim
-from birdocp.reference import load as load_reference
-from birdocp.reference import multipliers as reference_multipliers
-from birdocp.reference import reference_dir
+from birdocp.plots import figures as plots
+from birdocp.bird.config import Config, with_values
+from birdocp.io.files import atomic_write_json, atomic_write_text
+from birdocp.bird.model import get_model
+from birdocp.studies.trim import trim
+from birdocp.io.reference import load as load_reference
+from birdocp.io.reference import multipliers as reference_multipliers
+from birdocp.io.reference import reference_dir
 
 REFERENCE = reference_dir() / "reference_cycle.json"
 RELAXED = {"aero.circulation": "relaxed", "aero.kinematic_velocity": "backward-difference"}

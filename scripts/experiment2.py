@@ -26,11 +26,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from birdocp.config import Config, with_values  # noqa: E402
-from birdocp.io import atomic_write_json, atomic_write_text  # noqa: E402
-from birdocp.level import level  # noqa: E402
-from birdocp.studies import trim  # noqa: E402
-from birdocp.sweep import sweep, sweep_values  # noqa: E402
+from birdocp.bird.config import Config, with_values  # noqa: E402
+from birdocp.io.files import atomic_write_json, atomic_write_text  # noqa: E402
+from birdocp.studies.level import level  # noqa: E402
+from birdocp.studies.trim import trim  # noqa: E402
+from birdocp.studies.sweep import sweep, sweep_values  # noqa: E402
 
 AMP = "gait.shoulder_flap.amplitude_deg"
 RELAXED = {"aero.circulation": "relaxed", "aero.kinematic_velocity": "backward-difference"}

@@ -9,7 +9,7 @@ reference cycle (root 5 cm, SM -25 %), each in both directions:
 
 Towards the rear the continuation goes on beyond the paper's range (to root 1 cm, SM -5 %) to see
 whether and how the branch ends. The four half-branches run as independent jobs through
-:mod:`birdocp.executors` (``--jobs``). Independent ``trim`` runs at three root positions check the
+:mod:`birdocp.engine.executors` (``--jobs``). Independent ``trim`` runs at three root positions check the
 fixed-amplitude branch. Writes locus.png, moduli.png, level_*.png, branch JSONs, result.json, table.md.
 
     python scripts/experiment3.py --out results/experiment3 --jobs 2
@@ -23,10 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
-from birdocp.config import Config, with_values
-from birdocp.continuation import Branch, bird_branch, plot_branches, sm_percent
-from birdocp.executors import get_executor
-from birdocp.io import atomic_write_json, atomic_write_text
+from birdocp.bird.config import Config, with_values
+from birdocp.engine.continuation import Branch, bird_branch, plot_branches, sm_percent
+from birdocp.engine.executors import get_executor
+from birdocp.io.files import atomic_write_json, atomic_write_text
 
 CHORD = 0.2
 PAPER_RANGE_CM = (3.5, 6.5)
@@ -91,7 +91,7 @@ def main():
     figs += plot_branches({labels["level"]: fams["level"]}, out, prefix="level_")
 
     # independent trims at three root positions of the fixed-amplitude branch
-    from birdocp.studies import trim
+    from birdocp.studies.trim import trim
 
     checks = []
     fb = fams["fixed"]

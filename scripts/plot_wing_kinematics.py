@@ -29,9 +29,9 @@ import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
-from birdocp import kinematics  # noqa: E402
-from birdocp.config import JOINT_NAMES, Config  # noqa: E402
-from birdocp.model import GEOMETRY_OUTPUTS, get_model  # noqa: E402
+from birdocp.bird import kinematics  # noqa: E402
+from birdocp.bird.config import JOINT_NAMES, Config  # noqa: E402
+from birdocp.bird.model import GEOMETRY_OUTPUTS, get_model  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 N_SNAP = 8

@@ -17,11 +17,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from birdocp.config import JOINT_NAMES, Config, get_value, with_values
-from birdocp.continuation import bird_branch
-from birdocp.io import atomic_write_json, atomic_write_text
-from birdocp.kinematics import joint_angles
-from birdocp.optimize import optimize_stability
+from birdocp.bird.config import JOINT_NAMES, Config, get_value, with_values
+from birdocp.engine.continuation import bird_branch
+from birdocp.io.files import atomic_write_json, atomic_write_text
+from birdocp.bird.kinematics import joint_angles
+from birdocp.studies.optimize import optimize_stability
 
 
 def save(fig, path):
@@ -53,7 +53,7 @@ def stability_optimum(out: Path):
     res = optimize_stability(Config(), progress=True)
     d = res.to_dict()
     d["script_wall_s"] = time.perf_counter() - t0
-    from birdocp.level import level
+    from birdocp.studies.level import level
     lv = level(Config())
     d["paper_gait_level"] = {"amplitude_deg": lv.amplitude_deg,
                              "multipliers": [[float(z.real), float(z.imag)] for z in lv.multipliers]}

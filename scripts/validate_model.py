@@ -9,11 +9,11 @@ import json
 import casadi as ca
 import numpy as np
 
-from birdocp import wing
-from birdocp.config import Config, with_values
-from birdocp.io import atomic_write_json
-from birdocp.model import GEOMETRY_OUTPUTS, get_model, unpack_data
-from birdocp.reference import reference_dir
+from birdocp.bird import wing
+from birdocp.bird.config import Config, with_values
+from birdocp.io.files import atomic_write_json
+from birdocp.bird.model import GEOMETRY_OUTPUTS, get_model, unpack_data
+from birdocp.io.reference import reference_dir
 
 REF = reference_dir()
 

@@ -1,7 +1,7 @@
 """Bad input through the real CLI (``python -m birdocp``): exit 2, one line on stderr naming the key.
 
 Every case must be rejected before the model is touched: the second test runs the same table with
-``birdocp.model``, ``birdocp.studies`` and ``casadi`` made unimportable.
+``birdocp.bird.model``, ``birdocp.studies.trim`` and ``casadi`` made unimportable.
 """
 
 from __future__ import annotations
@@ -49,7 +49,7 @@ CASES = [
 
 BLOCK = (
     "import runpy, sys\n"
-    "for name in ('casadi', 'birdocp.model', 'birdocp.studies'):\n"
+    "for name in ('casadi', 'birdocp.bird.model', 'birdocp.studies.trim'):\n"
     "    sys.modules[name] = None  # importing it now raises ImportError\n"
     "sys.argv[0] = 'birdocp'\n"
     "runpy.run_module('birdocp', run_name='__main__', alter_sys=True)\n"

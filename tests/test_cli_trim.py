@@ -15,8 +15,8 @@ import types
 import numpy as np
 import pytest
 
-from birdocp import config as C
-from birdocp import cli
+from birdocp.bird import config as C
+from birdocp.cli import main as cli
 
 
 class FakeResult:
@@ -51,7 +51,7 @@ class FakeResult:
 @pytest.fixture
 def fake_studies(monkeypatch, tmp_path):
     monkeypatch.chdir(tmp_path)
-    mod = types.ModuleType("birdocp.studies")
+    mod = types.ModuleType("birdocp.studies.trim")
     mod.calls = []
     mod.behaviour = {"success": True, "raise": None}
 
@@ -64,13 +64,13 @@ def fake_studies(monkeypatch, tmp_path):
         return FakeResult(cfg, mod.behaviour["success"])
 
     mod.trim = trim
-    monkeypatch.setitem(sys.modules, "birdocp.studies", mod)
+    monkeypatch.setitem(sys.modules, "birdocp.studies.trim", mod)
     return mod
 
 
 @pytest.fixture
 def fake_model(monkeypatch):
-    mod = types.ModuleType("birdocp.model")
+    mod = types.ModuleType("birdocp.bird.model")
 
     class Model:
         p0 = np.zeros(3)
@@ -81,7 +81,7 @@ def fake_model(monkeypatch):
                     "xdot": np.array([0.1, 0.2, 0.3, q])}
 
     mod.get_model = lambda cfg: Model()
-    monkeypatch.setitem(sys.modules, "birdocp.model", mod)
+    monkeypatch.setitem(sys.modules, "birdocp.bird.model", mod)
     return mod
 
 
@@ -207,7 +207,7 @@ def test_forces_with_the_real_model(tmp_path):
     import subprocess
     from pathlib import Path
 
-    pytest.importorskip("birdocp.model")
+    pytest.importorskip("birdocp.bird.model")
     repo = Path(__file__).resolve().parents[1]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(repo), os.environ.get("PYTHONPATH")])))
     proc = subprocess.run([sys.executable, "-m", "birdocp", "forces", "--state", "18", "0.5", "0.1", "0.01",

@@ -11,8 +11,8 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from birdocp.compiled import CompiledFallbackWarning, compiled_ode, find_compiler
-from birdocp.config import Config
+from birdocp.export.compiled import CompiledFallbackWarning, compiled_ode, find_compiler
+from birdocp.bird.config import Config
 
 CC = find_compiler()
 needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler (cc/gcc/clang or $CC) on this machine")
@@ -21,9 +21,9 @@ X0 = (18.0, 0.5, 0.1, 0.01)
 
 @needs_cc
 def test_export_builds_and_matches_python(tmp_path):
-    from birdocp.codegen import export_c
-    from birdocp.integrate import RK4Grid
-    from birdocp.model import get_model
+    from birdocp.export.codegen import export_c
+    from birdocp.engine.integrate import RK4Grid
+    from birdocp.bird.model import get_model
 
     cfg = Config()
     info = export_c(cfg, tmp_path / "bird_c")
@@ -66,8 +66,8 @@ def test_export_builds_and_matches_python(tmp_path):
 
 @needs_cc
 def test_compiled_trim_same_multipliers(tmp_path, monkeypatch):
-    from birdocp import compiled
-    from birdocp.studies import trim
+    from birdocp.export import compiled
+    from birdocp.studies.trim import trim
 
     monkeypatch.setenv("BIRDOCP_CACHE", str(tmp_path / "cache"))
     compiled._ODES.clear()
@@ -86,7 +86,7 @@ def test_compiled_trim_same_multipliers(tmp_path, monkeypatch):
 
 
 def test_compile_failure_falls_back_with_warning(tmp_path, monkeypatch):
-    from birdocp.problem import PeriodicODE
+    from birdocp.engine.problem import PeriodicODE
 
     monkeypatch.setenv("BIRDOCP_CACHE", str(tmp_path / "cache"))
     monkeypatch.setenv("CC", shutil.which("false") or "false")
@@ -101,7 +101,7 @@ def test_compile_failure_falls_back_with_warning(tmp_path, monkeypatch):
 
 
 def test_cli_export_c(tmp_path, capsys):
-    from birdocp.cli import main
+    from birdocp.cli.main import main
 
     assert main(["export-c", "--out", str(tmp_path / "c"), "--amplitude", "40", "--json"]) == 0
     info = __import__("json").loads(capsys.readouterr().out)

@@ -6,8 +6,8 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from birdocp.continuation import Branch, continuation
-from birdocp.problem import LimitCycleProblem, PeriodicODE
+from birdocp.engine.continuation import Branch, continuation
+from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
 
 T = 1.0
 
@@ -97,10 +97,10 @@ def test_neimark_sacker_detected():
 def test_bird_branch_agrees_with_independent_trims(tmp_path):
     """A short fixed-amplitude branch in the root position (coarse grid) = trims at three root positions;
     the CLI writes it and 'plot' redraws it."""
-    from birdocp.cli import main
-    from birdocp.config import Config, with_values
-    from birdocp.continuation import bird_branch
-    from birdocp.studies import trim
+    from birdocp.cli.main import main
+    from birdocp.bird.config import Config, with_values
+    from birdocp.engine.continuation import bird_branch
+    from birdocp.studies.trim import trim
 
     coarse = dict(points=3, steps_per_period=48)
     br = bird_branch(Config(), "root_ahead_m", 0.05, 0.048, **coarse)
@@ -128,8 +128,8 @@ def test_branch_leaves_a_start_where_the_parameter_derivative_vanishes():
     corrector that trusted the start's Jacobian wandered to negative angles and reported a fold at
     0.3 deg (the branch then 'turned back' to 0). The branch must leave 0 forward, without special
     points."""
-    from birdocp.config import Config, with_values
-    from birdocp.continuation import bird_branch
+    from birdocp.bird.config import Config, with_values
+    from birdocp.engine.continuation import bird_branch
 
     br = bird_branch(with_values(Config(), {"tail.enabled": True}), "tail.opening_angle_deg", 0.0, 60.0,
                      level=True, bounds=(20.0, 90.0), max_points=3, points=3, steps_per_period=48)

@@ -13,12 +13,12 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from birdocp import shooting
-from birdocp.config import Config
-from birdocp.integrate import RK4Grid
-from birdocp.model import get_model
-from birdocp.shooting import MultipleShooting, _Builder
-from birdocp.studies import _OUTPUTS
+from birdocp.engine import shooting
+from birdocp.bird.config import Config
+from birdocp.engine.integrate import RK4Grid
+from birdocp.bird.model import get_model
+from birdocp.engine.shooting import MultipleShooting, _Builder
+from birdocp.studies.trim import _OUTPUTS
 
 ROOT = "wing.root_ahead_m"
 

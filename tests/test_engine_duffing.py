@@ -5,10 +5,10 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from birdocp.floquet import floquet
-from birdocp.integrate import RK4Grid, simulate
-from birdocp.problem import LimitCycleProblem, PeriodicODE
-from birdocp.shooting import MultipleShooting, solve
+from birdocp.engine.floquet import floquet
+from birdocp.engine.integrate import RK4Grid, simulate
+from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
+from birdocp.engine.shooting import MultipleShooting, solve
 
 OMEGA = 1.3
 T = 2 * np.pi / OMEGA

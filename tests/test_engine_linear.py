@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 import scipy.linalg as sl
 
-from birdocp.floquet import floquet
-from birdocp.problem import LimitCycleProblem, MeanCondition, PeriodicODE
-from birdocp.shooting import MultipleShooting, solve
+from birdocp.engine.floquet import floquet
+from birdocp.engine.problem import LimitCycleProblem, MeanCondition, PeriodicODE
+from birdocp.engine.shooting import MultipleShooting, solve
 
 T = 1.7
 W = 2 * np.pi / T

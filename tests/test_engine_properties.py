@@ -6,8 +6,8 @@ import scipy.linalg as sl
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from birdocp.problem import LimitCycleProblem, PeriodicODE
-from birdocp.shooting import MultipleShooting, solve
+from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
+from birdocp.engine.shooting import MultipleShooting, solve
 
 T = 1.0
 W = 2 * np.pi / T

@@ -2,8 +2,8 @@
 serially, in local processes or on a Dask LocalCluster started here."""
 import pytest
 
-from birdocp.executors import DaskExecutor, ProcessExecutor, SerialExecutor, get_executor
-from birdocp.sweep import grid_sweep
+from birdocp.engine.executors import DaskExecutor, ProcessExecutor, SerialExecutor, get_executor
+from birdocp.studies.sweep import grid_sweep
 
 COARSE = dict(points=3, steps_per_period=48)
 GRID = dict(key="amplitude", values=[42.0, 43.0], row_key="root_ahead_m", row_values=[0.05, 0.048])
@@ -61,7 +61,7 @@ def test_dask_local_cluster_matches_serial(serial, tmp_path):
 
 
 def test_cli_grid_bad_input(capsys):
-    from birdocp.cli import main
+    from birdocp.cli.main import main
 
     base = ["sweep", "amplitude", "--from", "42", "--to", "43", "--step", "1"]
     assert main(base + ["--jobs", "2"]) == 2

@@ -11,9 +11,9 @@ import math
 import numpy as np
 import pytest
 
-from birdocp.config import Config, ConfigError, with_values
-from birdocp.level import AMPLITUDE_KEY, level, mean_sensitivity
-from birdocp.studies import trim
+from birdocp.bird.config import Config, ConfigError, with_values
+from birdocp.studies.level import AMPLITUDE_KEY, level, mean_sensitivity
+from birdocp.studies.trim import trim
 
 KW = dict(points=3, steps_per_period=48)
 

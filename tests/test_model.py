@@ -8,10 +8,10 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from birdocp import wing
-from birdocp.config import PARAM_NAMES, Config, with_values
-from birdocp.model import GEOMETRY_OUTPUTS, get_model, unpack_data
-from birdocp.reference import reference_dir
+from birdocp.bird import wing
+from birdocp.bird.config import PARAM_NAMES, Config, with_values
+from birdocp.bird.model import GEOMETRY_OUTPUTS, get_model, unpack_data
+from birdocp.io.reference import reference_dir
 
 REF = reference_dir()
 FIX = json.loads((REF / "force_fixtures.json").read_text())

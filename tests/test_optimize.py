@@ -5,9 +5,9 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from birdocp.config import Config, ConfigError, with_values
-from birdocp.level import level
-from birdocp.optimize import jury_conditions, optimize_stability
+from birdocp.bird.config import Config, ConfigError, with_values
+from birdocp.studies.level import level
+from birdocp.studies.optimize import jury_conditions, optimize_stability
 
 
 def test_jury_conditions_match_eigenvalues():

@@ -4,8 +4,8 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from birdocp.config import Config, with_values
-from birdocp.studies import trim
+from birdocp.bird.config import Config, with_values
+from birdocp.studies.trim import trim
 
 
 @settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.too_slow])

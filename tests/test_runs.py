@@ -9,11 +9,11 @@ import threading
 import numpy as np
 import pytest
 
-from birdocp import config as C
-from birdocp import io as bio
-from birdocp import provenance as P
-from birdocp import runs
-from birdocp.config import ConfigError
+from birdocp.bird import config as C
+from birdocp.io import files as bio
+from birdocp.io import provenance as P
+from birdocp.io import runs
+from birdocp.bird.config import ConfigError
 
 
 def _leftovers(folder):

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from birdocp.config import PARAM_NAMES, Config, with_values
-from birdocp.sensitivity import multiplier_sensitivities
-from birdocp.studies import trim
+from birdocp.bird.config import PARAM_NAMES, Config, with_values
+from birdocp.studies.sensitivity import multiplier_sensitivities
+from birdocp.studies.trim import trim
 
 # A coarse grid keeps the test fast; the derivatives are exact for whichever grid the trim uses.
 FAST = dict(points=3, steps_per_period=48)
@@ -26,7 +26,7 @@ def _fd(base, key, h, level=False):
     for s in (+1, -1):
         cfg = with_values(base.cfg, {key: v + s * h})
         if level:
-            from birdocp.level import level as solve_level
+            from birdocp.studies.level import level as solve_level
             r = solve_level(cfg, warm_start=base, tol=1e-12, **FAST)
         else:
             r = trim(cfg, warm_start=base, tol=1e-12, **FAST)
@@ -58,7 +58,7 @@ def test_multiplier_and_mean_speed_derivatives_match_finite_differences(base):
 
 def test_level_held_sensitivity_matches_two_level_solves(base):
     key = "gait.elbow_flex.amplitude_deg"
-    lv = __import__("birdocp.level", fromlist=["level"]).level(base.cfg, tol=1e-12, **FAST)
+    lv = __import__("birdocp.studies.level", fromlist=["level"]).level(base.cfg, tol=1e-12, **FAST)
     assert lv.success
     fixed = trim(with_values(base.cfg, {"gait.shoulder_flap.amplitude_deg": lv.amplitude_deg}), tol=1e-12,
                  warm_start=lv, **FAST)

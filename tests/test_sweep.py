@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import birdocp.studies
-from birdocp.config import Config, ConfigError
-from birdocp.sweep import read_points, sweep, sweep_values
+import birdocp.studies.trim
+from birdocp.bird.config import Config, ConfigError
+from birdocp.studies.sweep import read_points, sweep, sweep_values
 
 KW = dict(points=3, steps_per_period=48)
 VALUES = [42.5, 43.0, 43.5, 44.0]
@@ -65,7 +65,7 @@ def test_interrupted_sweep_resumes_to_the_same_table(tmp_path, monkeypatch):
     part = tmp_path / "part"
     rows_full = sweep(Config(), "amplitude", VALUES, out_dir=full, progress=False, **KW)
 
-    real_trim = birdocp.studies.trim
+    real_trim = birdocp.studies.trim.trim
     calls = []
 
     def trim_then_interrupt(*a, **k):
@@ -74,10 +74,10 @@ def test_interrupted_sweep_resumes_to_the_same_table(tmp_path, monkeypatch):
         calls.append(1)
         return real_trim(*a, **k)
 
-    monkeypatch.setattr(birdocp.studies, "trim", trim_then_interrupt)
+    monkeypatch.setattr(birdocp.studies.trim, "trim", trim_then_interrupt)
     with pytest.raises(KeyboardInterrupt):
         sweep(Config(), "amplitude", VALUES, out_dir=part, progress=False, **KW)
-    monkeypatch.setattr(birdocp.studies, "trim", real_trim)
+    monkeypatch.setattr(birdocp.studies.trim, "trim", real_trim)
     assert sorted(read_points(part)) == [0, 1]
     assert len(_table(part)) == 2
 
@@ -87,7 +87,7 @@ def test_interrupted_sweep_resumes_to_the_same_table(tmp_path, monkeypatch):
         sweep(Config(), "amplitude", VALUES[:3], out_dir=part, resume=True, progress=False, **KW)
 
     solved = []
-    monkeypatch.setattr(birdocp.studies, "trim", lambda *a, **k: solved.append(1) or real_trim(*a, **k))
+    monkeypatch.setattr(birdocp.studies.trim, "trim", lambda *a, **k: solved.append(1) or real_trim(*a, **k))
     rows_resumed = sweep(Config(), "amplitude", VALUES, out_dir=part, resume=True, progress=False, **KW)
     assert len(solved) == 2  # only the missing points
     assert _table(part) == _table(full)
@@ -97,7 +97,7 @@ def test_interrupted_sweep_resumes_to_the_same_table(tmp_path, monkeypatch):
 
 BLOCKED = (
     "import runpy, sys\n"
-    "for name in ('casadi', 'birdocp.model', 'birdocp.studies'):\n"
+    "for name in ('casadi', 'birdocp.bird.model', 'birdocp.studies.trim'):\n"
     "    sys.modules[name] = None\n"
     "sys.argv[0] = 'birdocp'\n"
     "runpy.run_module('birdocp', run_name='__main__', alter_sys=True)\n"

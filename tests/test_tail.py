@@ -6,9 +6,9 @@ import math
 import casadi as ca
 import numpy as np
 
-from birdocp import tail
-from birdocp.config import Config, with_values
-from birdocp.model import get_model
+from birdocp.bird import tail
+from birdocp.bird.config import Config, with_values
+from birdocp.bird.model import get_model
 
 STATES = [([15.0, 0.5, 0.0, 0.1], 0.0), ([16.0, -0.3, 0.2, -0.05], 0.1), ([18.0, -2.0, -0.1, -0.1], 0.17)]
 
@@ -66,7 +66,7 @@ def test_biot_savart_straight_segment_and_semi_infinite_filament():
 def test_wing_vortex_system_against_midpoint_quadrature():
     """The induced velocity at the tail's neutral point equals a brute-force Biot-Savart quadrature
     of the same vortex lines (bound segments, trailing legs truncated far downstream)."""
-    from birdocp.model import unpack_data
+    from birdocp.bird.model import unpack_data
     m = get_model(with_values(Config(), {"tail.enabled": True}))
     nodes = np.array(unpack_data(m.data(0.03, m.p0))["nodes_m"])
     gamma = np.array(m.aero_detail([15.0, 0.5, 0.0, 0.1], 0.03, m.p0)[0]).ravel()

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from birdocp.config import Config, with_values
-from birdocp.studies import trim
-from birdocp.reference import load, multipliers
+from birdocp.bird.config import Config, with_values
+from birdocp.studies.trim import trim
+from birdocp.io.reference import load, multipliers
 
 CYCLE = load("reference_cycle")
 RK4 = CYCLE["rk4_period_map_monodromy_central_differences"]

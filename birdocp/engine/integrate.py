@@ -1,4 +1,4 @@
-"""Fixed-step RK4 on a :class:`~birdocp.problem.PeriodicODE`, as CasADi Functions.
+"""Fixed-step RK4 on a :class:`~birdocp.engine.problem.PeriodicODE`, as CasADi Functions.
 
 Layout of the data (the time-dependent vector d(t, p)):
 
@@ -17,7 +17,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from .problem import PeriodicODE
+from birdocp.engine.problem import PeriodicODE
 
 __all__ = [
     "rk4_step",
@@ -86,7 +86,7 @@ class RK4Grid:
     M-1 segments called one after the other (the same RK4 steps on the same data columns as a
     148-step ``mapaccum``, whose unrolled graph took 0.3 s to build and 1.1 s more to differentiate);
     the Jacobian Functions are built on first use (a trim by IPOPT needs ``segment_sensitivities``
-    and ``period_jacobian``; the plain ``segment_jacobians`` only :func:`birdocp.floquet.floquet`).
+    and ``period_jacobian``; the plain ``segment_jacobians`` only :func:`birdocp.engine.floquet.floquet`).
     ``period_jacobian`` is the product of the segment Jacobians along the trajectory integrated from
     x0 (chain rule: the exact Jacobian of the one-period map, as one forward-AD pass through it).
     """

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .problem import PeriodicODE
+from birdocp.engine.problem import PeriodicODE
 
 __all__ = ["FloquetResult", "floquet", "floquet_from_jacobians", "multipliers_info"]
 
@@ -69,11 +69,11 @@ def floquet_from_jacobians(jacobians, full_period_jacobian, period_s) -> Floquet
 def floquet(ode: PeriodicODE, x0, p, method=None, *, t0: float = 0.0, points=None, _grid=None, _blocks=None) -> FloquetResult:
     """Floquet analysis at the periodic orbit through ``x0`` (at time t0) for parameters ``p``.
 
-    ``method`` is a :class:`~birdocp.shooting.MultipleShooting` (points, steps_per_period); default
+    ``method`` is a :class:`~birdocp.engine.shooting.MultipleShooting` (points, steps_per_period); default
     ``MultipleShooting()``.  ``points`` (M x nx or (M-1) x nx) are the shooting points; by default
     they are obtained by integrating forward from x0 (identical at a converged orbit).
     """
-    from .shooting import MultipleShooting, _get_grid
+    from birdocp.engine.shooting import MultipleShooting, _get_grid
 
     method = method or MultipleShooting()
     method.validate()

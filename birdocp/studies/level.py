@@ -1,7 +1,7 @@
 """Level (or steady climbing) flight as one NLP: a model parameter free, a period mean constrained.
 
 The paper finds level flight by a Newton-Raphson search over the shoulder flapping amplitude, one
-limit cycle per step. Here the amplitude (or any other entry of :data:`birdocp.config.PARAM_NAMES`)
+limit cycle per step. Here the amplitude (or any other entry of :data:`birdocp.bird.config.PARAM_NAMES`)
 is a decision variable of the multiple-shooting problem, bounded, and one period-mean condition
 closes the square system::
 
@@ -14,7 +14,7 @@ closes the square system::
 * ``"forward_speed_mps"``: mean ``U = u cos(theta) + w sin(theta)`` equals ``target`` (m/s);
 * ``"flight_path_angle_deg"``: ``atan(mean W / mean U) = beta``. A ratio of means is not a mean,
   but with ``mean U > 0`` it is equivalent to the mean of ``W - tan(beta) U`` being 0, which is one
-  linear :class:`~birdocp.problem.MeanCondition` (one output Function per beta, cached).
+  linear :class:`~birdocp.engine.problem.MeanCondition` (one output Function per beta, cached).
 
 Default bounds of the free parameter (``bounds=None``):
 
@@ -37,10 +37,10 @@ import math
 
 from typing import TYPE_CHECKING
 
-from .config import PARAM_NAMES, Config, ConfigError, _suggest, get_value
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, _suggest, get_value
 
 if TYPE_CHECKING:  # the model and the engine are imported on first solve (key checks stay light)
-    from .studies import TrimResult
+    from birdocp.studies.trim import TrimResult
 
 __all__ = ["level", "CONSTRAINTS", "default_bounds", "resolve_key", "resolve_constraint", "AMPLITUDE_KEY", "KEY_ALIASES"]
 
@@ -96,7 +96,7 @@ def _path_angle_output(beta_deg: float) -> ca.Function:
     """Output W - tan(beta) U (one Function object per beta so the shooting graphs are reused)."""
     import casadi as ca
 
-    from .model import N_DATA
+    from birdocp.bird.model import N_DATA
 
     key = float(beta_deg)
     f = _BETA_FNS.get(key)
@@ -114,8 +114,8 @@ def _path_angle_output(beta_deg: float) -> ca.Function:
 
 def _condition(constrain: str, target: float):
     """(MeanCondition, extra outputs) for a constraint name."""
-    from .problem import MeanCondition
-    from .studies import _OUTPUTS
+    from birdocp.engine.problem import MeanCondition
+    from birdocp.studies.trim import _OUTPUTS
 
     c = resolve_constraint(constrain)
     if c == "flight_path_angle_deg":
@@ -137,7 +137,7 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
     target:         target of the condition for the other constraints (forward speed in m/s, flight
                     path angle in deg); for the vertical speed it overrides ``climb_rate_mps``.
     warm_start:     a previous :class:`TrimResult` / LimitCycleResult (shooting points and free value).
-    method_over:    overrides of :class:`~birdocp.shooting.MultipleShooting` (default ``cfg.solve``).
+    method_over:    overrides of :class:`~birdocp.engine.shooting.MultipleShooting` (default ``cfg.solve``).
 
     Returns a :class:`TrimResult`; ``free_values`` holds the solved parameter, ``amplitude_deg`` the
     (solved or fixed) amplitude.
@@ -166,10 +166,10 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
 
     import numpy as np
 
-    from .model import get_model
-    from .problem import LimitCycleProblem
-    from .shooting import solve as _solve
-    from .studies import TrimResult, method_of
+    from birdocp.bird.model import get_model
+    from birdocp.engine.problem import LimitCycleProblem
+    from birdocp.engine.shooting import solve as _solve
+    from birdocp.studies.trim import TrimResult, method_of
 
     cond, outputs = _condition(c, target)
     m = get_model(cfg)
@@ -195,9 +195,9 @@ def mean_sensitivity(result, key: str = AMPLITUDE_KEY, output: str = "vertical_s
     import casadi as ca
     import numpy as np
 
-    from .integrate import RK4Grid
-    from .model import get_model
-    from .studies import _OUTPUTS
+    from birdocp.engine.integrate import RK4Grid
+    from birdocp.bird.model import get_model
+    from birdocp.studies.trim import _OUTPUTS
 
     key = resolve_key(key, "key")
     cyc = result.cycle

@@ -1,9 +1,9 @@
 """Families of trims (or level-flight solves) along one parameter, warm-started from neighbour to neighbour.
 
 ``sweep(cfg, key, values)`` solves one limit cycle per value of ``key`` (any
-:data:`birdocp.config.PARAM_NAMES` key or an alias such as ``amplitude``), in the given order; each
+:data:`birdocp.bird.config.PARAM_NAMES` key or an alias such as ``amplitude``), in the given order; each
 point starts from the last *successful* point's shooting points (``warm=True``). With ``level=True``
-each point is a :func:`birdocp.level.level` solve (by default the flapping amplitude free, mean
+each point is a :func:`birdocp.studies.level.level` solve (by default the flapping amplitude free, mean
 vertical speed 0) with ``key`` swept.
 
 Run folder (``out_dir``), written as the sweep goes (every file atomically)::
@@ -34,9 +34,9 @@ from typing import Sequence
 
 import numpy as np
 
-from .config import Config, ConfigError, to_dict, with_values
-from .io import atomic_write_json, atomic_write_text, to_jsonable
-from .level import AMPLITUDE_KEY, resolve_key
+from birdocp.bird.config import Config, ConfigError, to_dict, with_values
+from birdocp.io.files import atomic_write_json, atomic_write_text, to_jsonable
+from birdocp.studies.level import AMPLITUDE_KEY, resolve_key
 
 __all__ = ["sweep", "sweep_values", "read_points", "CSV_COLUMNS", "row_of", "grid_sweep", "GRID_COLUMNS"]
 
@@ -176,12 +176,12 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
           level_options: dict | None = None, **method_over) -> list[dict]:
     """Solve one limit cycle per value of ``key``; returns the table rows (see :data:`CSV_COLUMNS`).
 
-    level:          each point a :func:`birdocp.level.level` solve (``level_options`` passed on:
+    level:          each point a :func:`birdocp.studies.level.level` solve (``level_options`` passed on:
                     ``free``, ``bounds``, ``climb_rate_mps``, ``constrain``, ``target``).
     warm:           warm-start each point from the last successful one (else from the config's guess).
     out_dir:        run folder to write as the sweep goes (None: nothing written).
     resume:         reuse the points found in ``out_dir`` (same key, values and configuration).
-    method_over:    overrides of :class:`~birdocp.shooting.MultipleShooting`.
+    method_over:    overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
     """
     cfg = cfg or Config()
     key = resolve_key(key, "key")
@@ -198,8 +198,8 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
                                  "parameter (or sweep without --level)")
     cfgs = [with_values(cfg, {key: v}) for v in values]  # validates every value before solving
 
-    from .level import level as level_solve  # the model and the engine: after the input checks
-    from .studies import trim
+    from birdocp.studies.level import level as level_solve  # the model and the engine: after the input checks
+    from birdocp.studies.trim import trim
 
     out = Path(out_dir) if out_dir is not None else None
     spec = {"key": key, "values": values, "level": bool(level), "warm": bool(warm),
@@ -225,7 +225,7 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
                     and p["row"].get("value") == values[i]}
         elif old is not None or read_points(out):
             raise ConfigError("--out", f"'{out}' already holds a sweep; pass resume=True (--resume) or a new folder")
-        from .config import dumps
+        from birdocp.bird.config import dumps
         atomic_write_text(out / "config.toml", dumps(cfg))
 
     rows: list[dict | None] = [done[i]["row"] if i in done else None for i in range(len(values))]
@@ -281,7 +281,7 @@ GRID_COLUMNS = ["row", "row_key", "row_value"] + [c for c in CSV_COLUMNS if c !=
 def _grid_row(job: dict) -> dict:
     """One row of a grid: a warm-started line over ``key`` at ``row_key = row_value`` (run by an
     executor, possibly in another process or on another machine: everything comes in ``job``)."""
-    from .config import from_dict
+    from birdocp.bird.config import from_dict
 
     cfg = with_values(from_dict(job["config"]), {job["row_key"]: job["row_value"]})
     t = time.perf_counter()
@@ -294,13 +294,13 @@ def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: s
                executor=None, level: bool = False, warm: bool = True, out_dir: str | Path | None = None,
                level_options: dict | None = None, **method_over) -> list[dict]:
     """A grid ``row_key x key``: one warm-started line over ``values`` of ``key`` per value of
-    ``row_key``, the rows independent jobs run by ``executor`` (:mod:`birdocp.executors`; default
+    ``row_key``, the rows independent jobs run by ``executor`` (:mod:`birdocp.engine.executors`; default
     serial). Returns the table rows (``GRID_COLUMNS``), row after row.
 
     Written to ``out_dir`` when all rows are done: ``grid.json`` (definition + rows), ``grid.csv``, and
     ``timing.json`` (executor and wall times). ``grid.json`` and ``grid.csv`` hold no wall times, so
     they do not depend on the executor."""
-    from .executors import SerialExecutor
+    from birdocp.engine.executors import SerialExecutor
 
     cfg = cfg or Config()
     key = resolve_key(key, "key")

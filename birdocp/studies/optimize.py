@@ -28,8 +28,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from .config import PARAM_NAMES, Config, ConfigError, get_value, with_values
-from .oracle import ConstraintOracle
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, with_values
+from birdocp.engine.oracle import ConstraintOracle
 
 __all__ = ["DEFAULT_FREE", "optimize_stability", "StabilityOptimum", "jury_conditions"]
 
@@ -111,10 +111,10 @@ class _Evaluator:
     ``z = (x0, free parameters, r)``. The wing's arm-frame shape is numeric (no free key touches it);
     the assembly ``post`` is evaluated at the stage times for the current parameters, and the
     monodromy's derivatives come from forward-over-forward AD along each direction of z
-    (:class:`birdocp.sensitivity._SecondOrder`), all directions in one mapped call."""
+    (:class:`birdocp.studies.sensitivity._SecondOrder`), all directions in one mapped call."""
 
     def __init__(self, model, steps: int, p0, idx, climb_rate_mps: float):
-        from .sensitivity import _SecondOrder
+        from birdocp.studies.sensitivity import _SecondOrder
 
         self.so = so = _SecondOrder.get(model, steps)
         self.grid = grid = so.grid
@@ -234,9 +234,9 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
             fine.message += f"; coarse stage ({coarse_steps} steps): {coarse.status}, {coarse.iterations} iterations"
             return fine
         return coarse
-    from .level import level
-    from .model import get_model
-    from .studies import trim
+    from birdocp.studies.level import level
+    from birdocp.bird.model import get_model
+    from birdocp.studies.trim import trim
 
     cfg = cfg or Config()
     free = dict(DEFAULT_FREE if free is None else free)

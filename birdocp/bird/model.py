@@ -6,7 +6,7 @@ side ``rhs(x, d, p)`` is small. ``f(x, t, p) = rhs(x, data(t, p), p)`` is offere
 
 State x = (u [m/s] forward along x', w [m/s] down along z', q [rad/s] pitch rate nose-up, theta [rad]
 pitch angle). Body frame: x' forward, z' down; loads ``Fx_N``, ``Fz_N`` and ``My_Nm`` (nose-up
-positive) about the centre of mass G. Parameters ``p``: :data:`birdocp.config.PARAM_NAMES`.
+positive) about the centre of mass G. Parameters ``p``: :data:`birdocp.bird.config.PARAM_NAMES`.
 """
 
 from __future__ import annotations
@@ -17,9 +17,12 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from . import aero, kinematics, tail, wing
-from .config import JOINT_NAMES, PARAM_NAMES, Config, param_vector
-from .problem import PeriodicODE
+from birdocp.bird import aero
+from birdocp.bird import kinematics
+from birdocp.bird import tail
+from birdocp.bird import wing
+from birdocp.bird.config import JOINT_NAMES, PARAM_NAMES, Config, param_vector
+from birdocp.engine.problem import PeriodicODE
 
 N_EL = aero.N_ELEMENTS
 STATE_NAMES = ("u_mps", "w_mps", "q_radps", "theta_rad")

@@ -34,8 +34,8 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from .config import PARAM_NAMES, Config
-from .integrate import stage_time_grid
+from birdocp.bird.config import PARAM_NAMES, Config
+from birdocp.engine.integrate import stage_time_grid
 
 __all__ = ["export_c", "ExportInfo", "runtime_parameters"]
 
@@ -109,8 +109,8 @@ def export_c(cfg: Config | None = None, out_dir: str | os.PathLike = "bird_c", *
     """Write the C folder for ``cfg`` (gait, wing and aero numbers baked into the table) to ``out_dir``.
 
     ``steps_per_period``: RK4 steps N per period (default ``cfg.solve.steps_per_period``). The period
-    map starts at t = 0 (phase zero of the gait), like :func:`birdocp.studies.trim`."""
-    from .model import get_model
+    map starts at t = 0 (phase zero of the gait), like :func:`birdocp.studies.trim.trim`."""
+    from birdocp.bird.model import get_model
 
     t_all = time.perf_counter()
     cfg = cfg or Config()
@@ -183,14 +183,14 @@ def _write_data(path: Path, table: np.ndarray, p0, runtime_idx, N, T, cfg) -> No
 
 
 def _header(info: ExportInfo, cfg: Config) -> str:
-    from . import __version__
+    from birdocp import __version__
 
     pdoc = "\n".join(f" *   p[{k}] = {n} (default {v!r})" for k, (n, v) in
                       enumerate(zip(info.runtime_params, info.runtime_p0)))
     pdefs = "\n".join(f"#define BIRD_P_{_c_ident(n.split('.')[-1])} {k}  /* {n} */"
                       for k, n in enumerate(info.runtime_params))
     baked = "\n".join(f" *   {n} = {v!r}" for n, v in info.baked_params.items())
-    from .model import DATA_BLOCKS
+    from birdocp.bird.model import DATA_BLOCKS
     blocks = []
     k = 0
     for name, (r, c) in DATA_BLOCKS:

@@ -24,9 +24,9 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .config import PARAM_NAMES, Config
-from .integrate import RK4Grid
-from .model import get_model
+from birdocp.bird.config import PARAM_NAMES, Config
+from birdocp.engine.integrate import RK4Grid
+from birdocp.bird.model import get_model
 
 __all__ = ["SensitivityResult", "multiplier_sensitivities", "DEFAULT_PARAMETERS", "unit_of"]
 
@@ -108,7 +108,7 @@ class _SecondOrder:
         return hit
 
     def __init__(self, model, steps: int):
-        from .studies import flight_outputs
+        from birdocp.studies.trim import flight_outputs
 
         self.model = model.model
         W = flight_outputs()["vertical_speed_mps"]

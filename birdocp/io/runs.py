@@ -3,7 +3,7 @@
 Layout of a run folder::
 
     runs/20250101-120000-trim-3fa9c2/
-        config.toml   the resolved configuration (load it back with ``birdocp.config.load``)
+        config.toml   the resolved configuration (load it back with ``birdocp.bird.config.load``)
         arrays.npz    numeric arrays of the result (trajectory, monodromy, ...), if any
         result.json   the result dict plus ``provenance``; written last, so its presence means the
                       run folder is complete
@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 from typing import IO, Any, Iterator
 
-from .config import ConfigError
+from birdocp.bird.config import ConfigError
 
 __all__ = [
     "DEFAULT_BASE", "RUN_FILES", "new_run_dir", "claim_out_dir", "is_run_dir", "write_run",
@@ -139,12 +139,12 @@ def write_run(run_dir: str | Path, cfg, result_dict: dict, arrays: dict | None,
               wall_s: Any = None) -> Path:
     """Write ``config.toml``, ``arrays.npz`` (if ``arrays``) and ``result.json`` into ``run_dir``.
 
-    ``result.json`` holds ``result_dict`` plus ``provenance`` (see :mod:`birdocp.provenance`) and is
+    ``result.json`` holds ``result_dict`` plus ``provenance`` (see :mod:`birdocp.io.provenance`) and is
     written last. ``wall_s`` defaults to ``result_dict["wall_s"]``. Returns the result.json path.
     """
-    from .config import dumps
-    from .io import atomic_write_json, atomic_write_text
-    from .provenance import provenance
+    from birdocp.bird.config import dumps
+    from birdocp.io.files import atomic_write_json, atomic_write_text
+    from birdocp.io.provenance import provenance
 
     run_dir = Path(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)

@@ -1,6 +1,6 @@
 """Pseudo-arclength continuation of periodic orbits in one parameter, with special-point detection.
 
-Works for any :class:`~birdocp.problem.LimitCycleProblem`: the unknowns are the shooting points
+Works for any :class:`~birdocp.engine.problem.LimitCycleProblem`: the unknowns are the shooting points
 ``X_0 .. X_{M-1}``, the problem's free parameters (each held by one of its period-mean conditions,
 e.g. the flapping amplitude held by mean W = 0 for level flight) and the continuation parameter
 ``lam``. The equations ``G = [continuity; periodicity; mean conditions]`` are one fewer than the
@@ -13,7 +13,7 @@ unknowns; the branch is the curve ``G(z) = 0``.
   the previous tangent (first: by the direction from ``from`` to ``to``).
 * **Corrector.** Quasi-Newton on the square system ``[G(u); t.(u - u_k) - ds] = 0``. The residual
   and its exact Jacobian come from the multiple-shooting engine's graphs
-  (:class:`birdocp.shooting._Builder`, the continuation parameter one more free parameter):
+  (:class:`birdocp.engine.shooting._Builder`, the continuation parameter one more free parameter):
   ``dG/dX`` by forward AD of the RK4 segments, the parameter columns by forward AD through the
   per-time data (of ``post`` only when no unknown enters the wing's arm-frame shape; from a constant
   column when the parameter enters the data affinely, like the wing-root position). The corrector
@@ -58,9 +58,9 @@ from typing import Callable
 
 import numpy as np
 
-from .floquet import monodromy_of, multipliers_info
-from .problem import LimitCycleProblem
-from .shooting import MultipleShooting, _get_builder, _initial_points, solve
+from birdocp.engine.floquet import monodromy_of, multipliers_info
+from birdocp.engine.problem import LimitCycleProblem
+from birdocp.engine.shooting import MultipleShooting, _get_builder, _initial_points, solve
 
 __all__ = ["Branch", "BranchPoint", "SpecialPoint", "continuation", "Continuation"]
 
@@ -164,7 +164,7 @@ class Continuation:
     """The augmented system of one (problem, continuation parameter, grid). See the module docstring.
 
     The residual and its Jacobian are those of the multiple-shooting engine
-    (:class:`birdocp.shooting._Builder`, cached per configuration) with the continuation parameter
+    (:class:`birdocp.engine.shooting._Builder`, cached per configuration) with the continuation parameter
     as one more free parameter than there are mean conditions: the same graphs, the same pre/post
     data split (the wing shape in the arm frame is evaluated once when no unknown parameter enters
     it), the segment Jacobians by forward AD in nx directions and one forward direction per
@@ -285,7 +285,7 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
     problem:   the limit-cycle problem; its ``free`` parameters (held by its ``means``) are unknowns too.
     param:     the continuation parameter (name in ``ode.param_names`` or index).
     start:     a converged cycle at ``start_value`` (anything with ``shooting_points`` on the same grid,
-               and ``p``); default: solved by :func:`birdocp.shooting.solve` (IPOPT) from the problem.
+               and ``p``); default: solved by :func:`birdocp.engine.shooting.solve` (IPOPT) from the problem.
     step:      the first step, in parameter units (default ``|stop - start| / 10``); ``ds_max`` /
                ``ds_min`` default to 4x / 1/256x the first scaled arclength step.
     scales:    scale of each unknown: dict with ``"states"`` (one number or nx), ``"free"`` (nf) and
@@ -321,7 +321,7 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
     say = progress or (lambda text: None)
 
     # --- first point: Newton at fixed lam from the given cycle, or from the problem's guess
-    # integrated forward; if that fails, the engine (IPOPT, birdocp.shooting.solve)
+    # integrated forward; if that fails, the engine (IPOPT, birdocp.engine.shooting.solve)
     p_start = np.asarray(start.p if start is not None else problem.p, float).copy()
     p_start[sysm.j] = start_value
     if start is not None:
@@ -645,7 +645,7 @@ PARAM_ALIASES = ("root_ahead_m", "stability_margin", "amplitude_deg")
 def resolve_parameter(key: str) -> tuple[str, str]:
     """(model key, display) for a continuation parameter: ``stability_margin`` (SM in percent, continued
     as the root position ``root_ahead_m = -SM/100 * body.reference_chord_m``), an alias or a dotted key."""
-    from .level import resolve_key
+    from birdocp.studies.level import resolve_key
 
     k = str(key).strip()
     if k in (STABILITY_MARGIN, "SM", "sm"):
@@ -675,11 +675,11 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
     The branch's ``parameter`` is the model parameter (``wing.root_ahead_m`` for SM); the SM of every
     point is added to ``settings['stability_margin_percent']`` when ``key`` is ``stability_margin``.
     A point whose shooting points have u <= 0 is rejected (not a forward flight)."""
-    from .config import Config
-    from .level import AMPLITUDE_KEY, default_bounds
-    from .model import get_model
-    from .problem import MeanCondition
-    from .studies import _OUTPUTS, TrimResult
+    from birdocp.bird.config import Config
+    from birdocp.studies.level import AMPLITUDE_KEY, default_bounds
+    from birdocp.bird.model import get_model
+    from birdocp.engine.problem import MeanCondition
+    from birdocp.studies.trim import _OUTPUTS, TrimResult
 
     cfg = cfg or Config()
     model_key, display = resolve_parameter(key)
@@ -742,7 +742,7 @@ def plot_branches(branches: dict, out_dir, prefix: str = "") -> list:
     import matplotlib.pyplot as plt
     from pathlib import Path
 
-    from .plots import save_figure
+    from birdocp.plots.figures import save_figure
 
     out_dir = Path(out_dir)
     paths = []

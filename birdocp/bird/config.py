@@ -393,7 +393,7 @@ def dumps(cfg: Config) -> str:
 
 
 def dump(cfg: Config, path: str | Path) -> None:
-    from .io import atomic_write_text
+    from birdocp.io.files import atomic_write_text
 
     atomic_write_text(path, dumps(cfg))
 

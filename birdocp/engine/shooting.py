@@ -24,10 +24,10 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from .floquet import floquet_from_jacobians
-from .integrate import RK4Grid
-from .oracle import ConstraintOracle
-from .problem import LimitCycleProblem
+from birdocp.engine.floquet import floquet_from_jacobians
+from birdocp.engine.integrate import RK4Grid
+from birdocp.engine.oracle import ConstraintOracle
+from birdocp.engine.problem import LimitCycleProblem
 
 __all__ = ["MultipleShooting", "LimitCycleResult", "solve", "clear_cache"]
 

@@ -5,7 +5,7 @@ derivative functions CasADi's AD asks an external for (``fwd1_rhs``, one forward
 ``adj1_rhs``, one reverse direction; CasADi maps them for more directions and builds Jacobians from
 them). The time loop (RK4 steps, ``mapaccum``, segment Jacobians, IPOPT) stays in CasADi: calling
 the external with SX arguments makes a *call node* in the SX RK4 step, so
-:class:`birdocp.integrate.RK4Grid` and the shooting code need no change. The geometry ``data(t, p)``
+:class:`birdocp.engine.integrate.RK4Grid` and the shooting code need no change. The geometry ``data(t, p)``
 (214k-480k nodes) is never compiled (``design.md`` 2, 5).
 
 Cache: ``$BIRDOCP_CACHE`` or ``$XDG_CACHE_HOME/birdocp`` (default ``~/.cache/birdocp``), one shared
@@ -32,7 +32,7 @@ from pathlib import Path
 
 import casadi as ca
 
-from .problem import PeriodicODE
+from birdocp.engine.problem import PeriodicODE
 
 __all__ = ["CompiledFallbackWarning", "cache_dir", "find_compiler", "compile_functions", "compiled_ode",
            "OPT_FLAGS", "last_compile_s"]
@@ -72,7 +72,7 @@ def find_compiler() -> list[str] | None:
 
 
 def _version() -> str:
-    from . import __version__
+    from birdocp import __version__
     try:
         from importlib.metadata import version
         return version("birdocp")

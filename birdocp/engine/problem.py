@@ -8,7 +8,7 @@ call (and, when no parameter is a decision variable, once per solve as plain num
 
 A :class:`LimitCycleProblem` says *what* is wanted (a periodic orbit of the ODE, optionally with
 some parameters free and as many period-mean conditions); the *how* lives in
-:class:`birdocp.shooting.MultipleShooting`.
+:class:`birdocp.engine.shooting.MultipleShooting`.
 """
 from __future__ import annotations
 

@@ -25,8 +25,8 @@ import traceback
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
-from . import config as C
-from .config import ConfigError
+from birdocp.bird import config as C
+from birdocp.bird.config import ConfigError
 
 __all__ = ["main", "build_parser", "resolve_config", "EXIT_OK", "EXIT_NOT_CONVERGED", "EXIT_BAD_INPUT"]
 
@@ -71,7 +71,7 @@ def _common_options() -> argparse.ArgumentParser:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from . import __version__
+    from birdocp import __version__
 
     parser = _Parser(
         prog=PROG,
@@ -116,7 +116,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     _add_level_parsers(sub, common)
 
-    from .cli_study import add_study_parsers
+    from birdocp.cli.study import add_study_parsers
 
     add_study_parsers(sub, common)
 
@@ -163,7 +163,7 @@ def _load_file(path_text: str) -> C.Config:
 
 
 def _parse_assignment(assignment: str) -> tuple[str, Any]:
-    """``KEY=VALUE`` of ``--set``, the value parsed as by :func:`birdocp.config.set_value`."""
+    """``KEY=VALUE`` of ``--set``, the value parsed as by :func:`birdocp.bird.config.set_value`."""
     if "=" not in assignment:
         raise ConfigError("--set", f"'{assignment}' is not KEY=VALUE; e.g. --set aero.circulation=relaxed")
     key, text = assignment.split("=", 1)
@@ -340,7 +340,7 @@ def format_trim_table(r: dict) -> str:
 
 
 def _print_json(obj: Any) -> None:
-    from .io import to_jsonable
+    from birdocp.io.files import to_jsonable
 
     sys.stdout.write(json.dumps(to_jsonable(obj)) + "\n")
     sys.stdout.flush()
@@ -365,7 +365,7 @@ def cmd_forces(args: argparse.Namespace, command_line: list[str]) -> int:
 
     import numpy as np
 
-    from birdocp.model import get_model
+    from birdocp.bird.model import get_model
 
     with _stdout_to_stderr():
         model = get_model(cfg)
@@ -413,14 +413,14 @@ def _finish_result(result: dict, command: str, t_start: float, run_dir: Path) ->
 
 
 def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
-    from .runs import claim_out_dir, new_run_dir, write_run
+    from birdocp.io.runs import claim_out_dir, new_run_dir, write_run
 
     t_start = time.perf_counter()
     cfg = resolve_config(args)
     run_dir = claim_out_dir(args.out, "trim") if args.out else new_run_dir(None, "trim")
     try:
         with _stdout_to_stderr():
-            from birdocp.studies import trim
+            from birdocp.studies.trim import trim
 
             res = trim(cfg, compiled=True) if getattr(args, "compiled", False) else trim(cfg)
             result = dict(res.to_dict())
@@ -456,7 +456,7 @@ def cmd_export_c(args: argparse.Namespace, command_line: list[str]) -> int:
     if out.is_dir() and any(out.iterdir()) and not (out / "bird.h").exists():
         raise ConfigError("--out", f"{out} is not empty and holds no earlier export (no bird.h); choose a new folder")
     with _stdout_to_stderr():
-        from .codegen import export_c
+        from birdocp.export.codegen import export_c
 
         info = export_c(cfg, out)
     if args.json:
@@ -471,7 +471,7 @@ def cmd_export_c(args: argparse.Namespace, command_line: list[str]) -> int:
 
 
 # ---------------------------------------------------------------------------------------------
-# level and sweep (birdocp.level, birdocp.sweep)
+# level and sweep (birdocp.studies.level, birdocp.studies.sweep)
 
 def _solve_shortcuts(p: argparse.ArgumentParser) -> None:
     s = p.add_argument_group("solve (shortcuts for solve.* keys)")
@@ -575,8 +575,8 @@ def _add_level_parsers(sub, common) -> None:
 
 
 def _level_kwargs(args: argparse.Namespace, cfg) -> dict:
-    """Checked keyword arguments of birdocp.level.level from the level options (no model import)."""
-    from .level import default_bounds, resolve_constraint, resolve_key
+    """Checked keyword arguments of birdocp.studies.level.level from the level options (no model import)."""
+    from birdocp.studies.level import default_bounds, resolve_constraint, resolve_key
 
     free = resolve_key(args.free, "--free")
     constrain = resolve_constraint(args.constrain, "--constrain")
@@ -604,7 +604,7 @@ def _level_kwargs(args: argparse.Namespace, cfg) -> dict:
 
 
 def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
-    from .runs import claim_out_dir, new_run_dir, write_run
+    from birdocp.io.runs import claim_out_dir, new_run_dir, write_run
 
     t_start = time.perf_counter()
     cfg = resolve_config(args)
@@ -612,7 +612,7 @@ def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
     run_dir = claim_out_dir(args.out, "level") if args.out else new_run_dir(None, "level")
     try:
         with _stdout_to_stderr():
-            from birdocp.level import level
+            from birdocp.studies.level import level
 
             res = level(cfg, **kw)
             result = dict(res.to_dict())
@@ -649,7 +649,7 @@ def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
 
 
 def _sweep_out_dir(args: argparse.Namespace) -> Path:
-    from .runs import claim_out_dir, new_run_dir
+    from birdocp.io.runs import claim_out_dir, new_run_dir
 
     if not args.resume:
         return claim_out_dir(args.out, "sweep") if args.out else new_run_dir(None, "sweep")
@@ -681,8 +681,8 @@ def format_sweep_table(rows: list[dict], key: str, level: bool) -> str:
 
 
 def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
-    from .level import resolve_key
-    from .sweep import sweep, sweep_values
+    from birdocp.studies.level import resolve_key
+    from birdocp.studies.sweep import sweep, sweep_values
 
     t_start = time.perf_counter()
     key = resolve_key(args.key, "KEY")
@@ -711,7 +711,7 @@ def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
                     (run_dir / "config.toml").unlink(missing_ok=True)
                     run_dir.rmdir()
         raise
-    from .runs import write_run
+    from birdocp.io.runs import write_run
 
     ok = all(r["success"] for r in rows)
     result = {"success": ok, "key": key, "values": values, "level": bool(args.level),
@@ -732,8 +732,8 @@ def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
 
 
 def _parse_rows(text: str | None):
-    from .level import resolve_key
-    from .sweep import sweep_values
+    from birdocp.studies.level import resolve_key
+    from birdocp.studies.sweep import sweep_values
 
     if not text:
         raise ConfigError("--rows", "--jobs and --scheduler run the rows of a grid: give --rows KEY=A:B:S")
@@ -746,9 +746,9 @@ def _parse_rows(text: str | None):
 
 
 def _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start) -> int:
-    from .executors import get_executor
-    from .runs import claim_out_dir, new_run_dir
-    from .sweep import grid_sweep
+    from birdocp.engine.executors import get_executor
+    from birdocp.io.runs import claim_out_dir, new_run_dir
+    from birdocp.studies.sweep import grid_sweep
 
     row_key, row_values = _parse_rows(args.rows)
     if row_key == key:
@@ -767,7 +767,7 @@ def _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start) -> int:
                               warm=not args.cold, out_dir=run_dir, level_options=level_kw)
     except ImportError as exc:
         raise ConfigError("--scheduler", str(exc)) from None
-    from .runs import write_run
+    from birdocp.io.runs import write_run
 
     ok = all(r["success"] for r in rows)
     result = {"success": ok, "key": key, "values": values, "row_key": row_key, "row_values": row_values,
@@ -789,10 +789,10 @@ def _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start) -> int:
 
 
 # ---------------------------------------------------------------------------------------------
-# continue and plot (birdocp.continuation)
+# continue and plot (birdocp.engine.continuation)
 
 def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
-    from .continuation import resolve_parameter, root_of_sm
+    from birdocp.engine.continuation import resolve_parameter, root_of_sm
 
     t_start = time.perf_counter()
     model_key, display = resolve_parameter(args.param)
@@ -809,11 +809,11 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
         raise ConfigError("--step", f"must be positive, got {args.step!r}")
     if args.max_points < 2:
         raise ConfigError("--max-points", "must be >= 2")
-    from .runs import claim_out_dir, new_run_dir
+    from birdocp.io.runs import claim_out_dir, new_run_dir
 
     run_dir = claim_out_dir(args.out, "continue") if args.out else new_run_dir(None, "continue")
-    from .continuation import bird_branch, plot_branches
-    from .io import atomic_write_json
+    from birdocp.engine.continuation import bird_branch, plot_branches
+    from birdocp.io.files import atomic_write_json
 
     say = (lambda text: None) if args.quiet else (lambda text: print(f"continue: {text}", file=sys.stderr, flush=True))
     with _stdout_to_stderr():
@@ -822,7 +822,7 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
     d = br.to_dict()
     atomic_write_json(run_dir / "branch.json", d)
     figs = plot_branches({"level flight" if args.level else "branch": br}, run_dir) if br.points else []
-    from .runs import write_run
+    from birdocp.io.runs import write_run
 
     ok = br.end_reason in ("reached_to", "reached_from") and bool(br.points)
     summary = {"success": ok, "parameter": br.parameter_name, "display": display, "from": a, "to": b,
@@ -866,7 +866,7 @@ def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
     figs = []
     with _stdout_to_stderr():
         if (run / "branch.json").is_file():
-            from .continuation import Branch, plot_branches
+            from birdocp.engine.continuation import Branch, plot_branches
 
             br = Branch.from_dict(json.loads((run / "branch.json").read_text()))
             figs = plot_branches({"level flight" if br.settings.get("level") else "branch": br}, run)
@@ -875,7 +875,7 @@ def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
         elif (run / "sweep.json").is_file():
             figs = _plot_sweep(run)
         elif command in ("trim", "level") or "x0" in res:
-            from . import plots
+            from birdocp.plots import figures as plots
 
             arrays = {}
             if (run / "arrays.npz").is_file():
@@ -908,7 +908,7 @@ def _plot_rows(rows, xkey, path, title, xlabel):
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from .plots import save_figure
+    from birdocp.plots.figures import save_figure
 
     fig, ax = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
     groups = {}

@@ -6,7 +6,7 @@ import argparse
 import sys
 import time
 
-from .config import PARAM_NAMES, ConfigError, _suggest
+from birdocp.bird.config import PARAM_NAMES, ConfigError, _suggest
 
 
 def add_study_parsers(sub, common) -> None:
@@ -34,7 +34,7 @@ def add_study_parsers(sub, common) -> None:
                    help="free parameter (repeatable; default: shoulder incidence and sweep offsets "
                         "and amplitudes)")
     p.add_argument("--bounds", action="append", metavar="KEY=LO:HI",
-                   help="bounds of a free parameter (repeatable; default: birdocp.optimize.DEFAULT_FREE)")
+                   help="bounds of a free parameter (repeatable; default: birdocp.studies.optimize.DEFAULT_FREE)")
     p.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS", help="mean vertical speed (default 0)")
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty)")
     p.set_defaults(func=cmd_optimize)
@@ -47,8 +47,8 @@ def _check_key(key: str, flag: str) -> str:
 
 
 def cmd_sensitivity(args: argparse.Namespace, command_line: list[str]) -> int:
-    from . import cli
-    from .runs import claim_out_dir, new_run_dir, write_run
+    from birdocp.cli import main as cli
+    from birdocp.io.runs import claim_out_dir, new_run_dir, write_run
 
     t0 = time.perf_counter()
     cfg = cli.resolve_config(args)
@@ -57,12 +57,12 @@ def cmd_sensitivity(args: argparse.Namespace, command_line: list[str]) -> int:
         raise ConfigError("--top", f"must be >= 1, got {args.top}")
     run_dir = claim_out_dir(args.out, "sensitivity") if args.out else new_run_dir(None, "sensitivity")
     with cli._stdout_to_stderr():
-        from .config import with_values
-        from .sensitivity import multiplier_sensitivities
-        from .studies import trim
+        from birdocp.bird.config import with_values
+        from birdocp.studies.sensitivity import multiplier_sensitivities
+        from birdocp.studies.trim import trim
 
         if args.level:
-            from .level import level
+            from birdocp.studies.level import level
 
             lv = level(cfg)
             base = trim(with_values(cfg, {"gait.shoulder_flap.amplitude_deg": lv.amplitude_deg}),
@@ -103,9 +103,9 @@ def cmd_sensitivity(args: argparse.Namespace, command_line: list[str]) -> int:
 def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
     import math
 
-    from . import cli
-    from .optimize import DEFAULT_FREE, optimize_stability
-    from .runs import claim_out_dir, new_run_dir, write_run
+    from birdocp.cli import main as cli
+    from birdocp.studies.optimize import DEFAULT_FREE, optimize_stability
+    from birdocp.io.runs import claim_out_dir, new_run_dir, write_run
 
     cfg = cli.resolve_config(args)
     if not math.isfinite(args.climb_rate):

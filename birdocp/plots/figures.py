@@ -1,9 +1,9 @@
 """Figures of trimmed flights (matplotlib, Agg backend); each function writes one PNG atomically.
 
 Inputs are result objects or their plain forms, so the functions serve both scripts (holding
-:class:`~birdocp.studies.TrimResult` objects) and a CLI that reads ``result.json``/``arrays.npz``:
+:class:`~birdocp.studies.trim.TrimResult` objects) and a CLI that reads ``result.json``/``arrays.npz``:
 
-* a *trim result*: a :class:`~birdocp.studies.TrimResult` / :class:`~birdocp.shooting.LimitCycleResult`,
+* a *trim result*: a :class:`~birdocp.studies.trim.TrimResult` / :class:`~birdocp.engine.shooting.LimitCycleResult`,
   or a dict with ``trajectory_t_s`` (or ``trajectory_t``) and ``trajectory_x`` (``TrimResult.arrays()``);
 * *multipliers*: complex arrays, or lists of ``[re, im]`` pairs (``TrimResult.to_dict()["multipliers"]``);
 * a *residual history*: an array, a dict with ``residual_history``, or a result object.
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import matplotlib
 
-from .io import atomic_target
+from birdocp.io.files import atomic_target
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -233,7 +233,7 @@ def plot_phase_portrait(trim_result, path, title: str = "Limit cycle: phase port
 def plot_forces(trim_result, model, path, title: str = "Aerodynamic loads along the trimmed cycle") -> Path:
     """Fx'/(m g), Fz'/(m g) and My'/(m g c̄) over the period, from ``model.loads`` mapped over the
     trajectory (body frame: x' forward, z' down, My' nose-up positive)."""
-    from .config import PARAM_NAMES  # local: keep this module importable without the model stack
+    from birdocp.bird.config import PARAM_NAMES  # local: keep this module importable without the model stack
 
     t, x = _trajectory(trim_result)
     try:

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from .config import JOINT_NAMES
+from birdocp.bird.config import JOINT_NAMES
 
 
 def rot_x(a):
@@ -38,7 +38,7 @@ def vec(x, y, z):
 def joint_angles(t, frequency_hz: float, joints: dict) -> dict:
     """Joint angles [rad] at time t [s]: ``q = offset + amplitude sin(2 pi f t + phase)``.
 
-    ``joints`` maps each name of :data:`~birdocp.config.JOINT_NAMES` to (offset_deg, amplitude_deg,
+    ``joints`` maps each name of :data:`~birdocp.bird.config.JOINT_NAMES` to (offset_deg, amplitude_deg,
     phase_deg), numbers or SX.
     """
     omega = 2.0 * math.pi * frequency_hz

@@ -17,7 +17,7 @@ from typing import Any
 
 __all__ = ["provenance", "config_hash", "canonical_toml", "birdocp_version", "git_revision"]
 
-PACKAGE_DIR = Path(__file__).resolve().parent
+PACKAGE_DIR = Path(__file__).resolve().parents[1]
 
 IPOPT_LINEAR_SOLVER = "mumps"
 """The linear solver IPOPT is run with (the one shipped in the casadi wheels)."""
@@ -70,7 +70,7 @@ def canonical_toml(cfg) -> str:
     """The resolved configuration as TOML with sorted keys: the same config gives the same text."""
     import tomli_w
 
-    from .config import to_dict
+    from birdocp.bird.config import to_dict
 
     return tomli_w.dumps(_sorted(to_dict(cfg)))
 
@@ -98,7 +98,7 @@ def _cpu_count() -> dict[str, int | None]:
 
 def provenance(cfg, command_line: list[str] | None, wall_s: Any = None) -> dict[str, Any]:
     """A JSON-able record of how a result was produced (stored under ``provenance`` in result.json)."""
-    from .config import to_dict
+    from birdocp.bird.config import to_dict
 
     return {
         "birdocp_version": birdocp_version(),

@@ -17,10 +17,10 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .config import PARAM_NAMES, Config
-from .model import N_DATA, get_model
-from .problem import LimitCycleProblem
-from .shooting import LimitCycleResult, MultipleShooting, solve
+from birdocp.bird.config import PARAM_NAMES, Config
+from birdocp.bird.model import N_DATA, get_model
+from birdocp.engine.problem import LimitCycleProblem
+from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
 
 __all__ = ["TrimResult", "trim", "method_of", "flight_outputs"]
 
@@ -57,7 +57,7 @@ def _f(v):
 
 @dataclass
 class TrimResult:
-    """A trimmed flight: the engine's :class:`~birdocp.shooting.LimitCycleResult` (``cycle``; its
+    """A trimmed flight: the engine's :class:`~birdocp.engine.shooting.LimitCycleResult` (``cycle``; its
     fields are also readable here directly) plus the flight quantities of the paper."""
 
     cycle: LimitCycleResult
@@ -158,8 +158,8 @@ def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: Mu
 
     ``x_guess``: state (u, w, q, theta) at t = 0 (default ``cfg.solve.initial_guess``);
     ``warm_start``: a previous :class:`TrimResult` whose cycle starts the solve; ``method`` or keyword
-    overrides of :class:`~birdocp.shooting.MultipleShooting` (default from ``cfg.solve``);
-    ``compiled``: use the state RHS compiled to C (:mod:`birdocp.compiled`, cached; falls back to the
+    overrides of :class:`~birdocp.engine.shooting.MultipleShooting` (default from ``cfg.solve``);
+    ``compiled``: use the state RHS compiled to C (:mod:`birdocp.export.compiled`, cached; falls back to the
     interpreted path with a warning on stderr if compilation fails).
     """
     cfg = cfg or Config()
@@ -167,7 +167,7 @@ def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: Mu
     guess = np.asarray(cfg.solve.initial_guess if x_guess is None else x_guess, float)
     ode = m.ode
     if compiled:
-        from .compiled import compiled_ode
+        from birdocp.export.compiled import compiled_ode
         ode = compiled_ode(m.ode, key_extra=repr(m.structure)) or m.ode
     problem = LimitCycleProblem(ode=ode, p=m.p0, x_guess=guess, outputs=_OUTPUTS)
     method = method or method_of(cfg, **method_over)
