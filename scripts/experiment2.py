@@ -136,8 +136,8 @@ def main() -> None:
     r42 = trim(c42, warm_start=r_level)
     r44 = trim(c44, warm_start=r_level)
     paths = {}
-    for lab, r in ((f"A = 42 deg (descending)", r42), (f"A = {a_level:.2f} deg (level)", r_level),
-                   (f"A = 44 deg (climbing)", r44)):
+    for lab, r in (("A = 42 deg (descending)", r42), (f"A = {a_level:.2f} deg (level)", r_level),
+                   ("A = 44 deg (climbing)", r44)):
         tt, xx, zz = flight_path(r)
         paths[lab] = (tt, xx, zz, r)
     res["trajectories"] = {lab: {"amplitude_deg": v[3].amplitude_deg, "horizontal_distance_m": float(v[1][-1]),

@@ -4,7 +4,6 @@ import math
 
 import casadi as ca
 import numpy as np
-import pytest
 
 from birdocp.engine.continuation import Branch, continuation
 from birdocp.engine.problem import LimitCycleProblem, PeriodicODE

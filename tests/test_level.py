@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import pytest
 
 from birdocp.bird.config import Config, ConfigError, with_values

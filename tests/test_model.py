@@ -2,7 +2,6 @@
 against independent checks (finite differences, symmetry)."""
 
 import json
-from pathlib import Path
 
 import casadi as ca
 import numpy as np

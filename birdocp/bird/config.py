@@ -311,7 +311,7 @@ def to_dict(cfg: Any) -> dict:
     return out
 
 
-def _suggest(key: str, candidates) -> str:
+def suggest(key: str, candidates) -> str:
     match = difflib.get_close_matches(key, list(candidates), n=1, cutoff=0.6)
     return f"; did you mean '{match[0]}'?" if match else ""
 
@@ -350,7 +350,7 @@ def _build(cls: type, data: Any, prefix: str) -> Any:
     for k, v in data.items():
         key = f"{prefix}{k}"
         if k not in names:
-            raise ConfigError(key, "unknown key" + _suggest(key, [f"{prefix}{n}" for n in names]
+            raise ConfigError(key, "unknown key" + suggest(key, [f"{prefix}{n}" for n in names]
                                                            + list(_ALL_KEYS)))
         f = names[k]
         sub = f.default if f.default is not dataclasses.MISSING else f.default_factory()
@@ -398,7 +398,7 @@ def dump(cfg: Config, path: str | Path) -> None:
     atomic_write_text(path, dumps(cfg))
 
 
-def _parse_scalar(text: str) -> Any:
+def parse_scalar(text: str) -> Any:
     """Parse a ``--set`` value as a TOML value; bare words are strings."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
@@ -414,9 +414,9 @@ def with_values(cfg: Config, values: dict[str, Any]) -> Config:
         node = data
         for i, part in enumerate(parts[:-1]):
             if isinstance(node, list):
-                raise ConfigError(key, "unknown key" + _suggest(key, _ALL_KEYS))
+                raise ConfigError(key, "unknown key" + suggest(key, _ALL_KEYS))
             if part not in node or not isinstance(node[part], (dict, list)):
-                raise ConfigError(key, "unknown key" + _suggest(key, _ALL_KEYS))
+                raise ConfigError(key, "unknown key" + suggest(key, _ALL_KEYS))
             node = node[part]
         last = parts[-1]
         if isinstance(node, list):
@@ -427,7 +427,7 @@ def with_values(cfg: Config, values: dict[str, Any]) -> Config:
                 raise ConfigError(key, f"index must be 0..{len(node) - 1}") from None
         else:
             if last not in node:
-                raise ConfigError(key, "unknown key" + _suggest(key, _ALL_KEYS))
+                raise ConfigError(key, "unknown key" + suggest(key, _ALL_KEYS))
             if isinstance(node[last], dict):
                 raise ConfigError(key, "is a table; set one of its keys, e.g. " + f"{key}.{next(iter(node[last]))}")
             node[last] = value
@@ -439,7 +439,7 @@ def set_value(cfg: Config, assignment: str) -> Config:
     if "=" not in assignment:
         raise ConfigError(assignment, "expected KEY=VALUE, e.g. aero.circulation=relaxed")
     key, text = assignment.split("=", 1)
-    return with_values(cfg, {key.strip(): _parse_scalar(text.strip())})
+    return with_values(cfg, {key.strip(): parse_scalar(text.strip())})
 
 
 def _all_keys() -> tuple[str, ...]:

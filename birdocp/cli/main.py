@@ -15,6 +15,7 @@ error; 2 bad input (one line on stderr naming the key at fault); 130 interrupted
 from __future__ import annotations
 
 import argparse
+import importlib
 import contextlib
 import json
 import math
@@ -23,65 +24,52 @@ import sys
 import time
 import traceback
 from pathlib import Path
-from typing import Any, Iterator, Sequence
+from typing import Sequence
 
 from birdocp.bird import config as C
 from birdocp.bird.config import ConfigError
+from birdocp.cli.common import (
+    AMPLITUDE_KEY,
+    EXIT_BAD_INPUT,
+    EXIT_INTERNAL,
+    EXIT_INTERRUPTED,
+    EXIT_NOT_CONVERGED,
+    EXIT_OK,
+    PROG,
+    Parser,
+    common_options,
+    config_message,
+    finish_result,
+    finite_values,
+    fmt_num,
+    format_trim_table,
+    one_line,
+    print_json,
+    resolve_config,
+    stdout_to_stderr,
+)
 
 __all__ = ["main", "build_parser", "resolve_config", "EXIT_OK", "EXIT_NOT_CONVERGED", "EXIT_BAD_INPUT"]
 
-PROG = "birdocp"
-EXIT_OK = 0
-EXIT_NOT_CONVERGED = 1
-EXIT_INTERNAL = 1
-EXIT_BAD_INPUT = 2
-EXIT_INTERRUPTED = 130
-
-AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
-ROOT_AHEAD_KEY = "wing.root_ahead_m"
-
-
-# ---------------------------------------------------------------------------------------------
-# Parser
-
-class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (still exit code 2)."""
-
-    def error(self, message: str):  # noqa: D401 - argparse API
-        hint = f"see '{self.prog} --help'"
-        self.exit(EXIT_BAD_INPUT, f"{PROG}: error: {_one_line(message)}; {hint}\n")
-
-
-def _common_options() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(add_help=False)
-    g = p.add_argument_group("configuration (defaults <- CONFIG <- --set <- dedicated flags)")
-    g.add_argument("config", nargs="?", metavar="CONFIG",
-                   help="TOML configuration file (start one with 'birdocp config > bird.toml')")
-    g.add_argument("--amplitude", type=float, metavar="DEG",
-                   help=f"flapping amplitude in degrees (sets {AMPLITUDE_KEY})")
-    g.add_argument("--root-ahead", type=float, metavar="M",
-                   help=f"distance of the wing root ahead of the centre of mass in metres (sets {ROOT_AHEAD_KEY})")
-    g.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="sets",
-                   help="set a dotted config key, e.g. --set aero.circulation=relaxed (repeatable; "
-                        "the value is read as TOML, bare words are strings)")
-    o = p.add_argument_group("output")
-    o.add_argument("--json", action="store_true", help="print one JSON object on stdout instead of a table")
-    o.add_argument("--debug", action="store_true", help="show Python tracebacks on errors")
-    return p
-
+COMMAND_MODULES = (
+    "birdocp.cli.study",
+)
+"""Modules that add subcommands: each defines ``register(sub, common)`` (``sub`` the subparsers
+action, ``common`` the parent parser with the configuration and output options) and sets
+``func(args, command_line) -> exit code`` on its parsers. Add a new command by adding its module here."""
 
 def build_parser() -> argparse.ArgumentParser:
     from birdocp import __version__
 
-    parser = _Parser(
+    parser = Parser(
         prog=PROG,
         description="Trimmed periodic flapping flight of a bird and its Floquet stability.",
         epilog="Exit codes: 0 ok, 1 solver did not converge or internal error, 2 bad input, 130 interrupted. "
                "Run 'birdocp COMMAND --help' for the options of a command.",
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True, parser_class=_Parser)
-    common = _common_options()
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True, parser_class=Parser)
+    common = common_options()
 
     p = sub.add_parser("forces", parents=[common], help="body-frame loads and state derivative at one state and time",
                        description="Evaluate the model once: body-frame loads (x' forward, z' down, "
@@ -116,9 +104,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     _add_level_parsers(sub, common)
 
-    from birdocp.cli.study import add_study_parsers
-
-    add_study_parsers(sub, common)
+    for name in COMMAND_MODULES:
+        importlib.import_module(name).register(sub, common)
 
     p = sub.add_parser("config", parents=[common], help="print the resolved configuration as TOML",
                        description="Print the resolved configuration (defaults <- CONFIG <- --set <- flags) as "
@@ -128,246 +115,27 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 # ---------------------------------------------------------------------------------------------
-# Configuration
-
-def _one_line(text: Any) -> str:
-    return " ".join(str(text).split())
-
-
-def _message(exc: ConfigError) -> str:
-    """The message of a ConfigError without its ``key: `` prefix."""
-    text = str(exc)
-    prefix = f"{exc.key}: "
-    return text[len(prefix):] if exc.key and text.startswith(prefix) else text
-
-
-def _load_file(path_text: str) -> C.Config:
-    path = Path(path_text)
-    if not path.exists():
-        raise ConfigError("CONFIG", f"file '{path}' does not exist; give the path of a TOML file "
-                                    "(write one with 'birdocp config > bird.toml')")
-    if path.is_dir():
-        raise ConfigError("CONFIG", f"'{path}' is a folder; give the path of a TOML file")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise ConfigError(str(path), "is not UTF-8 text; give a TOML file") from None
-    except OSError as exc:
-        raise ConfigError(str(path), f"cannot be read: {exc.strerror or exc}") from None
-    try:
-        return C.loads(text)
-    except ConfigError as exc:
-        if not exc.key:  # not valid TOML
-            raise ConfigError(str(path), _message(exc)) from None
-        raise ConfigError(exc.key, f"{_message(exc)} (in {path})") from None
-
-
-def _parse_assignment(assignment: str) -> tuple[str, Any]:
-    """``KEY=VALUE`` of ``--set``, the value parsed as by :func:`birdocp.bird.config.set_value`."""
-    if "=" not in assignment:
-        raise ConfigError("--set", f"'{assignment}' is not KEY=VALUE; e.g. --set aero.circulation=relaxed")
-    key, text = assignment.split("=", 1)
-    key = key.strip()
-    if not key:
-        raise ConfigError("--set", f"missing key in '{assignment}'; expected KEY=VALUE, e.g. body.mass_kg=1.3")
-    return key, C._parse_scalar(text.strip())
-
-
-def _flag_values(args: argparse.Namespace) -> list[tuple[str, str, Any]]:
-    """(flag, dotted key, value) of the dedicated flags that were given."""
-    table = [
-        ("--amplitude", AMPLITUDE_KEY, "amplitude"),
-        ("--root-ahead", ROOT_AHEAD_KEY, "root_ahead"),
-        ("--points", "solve.points", "points"),
-        ("--steps", "solve.steps_per_period", "steps"),
-        ("--solver", "solve.solver", "solver"),
-        ("--derivatives", "solve.derivatives", "derivatives"),
-    ]
-    return [(flag, key, getattr(args, attr)) for flag, key, attr in table
-            if getattr(args, attr, None) is not None]
-
-
-def resolve_config(args: argparse.Namespace) -> C.Config:
-    """The validated configuration: defaults <- CONFIG file <- --set <- dedicated flags."""
-    cfg = _load_file(args.config) if getattr(args, "config", None) else C.Config()
-    values: dict[str, Any] = {}
-    for assignment in getattr(args, "sets", None) or []:
-        key, value = _parse_assignment(assignment)
-        values[key] = value
-    flags = _flag_values(args)
-    by_key = {}
-    for flag, key, value in flags:
-        if isinstance(value, float) and not math.isfinite(value):
-            raise ConfigError(key, f"must be finite, got {value!r} (from {flag})")
-        values[key] = value
-        by_key[key] = flag
-    if not values:
-        return cfg
-    try:
-        return C.with_values(cfg, values)
-    except ConfigError as exc:
-        if exc.key in by_key:
-            raise ConfigError(exc.key, f"{_message(exc)} (from {by_key[exc.key]})") from None
-        raise
-
-
-def _finite(name: str, values: Sequence[float]) -> list[float]:
-    for v in values:
-        if not math.isfinite(v):
-            raise ConfigError(name, f"must be finite numbers, got {v!r}")
-    return [float(v) for v in values]
-
-
-# ---------------------------------------------------------------------------------------------
-# Output helpers
-
-@contextlib.contextmanager
-def _stdout_to_stderr() -> Iterator[None]:
-    """Send everything written to stdout (Python and C level, e.g. IPOPT) to stderr meanwhile."""
-    sys.stdout.flush()
-    saved = None
-    try:
-        saved = os.dup(1)
-        os.dup2(2, 1)
-    except OSError:
-        saved = None
-    try:
-        with contextlib.redirect_stdout(sys.stderr):
-            yield
-    finally:
-        with contextlib.suppress(Exception):
-            sys.stdout.flush()
-            sys.stderr.flush()
-        if saved is not None:
-            os.dup2(saved, 1)
-            os.close(saved)
-
-
-def _num(x: Any, fmt: str = ".6g") -> str:
-    if x is None:
-        return "-"
-    if isinstance(x, (list, tuple)) and len(x) == 2:
-        re_, im = x
-        return f"{_num(re_, fmt)} {'-' if (im or 0) < 0 else '+'} {_num(abs(im or 0), fmt)}j"
-    try:
-        return format(float(x), fmt)
-    except (TypeError, ValueError):
-        return str(x)
-
-
-def _real(x: Any) -> float | None:
-    if x is None:
-        return None
-    if isinstance(x, (list, tuple)):
-        x = x[0] if x else None
-        if x is None:
-            return None
-    try:
-        return float(x)
-    except (TypeError, ValueError):
-        return None
-
-
-def _pairs(values: Any) -> list:
-    return list(values) if isinstance(values, (list, tuple)) else []
-
-
-def _growth(exponent: Any, doubling: Any) -> str:
-    """'doubles in 0.3 s' / 'halves in 1.2 s' / 'neutral'."""
-    rate = _real(exponent)
-    t = _real(doubling)
-    if t is not None and math.isfinite(t) and t != 0:
-        sign = 1 if (rate is None and t > 0) or (rate is not None and rate > 0) else -1
-        return f"{'doubles' if sign > 0 else 'halves'} in {abs(t):.4g} s"
-    if rate is not None and rate != 0 and math.isfinite(rate):
-        return f"{'doubles' if rate > 0 else 'halves'} in {math.log(2) / abs(rate):.4g} s"
-    return "neutral"
-
-
-def format_trim_table(r: dict) -> str:
-    lines = []
-    ok = bool(r.get("success"))
-    lines.append(f"trim: {'converged' if ok else 'NOT converged'} (status: {r.get('status')})")
-    if r.get("message"):
-        lines.append(f"  {_one_line(r['message'])}")
-    mults = _pairs(r.get("multipliers"))
-    if mults:
-        moduli = _pairs(r.get("moduli"))
-        exps = _pairs(r.get("floquet_exponents", r.get("floquet_exponents_per_s")))
-        dts = _pairs(r.get("doubling_times_s"))
-        lines.append("")
-        lines.append("Floquet multipliers (largest modulus first)")
-        header = f"  {'#':>2}  {'re':>12}  {'im':>12}  {'modulus':>10}  {'exponent [1/s]':>24}  growth"
-        lines.append(header)
-        for i, m in enumerate(mults):
-            re_, im = (m[0], m[1]) if isinstance(m, (list, tuple)) and len(m) == 2 else (m, 0.0)
-            mod = moduli[i] if i < len(moduli) else (math.hypot(re_ or 0, im or 0) if re_ is not None else None)
-            ex = exps[i] if i < len(exps) else None
-            dt = dts[i] if i < len(dts) else None
-            lines.append(f"  {i:>2}  {_num(re_):>12}  {_num(im):>12}  {_num(mod, '.6f'):>10}  "
-                         f"{_num(ex):>24}  {_growth(ex, dt)}")
-    lines.append("")
-    stable = r.get("stable")
-    verdict = "stable" if stable is True else "unstable" if stable is False else "unknown"
-    rows = [
-        ("verdict", verdict),
-        ("mean forward speed", f"{_num(r.get('mean_forward_speed_mps'), '.4f')} m/s"),
-        ("mean vertical speed", f"{_num(r.get('mean_vertical_speed_mps'), '.4f')} m/s"),
-        ("flight path angle", f"{_num(r.get('flight_path_angle_deg'), '.4f')} deg"),
-    ]
-    x0 = r.get("x0")
-    if isinstance(x0, (list, tuple)) and len(x0) == 4:
-        u, w, q, th = x0
-        rows.append(("x0 (u, w, q, theta)", f"{_num(u, '.6g')} m/s, {_num(w, '.6g')} m/s, "
-                                              f"{_num(q, '.6g')} rad/s, {_num(th, '.6g')} rad"))
-    rows.append(("iterations", str(r.get("iterations", "-"))))
-    rows.append(("max residual", _num(r.get("max_residual"), ".3e")))
-    sp = r.get("shooting_points")
-    if isinstance(sp, int) or (isinstance(sp, (list, tuple)) and sp):
-        rows.append(("shooting points", str(sp if isinstance(sp, int) else len(sp))))
-    wall = r.get("wall_s")
-    if isinstance(wall, dict):
-        total = wall.get("total")
-        phases = ", ".join(f"{k} {_num(v, '.3g')}" for k, v in wall.items() if k != "total")
-        rows.append(("wall time", f"{_num(total, '.3g')} s" + (f" ({phases})" if phases else "")))
-    elif wall is not None:
-        rows.append(("wall time", f"{_num(wall, '.3g')} s"))
-    if r.get("run_dir"):
-        rows.append(("run folder", str(r["run_dir"])))
-    width = max(len(k) for k, _ in rows)
-    lines += [f"{k:<{width}}  {v}" for k, v in rows]
-    return "\n".join(lines)
-
-
-def _print_json(obj: Any) -> None:
-    from birdocp.io.files import to_jsonable
-
-    sys.stdout.write(json.dumps(to_jsonable(obj)) + "\n")
-    sys.stdout.flush()
-
-
-# ---------------------------------------------------------------------------------------------
 # Commands
 
 def cmd_config(args: argparse.Namespace, command_line: list[str]) -> int:
     cfg = resolve_config(args)
     if args.json:
-        _print_json(C.to_dict(cfg))
+        print_json(C.to_dict(cfg))
     else:
         sys.stdout.write("# birdocp configuration (resolved)\n" + C.dumps(cfg))
     return EXIT_OK
 
 
 def cmd_forces(args: argparse.Namespace, command_line: list[str]) -> int:
-    state = _finite("--state", args.state)
-    (t,) = _finite("--time", [args.time])
+    state = finite_values("--state", args.state)
+    (t,) = finite_values("--time", [args.time])
     cfg = resolve_config(args)
 
     import numpy as np
 
     from birdocp.bird.model import get_model
 
-    with _stdout_to_stderr():
+    with stdout_to_stderr():
         model = get_model(cfg)
         out = model.evaluate(state, t)
     res = {
@@ -377,7 +145,7 @@ def cmd_forces(args: argparse.Namespace, command_line: list[str]) -> int:
         "xdot": [float(v) for v in np.asarray(out["xdot"], dtype=float).reshape(-1)],
     }
     if args.json:
-        _print_json(res)
+        print_json(res)
         return EXIT_OK
     u, w, q, th = state
     xd = res["xdot"] + [float("nan")] * (4 - len(res["xdot"]))
@@ -400,18 +168,6 @@ def cmd_forces(args: argparse.Namespace, command_line: list[str]) -> int:
     return EXIT_OK
 
 
-def _finish_result(result: dict, command: str, t_start: float, run_dir: Path) -> None:
-    """The solver's own total wall time becomes ``wall_s[command]``; ``wall_s.total`` is the whole
-    command's; ``run_dir`` is recorded."""
-    wall = result.get("wall_s")
-    wall = dict(wall) if isinstance(wall, dict) else ({} if wall is None else {command: wall})
-    if "total" in wall:
-        wall[command] = wall.pop("total")
-    wall["total"] = time.perf_counter() - t_start
-    result["wall_s"] = wall
-    result["run_dir"] = str(run_dir)
-
-
 def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
     from birdocp.io.runs import claim_out_dir, new_run_dir, write_run
 
@@ -419,7 +175,7 @@ def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
     cfg = resolve_config(args)
     run_dir = claim_out_dir(args.out, "trim") if args.out else new_run_dir(None, "trim")
     try:
-        with _stdout_to_stderr():
+        with stdout_to_stderr():
             from birdocp.studies.trim import trim
 
             res = trim(cfg, compiled=True) if getattr(args, "compiled", False) else trim(cfg)
@@ -430,11 +186,11 @@ def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
         with contextlib.suppress(OSError):
             run_dir.rmdir()
         raise
-    _finish_result(result, "trim", t_start, run_dir)
+    finish_result(result, "trim", t_start, run_dir)
     write_run(run_dir, cfg, result, arrays, command_line, command="trim")
 
     if args.json:
-        _print_json(result)
+        print_json(result)
     else:
         print(format_trim_table(result))
     if not res.success:
@@ -442,8 +198,8 @@ def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
         last = result.get("max_residual")
         if last is None and hist:
             last = hist[-1]
-        print(f"{PROG}: trim did not converge (status: {_one_line(res.status)}, last residual: {_num(last, '.3e')}): "
-              f"{_one_line(res.message)}; result written to {run_dir}", file=sys.stderr)
+        print(f"{PROG}: trim did not converge (status: {one_line(res.status)}, last residual: {fmt_num(last, '.3e')}): "
+              f"{one_line(res.message)}; result written to {run_dir}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     return EXIT_OK
 
@@ -455,12 +211,12 @@ def cmd_export_c(args: argparse.Namespace, command_line: list[str]) -> int:
         raise ConfigError("--out", f"{out} exists and is not a folder")
     if out.is_dir() and any(out.iterdir()) and not (out / "bird.h").exists():
         raise ConfigError("--out", f"{out} is not empty and holds no earlier export (no bird.h); choose a new folder")
-    with _stdout_to_stderr():
+    with stdout_to_stderr():
         from birdocp.export.codegen import export_c
 
         info = export_c(cfg, out)
     if args.json:
-        _print_json(info.to_dict())
+        print_json(info.to_dict())
     else:
         print(f"wrote {out}/: {', '.join(info.files)}")
         print(f"  {info.steps_per_period} RK4 steps of {info.step_s:.6g} s per period {info.period_s:.6g} s; "
@@ -580,18 +336,18 @@ def _level_kwargs(args: argparse.Namespace, cfg) -> dict:
 
     free = resolve_key(args.free, "--free")
     constrain = resolve_constraint(args.constrain, "--constrain")
-    (climb,) = _finite("--climb-rate", [args.climb_rate])
+    (climb,) = finite_values("--climb-rate", [args.climb_rate])
     kw: dict = {"free": free, "constrain": constrain, "climb_rate_mps": climb}
     if constrain != "vertical_speed_mps":
         if args.target is None:
             raise ConfigError("--target", f"--constrain {constrain} needs --target VALUE")
-        (kw["target"],) = _finite("--target", [args.target])
+        (kw["target"],) = finite_values("--target", [args.target])
         if constrain == "flight_path_angle_deg" and not -89 < kw["target"] < 89:
             raise ConfigError("--target", f"flight path angle must lie in (-89, 89) deg, got {kw['target']!r}")
     elif args.target is not None:
-        (kw["climb_rate_mps"],) = _finite("--target", [args.target])
+        (kw["climb_rate_mps"],) = finite_values("--target", [args.target])
     if args.bounds is not None:
-        lo, hi = _finite("--bounds", args.bounds)
+        lo, hi = finite_values("--bounds", args.bounds)
         if not lo < hi:
             raise ConfigError("--bounds", f"need LO < HI, got {lo} {hi}")
         kw["bounds"] = (lo, hi)
@@ -599,7 +355,7 @@ def _level_kwargs(args: argparse.Namespace, cfg) -> dict:
         try:
             default_bounds(cfg, free)
         except ConfigError as exc:
-            raise ConfigError("--bounds", f"{_message(exc)} (--bounds LO HI)") from None
+            raise ConfigError("--bounds", f"{config_message(exc)} (--bounds LO HI)") from None
     return kw
 
 
@@ -611,7 +367,7 @@ def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
     kw = _level_kwargs(args, cfg)
     run_dir = claim_out_dir(args.out, "level") if args.out else new_run_dir(None, "level")
     try:
-        with _stdout_to_stderr():
+        with stdout_to_stderr():
             from birdocp.studies.level import level
 
             res = level(cfg, **kw)
@@ -626,23 +382,23 @@ def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
     result["free_value"] = result.get("free_values", {}).get(free)
     result["constrain"] = kw["constrain"]
     result["target"] = kw.get("target", kw["climb_rate_mps"])
-    _finish_result(result, "level", t_start, run_dir)
+    finish_result(result, "level", t_start, run_dir)
     write_run(run_dir, cfg, result, arrays, command_line, command="level")
 
     if args.json:
-        _print_json(result)
+        print_json(result)
     else:
         table = format_trim_table(result).replace("trim:", "level:", 1)
         name = "amplitude A" if free == AMPLITUDE_KEY else free
         unit = " deg" if free.endswith("_deg") else " m" if free.endswith("_m") else ""
-        head = [f"level flight: {name} = {_num(result['free_value'], '.6f')}{unit} "
-                f"(mean {kw['constrain']} = {_num(result['target'], 'g')})"]
+        head = [f"level flight: {name} = {fmt_num(result['free_value'], '.6f')}{unit} "
+                f"(mean {kw['constrain']} = {fmt_num(result['target'], 'g')})"]
         if free != AMPLITUDE_KEY:
-            head.append(f"amplitude: {_num(result.get('amplitude_deg'), '.6f')} deg")
+            head.append(f"amplitude: {fmt_num(result.get('amplitude_deg'), '.6f')} deg")
         print("\n".join(head) + "\n" + table)
     if not res.success:
-        print(f"{PROG}: level flight not found (status: {_one_line(res.status)}, max residual: "
-              f"{_num(result.get('max_residual'), '.3e')}): {_one_line(res.message)}; result written to {run_dir}",
+        print(f"{PROG}: level flight not found (status: {one_line(res.status)}, max residual: "
+              f"{fmt_num(result.get('max_residual'), '.3e')}): {one_line(res.message)}; result written to {run_dir}",
               file=sys.stderr)
         return EXIT_NOT_CONVERGED
     return EXIT_OK
@@ -670,13 +426,13 @@ def format_sweep_table(rows: list[dict], key: str, level: bool) -> str:
            f"  {'wall [s]':>8}"
     lines = [f"sweep of {key}" + (" (level flight)" if level else ""), head]
     for r in rows:
-        line = (f"{_num(r['value'], 'g'):>10}  {'yes' if r['success'] else 'NO':>3}  {_num(r['iterations'], 'd'):>3}  "
-                f"{_num(r['modulus0'], '.6f'):>9}  {_num(r['modulus1'], '.6f'):>11}  {_num(r['modulus3'], '.6f'):>9}  "
-                f"{_num(r['mean_forward_speed_mps'], '.4f'):>8}  {_num(r['mean_vertical_speed_mps'], '+.4f'):>8}  "
-                f"{_num(r['flight_path_angle_deg'], '+.4f'):>10}")
+        line = (f"{fmt_num(r['value'], 'g'):>10}  {'yes' if r['success'] else 'NO':>3}  {fmt_num(r['iterations'], 'd'):>3}  "
+                f"{fmt_num(r['modulus0'], '.6f'):>9}  {fmt_num(r['modulus1'], '.6f'):>11}  {fmt_num(r['modulus3'], '.6f'):>9}  "
+                f"{fmt_num(r['mean_forward_speed_mps'], '.4f'):>8}  {fmt_num(r['mean_vertical_speed_mps'], '+.4f'):>8}  "
+                f"{fmt_num(r['flight_path_angle_deg'], '+.4f'):>10}")
         if level:
-            line += f"  {_num(r['amplitude_deg'], '.4f'):>9}"
-        lines.append(line + f"  {_num(r['wall_s'], '.2f'):>8}")
+            line += f"  {fmt_num(r['amplitude_deg'], '.4f'):>9}"
+        lines.append(line + f"  {fmt_num(r['wall_s'], '.2f'):>8}")
     return "\n".join(lines)
 
 
@@ -692,7 +448,7 @@ def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
         try:
             C.with_values(cfg, {key: v})
         except ConfigError as exc:
-            raise ConfigError(exc.key, f"{_message(exc)} (sweep value {v:g})") from None
+            raise ConfigError(exc.key, f"{config_message(exc)} (sweep value {v:g})") from None
     level_kw = _level_kwargs(args, cfg) if args.level else None
     if level_kw is not None and level_kw["free"] == key:
         raise ConfigError("KEY", f"'{key}' is the free parameter of --level; sweep another parameter or pick --free")
@@ -701,7 +457,7 @@ def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
     run_dir = _sweep_out_dir(args)
     fresh = not any(run_dir.iterdir())
     try:
-        with _stdout_to_stderr():
+        with stdout_to_stderr():
             rows = sweep(cfg, key, values, level=args.level, warm=not args.cold, out_dir=run_dir,
                          resume=args.resume, progress=not args.quiet, level_options=level_kw)
     except BaseException:
@@ -719,12 +475,12 @@ def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
               "wall_s": {"total": time.perf_counter() - t_start}, "run_dir": str(run_dir)}
     write_run(run_dir, cfg, result, None, command_line, command="sweep")
     if args.json:
-        _print_json(result)
+        print_json(result)
     else:
         print(format_sweep_table(rows, key, args.level))
         print(f"run folder  {run_dir}  (sweep.csv, sweep.json, points/)")
     if not ok:
-        bad = [_num(r["value"], "g") for r in rows if not r["success"]]
+        bad = [fmt_num(r["value"], "g") for r in rows if not r["success"]]
         print(f"{PROG}: {len(bad)} of {len(rows)} points did not converge ({', '.join(bad)}); "
               f"results written to {run_dir}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
@@ -762,7 +518,7 @@ def _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start) -> int:
     run_dir = claim_out_dir(args.out, "sweep") if args.out else new_run_dir(None, "sweep")
     ex = get_executor(args.jobs, args.scheduler)
     try:
-        with _stdout_to_stderr(), ex:
+        with stdout_to_stderr(), ex:
             rows = grid_sweep(cfg, key, values, row_key, row_values, executor=ex, level=args.level,
                               warm=not args.cold, out_dir=run_dir, level_options=level_kw)
     except ImportError as exc:
@@ -776,14 +532,14 @@ def _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start) -> int:
               "wall_s": {"total": time.perf_counter() - t_start}, "run_dir": str(run_dir)}
     write_run(run_dir, cfg, result, None, command_line, command="sweep")
     if args.json:
-        _print_json(result)
+        print_json(result)
     else:
         print(f"grid {row_key} x {key}" + (" (level flight)" if args.level else ""))
         print(f"{'row value':>10}  {'value':>10}  {'ok':>3}  {'|lambda1|':>9}  {'U [m/s]':>8}  {'W [m/s]':>8}")
         for r in rows:
-            print(f"{_num(r['row_value'], 'g'):>10}  {_num(r['value'], 'g'):>10}  {'yes' if r['success'] else 'NO':>3}  "
-                  f"{_num(r['modulus0'], '.6f'):>9}  {_num(r['mean_forward_speed_mps'], '.4f'):>8}  "
-                  f"{_num(r['mean_vertical_speed_mps'], '+.4f'):>8}")
+            print(f"{fmt_num(r['row_value'], 'g'):>10}  {fmt_num(r['value'], 'g'):>10}  {'yes' if r['success'] else 'NO':>3}  "
+                  f"{fmt_num(r['modulus0'], '.6f'):>9}  {fmt_num(r['mean_forward_speed_mps'], '.4f'):>8}  "
+                  f"{fmt_num(r['mean_vertical_speed_mps'], '+.4f'):>8}")
         print(f"run folder  {run_dir}  (grid.csv, grid.json, timing.json)")
     return EXIT_OK if ok else EXIT_NOT_CONVERGED
 
@@ -797,7 +553,7 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
     t_start = time.perf_counter()
     model_key, display = resolve_parameter(args.param)
     cfg = resolve_config(args)
-    a, b = _finite("--from/--to", [args.start, args.stop])
+    a, b = finite_values("--from/--to", [args.start, args.stop])
     if a == b:
         raise ConfigError("--to", "must differ from --from")
     conv = (lambda v: root_of_sm(v, cfg.body.reference_chord_m)) if display == "stability_margin" else (lambda v: v)
@@ -816,7 +572,7 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
     from birdocp.io.files import atomic_write_json
 
     say = (lambda text: None) if args.quiet else (lambda text: print(f"continue: {text}", file=sys.stderr, flush=True))
-    with _stdout_to_stderr():
+    with stdout_to_stderr():
         br = bird_branch(cfg, args.param, a, b, level=args.level, climb_rate_mps=args.climb_rate, bounds=args.bounds,
                          step=args.step, max_points=args.max_points, progress=say)
     d = br.to_dict()
@@ -832,7 +588,7 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
                "wall_s": {"total": time.perf_counter() - t_start}, "run_dir": str(run_dir)}
     write_run(run_dir, cfg, summary, None, command_line, command="continue")
     if args.json:
-        _print_json(dict(summary, branch=d))
+        print_json(dict(summary, branch=d))
     else:
         sm = display == "stability_margin"
         print(f"continuation in {display}" + (" (level flight held)" if args.level else ""))
@@ -864,7 +620,7 @@ def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
         raise ConfigError("RUN_DIR", f"unreadable result.json: {exc}") from None
     command = (res.get("provenance") or {}).get("command")
     figs = []
-    with _stdout_to_stderr():
+    with stdout_to_stderr():
         if (run / "branch.json").is_file():
             from birdocp.engine.continuation import Branch, plot_branches
 
@@ -895,7 +651,7 @@ def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
             raise ConfigError("RUN_DIR", f"do not know how to plot a '{command}' run")
     names = [Path(f).name for f in figs]
     if args.json:
-        _print_json({"run_dir": str(run), "figures": names})
+        print_json({"run_dir": str(run), "figures": names})
     else:
         print(f"wrote {', '.join(names) or 'no figures'} in {run}")
     return EXIT_OK
@@ -976,7 +732,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ConfigError as exc:
         if debug:
             traceback.print_exc()
-        msg = _one_line(_message(exc))
+        msg = one_line(config_message(exc))
         print(f"{PROG}: error: {exc.key}: {msg}" if exc.key else f"{PROG}: error: {msg}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except BrokenPipeError:  # e.g. birdocp config | head -1
@@ -987,7 +743,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as exc:
         if debug:
             traceback.print_exc()
-        print(f"{PROG}: internal error: {type(exc).__name__}: {_one_line(exc)}"
+        print(f"{PROG}: internal error: {type(exc).__name__}: {one_line(exc)}"
               + ("" if debug else "; rerun with --debug for the traceback"), file=sys.stderr)
         return EXIT_INTERNAL
 

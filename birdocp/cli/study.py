@@ -6,10 +6,12 @@ import argparse
 import sys
 import time
 
-from birdocp.bird.config import PARAM_NAMES, ConfigError, _suggest
+from birdocp.bird.config import PARAM_NAMES, ConfigError, suggest
+from birdocp.cli import common as cli
 
 
-def add_study_parsers(sub, common) -> None:
+def register(sub, common) -> None:
+    """Add ``sensitivity`` and ``optimize-stability`` to the CLI's subparsers."""
     p = sub.add_parser("sensitivity", parents=[common], help="exact derivatives of the Floquet multipliers "
                        "with respect to gait and morphology parameters, ranked",
                        description="Trim the configured gait and rank the parameters by the exact "
@@ -42,12 +44,11 @@ def add_study_parsers(sub, common) -> None:
 
 def _check_key(key: str, flag: str) -> str:
     if key not in PARAM_NAMES:
-        raise ConfigError(flag, f"unknown parameter '{key}'" + _suggest(key, PARAM_NAMES))
+        raise ConfigError(flag, f"unknown parameter '{key}'" + suggest(key, PARAM_NAMES))
     return key
 
 
 def cmd_sensitivity(args: argparse.Namespace, command_line: list[str]) -> int:
-    from birdocp.cli import main as cli
     from birdocp.io.runs import claim_out_dir, new_run_dir, write_run
 
     t0 = time.perf_counter()
@@ -56,7 +57,7 @@ def cmd_sensitivity(args: argparse.Namespace, command_line: list[str]) -> int:
     if args.top < 1:
         raise ConfigError("--top", f"must be >= 1, got {args.top}")
     run_dir = claim_out_dir(args.out, "sensitivity") if args.out else new_run_dir(None, "sensitivity")
-    with cli._stdout_to_stderr():
+    with cli.stdout_to_stderr():
         from birdocp.bird.config import with_values
         from birdocp.studies.sensitivity import multiplier_sensitivities
         from birdocp.studies.trim import trim
@@ -74,13 +75,13 @@ def cmd_sensitivity(args: argparse.Namespace, command_line: list[str]) -> int:
         write_run(run_dir, cfg, {"success": False, "status": base.status, "message": base.message},
                   None, command_line, command="sensitivity")
         return cli.EXIT_NOT_CONVERGED
-    with cli._stdout_to_stderr():
+    with cli.stdout_to_stderr():
         s = multiplier_sensitivities(base, params, hold_level=args.level)
     result = {"success": True, "amplitude_deg": base.amplitude_deg, **s.to_dict(),
               "wall_s": {"total": time.perf_counter() - t0}, "run_dir": str(run_dir)}
     write_run(run_dir, base.cfg, result, None, command_line, command="sensitivity")
     if args.json:
-        cli._print_json(result)
+        cli.print_json(result)
         return cli.EXIT_OK
     lam = s.multipliers[0]
     print(f"sensitivity of the expanding multiplier {lam.real:.6f} (|.| = {abs(lam):.6f}) at amplitude "
@@ -103,7 +104,6 @@ def cmd_sensitivity(args: argparse.Namespace, command_line: list[str]) -> int:
 def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
     import math
 
-    from birdocp.cli import main as cli
     from birdocp.studies.optimize import DEFAULT_FREE, optimize_stability
     from birdocp.io.runs import claim_out_dir, new_run_dir, write_run
 
@@ -131,13 +131,13 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
         if k not in free:
             raise ConfigError("--bounds", f"'{k}' is not free; add --free {k}")
     run_dir = claim_out_dir(args.out, "optimize-stability") if args.out else new_run_dir(None, "optimize-stability")
-    with cli._stdout_to_stderr():
+    with cli.stdout_to_stderr():
         res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, progress=not args.json)
     result = res.to_dict()
     result["run_dir"] = str(run_dir)
     write_run(run_dir, res.cfg or cfg, result, None, command_line, command="optimize-stability")
     if args.json:
-        cli._print_json(result)
+        cli.print_json(result)
     else:
         print(f"optimize-stability: {'converged' if res.success else 'NOT converged'} ({res.status}), "
               f"{res.iterations} iterations, {res.wall_s.get('total', 0):.1f} s")

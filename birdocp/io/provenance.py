@@ -26,7 +26,7 @@ IPOPT_LINEAR_SOLVER = "mumps"
 def birdocp_version() -> str | None:
     """Installed distribution version, else the package's ``__version__``."""
     try:
-        from importlib.metadata import PackageNotFoundError, version
+        from importlib.metadata import version
 
         return version("birdocp")
     except Exception:  # PackageNotFoundError, or broken metadata

@@ -37,7 +37,7 @@ import math
 
 from typing import TYPE_CHECKING
 
-from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, _suggest, get_value
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, suggest, get_value
 
 if TYPE_CHECKING:  # the model and the engine are imported on first solve (key checks stay light)
     from birdocp.studies.trim import TrimResult
@@ -62,7 +62,7 @@ def resolve_key(key: str, what: str = "free") -> str:
     """A :data:`PARAM_NAMES` entry from a dotted key or an alias; ConfigError (did-you-mean) if unknown."""
     k = KEY_ALIASES.get(str(key).strip(), str(key).strip())
     if k not in PARAM_NAMES:
-        raise ConfigError(what, f"unknown parameter '{key}'" + _suggest(k, list(PARAM_NAMES) + list(KEY_ALIASES))
+        raise ConfigError(what, f"unknown parameter '{key}'" + suggest(k, list(PARAM_NAMES) + list(KEY_ALIASES))
                           + " (a model parameter: a number of body, wing, gait or aero.air_density_kgm3/"
                             "lift_slope_per_rad, or an alias: amplitude, root_ahead_m)")
     return k
@@ -72,7 +72,7 @@ def resolve_constraint(constrain: str, what: str = "constrain") -> str:
     """One of :data:`CONSTRAINTS` from a name or alias; ConfigError (did-you-mean) if unknown."""
     c = _CONSTRAINT_ALIASES.get(str(constrain).strip(), str(constrain).strip())
     if c not in CONSTRAINTS:
-        raise ConfigError(what, f"unknown condition '{constrain}'" + _suggest(c, CONSTRAINTS)
+        raise ConfigError(what, f"unknown condition '{constrain}'" + suggest(c, CONSTRAINTS)
                           + f" (one of {', '.join(CONSTRAINTS)})")
     return c
 

@@ -1,0 +1,292 @@
+"""Shared pieces of every CLI command: exit codes, the common options, configuration resolution
+(defaults <- CONFIG <- --set <- dedicated flags), output helpers and the trim table.
+
+Every command module in :mod:`birdocp.cli` builds on these; none of them is private.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import math
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any, Iterator, Sequence
+
+from birdocp.bird import config as C
+from birdocp.bird.config import ConfigError
+
+PROG = "birdocp"
+EXIT_OK = 0
+EXIT_NOT_CONVERGED = 1
+EXIT_INTERNAL = 1
+EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
+
+AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
+ROOT_AHEAD_KEY = "wing.root_ahead_m"
+
+
+# ---------------------------------------------------------------------------------------------
+# Parser
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (still exit code 2)."""
+
+    def error(self, message: str):  # noqa: D401 - argparse API
+        hint = f"see '{self.prog} --help'"
+        self.exit(EXIT_BAD_INPUT, f"{PROG}: error: {one_line(message)}; {hint}\n")
+
+
+def common_options() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(add_help=False)
+    g = p.add_argument_group("configuration (defaults <- CONFIG <- --set <- dedicated flags)")
+    g.add_argument("config", nargs="?", metavar="CONFIG",
+                   help="TOML configuration file (start one with 'birdocp config > bird.toml')")
+    g.add_argument("--amplitude", type=float, metavar="DEG",
+                   help=f"flapping amplitude in degrees (sets {AMPLITUDE_KEY})")
+    g.add_argument("--root-ahead", type=float, metavar="M",
+                   help=f"distance of the wing root ahead of the centre of mass in metres (sets {ROOT_AHEAD_KEY})")
+    g.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="sets",
+                   help="set a dotted config key, e.g. --set aero.circulation=relaxed (repeatable; "
+                        "the value is read as TOML, bare words are strings)")
+    o = p.add_argument_group("output")
+    o.add_argument("--json", action="store_true", help="print one JSON object on stdout instead of a table")
+    o.add_argument("--debug", action="store_true", help="show Python tracebacks on errors")
+    return p
+
+
+# ---------------------------------------------------------------------------------------------
+# Configuration
+
+def one_line(text: Any) -> str:
+    return " ".join(str(text).split())
+
+
+def config_message(exc: ConfigError) -> str:
+    """The message of a ConfigError without its ``key: `` prefix."""
+    text = str(exc)
+    prefix = f"{exc.key}: "
+    return text[len(prefix):] if exc.key and text.startswith(prefix) else text
+
+
+def load_config_file(path_text: str) -> C.Config:
+    path = Path(path_text)
+    if not path.exists():
+        raise ConfigError("CONFIG", f"file '{path}' does not exist; give the path of a TOML file "
+                                    "(write one with 'birdocp config > bird.toml')")
+    if path.is_dir():
+        raise ConfigError("CONFIG", f"'{path}' is a folder; give the path of a TOML file")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError(str(path), "is not UTF-8 text; give a TOML file") from None
+    except OSError as exc:
+        raise ConfigError(str(path), f"cannot be read: {exc.strerror or exc}") from None
+    try:
+        return C.loads(text)
+    except ConfigError as exc:
+        if not exc.key:  # not valid TOML
+            raise ConfigError(str(path), config_message(exc)) from None
+        raise ConfigError(exc.key, f"{config_message(exc)} (in {path})") from None
+
+
+def parse_assignment(assignment: str) -> tuple[str, Any]:
+    """``KEY=VALUE`` of ``--set``, the value parsed as by :func:`birdocp.bird.config.set_value`."""
+    if "=" not in assignment:
+        raise ConfigError("--set", f"'{assignment}' is not KEY=VALUE; e.g. --set aero.circulation=relaxed")
+    key, text = assignment.split("=", 1)
+    key = key.strip()
+    if not key:
+        raise ConfigError("--set", f"missing key in '{assignment}'; expected KEY=VALUE, e.g. body.mass_kg=1.3")
+    return key, C.parse_scalar(text.strip())
+
+
+def flag_values(args: argparse.Namespace) -> list[tuple[str, str, Any]]:
+    """(flag, dotted key, value) of the dedicated flags that were given."""
+    table = [
+        ("--amplitude", AMPLITUDE_KEY, "amplitude"),
+        ("--root-ahead", ROOT_AHEAD_KEY, "root_ahead"),
+        ("--points", "solve.points", "points"),
+        ("--steps", "solve.steps_per_period", "steps"),
+        ("--solver", "solve.solver", "solver"),
+        ("--derivatives", "solve.derivatives", "derivatives"),
+    ]
+    return [(flag, key, getattr(args, attr)) for flag, key, attr in table
+            if getattr(args, attr, None) is not None]
+
+
+def resolve_config(args: argparse.Namespace) -> C.Config:
+    """The validated configuration: defaults <- CONFIG file <- --set <- dedicated flags."""
+    cfg = load_config_file(args.config) if getattr(args, "config", None) else C.Config()
+    values: dict[str, Any] = {}
+    for assignment in getattr(args, "sets", None) or []:
+        key, value = parse_assignment(assignment)
+        values[key] = value
+    flags = flag_values(args)
+    by_key = {}
+    for flag, key, value in flags:
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ConfigError(key, f"must be finite, got {value!r} (from {flag})")
+        values[key] = value
+        by_key[key] = flag
+    if not values:
+        return cfg
+    try:
+        return C.with_values(cfg, values)
+    except ConfigError as exc:
+        if exc.key in by_key:
+            raise ConfigError(exc.key, f"{config_message(exc)} (from {by_key[exc.key]})") from None
+        raise
+
+
+def finite_values(name: str, values: Sequence[float]) -> list[float]:
+    for v in values:
+        if not math.isfinite(v):
+            raise ConfigError(name, f"must be finite numbers, got {v!r}")
+    return [float(v) for v in values]
+
+
+# ---------------------------------------------------------------------------------------------
+# Output helpers
+
+@contextlib.contextmanager
+def stdout_to_stderr() -> Iterator[None]:
+    """Send everything written to stdout (Python and C level, e.g. IPOPT) to stderr meanwhile."""
+    sys.stdout.flush()
+    saved = None
+    try:
+        saved = os.dup(1)
+        os.dup2(2, 1)
+    except OSError:
+        saved = None
+    try:
+        with contextlib.redirect_stdout(sys.stderr):
+            yield
+    finally:
+        with contextlib.suppress(Exception):
+            sys.stdout.flush()
+            sys.stderr.flush()
+        if saved is not None:
+            os.dup2(saved, 1)
+            os.close(saved)
+
+
+def fmt_num(x: Any, fmt: str = ".6g") -> str:
+    if x is None:
+        return "-"
+    if isinstance(x, (list, tuple)) and len(x) == 2:
+        re_, im = x
+        return f"{fmt_num(re_, fmt)} {'-' if (im or 0) < 0 else '+'} {fmt_num(abs(im or 0), fmt)}j"
+    try:
+        return format(float(x), fmt)
+    except (TypeError, ValueError):
+        return str(x)
+
+
+def real_part(x: Any) -> float | None:
+    if x is None:
+        return None
+    if isinstance(x, (list, tuple)):
+        x = x[0] if x else None
+        if x is None:
+            return None
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return None
+
+
+def pairs(values: Any) -> list:
+    return list(values) if isinstance(values, (list, tuple)) else []
+
+
+def growth_text(exponent: Any, doubling: Any) -> str:
+    """'doubles in 0.3 s' / 'halves in 1.2 s' / 'neutral'."""
+    rate = real_part(exponent)
+    t = real_part(doubling)
+    if t is not None and math.isfinite(t) and t != 0:
+        sign = 1 if (rate is None and t > 0) or (rate is not None and rate > 0) else -1
+        return f"{'doubles' if sign > 0 else 'halves'} in {abs(t):.4g} s"
+    if rate is not None and rate != 0 and math.isfinite(rate):
+        return f"{'doubles' if rate > 0 else 'halves'} in {math.log(2) / abs(rate):.4g} s"
+    return "neutral"
+
+
+def format_trim_table(r: dict) -> str:
+    lines = []
+    ok = bool(r.get("success"))
+    lines.append(f"trim: {'converged' if ok else 'NOT converged'} (status: {r.get('status')})")
+    if r.get("message"):
+        lines.append(f"  {one_line(r['message'])}")
+    mults = pairs(r.get("multipliers"))
+    if mults:
+        moduli = pairs(r.get("moduli"))
+        exps = pairs(r.get("floquet_exponents", r.get("floquet_exponents_per_s")))
+        dts = pairs(r.get("doubling_times_s"))
+        lines.append("")
+        lines.append("Floquet multipliers (largest modulus first)")
+        header = f"  {'#':>2}  {'re':>12}  {'im':>12}  {'modulus':>10}  {'exponent [1/s]':>24}  growth"
+        lines.append(header)
+        for i, m in enumerate(mults):
+            re_, im = (m[0], m[1]) if isinstance(m, (list, tuple)) and len(m) == 2 else (m, 0.0)
+            mod = moduli[i] if i < len(moduli) else (math.hypot(re_ or 0, im or 0) if re_ is not None else None)
+            ex = exps[i] if i < len(exps) else None
+            dt = dts[i] if i < len(dts) else None
+            lines.append(f"  {i:>2}  {fmt_num(re_):>12}  {fmt_num(im):>12}  {fmt_num(mod, '.6f'):>10}  "
+                         f"{fmt_num(ex):>24}  {growth_text(ex, dt)}")
+    lines.append("")
+    stable = r.get("stable")
+    verdict = "stable" if stable is True else "unstable" if stable is False else "unknown"
+    rows = [
+        ("verdict", verdict),
+        ("mean forward speed", f"{fmt_num(r.get('mean_forward_speed_mps'), '.4f')} m/s"),
+        ("mean vertical speed", f"{fmt_num(r.get('mean_vertical_speed_mps'), '.4f')} m/s"),
+        ("flight path angle", f"{fmt_num(r.get('flight_path_angle_deg'), '.4f')} deg"),
+    ]
+    x0 = r.get("x0")
+    if isinstance(x0, (list, tuple)) and len(x0) == 4:
+        u, w, q, th = x0
+        rows.append(("x0 (u, w, q, theta)", f"{fmt_num(u, '.6g')} m/s, {fmt_num(w, '.6g')} m/s, "
+                                              f"{fmt_num(q, '.6g')} rad/s, {fmt_num(th, '.6g')} rad"))
+    rows.append(("iterations", str(r.get("iterations", "-"))))
+    rows.append(("max residual", fmt_num(r.get("max_residual"), ".3e")))
+    sp = r.get("shooting_points")
+    if isinstance(sp, int) or (isinstance(sp, (list, tuple)) and sp):
+        rows.append(("shooting points", str(sp if isinstance(sp, int) else len(sp))))
+    wall = r.get("wall_s")
+    if isinstance(wall, dict):
+        total = wall.get("total")
+        phases = ", ".join(f"{k} {fmt_num(v, '.3g')}" for k, v in wall.items() if k != "total")
+        rows.append(("wall time", f"{fmt_num(total, '.3g')} s" + (f" ({phases})" if phases else "")))
+    elif wall is not None:
+        rows.append(("wall time", f"{fmt_num(wall, '.3g')} s"))
+    if r.get("run_dir"):
+        rows.append(("run folder", str(r["run_dir"])))
+    width = max(len(k) for k, _ in rows)
+    lines += [f"{k:<{width}}  {v}" for k, v in rows]
+    return "\n".join(lines)
+
+
+def print_json(obj: Any) -> None:
+    from birdocp.io.files import to_jsonable
+
+    sys.stdout.write(json.dumps(to_jsonable(obj)) + "\n")
+    sys.stdout.flush()
+
+
+def finish_result(result: dict, command: str, t_start: float, run_dir: Path) -> None:
+    """The solver's own total wall time becomes ``wall_s[command]``; ``wall_s.total`` is the whole
+    command's; ``run_dir`` is recorded."""
+    wall = result.get("wall_s")
+    wall = dict(wall) if isinstance(wall, dict) else ({} if wall is None else {command: wall})
+    if "total" in wall:
+        wall[command] = wall.pop("total")
+    wall["total"] = time.perf_counter() - t_start
+    result["wall_s"] = wall
+    result["run_dir"] = str(run_dir)
+
+
