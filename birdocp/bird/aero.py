@@ -98,12 +98,13 @@ def _matrix_power(M, k):
     return result if result is not None else ca.SX.eye(M.shape[0])
 
 
-def element_loads(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho):
-    """Total aerodynamic force (code frame, N) and pitching moment about G (N m, nose-up positive).
+def element_forces(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho) -> dict:
+    """Per-element velocities and Kutta-Joukowski forces (code frame), the terms of :func:`element_loads`.
 
-    ``state`` = (u, w, q, theta); ``r``, ``v_kin``, ``c_hat``, ``up``, ``tau`` are 3 x 16 (element centres
-    relative to G, kinematic velocities, chord directions, up normals, spanwise unit vectors), ``ds``
-    16 x 1 element lengths. Returns (F 3x1, M, Gamma 16x1, alpha 16x1 [rad], |Vp| 16x1).
+    Returns a dict of 3 x 16 matrices ``V`` (relative air velocity U_inf - Omega x r - v_kin, m/s,
+    no induced part), ``Vp`` (its section part, without the spanwise component), ``vind`` (induced
+    velocity used in the force, m/s), ``dF`` (force of the air on each element, N), and the 1 x 16 rows
+    ``Vp_norm`` (m/s), ``alpha`` (rad) and the 16 x 1 column ``Gamma`` (m^2/s).
     """
     u, w, q = state[0], state[1], state[2]
     n = r.shape[1]
@@ -125,6 +126,28 @@ def element_loads(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho):
                        W[2, :] * tau[0, :] - W[0, :] * tau[2, :],
                        W[0, :] * tau[1, :] - W[1, :] * tau[0, :])
     dF = rho * cross * ca.repmat((Gamma * ds).T, 3, 1)
-    F = ca.sum2(dF)
-    M = ca.sum2(r[1, :] * dF[2, :] - r[2, :] * dF[1, :])
-    return F, M, Gamma, alpha.T, Vp_norm.T
+    return {"V": V, "Vp": Vp, "Vp_norm": Vp_norm, "alpha": alpha, "Gamma": Gamma, "vind": vind, "dF": dF}
+
+
+def moment_about_G(r, dF):
+    """Pitching moment (r x dF)_1 summed over the elements (N m, nose-up positive)."""
+    return ca.sum2(r[1, :] * dF[2, :] - r[2, :] * dF[1, :])
+
+
+def profile_drag(Vp, Vp_norm, chord, ds, rho, cd_profile):
+    """Wing profile drag per element (energetics.md 5), 3 x 16 in N, code frame:
+    ``dD_j = 1/2 rho C_Dpro c_j ds_j |Vp_j| Vp_j`` along the section's relative wind."""
+    return 0.5 * rho * cd_profile * Vp * ca.repmat(Vp_norm * chord * ds.T, 3, 1)
+
+
+def element_loads(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho):
+    """Total aerodynamic force (code frame, N) and pitching moment about G (N m, nose-up positive).
+
+    ``state`` = (u, w, q, theta); ``r``, ``v_kin``, ``c_hat``, ``up``, ``tau`` are 3 x 16 (element centres
+    relative to G, kinematic velocities, chord directions, up normals, spanwise unit vectors), ``ds``
+    16 x 1 element lengths. Returns (F 3x1, M, Gamma 16x1, alpha 16x1 [rad], |Vp| 16x1).
+    """
+    e = element_forces(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho)
+    F = ca.sum2(e["dF"])
+    M = moment_about_G(r, e["dF"])
+    return F, M, e["Gamma"], e["alpha"].T, e["Vp_norm"].T

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = [
-    "ConfigError", "Joint", "Body", "Wing", "Gait", "Aero", "Tail", "Solve", "Config",
+    "ConfigError", "Joint", "Body", "Wing", "Gait", "Aero", "Tail", "Drag", "Solve", "Config",
     "JOINT_NAMES", "PARAM_NAMES", "param_vector", "load", "dump", "loads", "dumps",
     "from_dict", "to_dict", "set_value", "with_values",
 ]
@@ -142,6 +142,30 @@ class Tail:
 
 
 @dataclass(frozen=True)
+class Drag:
+    """Optional drag terms of Pennycuick's flight model (``energetics.md`` 5), off by default: with
+    both coefficients 0 the terms are not built and the model is the paper's, bit for bit.
+
+    Both act after the lifting-line solve (they do not change the circulation)."""
+
+    enabled: bool = False
+    """Put the drag terms in the model graphs even with zero coefficients (they then add exact zeros).
+    Implied by a coefficient > 0."""
+    body_drag_coefficient: float = 0.0
+    """Body parasite drag coefficient C_Db (dimensionless), ``D_par = 1/2 rho S_b C_Db U^2`` at G, along
+    the free stream. Published values: 0.1 (Pennycuick's current default, after Pennycuick, Klaassen,
+    Kvist & Lindstroem 1996), 0.2 (afpt), up to 0.4 (older frozen-body values, Pennycuick 1989)."""
+    body_frontal_area_m2: float = 0.0092
+    """Body frontal area S_b [m^2]; default from Pennycuick's scaling for non-passerines,
+    ``S_b = 0.00813 m^0.666`` (m in kg), at the reference mass 1.2 kg (passerines: 0.0129 m^0.614)."""
+    profile_drag_coefficient: float = 0.0
+    """Wing profile drag coefficient C_Dpro (dimensionless) of every element,
+    ``dD_j = 1/2 rho C_Dpro c_j ds_j |Vp_j| Vp_j``. Published values: 0.014 (Pennycuick's Flight
+    program), 2.66/sqrt(Re) ~ 0.0054 at Re 2.4e5 (afpt's laminar flat plate), ~0.026 (gliding Harris'
+    hawk, Tucker & Heine 1990)."""
+
+
+@dataclass(frozen=True)
 class Solve:
     """Limit-cycle search: multiple shooting and the initial guess."""
 
@@ -162,6 +186,7 @@ class Config:
     gait: Gait = field(default_factory=Gait)
     aero: Aero = field(default_factory=Aero)
     tail: Tail = field(default_factory=Tail)
+    drag: Drag = field(default_factory=Drag)
     solve: Solve = field(default_factory=Solve)
 
     def __post_init__(self):
@@ -187,6 +212,7 @@ def _param_names() -> tuple[str, ...]:
             names.append(f"gait.{j}.{f.name}")
     names += ["aero.air_density_kgm3", "aero.lift_slope_per_rad"]
     names += [f"tail.{f.name}" for f in fields(Tail) if f.type in ("float", float)]
+    names += [f"drag.{f.name}" for f in fields(Drag) if f.type in ("float", float)]
     return tuple(names)
 
 
@@ -221,6 +247,7 @@ _POSITIVE = {
     "wing.shoulder_half_separation_m", "wing.section_half_thickness_m", "wing.smoothing_radius_m",
     "gait.frequency_hz", "aero.air_density_kgm3", "aero.lift_slope_per_rad", "aero.backward_step_s",
     "tail.root_behind_m", "tail.length_m", "tail.kinematic_viscosity_m2ps", "tail.reynolds_speed_mps",
+    "drag.body_frontal_area_m2",
 }
 ANGLE_LIMIT_DEG = 180.0
 """Joint offsets and amplitudes must lie in [-180, 180] deg, phases in [-360, 360] deg."""
@@ -262,6 +289,9 @@ def validate(cfg: Config) -> None:
             v = getattr(joint, name)
             if not -lim <= v <= lim:
                 raise ConfigError(f"gait.{j}.{name}", f"must lie in [{-lim:g}, {lim:g}] deg, got {v!r}")
+    for key in ("drag.body_drag_coefficient", "drag.profile_drag_coefficient"):
+        if get_value(cfg, key) < 0:
+            raise ConfigError(key, f"must be >= 0 (0 = off), got {get_value(cfg, key)!r}")
     if not 0.0 <= cfg.tail.opening_angle_deg < 180.0:
         raise ConfigError("tail.opening_angle_deg", f"must lie in [0, 180) deg, got {cfg.tail.opening_angle_deg!r}")
     if cfg.aero.circulation not in CIRCULATION_MODES:

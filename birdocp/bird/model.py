@@ -39,6 +39,7 @@ DATA_BLOCKS = (
     ("Wx", (N_EL, N_EL)),        # induced velocity e1 = Wx (|Vp| alpha)
     ("Wy", (N_EL, N_EL)),        # induced velocity e2 = Wy (|Vp| alpha)
     ("nodes_m", (3, N_EL + 1)),  # element end nodes relative to G (the tail's induced velocity)
+    ("chord_m", (N_EL, 1)),      # element chords (the optional profile drag)
 )
 
 
@@ -72,13 +73,16 @@ class Structure:
     kinematic_velocity: str
     backward_step_s: float
     tail: bool = False
+    drag: bool = False
 
     @staticmethod
     def of(cfg: Config) -> "Structure":
         a = cfg.aero
+        dr = cfg.drag
         return Structure(cfg.gait.frequency_hz, a.circulation, a.relaxed_evaluations,
                          a.kinematic_velocity, a.backward_step_s,
-                         bool(cfg.tail.enabled or cfg.tail.opening_angle_deg > 0))
+                         bool(cfg.tail.enabled or cfg.tail.opening_angle_deg > 0),
+                         bool(dr.enabled or dr.body_drag_coefficient > 0 or dr.profile_drag_coefficient > 0))
 
 
 def _joint_angles(t, p, frequency_hz):
@@ -125,6 +129,48 @@ def _merged(R1, P, c_hat, up, chord, x_ep):
     """Both wings on one line (33 points, spec 4.5-4.6) from the arm-frame line and R1."""
     return wing.merge(_columns(R1 @ P), [chord[j] for j in range(chord.shape[1])],
                       _columns(R1 @ c_hat), _columns(R1 @ up), x_ep)
+
+
+def load_terms(structure: Structure, x, d, p) -> dict:
+    """Every aerodynamic load term at state x (SX 4), data d and parameters p, as expressions.
+
+    The one code path for the dynamics (:class:`BirdModel` ``rhs``) and the power outputs
+    (:mod:`birdocp.bird.energetics`). Keys: per element (code frame, 3 x 16) ``r``, ``v_kin``, ``V``,
+    ``Vp``, ``vind``, ``dF`` (lifting-line force) and ``dD`` (profile drag, zeros without drag); the
+    parasite force ``F_par`` (3 x 1, code frame); the tail's ``tail`` = (L_t, D_t, M_t) or None; the
+    wing's code-frame force ``F_code`` and the body loads ``Fx_N``, ``Fz_N``, ``My_Nm`` (everything
+    included); ``Gamma``, ``alpha`` (16 x 1), ``Vp_norm`` (16 x 1).
+    """
+    b = unpack_data(d)
+    rho = _p(p, "aero.air_density_kgm3")
+    e = aero.element_forces(x, b["r_m"], b["v_kin_mps"], b["c_hat"], b["up"], b["tau"], b["ds_m"],
+                            b["G"], b["Wx"], b["Wy"], rho)
+    r = b["r_m"]
+    F = ca.sum2(e["dF"])
+    M = aero.moment_about_G(r, e["dF"])
+    out = {"r": r, "v_kin": b["v_kin_mps"], "V": e["V"], "Vp": e["Vp"], "vind": e["vind"], "dF": e["dF"],
+           "dD": ca.SX.zeros(3, N_EL), "F_par": ca.SX.zeros(3, 1), "tail": None,
+           "Gamma": e["Gamma"], "alpha": e["alpha"].T, "Vp_norm": e["Vp_norm"].T}
+    if structure.drag:
+        # profile drag at the element centres, parasite drag at G along the free stream (0, w, u)
+        dD = aero.profile_drag(e["Vp"], e["Vp_norm"], b["chord_m"], b["ds_m"], rho,
+                               _p(p, "drag.profile_drag_coefficient"))
+        U_inf = ca.vertcat(0, x[1], x[0])
+        F_par = 0.5 * rho * _p(p, "drag.body_frontal_area_m2") * _p(p, "drag.body_drag_coefficient") \
+            * ca.norm_2(U_inf) * U_inf
+        F = F + ca.sum2(dD) + F_par
+        M = M + aero.moment_about_G(r, dD)
+        out.update(dD=dD, F_par=F_par)
+    Fx, Fz, My = -F[2], -F[1], M
+    if structure.tail:
+        Lt, Dt, Mt = tail.tail_loads(x, b["nodes_m"], e["Gamma"], rho,
+                                     *[_p(p, f"tail.{k}") for k in (
+                                         "opening_angle_deg", "root_behind_m", "length_m",
+                                         "kinematic_viscosity_m2ps", "reynolds_speed_mps")])
+        Fx, Fz, My = Fx - Dt, Fz - Lt, My + Mt
+        out["tail"] = (Lt, Dt, Mt)
+    out.update(F_code=F, Fx_N=Fx, Fz_N=Fz, My_Nm=My)
+    return out
 
 
 GEOMETRY_OUTPUTS = ("joint_angles_rad", "leading_edge_raw", "trailing_edge_raw", "leading_edge",
@@ -214,7 +260,8 @@ class BirdModel:
             _columns(centres), _columns(nodes), [chord[j] for j in range(N_EL)],
             _p(p, "aero.lift_slope_per_rad"), s.circulation, s.relaxed_evaluations)
         blocks = {"r_m": r, "v_kin_mps": v_kin, "c_hat": c_hat, "up": up, "tau": tau, "ds_m": ds,
-                  "G": G, "Wx": Wx, "Wy": Wy, "nodes_m": nodes + ca.repmat(r_w, 1, N_EL + 1)}
+                  "G": G, "Wx": Wx, "Wy": Wy, "nodes_m": nodes + ca.repmat(r_w, 1, N_EL + 1),
+                  "chord_m": chord.T}
         d = ca.vertcat(*[ca.vec(blocks[name]) for name, _ in DATA_BLOCKS])
         self.post = ca.Function("wing_assemble", [L, t, p], [d], ["local", "t", "p"], ["d"])
         self.data = ca.Function("data", [t, p], [self.post(ell, t, p)], ["t", "p"], ["d"])
@@ -222,21 +269,13 @@ class BirdModel:
         # State part.
         x = ca.SX.sym("x", 4)
         dsym = ca.SX.sym("d", N_DATA)
-        b = unpack_data(dsym)
-        F, M, Gamma, alpha, vp = aero.element_loads(
-            x, b["r_m"], b["v_kin_mps"], b["c_hat"], b["up"], b["tau"], b["ds_m"],
-            b["G"], b["Wx"], b["Wy"], _p(p, "aero.air_density_kgm3"))
+        lt = load_terms(s, x, dsym, p)
+        Fx, Fz, My, Gamma, alpha, vp, F = (lt[k] for k in ("Fx_N", "Fz_N", "My_Nm", "Gamma", "alpha", "Vp_norm",
+                                                          "F_code"))
         m = _p(p, "body.mass_kg")
         I = _p(p, "body.pitch_inertia_kgm2")
         grav = _p(p, "body.gravity_mps2")
         u, w, q, theta = x[0], x[1], x[2], x[3]
-        Fx, Fz, My = -F[2], -F[1], M
-        if s.tail:
-            Lt, Dt, Mt = tail.tail_loads(x, b["nodes_m"], Gamma, _p(p, "aero.air_density_kgm3"),
-                                         *[_p(p, f"tail.{k}") for k in (
-                                             "opening_angle_deg", "root_behind_m", "length_m",
-                                             "kinematic_viscosity_m2ps", "reynolds_speed_mps")])
-            Fx, Fz, My = Fx - Dt, Fz - Lt, My + Mt
         xdot = ca.vertcat(-q * w - grav * ca.sin(theta) + Fx / m,
                           q * u + grav * ca.cos(theta) + Fz / m,
                           My / I,
@@ -297,5 +336,5 @@ def get_model(cfg: Config) -> ConfiguredModel:
     return ConfiguredModel(_model_for(Structure.of(cfg)), cfg)
 
 
-__all__ = ["BirdModel", "get_model", "param_vector", "STATE_NAMES", "DATA_BLOCKS", "N_DATA",
+__all__ = ["BirdModel", "get_model", "load_terms", "param_vector", "STATE_NAMES", "DATA_BLOCKS", "N_DATA",
            "unpack_data", "GEOMETRY_OUTPUTS", "Structure"]

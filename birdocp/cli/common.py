@@ -252,6 +252,20 @@ def format_trim_table(r: dict) -> str:
         u, w, q, th = x0
         rows.append(("x0 (u, w, q, theta)", f"{fmt_num(u, '.6g')} m/s, {fmt_num(w, '.6g')} m/s, "
                                               f"{fmt_num(q, '.6g')} rad/s, {fmt_num(th, '.6g')} rad"))
+    if r.get("mean_aerodynamic_power_W") is not None:
+        rows += [
+            ("mean aerodynamic power", f"{fmt_num(r.get('mean_aerodynamic_power_W'), '.4f')} W "
+                                       f"(induced {fmt_num(r.get('mean_induced_power_W'), '.4f')} W)"),
+            ("mean shoulder power", f"{fmt_num(r.get('mean_shoulder_power_W'), '.4f')} W "
+                                    f"(body {fmt_num(r.get('mean_body_power_W'), '.4f')} W)"),
+            ("mean positive power", f"{fmt_num(r.get('mean_positive_power_W'), '.4f')} W (no negative-work storage)"),
+            ("cost of transport", f"{fmt_num(r.get('cost_of_transport'), '.4f')} "
+                                  f"(positive work {fmt_num(r.get('cost_of_transport_positive'), '.4f')})"),
+            ("Strouhal number", f"{fmt_num(r.get('strouhal_number'), '.4f')} "
+                                f"(f A / U, tip excursion {fmt_num(r.get('wingtip_excursion_m'), '.4f')} m)"),
+            ("reduced frequency", f"{fmt_num(r.get('reduced_frequency'), '.4f')} (pi f c / U), "
+                                  f"span-based {fmt_num(r.get('reduced_frequency_span'), '.4f')}"),
+        ]
     rows.append(("iterations", str(r.get("iterations", "-"))))
     rows.append(("max residual", fmt_num(r.get("max_residual"), ".3e")))
     sp = r.get("shooting_points")

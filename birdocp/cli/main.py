@@ -179,6 +179,7 @@ def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
             from birdocp.studies.trim import trim
 
             res = trim(cfg, compiled=True) if getattr(args, "compiled", False) else trim(cfg)
+            res.energetics  # noqa: B018 - the power outputs go into result.json and the table
             result = dict(res.to_dict())
             arrays = res.arrays() if hasattr(res, "arrays") else None
     except BaseException:
@@ -188,6 +189,7 @@ def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
         raise
     finish_result(result, "trim", t_start, run_dir)
     write_run(run_dir, cfg, result, arrays, command_line, command="trim")
+    _power_figure(arrays, run_dir)
 
     if args.json:
         print_json(result)
@@ -202,6 +204,15 @@ def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
               f"{one_line(res.message)}; result written to {run_dir}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     return EXIT_OK
+
+
+def _power_figure(arrays, run_dir: Path) -> None:
+    """power.png (power over the wingbeat) in the run folder, when the power outputs exist."""
+    if arrays and "power_t_s" in arrays:
+        with stdout_to_stderr():
+            from birdocp.plots.energetics import plot_power
+
+            plot_power(arrays, run_dir / "power.png")
 
 
 def cmd_export_c(args: argparse.Namespace, command_line: list[str]) -> int:
@@ -371,6 +382,7 @@ def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
             from birdocp.studies.level import level
 
             res = level(cfg, **kw)
+            res.energetics  # noqa: B018 - the power outputs go into result.json and the table
             result = dict(res.to_dict())
             arrays = res.arrays()
     except BaseException:
@@ -384,6 +396,7 @@ def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
     result["target"] = kw.get("target", kw["climb_rate_mps"])
     finish_result(result, "level", t_start, run_dir)
     write_run(run_dir, cfg, result, arrays, command_line, command="level")
+    _power_figure(arrays, run_dir)
 
     if args.json:
         print_json(result)
@@ -647,6 +660,10 @@ def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
                 figs.append(plots.plot_multipliers({command or "cycle": cyc["multipliers"]}, run / "multipliers.png"))
             if cyc.get("residual_history") is not None:
                 figs.append(plots.plot_convergence({command or "cycle": cyc["residual_history"]}, run / "convergence.png"))
+            if "power_t_s" in cyc:
+                from birdocp.plots.energetics import plot_power
+
+                figs.append(plot_power(cyc, run / "power.png"))
         else:
             raise ConfigError("RUN_DIR", f"do not know how to plot a '{command}' run")
     names = [Path(f).name for f in figs]

@@ -31,7 +31,8 @@ __all__ = [
 def rk4_step(ode: PeriodicODE, outputs=()) -> ca.Function:
     """One RK4 step ``step(x, D3, p, h) -> (x_next, q_inc)``; D3 = [d(t), d(t+h/2), d(t+h)].
 
-    ``q_inc`` (nq x 1) is the RK4 increment of the integral of each output in ``outputs``.
+    ``q_inc`` (nq x 1) is the RK4 increment of the integral of each output in ``outputs`` (an output
+    may return a column: its entries are integrated together, in order).
     """
     nx, nd, np_ = ode.nx, ode.nd, ode.np
     x = ca.SX.sym("x", nx)
@@ -99,7 +100,7 @@ class RK4Grid:
         self.S = int(n_segments)
         self.n = self.N // self.S
         self.h = ode.period_s / self.N
-        self.nq = len(outputs)
+        self.nq = sum(int(g.numel_out(0)) for g in outputs)  # an output may be a column
         nx, nd, np_ = ode.nx, ode.nd, ode.np
         step = rk4_step(ode, outputs)
         self.step = step

@@ -84,8 +84,36 @@ class TrimResult:
     def amplitude_deg(self) -> float:
         return float(self.cycle.p[PARAM_NAMES.index("gait.shoulder_flap.amplitude_deg")])
 
+    @property
+    def energetics(self) -> dict | None:
+        """Power outputs of the cycle (:func:`birdocp.bird.energetics.cycle_energetics`), computed on
+        first access (about 0.05-0.5 s); None when the cycle is not finite."""
+        if "_energetics" not in self.__dict__:
+            self.__dict__["_energetics"] = None
+            c = self.cycle
+            if np.all(np.isfinite(c.x0)) and np.all(np.isfinite(c.p)):
+                from birdocp.bird.energetics import cycle_energetics
+
+                self.__dict__["_energetics"] = cycle_energetics(
+                    get_model(self.cfg), c.p, c.x0, int(c.method["steps_per_period"]),
+                    float(c.trajectory_t[0]))
+        return self.__dict__["_energetics"]
+
+    def energetics_dict(self) -> dict:
+        """The scalar power outputs (keys :data:`birdocp.bird.energetics.ENERGETICS_KEYS`) and their
+        definitions, JSON-able; computed if needed."""
+        from birdocp.bird.energetics import ENERGETICS_KEYS
+
+        e = self.energetics
+        if e is None:
+            return {}
+        out = {k: _f(e[k]) for k in ENERGETICS_KEYS}
+        out["energetics_definitions"] = dict(e["definitions"])
+        return out
+
     def to_dict(self) -> dict:
-        """Plain JSON-able dict; complex numbers as [re, im] pairs, multipliers largest first."""
+        """Plain JSON-able dict; complex numbers as [re, im] pairs, multipliers largest first. The
+        power outputs are included when they were computed (:attr:`energetics`)."""
         c = self.cycle
         has_floquet = c.multipliers is not None
         out = {
@@ -114,6 +142,8 @@ class TrimResult:
             "method": dict(c.method),
             "wall_s": {k: float(v) for k, v in c.wall_s.items()},
         }
+        if self.__dict__.get("_energetics") is not None:
+            out.update(self.energetics_dict())
         return out
 
     def arrays(self) -> dict:
@@ -124,6 +154,9 @@ class TrimResult:
         if c.monodromy is not None:
             out.update(monodromy=np.asarray(c.monodromy), multipliers=np.asarray(c.multipliers),
                        eigenvectors=np.asarray(c.eigenvectors))
+        e = self.__dict__.get("_energetics")
+        if e is not None:
+            out.update({f"power_{k}": np.asarray(v) for k, v in e["samples"].items()})
         return out
 
     def table(self) -> str:
@@ -147,6 +180,11 @@ class TrimResult:
         lines.append(f"  mean forward speed {self.mean_forward_speed_mps:.4f} m/s, mean vertical speed "
                      f"{self.mean_vertical_speed_mps:+.4f} m/s (positive climbing), flight path angle "
                      f"{self.flight_path_angle_deg:+.4f} deg")
+        e = self.__dict__.get("_energetics")
+        if e is not None:
+            lines.append(f"  mean power: aerodynamic {e['mean_aerodynamic_power_W']:.4g} W, shoulder "
+                         f"{e['mean_shoulder_power_W']:.4g} W, positive-work {e['mean_positive_power_W']:.4g} W; "
+                         f"cost of transport {e['cost_of_transport']:.4g}, Strouhal {e['strouhal_number']:.4g}")
         if not c.success:
             lines.append(f"  message: {c.message}")
         return "\n".join(lines)
