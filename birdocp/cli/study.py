@@ -150,7 +150,7 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
         print("  multipliers: " + ", ".join(f"{z.real:.5f}{z.imag:+.5f}j" for z in res.multipliers))
         v = res.verification
         if v:
-            print(f"  check: trim from scratch at the optimum {'converged' if v['trim_from_scratch_success'] else 'FAILED'}, "
+            print(f"  check: trim from scratch at the optimum {'converged' if v['trim_success'] else 'FAILED'}, "
                   f"multipliers differ by {v['max_multiplier_difference']}, mean W {v['trim_mean_vertical_speed_mps']}")
         print(f"  written to {run_dir}")
     if not res.success:

@@ -1,0 +1,126 @@
+"""Exact first- and second-order sensitivities of the one-period RK4 map, by variational equations
+integrated step by step in SX (forward mode), for reduced-space optimisation over a few parameters.
+
+For x_T = Phi(x0, D, p) (the RK4 period map of :mod:`birdocp.engine.integrate`) and the period
+integrals q of some outputs, :class:`PeriodSensitivities` returns, along ``nx`` state directions and
+``n_dir`` parameter directions (each a direction dD of the stage data and dp of the parameters):
+
+* first order: ``J = d(x_T)/d(x0, dirs)`` (nx x (nx + n_dir)) and ``Jq = dq/d(x0, dirs)``;
+* second order (optional): the monodromy ``Mon = dx_T/dx0`` and its directional derivatives
+  ``dMon`` (column-major vec, nx^2 x (nx + n_dir)) along the same directions.
+
+Every RK4 step propagates the state, its tangents and (second order) the tangents of the state
+Jacobian as one SX Function (``jtimes`` with a seed matrix; structural zeros pruned), accumulated by
+``mapaccum`` over the N steps. Measured on the bird (148 steps, 5 parameter directions, 2 cores):
+first order 0.23 s, second order 1.3 s per evaluation, against 0.6-1.9 s and 9.4 s for forward AD
+(``jtimes``) through the MX period map and its Jacobian.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from birdocp.engine.integrate import rk4_step
+
+__all__ = ["PeriodSensitivities"]
+
+
+class PeriodSensitivities:
+    """Sensitivities of one period of RK4 (see module docstring), built once per
+    (ode, steps, outputs, n_dir, second_order).
+
+    Call ``sens(x0, D, p, dD, dp)``: ``D`` the stage blocks (nd x 3N, :meth:`RK4Grid.blocks_numeric`),
+    ``dD`` a list of ``n_dir`` stage-block directions (each nd x 3N, DM or numpy), ``dp`` (np x n_dir).
+    Returns a dict with ``x_T``, ``q`` (period integrals), ``J``, ``Jq`` and, second order, ``Mon``
+    and ``dMon`` (numpy arrays).
+    """
+
+    def __init__(self, ode, steps_per_period: int, outputs=(), n_dir: int = 0, second_order: bool = False):
+        self.ode, self.N, self.n_dir, self.second = ode, int(steps_per_period), int(n_dir), bool(second_order)
+        nx, nd, np_ = ode.nx, ode.nd, ode.np
+        self.nx, self.nd = nx, nd
+        nz = nx + self.n_dir
+        self.h = h = ode.period_s / self.N
+        step = rk4_step(ode, outputs)
+        x = ca.SX.sym("x", nx)
+        D3 = ca.SX.sym("D3", nd, 3)
+        p = ca.SX.sym("p", np_)
+        xn, qi = step(x, D3, p, h)
+        self.nq = nq = qi.numel()
+        dD3 = ca.SX.sym("dD3", nd, 3 * max(self.n_dir, 1))
+        dP = ca.SX.sym("dP", np_, max(self.n_dir, 1))
+        seedD = ca.horzcat(ca.SX.zeros(3 * nd, nx), *[ca.vec(dD3[:, 3 * k:3 * k + 3]) for k in range(self.n_dir)])
+        seedP = ca.horzcat(ca.SX.zeros(np_, nx), dP[:, :self.n_dir])
+        if self.second:
+            S = ca.SX.sym("S", nx, nx)                     # dx/dx0 so far
+            Jx = ca.jacobian(ca.vertcat(xn, qi), x)
+            Y = ca.vertcat(x, ca.vec(S))
+            Yn = ca.vertcat(xn, ca.vec(Jx[:nx, :] @ S))
+            Qn = ca.vertcat(qi, ca.vec(Jx[nx:, :] @ S))
+        else:
+            Y, Yn, Qn = x, xn, qi
+        nY = Y.numel()
+        dY = ca.SX.sym("dY", nY, nz)
+        arg = ca.vertcat(Y, ca.vec(D3), p)
+        seeds = ca.vertcat(dY, seedD, seedP)
+        dYn = ca.jtimes(Yn, arg, seeds)
+        dQn = ca.jtimes(Qn, arg, seeds)
+        carry = ca.vertcat(Y, ca.vec(dY))
+        acc_q = ca.vertcat(Qn, ca.vec(dQn))
+        f = ca.Function("variational_step", [carry, D3, p, ca.vec(dD3), dP],
+                        [ca.vertcat(Yn, ca.vec(dYn)), acc_q])
+        # q accumulates: carry it too (mapaccum accumulates only fed-back outputs)
+        c = ca.MX.sym("c", carry.numel())
+        a = ca.MX.sym("a", acc_q.numel())
+        Dm = ca.MX.sym("D3", nd, 3)
+        pm = ca.MX.sym("p", np_)
+        dDm = ca.MX.sym("dD3", dD3.numel())
+        dPm = ca.MX.sym("dP", np_, max(self.n_dir, 1))
+        cn, an = f(c, Dm, pm, dDm, dPm)
+        g = ca.Function("variational_step_acc", [c, a, Dm, pm, dDm, dPm], [cn, a + an])
+        self._acc = g.mapaccum("variational_period", self.N, [0, 1], [0, 1])
+        self.nY, self.nz, self.nQ = nY, nz, Qn.numel()
+        self._index = None
+
+    def _direction_columns(self):
+        """Column order turning hstacked directions (nd x 3N n_dir) into per-step blocks."""
+        if self._index is None:
+            N, nv = self.N, self.n_dir
+            self._index = [v * 3 * N + 3 * k + s for k in range(N) for v in range(nv) for s in range(3)]
+        return self._index
+
+    def direction_columns(self, dD):
+        """The per-step layout (3 nd n_dir x N) of ``n_dir`` stage-block directions (each nd x 3N;
+        DM, numpy or MX: build it symbolically once to keep the reordering out of Python)."""
+        if isinstance(dD[0], ca.MX):
+            return ca.reshape(ca.horzcat(*dD)[:, self._direction_columns()], self.nd * 3 * self.n_dir, self.N)
+        dDall = np.hstack([np.asarray(d, float) for d in dD])[:, self._direction_columns()]
+        return ca.DM(dDall.reshape(self.nd * 3 * self.n_dir, self.N, order="F"))
+
+    def __call__(self, x0, D, p, dD=(), dp=None, columns=None) -> dict:
+        """Sensitivities at x0; ``dD`` the directions (list), or ``columns`` their per-step layout
+        from :meth:`direction_columns`."""
+        nx, nd, N, nv = self.nx, self.nd, self.N, self.n_dir
+        x0 = np.asarray(x0, float).ravel()
+        Y0 = np.concatenate([x0, np.eye(nx).ravel(order="F")]) if self.second else x0
+        dY0 = np.zeros((self.nY, self.nz))
+        dY0[:nx, :nx] = np.eye(nx)
+        if nv:
+            dDcols = columns if columns is not None else self.direction_columns(list(dD))
+            dpm = ca.DM(np.asarray(dp, float).reshape(-1, nv))
+        else:
+            dDcols = ca.DM.zeros(nd * 3, N)
+            dpm = ca.DM.zeros(self.ode.np, 1)
+        c0 = np.concatenate([Y0, dY0.ravel(order="F")])
+        nY, nz, nq, nQ = self.nY, self.nz, self.nq, self.nQ
+        cT, aT = self._acc(c0, ca.DM.zeros(nQ * (1 + nz)), D, ca.DM(np.asarray(p, float)), dDcols, dpm)
+        cT = np.asarray(cT)[:, -1]
+        aT = np.asarray(aT)[:, -1]
+        YT, dYT = cT[:nY], cT[nY:].reshape(nY, nz, order="F")
+        dQ = aT[nQ:].reshape(nQ, nz, order="F")
+        out = {"x_T": YT[:nx], "J": dYT[:nx], "q": aT[:nq], "Jq": dQ[:nq]}
+        if self.second:
+            out["Mon"] = YT[nx:].reshape(nx, nx, order="F")
+            out["dMon"] = dYT[nx:]
+        return out

@@ -1,0 +1,643 @@
+"""The energy-optimal (and the most stable) level-flight gait, in reduced space.
+
+Formulation (the reduced-space choice of issue 19): the decision variables are a few gait
+parameters theta (shoulder joints' offsets, amplitudes, phases; wing root; any key that leaves the
+wing's arm-frame shape numeric). For every theta the level cycle is eliminated: the state x0 at t = 0
+and the flapping amplitude A solve ``Phi(x0; theta, A) = x0`` and ``mean W = climb rate`` (Newton,
+warm-started by the first-order prediction of the previous point), and every output's gradient is
+exact by the implicit function theorem::
+
+    R(y, theta) = 0,  y = (x0, A)   =>   dy/dtheta = -R_y^-1 R_theta,   do/dtheta = o_theta + o_y dy/dtheta
+
+with the partial derivatives (and, for stability, the monodromy's) from the variational equations of
+:class:`birdocp.engine.variational.PeriodSensitivities` and the data's forward derivative along the
+free parameters. IPOPT (limited-memory Hessian on the few reduced variables) then sees a small, dense
+NLP: objective mean power, cost of transport or the stability radius r; constraints mean forward speed
+= U (optional), the amplitude within its limits (the free keys' own limits are variable bounds), and
+optionally all multipliers inside the circle of radius R (Jury conditions on Mon / R, as
+:mod:`birdocp.studies.optimize`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, with_values
+
+__all__ = ["ReducedLevelCycle", "GaitOptimum", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
+           "level_at_speed", "power_curve", "SPEED_KEY"]
+
+AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
+SPEED_KEY = "gait.shoulder_incidence.offset_deg"
+"""The gait parameter that holds the forward speed in the power curve (with the amplitude holding
+level flight): the wing's mean incidence."""
+OBJECTIVES = ("power", "cost-of-transport", "positive-power")
+JURY_MARGIN = 1e-6
+POSITIVE_EPS_W = 0.05
+"""Smoothing of max(P, 0) in the positive-power objective, 1/2 (P + sqrt(P^2 + eps^2)), error <= eps/2."""
+
+DEFAULT_GAIT_FREE = {
+    "gait.shoulder_incidence.offset_deg": (0.0, 25.0),
+    "gait.shoulder_incidence.amplitude_deg": (0.0, 10.0),
+    "gait.shoulder_sweep.offset_deg": (-30.0, -5.0),
+    "gait.shoulder_sweep.amplitude_deg": (10.0, 30.0),
+}
+"""Default free gait parameters of ``optimize-gait`` (the flapping amplitude is solved for level flight
+within 20-70 deg): the shoulder incidence and sweep, as in ``optimize-stability``, with the incidence
+offset's range widened to hold speeds from about 13 to 24 m/s."""
+
+# rows of the quadrature output vector
+_OUT = ("vertical_speed_mps", "forward_speed_mps", "flapping_power_W", "aerodynamic_power_W",
+        "positive_power_smooth_W")
+
+
+def _jury_function():
+    from birdocp.studies.optimize import jury_conditions
+
+    M, r = ca.SX.sym("M", 4, 4), ca.SX.sym("r")
+    j = jury_conditions(M / r)
+    return ca.Function("jury", [M, r], [j, ca.jacobian(j, ca.vertcat(ca.vec(M), r))])
+
+
+def check_free_keys(m, cfg, free: dict) -> None:
+    """ConfigError unless every free key can be a reduced variable (known, not the amplitude, not
+    reshaping the wing in the arm frame, finite bounds around the configured value)."""
+    for k, (lo, hi) in free.items():
+        if k not in PARAM_NAMES:
+            raise ConfigError(k, "unknown parameter for --free" + _suggest(k))
+        if k == AMPLITUDE_KEY:
+            raise ConfigError(k, "the flapping amplitude is solved for level flight; free other keys")
+        if PARAM_NAMES.index(k) in m.pre_params:
+            raise ConfigError(k, "changes the wing's shape in the arm frame (elbow, wrist, morphology): "
+                                 "free shoulder joints, wing.root_ahead_m or body/aero/drag keys")
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise ConfigError(k, f"bounds must be finite with lower < upper, got ({lo}, {hi})")
+        v = float(get_value(cfg, k))
+        if not lo <= v <= hi:
+            raise ConfigError(k, f"configured value {v:g} lies outside its bounds ({lo:g}, {hi:g}); "
+                                 f"widen --bounds {k}=LO:HI")
+
+
+def _suggest(k):
+    from birdocp.bird.config import suggest
+
+    return suggest(k, PARAM_NAMES)
+
+
+@dataclass
+class Evaluation:
+    """The level cycle at one theta and its exact gradients (per unit of each free key)."""
+
+    theta: np.ndarray
+    x0: np.ndarray
+    amplitude_deg: float
+    means: dict            # _OUT name -> period mean
+    grads: dict            # name -> d mean / d theta; also "amplitude_deg"
+    monodromy: np.ndarray
+    d_monodromy: np.ndarray | None  # 16 x n_theta (column-major vec), second order only
+    residual: float
+    newton_iterations: int
+
+    @property
+    def multipliers(self) -> np.ndarray:
+        lam = np.linalg.eigvals(self.monodromy)
+        return lam[np.lexsort((-lam.imag, -np.abs(lam)))]
+
+
+class ReducedLevelCycle:
+    """The level-flight cycle as a function of the free gait parameters (see module docstring).
+
+    cfg: configuration (every other value); keys: the free parameters theta; steps_per_period: RK4
+    grid; climb_rate_mps: the mean vertical speed held by the amplitude; second_order: also the
+    monodromy's derivatives (for stability constraints).
+    """
+
+    def __init__(self, cfg: Config, keys, steps_per_period: int | None = None, climb_rate_mps: float = 0.0,
+                 second_order: bool = False, amplitude_start_deg: float | None = None):
+        from birdocp.bird.energetics import power_functions
+        from birdocp.bird.model import N_DATA, get_model
+        from birdocp.engine.integrate import RK4Grid
+        from birdocp.engine.variational import PeriodSensitivities
+
+        self.cfg = cfg
+        self.m = m = get_model(cfg)
+        self.keys = list(keys)
+        self.N = N = int(steps_per_period or cfg.solve.steps_per_period)
+        self.climb = float(climb_rate_mps)
+        self.idx = [PARAM_NAMES.index(k) for k in self.keys]
+        self.ia = PARAM_NAMES.index(AMPLITUDE_KEY)
+        self.vidx = self.idx + [self.ia]
+        self.nt = len(self.idx)
+        nv = self.nt + 1
+        self.p0 = np.asarray(m.p0, float).copy()
+        self.T = m.period_s
+        pf = power_functions(m)
+        x, d, p = ca.SX.sym("x", 4), ca.SX.sym("d", N_DATA), ca.SX.sym("p", len(PARAM_NAMES))
+        pw = pf.power(x, d, p)
+        Pf = pw[1]
+        out = ca.vertcat(pw[8], pw[7], Pf, pw[0], 0.5 * (Pf + ca.sqrt(Pf ** 2 + POSITIVE_EPS_W ** 2)))
+        self.outputs = ca.Function("gait_outputs", [x, d, p], [out])
+        self.grid = RK4Grid(m.ode, N, 1, outputs=(self.outputs,))
+        self.sens = PeriodSensitivities(m.ode, N, (self.outputs,), nv, second_order)
+        self.second = bool(second_order)
+        self.K = K = 2 * N + 1
+        self.times = ca.DM(self.grid.times(0.0)).reshape((1, -1))
+        self.local = self.grid.pre_numeric(0.0, self.p0)
+        L, t, ps = ca.SX.sym("local", m.pre.size1_out(0)), ca.SX.sym("t"), ca.SX.sym("p", len(PARAM_NAMES))
+        dd = m.post(L, t, ps)
+        # the data and its Jacobian along the free parameters (forward mode, shared nominal values)
+        post_jac = ca.Function("post_jac", [L, t, ps], [dd, ca.jacobian(dd, ca.vertcat(*[ps[j] for j in self.vidx]))])
+        self._seeds = np.zeros((len(PARAM_NAMES), nv))
+        for k, j in enumerate(self.vidx):
+            self._seeds[j, k] = 1.0
+        # data and its directions in the variational layout, as one MX Function (the reordering of
+        # ~10^6 numbers stays in CasADi: through numpy it cost more than the sensitivities)
+        pm = ca.MX.sym("p", len(PARAM_NAMES))
+        blk = self.grid.block_index
+        Dg, Jg = post_jac.map(K)(self.local, self.times, pm)  # Jg: nv columns per time
+        cols = self.sens.direction_columns([Jg[:, [tk * nv + k for tk in blk]] for k in range(nv)])
+        self._data = ca.Function("gait_data", [pm], [Dg[:, blk], cols])
+        self._y = np.concatenate([np.asarray(cfg.solve.initial_guess, float),
+                                  [float(amplitude_start_deg if amplitude_start_deg is not None
+                                         else self.p0[self.ia])]])
+        self._theta = None
+        self._started = False
+        self._dy = None
+        self._Ry = None
+        self._cache: dict = {}
+        self.n_full = self.n_resid = 0
+
+    # -- pieces ----------------------------------------------------------------------------------
+    def pfull(self, theta, A):
+        p = self.p0.copy()
+        p[self.idx] = theta
+        p[self.ia] = A
+        return p
+
+    def _D(self, p):
+        return self.grid.post_grid(self.local, self.times, ca.DM(p))[:, self.grid.block_index]
+
+    def residual(self, y, theta):
+        """(R, means): the level-cycle residual (x_T - x0, mean W - climb) and the period means."""
+        p = self.pfull(theta, y[4])
+        xT, _, q = self.grid.period_map(ca.DM(y[:4]), self._D(p), ca.DM(p))
+        self.n_resid += 1
+        means = np.asarray(q).ravel() / self.T
+        return np.concatenate([np.asarray(xT).ravel() - y[:4], [means[0] - self.climb]]), means
+
+    def _full(self, y, theta):
+        """Sensitivities at (y, theta): R, R_y, R_theta, means, their partials, Mon (and dMon)."""
+        self.n_full += 1
+        p = self.pfull(theta, y[4])
+        D, cols = self._data(ca.DM(p))
+        s = self.sens(y[:4], D, p, dp=self._seeds, columns=cols)
+        T, nt = self.T, self.nt
+        cy = list(range(4)) + [4 + nt]          # columns of y = (x0, A)
+        ct = list(range(4, 4 + nt))             # columns of theta
+        J, Jq = s["J"], s["Jq"] / T
+        R = np.concatenate([s["x_T"] - y[:4], [s["q"][0] / T - self.climb]])
+        Ry = np.vstack([J[:, cy] - np.eye(5)[:4], Jq[0, cy]])
+        Rt = np.vstack([J[:, ct], Jq[0, ct]])
+        return s, R, Ry, Rt, Jq, cy, ct
+
+    # -- the reduced map -------------------------------------------------------------------------
+    def _first_guess(self, theta):
+        """x0 from a trim (multiple shooting) of the gait theta at the configured amplitude."""
+        from birdocp.studies.trim import trim
+
+        y = self._y.copy()
+        tr = trim(with_values(self.cfg, dict(zip(self.keys, map(float, theta)))), steps_per_period=self.N)
+        if tr.success:
+            y[:4] = tr.x0
+        return y
+
+    def evaluate(self, theta, grads: bool = True, tol: float = 1e-10, max_newton: int = 12) -> Evaluation:
+        """The level cycle at theta (Newton on (x0, A), chord steps with the last Jacobian) and, with
+        ``grads``, its exact gradients and monodromy; raises RuntimeError if Newton fails."""
+        theta = np.asarray(theta, float).ravel()
+        key = theta.tobytes()
+        ev = self._cache.get(key)
+        if ev is None:
+            if self._theta is None and not self._started:
+                self._started = True
+                y = self._first_guess(theta)
+            else:
+                y = self._y.copy()
+                if self._theta is not None and self._dy is not None:
+                    y = y + self._dy @ (theta - self._theta)  # first-order prediction
+            it = 0
+            Ry = self._Ry
+            R, means = self.residual(y, theta)
+            last = np.inf
+            while np.max(np.abs(R)) > tol:
+                if it >= max_newton or not np.all(np.isfinite(R)):
+                    raise RuntimeError(f"level cycle not found at {dict(zip(self.keys, theta))}: "
+                                       f"residual {np.max(np.abs(R)):.2e} after {it} Newton steps")
+                if Ry is None or np.max(np.abs(R)) > 0.3 * last:
+                    _, R, Ry, *_ = self._full(y, theta)  # fresh Jacobian (the chord stalled)
+                    self._Ry = Ry
+                last = np.max(np.abs(R))
+                y = y - np.linalg.solve(Ry, R)
+                it += 1
+                R, means = self.residual(y, theta)
+            ev = Evaluation(theta.copy(), y[:4].copy(), float(y[4]), dict(zip(_OUT, means.tolist())), None,
+                            None, None, float(np.max(np.abs(R))), it)
+            self._cache = {key: ev}
+        if grads and ev.grads is None:
+            y = np.append(ev.x0, ev.amplitude_deg)
+            s, R, Ry, Rt, Jq, cy, ct = self._full(y, theta)
+            dy = -np.linalg.solve(Ry, Rt)           # 5 x nt
+            ev.grads = {n: Jq[i, ct] + Jq[i, cy] @ dy for i, n in enumerate(_OUT)}
+            ev.grads["amplitude_deg"] = dy[4]
+            if self.second:
+                ev.d_monodromy = s["dMon"][:, ct] + s["dMon"][:, cy] @ dy
+            ev.monodromy = np.asarray(s["Mon"] if self.second else s["J"][:, :4])
+            self._theta, self._dy, self._Ry = theta.copy(), dy, Ry
+        self._y = np.append(ev.x0, ev.amplitude_deg)
+        return ev
+
+    def solve_speed(self, speed_mps: float, theta, k: int = 0, bounds=None, tol: float = 1e-9,
+                    max_iter: int = 30) -> Evaluation:
+        """Level flight at mean forward speed ``speed_mps``: Newton on theta[k] (the others fixed),
+        exact derivative dU/dtheta_k; damped, kept within ``bounds``."""
+        theta = np.asarray(theta, float).copy()
+        for _ in range(max_iter):
+            ev = self.evaluate(theta)
+            r = ev.means["forward_speed_mps"] - speed_mps
+            if abs(r) < tol:
+                return ev
+            g = ev.grads["forward_speed_mps"][k]
+            step = -r / g if g != 0 else 0.0
+            step = float(np.clip(step, -3.0, 3.0))
+            theta[k] += step
+            if bounds is not None:
+                theta[k] = float(np.clip(theta[k], *bounds))
+        raise RuntimeError(f"speed {speed_mps} m/s not reached by {self.keys[k]} (last U = "
+                           f"{ev.means['forward_speed_mps']:.6g} m/s)")
+
+
+# ------------------------------------------------------------------------------------------------
+@dataclass
+class GaitOptimum:
+    """Result of :func:`optimize_gait` (to_dict: the documented JSON keys)."""
+
+    success: bool
+    status: str
+    message: str
+    objective: str
+    iterations: int
+    objective_value: float
+    start_objective_value: float
+    free: dict
+    bounds: dict
+    start_free: dict
+    amplitude_deg: float
+    x0: np.ndarray
+    multipliers: np.ndarray
+    start_multipliers: np.ndarray
+    mean_forward_speed_mps: float
+    speed_mps: float | None
+    max_multiplier: float | None
+    means: dict
+    kkt_residual: float
+    constraint_violation: float
+    verification: dict = field(default_factory=dict)
+    wall_s: dict = field(default_factory=dict)
+    evaluations: dict = field(default_factory=dict)
+    cfg: Config | None = None
+    start_x0: np.ndarray | None = None
+
+    @property
+    def largest_modulus(self) -> float:
+        return float(np.max(np.abs(self.multipliers)))
+
+    def to_dict(self) -> dict:
+        pair = lambda z: [[float(v.real), float(v.imag)] for v in np.asarray(z)]
+        fin = lambda v: float(v) if v is not None and math.isfinite(v) else None
+        return {
+            "success": self.success, "status": self.status, "message": self.message,
+            "objective": self.objective, "iterations": self.iterations,
+            "objective_value": fin(self.objective_value), "start_objective_value": fin(self.start_objective_value),
+            "free": dict(self.free), "start_free": dict(self.start_free),
+            "bounds": {k: list(v) for k, v in self.bounds.items()},
+            "active_bounds": [k for k, v in self.free.items()
+                              if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6],
+            "amplitude_deg": self.amplitude_deg, "x0": np.asarray(self.x0).tolist(),
+            "multipliers": pair(self.multipliers), "moduli": np.abs(self.multipliers).tolist(),
+            "largest_modulus": self.largest_modulus, "stable": bool(self.largest_modulus < 1),
+            "start_multipliers": pair(self.start_multipliers),
+            "mean_forward_speed_mps": self.mean_forward_speed_mps, "speed_mps": self.speed_mps,
+            "max_multiplier": self.max_multiplier,
+            "mean_shoulder_power_W": self.means.get("flapping_power_W"),
+            "mean_aerodynamic_power_W": self.means.get("aerodynamic_power_W"),
+            "mean_vertical_speed_mps": self.means.get("vertical_speed_mps"),
+            "kkt_residual": self.kkt_residual, "constraint_violation": self.constraint_violation,
+            "verification": self.verification, "wall_s": self.wall_s, "evaluations": self.evaluations,
+        }
+
+
+class _Problem:
+    """The reduced NLP for IPOPT: G(z) = [objective; constraints], z = theta (+ r)."""
+
+    def __init__(self, rc: ReducedLevelCycle, objective: str, speed, max_multiplier, amplitude_bounds):
+        self.rc, self.objective, self.speed, self.R = rc, objective, speed, max_multiplier
+        self.amp = amplitude_bounds
+        self.with_r = objective == "stability"
+        self.jury = _jury_function() if (max_multiplier is not None or self.with_r) else None
+        nt = rc.nt
+        self.nz = nt + (1 if self.with_r else 0)
+        self.names = ["amplitude_deg"] + (["forward_speed_mps"] if speed is not None else []) \
+            + ([f"jury{i}" for i in range(5)] if self.jury is not None else [])
+        self.ng = 1 + len(self.names)
+        self.jac_sparsity = ca.Sparsity.dense(self.ng, self.nz)
+        mg = float(get_value(rc.cfg, "body.mass_kg") * get_value(rc.cfg, "body.gravity_mps2"))
+        self.mg = mg
+
+    def bounds_g(self):
+        lo, hi = [self.amp[0]], [self.amp[1]]
+        if self.speed is not None:
+            lo.append(self.speed)
+            hi.append(self.speed)
+        if self.jury is not None:
+            lo += [JURY_MARGIN] * 5
+            hi += [np.inf] * 5
+        return np.array(lo), np.array(hi)
+
+    def _obj(self, ev: Evaluation, z):
+        if self.objective == "power":
+            return ev.means["flapping_power_W"], ev.grads["flapping_power_W"]
+        if self.objective == "positive-power":
+            return ev.means["positive_power_smooth_W"], ev.grads["positive_power_smooth_W"]
+        if self.objective == "cost-of-transport":
+            P, U = ev.means["flapping_power_W"], ev.means["forward_speed_mps"]
+            gP, gU = ev.grads["flapping_power_W"], ev.grads["forward_speed_mps"]
+            return P / (self.mg * U), (gP * U - P * gU) / (self.mg * U ** 2)
+        raise ValueError(self.objective)
+
+    def both(self, z, grads: bool = True):
+        z = np.asarray(z, float).ravel()
+        nt = self.rc.nt
+        ev = self.rc.evaluate(z[:nt], grads=grads or self.jury is not None)
+        if ev.grads is None:  # values only (a line-search trial point)
+            G = np.array([self._value(ev)] + [ev.amplitude_deg]
+                         + ([ev.means["forward_speed_mps"]] if self.speed is not None else []))
+            return G, None
+        G = np.zeros(self.ng)
+        J = np.zeros((self.ng, self.nz))
+        if self.with_r:
+            G[0], J[0, -1] = z[-1], 1.0
+        else:
+            G[0], J[0, :nt] = self._obj(ev, z)
+        G[1], J[1, :nt] = ev.amplitude_deg, ev.grads["amplitude_deg"]
+        i = 2
+        if self.speed is not None:
+            G[i], J[i, :nt] = ev.means["forward_speed_mps"], ev.grads["forward_speed_mps"]
+            i += 1
+        if self.jury is not None:
+            r = z[-1] if self.with_r else self.R
+            jv, jj = (np.asarray(v) for v in self.jury(ca.DM(ev.monodromy), r))
+            G[i:i + 5] = jv.ravel()
+            J[i:i + 5, :nt] = jj[:, :16] @ ev.d_monodromy
+            if self.with_r:
+                J[i:i + 5, -1] = jj[:, 16]
+        return G, J
+
+    def _value(self, ev):
+        P, U = ev.means["flapping_power_W"], ev.means["forward_speed_mps"]
+        return {"power": P, "positive-power": ev.means["positive_power_smooth_W"],
+                "cost-of-transport": P / (self.mg * U)}[self.objective]
+
+    def g(self, z):
+        return self.both(z, grads=False)[0]
+
+    def jacobian(self, z):
+        return self.both(z)[1]
+
+
+def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, objective: str = "power",
+                  speed_mps: float | None = None, max_multiplier: float | None = None,
+                  climb_rate_mps: float = 0.0, amplitude_bounds=(20.0, 70.0),
+                  steps_per_period: int | None = None, max_iter: int = 100, tol: float = 1e-8,
+                  verify: bool = True, progress: bool = False, start: dict | None = None) -> GaitOptimum:
+    """Minimise mean power (``objective="power"``), cost of transport, smoothed positive-work power,
+    or the stability radius (``"stability"``) over the gait parameters ``free`` (key -> (lo, hi);
+    default :data:`DEFAULT_GAIT_FREE`), in level flight (mean W = ``climb_rate_mps``, the amplitude
+    solved within ``amplitude_bounds``) at mean forward speed ``speed_mps`` (None: free speed), with
+    all multipliers inside the circle of radius ``max_multiplier`` (None: no stability constraint).
+
+    The start is the configured gait (``start`` overrides values), brought to ``speed_mps`` by the
+    first free key (Newton, exact derivative); its objective is ``start_objective_value``. The optimum
+    is verified by a trim from scratch (5-point multiple shooting) at the optimal gait."""
+    cfg = cfg or Config()
+    if objective not in OBJECTIVES + ("stability",):
+        raise ConfigError("--objective", f"must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
+    free = dict(DEFAULT_GAIT_FREE if free is None else free)
+    if not free:
+        raise ConfigError("--free", "give at least one free gait parameter")
+    if speed_mps is not None and not (math.isfinite(speed_mps) and speed_mps > 0):
+        raise ConfigError("--speed", f"must be a positive finite speed in m/s, got {speed_mps!r}")
+    if max_multiplier is not None and not (math.isfinite(max_multiplier) and max_multiplier > 0):
+        raise ConfigError("--max-multiplier", f"must be a positive number, got {max_multiplier!r}")
+    from birdocp.bird.model import get_model
+
+    m = get_model(cfg)
+    cfg_start = with_values(cfg, start) if start else cfg
+    check_free_keys(m, cfg_start, free)
+    t_all = time.perf_counter()
+    wall = {}
+    keys = list(free)
+    second = objective == "stability" or max_multiplier is not None
+    t0 = time.perf_counter()
+    rc = ReducedLevelCycle(cfg_start, keys, steps_per_period, climb_rate_mps, second_order=second)
+    wall["build"] = time.perf_counter() - t0
+    lo = np.array([free[k][0] for k in keys])
+    hi = np.array([free[k][1] for k in keys])
+    theta0 = np.array([float(get_value(cfg_start, k)) for k in keys])
+    t0 = time.perf_counter()
+    try:
+        ev0 = rc.evaluate(theta0)
+        if speed_mps is not None:
+            ev0 = rc.solve_speed(speed_mps, theta0, 0, (lo[0], hi[0]))
+    except RuntimeError as e:
+        return _failed(objective, free, f"start: {e}", cfg, speed_mps, max_multiplier)
+    wall["start"] = time.perf_counter() - t0
+    prob = _Problem(rc, objective, speed_mps, max_multiplier, amplitude_bounds)
+    z0 = ev0.theta.copy()
+    lbx, ubx = lo.copy(), hi.copy()
+    if prob.with_r:
+        r0 = 1.05 * float(np.max(np.abs(ev0.multipliers)))
+        z0 = np.append(z0, r0)
+        lbx, ubx = np.append(lbx, 0.02), np.append(ubx, 50.0)
+    start_value = float(prob.both(z0)[0][0]) if not prob.with_r else float(np.max(np.abs(ev0.multipliers)))
+    start_mult = ev0.multipliers
+    from birdocp.engine.oracle import ConstraintOracle
+
+    zs = ca.MX.sym("z", prob.nz)
+    oracle = ConstraintOracle(prob, "gait")  # keep a reference: IPOPT calls it during the solve
+    G = oracle(zs)
+    nlp = {"x": zs, "f": G[0], "g": G[1:]}
+    opts = {"ipopt.hessian_approximation": "limited-memory", "ipopt.sb": "yes",
+            "ipopt.print_level": 5 if progress else 0, "print_time": False, "ipopt.max_iter": int(max_iter),
+            "ipopt.tol": tol, "ipopt.constr_viol_tol": 1e-8, "ipopt.acceptable_tol": 1e-6,
+            "ipopt.acceptable_iter": 5, "ipopt.mu_strategy": "adaptive", "ipopt.nlp_scaling_method": "gradient-based"}
+    solver = ca.nlpsol("gait", "ipopt", nlp, opts)
+    glo, ghi = prob.bounds_g()
+    t0 = time.perf_counter()
+    try:
+        sol = solver(x0=z0, lbx=lbx, ubx=ubx, lbg=glo, ubg=ghi)
+        st = solver.stats()
+        status, ok, iters = str(st["return_status"]), bool(st["success"]), int(st["iter_count"])
+        z = np.asarray(sol["x"]).ravel()
+        lam_g, lam_x = np.asarray(sol["lam_g"]).ravel(), np.asarray(sol["lam_x"]).ravel()
+        msg = f"IPOPT: {status}"
+    except RuntimeError as e:  # the reduced map failed (no level cycle) and IPOPT could not recover
+        return _failed(objective, free, f"IPOPT stopped: {e}", cfg, speed_mps, max_multiplier)
+    wall["solve"] = time.perf_counter() - t0
+    Gz, Jz = prob.both(z)
+    ev = rc.evaluate(z[:rc.nt])
+    # KKT: gradient of the Lagrangian (IPOPT's sign convention: grad f + J^T lam_g + lam_x = 0)
+    kkt = Jz[0] + Jz[1:].T @ lam_g + lam_x
+    viol = float(np.max(np.concatenate([np.maximum(glo - Gz[1:], 0), np.maximum(Gz[1:] - ghi, 0)])))
+    best = {k: float(v) for k, v in zip(keys, z[:rc.nt])}
+    out = GaitOptimum(ok and viol < 1e-6, status, msg, objective, iters, float(Gz[0]), start_value, best, free,
+                      dict(zip(keys, ev0.theta.tolist())), ev.amplitude_deg, ev.x0, ev.multipliers,
+                      start_mult, ev.means["forward_speed_mps"], speed_mps, max_multiplier, dict(ev.means),
+                      float(np.max(np.abs(kkt))), viol, cfg=cfg)
+    out.evaluations = {"full": rc.n_full, "residual": rc.n_resid}
+    out.start_x0 = ev0.x0
+    if verify:
+        t0 = time.perf_counter()
+        out.verification = verify_gait(out, cfg, rc.N)
+        out.cfg = out.verification.pop("cfg")
+        wall["verify"] = time.perf_counter() - t0
+    wall["total"] = time.perf_counter() - t_all
+    out.wall_s = wall
+    return out
+
+
+def verify_gait(opt: GaitOptimum, cfg: Config, steps: int) -> dict:
+    """An independent trim from scratch at the optimal gait and amplitude: 5-point multiple shooting
+    from the state of the start gait's cycle (nothing of the optimiser's cycle; the configured
+    initial guess finds another, climbing cycle at some optima); its power, speeds and multipliers
+    against the optimiser's."""
+    from birdocp.studies.trim import trim
+
+    vals = dict(opt.free)
+    vals[AMPLITUDE_KEY] = opt.amplitude_deg
+    cfg_best = with_values(cfg, vals)
+    guess = [float(v) for v in (opt.start_x0 if opt.start_x0 is not None else cfg.solve.initial_guess)]
+    tr = trim(cfg_best, x_guess=guess, points=5, steps_per_period=steps)
+    out = {"cfg": cfg_best, "trim_success": bool(tr.success), "trim_guess": guess}
+    if tr.success:
+        e = tr.energetics
+        out.update({
+            "trim_x0_difference": float(np.max(np.abs(tr.x0 - opt.x0))),
+            "trim_mean_shoulder_power_W": e["mean_shoulder_power_W"],
+            "trim_mean_aerodynamic_power_W": e["mean_aerodynamic_power_W"],
+            "power_difference_W": float(e["mean_shoulder_power_W"] - opt.means["flapping_power_W"]),
+            "trim_mean_forward_speed_mps": float(tr.mean_forward_speed_mps),
+            "trim_mean_vertical_speed_mps": float(tr.mean_vertical_speed_mps),
+            "trim_multipliers": [[float(v.real), float(v.imag)] for v in tr.multipliers],
+            "max_multiplier_difference": float(np.max(np.abs(np.sort_complex(tr.multipliers)
+                                                             - np.sort_complex(opt.multipliers)))),
+            "trim_mean_positive_power_W": e["mean_positive_power_W"],
+            "trim_cost_of_transport": e["cost_of_transport"],
+            "trim_strouhal_number": e["strouhal_number"],
+        })
+    return out
+
+
+def _failed(objective, free, message, cfg, speed, R) -> GaitOptimum:
+    nan4 = np.full(4, np.nan)
+    return GaitOptimum(False, "start_failed" if message.startswith("start") else "error", message, objective, 0,
+                       float("nan"), float("nan"), {}, free, {}, float("nan"), nan4, nan4.astype(complex),
+                       nan4.astype(complex), float("nan"), speed, R, {}, float("nan"), float("nan"), cfg=cfg)
+
+
+# ------------------------------------------------------------------------------------------------
+def level_at_speed(cfg: Config, speed_mps: float, key: str = SPEED_KEY, bounds=(-10.0, 35.0),
+                   steps_per_period: int | None = None, rc: ReducedLevelCycle | None = None) -> Evaluation:
+    """Level flight at mean forward speed ``speed_mps``: the amplitude and ``key`` solved."""
+    rc = rc or ReducedLevelCycle(cfg, [key], steps_per_period)
+    theta = rc._theta if rc._theta is not None else np.array([float(get_value(cfg, key))])
+    return rc.solve_speed(speed_mps, theta, 0, bounds)
+
+
+def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bounds=(-10.0, 35.0),
+                steps_per_period: int | None = None, progress: bool = False) -> dict:
+    """Level flight over a range of forward speeds (the speed held by ``key``, level flight by the
+    amplitude), with the power outputs and the multipliers of every point.
+
+    The points are continued outward from the speed of the configured gait's level cycle. Returns
+    ``{"rows": [...], "minimum_power": {...}, "maximum_range": {...}, "key": key}``; minimum-power and
+    maximum-range (minimum P/U) speeds from a parabola through the three points around the discrete
+    minimum."""
+    from birdocp.bird.energetics import cycle_energetics
+
+    cfg = cfg or Config()
+    speeds = np.sort(np.asarray(speeds if speeds is not None else np.arange(12.0, 24.01, 1.0), float))
+    rc = ReducedLevelCycle(cfg, [key], steps_per_period)
+    ev0 = rc.evaluate(np.array([float(get_value(cfg, key))]))
+    U0 = ev0.means["forward_speed_mps"]
+    up = [s for s in speeds if s >= U0]
+    down = [s for s in speeds[::-1] if s < U0]
+    rows = []
+    for branch in (up, down):
+        rc._y, rc._theta, rc._dy = ev0.x0.tolist() + [ev0.amplitude_deg], ev0.theta.copy(), None
+        rc._y = np.asarray(rc._y)
+        rc._dy = None
+        ev_prev = ev0
+        for s in branch:
+            row = {"speed_mps": float(s), "success": False}
+            try:
+                ev = rc.solve_speed(float(s), ev_prev.theta, 0, bounds)
+            except RuntimeError as e:
+                row["message"] = str(e)
+                rows.append(row)
+                if progress:
+                    print(f"power curve: {s:.3g} m/s failed: {e}", flush=True)
+                break
+            ev_prev = ev
+            p = rc.pfull(ev.theta, ev.amplitude_deg)
+            e = cycle_energetics(rc.m, p, ev.x0, rc.N)
+            lam = ev.multipliers
+            row.update({"success": True, key: float(ev.theta[0]), "amplitude_deg": ev.amplitude_deg,
+                        "x0": ev.x0.tolist(), "mean_forward_speed_mps": ev.means["forward_speed_mps"],
+                        "mean_vertical_speed_mps": ev.means["vertical_speed_mps"],
+                        **{k: e[k] for k in ("mean_shoulder_power_W", "mean_aerodynamic_power_W",
+                                             "mean_positive_power_W", "cost_of_transport",
+                                             "strouhal_number", "reduced_frequency")},
+                        "multipliers": [[float(v.real), float(v.imag)] for v in lam],
+                        "largest_modulus": float(np.max(np.abs(lam)))})
+            rows.append(row)
+            if progress:
+                print(f"power curve: U {s:6.2f} m/s  {key} {ev.theta[0]:8.4f}  A {ev.amplitude_deg:8.4f} deg  "
+                      f"P {e['mean_shoulder_power_W']:8.4f} W  |L1| {row['largest_modulus']:.4f}", flush=True)
+    rows.sort(key=lambda r: r["speed_mps"])
+    ok = [r for r in rows if r["success"]]
+    U = np.array([r["speed_mps"] for r in ok])
+    P = np.array([r["mean_shoulder_power_W"] for r in ok])
+    return {"key": key, "rows": rows, "minimum_power": _vertex(U, P, "power_W"),
+            "maximum_range": _vertex(U, P / U if len(U) else P, "power_per_speed_J_per_m", P)}
+
+
+def _vertex(U, y, name, P=None) -> dict:
+    """The minimum of y(U) from the parabola through the discrete minimum and its neighbours
+    (at an end of the range: the end point, flagged)."""
+    if len(U) < 3:
+        return {"speed_mps": None, name: None, "interior": False}
+    i = int(np.argmin(y))
+    if i == 0 or i == len(U) - 1:
+        out = {"speed_mps": float(U[i]), name: float(y[i]), "interior": False}
+    else:
+        c = np.polyfit(U[i - 1:i + 2], y[i - 1:i + 2], 2)
+        us = float(-c[1] / (2 * c[0]))
+        out = {"speed_mps": us, name: float(np.polyval(c, us)), "interior": True}
+    if P is not None and out["speed_mps"] is not None:
+        out["power_W"] = out[name] * out["speed_mps"]
+    return out
