@@ -101,6 +101,36 @@ def cmd_sensitivity(args: argparse.Namespace, command_line: list[str]) -> int:
     return cli.EXIT_OK
 
 
+def free_with_bounds(args: argparse.Namespace, defaults: dict) -> dict:
+    """key -> (lo, hi) from ``--free KEY`` (default: the keys of ``defaults``) and ``--bounds KEY=LO:HI``
+    (default: ``defaults``' range); ConfigError (exit 2) on an unknown key, a malformed or empty range."""
+    import math
+
+    keys = [_check_key(k, "--free") for k in (args.free or [])] or list(defaults)
+    bounds = {}
+    for text in args.bounds or []:
+        try:
+            key, rng = text.split("=", 1)
+            lo, hi = (float(v) for v in rng.split(":"))
+        except ValueError:
+            raise ConfigError("--bounds", f"expected KEY=LO:HI, got '{text}'") from None
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise ConfigError("--bounds", f"need finite LO < HI, got '{text}'")
+        bounds[_check_key(key.strip(), "--bounds")] = (lo, hi)
+    free = {}
+    for k in keys:
+        if k in bounds:
+            free[k] = bounds[k]
+        elif k in defaults:
+            free[k] = defaults[k]
+        else:
+            raise ConfigError("--bounds", f"'{k}' has no default range; give --bounds {k}=LO:HI")
+    for k in bounds:
+        if k not in free:
+            raise ConfigError("--bounds", f"'{k}' is not free; add --free {k}")
+    return free
+
+
 def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
     import math
 
@@ -110,26 +140,7 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
     cfg = cli.resolve_config(args)
     if not math.isfinite(args.climb_rate):
         raise ConfigError("--climb-rate", f"must be finite, got {args.climb_rate}")
-    keys = [_check_key(k, "--free") for k in (args.free or [])] or list(DEFAULT_FREE)
-    bounds = {}
-    for text in args.bounds or []:
-        try:
-            key, rng = text.split("=", 1)
-            lo, hi = (float(v) for v in rng.split(":"))
-        except ValueError:
-            raise ConfigError("--bounds", f"expected KEY=LO:HI, got '{text}'") from None
-        bounds[_check_key(key.strip(), "--bounds")] = (lo, hi)
-    free = {}
-    for k in keys:
-        if k in bounds:
-            free[k] = bounds[k]
-        elif k in DEFAULT_FREE:
-            free[k] = DEFAULT_FREE[k]
-        else:
-            raise ConfigError("--bounds", f"'{k}' has no default range; give --bounds {k}=LO:HI")
-    for k in bounds:
-        if k not in free:
-            raise ConfigError("--bounds", f"'{k}' is not free; add --free {k}")
+    free = free_with_bounds(args, DEFAULT_FREE)
     run_dir = claim_out_dir(args.out, "optimize-stability") if args.out else new_run_dir(None, "optimize-stability")
     with cli.stdout_to_stderr():
         res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, progress=not args.json)

@@ -47,7 +47,7 @@ class PeriodSensitivities:
         D3 = ca.SX.sym("D3", nd, 3)
         p = ca.SX.sym("p", np_)
         xn, qi = step(x, D3, p, h)
-        self.nq = nq = qi.numel()
+        self.nq = qi.numel()
         dD3 = ca.SX.sym("dD3", nd, 3 * max(self.n_dir, 1))
         dP = ca.SX.sym("dP", np_, max(self.n_dir, 1))
         seedD = ca.horzcat(ca.SX.zeros(3 * nd, nx), *[ca.vec(dD3[:, 3 * k:3 * k + 3]) for k in range(self.n_dir)])

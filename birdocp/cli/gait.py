@@ -1,0 +1,94 @@
+"""CLI command ``optimize-gait``: the energy-optimal level-flight gait (registered by cli.main)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+from birdocp.bird.config import ConfigError
+from birdocp.cli import common as cli
+
+
+def register(sub, common) -> None:
+    """Add ``optimize-gait`` to the CLI's subparsers."""
+    p = sub.add_parser("optimize-gait", parents=[common],
+                       help="the gait that minimises mean power (or cost of transport) in level flight at a speed",
+                       description="Minimise the mean mechanical power (or the cost of transport, or the "
+                                   "positive-work power) of level flight at a given mean forward speed over "
+                                   "free gait parameters within bounds, optionally with every Floquet "
+                                   "multiplier inside the circle of radius R. Reduced space: IPOPT over the "
+                                   "gait parameters, the periodic cycle and the flapping amplitude solved "
+                                   "for level flight at every iterate, exact gradients by the implicit "
+                                   "function theorem. Verified by a trim at the optimum.")
+    p.add_argument("--objective", choices=("power", "cost-of-transport", "positive-power"), default="power",
+                   help="mean mechanical power [W] (default), cost of transport P/(m g U), or the smoothed "
+                        "mean positive-work power [W]")
+    p.add_argument("--speed", type=float, required=True, metavar="MPS",
+                   help="mean forward speed of the level flight [m/s], held by the first free key")
+    p.add_argument("--free", action="append", metavar="KEY",
+                   help="free gait parameter (repeatable; default: shoulder incidence and sweep offsets and "
+                        "amplitudes; the first one also brings the start gait to --speed)")
+    p.add_argument("--bounds", action="append", metavar="KEY=LO:HI",
+                   help="bounds of a free parameter (joint limits; repeatable; default: "
+                        "birdocp.studies.gait.DEFAULT_GAIT_FREE)")
+    p.add_argument("--max-multiplier", type=float, default=None, metavar="R",
+                   help="stability constraint: every Floquet multiplier modulus <= R (default: none)")
+    p.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS", help="mean vertical speed (default 0)")
+    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty)")
+    p.set_defaults(func=cmd_optimize_gait)
+
+
+def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
+    from birdocp.cli.study import free_with_bounds
+    from birdocp.io.runs import claim_out_dir, new_run_dir, write_run
+    from birdocp.studies.gait import DEFAULT_GAIT_FREE, check_free_keys, optimize_gait
+
+    cfg = cli.resolve_config(args)
+    if not (math.isfinite(args.speed) and args.speed > 0):
+        raise ConfigError("--speed", f"must be a positive speed in m/s, got {args.speed}")
+    if args.max_multiplier is not None and not (math.isfinite(args.max_multiplier) and args.max_multiplier > 0):
+        raise ConfigError("--max-multiplier", f"must be a positive number, got {args.max_multiplier}")
+    if not math.isfinite(args.climb_rate):
+        raise ConfigError("--climb-rate", f"must be finite, got {args.climb_rate}")
+    free = free_with_bounds(args, DEFAULT_GAIT_FREE)
+    with cli.stdout_to_stderr():
+        from birdocp.bird.model import get_model
+
+        check_free_keys(get_model(cfg), cfg, free)
+    run_dir = claim_out_dir(args.out, "optimize-gait") if args.out else new_run_dir(None, "optimize-gait")
+    with cli.stdout_to_stderr():
+        res = optimize_gait(cfg, free, objective=args.objective, speed_mps=args.speed,
+                            max_multiplier=args.max_multiplier, climb_rate_mps=args.climb_rate)
+    result = res.to_dict()
+    result["run_dir"] = str(run_dir)
+    write_run(run_dir, res.cfg or cfg, result, None, command_line, command="optimize-gait")
+    if args.json:
+        cli.print_json(result)
+    else:
+        unit = " W" if args.objective != "cost-of-transport" else ""
+        print(f"optimize-gait: {'converged' if res.success else 'NOT converged'} ({res.status}), "
+              f"{res.iterations} iterations, {res.wall_s.get('total', float('nan')):.1f} s")
+        print(f"  {args.objective}: {cli.fmt_num(result['objective_value'], '.6g')}{unit} (configured gait at "
+              f"{args.speed:g} m/s: {cli.fmt_num(result['start_objective_value'], '.6g')}{unit}); KKT residual "
+              f"{cli.fmt_num(res.kkt_residual, '.2e')}")
+        for k, v in res.free.items():
+            lo, hi = res.bounds[k]
+            at = " (at a bound)" if min(abs(v - lo), abs(v - hi)) < 1e-6 else ""
+            print(f"  {k:40s} {v:+10.4f}   in [{lo:g}, {hi:g}]{at}   (start {res.start_free.get(k, float('nan')):+.4f})")
+        print(f"  flapping amplitude {res.amplitude_deg:.4f} deg; mean forward speed "
+              f"{cli.fmt_num(result['mean_forward_speed_mps'], '.6g')} m/s")
+        print("  multipliers: " + ", ".join(f"{z.real:.5f}{z.imag:+.5f}j" for z in res.multipliers)
+              + f"  ({'STABLE' if res.largest_modulus < 1 else 'UNSTABLE'})")
+        v = res.verification
+        if v:
+            ok = v.get("trim_success")
+            print(f"  check: trim at the optimum {'converged' if ok else 'FAILED'}"
+                  + (f", power differs by {v['power_difference_W']:.2e} W, multipliers by "
+                     f"{v['max_multiplier_difference']:.2e}" if ok else ""))
+        print(f"  written to {run_dir}")
+    if not res.success:
+        print(f"{cli.PROG}: optimisation did not converge (status {res.status}: {cli.one_line(res.message)}); "
+              f"result written to {run_dir}", file=sys.stderr)
+        return cli.EXIT_NOT_CONVERGED
+    return cli.EXIT_OK
