@@ -32,6 +32,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import Config, with_values
+from birdocp.studies.gait import jury_conditions
 
 __all__ = ["DEFAULT_FREE", "optimize_stability", "StabilityOptimum", "jury_conditions"]
 
@@ -53,25 +54,6 @@ DEFAULT_FREE = {
 """Default free gait parameters and bounds: the shoulder incidence (offset 5-20 deg, amplitude up to
 10 deg) and sweep (offset -30..-5 deg, amplitude 10-30 deg); the flapping amplitude is solved for
 level flight within 20-70 deg. Phases and other shoulder keys can be freed with their own bounds."""
-
-
-def jury_conditions(A):
-    """The five Jury quantities (each >= 0 <=> all eigenvalues of the 4 x 4 A in the closed unit
-    disc, strict > 0 for the open disc)."""
-    t1 = ca.trace(A)
-    A2 = A @ A
-    t2 = ca.trace(A2)
-    t3 = ca.trace(A2 @ A)
-    a3 = -t1
-    a2 = 0.5 * (t1 ** 2 - t2)
-    a1 = -(t1 ** 3 - 3 * t1 * t2 + 2 * t3) / 6
-    a0 = ca.det(A)
-    a = [a0, a1, a2, a3, 1.0]
-    p1 = sum(a)
-    pm1 = a0 - a1 + a2 - a3 + 1.0
-    b = [a[0] * a[k] - a[4] * a[4 - k] for k in range(4)]
-    c = [b[0] * b[k] - b[3] * b[3 - k] for k in range(3)]
-    return ca.vertcat(p1, pm1, 1 - a0 ** 2, b[0] ** 2 - b[3] ** 2, c[0] ** 2 - c[2] ** 2)
 
 
 @dataclass
