@@ -122,6 +122,8 @@ class Evaluation:
 
     @property
     def multipliers(self) -> np.ndarray:
+        if self.monodromy is None or not np.all(np.isfinite(self.monodromy)):
+            return np.full(4, np.nan, complex)
         lam = np.linalg.eigvals(self.monodromy)
         return lam[np.lexsort((-lam.imag, -np.abs(lam)))]
 
@@ -250,9 +252,9 @@ class ReducedLevelCycle:
             it = 0
             Ry = self._Ry
             R, means = self.residual(y, theta)
-            last = np.inf
+            last, first = np.inf, np.max(np.abs(R))
             while np.max(np.abs(R)) > tol:
-                if it >= max_newton or not np.all(np.isfinite(R)):
+                if it >= max_newton or not np.all(np.isfinite(R)) or np.max(np.abs(R)) > 1e3 * max(first, 1e-6):
                     raise RuntimeError(f"level cycle not found at {dict(zip(self.keys, theta))}: "
                                        f"residual {np.max(np.abs(R)):.2e} after {it} Newton steps")
                 if Ry is None or np.max(np.abs(R)) > 0.3 * last:
@@ -291,11 +293,14 @@ class ReducedLevelCycle:
             g = ev.grads["forward_speed_mps"][k]
             step = -r / g if g != 0 else 0.0
             step = float(np.clip(step, -3.0, 3.0))
-            theta[k] += step
+            new = theta[k] + step
             if bounds is not None:
-                theta[k] = float(np.clip(theta[k], *bounds))
-        raise RuntimeError(f"speed {speed_mps} m/s not reached by {self.keys[k]} (last U = "
-                           f"{ev.means['forward_speed_mps']:.6g} m/s)")
+                new = float(np.clip(new, *bounds))
+            if new == theta[k]:
+                break  # at a bound
+            theta[k] = new
+        raise RuntimeError(f"speed {speed_mps} m/s not reached by {self.keys[k]} within its bounds (last U = "
+                           f"{ev.means['forward_speed_mps']:.9g} m/s at {self.keys[k]} = {theta[k]:.6g})")
 
 
 # ------------------------------------------------------------------------------------------------
@@ -373,6 +378,7 @@ class _Problem:
         self.ng = 1 + len(self.names)
         self.jac_sparsity = ca.Sparsity.dense(self.ng, self.nz)
         self.sigma = np.ones(self.nz)
+        self.failures: list = []
         mg = float(get_value(rc.cfg, "body.mass_kg") * get_value(rc.cfg, "body.gravity_mps2"))
         self.mg = mg
 
@@ -411,7 +417,11 @@ class _Problem:
     def both(self, z, grads: bool = True):
         z = np.asarray(z, float).ravel() / self.sigma
         nt = self.rc.nt
-        ev = self.rc.evaluate(z[:nt], grads=grads or self.jury is not None)
+        try:
+            ev = self.rc.evaluate(z[:nt], grads=grads or self.jury is not None)
+        except RuntimeError as e:  # no level cycle here: NaN makes IPOPT cut its step back
+            self.failures.append(str(e))
+            return np.full(self.ng, np.nan), np.full((self.ng, self.nz), np.nan)
         if ev.grads is None:  # values only (a line-search trial point)
             G = np.array([self._value(ev)] + [ev.amplitude_deg]
                          + ([ev.means["forward_speed_mps"]] if self.speed is not None else []))
@@ -476,6 +486,8 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     from birdocp.bird.model import get_model
 
     m = get_model(cfg)
+    if start:  # a previous optimum may sit on a bound to within IPOPT's tolerance
+        start = {k: float(np.clip(v, *free[k])) if k in free else v for k, v in start.items()}
     cfg_start = with_values(cfg, start) if start else cfg
     check_free_keys(m, cfg_start, free)
     t_all, cpu_all = time.perf_counter(), time.process_time()
@@ -489,10 +501,15 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     hi = np.array([free[k][1] for k in keys])
     theta0 = np.array([float(get_value(cfg_start, k)) for k in keys])
     t0 = time.perf_counter()
+    start_note = ""
     try:
         ev0 = rc.evaluate(theta0)
         if speed_mps is not None:
-            ev0 = rc.solve_speed(speed_mps, theta0, 0, (lo[0], hi[0]))
+            try:
+                ev0 = rc.solve_speed(speed_mps, theta0, 0, (lo[0], hi[0]))
+            except RuntimeError as e:  # the first key cannot reach the speed: IPOPT starts infeasible
+                ev0 = rc.evaluate(rc._theta if rc._theta is not None else theta0)
+                start_note = f"; start not at the speed ({e})"
     except RuntimeError as e:
         return _failed(objective, free, f"start: {e}", cfg, speed_mps, max_multiplier)
     wall["start"] = time.perf_counter() - t0
@@ -502,10 +519,12 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     if prob.with_r:
         r0 = 1.05 * float(np.max(np.abs(ev0.multipliers)))
         z0 = np.append(z0, r0)
-        lbx, ubx = np.append(lbx, 0.02), np.append(ubx, 50.0)
+        lbx, ubx = np.append(lbx, 0.02), np.append(ubx, 2.0 * r0)
     prob.set_scale(ev0)
     z0, lbx, ubx = z0 * prob.sigma, lbx * prob.sigma, ubx * prob.sigma
     start_value = float(prob.both(z0)[0][0]) if not prob.with_r else float(np.max(np.abs(ev0.multipliers)))
+    if start_note and not prob.with_r:
+        start_value = float("nan")  # the configured gait does not fly level at this speed
     start_mult = ev0.multipliers
     from birdocp.engine.oracle import ConstraintOracle
 
@@ -513,7 +532,10 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     oracle = ConstraintOracle(prob, "gait")  # keep a reference: IPOPT calls it during the solve
     G = oracle(zs)
     nlp = {"x": zs, "f": G[0], "g": G[1:]}
-    opts = {"ipopt.hessian_approximation": "limited-memory", "ipopt.limited_memory_update_type": "sr1",
+    # SR1 for the power objectives (BFGS crept along the speed constraint in tiny steps); BFGS for the
+    # stability radius (SR1 took wild steps through r, out of the region with level cycles)
+    opts = {"ipopt.hessian_approximation": "limited-memory",
+            "ipopt.limited_memory_update_type": "bfgs" if prob.with_r else "sr1",
             "ipopt.sb": "yes",
             "ipopt.print_level": 5 if progress else 0, "print_time": False, "ipopt.max_iter": int(max_iter),
             "ipopt.tol": tol, "ipopt.constr_viol_tol": 1e-8, "ipopt.acceptable_tol": 1e-6,
@@ -527,11 +549,14 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
         status, ok, iters = str(st["return_status"]), bool(st["success"]), int(st["iter_count"])
         z = np.asarray(sol["x"]).ravel() / prob.sigma
         lam_g, lam_x = np.asarray(sol["lam_g"]).ravel(), np.asarray(sol["lam_x"]).ravel()
-        msg = f"IPOPT: {status}"
+        msg = f"IPOPT: {status}{start_note}"
     except RuntimeError as e:  # the reduced map failed (no level cycle) and IPOPT could not recover
         return _failed(objective, free, f"IPOPT stopped: {e}", cfg, speed_mps, max_multiplier)
     wall["solve"] = time.perf_counter() - t0
     Gz, Jz = prob.both(z * prob.sigma)
+    if Jz is None or not np.all(np.isfinite(Jz)):
+        return _failed(objective, free, f"{msg}; no level cycle at IPOPT's last point", cfg, speed_mps,
+                       max_multiplier)
     ev = rc.evaluate(z[:rc.nt])
     # KKT: gradient of the Lagrangian in the scaled variables (IPOPT's sign convention:
     # grad f + J^T lam_g + lam_x = 0); per unit of each parameter: times sigma
@@ -542,7 +567,7 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
                       dict(zip(keys, ev0.theta.tolist())), ev.amplitude_deg, ev.x0, ev.multipliers,
                       start_mult, ev.means["forward_speed_mps"], speed_mps, max_multiplier, dict(ev.means),
                       float(np.max(np.abs(kkt))), viol, cfg=cfg)
-    out.evaluations = {"full": rc.n_full, "residual": rc.n_resid}
+    out.evaluations = {"full": rc.n_full, "residual": rc.n_resid, "no_level_cycle": len(prob.failures)}
     out.start_x0 = ev0.x0
     if verify:
         t0 = time.perf_counter()

@@ -1,0 +1,182 @@
+"""Energetics of the ibis model: the power curve, the energy-optimal gait and what stability costs.
+
+Writes results/energetics/ (JSON, summary.md, figures):
+
+* the paper's gait in level flight (amplitude solved): power over the wingbeat and its outputs;
+* the power curve of the paper's gait: level flight from 13 to 24 m/s (speed held by the shoulder
+  incidence offset, level flight by the flapping amplitude), minimum-power and maximum-range speeds,
+  the largest multiplier along it;
+* the energy-optimal gait at the reference speed (the paper's gait's level-flight speed), free keys
+  :data:`birdocp.studies.gait.DEFAULT_GAIT_FREE`;
+* the most stable gait at that speed, and the Pareto front of minimum power against the bound R on
+  the largest multiplier, from the unconstrained optimum down to the most stable gait.
+
+    python scripts/energetics_study.py            # ~10-20 min on 2 shared cores
+"""
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from birdocp.bird.config import Config
+from birdocp.io.files import atomic_write_json, atomic_write_text
+from birdocp.plots.energetics import plot_pareto, plot_power, plot_power_curve
+from birdocp.studies.gait import optimize_gait, power_curve
+from birdocp.studies.level import level
+
+OUT = Path(__file__).resolve().parents[1] / "results" / "energetics"
+
+
+def log(*a):
+    print(time.strftime("%H:%M:%S"), *a, flush=True)
+
+
+def summary_row(opt):
+    d = opt.to_dict()
+    v = d["verification"]
+    return {k: d[k] for k in ("success", "status", "objective", "iterations", "objective_value",
+                              "start_objective_value", "free", "amplitude_deg", "largest_modulus", "moduli",
+                              "mean_forward_speed_mps", "max_multiplier", "kkt_residual", "constraint_violation",
+                              "wall_s", "evaluations")} | {
+        "verification": {k: v.get(k) for k in ("trim_success", "power_difference_W", "max_multiplier_difference",
+                                                "trim_mean_positive_power_W", "trim_cost_of_transport",
+                                                "trim_strouhal_number")}}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--pareto-points", type=int, default=6)
+    ap.add_argument("--reuse", action="store_true",
+                    help="reuse power_curve.json and optimal_gait.json of an earlier run (same code)")
+    args = ap.parse_args()
+    OUT.mkdir(parents=True, exist_ok=True)
+    cfg = Config()
+    t_all = time.perf_counter()
+    out = {}
+
+    # 1. the paper's gait in level flight
+    lv = level(cfg)
+    e = lv.energetics
+    plot_power(lv.arrays(), OUT / "power_paper_gait.png",
+               title=f"Paper's gait in level flight (A = {lv.amplitude_deg:.2f} deg, U = "
+                     f"{lv.mean_forward_speed_mps:.2f} m/s)")
+    U_ref = float(lv.mean_forward_speed_mps)
+    out["paper_gait_level"] = {"amplitude_deg": lv.amplitude_deg, "mean_forward_speed_mps": U_ref,
+                               "multipliers": [[float(z.real), float(z.imag)] for z in lv.multipliers],
+                               **lv.energetics_dict()}
+    log(f"paper's gait, level: U {U_ref:.4f} m/s, P {e['mean_shoulder_power_W']:.4f} W")
+
+    # 2. the power curve
+    t0 = time.perf_counter()
+    if args.reuse and (OUT / "power_curve.json").is_file():
+        pc = json.loads((OUT / "power_curve.json").read_text())
+    else:
+        pc = power_curve(cfg, np.arange(9.0, 24.01, 1.0), bounds=(-10.0, 45.0), progress=True)
+        pc["wall_s"] = time.perf_counter() - t0
+    out["power_curve"] = pc
+    plot_power_curve(pc["rows"], OUT / "power_curve.png",
+                     title="Power curve of the paper's gait (speed held by the incidence offset, "
+                           "level flight by the amplitude)")
+    atomic_write_json(OUT / "power_curve.json", pc)
+
+    # 3. the energy-optimal gait at the reference speed, and the most stable one
+    log(f"energy-optimal gait at {U_ref:.4f} m/s")
+    from birdocp.bird.config import with_values
+    from birdocp.studies.trim import trim
+
+    if args.reuse and (OUT / "optimal_gait.json").is_file():
+        b = json.loads((OUT / "optimal_gait.json").read_text())
+    else:
+        best = optimize_gait(cfg, objective="power", speed_mps=U_ref)
+        b = summary_row(best)
+        atomic_write_json(OUT / "optimal_gait.json", b)
+    out["optimal_gait"] = b
+    log(f"  P {b['objective_value']:.4f} W (start {b['start_objective_value']:.4f} W), |L1| "
+        f"{b['largest_modulus']:.5f}, {b['iterations']} iterations, {b['wall_s']['total']:.1f} s")
+    tr = trim(with_values(cfg, b["free"] | {"gait.shoulder_flap.amplitude_deg": b["amplitude_deg"]}))
+    plot_power(tr.arrays() | {f"power_{k}": v for k, v in tr.energetics["samples"].items()},
+               OUT / "power_optimal_gait.png",
+               title=f"Energy-optimal gait at {U_ref:.2f} m/s (A = {b['amplitude_deg']:.2f} deg)")
+    log("most stable gait at the same speed")
+    stab = optimize_gait(cfg, objective="stability", speed_mps=U_ref)
+    P_stab = stab.means.get("flapping_power_W")
+    out["most_stable_gait"] = summary_row(stab) | {"mean_shoulder_power_W": P_stab}
+    log(f"  radius {stab.objective_value:.5f}, P {P_stab:.4f} W, {stab.iterations} iterations")
+
+    # 4. the Pareto front: minimum power with every multiplier inside radius R
+    R_hi, R_lo = b["largest_modulus"], stab.largest_modulus
+    pareto = [{"bound": None, "objective_value": b["objective_value"], "largest_modulus": R_hi,
+               "success": b["success"], "free": b["free"], "amplitude_deg": b["amplitude_deg"]}]
+    start = dict(b["free"])
+    for R in np.linspace(R_hi, R_lo, args.pareto_points + 1)[1:]:
+        R = float(R + 2e-3 * (R_hi - R_lo)) if R == R_lo else float(R)  # the last bound just above the minimum
+        log(f"Pareto point: R = {R:.5f}")
+        opt = optimize_gait(cfg, objective="power", speed_mps=U_ref, max_multiplier=R, start=start)
+        row = {"bound": R, "objective_value": opt.objective_value, "largest_modulus": opt.largest_modulus,
+               "success": opt.success, "status": opt.status, "free": opt.free, "amplitude_deg": opt.amplitude_deg,
+               "iterations": opt.iterations, "kkt_residual": opt.kkt_residual, "wall_s": opt.wall_s,
+               "verification_power_difference_W": opt.verification.get("power_difference_W")}
+        pareto.append(row)
+        log(f"  P {opt.objective_value:.4f} W, |L1| {opt.largest_modulus:.5f}, {opt.status}, "
+            f"{opt.iterations} iterations, {opt.wall_s.get('total', float('nan')):.1f} s")
+        if opt.success:
+            start = dict(opt.free)
+    pareto.append({"bound": "most stable", "objective_value": P_stab, "largest_modulus": R_lo,
+                   "success": stab.success, "free": stab.free, "amplitude_deg": stab.amplitude_deg})
+    out["pareto"] = pareto
+    plot_pareto(pareto, OUT / "pareto.png",
+                title=f"Minimum mean power of level flight at {U_ref:.2f} m/s against the stability bound")
+    out["wall_s"] = time.perf_counter() - t_all
+    atomic_write_json(OUT / "result.json", out)
+    atomic_write_text(OUT / "summary.md", summary_md(out))
+    log(f"done in {out['wall_s']:.0f} s")
+
+
+def summary_md(out):
+    pg = out["paper_gait_level"]
+    pc = out["power_curve"]
+    b, s = out["optimal_gait"], out["most_stable_gait"]
+    lines = ["# Energetics of the ibis model (scripts/energetics_study.py)", "",
+             "## The paper's gait in level flight", "",
+             f"amplitude {pg['amplitude_deg']:.3f} deg, U = {pg['mean_forward_speed_mps']:.3f} m/s: "
+             f"aerodynamic power {pg['mean_aerodynamic_power_W']:.3f} W, positive-work power "
+             f"{pg['mean_positive_power_W']:.3f} W, cost of transport {pg['cost_of_transport']:.4f}, "
+             f"Strouhal {pg['strouhal_number']:.3f}, reduced frequency {pg['reduced_frequency']:.3f}", "",
+             "## Power curve (speed held by the incidence offset, level flight by the amplitude)", "",
+             "| U [m/s] | incidence offset [deg] | amplitude [deg] | P [W] | P+ [W] | COT | St | largest modulus |",
+             "|---|---|---|---|---|---|---|---|"]
+    for r in pc["rows"]:
+        if r["success"]:
+            lines.append(f"| {r['speed_mps']:.1f} | {r[pc['key']]:.3f} | {r['amplitude_deg']:.3f} | "
+                         f"{r['mean_shoulder_power_W']:.3f} | {r['mean_positive_power_W']:.3f} | "
+                         f"{r['cost_of_transport']:.4f} | {r['strouhal_number']:.3f} | {r['largest_modulus']:.4f} |")
+        else:
+            lines.append(f"| {r['speed_mps']:.1f} | failed: {r.get('message', '')[:60]} | | | | | | |")
+    mp, mr = pc["minimum_power"], pc["maximum_range"]
+    lines += ["", f"minimum-power speed {mp['speed_mps']:.3f} m/s ({mp['power_W']:.3f} W"
+              f"{'' if mp['interior'] else ', at the end of the range'}); maximum-range speed "
+              f"{mr['speed_mps']:.3f} m/s ({mr.get('power_W', float('nan')):.3f} W"
+              f"{'' if mr['interior'] else ', at the end of the range'})", "",
+              "## Energy-optimal and most stable gaits at the reference speed", "",
+              "| gait | P [W] | largest modulus | amplitude [deg] | free values | iterations | KKT | wall [s] |",
+              "|---|---|---|---|---|---|---|---|",
+              f"| paper's, at the speed | {b['start_objective_value']:.4f} | - | - | - | - | - | - |"]
+    for name, r, P in (("energy-optimal", b, b["objective_value"]), ("most stable", s, s["mean_shoulder_power_W"])):
+        fv = ", ".join(f"{k.split('.', 1)[1]} {v:.3f}" for k, v in r["free"].items())
+        lines.append(f"| {name} | {P:.4f} | {r['largest_modulus']:.5f} | {r['amplitude_deg']:.3f} | {fv} | "
+                     f"{r['iterations']} | {r['kkt_residual']:.1e} | {r['wall_s']['total']:.1f} |")
+    lines += ["", "## Pareto front: minimum power with every multiplier inside radius R", "",
+              "| bound R | P [W] | largest modulus | status |", "|---|---|---|---|"]
+    for q in out["pareto"]:
+        bnd = q["bound"] if isinstance(q["bound"], str) else ("none" if q["bound"] is None else f"{q['bound']:.5f}")
+        lines.append(f"| {bnd} | {q['objective_value']:.4f} | {q['largest_modulus']:.5f} | "
+                     f"{q.get('status', 'Solve_Succeeded' if q['success'] else 'failed')} |")
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    json.encoder.FLOAT_REPR = repr
+    main()
