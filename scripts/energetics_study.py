@@ -48,7 +48,7 @@ def summary_row(opt):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--pareto-points", type=int, default=6)
+    ap.add_argument("--pareto-points", type=int, default=3)
     ap.add_argument("--reuse", action="store_true",
                     help="reuse power_curve.json and optimal_gait.json of an earlier run (same code)")
     args = ap.parse_args()
@@ -101,7 +101,7 @@ def main():
                OUT / "power_optimal_gait.png",
                title=f"Energy-optimal gait at {U_ref:.2f} m/s (A = {b['amplitude_deg']:.2f} deg)")
     log("most stable gait at the same speed")
-    stab = optimize_gait(cfg, objective="stability", speed_mps=U_ref)
+    stab = optimize_gait(cfg, objective="stability", speed_mps=U_ref, max_iter=60)
     P_stab = stab.means.get("flapping_power_W")
     out["most_stable_gait"] = summary_row(stab) | {"mean_shoulder_power_W": P_stab}
     log(f"  radius {stab.objective_value:.5f}, P {P_stab:.4f} W, {stab.iterations} iterations")

@@ -49,11 +49,13 @@ POWER_NAMES = ("aerodynamic_power_W", "flapping_power_W", "body_power_W", "induc
 
 ENERGETICS_KEYS = ("mean_aerodynamic_power_W", "mean_flapping_power_W", "mean_body_power_W",
                    "mean_induced_power_W", "mean_profile_power_W", "mean_parasite_power_W",
-                   "mean_tail_power_W", "mean_inertial_power_W", "mean_shoulder_power_W",
+                   "mean_tail_power_W", "mean_shoulder_power_W",
                    "mean_positive_power_W", "mean_negative_power_W", "cost_of_transport",
                    "cost_of_transport_positive", "strouhal_number", "wingtip_excursion_m",
                    "reduced_frequency", "reduced_frequency_span", "max_span_m")
-"""Scalar outputs of :func:`cycle_energetics` reported by ``trim`` and ``level``."""
+"""Scalar outputs of :func:`cycle_energetics` reported by ``trim`` and ``level``. The wings' inertial
+power is not among them: its keys (``mean_inertial_power_W``, ...) belong to the wing-mass outputs, and
+:func:`cycle_energetics` takes it as an input."""
 
 TIP_NODE = -1
 """The wingtip is the last node of the merged line (right wing, tip of feather 0; model.md 4.1)."""
@@ -178,7 +180,6 @@ def cycle_energetics(model, p, x0, steps_per_period: int, t0: float = 0.0, inert
     c = float(_p(p, "body.reference_chord_m"))
     out = {f"mean_{n}": means[n] for n in POWER_NAMES}
     out.update({
-        "mean_inertial_power_W": float(mean_inertial_power_W),
         "mean_shoulder_power_W": mean_sh,
         "mean_positive_power_W": pos,
         "mean_negative_power_W": neg,

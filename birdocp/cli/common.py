@@ -285,6 +285,14 @@ def format_trim_table(r: dict) -> str:
     return "\n".join(lines)
 
 
+def record_result(run_dir: Path, cfg, result: dict, command_line: list[str], command: str) -> None:
+    """Record ``run_dir`` in ``result`` and write the run folder (configuration, result.json)."""
+    from birdocp.io.runs import write_run
+
+    result["run_dir"] = str(run_dir)
+    write_run(run_dir, cfg, result, None, command_line, command=command)
+
+
 def print_json(obj: Any) -> None:
     from birdocp.io.files import to_jsonable
 

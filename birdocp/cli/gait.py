@@ -41,7 +41,7 @@ def register(sub, common) -> None:
 
 def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
     from birdocp.cli.study import free_with_bounds
-    from birdocp.io.runs import claim_out_dir, new_run_dir, write_run
+    from birdocp.io.runs import claim_out_dir, new_run_dir
     from birdocp.studies.gait import DEFAULT_GAIT_FREE, check_free_keys, optimize_gait
 
     cfg = cli.resolve_config(args)
@@ -61,8 +61,7 @@ def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
         res = optimize_gait(cfg, free, objective=args.objective, speed_mps=args.speed,
                             max_multiplier=args.max_multiplier, climb_rate_mps=args.climb_rate)
     result = res.to_dict()
-    result["run_dir"] = str(run_dir)
-    write_run(run_dir, res.cfg or cfg, result, None, command_line, command="optimize-gait")
+    cli.record_result(run_dir, res.cfg or cfg, result, command_line, "optimize-gait")
     if args.json:
         cli.print_json(result)
     else:

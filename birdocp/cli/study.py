@@ -135,7 +135,7 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
     import math
 
     from birdocp.studies.optimize import DEFAULT_FREE, optimize_stability
-    from birdocp.io.runs import claim_out_dir, new_run_dir, write_run
+    from birdocp.io.runs import claim_out_dir, new_run_dir
 
     cfg = cli.resolve_config(args)
     if not math.isfinite(args.climb_rate):
@@ -145,8 +145,7 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
     with cli.stdout_to_stderr():
         res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, progress=not args.json)
     result = res.to_dict()
-    result["run_dir"] = str(run_dir)
-    write_run(run_dir, res.cfg or cfg, result, None, command_line, command="optimize-stability")
+    cli.record_result(run_dir, res.cfg or cfg, result, command_line, "optimize-stability")
     if args.json:
         cli.print_json(result)
     else:
