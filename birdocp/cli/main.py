@@ -47,6 +47,8 @@ from birdocp.cli.common import (
     print_json,
     resolve_config,
     stdout_to_stderr,
+    validity_notes,
+    validity_word,
 )
 
 __all__ = ["main", "build_parser", "resolve_config", "EXIT_OK", "EXIT_NOT_CONVERGED", "EXIT_BAD_INPUT"]
@@ -423,7 +425,7 @@ def _sweep_out_dir(args: argparse.Namespace) -> Path:
 def format_sweep_table(rows: list[dict], key: str, level: bool) -> str:
     head = f"{'value':>10}  {'ok':>3}  {'it':>3}  {'|lambda1|':>9}  {'|lambda2,3|':>11}  {'|lambda4|':>9}  " \
            f"{'U [m/s]':>8}  {'W [m/s]':>8}  {'beta [deg]':>10}" + (f"  {'A [deg]':>9}" if level else "") + \
-           f"  {'wall [s]':>8}"
+           f"  {'wall [s]':>8}  model"
     lines = [f"sweep of {key}" + (" (level flight)" if level else ""), head]
     for r in rows:
         line = (f"{fmt_num(r['value'], 'g'):>10}  {'yes' if r['success'] else 'NO':>3}  {fmt_num(r['iterations'], 'd'):>3}  "
@@ -432,8 +434,8 @@ def format_sweep_table(rows: list[dict], key: str, level: bool) -> str:
                 f"{fmt_num(r['flight_path_angle_deg'], '+.4f'):>10}")
         if level:
             line += f"  {fmt_num(r['amplitude_deg'], '.4f'):>9}"
-        lines.append(line + f"  {fmt_num(r['wall_s'], '.2f'):>8}")
-    return "\n".join(lines)
+        lines.append(line + f"  {fmt_num(r['wall_s'], '.2f'):>8}  {validity_word(r.get('valid'))}")
+    return "\n".join(lines + validity_notes(rows))
 
 
 def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
@@ -535,11 +537,11 @@ def _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start) -> int:
         print_json(result)
     else:
         print(f"grid {row_key} x {key}" + (" (level flight)" if args.level else ""))
-        print(f"{'row value':>10}  {'value':>10}  {'ok':>3}  {'|lambda1|':>9}  {'U [m/s]':>8}  {'W [m/s]':>8}")
+        print(f"{'row value':>10}  {'value':>10}  {'ok':>3}  {'|lambda1|':>9}  {'U [m/s]':>8}  {'W [m/s]':>8}  model")
         for r in rows:
             print(f"{fmt_num(r['row_value'], 'g'):>10}  {fmt_num(r['value'], 'g'):>10}  {'yes' if r['success'] else 'NO':>3}  "
                   f"{fmt_num(r['modulus0'], '.6f'):>9}  {fmt_num(r['mean_forward_speed_mps'], '.4f'):>8}  "
-                  f"{fmt_num(r['mean_vertical_speed_mps'], '+.4f'):>8}")
+                  f"{fmt_num(r['mean_vertical_speed_mps'], '+.4f'):>8}  {validity_word(r.get('valid'))}")
         print(f"run folder  {run_dir}  (grid.csv, grid.json, timing.json)")
     return EXIT_OK if ok else EXIT_NOT_CONVERGED
 
