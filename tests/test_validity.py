@@ -141,3 +141,16 @@ def test_level_json_carries_validity(tmp_path):
                    "--set", "solve.steps_per_period=60")
     assert lv["success"] and set(lv["validity"]) >= {"valid", "reasons"}
     assert lv["validity"]["valid"] is True
+
+
+def test_periodic_validity_from_x0_matches_the_trajectory():
+    """A stored cycle (x0 only) re-integrated over one period gets the validity of the solved trajectory."""
+    from birdocp.bird.validity import periodic_validity
+    from birdocp.studies.trim import trim
+
+    r = trim(Config())
+    a = r.validity.measures
+    b = periodic_validity(Config(), r.x0, r.p, t0_s=float(r.trajectory_t[0])).measures
+    for k in ("alpha_eff_max_deg", "alpha_eff_min_deg", "stalled_fraction", "min_forward_speed_mps",
+              "max_airflow_body_angle_deg", "pitch_min_deg"):
+        assert abs(a[k] - b[k]) < 1e-8, k
