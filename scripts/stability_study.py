@@ -241,7 +241,6 @@ def tail_study(out: Path, max_angle: float, reuse: bool = False):
         if name == "level":
             amp = np.array([p["free_values"][AMP] for p in pts])
             draw_classes(axes[2], beta, amp, cls, "C0", "level flight")
-            hi = d["end_message"]
             axes[2].axhline(90.0, color="k", lw=0.8, ls="-.", label="amplitude bound 90 deg (branch end)")
             axes[2].plot(beta[-1], amp[-1], "|", ms=16, mew=2.5, color="C0")
         flight = [i for i, c in enumerate(cls) if c == "flight"]

@@ -105,7 +105,6 @@ def element_loads(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho):
     relative to G, kinematic velocities, chord directions, up normals, spanwise unit vectors), ``ds``
     16 x 1 element lengths. Returns (F 3x1, M, Gamma 16x1, alpha 16x1 [rad], |Vp| 16x1).
     """
-    n = r.shape[1]
     V, Vp_norm, alpha, vind = inflow(state, r, v_kin, c_hat, up, tau, Wx, Wy)
     Gamma = G @ (Vp_norm * alpha).T
     W = V + vind

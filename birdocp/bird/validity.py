@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from birdocp.bird.config import PARAM_NAMES, Config
+from birdocp.engine.cache import bounded_cache, register_cache
 
 if TYPE_CHECKING:
     import casadi as ca
@@ -67,6 +68,9 @@ def _effective_angles() -> "ca.Function":
                        ["x", "d", "p"], ["alpha_eff_rad", "alpha_geo_rad", "ds_m"])
 
 
+register_cache("bird.validity_angles", _effective_angles)
+
+
 def element_angles_function(cfg: Config, n_times: int) -> "ca.Function":
     """``f(X[4 x n], T[1 x n], p) -> (alpha_eff 16 x n, alpha_geo 16 x n, ds 16 x n)`` (rad, m) for
     the model of ``cfg``; built once per (model structure, n) and reused."""
@@ -86,13 +90,11 @@ def element_angles_function(cfg: Config, n_times: int) -> "ca.Function":
         ae, ag, ds = _effective_angles().map(n)(X, D, p)
         f = ca.Function("element_angles", [X, T, p], [ae, ag, ds], ["X", "T", "p"],
                         ["alpha_eff_rad", "alpha_geo_rad", "ds_m"])
-        _ANGLE_FUNCTIONS[key] = f
-        while len(_ANGLE_FUNCTIONS) > 16:
-            _ANGLE_FUNCTIONS.pop(next(iter(_ANGLE_FUNCTIONS)))
+        _ANGLE_FUNCTIONS.put(key, f)
     return f
 
 
-_ANGLE_FUNCTIONS: dict = {}
+_ANGLE_FUNCTIONS = bounded_cache("bird.validity_angles_on_times", 16)
 
 
 @dataclass
@@ -238,9 +240,7 @@ def periodic_validity(cfg: Config, x0, p=None, t0_s: float = 0.0, steps_per_peri
     hit = _GRIDS.get(key)
     if hit is None or hit[0] is not m.ode:
         hit = (m.ode, RK4Grid(m.ode, n, 1))  # holding the ode keeps its id unique
-        _GRIDS[key] = hit
-        while len(_GRIDS) > 8:
-            _GRIDS.pop(next(iter(_GRIDS)))
+        _GRIDS.put(key, hit)
     grid = hit[1]
     D = grid.blocks_numeric(float(t0_s), p)
     X = np.asarray(grid.period_map(ca.DM(x0), D, ca.DM(p))[1]).T   # states after each step
@@ -248,7 +248,7 @@ def periodic_validity(cfg: Config, x0, p=None, t0_s: float = 0.0, steps_per_peri
     return cycle_validity(cfg, float(t0_s) + grid.h * np.arange(n), X, p)
 
 
-_GRIDS: dict = {}
+_GRIDS = bounded_cache("bird.validity_grids", 8)
 
 
 VALIDITY_COLUMNS = ("valid", "invalid_reasons", "stalled_fraction", "alpha_eff_max_abs_deg",
