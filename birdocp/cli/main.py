@@ -588,6 +588,7 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
                "level": bool(args.level), "end_reason": br.end_reason, "end_message": br.end_message,
                "n_points": len(br.points), "special_points": d["special_points"],
                "stable_anywhere": any(p.stable for p in br.points), "figures": [f.name for f in figs],
+               "valid_points": sum(bool(p.validity and p.validity["valid"]) for p in br.points),
                "wall_s": {"total": time.perf_counter() - t_start}, "run_dir": str(run_dir)}
     write_run(run_dir, cfg, summary, None, command_line, command="continue")
     if args.json:
@@ -596,14 +597,20 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
         sm = display == "stability_margin"
         print(f"continuation in {display}" + (" (level flight held)" if args.level else ""))
         print(f"{'SM [%]' if sm else 'value':>12}  {'|lambda1|':>9}  {'|lambda2|':>9}  {'|lambda4|':>9}  stable"
-              + ("  A [deg]" if args.level else ""))
+              + ("  A [deg]" if args.level else "") + "  model")
         for p in br.points:
             v = -100 * p.parameter / cfg.body.reference_chord_m if sm else p.parameter
             line = (f"{v:12.6g}  {p.moduli[0]:9.6f}  {p.moduli[1]:9.6f}  {p.moduli[-1]:9.6f}  "
                     f"{'yes' if p.stable else 'no':>6}")
             if args.level:
                 line += f"  {list(p.free_values.values())[0]:7.3f}"
-            print(line)
+            print(line + f"  {validity_word((p.validity or {}).get('valid'))}")
+        invalid = [p for p in br.points if p.validity and not p.validity["valid"]]
+        if invalid:
+            first = invalid[0]
+            v = -100 * first.parameter / cfg.body.reference_chord_m if sm else first.parameter
+            print(f"model validity: {len(invalid)} of {len(br.points)} points NOT valid; the first at {v:.6g}: "
+                  + "; ".join(first.validity["reasons"]))
         for sp in br.special_points:
             v = -100 * sp.parameter / cfg.body.reference_chord_m if sm else sp.parameter
             print(f"special point: {sp.kind} at {v:.8g} ({sp.message})")
