@@ -48,6 +48,7 @@ def branch_ends(branch: Branch) -> list:
 
 
 def end_label(reason: str) -> str:
+    """Legend text of a branch end by its ``end_reason``: stopped at the requested range, or a real end."""
     if reason in STOPPED:
         return "continuation stopped here (end of the requested range)" if reason != "max_points" else \
             "continuation stopped here (point budget)"
