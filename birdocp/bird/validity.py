@@ -243,12 +243,24 @@ def periodic_validity(cfg: Config, x0, p=None, t0_s: float = 0.0, steps_per_peri
         _GRIDS.put(key, hit)
     grid = hit[1]
     D = grid.blocks_numeric(float(t0_s), p)
-    X = np.asarray(grid.period_map(ca.DM(x0), D, ca.DM(p))[1]).T   # states after each step
-    X = np.vstack([x0[None, :], X[:-1]])                            # x(t0 + k h), k = 0..n-1
-    return cycle_validity(cfg, float(t0_s) + grid.h * np.arange(n), X, p)
+    pd = ca.DM(p)
+    X = np.asarray(grid.period_map(ca.DM(x0), D, pd)[1]).T   # states after each step
+    X = np.vstack([x0[None, :], X[:-1]])                      # x(t0 + k h), k = 0..n-1
+    t = float(t0_s) + grid.h * np.arange(n)
+    if not np.all(np.isfinite(X)):
+        return invalid(cfg, "the cycle's states are not finite (no cycle to check)")
+    # the data at the step starts t0 + k h are the first columns of the stage blocks (no second
+    # evaluation of the wing on the time grid)
+    hit = _ANGLE_MAPS.get(n)
+    if hit is None:
+        hit = _effective_angles().map(n)
+        _ANGLE_MAPS.put(n, hit)
+    ae, ag, ds = (np.asarray(v) for v in hit(ca.DM(X.T), D[:, 0::3], pd))
+    return _verdict(cfg, t, X, np.degrees(ae), np.degrees(ag), ds)
 
 
 _GRIDS = bounded_cache("bird.validity_grids", 8)
+_ANGLE_MAPS = bounded_cache("bird.validity_angle_maps", 8)
 
 
 VALIDITY_COLUMNS = ("valid", "invalid_reasons", "stalled_fraction", "alpha_eff_max_abs_deg",
