@@ -679,7 +679,7 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
     from birdocp.studies.level import AMPLITUDE_KEY, default_bounds
     from birdocp.bird.model import get_model
     from birdocp.engine.problem import MeanCondition
-    from birdocp.studies.trim import _OUTPUTS, TrimResult
+    from birdocp.studies.trim import TrimResult, flight_outputs
 
     cfg = cfg or Config()
     model_key, display = resolve_parameter(key)
@@ -692,6 +692,7 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
         if options.get("max_dparam"):
             options["max_dparam"] = abs(root_of_sm(options["max_dparam"], chord))
     m = get_model(cfg)
+    _OUTPUTS = flight_outputs(m.ode.nd)
     points = int(points or cfg.solve.points)
     steps = int(steps_per_period or cfg.solve.steps_per_period)
     guess = np.asarray(cfg.solve.initial_guess, float)

@@ -92,34 +92,36 @@ def default_bounds(cfg: Config, key: str) -> tuple[float, float]:
 _BETA_FNS: dict = {}
 
 
-def _path_angle_output(beta_deg: float) -> ca.Function:
+def _path_angle_output(beta_deg: float, nd: int | None = None) -> ca.Function:
     """Output W - tan(beta) U (one Function object per beta so the shooting graphs are reused)."""
     import casadi as ca
 
     from birdocp.bird.model import N_DATA
 
-    key = float(beta_deg)
+    key = (float(beta_deg), int(nd or N_DATA))
     f = _BETA_FNS.get(key)
     if f is None:
         x = ca.SX.sym("x", 4)
-        d = ca.SX.sym("d", N_DATA)
+        d = ca.SX.sym("d", key[1])
         p = ca.SX.sym("p", len(PARAM_NAMES))
         u, w, th = x[0], x[1], x[3]
         W = u * ca.sin(th) - w * ca.cos(th)
         U = u * ca.cos(th) + w * ca.sin(th)
-        f = ca.Function("path_angle_residual", [x, d, p], [W - math.tan(math.radians(key)) * U])
+        f = ca.Function("path_angle_residual", [x, d, p], [W - math.tan(math.radians(key[0])) * U])
         _BETA_FNS[key] = f
     return f
 
 
-def _condition(constrain: str, target: float):
-    """(MeanCondition, extra outputs) for a constraint name."""
+def _condition(constrain: str, target: float, nd: int | None = None):
+    """(MeanCondition, extra outputs) for a constraint name; ``nd`` the model's data size."""
+    from birdocp.bird.model import N_DATA
     from birdocp.engine.problem import MeanCondition
-    from birdocp.studies.trim import _OUTPUTS
+    from birdocp.studies.trim import flight_outputs
 
+    _OUTPUTS = flight_outputs(nd or N_DATA)
     c = resolve_constraint(constrain)
     if c == "flight_path_angle_deg":
-        return MeanCondition(_path_angle_output(target), 0.0, "path_angle_residual"), dict(_OUTPUTS)
+        return MeanCondition(_path_angle_output(target, nd), 0.0, "path_angle_residual"), dict(_OUTPUTS)
     other = {k: v for k, v in _OUTPUTS.items() if k != c}
     return MeanCondition(_OUTPUTS[c], float(target), c), other
 
@@ -171,8 +173,8 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
     from birdocp.engine.shooting import solve as _solve
     from birdocp.studies.trim import TrimResult, method_of
 
-    cond, outputs = _condition(c, target)
     m = get_model(cfg)
+    cond, outputs = _condition(c, target, m.ode.nd)
     guess = np.asarray(cfg.solve.initial_guess if x_guess is None else x_guess, float)
     problem = LimitCycleProblem(ode=m.ode, p=m.p0, x_guess=guess, free={key: (lo, hi)}, means=[cond],
                                 outputs=outputs)
@@ -197,12 +199,12 @@ def mean_sensitivity(result, key: str = AMPLITUDE_KEY, output: str = "vertical_s
 
     from birdocp.engine.integrate import RK4Grid
     from birdocp.bird.model import get_model
-    from birdocp.studies.trim import _OUTPUTS
+    from birdocp.studies.trim import flight_outputs
 
     key = resolve_key(key, "key")
     cyc = result.cycle
     ode = get_model(result.cfg).ode
-    grid = RK4Grid(ode, int(cyc.method["steps_per_period"]), 1, outputs=(_OUTPUTS[output],))
+    grid = RK4Grid(ode, int(cyc.method["steps_per_period"]), 1, outputs=(flight_outputs(ode.nd)[output],))
     i = PARAM_NAMES.index(key)
     x = ca.MX.sym("x", ode.nx)
     a = ca.MX.sym("a")

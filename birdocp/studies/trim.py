@@ -25,15 +25,24 @@ from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
 __all__ = ["TrimResult", "trim", "method_of", "flight_outputs"]
 
 
-def flight_outputs() -> dict:
-    """Scalar outputs (x, d, p) whose period means the trim reports: W and U (m/s)."""
-    x = ca.SX.sym("x", 4)
-    d = ca.SX.sym("d", N_DATA)
-    p = ca.SX.sym("p", len(PARAM_NAMES))
-    u, w, th = x[0], x[1], x[3]
-    W = ca.Function("vertical_speed_mps", [x, d, p], [u * ca.sin(th) - w * ca.cos(th)])
-    U = ca.Function("forward_speed_mps", [x, d, p], [u * ca.cos(th) + w * ca.sin(th)])
-    return {"vertical_speed_mps": W, "forward_speed_mps": U}
+_FLIGHT_OUTPUTS: dict = {}
+
+
+def flight_outputs(nd: int = N_DATA) -> dict:
+    """Scalar outputs (x, d, p) whose period means the trim reports: W and U (m/s).
+
+    ``nd``: size of the model's data vector (``model.ode.nd``; larger than N_DATA with wing masses).
+    One dict of Functions per size, built once (the shooting graphs are cached per Function)."""
+    hit = _FLIGHT_OUTPUTS.get(int(nd))
+    if hit is None:
+        x = ca.SX.sym("x", 4)
+        d = ca.SX.sym("d", int(nd))
+        p = ca.SX.sym("p", len(PARAM_NAMES))
+        u, w, th = x[0], x[1], x[3]
+        W = ca.Function("vertical_speed_mps", [x, d, p], [u * ca.sin(th) - w * ca.cos(th)])
+        U = ca.Function("forward_speed_mps", [x, d, p], [u * ca.cos(th) + w * ca.sin(th)])
+        hit = _FLIGHT_OUTPUTS[int(nd)] = {"vertical_speed_mps": W, "forward_speed_mps": U}
+    return hit
 
 
 _OUTPUTS = flight_outputs()
@@ -169,7 +178,7 @@ def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: Mu
     if compiled:
         from birdocp.export.compiled import compiled_ode
         ode = compiled_ode(m.ode, key_extra=repr(m.structure)) or m.ode
-    problem = LimitCycleProblem(ode=ode, p=m.p0, x_guess=guess, outputs=_OUTPUTS)
+    problem = LimitCycleProblem(ode=ode, p=m.p0, x_guess=guess, outputs=flight_outputs(m.ode.nd))
     method = method or method_of(cfg, **method_over)
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
     return TrimResult(check_physical(solve(problem, method, warm_start=ws)), cfg)
