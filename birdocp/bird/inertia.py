@@ -155,7 +155,7 @@ def accelerations(x, f_today, sums, total_mass_kg, body_inertia_kgm2, gravity_mp
 def wing_powers(x, nudot, sums, gravity_mps2):
     """Powers of the wing masses [W] at one instant (spec inertia.md 6), as a dict of scalars.
 
-    * ``wing_kinetic_energy_rate_W`` = P_rel = d/dt (1/2 sum m |r'|^2): the rate of change of the
+    * ``inertial_power_W`` = P_rel = d/dt (1/2 sum m |r'|^2): the rate of change of the
       wings' kinetic energy relative to the body (inertial power of van den Berg & Rayner 1995); its
       cycle mean is zero.
     * ``shoulder_inertial_power_W`` = P_in + P_grav = sum m_i (a_i - g_b) . r'_i: the power the wing
@@ -172,7 +172,7 @@ def wing_powers(x, nudot, sums, gravity_mps2):
     P_in = ((du + q * w) * dSx + (dw - q * u) * dSz + dq * sums["h_kgm2ps"]
             - q * q * sums["J_w_kgm2ps"] + sums["P_rel_W"])
     P_grav = -g * (-ca.sin(th) * dSx + ca.cos(th) * dSz)
-    return {"wing_kinetic_energy_rate_W": sums["P_rel_W"], "shoulder_inertial_power_W": P_in + P_grav,
+    return {"inertial_power_W": sums["P_rel_W"], "shoulder_inertial_power_W": P_in + P_grav,
             "wing_acceleration_power_W": P_in, "wing_gravity_power_W": P_grav,
             "wing_relative_kinetic_energy_J": sums["T_rel_J"]}
 

@@ -139,7 +139,7 @@ def _merged(R1, P, c_hat, up, chord, x_ep):
                       _columns(R1 @ c_hat), _columns(R1 @ up), x_ep)
 
 
-WING_POWER_NAMES = ("wing_kinetic_energy_rate_W", "shoulder_inertial_power_W", "wing_acceleration_power_W",
+WING_POWER_NAMES = ("inertial_power_W", "shoulder_inertial_power_W", "wing_acceleration_power_W",
                     "wing_gravity_power_W", "wing_relative_kinetic_energy_J")
 """Outputs of ``BirdModel.wing_power_d`` (see :func:`birdocp.bird.inertia.wing_powers`)."""
 
@@ -349,6 +349,21 @@ class BirdModel:
         self.ode = PeriodicODE(rhs=self.rhs, data=self.data, period_s=self.period_s,
                                state_names=STATE_NAMES, param_names=PARAM_NAMES,
                                pre=self.pre, post=self.post, pre_params=self.pre_params)
+
+    def wing_power_history(self, t, X, p) -> dict:
+        """The wing powers :data:`WING_POWER_NAMES` along a trajectory (numbers).
+
+        t: times [s] (K); X: states (K x 4); p: parameter vector. Returns a dict of arrays (K), all
+        zeros for a model without wing masses (massless wings do no inertial work)."""
+        t = np.asarray(t, float).ravel()
+        X = np.asarray(X, float).reshape(len(t), 4)
+        if self.wing_power_d is None:
+            return {k: np.zeros(len(t)) for k in WING_POWER_NAMES}
+        pd = ca.DM(np.asarray(p, float))
+        K = len(t)
+        D = self.data.map(K)(ca.DM(t).T, ca.repmat(pd, 1, K))
+        P = np.asarray(self.wing_power_d.map(K)(ca.DM(X.T), D, ca.repmat(pd, 1, K)))
+        return {k: P[i].copy() for i, k in enumerate(WING_POWER_NAMES)}
 
     def evaluate(self, state, t, p) -> dict:
         """Body-frame loads and the state derivative at one (state, t) for parameters p."""
