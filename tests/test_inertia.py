@@ -174,7 +174,7 @@ def test_single_mass_along_z_closed_form():
     acc = ca.jtimes(v, t, ca.SX(1))
     sums = inertia.mass_sums([0.5 * m_pt], [r], [v], [acc])  # one mirror pair on the axis = one mass
     x = ca.SX.sym("x", 4)
-    u, w, q, th = x[0], x[1], x[2], x[3]
+    u, w, q = x[0], x[1], x[2]
     f_today = ca.vertcat(-q * w, q * u, 0)                     # no loads, no gravity
     nud = inertia.accelerations(x, f_today, sums, M, I_b, 0.0)
     y = ca.SX.sym("y", 6)
