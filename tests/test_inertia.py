@@ -344,3 +344,17 @@ def test_export_c_with_massive_wings(tmp_path):
     grid = RK4Grid(m.ode, cfg.solve.steps_per_period, 1)
     xT = np.asarray(grid.period_map(ca.DM(x0), grid.blocks_numeric(0.0, m.p0), ca.DM(m.p0))[0]).ravel()
     assert np.max(np.abs(xT_c - xT)) < 1e-10
+
+
+def test_hold_mean_com_root_places_the_shoulder_ahead_of_the_mean_com():
+    from birdocp.studies.inertia import config_with_wing_mass, hold_mean_com_root, mean_com_offset_m
+
+    cfg = config_with_wing_mass(Config(), 0.12)
+    assert abs(cfg.wing.mass_kg - 0.072) < 1e-15
+    root = hold_mean_com_root(cfg, 0.05)
+    moved = with_values(cfg, {"wing.root_ahead_m": root})
+    xc, _ = mean_com_offset_m(moved)
+    assert abs((root - xc) - 0.05) < 1e-12 and root > 0.05
+    # the mean by the trapezoidal rule has converged (smooth periodic motion)
+    assert abs(mean_com_offset_m(moved, n=32)[0] - xc) < 1e-12
+    assert hold_mean_com_root(config_with_wing_mass(Config(), 0.0), 0.05) == 0.05
