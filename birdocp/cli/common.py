@@ -250,6 +250,12 @@ def format_trim_table(r: dict) -> str:
         ("mean vertical speed", f"{fmt_num(r.get('mean_vertical_speed_mps'), '.4f')} m/s"),
         ("flight path angle", f"{fmt_num(r.get('flight_path_angle_deg'), '.4f')} deg"),
     ]
+    if (r.get("wing_mass_kg") or 0) > 0:
+        rows.append(("wing mass (each)", f"{fmt_num(r.get('wing_mass_kg'), '.4g')} kg"))
+        rows.append(("inertial power", f"dT_rel/dt mean {fmt_num(r.get('mean_inertial_power_W'), '+.3g')} W, "
+                                       f"positive part {fmt_num(r.get('mean_positive_inertial_power_W'), '.4g')} W, "
+                                       f"peak {fmt_num(r.get('peak_inertial_power_W'), '.4g')} W"))
+        rows.append(("shoulder inertial power", f"mean {fmt_num(r.get('mean_shoulder_inertial_power_W'), '+.4g')} W"))
     x0 = r.get("x0")
     if isinstance(x0, (list, tuple)) and len(x0) == 4:
         u, w, q, th = x0
