@@ -458,20 +458,28 @@ def solve_orbit(problem: OrbitProblem, method: OrbitMethod = OrbitMethod(),
 
     Returns a :class:`PeriodicOrbit`; ``success`` means the residual is below ``method.tol`` and the
     orbit is not an equilibrium. With ``method.steps_per_period=None`` the steps are doubled from
-    ``method.min_steps`` until the error estimate is below ``method.accuracy``.
+    ``method.min_steps`` until the error estimate is below ``method.accuracy`` (a failed solve on a
+    grid too coarse for the dynamics is retried on the finer grid too).
     """
     method.validate()
     if method.steps_per_period is None:
         S = method.points - 1
         N = S * max(1, int(np.ceil(method.min_steps / S)))
-        res = None
+        res, good = None, None
         while True:
             m = replace(method, steps_per_period=N, error_estimate=True)
-            res = solve_orbit(problem, m, warm_start=res if (res is not None and res.success) else warm_start)
-            if not res.success or res.accurate or 2 * N > method.max_steps_per_period:
-                if res.success and not res.accurate:
+            res = solve_orbit(problem, m, warm_start=good if good is not None else warm_start)
+            if res.success and res.accurate:
+                return res
+            if res.success:
+                good = res
+            elif good is not None and res.status == "equilibrium":
+                return res
+            if 2 * N > method.max_steps_per_period:
+                if res.success:
                     res.message += f"; accuracy not reached with max_steps_per_period={method.max_steps_per_period}"
                 return res
+            # a grid too coarse for the dynamics may also make the solve fail: refine and retry
             N *= 2
     return _solve_fixed(problem, method, warm_start)
 
