@@ -165,7 +165,8 @@ def _scipy_monodromy(ode, x0, p, t0, T, method):
         return np.asarray(F(t, y)[1])
 
     y0 = np.concatenate([x0, np.eye(nx).ravel(order="F")])
-    s = solve_ivp(rhs, (t0, t0 + T), y0, method=method, jac=jac, rtol=1e-11, atol=1e-13)
+    s = solve_ivp(rhs, (t0, t0 + T), y0, method=method, rtol=1e-11, atol=1e-13,
+                  **({"jac": jac} if method == "LSODA" else {}))
     return s.y[:nx, -1], s.y[nx:, -1].reshape(nx, nx, order="F")
 
 
