@@ -92,7 +92,7 @@ def main():
         warm = solve_orbit(prob, method)
     t_warm = (time.perf_counter() - t) / reps
     t = time.perf_counter()
-    full = solve_orbit(prob, OrbitMethod(points=POINTS, steps_per_period=STEPS, tol=TOL))
+    solve_orbit(prob, OrbitMethod(points=POINTS, steps_per_period=STEPS, tol=TOL))
     t_full = time.perf_counter() - t
     t = time.perf_counter()
     T_fd, x_fd, it_fd, r_fd = baseline()

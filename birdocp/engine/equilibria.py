@@ -25,7 +25,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.engine.ode import ODE
-from birdocp.engine.orbits import OrbitMethod, OrbitProblem, PeriodicOrbit, _solve_fixed
+from birdocp.engine.orbits import OrbitMethod, OrbitProblem, PeriodicOrbit, solve_orbit_system
 
 __all__ = ["Equilibrium", "EquilibriumBranch", "HopfPoint", "find_equilibrium", "continue_equilibria",
            "locate_hopf", "orbit_from_hopf", "hopf_branch"]
@@ -308,7 +308,7 @@ def orbit_from_hopf(ode: ODE, hopf: HopfPoint, amplitude: float, method: OrbitMe
     A[0, :nx] = vr / nr
     b = np.array([xh @ vr / nr + amplitude])
     z0 = np.concatenate([np.asarray(pts).ravel(), [T, p0[hopf.param]]])
-    return _solve_fixed(prob, method, None, free_idx=(hopf.param,), lin=(A, b), z_start=z0,
+    return solve_orbit_system(prob, method, None, free_idx=(hopf.param,), lin=(A, b), z_start=z0,
                         x_ref=xh + amplitude * vr / np.linalg.norm(vr))
 
 

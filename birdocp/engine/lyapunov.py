@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from birdocp.engine.cache import bounded_cache
 from birdocp.engine.ode import ODE
 from birdocp.engine.steppers import make_step
 
@@ -61,14 +62,14 @@ class LyapunovResult:
                 "method": self.method}
 
 
-_CHUNKS: dict = {}
+_CHUNKS = bounded_cache("engine.lyapunov.tangent_chunks", 16)
 
 
 def _chunk(ode: ODE, k: int, n_sub: int, integrator: str) -> ca.Function:
     """``chunk(x, W, t, p, h) -> (x, W)`` after n_sub steps (state and tangent vectors)."""
     key = (id(ode), k, n_sub, integrator)
     hit = _CHUNKS.get(key)
-    if hit is not None and hit[0] is ode:
+    if hit is not None:
         return hit[1]
     step = make_step(ode.rhs, integrator)
     S = ca.SX if step.is_a("SXFunction") else ca.MX
@@ -83,9 +84,7 @@ def _chunk(ode: ODE, k: int, n_sub: int, integrator: str) -> ca.Function:
     ts = tm + hm * ca.DM(np.arange(n_sub)).T
     Xo, Wo = acc(xm, Wm, ts, pm, hm)
     fn = ca.Function("tangent_chunk", [xm, Wm, tm, pm, hm], [Xo[:, -1], Wo[:, -k:]])
-    _CHUNKS[key] = (ode, fn)
-    while len(_CHUNKS) > 16:
-        _CHUNKS.pop(next(iter(_CHUNKS)))
+    _CHUNKS.put(key, (ode, fn))
     return fn
 
 

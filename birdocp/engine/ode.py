@@ -25,6 +25,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from birdocp.engine.cache import bounded_cache
+
 __all__ = ["ODE"]
 
 
@@ -123,14 +125,12 @@ class ODE:
     def jacobian_function(self) -> ca.Function:
         """``(x, t, p) -> df/dx`` (exact, SX), built on first use."""
         fn = _JACS.get(id(self))
-        if fn is None or fn[0] is not self:
+        if fn is None:
             x, t, p = ca.SX.sym("x", self.nx), ca.SX.sym("t"), ca.SX.sym("p", self.np)
             fx = self.rhs(x, t, p)
             fn = (self, ca.Function("dfdx", [x, t, p], [ca.jacobian(fx, x), ca.jacobian(fx, p)],
                                     ["x", "t", "p"], ["dfdx", "dfdp"]))
-            _JACS[id(self)] = fn
-            while len(_JACS) > 64:
-                _JACS.pop(next(iter(_JACS)))
+            _JACS.put(id(self), fn)
         return fn[1]
 
     def evaluate(self, x, t, p) -> np.ndarray:
@@ -145,4 +145,4 @@ class ODE:
         return PeriodicODE.from_rhs(self.rhs, period_s, self.state_names, self.param_names)
 
 
-_JACS: dict = {}
+_JACS = bounded_cache("engine.ode.jacobians", 64)

@@ -45,12 +45,13 @@ from dataclasses import dataclass, field, replace
 import casadi as ca
 import numpy as np
 
-from birdocp.engine.floquet import monodromy_of
+from birdocp.engine.cache import bounded_cache
+from birdocp.engine.floquet import complex_pairs, monodromy_of
 from birdocp.engine.ode import ODE
 from birdocp.engine.oracle import ConstraintOracle
 from birdocp.engine.steppers import METHOD_ORDER, make_step
 
-__all__ = ["OrbitMethod", "OrbitProblem", "PeriodicOrbit", "solve_orbit", "complex_pairs",
+__all__ = ["OrbitMethod", "OrbitProblem", "PeriodicOrbit", "solve_orbit", "solve_orbit_system",
            "orbit_residual_system"]
 
 
@@ -136,11 +137,6 @@ class OrbitProblem:
             self.period_guess = float(self.ode.forcing_period)
         if not (np.isfinite(self.period_guess) and self.period_guess > 0):
             raise ValueError(f"OrbitProblem.period_guess must be positive, got {self.period_guess!r}")
-
-
-def complex_pairs(values) -> list:
-    """Complex numbers as [re, im] pairs (JSON)."""
-    return [[float(np.real(v)), float(np.imag(v))] for v in np.atleast_1d(values)]
 
 
 @dataclass
@@ -235,8 +231,8 @@ class _Graphs:
         self.h = h
 
 
-_GRAPHS: dict = {}
-_EVALS: dict = {}
+_GRAPHS = bounded_cache("engine.orbits.graphs", 32)
+_EVALS = bounded_cache("engine.orbits.evaluators", 32)
 
 
 def _graphs(ode: ODE, N: int, S: int, integrator: str) -> _Graphs:
@@ -245,9 +241,7 @@ def _graphs(ode: ODE, N: int, S: int, integrator: str) -> _Graphs:
     if hit is not None and hit.ode is ode:
         return hit
     g = _Graphs(ode, N, S, integrator)
-    _GRAPHS[key] = g
-    while len(_GRAPHS) > 32:
-        _GRAPHS.pop(next(iter(_GRAPHS)))
+    _GRAPHS.put(key, g)
     return g
 
 
@@ -363,9 +357,7 @@ def _evaluator(graphs, period_free, free_idx, n_lin) -> _Evaluator:
     if hit is not None and hit.G is graphs:
         return hit
     ev = _Evaluator(graphs, period_free, free_idx, n_lin)
-    _EVALS[key] = ev
-    while len(_EVALS) > 32:
-        _EVALS.pop(next(iter(_EVALS)))
+    _EVALS.put(key, ev)
     return ev
 
 
@@ -430,7 +422,7 @@ def orbit_residual_system(ode: ODE, method: OrbitMethod, *, period_free: bool, f
 def _initial_points(graphs: _Graphs, x_guess, p, T, t0) -> np.ndarray:
     """Shooting points (nx x (S+1)) from a guess: a single point is integrated forward over T; a
     list of M or M-1 points is used as is (closed with the first)."""
-    S, nx = graphs.S, graphs.ode.nx
+    S = graphs.S
     xg = np.asarray(x_guess, float)
     if xg.ndim == 2:
         pts = xg.T
@@ -481,11 +473,16 @@ def solve_orbit(problem: OrbitProblem, method: OrbitMethod = OrbitMethod(),
                 return res
             # a grid too coarse for the dynamics may also make the solve fail: refine and retry
             N *= 2
-    return _solve_fixed(problem, method, warm_start)
+    return solve_orbit_system(problem, method, warm_start)
 
 
-def _solve_fixed(problem: OrbitProblem, method: OrbitMethod, warm_start=None, *, free_idx=(), lin=None,
-                 z_start=None, x_ref=None, estimate=True) -> PeriodicOrbit:
+def solve_orbit_system(problem: OrbitProblem, method: OrbitMethod, warm_start=None, *, free_idx=(), lin=None,
+                       z_start=None, x_ref=None, estimate=True) -> PeriodicOrbit:
+    """:func:`solve_orbit` at a fixed number of steps, with extra unknowns and rows (Hopf starts,
+    continuation): parameters ``free_idx`` become unknowns (after T), ``lin = (A, b)`` appends the
+    rows ``A z - b`` after the phase row, ``z_start`` is the full initial unknown vector and ``x_ref``
+    the point of the Poincare section (default: the problem's phase point or first guess point).
+    """
     t_all = time.perf_counter()
     ode = problem.ode
     nx, S, N = ode.nx, method.points - 1, int(method.steps_per_period)
