@@ -227,3 +227,59 @@ def test_lorenz_spectrum_sum_and_largest_exponent():
     big = largest_lyapunov_exponent(ode, [1.0, 1.0, 1.0], p, t_total=1000.0, dt=0.01, t_transient=10.0)
     # published 0.9056 (Sprott 2003): within 4 standard errors plus the RK4 bias at dt = 0.01
     assert abs(big.exponents[0] - 0.9056) < 4 * big.standard_error[0] + 0.005, (big.exponents, big.standard_error)
+
+
+# -- continuation of autonomous orbits (the engine's continuation with the period as an unknown) ------
+def test_continuation_period_varies_as_exact():
+    from birdocp.engine.continuation.autonomous import continue_orbits
+
+    p = [0.2, 2.0, 0.5]  # b = 0.5: angular frequency omega - b mu, radius sqrt(mu)
+    o = solve_orbit(OrbitProblem(SL, p, [0.45, 0.0], period_guess=3.3), OrbitMethod(points=5, steps_per_period=200))
+    br = continue_orbits(o, SL, "mu", 1.0, step=0.1)
+    assert br.end_reason == "reached_to" and len(br.points) >= 4
+    for pt in br.points:
+        mu = pt.parameter
+        assert abs(pt.period - 2 * np.pi / (2.0 - 0.5 * mu)) < 1e-6
+        assert pt.free_values["period"] == pt.period
+        assert abs(np.hypot(*pt.x0) - np.sqrt(mu)) < 1e-6
+        assert len(pt.multipliers) == 1  # the non-trivial one
+        assert abs(pt.multipliers[0][0] - np.exp(-2 * mu * pt.period)) < 1e-6 and pt.stable
+    assert not br.special_points
+
+
+def test_continuation_locates_the_fold_of_a_subcritical_hopf_branch():
+    from birdocp.engine.continuation.autonomous import continue_orbits
+
+    def sub(x, t, p):  # r' = r (mu + r^2 - r^4): orbits r^2 = (1 +- sqrt(1 + 4 mu)) / 2, fold at mu = -1/4
+        r2 = x[0] ** 2 + x[1] ** 2
+        g = p[0] + r2 - r2 ** 2
+        return ca.vertcat(g * x[0] - p[1] * x[1], p[1] * x[0] + g * x[1])
+
+    ode = ODE.from_function(sub, 2, ("mu", "omega"))
+    r0 = np.sqrt((1 + np.sqrt(1 + 4 * 0.2)) / 2)
+    o = solve_orbit(OrbitProblem(ode, [0.2, 1.0], [r0, 0.0], period_guess=6.0), OrbitMethod(points=5, steps_per_period=200))
+    assert o.success and o.stable
+    br = continue_orbits(o, ode, "mu", -0.5, step=0.05, max_points=8)
+    folds = [sp for sp in br.special_points if sp.kind == "fold"]
+    assert folds, br.end_message
+    f = folds[0]
+    assert abs(f.parameter + 0.25) < 1e-6 and f.located
+    assert abs(np.sum(np.square(f.x0)) - 0.5) < 1e-4
+    assert not br.points[-1].stable  # the lower branch is unstable
+
+
+def test_continuation_locates_rossler_period_doubling_checked_by_scipy():
+    from birdocp.engine.continuation.autonomous import continue_orbits
+
+    o = solve_orbit(OrbitProblem(ROSSLER, [0.2, 0.2, 2.5], [3.0, 0.0, 0.1], period_guess=6.0),
+                    OrbitMethod(points=5, steps_per_period=200))
+    assert o.success and o.stable
+    br = continue_orbits(o, ROSSLER, "c", 3.5, step=0.2)
+    pd = [sp for sp in br.special_points if sp.kind == "period_doubling"]
+    assert len(pd) == 1
+    sp = pd[0]
+    p = np.array([0.2, 0.2, sp.parameter])
+    xT, Mo = _scipy_monodromy(ROSSLER, np.array(sp.x0), p, 0.0, sp.free_values["period"], "DOP853")
+    assert np.max(np.abs(xT - np.array(sp.x0))) < 1e-6
+    # a multiplier at -1 there (to the RK4 discretisation error at 200 steps, ~1e-6)
+    assert np.min(np.abs(np.linalg.eigvals(Mo) + 1.0)) < 1e-5

@@ -410,13 +410,19 @@ def _run_ipopt(ev: _Evaluator, z0, method, lo, hi):
         return z0, f"error: {e}", 0, []
 
 
-def orbit_residual_system(ode: ODE, method: OrbitMethod, *, period_free: bool, free_idx=(), n_lin: int = 0):
-    """The shooting system (an evaluator with ``set_context``, ``evaluate(z) -> (g, J)``, ``nz``,
-    ``ng``, ``points(z)``, ``q_of(z)``) for continuation and Hopf starts. Graphs are cached."""
+def orbit_residual_system(ode: ODE, method: OrbitMethod, *, period_free: bool, free_idx=(), n_lin: int = 0,
+                          cached: bool = True):
+    """The shooting system (an evaluator with ``set_context``, ``evaluate(z) -> (g, J)``, ``g(z)``,
+    ``blocks(z)``, ``nz``, ``ng``, ``points(z)``, ``q_of(z)``) for continuation and Hopf starts.
+
+    The graphs are always cached; ``cached=False`` gives an evaluator of its own (its context -- the
+    parameters and linear rows -- is then not changed by other solves)."""
     method.validate()
     S = method.points - 1
-    return _evaluator(_graphs(ode, int(method.steps_per_period), S, method.integrator), period_free,
-                      tuple(free_idx), n_lin)
+    G = _graphs(ode, int(method.steps_per_period), S, method.integrator)
+    if not cached:
+        return _Evaluator(G, period_free, tuple(free_idx), n_lin)
+    return _evaluator(G, period_free, tuple(free_idx), n_lin)
 
 
 def _initial_points(graphs: _Graphs, x_guess, p, T, t0) -> np.ndarray:

@@ -41,6 +41,7 @@ class BranchPoint:
     tests: dict
     success: bool = True
     p: list = field(default_factory=list)
+    period: float | None = None   # the orbit's period (varies along a branch of autonomous orbits)
 
     def to_dict(self) -> dict:
         d = dict(self.__dict__)
