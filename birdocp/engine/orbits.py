@@ -153,6 +153,8 @@ class PeriodicOrbit:
     amplitude: max_t |x(t) - x0|_inf; arc_length: integral of |f| over the period (polygon of the steps).
     error_estimate: {"period", "x0", "multipliers"} absolute estimates (Richardson, from 2N steps);
             ``accurate``: every relative estimate <= method accuracy.
+    wall_s: seconds: build, solve, error_estimate, total (this grid); all_grids (steps_per_period=None:
+            every grid tried).
     """
 
     success: bool
@@ -464,9 +466,11 @@ def solve_orbit(problem: OrbitProblem, method: OrbitMethod = OrbitMethod(),
         S = method.points - 1
         N = S * max(1, int(np.ceil(method.min_steps / S)))
         res, good = None, None
+        t_start = time.perf_counter()
         while True:
             m = replace(method, steps_per_period=N, error_estimate=True)
             res = solve_orbit(problem, m, warm_start=good if good is not None else warm_start)
+            res.wall_s["all_grids"] = time.perf_counter() - t_start
             if res.success and res.accurate:
                 return res
             if res.success:
