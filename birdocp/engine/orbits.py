@@ -237,14 +237,18 @@ _GRAPHS = bounded_cache("engine.orbits.graphs", 32)
 _EVALS = bounded_cache("engine.orbits.evaluators", 32)
 
 
+def _cached(cache, key, make):
+    """The entry of ``key``, built by ``make()`` on a miss (entries hold the objects whose ids are
+    in their keys, so an id is not reused while its entry lives)."""
+    hit = cache.get(key)
+    if hit is None:
+        hit = make()
+        cache.put(key, hit)
+    return hit
+
+
 def _graphs(ode: ODE, N: int, S: int, integrator: str) -> _Graphs:
-    key = (id(ode), N, S, integrator)
-    hit = _GRAPHS.get(key)
-    if hit is not None and hit.ode is ode:
-        return hit
-    g = _Graphs(ode, N, S, integrator)
-    _GRAPHS.put(key, g)
-    return g
+    return _cached(_GRAPHS, (id(ode), N, S, integrator), lambda: _Graphs(ode, N, S, integrator))
 
 
 class _Evaluator:
@@ -354,13 +358,8 @@ class _Evaluator:
 
 
 def _evaluator(graphs, period_free, free_idx, n_lin) -> _Evaluator:
-    key = (id(graphs), bool(period_free), tuple(free_idx), int(n_lin))
-    hit = _EVALS.get(key)
-    if hit is not None and hit.G is graphs:
-        return hit
-    ev = _Evaluator(graphs, period_free, free_idx, n_lin)
-    _EVALS.put(key, ev)
-    return ev
+    return _cached(_EVALS, (id(graphs), bool(period_free), tuple(free_idx), int(n_lin)),
+                   lambda: _Evaluator(graphs, period_free, free_idx, n_lin))
 
 
 def _lm(ev: _Evaluator, z, tol, max_iter, lo, hi):
@@ -670,10 +669,10 @@ def _attach_error(res: PeriodicOrbit, fine: PeriodicOrbit, order: int, accuracy:
     ex = fac * float(np.max(np.abs(res.x0 - fine.x0)))
     em, emr = _match(res.multipliers, fine.multipliers)
     em, emr = fac * em, fac * emr
-    res.error_estimate = {"period": eT, "x0": ex, "multipliers": em,
+    res.error_estimate = {"period": float(eT), "x0": float(ex), "multipliers": float(em),
                           "trivial_multiplier_2N": float(fine.trivial_multiplier_error)}
     rel = max(eT / max(abs(res.period), 1e-300), ex / (1.0 + float(np.max(np.abs(res.x0)))), emr)
-    res.error_estimate["relative"] = rel
+    res.error_estimate["relative"] = float(rel)
     res.accurate = bool(rel <= accuracy)
     if not res.accurate:
         res.message += (f"; INACCURATE: estimated relative error {rel:.1e} > accuracy {accuracy:.0e} "

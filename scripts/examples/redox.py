@@ -33,11 +33,16 @@ def main():
     ode = make_ode()
     orbit = solve_orbit(OrbitProblem(ode, list(PARAMS.values()), [0.3, 0.29, 0.42, 0.0028], period_guess=25.0),
                         OrbitMethod(points=5, steps_per_period=None, integrator="radau", accuracy=1e-8))
-    res = write_result(out, "redox", __doc__.split("\n\n")[1], PARAMS, orbit)
+    # the same orbit with the explicit RK4 on 2000 steps per period, from the same guess (for comparison)
+    rk4 = solve_orbit(OrbitProblem(ode, list(PARAMS.values()), [0.3, 0.29, 0.42, 0.0028], period_guess=25.0),
+                      OrbitMethod(points=5, steps_per_period=2000, integrator="rk4", error_estimate=False))
+    res = write_result(out, "redox", __doc__.split("\n\n")[1], PARAMS, orbit,
+                       extra={"rk4_2000_steps": {"success": rk4.success, "status": rk4.status}})
     plot_orbit(out, "Redox oscillator (del Olmo et al. 2019), Radau IIA", orbit, ("D1", "D2", "R", "A"),
                phase=(0, 2))
     print(f"{orbit.status}: T = {res['period']:.10f}, multipliers = {orbit.multipliers}, "
           f"steps {orbit.method['steps_per_period']}, error estimate {orbit.error_estimate}, wall {orbit.wall_s}")
+    print(f"explicit RK4 with 2000 steps per period: {rk4.status}")
 
 
 if __name__ == "__main__":
