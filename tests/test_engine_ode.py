@@ -119,15 +119,17 @@ def test_no_success_on_an_equilibrium(case, solver):
     assert not r.success and r.status in ("bad_phase_point", "equilibrium")
 
 
-def test_equilibrium_amplitude_check_rejects_a_converged_constant():
-    # the equilibrium lies on the section through x_ref when x_ref is on the line orthogonal to f:
-    # for SL with mu = 0, x_ref = (a, 0): f = (0, w a), section y = 0 contains the origin
-    p = [0.0, 1.0, 0.0]
-    pts = np.zeros((5, 2)) + 1e-9
-    r = solve_orbit(OrbitProblem(SL, p, pts, period_guess=6.0, phase_point=[0.3, 0.0]),
-                    OrbitMethod(points=5, steps_per_period=40, error_estimate=False))
-    assert not r.success
-    assert r.status in ("equilibrium", "not_converged", "stalled", "max_iter")
+@pytest.mark.parametrize("solver", ["lm", "ipopt"])
+def test_equilibrium_amplitude_check_rejects_a_converged_constant(solver):
+    # the section through x_ref orthogonal to f(x_ref) contains the equilibrium when x_ref . f(x_ref) = 0,
+    # i.e. for Stuart-Landau when |x_ref| = sqrt(mu): x_ref = (0.3, 0), mu = 0.09 gives the section y = 0
+    # through the origin. From near-constant points the solvers converge to the origin (all equations
+    # hold, any T); the amplitude check must turn that into a failure.
+    pts = 1e-4 * np.array([[1, 2], [-1, 1], [0, -1], [1, 0], [1, 2]])
+    r = solve_orbit(OrbitProblem(SL, [0.09, 1.0, 0.0], pts, period_guess=6.0, phase_point=[0.3, 0.0]),
+                    OrbitMethod(points=5, steps_per_period=40, solver=solver))
+    assert r.max_residual <= 1e-10  # the equations are solved ...
+    assert not r.success and r.status == "equilibrium"  # ... but by an equilibrium
 
 
 def test_hopf_point_and_branch_of_stuart_landau():

@@ -349,7 +349,8 @@ class _Evaluator:
                 self._oracle = ConstraintOracle(self, "orbit")
             z = ca.MX.sym("z", self.nz)
             opts = {"ipopt.hessian_approximation": "limited-memory", "ipopt.sb": "yes", "ipopt.print_level": 0,
-                    "print_time": False, "ipopt.tol": method.tol, "ipopt.constr_viol_tol": method.tol,
+                    "print_time": False, "show_eval_warnings": False, "ipopt.tol": method.tol,
+                    "ipopt.constr_viol_tol": method.tol,
                     "ipopt.max_iter": int(method.max_iter)}
             opts.update(method.ipopt_options)
             s = ca.nlpsol("orbit", "ipopt", {"x": z, "f": 0, "g": self._oracle(z)}, opts)
