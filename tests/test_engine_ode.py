@@ -285,3 +285,14 @@ def test_continuation_locates_rossler_period_doubling_checked_by_scipy():
     assert np.max(np.abs(xT - np.array(sp.x0))) < 1e-6
     # a multiplier at -1 there (to the RK4 discretisation error at 200 steps, ~1e-6)
     assert np.min(np.abs(np.linalg.eigvals(Mo) + 1.0)) < 1e-5
+
+
+def test_implicit_step_is_nan_when_its_stage_solve_fails():
+    from birdocp.engine.steppers import make_step
+
+    x, t, q = ca.SX.sym("x"), ca.SX.sym("t"), ca.SX.sym("q")
+    st = make_step(ca.Function("f", [x, t, q], [ca.exp(q * x)]), "radau")  # x' = e^x blows up at t = 1/e
+    h = 0.01
+    exact = -np.log(np.exp(-1.0) - h)  # from x = 1
+    assert abs(float(st(1.0, 0.0, 1.0, h)) - exact) < 1e-12
+    assert np.isnan(float(st(1.0, 0.0, 1.0, 10.0)))  # no stage solution: NaN, not an unconverged value

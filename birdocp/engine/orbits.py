@@ -447,7 +447,10 @@ def _forward_points(graphs: _Graphs, x, p, T, t0) -> np.ndarray:
     q = ca.DM(np.concatenate([p, [T, t0]]))
     pts = [np.asarray(x, float)]
     for i in range(graphs.S):
-        nxt = np.asarray(graphs.segment(ca.DM(pts[-1]), i / graphs.S, q)[0]).ravel()
+        try:
+            nxt = np.asarray(graphs.segment(ca.DM(pts[-1]), i / graphs.S, q)[0]).ravel()
+        except RuntimeError:  # an implicit stage solve failed
+            nxt = np.full(pts[-1].shape, np.nan)
         pts.append(nxt if np.all(np.isfinite(nxt)) else pts[-1])
     return np.column_stack(pts)
 
@@ -601,9 +604,12 @@ def _assemble(problem, method, ev: _Evaluator, G: _Graphs, z, sstat, message, it
     X = ev.points(z)
     g = ev.g(z) if finite else np.full(ev.ng, np.nan)
     r = float(np.max(np.abs(g))) if np.all(np.isfinite(g)) else float("nan")
-    if finite and np.all(np.isfinite(g)):
-        _, Xt = G.segments(ca.DM(X[:, :S]), ca.DM(q))
-        traj = np.vstack([X[:, 0][None, :], np.asarray(Xt).T])
+    try:
+        Xt = np.asarray(G.segments(ca.DM(X[:, :S]), ca.DM(q))[1]) if finite and np.all(np.isfinite(g)) else None
+    except RuntimeError:
+        Xt = None
+    if Xt is not None:
+        traj = np.vstack([X[:, 0][None, :], Xt.T])
     else:
         traj = np.full((G.N + 1, nx), np.nan)
     tt = problem.t0 + T * np.arange(G.N + 1) / G.N

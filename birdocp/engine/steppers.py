@@ -6,7 +6,10 @@
 * ``"gauss"``: Gauss-Legendre, 2 stages, order 4, A-stable and symplectic.
 
 The implicit stage equations ``K_i = f(x + h sum_j a_ij K_j, t + c_i h, q)`` are solved by a CasADi
-``rootfinder`` (Newton with the exact stage Jacobian). CasADi differentiates the rootfinder by the
+``rootfinder`` (Newton with the exact stage Jacobian, from K_i = f(x)). A stage solve that does not
+converge (stage residual above 1e-8 (1 + max|K|)) makes the step return NaN instead of an unconverged
+value: the shooting solvers treat it as a failed evaluation and shorten their step, and no orbit can
+be "found" on a discrete map that is not the Radau/Gauss one. CasADi differentiates the rootfinder by the
 implicit function theorem, so the derivatives of a step with respect to x, t, q and h are exact (to
 the Newton tolerance), and the segment Jacobians / monodromy built on them are too.
 """
@@ -78,4 +81,8 @@ def make_step(rhs: ca.Function, method: str = "rk4", *, newton_tol: float = 1e-1
     Kv = solver(ca.repmat(f0, s, 1), ca.vertcat(xm, tm, qm, hm))
     Km = ca.reshape(Kv, nx, s)
     xn = xm + hm * sum(float(b[j]) * Km[:, j] for j in range(s))
+    # NaN when Newton did not converge (a short-circuit conditional: only the taken branch is
+    # evaluated, and both branches are constants, so the derivatives of a converged step are untouched)
+    bad = ca.mmax(ca.fabs(G(Kv, ca.vertcat(xm, tm, qm, hm)))) > 1e-8 * (1 + ca.mmax(ca.fabs(Kv)))
+    xn = xn + ca.if_else(bad, ca.MX(np.nan), ca.MX(0.0), True)
     return ca.Function(f"{method}_step", [xm, tm, qm, hm], [xn], ["x", "t", "q", "h"], ["x_next"])
