@@ -218,6 +218,21 @@ def test_lyapunov_linear_system_is_exact():
     assert abs(r1.exponents[0] - 0.3) < 1e-8
 
 
+def test_lyapunov_of_a_forced_system_and_of_a_stable_forced_orbit():
+    # forced linear: the forcing does not enter the tangent flow, exponents = eigenvalues
+    A = np.array([[-0.5, 1.0], [-1.0, -0.5]])
+    ode = ODE.from_function(lambda x, t, p: ca.mtimes(ca.DM(A), x) + ca.vertcat(0, p[0] * ca.cos(t)), 2, 1,
+                            forcing_period=2 * np.pi)
+    assert not ode.autonomous
+    r = lyapunov_exponents(ode, [1.0, 0.0], [2.0], t_total=20.0, dt=0.01, t_transient=5.0, renorm_time=0.5)
+    assert np.max(np.abs(r.exponents - [-0.5, -0.5])) < 1e-8
+    # forced van der Pol: on its stable 1:3 orbit the exponents are ln|multiplier| / T (committed result)
+    res = json.loads((ROOT / "results" / "engine" / "forced_van_der_pol" / "result.json").read_text())
+    lam1 = np.log(np.hypot(*res["multipliers"][0])) / res["period"]
+    le, se = res["lyapunov_exponents"][0], res["lyapunov_standard_error"][0]
+    assert abs(le - lam1) < 3 * se + 1e-3, (le, lam1, se)
+
+
 def test_lorenz_spectrum_sum_and_largest_exponent():
     import lorenz
 
