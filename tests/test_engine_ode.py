@@ -144,6 +144,16 @@ def test_hopf_point_and_branch_of_stuart_landau():
         assert abs(o.p[0] - eps ** 2) < 1e-6  # mu = r^2: the square-root law, exactly here
         assert abs(np.hypot(*o.x0) - eps) < 1e-9
         assert abs(o.period - np.pi) < 1e-5
+    # the branch continued from the Hopf start (b = 0.5: the period varies, T = 2 pi / (omega - b mu))
+    from birdocp.engine.continuation.autonomous import continue_orbits
+
+    hb = continue_equilibria(SL, [-0.5, 2.0, 0.5], "mu", [0.01, 0.0], 0.5, ds=0.1).hopf[0]
+    first = orbit_from_hopf(SL, hb, 0.05, OrbitMethod(points=5, steps_per_period=200))
+    br = continue_orbits(first, SL, "mu", 0.8, step=0.05)
+    assert br.end_reason == "reached_to" and len(br.points) >= 4
+    for pt in br.points:
+        assert abs(np.hypot(*pt.x0) - np.sqrt(pt.parameter)) < 1e-6
+        assert abs(pt.period - 2 * np.pi / (2.0 - 0.5 * pt.parameter)) < 1e-6
 
 
 # -- every example orbit against scipy (state + variational equations from the committed point) ----

@@ -5,16 +5,18 @@ Oscillations, Waves, and Turbulence, Springer 1984, ch. 2; the normal form of a 
 bifurcation), in x = Re z, y = Im z, with omega = 1, b = 0. Exact answers: the equilibrium 0 loses
 stability at mu = 0 (eigenvalues mu +- i omega); for mu > 0 the orbit is the circle of radius
 sqrt(mu) with period 2 pi / omega and non-trivial multiplier exp(-2 mu T).
-Here: the equilibrium is continued from mu = -0.5 to 1, the Hopf point located, the orbit branch
-started there from the critical eigenvector (amplitudes 0.02 .. 1), and the orbit at mu = 1 solved
-from the point (0.5, 0) with period guess 5.
+Here: the equilibrium is continued from mu = -0.5 to 1, the Hopf point located, the first orbit
+started there from the critical eigenvector (amplitude 0.02, the parameter an unknown), the orbit
+branch continued from it to mu = 1 (pseudo-arclength, period varying), and the orbit at mu = 1
+solved on its own from the point (0.5, 0) with period guess 5.
 
     python scripts/examples/stuart_landau.py [--out DIR]      (default results/engine/stuart_landau/)
 """
 import casadi as ca
 import numpy as np
 
-from birdocp.engine.equilibria import continue_equilibria, hopf_branch
+from birdocp.engine.continuation.autonomous import continue_orbits
+from birdocp.engine.equilibria import continue_equilibria, orbit_from_hopf
 from birdocp.engine.ode import ODE
 from birdocp.engine.orbits import OrbitMethod, OrbitProblem, solve_orbit
 from example_common import out_dir, plot_orbit, write_result
@@ -39,17 +41,17 @@ def main():
     p = np.array(list(PARAMS.values()))
     eq = continue_equilibria(ode, [-0.5, 1.0, 0.0], "mu", [0.01, 0.0], 1.0, ds=0.1)
     hopf = eq.hopf[0]
-    amps = np.array([0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.7, 0.85, 1.0])
-    branch = hopf_branch(ode, hopf, amps, OrbitMethod(points=5, steps_per_period=200))
+    first = orbit_from_hopf(ode, hopf, 0.02, OrbitMethod(points=5, steps_per_period=200))
+    branch = continue_orbits(first, ode, "mu", 1.0, step=0.02, max_dparam=0.1)
     orbit = solve_orbit(OrbitProblem(ode, p, [0.5, 0.0], period_guess=5.0),
                         OrbitMethod(points=5, steps_per_period=None, accuracy=1e-9))
-    mus = np.array([b.p[0] for b in branch])
-    radii = np.array([np.hypot(*b.x0) for b in branch])
+    mus = np.array([pt.parameter for pt in branch.points])
+    radii = np.array([np.hypot(*pt.x0) for pt in branch.points])
 
     def panel(ax):
         m = np.linspace(0, 1.05, 200)
         ax.plot(m, np.sqrt(m), color="0.6", lw=3, label="exact: r = sqrt(mu)")
-        ax.plot(mus, radii, "o", color="tab:red", label="orbits from the Hopf point")
+        ax.plot(mus, radii, "o", color="tab:red", ms=4, label="branch continued from the Hopf start")
         ax.plot([hopf.p[0]], [0], "k*", ms=12, label=f"Hopf point mu = {hopf.p[0]:.1e}")
         ax.set_xlabel("mu")
         ax.set_ylabel("orbit radius |x0|")
@@ -60,8 +62,11 @@ def main():
     extra = {
         "hopf": hopf.to_dict(),
         "exact": {"radius": 1.0, "period": T, "nontrivial_multiplier": float(np.exp(-2 * PARAMS["mu"] * T))},
-        "branch": [{"mu": float(b.p[0]), "radius": float(np.hypot(*b.x0)), "period": float(b.period),
-                    "success": b.success} for b in branch],
+        "hopf_start": {"amplitude": 0.02, "mu": float(first.p[0]), "period": float(first.period),
+                       "status": first.status},
+        "branch": {"end_reason": branch.end_reason,
+                   "points": [{"mu": pt.parameter, "radius": float(np.hypot(*pt.x0)), "period": pt.period,
+                               "multipliers": pt.multipliers} for pt in branch.points]},
         "equilibrium_branch": {"mu": eq.params.tolist(), "max_real_eigenvalue": eq.eigenvalues.real.max(axis=1).tolist()},
     }
     res = write_result(out, "stuart_landau", __doc__.split("\n\n")[1], PARAMS, orbit, extra=extra)
