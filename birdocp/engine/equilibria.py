@@ -19,7 +19,7 @@ periodic orbit born at a Hopf point.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import casadi as ca
 import numpy as np
@@ -281,11 +281,15 @@ def continue_equilibria(ode: ODE, p, param, x_start, stop, *, ds: float = 0.05, 
 def orbit_from_hopf(ode: ODE, hopf: HopfPoint, amplitude: float, method: OrbitMethod = OrbitMethod(points=5, steps_per_period=100),
                     warm_start: PeriodicOrbit | None = None) -> PeriodicOrbit:
     """The periodic orbit of amplitude ``amplitude`` (along Re v) born at ``hopf``; the continued
-    parameter is an unknown (``result.p[hopf.param]``, also in ``result.free_params``)."""
+    parameter is an unknown (``result.p[hopf.param]``, also in ``result.free_params``). A method
+    without steps_per_period gets 128 (rounded to the segments); the result's error estimate says
+    whether that is enough."""
     if not ode.autonomous:
         raise ValueError("orbit_from_hopf: the ODE must be autonomous")
     method.validate()
     nx, S = ode.nx, method.points - 1
+    if method.steps_per_period is None:  # a fixed grid here; its error estimate is in the result
+        method = replace(method, steps_per_period=S * int(np.ceil(128 / S)))
     v = hopf.eigenvector
     vr, vi = v.real, v.imag
     xh = hopf.x

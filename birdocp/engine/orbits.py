@@ -60,8 +60,9 @@ class OrbitMethod:
     """How to compute a periodic orbit.
 
     points:            M, shooting points including the closing one (M-1 segments), M >= 2.
-    steps_per_period:  N (a multiple of points-1), or None: chosen by doubling from ``min_steps``
-                       until the error estimate is below ``accuracy``.
+    steps_per_period:  N (a multiple of points-1), or None (default): chosen by doubling from
+                       ``min_steps`` until the error estimate is below ``accuracy`` (no fixed default
+                       that ignores the period and the stiffness of the system).
     integrator:        "rk4" | "radau" (stiff systems) | "gauss".
     solver:            "lm" (Levenberg-Marquardt / damped Newton on the exact shooting matrix) | "ipopt"
                        (feasibility NLP through the same exact Jacobian). LM is the default: on the
@@ -75,7 +76,7 @@ class OrbitMethod:
     """
 
     points: int = 5
-    steps_per_period: int | None = 200
+    steps_per_period: int | None = None
     integrator: str = "rk4"
     solver: str = "lm"
     tol: float = 1e-10
@@ -420,6 +421,8 @@ def orbit_residual_system(ode: ODE, method: OrbitMethod, *, period_free: bool, f
     The graphs are always cached; ``cached=False`` gives an evaluator of its own (its context -- the
     parameters and linear rows -- is then not changed by other solves)."""
     method.validate()
+    if method.steps_per_period is None:
+        raise ValueError("orbit_residual_system: give steps_per_period (a number)")
     S = method.points - 1
     G = _graphs(ode, int(method.steps_per_period), S, method.integrator)
     if not cached:
