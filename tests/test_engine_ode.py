@@ -98,6 +98,16 @@ def test_rossler_ipopt_and_lm_agree():
     assert not a.stable  # the period-1 orbit of the chaotic attractor is unstable (multiplier ~ -2.4)
 
 
+@pytest.mark.parametrize("points", [2, 11, 31])
+@pytest.mark.parametrize("solver", ["lm", "ipopt"])
+def test_rossler_from_the_reference_start_for_any_number_of_points(points, solver):
+    # the reference toolbox reported success on an equilibrium here with 30 points
+    r = solve_orbit(OrbitProblem(ROSSLER, [0.2, 0.2, 5.7], [0.1, 5.0, 3.6], period_guess=5.0),
+                    OrbitMethod(points=points, solver=solver))
+    assert r.success and r.accurate, r.message
+    assert abs(r.period - 5.8810884552) < 1e-6 and r.amplitude > 10
+
+
 @pytest.mark.parametrize("case", [
     (SL, [0.5, 2.0, 0.0], [1e-3, 0.0], 3.0),                 # unstable focus inside the orbit
     (SL, [-0.5, 2.0, 0.0], [1e-2, 0.0], 3.0),                # stable focus, no orbit at all
