@@ -333,3 +333,17 @@ def test_implicit_step_is_nan_when_its_stage_solve_fails():
     exact = -np.log(np.exp(-1.0) - h)  # from x = 1
     assert abs(float(st(1.0, 0.0, 1.0, h)) - exact) < 1e-12
     assert np.isnan(float(st(1.0, 0.0, 1.0, 10.0)))  # no stage solution: NaN, not an unconverged value
+
+
+def test_example_script_writes_the_documented_keys(tmp_path):
+    import subprocess
+
+    out = tmp_path / "sl"
+    subprocess.run([sys.executable, str(ROOT / "scripts" / "examples" / "stuart_landau.py"), "--out", str(out)],
+                   check=True, capture_output=True, timeout=300)
+    res = json.loads((out / "result.json").read_text())
+    assert (out / "orbit.png").stat().st_size > 10_000
+    assert abs(res["period"] - 2 * np.pi) < 1e-6 and len(res["x0"]) == 2
+    mods = [np.hypot(*m) for m in res["multipliers"]]
+    assert len(mods) == 2 and mods == sorted(mods, reverse=True)  # trivial one included, largest first
+    assert abs(res["multipliers"][0][0] - 1) < 1e-9 and abs(res["multipliers"][1][0] - np.exp(-4 * np.pi)) < 1e-8
