@@ -335,6 +335,7 @@ def test_implicit_step_is_nan_when_its_stage_solve_fails():
     assert np.isnan(float(st(1.0, 0.0, 1.0, 10.0)))  # no stage solution: NaN, not an unconverged value
 
 
+@pytest.mark.slow
 def test_example_script_writes_the_documented_keys(tmp_path):
     import subprocess
 
