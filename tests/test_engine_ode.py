@@ -348,3 +348,22 @@ def test_example_script_writes_the_documented_keys(tmp_path):
     mods = [np.hypot(*m) for m in res["multipliers"]]
     assert len(mods) == 2 and mods == sorted(mods, reverse=True)  # trivial one included, largest first
     assert abs(res["multipliers"][0][0] - 1) < 1e-9 and abs(res["multipliers"][1][0] - np.exp(-4 * np.pi)) < 1e-8
+
+
+def test_shooting_success_is_the_residual_not_ipopts_status():
+    # IPOPT told to accept almost anything returns Solved_To_Acceptable_Level (a CasADi "success")
+    # at a residual of ~1: the forced shooting engine must not call that converged
+    from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
+    from birdocp.engine.shooting import MultipleShooting, solve
+
+    x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 0)
+    duffing = ca.Function("duffing", [x, t, p], [ca.vertcat(x[1], -0.25 * x[1] - x[0] - 0.8 * x[0] ** 3
+                                                            + 0.6 * ca.cos(1.3 * t))])
+    prob = LimitCycleProblem(PeriodicODE.from_rhs(duffing, 2 * np.pi / 1.3), [], [0.5, 0.0])
+    loose = {f"ipopt.acceptable_{k}": 1e10 for k in ("tol", "constr_viol_tol", "dual_inf_tol", "compl_inf_tol")}
+    loose.update({"ipopt.acceptable_iter": 1, "ipopt.acceptable_obj_change_tol": 1e20})
+    r = solve(prob, MultipleShooting(points=5, steps_per_period=148, ipopt_options=loose))
+    assert r.status == "Solved_To_Acceptable_Level" and r.max_residual > 1e-3
+    assert not r.success and "not converged" in r.message
+    good = solve(prob, MultipleShooting(points=5, steps_per_period=148))
+    assert good.success and good.max_residual <= 1e-9
