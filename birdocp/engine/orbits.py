@@ -144,8 +144,11 @@ class OrbitProblem:
 class PeriodicOrbit:
     """Result of :func:`solve_orbit` (failures are results with ``success=False``).
 
-    status: "converged", "equilibrium" (the solution is a constant), "not_converged", "nan", or the
-            solver's own status for failures. ``solver_status`` keeps what the solver said.
+    status: "converged" (max residual <= tol, a true orbit), "equilibrium" (the equations hold but the
+            solution is a constant), "not_converged" (residual above tol), "nan" (non-finite
+            iterate), "bad_phase_point" (f = 0 at the section's point), "bad_period" (T <= 0).
+            ``solver_status`` keeps what the solver said (IPOPT's return status, or the LM's
+            "converged" / "max_iter" / "stalled" / "nan").
     period: T (time units of the system); x0: X_0; shooting_points (M x nx).
     multipliers: all Floquet multipliers, largest modulus first (autonomous: the trivial one
             included); ``trivial_multiplier`` (autonomous) is the one closest to 1 and
