@@ -43,11 +43,11 @@ def main():
             ax.plot(ly.history_t, ly.history[:, k], label=f"lambda_{k + 1} = {ly.exponents[k]:.4f}")
         ax.set_xscale("log")
         ax.set_yscale("symlog", linthresh=0.1)
-        ax.set_ylim(-30, 5)
+        ax.set_ylim(-30, 300)
         ax.set_xlabel("averaging time (time units)")
         ax.set_ylabel("running estimate (1 / time unit)")
         ax.set_title("Lyapunov spectrum (QR)")
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, loc="upper right", ncol=1)
 
     res = write_result(out, "lorenz", __doc__.split("\n\n")[1], PARAMS, orbit, ly,
                        {"lyapunov_sum": ly.sum, "divergence": div})
