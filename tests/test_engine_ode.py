@@ -367,3 +367,34 @@ def test_shooting_success_is_the_residual_not_ipopts_status():
     assert not r.success and "not converged" in r.message
     good = solve(prob, MultipleShooting(points=5, steps_per_period=148))
     assert good.success and good.max_residual <= 1e-9
+
+
+def test_continuation_locates_the_torus_bifurcation_of_langfords_system():
+    # Langford's system (Seydel, Practical Bifurcation and Stability Analysis, torus example): the
+    # orbit is the circle r^2 = lam z - z^2 at height z with (lam - 3) + z + 0.2 (1 - z^2) = 0, angular
+    # speed 0.25 (T = 8 pi). Its (r, z) dynamics has a Hopf point where lam = 2 z: lam = 2 exactly, with
+    # frequency sqrt(det) = sqrt(2 r^2 (1 - 0.4 z)) = sqrt(1.2); the Neimark-Sacker multipliers there are
+    # exp(+-i sqrt(1.2) 8 pi).
+    from birdocp.engine.continuation.autonomous import continue_orbits
+
+    def langford(x, t, p):
+        lam, y1, y2, y3 = p[0], x[0], x[1], x[2]
+        g = y3 + 0.2 * (1 - y3 ** 2)
+        return ca.vertcat((lam - 3) * y1 - 0.25 * y2 + y1 * g, 0.25 * y1 + (lam - 3) * y2 + y2 * g,
+                          lam * y3 - (y1 ** 2 + y2 ** 2 + y3 ** 2))
+
+    ode = ODE.from_function(langford, 3, ("lambda",))
+    z = (1 - np.sqrt(1 - 0.8)) / 0.4  # lam = 1.8: 0.2 z^2 - z + 1 = 0
+    r = np.sqrt(1.8 * z - z ** 2)
+    o = solve_orbit(OrbitProblem(ode, [1.8], [r * 0.9, 0.1, z * 1.05], period_guess=25.0), OrbitMethod(points=5))
+    assert o.success and o.stable, o.message
+    # within the requested (default) relative accuracy 1e-6, and within 3x the error estimate
+    assert abs(o.period - 8 * np.pi) < 1e-6 * 8 * np.pi and abs(o.x0[2] - z) < 3e-6
+    assert abs(o.period - 8 * np.pi) <= 3 * o.error_estimate["period"]
+    br = continue_orbits(o, ode, "lambda", 2.2, step=0.05)
+    ns = [sp for sp in br.special_points if sp.kind == "neimark_sacker"]
+    assert len(ns) == 1 and abs(ns[0].parameter - 2.0) < 1e-4
+    angle = np.angle(complex(*ns[0].multipliers[0]))
+    exact = np.angle(np.exp(1j * np.sqrt(1.2) * 8 * np.pi))
+    assert abs(abs(angle) - abs(exact)) < 1e-3
+    assert not br.points[-1].stable
