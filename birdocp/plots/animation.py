@@ -83,7 +83,7 @@ class _Scene:
         self.fig = plt.figure(figsize=figsize)
         gs = self.fig.add_gridspec(2, 2, width_ratios=[1.5, 1.0], height_ratios=[1.0, 1.0],
                                    left=0.0, right=0.91, top=0.88, bottom=0.13, wspace=0.25, hspace=0.6)
-        self.ax3 = self.fig.add_axes([0.0, 0.13, 0.56, 0.76], projection="3d")
+        self.ax3 = self.fig.add_axes([0.0, 0.12, 0.56, 0.74], projection="3d")
         self.axp = self.fig.add_subplot(gs[0, 1])
         self.axt = self.fig.add_subplot(gs[1, 1])
         g = mo["gamma_m2ps"]
