@@ -69,7 +69,7 @@ def one_line(text: Any) -> str:
 
 
 def config_message(exc: ConfigError) -> str:
-    """The message of a ConfigError without its ``key: `` prefix."""
+    """The message of a ConfigError without its ``"key: "`` prefix."""
     text = str(exc)
     prefix = f"{exc.key}: "
     return text[len(prefix):] if exc.key and text.startswith(prefix) else text

@@ -165,12 +165,19 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
           level_options: dict | None = None, **method_over) -> list[dict]:
     """Solve one limit cycle per value of ``key``; returns the table rows (see :data:`CSV_COLUMNS`).
 
-    level:          each point a :func:`birdocp.studies.level.level` solve (``level_options`` passed on:
-                    ``free``, ``bounds``, ``climb_rate_mps``, ``constrain``, ``target``).
-    warm:           warm-start each point from the last successful one (else from the config's guess).
-    out_dir:        run folder to write as the sweep goes (None: nothing written).
-    resume:         reuse the points found in ``out_dir`` (same key, values and configuration).
-    method_over:    overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
+    Parameters
+    ----------
+    level
+        each point a :func:`birdocp.studies.level.level` solve (``level_options`` passed on:
+        ``free``, ``bounds``, ``climb_rate_mps``, ``constrain``, ``target``).
+    warm
+        warm-start each point from the last successful one (else from the config's guess).
+    out_dir
+        run folder to write as the sweep goes (None: nothing written).
+    resume
+        reuse the points found in ``out_dir`` (same key, values and configuration).
+    method_over
+        overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
     """
     cfg = cfg or Config()
     key = resolve_key(key, "key")
