@@ -23,7 +23,7 @@ from birdocp.bird.model import GEOMETRY_OUTPUTS, get_model
 __all__ = ["motion", "interpolate_states", "earth_path", "MOTION_KEYS"]
 
 MOTION_KEYS = ("t_s", "x", "chain_m", "feather_base_m", "feather_tip_m", "leading_edge_m",
-               "trailing_edge_m", "line_m", "gamma_m2ps", "joint_angles_rad")
+               "trailing_edge_m", "leading_edge_raw_m", "line_m", "chord_m", "gamma_m2ps", "joint_angles_rad")
 """Keys of the dict returned by :func:`motion`."""
 
 FEATHER_ORDER = (6, 4, 2, 0)  # the master feathers, shoulder to hand tip (trailing-edge points 0..3)
@@ -87,7 +87,7 @@ def interpolate_states(t_s: np.ndarray, x: np.ndarray, times_s: np.ndarray, peri
     return h00 * x[i] + h10 * h * slope[i] + h01 * x[i + 1] + h11 * h * slope[i + 1]
 
 
-def motion(cfg: Config, times_s, states, p=None) -> dict:
+def motion(cfg: Config, times_s, states=None, p=None) -> dict:
     """Geometry and circulation of the bird at each time, for drawing.
 
     Parameters
@@ -96,8 +96,9 @@ def motion(cfg: Config, times_s, states, p=None) -> dict:
         The configuration (its structure selects the model's graphs).
     times_s : (F,) array_like
         Times [s] in the flapping cycle.
-    states : (F, 4) array_like
+    states : (F, 4) array_like, optional
         Flight states (u, w [m/s], q [rad/s], theta [rad]) at those times; they set the circulation.
+        Without them the result has the geometry only (no ``x``, no ``gamma_m2ps``).
     p : (n_p,) array_like, optional
         Parameter vector (:data:`birdocp.bird.config.PARAM_NAMES`); default ``param_vector(cfg)``.
         A level-flight run passes its solved parameters here.
@@ -108,13 +109,14 @@ def motion(cfg: Config, times_s, states, p=None) -> dict:
         Arrays (leading axis: time), code frame with origin at G, metres:
         ``t_s`` (F,); ``x`` (F, 4); ``chain_m`` (F, 3, 4) right-wing shoulder, elbow, wrist and hand
         tip; ``feather_base_m`` and ``feather_tip_m`` (F, 3, 4) master feathers 6, 4, 2, 0;
-        ``leading_edge_m`` and ``trailing_edge_m`` (F, 3, K) smoothed edges of the right wing;
+        ``leading_edge_m`` and ``trailing_edge_m`` (F, 3, K) smoothed edges of the right wing,
+        ``leading_edge_raw_m`` (F, 3, 5) its raw leading edge (the last point is the wing tip);
         ``line_m`` (F, 3, 33) merged lifting line of both wings (nodes at even, element centres at
-        odd columns); ``gamma_m2ps`` (F, 16) circulation of the 16 elements [m^2/s], left tip to
+        odd columns) and ``chord_m`` (F, 33) its chords; ``gamma_m2ps`` (F, 16) circulation of the 16 elements [m^2/s], left tip to
         right tip; ``joint_angles_rad`` (F, 7) in the order of :data:`birdocp.bird.config.JOINT_NAMES`.
     """
     times = np.asarray(times_s, float).ravel()
-    X = np.asarray(states, float).reshape(len(times), 4)
+    X = None if states is None else np.asarray(states, float).reshape(len(times), 4)
     m = get_model(cfg)
     pv = np.asarray(param_vector(cfg) if p is None else p, float).ravel()
     bones = _bones_function(float(cfg.gait.frequency_hz))
@@ -123,8 +125,9 @@ def motion(cfg: Config, times_s, states, p=None) -> dict:
     # right shoulder relative to G: x_ep along e1, root_ahead_m forward (= -e3)
     shoulder = np.array([[x_ep], [0.0], [-root]])
     centre = np.array([[0.0], [0.0], [-root]])   # the geometry's 'line' origin (body centre line)
-    out = {k: [] for k in MOTION_KEYS if k not in ("t_s", "x")}
-    for t, x in zip(times, X):
+    keys = [k for k in MOTION_KEYS if k not in ("t_s", "x") and (X is not None or k != "gamma_m2ps")]
+    out = {k: [] for k in keys}
+    for i, t in enumerate(times):
         g = dict(zip(GEOMETRY_OUTPUTS, m.geometry(float(t), pv)))
         chain, fb, ft = (np.array(v) for v in bones(float(t), pv))
         out["chain_m"].append(chain + shoulder)
@@ -132,13 +135,16 @@ def motion(cfg: Config, times_s, states, p=None) -> dict:
         out["feather_tip_m"].append(ft + shoulder)
         out["leading_edge_m"].append(np.array(g["leading_edge"]) + shoulder)
         out["trailing_edge_m"].append(np.array(g["trailing_edge"]) + shoulder)
+        out["leading_edge_raw_m"].append(np.array(g["leading_edge_raw"]) + shoulder)
         out["line_m"].append(np.array(g["line"]) + centre)
+        out["chord_m"].append(np.array(g["chord_m"]).ravel())
         out["joint_angles_rad"].append(np.array(g["joint_angles_rad"]).ravel())
-        gamma = m.aero_detail(ca.DM(x), float(t), pv)[0]
-        out["gamma_m2ps"].append(np.array(gamma).ravel())
+        if X is not None:
+            out["gamma_m2ps"].append(np.array(m.aero_detail(ca.DM(X[i]), float(t), pv)[0]).ravel())
     res = {k: np.array(v) for k, v in out.items()}
     res["t_s"] = times
-    res["x"] = X
+    if X is not None:
+        res["x"] = X
     if not all(np.all(np.isfinite(v)) for v in res.values()):
         raise FloatingPointError("the geometry or circulation is not finite at some time")
     return res

@@ -49,12 +49,19 @@ ax.plot(lam_pts[stable], x_pts[stable], "o", color="tab:blue", ms=4, label="stab
 ax.plot(lam_pts[~stable], x_pts[~stable], "o", color="tab:red", ms=4, label="unstable cycle")
 for sp in branch.special_points:
     ax.plot(sp.parameter, sp.x0[0], "k*", ms=12, label=sp.kind)
-ax.set_xlabel("lam")
-ax.set_ylabel("x(0) on the cycle")
-ax.set_title("fold of cycles")
-ax.legend(fontsize=8)
-ax.grid(alpha=0.3)
-plt.show()
+
+
+def finish(ax, ylabel, title):
+    """Labels, legend and grid of a branch figure."""
+    ax.set_xlabel("lam")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    plt.show()
+
+
+finish(ax, "x(0) on the cycle", "fold of cycles")
 
 # %%
 # A period doubling
@@ -85,9 +92,4 @@ ax.plot(lp, -np.exp(lp), color="0.6", lw=4, alpha=0.5, label="exact -exp(lam)")
 ax.axhline(-1, color="k", lw=0.6)
 for sp in pd_branch.special_points:
     ax.axvline(sp.parameter, color="k", ls="--", label=sp.kind)
-ax.set_xlabel("lam")
-ax.set_ylabel("real multipliers")
-ax.set_title("a multiplier through -1")
-ax.legend(fontsize=8)
-ax.grid(alpha=0.3)
-plt.show()
+finish(ax, "real multipliers (the second stays at -exp(-1))", "a multiplier through -1")
