@@ -84,7 +84,7 @@ def progress_bar(total: int | None, label: str, quiet: bool = False, unit: str =
 
     return tqdm(total=total, desc=label, unit=unit, file=stream, dynamic_ncols=True, leave=True,
                 bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} "
-                           "[{elapsed}<{remaining}] {postfix}" if total else None)
+                           "[{elapsed}<{remaining}]{postfix}" if total else None)
 
 
 def progress_callback(label: str, quiet: bool = False, total: int | None = None,
