@@ -5,6 +5,12 @@ Tool choice: Sphinx, because the scientific Python stack (numpy, scipy, CasADi's
 documents itself with it: numpydoc reads the docstrings as they are written in birdocp, autosummary
 generates one page per module recursively (a new module appears without editing the docs),
 sphinx-gallery executes the tutorials at every build, and MyST lets pages be Markdown.
+
+Adding to the docs: a study page is a new file docs/studies/NAME.md (the Studies toctree globs the
+folder); a tutorial is a new script docs/tutorials_src/plot_NN_name.py (executed at every build: keep
+it to seconds); a new module appears in the API reference by itself (recursive autosummary) and a new
+command in the CLI reference (generated from the parser). Any other new page must be added to a
+toctree in index.md (-W turns "not in any toctree" into an error).
 """
 
 from __future__ import annotations
