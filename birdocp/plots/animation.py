@@ -66,9 +66,12 @@ def _mirror(P: np.ndarray) -> np.ndarray:
 
 
 def _stroke(flap_rad: np.ndarray, k: int) -> str:
-    """'downstroke' where the flapping angle decreases (tip moving down), else 'upstroke'."""
+    """'downstroke' where the flapping angle decreases (tip moving down), 'upstroke' where it
+    increases, 'reversal' at a turning point (the change over two frames is below 1e-6 of the range)."""
     n = len(flap_rad)
     d = flap_rad[(k + 1) % n] - flap_rad[(k - 1) % n]
+    if abs(d) <= 1e-6 * max(float(np.ptp(flap_rad)), 1e-12):
+        return "reversal"
     return "downstroke" if d < 0 else "upstroke"
 
 
