@@ -56,6 +56,8 @@ def common_options() -> argparse.ArgumentParser:
     o = p.add_argument_group("output")
     o.add_argument("--json", action="store_true", help="print one JSON object on stdout instead of a table")
     o.add_argument("--debug", action="store_true", help="show Python tracebacks on errors")
+    o.add_argument("--quiet", action="store_true",
+                   help="no progress bar on stderr (there is none anyway when stderr is not a terminal)")
     return p
 
 
@@ -67,7 +69,7 @@ def one_line(text: Any) -> str:
 
 
 def config_message(exc: ConfigError) -> str:
-    """The message of a ConfigError without its ``key: `` prefix."""
+    """The message of a ConfigError without its ``"key: "`` prefix."""
     text = str(exc)
     prefix = f"{exc.key}: "
     return text[len(prefix):] if exc.key and text.startswith(prefix) else text

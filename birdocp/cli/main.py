@@ -55,6 +55,7 @@ __all__ = ["main", "build_parser", "resolve_config", "EXIT_OK", "EXIT_NOT_CONVER
 
 COMMAND_MODULES = (
     "birdocp.cli.study",
+    "birdocp.cli.animate",
 )
 """Modules that add subcommands: each defines ``register(sub, common)`` (``sub`` the subparsers
 action, ``common`` the parent parser with the configuration and output options) and sets
@@ -285,7 +286,6 @@ def _add_level_parsers(sub, common) -> None:
     p.add_argument("--out", metavar="DIR", help="run folder (new or empty; with --resume an earlier sweep's folder); "
                                                 "default runs/<time>-sweep-<id>/")
     p.add_argument("--resume", action="store_true", help="continue the sweep in --out DIR (same arguments)")
-    p.add_argument("--quiet", action="store_true", help="no progress line on stderr")
     _level_options(p, True)
     _solve_shortcuts(p)
     x = p.add_argument_group("grid and executors")
@@ -320,7 +320,6 @@ def _add_level_parsers(sub, common) -> None:
     p.add_argument("--bounds", type=float, nargs=2, metavar=("LO", "HI"),
                    help="amplitude bounds with --level (default 20 70 deg); leaving them ends the branch")
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-continue-<id>/")
-    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     _solve_shortcuts(p)
     p.set_defaults(func=cmd_continue)
 
@@ -575,8 +574,10 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
     from birdocp.studies.branch import bird_branch
     from birdocp.io.files import atomic_write_json
 
-    say = (lambda text: None) if args.quiet else (lambda text: print(f"continue: {text}", file=sys.stderr, flush=True))
-    with stdout_to_stderr():
+    from birdocp.io.progress import progress_callback
+
+    say, bar = progress_callback(f"continue {args.param}", args.quiet)
+    with stdout_to_stderr(), bar:
         br = bird_branch(cfg, args.param, a, b, level=args.level, climb_rate_mps=args.climb_rate, bounds=args.bounds,
                          step=args.step, max_points=args.max_points, progress=say)
     d = br.to_dict()

@@ -133,8 +133,11 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
         if k not in free:
             raise ConfigError("--bounds", f"'{k}' is not free; add --free {k}")
     run_dir = claim_out_dir(args.out, "optimize-stability") if args.out else new_run_dir(None, "optimize-stability")
-    with cli.stdout_to_stderr():
-        res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, progress=not args.json)
+    from birdocp.io.progress import progress_callback
+
+    say, bar = progress_callback("optimize-stability", args.quiet)
+    with cli.stdout_to_stderr(), bar:
+        res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, progress=say)
     result = res.to_dict()
     result["run_dir"] = str(run_dir)
     write_run(run_dir, res.cfg or cfg, result, None, command_line, command="optimize-stability")

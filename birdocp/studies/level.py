@@ -93,15 +93,24 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
           **method_over) -> "TrimResult":
     """Level (or climbing) periodic flight: ``free`` solved so that the mean of ``constrain`` is met.
 
-    cfg:            configuration (default: the paper's reference case); the free parameter starts
-                    from its configured value (or from ``warm_start``'s value, if given).
-    free:           a :data:`PARAM_NAMES` key or alias (``amplitude``, ``root_ahead_m``).
-    bounds:         (lo, hi) of the free parameter; default per :func:`default_bounds`.
-    climb_rate_mps: target mean vertical speed (``constrain="vertical_speed_mps"``).
-    target:         target of the condition for the other constraints (forward speed in m/s, flight
-                    path angle in deg); for the vertical speed it overrides ``climb_rate_mps``.
-    warm_start:     a previous :class:`TrimResult` / LimitCycleResult (shooting points and free value).
-    method_over:    overrides of :class:`~birdocp.engine.shooting.MultipleShooting` (default ``cfg.solve``).
+    Parameters
+    ----------
+    cfg
+        configuration (default: the paper's reference case); the free parameter starts
+        from its configured value (or from ``warm_start``'s value, if given).
+    free
+        a :data:`PARAM_NAMES` key or alias (``amplitude``, ``root_ahead_m``).
+    bounds
+        (lo, hi) of the free parameter; default per :func:`default_bounds`.
+    climb_rate_mps
+        target mean vertical speed (``constrain="vertical_speed_mps"``).
+    target
+        target of the condition for the other constraints (forward speed in m/s, flight
+        path angle in deg); for the vertical speed it overrides ``climb_rate_mps``.
+    warm_start
+        a previous :class:`TrimResult` / LimitCycleResult (shooting points and free value).
+    method_over
+        overrides of :class:`~birdocp.engine.shooting.MultipleShooting` (default ``cfg.solve``).
 
     Returns a :class:`TrimResult`; ``free_values`` holds the solved parameter, ``amplitude_deg`` the
     (solved or fixed) amplitude.
