@@ -1,4 +1,6 @@
 """Pseudo-arclength continuation: exact special points on constructed forced systems, a short bird branch."""
+
+import pytest
 import json
 import math
 
@@ -93,6 +95,7 @@ def test_neimark_sacker_detected():
     assert br.points[0].stable and not br.points[-1].stable
 
 
+@pytest.mark.slow
 def test_bird_branch_agrees_with_independent_trims(tmp_path):
     """A short fixed-amplitude branch in the root position (coarse grid) = trims at three root positions;
     the CLI writes it and 'plot' redraws it."""
@@ -111,6 +114,9 @@ def test_bird_branch_agrees_with_independent_trims(tmp_path):
         assert np.max(np.abs(np.array(pt.x0) - tr.x0)) < 1e-7
         L = np.sort_complex(np.array([complex(*m) for m in pt.multipliers]))
         assert np.max(np.abs(L - np.sort_complex(tr.multipliers))) < 1e-7
+        # every branch point carries the model's validity, the same as the trim's (its trajectory)
+        assert pt.validity["valid"] is tr.validity.valid
+        assert abs(pt.validity["alpha_eff_max_deg"] - tr.validity.measures["alpha_eff_max_deg"]) < 1e-6
     # the expanding multiplier falls as the root moves back (fact: +0.354 per cm forward at 42 deg)
     assert br.points[-1].moduli[0] < br.points[0].moduli[0] - 0.05
     out = tmp_path / "run"
@@ -118,10 +124,12 @@ def test_bird_branch_agrees_with_independent_trims(tmp_path):
                  "--out", str(out), "--quiet", "--json"]) == 0
     d = json.loads((out / "branch.json").read_text())
     assert d["end_reason"] == "reached_to" and abs(d["points"][-1]["parameter"] - 0.049) < 1e-12
+    assert all(set(p["validity"]) >= {"valid", "reasons"} for p in d["points"])
     (out / "moduli.png").unlink()
     assert main(["plot", str(out)]) == 0 and (out / "moduli.png").is_file()
 
 
+@pytest.mark.slow
 def test_branch_leaves_a_start_where_the_parameter_derivative_vanishes():
     """The tail's loads grow like the square of its opening angle, so dG/d(angle) ~ 0 at angle 0: a
     corrector that trusted the start's Jacobian wandered to negative angles and reported a fold at

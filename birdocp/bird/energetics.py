@@ -38,7 +38,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES
-from birdocp.bird.model import N_DATA, load_terms, unpack_data
+from birdocp.bird.model import load_terms, unpack_data
 
 __all__ = ["POWER_NAMES", "PowerFunctions", "power_functions", "shoulder_power_W", "cycle_energetics",
            "ENERGETICS_KEYS"]
@@ -69,7 +69,8 @@ class PowerFunctions:
     """The power Functions of one :class:`birdocp.bird.model.BirdModel` (built once, see
     :func:`power_functions`).
 
-    ``power(x, d, p)``: column of :data:`POWER_NAMES` (W) followed by U and W (m/s), at state x, data d.
+    ``power(x, d, p)``: column of :data:`POWER_NAMES` (W) followed by U and W (m/s) and, when the wings
+    have mass, the shoulders' inertial power (W) (row names: ``names``), at state x, data d.
     ``energy(x, p)``: rigid-body mechanical energy E_b = m (u^2 + w^2)/2 + I q^2/2 (J, without the
     potential part; dE_b/dt + m g W = P_body along the motion).
     """
@@ -77,7 +78,7 @@ class PowerFunctions:
     def __init__(self, model):
         self.model = model
         x = ca.SX.sym("x", 4)
-        d = ca.SX.sym("d", N_DATA)
+        d = ca.SX.sym("d", model.ode.nd)  # N_DATA, plus the wing-mass sums when the wings have mass
         p = ca.SX.sym("p", len(PARAM_NAMES))
         lt = load_terms(model.structure, x, d, p)
         u, w, q, th = x[0], x[1], x[2], x[3]
@@ -97,8 +98,16 @@ class PowerFunctions:
         P_pro = ca.sum2(ca.sum1(lt["dD"] * V))
         U = u * ca.cos(th) + w * ca.sin(th)
         W = u * ca.sin(th) - w * ca.cos(th)
-        out = ca.vertcat(P_aero, P_flap, P_body, P_ind, P_pro, P_par, P_tail, U, W)
-        self.power = ca.Function("power", [x, d, p], [out], ["x", "d", "p"], ["power"])
+        rows = [P_aero, P_flap, P_body, P_ind, P_pro, P_par, P_tail, U, W]
+        self.names = POWER_NAMES + ("forward_speed_mps", "vertical_speed_mps")
+        if getattr(model, "wing_power_d", None) is not None:
+            # wings with mass: the power the shoulders spend on the wings' masses (inertia.md 6)
+            from birdocp.bird.model import WING_POWER_NAMES
+
+            wp = model.wing_power_d(x, d, p)
+            rows.append(wp[WING_POWER_NAMES.index("shoulder_inertial_power_W")])
+            self.names += ("shoulder_inertial_power_W",)
+        self.power = ca.Function("power", [x, d, p], [ca.vertcat(*rows)], ["x", "d", "p"], ["power"])
         # smooth positive part 1/2 (P + sqrt(P^2 + eps^2)) of the flapping power (error <= eps/2)
         eps = ca.SX.sym("eps")
         self.positive_flapping = ca.Function(
@@ -146,7 +155,8 @@ def cycle_energetics(model, p, x0, steps_per_period: int, t0: float = 0.0, inert
     model:    a BirdModel or ConfiguredModel; p: parameter vector; steps_per_period: RK4 steps (the
               trim's grid, so the means are those of the solved cycle).
     inertial_power_W, mean_inertial_power_W: the wings' inertial power at the N sample times
-              t0 + (k+1) T/N and its mean, when the wings have mass (default 0: massless wings).
+              t0 + (k+1) T/N and its mean; by default the model's own (the shoulders' inertial
+              power when the wings have mass, else 0).
 
     Returns a dict with the scalars of :data:`ENERGETICS_KEYS` (SI units, each named with its unit),
     ``means`` (every row of the power vector), ``samples`` (``t_s`` and each power in W at the N step
@@ -161,12 +171,15 @@ def cycle_energetics(model, p, x0, steps_per_period: int, t0: float = 0.0, inert
     T = grid.ode.period_s
     N = grid.N
     mean = np.asarray(q).ravel() / T
-    names = POWER_NAMES + ("forward_speed_mps", "vertical_speed_mps")
+    names = pf.names
     means = dict(zip(names, mean.tolist()))
     Dend = D[:, list(range(2, 3 * N, 3))]  # d(t0 + (k+1) h), the data of the trajectory's states
     S = np.asarray(pf.power.map(N)(X, Dend, pd))
     samples = {n: S[i] for i, n in enumerate(names)}
     t = t0 + grid.h * np.arange(1, N + 1)
+    if inertial_power_W is None and "shoulder_inertial_power_W" in samples:  # wings with mass
+        inertial_power_W = samples["shoulder_inertial_power_W"]
+        mean_inertial_power_W = means["shoulder_inertial_power_W"]
     inertial = np.zeros(N) if inertial_power_W is None else np.asarray(inertial_power_W, float)
     P_sh = shoulder_power_W(samples["flapping_power_W"], inertial)
     pos, neg = _positive_negative(P_sh)

@@ -27,7 +27,7 @@ import numpy as np
 from birdocp.engine.cache import bounded_cache, clear_caches
 from birdocp.engine.floquet import FloquetResult, floquet_from_jacobians
 from birdocp.engine.integrate import RK4Grid
-from birdocp.engine.oracle import ConstraintOracle
+from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
 
 __all__ = ["MultipleShooting", "LimitCycleResult", "solve", "clear_cache", "floquet", "ShootingGraphs",
@@ -41,11 +41,6 @@ _IPOPT_DEFAULTS = {
     # When this first attempt fails, solve() retries once with IPOPT's filter line search
     # (MultipleShooting.ipopt_fallback).
     "ipopt.accept_every_trial_step": "yes",
-    "ipopt.hessian_approximation": "limited-memory",
-    "ipopt.sb": "yes",
-    "ipopt.print_level": 0,
-    "print_time": False,
-    "ipopt.linear_solver": "mumps",
 }
 
 
@@ -53,22 +48,34 @@ _IPOPT_DEFAULTS = {
 class MultipleShooting:
     """How to solve a LimitCycleProblem.
 
-    points:           M, shooting points INCLUDING the closing one (M-1 segments), M >= 2.
-    steps_per_period: N, RK4 steps over the period; a multiple of points-1.
-    solver:           "ipopt" | "lm" (the paper's Levenberg-Marquardt).
-    derivatives:      "exact" (CasADi AD) | "fd" (forward differences of the segment flow, relative
-                      step 1e-3*x_j, absolute step 1e-3*fd_floor when |x_j| < fd_floor; lm only).
-    tol:              None -> 1e-10 for ipopt (``constr_viol_tol`` and ``tol``),
-                      1e-5 for lm (max |E|, as in the paper). Both are absolute max-norms.
-    max_iter:         iteration limit.
-    ipopt_options:    merged over the defaults (full steps ``accept_every_trial_step``, limited-
-                      memory Hessian, MUMPS, silent).
-    fd_floor:         see ``derivatives``.
-    regularization:   ipopt objective weight w in w/2 |z - z_guess|^2 (z = shooting points and free
-                      parameters). Default 0: pure feasibility (measured: no weight in 1e-8..1e-2
-                      helped IPOPT converge; the square system fixes the solution anyway).
-    ipopt_fallback:   if the first IPOPT attempt (full steps) fails, retry once from the same guess
-                      with IPOPT's filter line search; iterations and histories are concatenated.
+    Attributes
+    ----------
+    points
+        M, shooting points INCLUDING the closing one (M-1 segments), M >= 2.
+    steps_per_period
+        N, RK4 steps over the period; a multiple of points-1.
+    solver
+        "ipopt" | "lm" (the paper's Levenberg-Marquardt).
+    derivatives
+        "exact" (CasADi AD) | "fd" (forward differences of the segment flow, relative
+        step 1e-3*x_j, absolute step 1e-3*fd_floor when |x_j| < fd_floor; lm only).
+    tol
+        None -> 1e-10 for ipopt (``constr_viol_tol`` and ``tol``),
+        1e-5 for lm (max |E|, as in the paper). Both are absolute max-norms.
+    max_iter
+        iteration limit.
+    ipopt_options
+        merged over the defaults (full steps ``accept_every_trial_step``, limited-
+        memory Hessian, MUMPS, silent).
+    fd_floor
+        see ``derivatives``.
+    regularization
+        ipopt objective weight w in w/2 |z - z_guess|^2 (z = shooting points and free
+        parameters). Default 0: pure feasibility (measured: no weight in 1e-8..1e-2
+        helped IPOPT converge; the square system fixes the solution anyway).
+    ipopt_fallback
+        if the first IPOPT attempt (full steps) fails, retry once from the same guess
+        with IPOPT's filter line search; iterations and histories are concatenated.
     """
 
     points: int = 5
@@ -133,16 +140,25 @@ def _jsonable(v):
 class LimitCycleResult:
     """Outcome of :func:`solve`. Failures are results (``success=False``), not exceptions.
 
-    status: IPOPT ``return_status`` (e.g. "Solve_Succeeded") for ipopt; "converged", "max_iter",
-            "nan", "singular" for lm; "nan" also when an ipopt iterate is non-finite.
-    residual_history: max |continuity + periodicity (+ mean) residual| per iteration (ipopt: inf_pr
-            as reported by IPOPT, unscaled; lm: max|E| before each step and after the last).
-    max_residual: max abs of all equations (continuity, periodicity, mean conditions) at the result.
-    means: period mean of each mean-condition output and each extra output (by name).
-    monodromy_vs_full_period_jacobian: max abs difference between the product of segment Jacobians
-            and the Jacobian of the one-period map from x0 (accuracy indicator).
-    doubling_times_s: ln 2 / Re(exponent), signed (negative = minus the halving time); see floquet.
-    JSON: ``to_dict()`` gives lists/dicts/floats; complex arrays as {"real": [...], "imag": [...]};
+    Attributes
+    ----------
+    status
+        IPOPT ``return_status`` (e.g. "Solve_Succeeded") for ipopt; "converged", "max_iter",
+        "nan", "singular" for lm; "nan" also when an ipopt iterate is non-finite.
+    residual_history
+        max |continuity + periodicity (+ mean) residual| per iteration (ipopt: inf_pr
+        as reported by IPOPT, unscaled; lm: max|E| before each step and after the last).
+    max_residual
+        max abs of all equations (continuity, periodicity, mean conditions) at the result.
+    means
+        period mean of each mean-condition output and each extra output (by name).
+    monodromy_vs_full_period_jacobian
+        max abs difference between the product of segment Jacobians
+        and the Jacobian of the one-period map from x0 (accuracy indicator).
+    doubling_times_s
+        ln 2 / Re(exponent), signed (negative = minus the halving time); see floquet.
+
+    ``to_dict()`` gives lists/dicts/floats for JSON; complex arrays as {"real": [...], "imag": [...]};
     non-finite floats stay floats (json.dumps writes Infinity/NaN).
     """
 
@@ -197,7 +213,7 @@ def rk4_grid(ode, method: MultipleShooting, outputs) -> RK4Grid:
     return grid
 
 
-class ShootingGraphs:
+class ShootingGraphs(Evaluator):
     """The graphs of one shooting configuration (see module docstring for the cache key).
 
     Residual and Jacobian (``evaluate``): one CasADi Function ``sens`` returns the segment ends, the
@@ -393,12 +409,6 @@ class ShootingGraphs:
         self._last = (key, g, A, Jb, np.asarray(means).ravel())
         return g, A
 
-    def g(self, z):
-        return self.evaluate(z)[0]
-
-    def jacobian(self, z):
-        return self.evaluate(z)[1]
-
     def blocks_at(self, z):
         """The segment Jacobians J_i (list) at z if z is the last evaluated point, else None."""
         z = np.asarray(z, float).ravel()
@@ -433,7 +443,7 @@ class ShootingGraphs:
 
     def ipopt(self, method: MultipleShooting, fallback: bool = False):
         tol = method.resolved_tol
-        opts = dict(_IPOPT_DEFAULTS)
+        opts = ipopt_options(**_IPOPT_DEFAULTS)
         opts.update({"ipopt.max_iter": int(method.max_iter), "ipopt.tol": tol, "ipopt.constr_viol_tol": tol})
         opts.update(method.ipopt_options)
         if fallback:
@@ -541,10 +551,6 @@ def _lm(b: ShootingGraphs, method, problem, z, lo, hi, fd):
         it += 1
 
 
-def _fd_steps(v, floor):
-    return np.where(np.abs(v) >= floor, 1e-3 * v, 1e-3 * floor)
-
-
 def _fd_jacobian(b: ShootingGraphs, problem, z, r0, floor):
     """Forward differences as in the paper: segment Jacobians column by column (all segments in one
     mapped call per state), the shooting matrix assembled around them; free-parameter columns by
@@ -556,20 +562,10 @@ def _fd_jacobian(b: ShootingGraphs, problem, z, r0, floor):
     if nf:
         pfull[list(b.free_idx)] = z[-nf:]
     Dn = b.grid.blocks_numeric(problem.t0, pfull)
-    pd = ca.DM(pfull)
-    Xe0, _, Q0 = (np.asarray(v) for v in b.grid.segments(ca.DM(X[:, :S]), Dn, pd))
     J = np.zeros((b.ng, b.nz))
     I = np.eye(nx)
-    Js = np.zeros((S, nx, nx))
-    dM = np.zeros((nm, S, nx))
-    for j in range(nx):
-        hj = _fd_steps(X[j, :S], floor)
-        Xp = X[:, :S].copy()
-        Xp[j, :] += hj
-        Xe, _, Q = (np.asarray(v) for v in b.grid.segments(ca.DM(Xp), Dn, pd))
-        Js[:, :, j] = ((Xe - Xe0) / hj).T
-        if nm:
-            dM[:, :, j] = (Q[:nm] - Q0[:nm]) / hj / T
+    Js, dQ = b.grid.fd_segment_jacobians(X[:, :S], Dn, pfull, floor)
+    dM = dQ[:nm] / T
     for i in range(S):
         J[i * nx:(i + 1) * nx, i * nx:(i + 1) * nx] = Js[i]
         J[i * nx:(i + 1) * nx, (i + 1) * nx:(i + 2) * nx] = -I
@@ -580,7 +576,7 @@ def _fd_jacobian(b: ShootingGraphs, problem, z, r0, floor):
     for k in range(nf):
         col = b.nz - nf + k
         zp = z.copy()
-        hk = _fd_steps(np.array([z[col]]), floor)[0]
+        hk = 1e-3 * z[col] if abs(z[col]) >= floor else 1e-3 * floor
         zp[col] += hk
         rp = b.resid(zp)
         J[:, col] = (rp - r0) / hk
@@ -694,8 +690,13 @@ def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShootin
         means_v = np.full(grid.nq, np.nan)
         g = np.full(b.ng, np.nan)
     max_res = float(np.max(np.abs(g))) if np.all(np.isfinite(g)) else float("nan")
-    if method.solver == "ipopt" and success and not (max_res <= 10 * method.resolved_tol):
-        message += f" (max residual {max_res:.2e})"
+    if method.solver == "ipopt":
+        # converged means the residual is below the tolerance, whatever IPOPT's status says (its
+        # Feasible_Point_Found / Solved_To_Acceptable_Level count as "success" at any residual)
+        converged = bool(max_res <= 10 * method.resolved_tol)
+        if success != converged:
+            message += f" (max residual {max_res:.2e}: {'' if converged else 'not '}converged)"
+        success = converged
     X = z[: nx * (S + 1)].reshape(S + 1, nx)
     traj_x = np.vstack([X[0][None, :], Xt.T])
     names = problem.mean_names()

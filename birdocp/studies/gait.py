@@ -139,7 +139,7 @@ class ReducedLevelCycle:
     def __init__(self, cfg: Config, keys, steps_per_period: int | None = None, climb_rate_mps: float = 0.0,
                  second_order: bool = False, amplitude_start_deg: float | None = None):
         from birdocp.bird.energetics import power_functions
-        from birdocp.bird.model import N_DATA, get_model
+        from birdocp.bird.model import get_model
         from birdocp.engine.integrate import RK4Grid
         from birdocp.engine.variational import PeriodSensitivities
 
@@ -156,9 +156,11 @@ class ReducedLevelCycle:
         self.p0 = np.asarray(m.p0, float).copy()
         self.T = m.period_s
         pf = power_functions(m)
-        x, d, p = ca.SX.sym("x", 4), ca.SX.sym("d", N_DATA), ca.SX.sym("p", len(PARAM_NAMES))
+        x, d, p = ca.SX.sym("x", 4), ca.SX.sym("d", m.ode.nd), ca.SX.sym("p", len(PARAM_NAMES))
         pw = pf.power(x, d, p)
-        Pf = pw[1]
+        Pf = pw[1]  # the shoulder power: flapping (aerodynamic) + the wings' inertial part if any
+        if "shoulder_inertial_power_W" in pf.names:
+            Pf = Pf + pw[pf.names.index("shoulder_inertial_power_W")]
         out = ca.vertcat(pw[8], pw[7], Pf, pw[0], 0.5 * (Pf + ca.sqrt(Pf ** 2 + POSITIVE_EPS_W ** 2)))
         self.outputs = ca.Function("gait_outputs", [x, d, p], [out])
         self.grid = RK4Grid(m.ode, N, 1, outputs=(self.outputs,))
@@ -379,6 +381,7 @@ class _Problem:
         self.jac_sparsity = ca.Sparsity.dense(self.ng, self.nz)
         self.sigma = np.ones(self.nz)
         self.failures: list = []
+        self.progress = None
         mg = float(get_value(rc.cfg, "body.mass_kg") * get_value(rc.cfg, "body.gravity_mps2"))
         self.mg = mg
 
@@ -432,6 +435,9 @@ class _Problem:
             G[0], J[0, -1] = z[-1], 1.0
         else:
             G[0], J[0, :nt] = self._obj(ev, z)
+        if callable(self.progress):
+            self.progress(f"{self.objective} {G[0]:.6g}, |L1| {np.max(np.abs(ev.multipliers)):.5f}, "
+                          f"A {ev.amplitude_deg:.3f} deg")
         G[1], J[1, :nt] = ev.amplitude_deg, ev.grads["amplitude_deg"]
         i = 2
         if self.speed is not None:
@@ -514,6 +520,7 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
         return _failed(objective, free, f"start: {e}", cfg, speed_mps, max_multiplier)
     wall["start"] = time.perf_counter() - t0
     prob = _Problem(rc, objective, speed_mps, max_multiplier, amplitude_bounds)
+    prob.progress = progress
     z0 = ev0.theta.copy()
     lbx, ubx = lo.copy(), hi.copy()
     if prob.with_r:
@@ -537,7 +544,7 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     opts = {"ipopt.hessian_approximation": "limited-memory",
             "ipopt.limited_memory_update_type": "bfgs" if prob.with_r else "sr1",
             "ipopt.sb": "yes",
-            "ipopt.print_level": 5 if progress else 0, "print_time": False, "ipopt.max_iter": int(max_iter),
+            "ipopt.print_level": 5 if progress is True else 0, "print_time": False, "ipopt.max_iter": int(max_iter),
             "ipopt.tol": tol, "ipopt.constr_viol_tol": 1e-8, "ipopt.acceptable_tol": 1e-6,
             "ipopt.acceptable_iter": 5, "ipopt.mu_strategy": "adaptive", "ipopt.nlp_scaling_method": "gradient-based", **(ipopt_options or {})}
     solver = ca.nlpsol("gait", "ipopt", nlp, opts)

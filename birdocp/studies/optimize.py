@@ -32,6 +32,8 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import Config, with_values
+from birdocp.bird.validity import invalid, periodic_validity
+from birdocp.engine.floquet import matched_distances
 from birdocp.studies.gait import jury_conditions
 
 __all__ = ["DEFAULT_FREE", "optimize_stability", "StabilityOptimum", "jury_conditions"]
@@ -72,6 +74,8 @@ class StabilityOptimum:
     verification: dict = field(default_factory=dict)
     wall_s: dict = field(default_factory=dict)
     cfg: Config | None = None
+    validity: dict | None = None
+    """Where the model holds on the optimal cycle (:func:`birdocp.bird.validity.periodic_validity`)."""
 
     @property
     def stable(self) -> bool:
@@ -86,6 +90,7 @@ class StabilityOptimum:
                 "multipliers": pair(self.multipliers), "moduli": np.abs(self.multipliers).tolist(),
                 "start_multipliers": pair(self.start_multipliers), "x0": self.x0.tolist(),
                 "stable": self.stable, "verification": self.verification, "wall_s": self.wall_s,
+                "validity": self.validity or invalid(self.cfg, "not checked (no optimal cycle)").to_dict(),
                 "active_bounds": [k for k, v in self.free.items()
                                   if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6]}
 
@@ -93,13 +98,14 @@ class StabilityOptimum:
 def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, climb_rate_mps: float = 0.0,
                        amplitude_bounds=(20.0, 70.0), steps_per_period: int | None = None,
                        max_iter: int = 400, tol: float = 1e-7, verify: bool = True,
-                       progress: bool = False, coarse_steps: int | None = None) -> StabilityOptimum:
+                       progress=False, coarse_steps: int | None = None) -> StabilityOptimum:
     """Minimise the largest multiplier modulus of a level-flight cycle over the gait parameters
     ``free`` (key -> (lower, upper); default :data:`DEFAULT_FREE`).
 
     Reduced space (:mod:`birdocp.studies.gait`): the NLP's unknowns are the free parameters and r
     only; the level cycle (state and flapping amplitude) is solved for every iterate and its
-    monodromy's exact derivatives follow from the implicit function theorem. ``coarse_steps``
+    monodromy's exact derivatives follow from the implicit function theorem. ``progress``: False,
+    True (one line per gradient evaluation on stderr) or a callable taking that line. ``coarse_steps``
     (default None: off) first solves on that coarse grid and refines on the full one
     (``steps_per_period``, default ``cfg.solve.steps_per_period``)."""
     cfg = cfg or Config()
@@ -147,7 +153,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
         scratch = trim(cfg_best, points=5, steps_per_period=N_full)
         out.cfg = cfg_best
         pairs = lambda lam_: [[float(v.real), float(v.imag)] for v in lam_]
-        dist = lambda a, b: float(np.max(np.abs(np.sort_complex(a) - np.sort_complex(b))))
+        dist = lambda a, b: float(np.max(matched_distances(a, b)))
         Mnum = check.monodromy if check.success else None
         out.verification = {
             "trim_success": bool(check.success),
@@ -166,6 +172,14 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
             "evaluations": dict(g.evaluations),
         }
         wall["verify"] = time.perf_counter() - t0
+    if np.all(np.isfinite(np.asarray(g.x0))):
+        vals = dict(g.free)
+        vals[AMPLITUDE_KEY] = g.amplitude_deg
+        cfg_v = with_values(cfg, vals)
+        from birdocp.bird.config import param_vector
+
+        out.validity = periodic_validity(cfg_v, np.asarray(g.x0), param_vector(cfg_v),
+                                         steps_per_period=N_full).to_dict()
     wall["total"] = time.perf_counter() - t_start
     out.wall_s = wall
     return out
