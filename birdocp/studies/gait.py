@@ -227,6 +227,11 @@ class ReducedLevelCycle:
         return s, R, Ry, Rt, Jq, cy, ct
 
     # -- the reduced map -------------------------------------------------------------------------
+    def set_guess(self, x0) -> None:
+        """Start the first Newton solve from the state ``x0`` (at the configured amplitude)."""
+        self._y[:4] = np.asarray(x0, float)
+        self._started = True
+
     def _first_guess(self, theta):
         """x0 from a trim (multiple shooting) of the gait theta at the configured amplitude."""
         from birdocp.studies.trim import trim
@@ -468,7 +473,7 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
                   speed_mps: float | None = None, max_multiplier: float | None = None,
                   climb_rate_mps: float = 0.0, amplitude_bounds=(20.0, 70.0),
                   steps_per_period: int | None = None, max_iter: int = 100, tol: float = 1e-8,
-                  verify: bool = True, progress: bool = False, start: dict | None = None,
+                  verify: bool = True, progress=False, start: dict | None = None, x_guess=None,
                   ipopt_options: dict | None = None) -> GaitOptimum:
     """Minimise mean power (``objective="power"``), cost of transport, smoothed positive-work power,
     or the stability radius (``"stability"``) over the gait parameters ``free`` (key -> (lo, hi);
@@ -477,8 +482,9 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     all multipliers inside the circle of radius ``max_multiplier`` (None: no stability constraint).
 
     The start is the configured gait (``start`` overrides values), brought to ``speed_mps`` by the
-    first free key (Newton, exact derivative); its objective is ``start_objective_value``. The optimum
-    is verified by a trim from scratch (5-point multiple shooting) at the optimal gait."""
+    first free key (Newton, exact derivative); its objective is ``start_objective_value``. ``x_guess``:
+    the state at t = 0 of the start's level cycle, if known (default: a trim of the start gait). The
+    optimum is verified by a trim (5-point multiple shooting) at the optimal gait."""
     cfg = cfg or Config()
     if objective not in OBJECTIVES + ("stability",):
         raise ConfigError("--objective", f"must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
@@ -503,6 +509,8 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     t0 = time.perf_counter()
     rc = ReducedLevelCycle(cfg_start, keys, steps_per_period, climb_rate_mps, second_order=second)
     wall["build"] = time.perf_counter() - t0
+    if x_guess is not None:
+        rc.set_guess(x_guess)
     lo = np.array([free[k][0] for k in keys])
     hi = np.array([free[k][1] for k in keys])
     theta0 = np.array([float(get_value(cfg_start, k)) for k in keys])
