@@ -150,7 +150,7 @@ def test_drag_costs_power_in_level_flight():
     assert base.success and drag.success
     e0, e1 = base.energetics, drag.energetics
     for e in (e0, e1):
-        assert abs(e["mean_flapping_power_W"] - e["mean_aerodynamic_power_W"]) < 1e-5
+        assert abs(e["mean_flapping_power_W"] - e["mean_aerodynamic_power_W"]) < 1e-4  # RK4 truncation at 48 steps
     assert e1["mean_profile_power_W"] > 0 and e1["mean_parasite_power_W"] > 0
     assert e1["mean_aerodynamic_power_W"] > e0["mean_aerodynamic_power_W"] + e1["mean_parasite_power_W"] * 0.5
     # parasite power = 1/2 rho S C_D |U_inf|^3 averaged over the cycle, bounded by the speeds seen
