@@ -29,7 +29,7 @@ import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, with_values
 
-__all__ = ["jury_conditions", "ReducedLevelCycle", "GaitOptimum", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
+__all__ = ["ReducedLevelCycle", "GaitOptimum", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
            "level_at_speed", "power_curve", "SPEED_KEY"]
 
 AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
@@ -56,26 +56,9 @@ _OUT = ("vertical_speed_mps", "forward_speed_mps", "flapping_power_W", "aerodyna
         "positive_power_smooth_W")
 
 
-def jury_conditions(A):
-    """The five Jury quantities (each >= 0 <=> all eigenvalues of the 4 x 4 A in the closed unit
-    disc, strict > 0 for the open disc)."""
-    t1 = ca.trace(A)
-    A2 = A @ A
-    t2 = ca.trace(A2)
-    t3 = ca.trace(A2 @ A)
-    a3 = -t1
-    a2 = 0.5 * (t1 ** 2 - t2)
-    a1 = -(t1 ** 3 - 3 * t1 * t2 + 2 * t3) / 6
-    a0 = ca.det(A)
-    a = [a0, a1, a2, a3, 1.0]
-    p1 = sum(a)
-    pm1 = a0 - a1 + a2 - a3 + 1.0
-    b = [a[0] * a[k] - a[4] * a[4 - k] for k in range(4)]
-    c = [b[0] * b[k] - b[3] * b[3 - k] for k in range(3)]
-    return ca.vertcat(p1, pm1, 1 - a0 ** 2, b[0] ** 2 - b[3] ** 2, c[0] ** 2 - c[2] ** 2)
-
-
 def _jury_function():
+    from birdocp.studies.optimize import jury_conditions
+
     M, r = ca.SX.sym("M", 4, 4), ca.SX.sym("r")
     j = jury_conditions(M / r)
     return ca.Function("jury", [M, r], [j, ca.jacobian(j, ca.vertcat(ca.vec(M), r))])
