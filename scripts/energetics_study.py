@@ -37,7 +37,7 @@ def log(*a):
 def summary_row(opt):
     d = opt.to_dict()
     v = d["verification"]
-    return {k: d[k] for k in ("success", "status", "objective", "iterations", "objective_value",
+    return {k: d[k] for k in ("success", "status", "objective", "iterations", "objective_value", "x0",
                               "start_objective_value", "free", "amplitude_deg", "largest_modulus", "moduli",
                               "mean_forward_speed_mps", "max_multiplier", "kkt_residual", "constraint_violation",
                               "wall_s", "evaluations")} | {
@@ -96,7 +96,8 @@ def main():
     out["optimal_gait"] = b
     log(f"  P {b['objective_value']:.4f} W (start {b['start_objective_value']:.4f} W), |L1| "
         f"{b['largest_modulus']:.5f}, {b['iterations']} iterations, {b['wall_s']['total']:.1f} s")
-    tr = trim(with_values(cfg, b["free"] | {"gait.shoulder_flap.amplitude_deg": b["amplitude_deg"]}))
+    tr = trim(with_values(cfg, b["free"] | {"gait.shoulder_flap.amplitude_deg": b["amplitude_deg"]}), x_guess=b["x0"])
+    assert tr.success and abs(tr.energetics["mean_shoulder_power_W"] - b["objective_value"]) < 1e-6
     plot_power(tr.arrays() | {f"power_{k}": v for k, v in tr.energetics["samples"].items()},
                OUT / "power_optimal_gait.png",
                title=f"Energy-optimal gait at {U_ref:.2f} m/s (A = {b['amplitude_deg']:.2f} deg)")

@@ -41,7 +41,7 @@ def plot_power(arrays: dict, path, title: str = "Power over one wingbeat") -> Pa
         if key not in arrays:
             continue
         v = np.asarray(arrays[key], float)
-        ax.plot(tt, v, color=col, lw=1.6, label=f"{lab}; mean {np.mean(v):+.3g} W")
+        ax.plot(tt, v, color=col, lw=1.6, label=f"{lab}; sample mean {np.mean(v):+.3g} W")
         ax.axhline(np.mean(v), color=col, ls="--", lw=0.9)
     if "power_shoulder_power_W" in arrays:
         v = np.asarray(arrays["power_shoulder_power_W"], float)
