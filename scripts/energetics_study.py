@@ -49,6 +49,8 @@ def summary_row(opt):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--pareto-points", type=int, default=3)
+    ap.add_argument("--pareto-bounds", type=float, nargs="*", default=None, metavar="R",
+                    help="explicit bounds R of the Pareto points (default: evenly spaced, --pareto-points)")
     ap.add_argument("--reuse", action="store_true",
                     help="reuse power_curve.json and optimal_gait.json of an earlier run (same code)")
     args = ap.parse_args()
@@ -118,8 +120,10 @@ def main():
                "success": b["success"], "free": b["free"], "amplitude_deg": b["amplitude_deg"]}]
     start = dict(b["free"]) | {"gait.shoulder_flap.amplitude_deg": b["amplitude_deg"]}
     x_guess = tr.x0
-    for R in np.linspace(R_hi, R_lo, args.pareto_points + 1)[1:]:
-        R = float(R + 2e-3 * (R_hi - R_lo)) if R == R_lo else float(R)  # the last bound just above the minimum
+    bounds = args.pareto_bounds if args.pareto_bounds is not None else [
+        float(R + 2e-3 * (R_hi - R_lo)) if R == R_lo else float(R)  # the last bound just above the minimum
+        for R in np.linspace(R_hi, R_lo, args.pareto_points + 1)[1:]]
+    for R in bounds:
         log(f"Pareto point: R = {R:.5f}")
         opt = optimize_gait(cfg, objective="power", speed_mps=U_ref, max_multiplier=R, start=start, x_guess=x_guess)
         row = {"bound": R, "objective_value": opt.objective_value, "largest_modulus": opt.largest_modulus,
