@@ -29,6 +29,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, with_values
+from birdocp.engine import interrupts
 from birdocp.engine.oracle import ConstraintOracle
 
 __all__ = ["DEFAULT_FREE", "optimize_stability", "StabilityOptimum", "jury_conditions"]
@@ -292,7 +293,8 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     lbg = np.concatenate([np.zeros(5), np.full(5, JURY_MARGIN)])
     ubg = np.concatenate([np.zeros(5), np.full(5, np.inf)])
     t0 = time.perf_counter()
-    sol = solver(x0=zinit, lbx=lo, ubx=hi, lbg=lbg, ubg=ubg)
+    with interrupts.interruptible():  # Ctrl-C inside IPOPT: KeyboardInterrupt, not a status
+        sol = solver(x0=zinit, lbx=lo, ubx=hi, lbg=lbg, ubg=ubg)
     stats = solver.stats()
     wall["solve"] = time.perf_counter() - t0
     zs = np.asarray(sol["x"]).ravel()
@@ -303,7 +305,9 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     lam = np.linalg.eigvals(Mnum)
     lam = lam[np.lexsort((-lam.imag, -np.abs(lam)))]
     best = {k: float(v) for k, v in zip(free, ps)}
-    out = StabilityOptimum(bool(stats["success"]), str(stats["return_status"]), f"IPOPT: {stats['return_status']}",
+    finite = bool(np.all(np.isfinite(zs)) and np.all(np.isfinite(lam)))  # non-finite numbers are no success
+    out = StabilityOptimum(bool(stats["success"]) and finite, str(stats["return_status"]) if finite else "nan",
+                           f"IPOPT: {stats['return_status']}" + ("" if finite else " (non-finite result)"),
                            int(stats["iter_count"]), best, free, float(ps[-1]), rs, lam, lam0, xs, cfg=cfg)
 
     if verify and np.all(np.isfinite(zs)):
