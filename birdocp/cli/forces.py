@@ -44,8 +44,8 @@ def cmd_forces(args: argparse.Namespace, command_line: list[str]) -> int:
         bad = [k for k in ("Fx_N", "Fz_N", "My_Nm") if not math.isfinite(res[k])]
         bad += ["xdot"] if not all(math.isfinite(v) for v in res["xdot"]) else []
         message = (f"non-finite {', '.join(bad)} at u = {state[0]:g} m/s, w = {state[1]:g} m/s, "
-                   f"q = {state[2]:g} rad/s, theta = {state[3]:g} rad, t = {t:g} s (the model is singular there, "
-                   "e.g. no relative air speed at a wing element)")
+                   f"q = {state[2]:g} rad/s, theta = {state[3]:g} rad, t = {t:g} s (overflow or a singular "
+                   "state of the model)")
         if args.json:
             print_json(dict(res, success=False, status="non_finite", message=message))
         warn = noise.summary() if noise is not None else ""
