@@ -44,7 +44,7 @@ def register(sub, common) -> None:
 
 
 def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
-    from birdocp.engine.continuation import resolve_parameter, root_of_sm
+    from birdocp.studies.branch import resolve_parameter, root_of_sm
 
     t_start = time.perf_counter()
     model_key, display = resolve_parameter(args.param)
@@ -64,7 +64,8 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
     (climb,) = finite_values("--climb-rate", [args.climb_rate])
     bounds = checked_bounds("--bounds", args.bounds) if args.bounds is not None else None
     with run_folder(args, "continue", command_line) as run:
-        from birdocp.engine.continuation import bird_branch, plot_branches
+        from birdocp.plots.branch import plot_branches
+        from birdocp.studies.branch import bird_branch
         from birdocp.io.files import atomic_write_json
 
         say = (lambda text: None) if args.quiet else (lambda text: print(f"continue: {text}", file=sys.stderr,

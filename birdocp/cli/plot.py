@@ -62,7 +62,8 @@ def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
 def _figures(run: Path, res: dict, command) -> list:
     figs = []
     if (run / "branch.json").is_file():
-        from birdocp.engine.continuation import Branch, plot_branches
+        from birdocp.engine.continuation import Branch
+        from birdocp.plots.branch import plot_branches
 
         br = Branch.from_dict(_read_json(run / "branch.json", "branch.json"))
         figs = plot_branches({"level flight" if br.settings.get("level") else "branch": br}, run)
