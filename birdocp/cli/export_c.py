@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from birdocp.bird.config import ConfigError
 from birdocp.cli.common import EXIT_OK, print_json, resolve_config, solver_noise

@@ -65,16 +65,16 @@ def git_revision(path: str | Path = PACKAGE_DIR) -> dict[str, Any] | None:
 
 def build_revision() -> dict[str, Any] | None:
     """``{"commit", "dirty", "source": "build"}`` recorded by setuptools-scm when the package was built
-    (``birdocp/_version.py``), or None (a source tree that was never built, or no git at build time)."""
+    (``birdocp/build_info.py``), or None (a source tree that was never built, or no git at build time)."""
     try:
-        from birdocp import _version
+        from birdocp import build_info
     except ImportError:
         return None
-    node = str(getattr(_version, "git_commit", "") or "")
+    node = str(getattr(build_info, "git_commit", "") or "")
     commit = node[1:] if node.startswith("g") and len(node) > 1 else node
     if not commit or not all(c in "0123456789abcdef" for c in commit.lower()):
         return None
-    return {"commit": commit, "dirty": bool(getattr(_version, "git_dirty", False)), "source": "build"}
+    return {"commit": commit, "dirty": bool(getattr(build_info, "git_dirty", False)), "source": "build"}
 
 
 def source_revision() -> dict[str, Any] | None:
