@@ -480,7 +480,8 @@ def run_folder(args: argparse.Namespace, command: str, command_line: list[str], 
        ``run.write`` (atomic files, result.json last) or its own atomic writers.
     3. On any exception (bad input found late, error, Ctrl-C) a folder that got no result is
        removed again: new files named in ``scaffold`` (written before the first result, e.g. a
-       sweep's definition), the solver log and empty sub-folders do not count as results; the folder
+       sweep's definition), the solver log and empty sub-folders do not count as results (a
+       non-empty sub-folder, e.g. a sweep's points/, does); the folder
        itself only goes if this run created it. What was finished stays. The lock is released on
        every exit.
     """
@@ -511,8 +512,8 @@ def _remove_if_empty(run_dir: Path, before: set, scaffold: set, created: bool) -
     from birdocp.io.runs import folder_entries, release_out_dir
 
     new = set(folder_entries(run_dir)) - before
-    results = [n for n in new if n not in scaffold
-               and not ((run_dir / n).is_dir() and not any((run_dir / n).iterdir()))]
+    # a result: a non-empty sub-folder (points/, rows/) or a file that is not scaffold
+    results = [n for n in new if (any((run_dir / n).iterdir()) if (run_dir / n).is_dir() else n not in scaffold)]
     if results:
         return
     for n in new:

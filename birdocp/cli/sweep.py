@@ -129,7 +129,7 @@ def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
         return _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start)
     resume_file = "sweep.json" if args.resume else None
     with run_folder(args, "sweep", command_line, resume_file=resume_file,
-                    scaffold=("config.toml", "sweep.json", "sweep.csv", "points")) as run:
+                    scaffold=("config.toml", "sweep.json", "sweep.csv")) as run:
         with run.solving():
             rows = sweep(cfg, key, values, level=args.level, warm=not args.cold, out_dir=run.dir,
                          resume=args.resume, progress=not args.quiet, level_options=level_kw)
@@ -158,7 +158,7 @@ def _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start) -> int:
     if args.jobs is not None and args.jobs > 256:
         raise ConfigError("--jobs", f"must be <= 256, got {args.jobs}")
     resume_file = "grid.json" if args.resume else None
-    with run_folder(args, "sweep", command_line, resume_file=resume_file, scaffold=("grid.json", "rows")) as run:
+    with run_folder(args, "sweep", command_line, resume_file=resume_file, scaffold=("grid.json",)) as run:
         try:
             ex = get_executor(args.jobs, args.scheduler)
         except ImportError as exc:
