@@ -69,7 +69,7 @@ def _sigint_on_call(monkeypatch, cls, name, n):
 
 
 @pytest.mark.parametrize("solver, cls, name", [("ipopt", oracle.ConstraintOracle, "_eval"),
-                                               ("lm", shooting._Builder, "evaluate")])
+                                               ("lm", shooting.ShootingGraphs, "evaluate")])
 def test_sigint_inside_the_solver_raises_and_is_not_retried(monkeypatch, solver, cls, name):
     shooting.clear_cache()
     calls = _sigint_on_call(monkeypatch, cls, name, 2)
