@@ -30,23 +30,31 @@ import sys
 import traceback
 from typing import Sequence
 
-from birdocp.bird.config import ConfigError
-from birdocp.cli.common import (
-    EXIT_BAD_INPUT,
-    EXIT_INTERNAL,
-    EXIT_INTERRUPTED,
-    EXIT_NOT_CONVERGED,
-    EXIT_OK,
-    PROG,
-    STATE,
-    Parser,
-    common_options,
-    config_message,
-    failure_json,
-    one_line,
-    print_json,
-    resolve_config,
-)
+try:
+    from birdocp.engine import interrupts
+    from birdocp.io.errors import ConfigError
+    from birdocp.cli.common import (
+        EXIT_BAD_INPUT,
+        EXIT_INTERNAL,
+        EXIT_INTERRUPTED,
+        EXIT_NOT_CONVERGED,
+        EXIT_OK,
+        PROG,
+        STATE,
+        Parser,
+        common_options,
+        config_message,
+        failure_json,
+        one_line,
+        print_json,
+        resolve_config,
+    )
+except KeyboardInterrupt:  # Ctrl-C while the command starts up: the same exit as later on
+    if "--json" in sys.argv[1:]:
+        sys.stdout.write('{"success": false, "status": "interrupted", "message": "interrupted (Ctrl-C)", '
+                         '"run_dir": null}\n')
+    sys.stderr.write("birdocp: interrupted\n")
+    raise SystemExit(130) from None
 
 __all__ = ["main", "build_parser", "resolve_config", "EXIT_OK", "EXIT_NOT_CONVERGED", "EXIT_BAD_INPUT",
            "COMMAND_MODULES"]
@@ -86,25 +94,26 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _json_failure(args, status: str, message: str) -> None:
-    """The one JSON object of a --json run that ended without printing its own."""
-    if getattr(args, "json", False) and not STATE.json_printed:
+def _json_failure(args, status: str, message: str, argv: Sequence[str] = ()) -> None:
+    """The one JSON object of a --json run that ended without printing its own (before the arguments
+    were parsed, ``--json`` in ``argv`` decides)."""
+    wanted = getattr(args, "json", False) if args is not None else "--json" in argv
+    if wanted and not STATE.json_printed:
         with contextlib.suppress(Exception):
             print_json(failure_json(status, message))
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (the console script passes it to ``sys.exit``)."""
+    as_program = argv is None  # the console script or python -m birdocp (not a call from Python)
     argv = sys.argv[1:] if argv is None else list(argv)
     command_line = [PROG, *argv]
     debug = "--debug" in argv
     args = None
     STATE.reset()
-    from birdocp.engine import interrupts
-
     old_handler = signal.getsignal(signal.SIGINT)
-    interrupts.install()  # a Ctrl-C that CasADi swallows is still seen
     try:
+        interrupts.install()  # a Ctrl-C that CasADi swallows is still seen
         parser = build_parser()
         try:
             args = parser.parse_args(argv)
@@ -115,10 +124,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         interrupts.check()
         return code
     except KeyboardInterrupt:
-        return _interrupted(args, debug)
+        return _interrupted(args, debug, argv)
     except ConfigError as exc:
         if interrupts.pending():
-            return _interrupted(args, debug)
+            return _interrupted(args, debug, argv)
         if debug:
             traceback.print_exc()
         msg = one_line(config_message(exc))
@@ -131,7 +140,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_OK
     except Exception as exc:
         if interrupts.pending():  # CasADi turned the Ctrl-C into an exception of its own
-            return _interrupted(args, debug)
+            return _interrupted(args, debug, argv)
         if debug:
             traceback.print_exc()
         print(f"{PROG}: internal error: {type(exc).__name__}: {one_line(exc)}"
@@ -140,21 +149,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERNAL
     finally:
         with contextlib.suppress(ValueError, TypeError):
-            signal.signal(signal.SIGINT, old_handler)
+            # the command is over: a Ctrl-C now would only turn a finished run into a traceback
+            signal.signal(signal.SIGINT, signal.SIG_IGN if as_program else old_handler)
         with contextlib.suppress(KeyboardInterrupt):
             interrupts.check()  # clear a late flag (the exit code already says it)
 
 
-def _interrupted(args, debug: bool) -> int:
-    from birdocp.engine import interrupts
-
+def _interrupted(args, debug: bool, argv: Sequence[str] = ()) -> int:
     with contextlib.suppress(KeyboardInterrupt):
         interrupts.check()  # clear the flag
     if debug:
         traceback.print_exc()
     kept = f" (finished results kept in {STATE.run_dir})" if STATE.run_dir is not None else ""
     print(f"{PROG}: interrupted{kept}", file=sys.stderr)
-    _json_failure(args, "interrupted", "interrupted (Ctrl-C)")
+    _json_failure(args, "interrupted", "interrupted (Ctrl-C)", argv)
     return EXIT_INTERRUPTED
 
 
