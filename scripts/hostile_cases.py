@@ -123,6 +123,11 @@ def main() -> None:
     d, _ = case("trim far from any cycle (NaN in IPOPT)", ["trim", *COARSE, "--set",
                                                            "solve.initial_guess=[200.0, 0.0, 0.0, 0.0]", "--out", "run"])
     rows[-1]["note"] = f"solver.log: {sum(1 for _ in open(d / 'run' / 'solver.log'))} CasADi warning lines"
+    d, _ = case("grid --jobs 2, every point NaN in IPOPT", ["sweep", "amplitude", "--from", "42", "--to", "43", "--step",
+                                                           "1", "--rows", "root_ahead_m=0.04:0.05:0.01", "--jobs", "2",
+                                                           "--points", "3", "--steps", "48", "--cold", "--set",
+                                                           "solve.initial_guess=[200.0, 0.0, 0.0, 0.0]", "--out", "g"])
+    rows[-1]["note"] = f"solver.log: {sum(1 for _ in open(d / 'g' / 'solver.log'))} CasADi warning lines (from the workers)"
     case("sensitivity --json, the cycle fails", ["sensitivity", "--set", "solve.points=3", "--set",
                                                  "solve.steps_per_period=60", "--set",
                                                  "solve.initial_guess=[200.0, 0.0, 0.0, 0.0]", "--json"])

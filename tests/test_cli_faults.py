@@ -398,7 +398,7 @@ def test_nan_flood_goes_to_the_log_one_line_on_the_terminal(tmp_path):
 
 
 def test_noise_filter_routes_casadi_warnings_only(tmp_path, capsys):
-    from birdocp.cli.common import solver_noise
+    from birdocp.cli.common import noise_summary, solver_noise
 
     log = tmp_path / "solver.log"
     with solver_noise(log) as noise:
@@ -408,7 +408,7 @@ def test_noise_filter_routes_casadi_warnings_only(tmp_path, capsys):
         print("IPOPT-like line on stdout")
     err = capsys.readouterr().err
     assert "NaN detected" not in err and "1/3" in err and "IPOPT-like line on stdout" in err
-    assert noise.count == 1 and "NaN detected" in log.read_text() and "solver.log" in noise.summary()
+    assert noise.count == 1 and "NaN detected" in log.read_text() and "solver.log" in noise_summary(noise)
     with solver_noise(tmp_path / "other.log", verbose=True) as noise:  # --verbose: everything shown
         sys.stderr.write("CasADi - WARNING(\"NaN detected\")\n")
     assert noise is None and "NaN detected" in capsys.readouterr().err

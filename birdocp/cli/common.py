@@ -19,6 +19,7 @@ from typing import Any, Iterator, Sequence
 
 from birdocp.bird import config as C
 from birdocp.bird.config import ConfigError
+from birdocp.engine.solver_log import LOG_ENV, NoiseFilter
 
 PROG = "birdocp"
 EXIT_OK = 0
@@ -319,111 +320,52 @@ def finish_result(result: dict, command: str, t_start: float, run_dir: Path) -> 
 SOLVER_LOG = "solver.log"
 """File of a run folder that receives the solvers' own warnings (unless --verbose)."""
 
-_NOISE_PREFIX = "CasADi - "
-
-
-class NoiseFilter:
-    """A text stream in place of ``sys.stderr`` while a solver runs: CasADi's own warning lines
-    (``CasADi - <time> WARNING(...)``: "NaN detected", "KeyboardInterruptException", ...) go to a log
-    file (or, without one, are only counted); everything else (progress lines, messages) passes on to
-    the terminal unchanged."""
-
-    def __init__(self, terminal, log_path: Path | None):
-        self.terminal, self.log_path = terminal, log_path
-        self.count = 0
-        self.first: str | None = None
-        self._pending = ""
-        self._log = None
-
-    # the text-stream interface used by print() and CasADi's writer
-    def write(self, text: str) -> int:
-        self._pending += text
-        while self._pending:
-            head = self._pending[:len(_NOISE_PREFIX)]
-            if not _NOISE_PREFIX.startswith(head):  # not (the start of) a CasADi line: pass on
-                self.terminal.write(self._pending)
-                self._pending = ""
-                break
-            if "\n" not in self._pending:
-                break  # wait for the rest of the line
-            line, self._pending = self._pending.split("\n", 1)
-            if line.startswith(_NOISE_PREFIX):
-                self._to_log(line)
-            else:
-                self.terminal.write(line + "\n")
-        return len(text)
-
-    def _to_log(self, line: str) -> None:
-        self.count += 1
-        if self.first is None:
-            self.first = line
-        if self.log_path is None:
-            return
-        try:
-            if self._log is None:
-                self._log = open(self.log_path, "a", encoding="utf-8")
-            self._log.write(line + "\n")
-        except OSError:
-            self.log_path = None
-
-    def flush(self) -> None:
-        with contextlib.suppress(Exception):
-            self.terminal.flush()
-        if self._log is not None:
-            with contextlib.suppress(OSError):
-                self._log.flush()
-
-    def close(self) -> None:
-        if self._pending:
-            if self._pending.startswith(_NOISE_PREFIX):
-                self._to_log(self._pending.rstrip("\n"))
-            else:
-                self.terminal.write(self._pending)
-            self._pending = ""
-        self.flush()
-        if self._log is not None:
-            with contextlib.suppress(OSError):
-                self._log.close()
-            self._log = None
-
-    def isatty(self) -> bool:
-        return self.terminal.isatty()
-
-    def fileno(self) -> int:
-        return self.terminal.fileno()
-
-    @property
-    def encoding(self):
-        return getattr(self.terminal, "encoding", "utf-8")
-
-    def summary(self) -> str:
-        """'' or '; 12 solver warnings (first: ...) in DIR/solver.log'."""
-        if not self.count:
-            return ""
-        first = one_line(self.first or "")
-        first = first[first.find("WARNING"):] if "WARNING" in first else first
-        where = f" in {self.log_path}" if self.log_path is not None else " (--verbose shows them)"
-        return f"; {self.count} solver warning{'s' if self.count != 1 else ''} ({first[:100]}){where}"
+def noise_summary(noise: NoiseFilter | None) -> str:
+    """'' or '; 12 solver warnings (first: ...) in DIR/solver.log' (warnings of worker processes,
+    which append to the same log, included)."""
+    if noise is None:
+        return ""
+    count, first = noise.count, noise.first
+    if noise.log_path is not None and noise.log_path.is_file():
+        with contextlib.suppress(OSError):
+            lines = noise.log_path.read_text(encoding="utf-8", errors="replace").splitlines()
+            count, first = len(lines), (lines[0] if lines else first)
+    if not count:
+        return ""
+    first = one_line(first or "")
+    first = first[first.find("WARNING"):] if "WARNING" in first else first
+    where = f" in {noise.log_path}" if noise.log_path is not None else " (--verbose shows them)"
+    return f"; {count} solver warning{'s' if count != 1 else ''} ({first[:100]}){where}"
 
 
 @contextlib.contextmanager
 def solver_noise(log_path: Path | None, verbose: bool = False) -> Iterator[NoiseFilter | None]:
     """While the body runs: stdout (Python and C level) goes to stderr (stdout is for the result
     only), and unless ``verbose`` CasADi's warning lines go to ``log_path`` (created when the first
-    one arrives) instead of the terminal. Yields the filter (None with ``verbose``)."""
+    one arrives) instead of the terminal, also those of worker processes started meanwhile
+    (:data:`birdocp.engine.solver_log.LOG_ENV`). Yields the filter (None with ``verbose``)."""
     with stdout_to_stderr():
         if verbose:
             yield None
             return
         filt = NoiseFilter(sys.stderr, log_path)
         saved = sys.stderr
+        saved_env = os.environ.get(LOG_ENV)
         sys.stderr = filt
+        if log_path is not None:
+            os.environ[LOG_ENV] = str(Path(log_path).resolve())
+        else:
+            os.environ.pop(LOG_ENV, None)
         try:
             with contextlib.redirect_stdout(filt):
                 yield filt
         finally:
             sys.stderr = saved
             filt.close()
+            if saved_env is None:
+                os.environ.pop(LOG_ENV, None)
+            else:
+                os.environ[LOG_ENV] = saved_env
 
 
 class Run:
@@ -460,7 +402,7 @@ class Run:
 
     def fail(self, what: str, status: Any, residual: Any, message: Any) -> int:
         """One line on stderr for a failed solve (status, residual, folder); returns exit code 1."""
-        warn = self.noise.summary() if self.noise is not None else ""
+        warn = noise_summary(self.noise)
         print(f"{PROG}: {what} (status: {one_line(status)}, last residual: {fmt_num(residual, '.3e')}): "
               f"{one_line(message)}; result written to {self.dir}{warn}", file=sys.stderr)
         return EXIT_NOT_CONVERGED

@@ -9,8 +9,8 @@ import time
 
 from birdocp.bird import config as C
 from birdocp.bird.config import ConfigError
-from birdocp.cli.common import (AMPLITUDE_KEY, EXIT_NOT_CONVERGED, EXIT_OK, PROG, finite_values, resolve_config,
-                                run_folder)
+from birdocp.cli.common import (AMPLITUDE_KEY, EXIT_NOT_CONVERGED, EXIT_OK, PROG, finite_values, noise_summary,
+                                resolve_config, run_folder)
 from birdocp.cli.level import checked_bounds
 from birdocp.cli.trim import solve_shortcuts
 
@@ -88,7 +88,7 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
         else:
             print(_table(br, cfg, display, args.level, figs, run.dir))
         if not ok:
-            warn = run.noise.summary() if run.noise is not None else ""
+            warn = noise_summary(run.noise)
             print(f"{PROG}: the branch ended before --to ({br.end_reason}: {br.end_message}); "
                   f"{len(br.points)} points written to {run.dir}{warn}", file=sys.stderr)
             return EXIT_NOT_CONVERGED

@@ -6,8 +6,8 @@ import argparse
 import math
 import sys
 
-from birdocp.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, PROG, finite_values, print_json, resolve_config,
-                                solver_noise)
+from birdocp.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, PROG, finite_values, noise_summary, print_json,
+                                resolve_config, solver_noise)
 
 
 def register(sub, common) -> None:
@@ -48,7 +48,7 @@ def cmd_forces(args: argparse.Namespace, command_line: list[str]) -> int:
                    "state of the model)")
         if args.json:
             print_json(dict(res, success=False, status="non_finite", message=message))
-        warn = noise.summary() if noise is not None else ""
+        warn = noise_summary(noise)
         print(f"{PROG}: forces: {message}{warn}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     if args.json:

@@ -75,7 +75,7 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
         else:
             _print_table(res, run.dir)
         if not res.success:
-            warn = run.noise.summary() if run.noise is not None else ""
+            warn = cli.noise_summary(run.noise)
             print(f"{cli.PROG}: optimisation did not converge (status {res.status}); result written to {run.dir}"
                   f"{warn}", file=sys.stderr)
             return cli.EXIT_NOT_CONVERGED

@@ -8,8 +8,8 @@ import time
 
 from birdocp.bird import config as C
 from birdocp.bird.config import ConfigError
-from birdocp.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, PROG, config_message, fmt_num, resolve_config,
-                                run_folder)
+from birdocp.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, PROG, config_message, fmt_num, noise_summary,
+                                resolve_config, run_folder)
 from birdocp.cli.level import level_kwargs, level_options
 from birdocp.cli.trim import solve_shortcuts
 
@@ -101,7 +101,7 @@ def _report(run, rows: list[dict], ok: bool) -> int:
         return EXIT_OK
     bad = [fmt_num(r["value"], "g") + (f" (row {fmt_num(r['row_value'], 'g')})" if "row_value" in r else "")
            for r in rows if not r["success"]]
-    warn = run.noise.summary() if run.noise is not None else ""
+    warn = noise_summary(run.noise)
     print(f"{PROG}: {len(bad)} of {len(rows)} points did not converge ({', '.join(bad)}); "
           f"results written to {run.dir}{warn}", file=sys.stderr)
     return EXIT_NOT_CONVERGED

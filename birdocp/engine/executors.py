@@ -82,6 +82,9 @@ def _worker_init() -> None:
     import sys
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    from birdocp.engine.solver_log import install_from_env
+
+    install_from_env()  # CasADi's warnings to the parent's solver log, if it names one
     if sys.platform.startswith("linux"):
         try:
             import ctypes
