@@ -49,10 +49,6 @@ LOCK_NAME = ".birdocp.lock"
 platform has it, so the lock of a killed run is recognised as stale); removed when the run ends."""
 
 
-def _refuse(flag: str, text: str) -> ConfigError:
-    return ConfigError(flag, text)
-
-
 def _os_reason(exc: OSError) -> str:
     if exc.errno == errno.ENAMETOOLONG:
         return "the name is too long for the file system"
@@ -78,9 +74,9 @@ def check_out_path(path: str | Path, flag: str = "--out") -> Path:
     path = Path(path)
     text = str(path)
     if not text or "\x00" in text:
-        raise _refuse(flag, f"{text!r} is not a usable path")
+        raise ConfigError(flag, f"{text!r} is not a usable path")
     if os.path.islink(path) and not os.path.exists(path):
-        raise _refuse(flag, f"'{path}' is a dangling symbolic link (to '{os.readlink(path)}'); remove it or "
+        raise ConfigError(flag, f"'{path}' is a dangling symbolic link (to '{os.readlink(path)}'); remove it or "
                             "give another folder")
     # the nearest existing ancestor: where the folder would be created
     anc = path
@@ -91,25 +87,25 @@ def check_out_path(path: str | Path, flag: str = "--out") -> Path:
             break
         anc = anc.parent
     if os.path.islink(anc) and not os.path.exists(anc):
-        raise _refuse(flag, f"'{anc}' (in '{path}') is a dangling symbolic link; remove it or give another folder")
+        raise ConfigError(flag, f"'{anc}' (in '{path}') is a dangling symbolic link; remove it or give another folder")
     try:
         name_max = os.pathconf(anc if os.path.isdir(anc) else anc.parent, "PC_NAME_MAX")
     except (OSError, ValueError, AttributeError):
         name_max = 255
     for part in path.parts:
         if len(os.fsencode(part)) > name_max:
-            raise _refuse(flag, f"'{part[:40]}...' is {len(os.fsencode(part))} bytes long; the file system "
+            raise ConfigError(flag, f"'{part[:40]}...' is {len(os.fsencode(part))} bytes long; the file system "
                                 f"allows {name_max} per name")
     if len(os.fsencode(os.path.abspath(path))) + 64 > 4096:
-        raise _refuse(flag, "the path is too long for the file system")
+        raise ConfigError(flag, "the path is too long for the file system")
     if path.exists() and not path.is_dir():
-        raise _refuse(flag, f"'{path}' is an existing file; give a new or empty folder")
+        raise ConfigError(flag, f"'{path}' is an existing file; give a new or empty folder")
     if not os.path.isdir(anc):
-        raise _refuse(flag, f"'{anc}' is a file, so '{path}' cannot be created; give another folder")
+        raise ConfigError(flag, f"'{anc}' is a file, so '{path}' cannot be created; give another folder")
     if missing and not os.access(anc, os.W_OK | os.X_OK):
-        raise _refuse(flag, f"cannot create '{path}': '{anc}' is read-only; give another folder")
+        raise ConfigError(flag, f"cannot create '{path}': '{anc}' is read-only; give another folder")
     if not missing and not os.access(path, os.W_OK | os.X_OK):
-        raise _refuse(flag, f"'{path}' is read-only; give a writable folder")
+        raise ConfigError(flag, f"'{path}' is read-only; give a writable folder")
     return path
 
 
@@ -181,7 +177,7 @@ def lock_folder(folder: str | Path, flag: str = "--out", created: bool = False) 
             except FileNotFoundError:  # released meanwhile: try again
                 continue
             except OSError as exc:
-                raise _refuse(flag, f"cannot lock '{folder}': {_os_reason(exc)}") from None
+                raise ConfigError(flag, f"cannot lock '{folder}': {_os_reason(exc)}") from None
             has_flock = True
             try:
                 import fcntl  # noqa: F401
@@ -189,14 +185,14 @@ def lock_folder(folder: str | Path, flag: str = "--out", created: bool = False) 
                 has_flock = False
             if not has_flock or not _try_flock(fd):
                 os.close(fd)
-                raise _refuse(flag, f"'{folder}' is in use by another birdocp run{_holder(lock_path)}; "
+                raise ConfigError(flag, f"'{folder}' is in use by another birdocp run{_holder(lock_path)}; "
                                     "give another folder (or wait for that run to end)")
         except OSError as exc:
-            raise _refuse(flag, f"cannot write into '{folder}': {_os_reason(exc)}; give another folder") from None
+            raise ConfigError(flag, f"cannot write into '{folder}': {_os_reason(exc)}; give another folder") from None
         else:
             if not _try_flock(fd):  # pragma: no cover - a fresh file: only a racing taker can hold it
                 os.close(fd)
-                raise _refuse(flag, f"'{folder}' is in use by another birdocp run; give another folder")
+                raise ConfigError(flag, f"'{folder}' is in use by another birdocp run; give another folder")
         # the file we hold must still be the lock file (not one its owner just removed)
         try:
             same = os.stat(lock_path).st_ino == os.fstat(fd).st_ino
@@ -211,7 +207,7 @@ def lock_folder(folder: str | Path, flag: str = "--out", created: bool = False) 
         lock = RunLock(folder, fd, created)
         _HELD[str(folder)] = lock
         return lock
-    raise _refuse(flag, f"could not lock '{folder}' (its lock file keeps changing); give another folder")
+    raise ConfigError(flag, f"could not lock '{folder}' (its lock file keeps changing); give another folder")
 
 
 def release_out_dir(folder: str | Path) -> None:
