@@ -141,6 +141,12 @@ def main() -> None:
          hook=("birdocp.engine.shooting:ShootingGraphs.evaluate", "2"))
     case("Ctrl-C inside IPOPT during level", ["level", *COARSE, "--json", "--out", "run"],
          hook=("birdocp.engine.oracle:ConstraintOracle.eval", "4"))
+    d, _ = case("Ctrl-C in a continuation's third step", ["continue", "root_ahead_m", "--from", "0.05", "--to", "0.046",
+                                                          "--points", "3", "--steps", "48", "--out", "b", "--quiet",
+                                                          "--json"],
+                hook=("birdocp.engine.continuation.corrector:Corrector.along", "3"))
+    rows[-1]["note"] = (f"branch.json kept with {len(json.loads((d / 'b' / 'branch.json').read_text())['points'])} "
+                        "points")
     sweep = ["sweep", "amplitude", "--from", "42", "--to", "43", "--step", "0.5", *COARSE, "--quiet", "--out", "s"]
     d, _ = case("Ctrl-C in a sweep's second point", [*sweep, "--json"],
                 hook=("birdocp.engine.oracle:ConstraintOracle.eval", "24"))

@@ -97,20 +97,37 @@ def test_sigint_during_a_trim_exits_130_and_leaves_nothing(tmp_path, moment, hoo
 @pytest.mark.slow
 def test_sigint_in_a_sweep_keeps_finished_points_and_resumes(tmp_path):
     out = tmp_path / "sweep"
-    argv = ["sweep", "amplitude", "--from", "42", "--to", "43", "--step", "0.5", *COARSE, "--quiet", "--out", str(out)]
+    argv = ["sweep", "amplitude", "--from", "42", "--to", "42.5", "--step", "0.5", *COARSE, "--quiet", "--out", str(out)]
     # the first point takes 19 constraint evaluations (measured): the 24th is inside IPOPT on the second
     p = _cli(*argv, "--json", cwd=tmp_path, hook=("birdocp.engine.oracle:ConstraintOracle.eval", "24"))
     res = _interrupted(p)
     assert res["run_dir"] == str(out)
     points = sorted((out / "points").glob("point-*.json"))
-    assert 1 <= len(points) < 3
+    assert len(points) == 1
     for f in points:  # nothing half-written
         assert json.loads(f.read_text())["row"]["success"] is True
     assert _leftovers(out) == [] and not (out / "result.json").exists()
     p = _cli(*argv, "--resume", "--json", cwd=tmp_path)
     assert p.returncode == 0, p.stderr
     res = _one_json(p.stdout)
-    assert res["success"] is True and [r["value"] for r in res["points"]] == [42.0, 42.5, 43.0]
+    assert res["success"] is True and [r["value"] for r in res["points"]] == [42.0, 42.5]
+
+
+@pytest.mark.slow
+def test_sigint_in_a_continuation_keeps_the_points_so_far(tmp_path):
+    out = tmp_path / "branch"
+    p = _cli("continue", "root_ahead_m", "--from", "0.05", "--to", "0.046", "--points", "3", "--steps", "48",
+             "--out", str(out), "--quiet", "--json", cwd=tmp_path,
+             hook=("birdocp.engine.continuation.corrector:Corrector.along", "3"))
+    res = _interrupted(p)
+    assert res["run_dir"] == str(out)
+    branch = json.loads((out / "branch.json").read_text())
+    assert branch["end_reason"] == "interrupted" and len(branch["points"]) >= 1
+    params = [pt["parameter"] for pt in branch["points"]]
+    assert params[0] == pytest.approx(0.05) and all(0.046 <= v <= 0.05 for v in params)
+    result = json.loads((out / "result.json").read_text())
+    assert result["success"] is False and result["status"] == "interrupted"
+    assert result["n_points"] == len(params) and _leftovers(out) == []
 
 
 def _workers_of(pid: int) -> list[int]:

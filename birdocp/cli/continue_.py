@@ -70,9 +70,15 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
 
         say = (lambda text: None) if args.quiet else (lambda text: print(f"continue: {text}", file=sys.stderr,
                                                                           flush=True))
-        with run.solving():
-            br = bird_branch(cfg, args.param, a, b, level=args.level, climb_rate_mps=climb, bounds=bounds,
-                             step=args.step, max_points=args.max_points, progress=say)
+        done: list = []  # the accepted points, kept if the run is interrupted
+        try:
+            with run.solving():
+                br = bird_branch(cfg, args.param, a, b, level=args.level, climb_rate_mps=climb, bounds=bounds,
+                                 step=args.step, max_points=args.max_points, progress=say, on_point=done.append)
+        except KeyboardInterrupt:
+            if done:
+                _keep_partial(run, cfg, model_key, display, a, b, args.level, done, t_start)
+            raise
         d = br.to_dict()
         atomic_write_json(run.dir / "branch.json", d)
         figs = plot_branches({"level flight" if args.level else "branch": br}, run.dir) if br.points else []
@@ -93,6 +99,23 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
                   f"{len(br.points)} points written to {run.dir}{warn}", file=sys.stderr)
             return EXIT_NOT_CONVERGED
     return EXIT_OK
+
+
+def _keep_partial(run, cfg, model_key: str, display: str, a: float, b: float, level: bool, points: list,
+                  t_start: float) -> None:
+    """branch.json and result.json of an interrupted continuation: the points accepted so far."""
+    from birdocp.engine.continuation import Branch
+    from birdocp.io.files import atomic_write_json
+
+    message = f"interrupted (Ctrl-C) after {len(points)} points"
+    br = Branch(model_key, list(points), [], "interrupted", message, {"level": bool(level), "interrupted": True},
+                time.perf_counter() - t_start, list(points[0].free_values))
+    d = br.to_dict()
+    atomic_write_json(run.dir / "branch.json", d)
+    run.write(cfg, {"success": False, "status": "interrupted", "parameter": model_key, "display": display,
+                    "from": a, "to": b, "level": bool(level), "end_reason": "interrupted", "end_message": message,
+                    "n_points": len(points), "special_points": [], "figures": [],
+                    "wall_s": {"total": time.perf_counter() - t_start}, "run_dir": str(run.dir)})
 
 
 def _table(br, cfg, display: str, level: bool, figs, run_dir) -> str:
