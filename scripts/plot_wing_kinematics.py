@@ -3,8 +3,8 @@
 Writes ``results/wing_kinematics.png`` (or ``--out PATH``). Panels:
 
 (a) 3-D snapshots of the right wing at 8 instants t = k T/8 (one small panel each, same limits and
-    view, equal scales): bones (arm, forearm, hand) as thick lines, the 4 trailing-edge master
-    feathers, the smoothed leading and trailing edges, the lifting line, and the edges projected on
+    view, equal scales): bones (arm, forearm, hand) as thick lines, the 7 master feathers (the 4 that
+    shape the trailing edge solid, feathers 1, 3, 5 with weight 0 dotted), the smoothed leading and trailing edges, the lifting line, and the edges projected on
     the floor (a top view);
 (b) side view of the paths over one wingbeat of the wing tip (tip of the outermost feather) and of the
     centroid of the right wing's lifting line (chord-weighted), relative to the centre of mass G;
@@ -18,6 +18,7 @@ wing root (shoulder) is ``cfg.wing.root_ahead_m`` ahead of G.
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 import casadi as ca
@@ -55,7 +56,20 @@ def bone_function(cfg: Config) -> ca.Function:
     order = (6, 4, 2, 0)  # shoulder .. hand tip, the order of the trailing-edge points
     tips = ca.horzcat(*TE)
     bases = ca.horzcat(*[TE[i] - sk.feathers[k] for i, k in enumerate(order)])
-    return ca.Function("bones", [t], [chain, bases, tips])
+    # feathers 1, 3, 5 (spec/model.md 3): computed like the others but with weight 0 in the trailing edge;
+    # drawn from the middle of the hand, forearm and arm
+    e_y, e_x = q["elbow_flex"], q["hand_twist"]
+    w_y, w_z = q["wrist_flex"], q["wrist_spread"]
+    Lf = w.feather_lengths_m
+    f1 = sk.R4 @ kinematics.rot_x(w_z / 4) @ kinematics.rot_y(3 * math.pi / 8) @ ca.vertcat(0, 0, Lf[1])
+    f3 = (sk.R2a @ kinematics.rot_x(e_x / 2) @ kinematics.rot_y(w_y / 2) @ kinematics.rot_x(-w_z / 4)
+          @ kinematics.rot_y(math.pi / 8) @ ca.vertcat(0, 0, Lf[3]))
+    f5 = sk.R1 @ kinematics.rot_y(e_y / 4) @ ca.vertcat(0, 0, Lf[5])
+    b_other = ca.horzcat(sk.E2 + sk.R4 @ ca.vertcat(w.hand_length_m / 2, 0, 0),
+                         sk.E1 + sk.R2a @ ca.vertcat(w.forearm_length_m / 2, 0, 0),
+                         sk.R1 @ ca.vertcat(w.arm_length_m / 2, 0, 0))
+    t_other = b_other + ca.horzcat(f1, f3, f5)
+    return ca.Function("bones", [t], [chain, bases, tips, b_other, t_other])
 
 
 def sample(cfg: Config, times: np.ndarray) -> dict:
@@ -63,10 +77,12 @@ def sample(cfg: Config, times: np.ndarray) -> dict:
     bones = bone_function(cfg)
     x_ep = cfg.wing.shoulder_half_separation_m
     shift = np.array([[x_ep], [0.0], [0.0]])  # right shoulder -> body centre line (like `line`)
-    out = {k: [] for k in ("chain", "fbase", "ftip", "le", "te", "line", "chord", "le_raw")}
+    out = {k: [] for k in ("chain", "fbase", "ftip", "obase", "otip", "le", "te", "line", "chord", "le_raw")}
     for t in times:
         g = dict(zip(GEOMETRY_OUTPUTS, m.geometry(float(t), m.p0)))
-        chain, fb, ft = (np.array(v) for v in bones(float(t)))
+        chain, fb, ft, ob, ot = (np.array(v) for v in bones(float(t)))
+        out["obase"].append(ob + shift)
+        out["otip"].append(ot + shift)
         out["chain"].append(chain + shift)
         out["fbase"].append(fb + shift)
         out["ftip"].append(ft + shift)
@@ -113,10 +129,10 @@ def main(argv=None) -> int:
     Pth = sample(cfg, t_path)
     colors = [CMAP(0.92 * k / (N_SNAP - 1)) for k in range(N_SNAP)]
 
-    fig = plt.figure(figsize=(16, 15))
-    outer = fig.add_gridspec(2, 1, height_ratios=[1.3, 1.0], hspace=0.16)
-    top = outer[0].subgridspec(2, 4, hspace=0.16, wspace=0.0)
-    bottom = outer[1].subgridspec(1, 2, wspace=0.45, width_ratios=[1.0, 1.25])
+    fig = plt.figure(figsize=(16, 16))
+    outer = fig.add_gridspec(2, 1, height_ratios=[1.4, 1.0], hspace=0.14)
+    top = outer[0].subgridspec(2, 4, hspace=0.3, wspace=0.18)
+    bottom = outer[1].subgridspec(1, 2, wspace=0.12, width_ratios=[1.0, 1.35])
     flap = np.degrees([float(kinematics.joint_angles(t, cfg.gait.frequency_hz, {
         j: (getattr(cfg.gait, j).offset_deg, getattr(cfg.gait, j).amplitude_deg, getattr(cfg.gait, j).phase_deg)
         for j in JOINT_NAMES})["shoulder_flap"]) for t in t_snap])
@@ -134,6 +150,8 @@ def main(argv=None) -> int:
         plot3(S["chain"][k], lw=4.5, solid_capstyle="round")
         for i in range(4):
             plot3(np.stack([S["fbase"][k][:, i], S["ftip"][k][:, i]], axis=1), lw=1.8)
+        for i in range(3):
+            plot3(np.stack([S["obase"][k][:, i], S["otip"][k][:, i]], axis=1), lw=0.9, ls=":")
         plot3(S["le"][k], lw=1.0)
         plot3(S["te"][k], lw=1.0)
         plot3(S["line"][k][:, 16:], lw=1.2, ls="--")
@@ -150,7 +168,7 @@ def main(argv=None) -> int:
         ax.view_init(elev=24, azim=-52)
         ax.tick_params(labelsize=6, pad=0)
         ax.set_xlabel("e1 span [cm]", fontsize=7, labelpad=-2)
-        ax.set_ylabel("x' fwd [cm]", fontsize=7, labelpad=-2)
+        ax.set_ylabel("x' fwd [cm]", fontsize=7, labelpad=-4)
         ax.set_zlabel("e2 up [cm]", fontsize=7, labelpad=-4)
         ax.set_yticks([-20, -10, 0, 10])
         ax.set_xticks([0, 20, 40, 60])
@@ -161,13 +179,14 @@ def main(argv=None) -> int:
                      bbox=dict(facecolor=c, edgecolor="none", boxstyle="round,pad=0.25"))
         if k == 0:
             handles = [Line2D([], [], color="0.3", lw=4.5, label="bones: arm, forearm, hand"),
-                       Line2D([], [], color="0.3", lw=1.8, label="feathers 6, 4, 2, 0"),
+                       Line2D([], [], color="0.3", lw=1.8, label="feathers 6, 4, 2, 0 (trailing edge)"),
+                       Line2D([], [], color="0.3", lw=0.9, ls=":", label="feathers 5, 3, 1 (weight 0)"),
                        Line2D([], [], color="0.3", lw=1.0, label="smoothed leading/trailing edges"),
                        Line2D([], [], color="0.3", lw=1.2, ls="--", label="lifting line"),
                        Line2D([], [], color="0.75", lw=0.8, label="edges projected on the floor"),
                        Line2D([], [], color="k", marker="o", ls="", label="G"),
                        Line2D([], [], color="k", marker="^", ls="", label="right shoulder")]
-            fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.925), ncol=7,
+            fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.925), ncol=8,
                        fontsize=8, frameon=False)
     fig.text(0.5, 0.93, "(a) right wing at t = k T/8 in 3-D, viewed from behind, above and to the right; "
              "origin at G, equal scales", ha="center", fontsize=10)
@@ -205,7 +224,7 @@ def main(argv=None) -> int:
     ax.set_xlabel("x' = -e3, forward of G [cm]  (forward is to the left)")
     ax.set_ylabel("e2 (up) [cm]")
     ax.set_title("(b) side view over one wingbeat\n(circles: tip, squares: centroid, at t = k T/8)", fontsize=9)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False, borderaxespad=0.3)
+    ax.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, frameon=False)
     ax.grid(alpha=0.3)
 
     # (c) front view of the merged lifting line ------------------------------------------------

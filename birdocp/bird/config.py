@@ -23,7 +23,7 @@ from birdocp.io.errors import ConfigError
 from birdocp.io.files import dataclass_to_dict
 
 __all__ = [
-    "ConfigError", "Joint", "Body", "Wing", "Gait", "Aero", "Tail", "Solve", "Config",
+    "ConfigError", "Joint", "Body", "Wing", "Gait", "Aero", "Tail", "Solve", "Validity", "Config",
     "JOINT_NAMES", "PARAM_NAMES", "param_vector", "load", "dump", "loads", "dumps",
     "from_dict", "to_dict", "set_value", "with_values",
 ]
@@ -151,6 +151,39 @@ class Solve:
 
 
 @dataclass(frozen=True)
+class Validity:
+    """Where the model holds: thresholds of the validity check of a cycle (:mod:`birdocp.bird.validity`).
+
+    The model is a quasi-steady lifting line with a linear lift slope (no stall) and a straight wake
+    along the body axis. A cycle is reported as *valid* when none of these limits is crossed. The
+    defaults are deliberate, conservative choices, not fitted to any result:
+    """
+
+    stall_angle_deg: float = 15.0
+    """Stall angle of a wing section (effective angle of attack, either sign). Bird wings and thin
+    cambered aerofoils at Reynolds numbers 1e4-1e5 reach their maximum lift at about 10-20 deg
+    (e.g. Withers 1981, J. Exp. Biol. 90, on bird wings as fixed aerofoils); 15 deg is mid-range and
+    ignores the stall delay of a flapping wing (dynamic stall), so it errs on the side of caution."""
+    max_stalled_fraction: float = 0.10
+    """Largest allowed stalled share of the span-time area: the integral over the period and the span
+    (element lengths as weights) of 'the element is beyond the stall angle', divided by span x period.
+    A brief excursion at the wingtip stays well below it; 10 % of the lift-producing area-time
+    working beyond stall is not a wing the linear model represents."""
+    min_forward_speed_mps: float = 5.0
+    """Smallest allowed forward speed u along the body axis. Quasi-steady aerodynamics needs a
+    reduced frequency k = pi f c / U well below 1; with the reference wing (mean chord 0.2 m) at 4 Hz,
+    k = 0.5 at 5 m/s (0.14 at the reference cycle's 18 m/s)."""
+    max_abs_pitch_deg: float = 45.0
+    """Largest allowed |theta| over the cycle: beyond it the cycle is a steep climb or a dive, far from
+    the forward flight the model (and the paper) is about."""
+    max_airflow_body_angle_deg: float = 20.0
+    """Largest allowed angle between the airflow and the body axis, atan2(w, u) in absolute value.
+    The wake is modelled as straight filaments along the body axis; with the airflow at an angle
+    eps to it the trailing vortices leave along the wrong direction and the induced velocity is off by
+    a term of order 1 - cos(eps) (6 % at 20 deg, 13 % at 30 deg) plus the wake's displacement."""
+
+
+@dataclass(frozen=True)
 class Config:
     body: Body = field(default_factory=Body)
     wing: Wing = field(default_factory=Wing)
@@ -158,6 +191,7 @@ class Config:
     aero: Aero = field(default_factory=Aero)
     tail: Tail = field(default_factory=Tail)
     solve: Solve = field(default_factory=Solve)
+    validity: Validity = field(default_factory=Validity)
 
     def __post_init__(self):
         validate(self)
@@ -271,6 +305,12 @@ def validate(cfg: Config) -> None:
                           f"must be one of {', '.join(KINEMATIC_VELOCITY_MODES)}; got {cfg.aero.kinematic_velocity!r}")
     if not 1 <= cfg.aero.relaxed_evaluations <= 1000:
         raise ConfigError("aero.relaxed_evaluations", f"must be an integer in [1, 1000], got {cfg.aero.relaxed_evaluations!r}")
+    v = cfg.validity
+    for name, lo, hi in (("stall_angle_deg", 0.0, 90.0), ("max_stalled_fraction", 0.0, 1.0),
+                         ("max_abs_pitch_deg", 0.0, 180.0), ("max_airflow_body_angle_deg", 0.0, 180.0)):
+        val = getattr(v, name)
+        if not lo < val <= hi if name != "max_stalled_fraction" else not lo <= val <= hi:
+            raise ConfigError(f"validity.{name}", f"must lie in ({lo:g}, {hi:g}], got {val!r}")
     s = cfg.solve
     if s.points < 2:
         raise ConfigError("solve.points", f"must be >= 2 (the closing point included), got {s.points!r}")

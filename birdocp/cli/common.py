@@ -222,6 +222,8 @@ def growth_text(exponent: Any, doubling: Any) -> str:
 
 
 def format_trim_table(r: dict) -> str:
+    from birdocp.bird.validity import validity_text
+
     lines = []
     ok = bool(r.get("success"))
     lines.append(f"trim: {'converged' if ok else 'NOT converged'} (status: {r.get('status')})")
@@ -248,6 +250,7 @@ def format_trim_table(r: dict) -> str:
     verdict = "stable" if stable is True else "unstable" if stable is False else "unknown"
     rows = [
         ("verdict", verdict),
+        ("model validity", validity_text(r.get("validity"))),
         ("mean forward speed", f"{fmt_num(r.get('mean_forward_speed_mps'), '.4f')} m/s"),
         ("mean vertical speed", f"{fmt_num(r.get('mean_vertical_speed_mps'), '.4f')} m/s"),
         ("flight path angle", f"{fmt_num(r.get('flight_path_angle_deg'), '.4f')} deg"),
@@ -289,6 +292,23 @@ class _State:
 
 
 STATE = _State
+
+
+def validity_word(valid) -> str:
+    """The model-validity column of a table: ``valid``, ``INVALID`` or ``-`` (not checked)."""
+    return "valid" if valid is True else "INVALID" if valid is False else "-"
+
+
+def validity_notes(rows: list[dict], label: str = "value") -> list[str]:
+    """Lines naming each invalid point of a table and why (rows with ``validity`` or ``invalid_reasons``)."""
+    out = []
+    for r in rows:
+        if r.get("valid") is False:
+            reasons = (r.get("validity") or {}).get("reasons") or [r.get("invalid_reasons") or "?"]
+            out.append(f"  {label} {fmt_num(r.get(label), 'g')}: NOT VALID: {'; '.join(reasons)}")
+    if out:
+        out.insert(0, "model validity (birdocp.bird.validity; thresholds in [validity]):")
+    return out
 
 
 def print_json(obj: Any) -> None:

@@ -10,7 +10,7 @@ import time
 from birdocp.bird import config as C
 from birdocp.bird.config import ConfigError
 from birdocp.cli.common import (AMPLITUDE_KEY, EXIT_NOT_CONVERGED, EXIT_OK, PROG, finite_values, noise_summary,
-                                resolve_config, run_folder)
+                                resolve_config, run_folder, validity_word)
 from birdocp.cli.level import checked_bounds
 from birdocp.cli.trim import solve_shortcuts
 
@@ -87,6 +87,7 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
                    "from": a, "to": b, "level": bool(args.level), "end_reason": br.end_reason,
                    "end_message": br.end_message, "n_points": len(br.points), "special_points": d["special_points"],
                    "stable_anywhere": any(p.stable for p in br.points), "figures": [f.name for f in figs],
+                   "valid_points": sum(bool(p.validity and p.validity["valid"]) for p in br.points),
                    "wall_s": {"total": time.perf_counter() - t_start}, "run_dir": str(run.dir)}
         run.write(cfg, summary)
         if args.json:
@@ -122,14 +123,20 @@ def _table(br, cfg, display: str, level: bool, figs, run_dir) -> str:
     sm = display == "stability_margin"
     lines = [f"continuation in {display}" + (" (level flight held)" if level else ""),
              f"{'SM [%]' if sm else 'value':>12}  {'|lambda1|':>9}  {'|lambda2|':>9}  {'|lambda4|':>9}  stable"
-             + ("  A [deg]" if level else "")]
+             + ("  A [deg]" if level else "") + "  model"]
     for p in br.points:
         v = -100 * p.parameter / cfg.body.reference_chord_m if sm else p.parameter
         line = (f"{v:12.6g}  {p.moduli[0]:9.6f}  {p.moduli[1]:9.6f}  {p.moduli[-1]:9.6f}  "
                 f"{'yes' if p.stable else 'no':>6}")
         if level:
             line += f"  {list(p.free_values.values())[0]:7.3f}"
-        lines.append(line)
+        lines.append(line + f"  {validity_word((p.validity or {}).get('valid'))}")
+    invalid = [p for p in br.points if p.validity and not p.validity["valid"]]
+    if invalid:
+        first = invalid[0]
+        v = -100 * first.parameter / cfg.body.reference_chord_m if sm else first.parameter
+        lines.append(f"model validity: {len(invalid)} of {len(br.points)} points NOT valid; the first at {v:.6g}: "
+                     + "; ".join(first.validity["reasons"]))
     for sp in br.special_points:
         v = -100 * sp.parameter / cfg.body.reference_chord_m if sm else sp.parameter
         lines.append(f"special point: {sp.kind} at {v:.8g} ({sp.message})")

@@ -7,6 +7,7 @@ import math
 import sys
 
 from birdocp.bird.config import ConfigError
+from birdocp.bird.validity import validity_text
 from birdocp.cli import common as cli
 from birdocp.cli.sensitivity import check_key
 
@@ -73,7 +74,7 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
         if args.json:
             cli.print_json(result)
         else:
-            _print_table(res, run.dir)
+            _print_table(res, result, run.dir)
         if not res.success:
             warn = cli.noise_summary(run.noise)
             print(f"{cli.PROG}: optimisation did not converge (status {res.status}); result written to {run.dir}"
@@ -82,7 +83,7 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
     return cli.EXIT_OK
 
 
-def _print_table(res, run_dir) -> None:
+def _print_table(res, result: dict, run_dir) -> None:
     print(f"optimize-stability: {'converged' if res.success else 'NOT converged'} ({res.status}), "
           f"{res.iterations} iterations, {res.wall_s.get('total', 0):.1f} s")
     print(f"  largest multiplier modulus {max(abs(res.multipliers)):.6f} (start {max(abs(res.start_multipliers)):.6f}); "
@@ -94,8 +95,8 @@ def _print_table(res, run_dir) -> None:
     print("  multipliers: " + ", ".join(f"{z.real:.5f}{z.imag:+.5f}j" for z in res.multipliers))
     v = res.verification
     if v:
-        ok = v.get("scratch_trim_success", v.get("trim_from_scratch_success"))
-        print(f"  check: trim from scratch at the optimum {'converged' if ok else 'FAILED'}, "
+        print(f"  check: trim at the optimum {'converged' if v.get('trim_success') else 'FAILED'}, "
               f"multipliers differ by {v.get('max_multiplier_difference')}, "
               f"mean W {v.get('trim_mean_vertical_speed_mps')}")
+    print(f"  model validity of the optimal cycle: {validity_text(result.get('validity'))}")
     print(f"  written to {run_dir}")

@@ -6,6 +6,7 @@ import argparse
 import time
 
 from birdocp.bird.config import PARAM_NAMES, ConfigError, suggest
+from birdocp.bird.validity import validity_text
 from birdocp.cli import common as cli
 
 
@@ -64,6 +65,7 @@ def cmd_sensitivity(args: argparse.Namespace, command_line: list[str]) -> int:
         with run.solving():
             s = multiplier_sensitivities(base, params, hold_level=args.level)
         result = {"success": True, "status": base.status, "amplitude_deg": base.amplitude_deg, **s.to_dict(),
+                  "validity": base.validity.to_dict(),
                   "wall_s": {"total": time.perf_counter() - t0}, "run_dir": str(run.dir)}
         run.write(base.cfg, result)
         run.output(result, None if args.json else _table(s, base, args, result, run.dir))
@@ -85,5 +87,6 @@ def _table(s, base, args, result, run_dir) -> str:
         if args.level:
             line += f" {row['d_amplitude_deg_per_unit']:+10.3e}"
         lines.append(line)
+    lines.append(f"  model validity of the cycle: {validity_text(result['validity'])}")
     lines.append(f"  ({len(s.parameters)} parameters, {result['wall_s']['total']:.1f} s; written to {run_dir})")
     return "\n".join(lines)

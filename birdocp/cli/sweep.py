@@ -9,7 +9,7 @@ import time
 from birdocp.bird import config as C
 from birdocp.bird.config import ConfigError
 from birdocp.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, PROG, config_message, fmt_num, noise_summary,
-                                resolve_config, run_folder)
+                                resolve_config, run_folder, validity_notes, validity_word)
 from birdocp.cli.level import level_kwargs, level_options
 from birdocp.cli.trim import solve_shortcuts
 
@@ -55,7 +55,7 @@ def register(sub, common) -> None:
 def format_sweep_table(rows: list[dict], key: str, level: bool) -> str:
     head = f"{'value':>10}  {'ok':>3}  {'it':>3}  {'|lambda1|':>9}  {'|lambda2,3|':>11}  {'|lambda4|':>9}  " \
            f"{'U [m/s]':>8}  {'W [m/s]':>8}  {'beta [deg]':>10}" + (f"  {'A [deg]':>9}" if level else "") + \
-           f"  {'wall [s]':>8}"
+           f"  {'wall [s]':>8}  model"
     lines = [f"sweep of {key}" + (" (level flight)" if level else ""), head]
     for r in rows:
         line = (f"{fmt_num(r['value'], 'g'):>10}  {'yes' if r['success'] else 'NO':>3}  {fmt_num(r['iterations'], 'd'):>3}  "
@@ -64,17 +64,18 @@ def format_sweep_table(rows: list[dict], key: str, level: bool) -> str:
                 f"{fmt_num(r['flight_path_angle_deg'], '+.4f'):>10}")
         if level:
             line += f"  {fmt_num(r['amplitude_deg'], '.4f'):>9}"
-        lines.append(line + f"  {fmt_num(r['wall_s'], '.2f'):>8}")
-    return "\n".join(lines)
+        lines.append(line + f"  {fmt_num(r['wall_s'], '.2f'):>8}  {validity_word(r.get('valid'))}")
+    return "\n".join(lines + validity_notes(rows))
 
 
 def format_grid_table(rows: list[dict], key: str, row_key: str, level: bool) -> str:
     lines = [f"grid {row_key} x {key}" + (" (level flight)" if level else ""),
-             f"{'row value':>10}  {'value':>10}  {'ok':>3}  {'|lambda1|':>9}  {'U [m/s]':>8}  {'W [m/s]':>8}"]
+             f"{'row value':>10}  {'value':>10}  {'ok':>3}  {'|lambda1|':>9}  {'U [m/s]':>8}  {'W [m/s]':>8}  model"]
     for r in rows:
         lines.append(f"{fmt_num(r['row_value'], 'g'):>10}  {fmt_num(r['value'], 'g'):>10}  "
                      f"{'yes' if r['success'] else 'NO':>3}  {fmt_num(r['modulus0'], '.6f'):>9}  "
-                     f"{fmt_num(r['mean_forward_speed_mps'], '.4f'):>8}  {fmt_num(r['mean_vertical_speed_mps'], '+.4f'):>8}")
+                     f"{fmt_num(r['mean_forward_speed_mps'], '.4f'):>8}  {fmt_num(r['mean_vertical_speed_mps'], '+.4f'):>8}  "
+                     f"{validity_word(r.get('valid'))}")
     return "\n".join(lines)
 
 

@@ -29,6 +29,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, with_values
+from birdocp.bird.validity import invalid, periodic_validity
 from birdocp.engine import interrupts
 from birdocp.engine.oracle import ConstraintOracle
 
@@ -89,6 +90,8 @@ class StabilityOptimum:
     verification: dict = field(default_factory=dict)
     wall_s: dict = field(default_factory=dict)
     cfg: Config | None = None
+    validity: dict | None = None
+    """Where the model holds on the optimal cycle (:func:`birdocp.bird.validity.periodic_validity`)."""
 
     @property
     def stable(self) -> bool:
@@ -103,6 +106,7 @@ class StabilityOptimum:
                 "multipliers": pair(self.multipliers), "moduli": np.abs(self.multipliers).tolist(),
                 "start_multipliers": pair(self.start_multipliers), "x0": self.x0.tolist(),
                 "stable": self.stable, "verification": self.verification, "wall_s": self.wall_s,
+                "validity": self.validity or invalid(self.cfg, "not checked (no optimal cycle)").to_dict(),
                 "active_bounds": [k for k, v in self.free.items()
                                   if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6]}
 
@@ -336,6 +340,10 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
             "evaluations": {"constraints": ev.n_g, "jacobians": ev.n_jac},
         }
         wall["verify"] = time.perf_counter() - t0
+    if np.all(np.isfinite(zs)):
+        vals = dict(best)
+        vals[AMPLITUDE_KEY] = float(ps[-1])
+        out.validity = periodic_validity(with_values(cfg, vals), xs, pbest, steps_per_period=N).to_dict()
     wall["total"] = time.perf_counter() - t_start
     out.wall_s = wall
     return out

@@ -36,6 +36,7 @@ from typing import Sequence
 import numpy as np
 
 from birdocp.bird.config import Config, ConfigError, to_dict, with_values
+from birdocp.bird.validity import VALIDITY_COLUMNS, validity_columns
 from birdocp.io.files import atomic_write_json, atomic_write_text, to_jsonable
 from birdocp.studies.level import AMPLITUDE_KEY, resolve_key
 
@@ -48,6 +49,7 @@ CSV_COLUMNS = (
     + [f"modulus{k}" for k in range(N_MULT)]
     + ["mean_forward_speed_mps", "mean_vertical_speed_mps", "mean_speed_norm_mps", "flight_path_angle_deg",
        "amplitude_deg", "free_key", "free_value", "iterations", "max_residual", "wall_s", "warm_from"]
+    + list(VALIDITY_COLUMNS)
 )
 
 
@@ -106,7 +108,9 @@ def _pair_list(v):
 
 
 def row_of(index: int, key: str, value: float, d: dict, free_key: str | None, warm_from) -> dict:
-    """The table row of a solved point (``d``: TrimResult.to_dict())."""
+    """The table row of a solved point (``d``: TrimResult.to_dict()): the :data:`CSV_COLUMNS` (the
+    validity's verdict and key numbers flat, :data:`birdocp.bird.validity.VALIDITY_COLUMNS`) and the
+    object ``validity`` (``valid``, ``reasons`` and the measured numbers)."""
     mults = _pair_list(d.get("multipliers"))
     moduli = _pair_list(d.get("moduli"))
     U, W = d.get("mean_forward_speed_mps"), d.get("mean_vertical_speed_mps")
@@ -129,6 +133,9 @@ def row_of(index: int, key: str, value: float, d: dict, free_key: str | None, wa
     row["max_residual"] = d.get("max_residual")
     row["wall_s"] = (d.get("wall_s") or {}).get("total")
     row["warm_from"] = warm_from
+    v = d.get("validity") or {}
+    row.update(validity_columns(v))
+    row["validity"] = {k: x for k, x in v.items() if k != "thresholds"} or None
     return row
 
 
@@ -382,6 +389,7 @@ def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: s
         for r in res["rows"]:
             row = {"row": res["row"], "row_key": row_key, "row_value": row_values[res["row"]]}
             row.update({c: r.get(c) for c in CSV_COLUMNS if c != "wall_s"})
+            row["validity"] = r.get("validity")
             table.append(row)
     if out is not None:
         atomic_write_json(out / "grid.json", dict(spec, points=table, complete=True))

@@ -18,6 +18,7 @@ import numpy as np
 from birdocp.bird.config import PARAM_NAMES, Config
 from birdocp.bird.flight import flight_outputs, flight_path_angle_deg
 from birdocp.bird.model import get_model
+from birdocp.bird.validity import CycleValidity, cycle_validity
 from birdocp.engine.floquet import complex_pairs
 from birdocp.engine.problem import LimitCycleProblem
 from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
@@ -50,6 +51,17 @@ class TrimResult:
         if name in ("cycle", "cfg"):
             raise AttributeError(name)
         return getattr(self.cycle, name)
+
+    @property
+    def validity(self) -> "CycleValidity":
+        """Where the model holds on this cycle (:func:`birdocp.bird.validity.cycle_validity` on the
+        trajectory; computed on first use, thresholds from ``cfg.validity``)."""
+        v = self.__dict__.get("_validity")
+        if v is None:
+            c = self.cycle
+            v = cycle_validity(self.cfg, c.trajectory_t, c.trajectory_x, c.p)
+            self.__dict__["_validity"] = v
+        return v
 
     @property
     def mean_vertical_speed_mps(self) -> float:
@@ -90,6 +102,7 @@ class TrimResult:
             "mean_vertical_speed_mps": _f(self.mean_vertical_speed_mps),
             "mean_forward_speed_mps": _f(self.mean_forward_speed_mps),
             "flight_path_angle_deg": _f(self.flight_path_angle_deg),
+            "validity": self.validity.to_dict(),
             "free_values": dict(c.free_values),
             "means": {k: _f(v) for k, v in c.means.items()},
             "shooting_times_s": np.asarray(c.shooting_times).tolist(),
@@ -130,6 +143,7 @@ class TrimResult:
         lines.append(f"  mean forward speed {self.mean_forward_speed_mps:.4f} m/s, mean vertical speed "
                      f"{self.mean_vertical_speed_mps:+.4f} m/s (positive climbing), flight path angle "
                      f"{self.flight_path_angle_deg:+.4f} deg")
+        lines.append(f"  model validity: {self.validity.summary()}")
         if not c.success:
             lines.append(f"  message: {c.message}")
         return "\n".join(lines)
