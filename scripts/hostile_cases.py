@@ -20,6 +20,8 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 OUT = REPO / "results" / "reliability"
 COARSE = ["--points", "3", "--steps", "60"]
+# Runs the CLI after wrapping TARGET ("module:attr" or "module:Class.method") so that its N-th call
+# sends SIGINT to this very process first (also used by tests/test_cli_faults.py).
 HOOK = (
     "import importlib, os, signal, sys, runpy\n"
     "target, n = sys.argv[1], int(sys.argv[2])\n"

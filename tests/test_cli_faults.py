@@ -22,28 +22,19 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 COARSE = ["--points", "3", "--steps", "60"]
 
-# Runs the CLI after wrapping TARGET ("module:attr" or "module:Class.method") so that its N-th call
-# sends SIGINT to this very process first.
-HOOK = (
-    "import importlib, os, signal, sys, runpy\n"
-    "target, n = sys.argv[1], int(sys.argv[2])\n"
-    "del sys.argv[1:3]\n"
-    "mod_name, attr = target.split(':')\n"
-    "owner = importlib.import_module(mod_name)\n"
-    "*path, name = attr.split('.')\n"
-    "for part in path:\n"
-    "    owner = getattr(owner, part)\n"
-    "orig = getattr(owner, name)\n"
-    "calls = [0]\n"
-    "def wrapped(*a, **k):\n"
-    "    calls[0] += 1\n"
-    "    if calls[0] == n:\n"
-    "        os.kill(os.getpid(), signal.SIGINT)\n"
-    "    return orig(*a, **k)\n"
-    "setattr(owner, name, wrapped)\n"
-    "sys.argv[0] = 'birdocp'\n"
-    "runpy.run_module('birdocp', run_name='__main__', alter_sys=True)\n"
-)
+
+def _hook_source() -> str:
+    """The CLI runner that sends SIGINT to itself on the N-th call of a function (shared with
+    scripts/hostile_cases.py, which holds it)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("hostile_cases", REPO / "scripts" / "hostile_cases.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.HOOK
+
+
+HOOK = _hook_source()
 
 
 def _env() -> dict:
