@@ -21,7 +21,6 @@ import argparse
 import math
 from pathlib import Path
 
-import casadi as ca
 import matplotlib
 
 matplotlib.use("Agg")
@@ -32,66 +31,24 @@ from matplotlib.lines import Line2D  # noqa: E402
 
 from birdocp.bird import kinematics  # noqa: E402
 from birdocp.bird.config import JOINT_NAMES, Config  # noqa: E402
-from birdocp.bird.model import GEOMETRY_OUTPUTS, get_model  # noqa: E402
+from birdocp.bird.snapshots import motion  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 N_SNAP = 8
 CMAP = plt.get_cmap("viridis")
 
 
-def bone_function(cfg: Config) -> ca.Function:
-    """t -> (joint chain points 3x4: shoulder, elbow, wrist, hand tip; feather bases 3x4; tips 3x4),
-    right-wing coordinates with origin at the right shoulder."""
-    t = ca.SX.sym("t")
-    g = cfg.gait
-    joints = {j: (getattr(g, j).offset_deg, getattr(g, j).amplitude_deg, getattr(g, j).phase_deg)
-              for j in JOINT_NAMES}
-    q = kinematics.joint_angles(t, g.frequency_hz, joints)
-    w = cfg.wing
-    sk = kinematics.skeleton(q, w.arm_length_m, w.forearm_length_m, w.hand_length_m, w.feather_lengths_m)
-    LE, TE = kinematics.raw_edges(sk, w.arm_length_m, w.forearm_length_m, w.hand_length_m,
-                                  w.section_half_thickness_m)
-    tip = sk.E2 + sk.R4 @ ca.vertcat(w.hand_length_m, 0, 0)
-    chain = ca.horzcat(ca.DM.zeros(3, 1), sk.E1, sk.E2, tip)
-    order = (6, 4, 2, 0)  # shoulder .. hand tip, the order of the trailing-edge points
-    tips = ca.horzcat(*TE)
-    bases = ca.horzcat(*[TE[i] - sk.feathers[k] for i, k in enumerate(order)])
-    # feathers 1, 3, 5 (spec/model.md 3): computed like the others but with weight 0 in the trailing edge;
-    # drawn from the middle of the hand, forearm and arm
-    e_y, e_x = q["elbow_flex"], q["hand_twist"]
-    w_y, w_z = q["wrist_flex"], q["wrist_spread"]
-    Lf = w.feather_lengths_m
-    f1 = sk.R4 @ kinematics.rot_x(w_z / 4) @ kinematics.rot_y(3 * math.pi / 8) @ ca.vertcat(0, 0, Lf[1])
-    f3 = (sk.R2a @ kinematics.rot_x(e_x / 2) @ kinematics.rot_y(w_y / 2) @ kinematics.rot_x(-w_z / 4)
-          @ kinematics.rot_y(math.pi / 8) @ ca.vertcat(0, 0, Lf[3]))
-    f5 = sk.R1 @ kinematics.rot_y(e_y / 4) @ ca.vertcat(0, 0, Lf[5])
-    b_other = ca.horzcat(sk.E2 + sk.R4 @ ca.vertcat(w.hand_length_m / 2, 0, 0),
-                         sk.E1 + sk.R2a @ ca.vertcat(w.forearm_length_m / 2, 0, 0),
-                         sk.R1 @ ca.vertcat(w.arm_length_m / 2, 0, 0))
-    t_other = b_other + ca.horzcat(f1, f3, f5)
-    return ca.Function("bones", [t], [chain, bases, tips, b_other, t_other])
-
-
 def sample(cfg: Config, times: np.ndarray) -> dict:
-    m = get_model(cfg)
-    bones = bone_function(cfg)
-    x_ep = cfg.wing.shoulder_half_separation_m
-    shift = np.array([[x_ep], [0.0], [0.0]])  # right shoulder -> body centre line (like `line`)
-    out = {k: [] for k in ("chain", "fbase", "ftip", "obase", "otip", "le", "te", "line", "chord", "le_raw")}
-    for t in times:
-        g = dict(zip(GEOMETRY_OUTPUTS, m.geometry(float(t), m.p0)))
-        chain, fb, ft, ob, ot = (np.array(v) for v in bones(float(t)))
-        out["obase"].append(ob + shift)
-        out["otip"].append(ot + shift)
-        out["chain"].append(chain + shift)
-        out["fbase"].append(fb + shift)
-        out["ftip"].append(ft + shift)
-        out["le"].append(np.array(g["leading_edge"]) + shift)
-        out["te"].append(np.array(g["trailing_edge"]) + shift)
-        out["le_raw"].append(np.array(g["leading_edge_raw"]) + shift)
-        out["line"].append(np.array(g["line"]))
-        out["chord"].append(np.array(g["chord_m"]).ravel())
-    return {k: np.array(v) for k, v in out.items()}
+    """Right-wing bones, feathers and edges and the merged lifting line at ``times``
+    (:func:`birdocp.bird.snapshots.motion`), origin on the body centre line at the shoulders."""
+    mo = motion(cfg, times)
+    up = np.array([[0.0], [0.0], [cfg.wing.root_ahead_m]])  # origin G -> the shoulders' centre line
+    names = {"chain": "chain_m", "fbase": "feather_base_m", "ftip": "feather_tip_m", "obase": "minor_feather_base_m",
+             "otip": "minor_feather_tip_m", "le": "leading_edge_m",
+             "te": "trailing_edge_m", "le_raw": "leading_edge_raw_m", "line": "line_m"}
+    out = {k: mo[v] + up for k, v in names.items()}
+    out["chord"] = mo["chord_m"]
+    return out
 
 
 def to_G(P: np.ndarray, root_ahead: float) -> dict:

@@ -25,7 +25,7 @@ from birdocp.io.files import dataclass_to_dict
 __all__ = [
     "ConfigError", "Joint", "Body", "Wing", "Gait", "Aero", "Tail", "Solve", "Validity", "Config",
     "JOINT_NAMES", "PARAM_NAMES", "param_vector", "load", "dump", "loads", "dumps",
-    "from_dict", "to_dict", "set_value", "with_values",
+    "from_dict", "to_dict", "set_value", "with_values", "WING_MASS_SHARES", "body_alone_mass_kg",
 ]
 
 
@@ -43,7 +43,10 @@ class Body:
     """Rigid body of the bird."""
 
     mass_kg: float = 1.2
+    """Mass of the whole bird, wings included (M); the body alone has M - 2 wing.mass_kg."""
     pitch_inertia_kgm2: float = 0.1
+    """Pitch inertia of the body ALONE about its own centre of mass G_b (the wings' is added by the
+    model when they have mass)."""
     gravity_mps2: float = 9.81
     reference_chord_m: float = 0.2
     """Mean chord c̄ used for the stability margin SM = -root_ahead_m / c̄ and moment coefficients."""
@@ -65,6 +68,23 @@ class Wing:
     section_half_thickness_m: float = 0.01
     smoothing_radius_m: float = 0.05
     """Corner-smoothing radius R_s of the edge resampling."""
+    mass_kg: float = 0.0
+    """Mass of ONE wing (bones, muscle, skin, feathers). 0 = massless wings, the paper's model bit for
+    bit. It is part of ``body.mass_kg`` (the whole bird): the body alone has body.mass_kg - 2 mass_kg.
+    A large bird's wing is ~7 % of its mass (van den Berg & Rayner 1995: 0.086 kg at 1.2 kg)."""
+    mass_share_arm: float = 0.50
+    """Share of the wing mass in a uniform rod shoulder -> elbow (humerus, muscle, skin, coverts)."""
+    mass_share_forearm: float = 0.25
+    """Share in a uniform rod elbow -> wrist."""
+    mass_share_hand: float = 0.08
+    """Share in a uniform rod wrist -> hand tip."""
+    mass_share_primaries: float = 0.10
+    """Share on feathers 0, 1, 2 (split 0.45, 0.30, 0.25), each a rod tapering linearly to the tip."""
+    mass_share_secondaries: float = 0.07
+    """Share on feathers 3, 4, 5, 6 (split 0.30, 0.30, 0.25, 0.15), tapered rods."""
+    inertial_terms: bool = False
+    """Put the wing-mass terms in the model graphs even at mass_kg = 0 (implied by mass_kg > 0), e.g.
+    to continue from massless wings; at mass 0 they change nothing (bit for bit)."""
 
 
 # Joint names in the order of the model's slots (spec 2.1). Docstrings carry the paper's names.
@@ -209,7 +229,7 @@ def _param_names() -> tuple[str, ...]:
     for f in fields(Wing):
         if f.name == "feather_lengths_m":
             names += [f"wing.feather_lengths_m.{i}" for i in range(7)]
-        else:
+        elif f.type in ("float", float):
             names.append(f"wing.{f.name}")
     for j in JOINT_NAMES:
         for f in fields(Joint):
@@ -287,6 +307,7 @@ def validate(cfg: Config) -> None:
             raise ConfigError(f"wing.feather_lengths_m.{i}", f"must be > 0, got {L!r}")
     if len(cfg.wing.feather_lengths_m) != 7:
         raise ConfigError("wing.feather_lengths_m", f"needs 7 lengths, got {len(cfg.wing.feather_lengths_m)}")
+    _validate_wing_mass(cfg)
     if not (-0.5 <= cfg.wing.root_ahead_m <= 0.5):
         raise ConfigError("wing.root_ahead_m", f"must lie in [-0.5, 0.5] m, got {cfg.wing.root_ahead_m!r}")
     for j in JOINT_NAMES:
@@ -330,6 +351,33 @@ def validate(cfg: Config) -> None:
         raise ConfigError("solve.initial_guess", f"needs 4 numbers (u, w, q, theta), got {len(s.initial_guess)}")
     for i, v in enumerate(s.initial_guess):
         _check_number(f"solve.initial_guess.{i}", v)
+
+
+WING_MASS_SHARES = ("mass_share_arm", "mass_share_forearm", "mass_share_hand", "mass_share_primaries",
+                    "mass_share_secondaries")
+"""The keys of the wing-mass distribution (shares of ``wing.mass_kg``, summing to 1)."""
+
+
+def _validate_wing_mass(cfg: Config) -> None:
+    w = cfg.wing
+    if w.mass_kg < 0:
+        raise ConfigError("wing.mass_kg", f"must be >= 0 kg (0 = massless wings), got {w.mass_kg!r}")
+    if 2 * w.mass_kg >= cfg.body.mass_kg:
+        raise ConfigError("wing.mass_kg", f"both wings (2 x {w.mass_kg!r} kg) must weigh less than the whole "
+                                          f"bird, body.mass_kg = {cfg.body.mass_kg!r} kg")
+    for k in WING_MASS_SHARES:
+        v = getattr(w, k)
+        if not 0.0 <= v <= 1.0:
+            raise ConfigError(f"wing.{k}", f"must lie in [0, 1], got {v!r}")
+    total = sum(getattr(w, k) for k in WING_MASS_SHARES)
+    if abs(total - 1.0) > 1e-9:
+        raise ConfigError("wing." + WING_MASS_SHARES[0],
+                          f"the wing mass shares ({', '.join(WING_MASS_SHARES)}) must sum to 1, got {total!r}")
+
+
+def body_alone_mass_kg(cfg: Config) -> float:
+    """Mass of the body without the wings [kg]: ``body.mass_kg - 2 wing.mass_kg``."""
+    return cfg.body.mass_kg - 2.0 * cfg.wing.mass_kg
 
 
 # ---------------------------------------------------------------------------------------------

@@ -61,6 +61,8 @@ def common_options() -> argparse.ArgumentParser:
     o.add_argument("--verbose", action="store_true",
                    help="show the solvers' own warnings (CasADi 'NaN detected', ...) on the terminal instead of "
                         "writing them to the run folder's solver.log")
+    o.add_argument("--quiet", action="store_true",
+                   help="no progress bar on stderr (there is none anyway when stderr is not a terminal)")
     return p
 
 
@@ -72,7 +74,7 @@ def one_line(text: Any) -> str:
 
 
 def config_message(exc: ConfigError) -> str:
-    """The message of a ConfigError without its ``key: `` prefix."""
+    """The message of a ConfigError without its ``"key: "`` prefix."""
     text = str(exc)
     prefix = f"{exc.key}: "
     return text[len(prefix):] if exc.key and text.startswith(prefix) else text
@@ -255,6 +257,12 @@ def format_trim_table(r: dict) -> str:
         ("mean vertical speed", f"{fmt_num(r.get('mean_vertical_speed_mps'), '.4f')} m/s"),
         ("flight path angle", f"{fmt_num(r.get('flight_path_angle_deg'), '.4f')} deg"),
     ]
+    if (r.get("wing_mass_kg") or 0) > 0:
+        rows.append(("wing mass (each)", f"{fmt_num(r.get('wing_mass_kg'), '.4g')} kg"))
+        rows.append(("inertial power", f"dT_rel/dt mean {fmt_num(r.get('mean_inertial_power_W'), '+.3g')} W, "
+                                       f"positive part {fmt_num(r.get('mean_positive_inertial_power_W'), '.4g')} W, "
+                                       f"peak {fmt_num(r.get('peak_inertial_power_W'), '.4g')} W"))
+        rows.append(("shoulder inertial power", f"mean {fmt_num(r.get('mean_shoulder_inertial_power_W'), '+.4g')} W"))
     x0 = r.get("x0")
     if isinstance(x0, (list, tuple)) and len(x0) == 4:
         u, w, q, th = x0

@@ -21,5 +21,6 @@ def cmd_config(args: argparse.Namespace, command_line: list[str]) -> int:
     if args.json:
         print_json(C.to_dict(cfg))
     else:
-        sys.stdout.write("# birdocp configuration (resolved)\n" + C.dumps(cfg))
+        sys.stdout.write("# birdocp configuration (resolved)\n"
+                         f"# body alone (without the wings): {C.body_alone_mass_kg(cfg):.6g} kg\n" + C.dumps(cfg))
     return EXIT_OK

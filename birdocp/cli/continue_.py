@@ -38,7 +38,6 @@ def register(sub, common) -> None:
     p.add_argument("--bounds", type=float, nargs=2, metavar=("LO", "HI"),
                    help="amplitude bounds with --level (default 20 70 deg; LO < HI); leaving them ends the branch")
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-continue-<id>/")
-    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     solve_shortcuts(p)
     p.set_defaults(func=cmd_continue)
 
@@ -68,11 +67,12 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
         from birdocp.studies.branch import bird_branch
         from birdocp.io.files import atomic_write_json
 
-        say = (lambda text: None) if args.quiet else (lambda text: print(f"continue: {text}", file=sys.stderr,
-                                                                          flush=True))
+        from birdocp.io.progress import progress_callback
+
+        say, bar = progress_callback(f"continue {args.param}", args.quiet)
         done: list = []  # the accepted points, kept if the run is interrupted
         try:
-            with run.solving():
+            with run.solving(), bar:
                 br = bird_branch(cfg, args.param, a, b, level=args.level, climb_rate_mps=climb, bounds=bounds,
                                  step=args.step, max_points=args.max_points, progress=say, on_point=done.append)
         except KeyboardInterrupt:

@@ -66,8 +66,11 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
         if k not in free:
             raise ConfigError("--bounds", f"'{k}' is not free; add --free {k}")
     with cli.run_folder(args, "optimize-stability", command_line) as run:
-        with run.solving():
-            res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, progress=not args.json)
+        from birdocp.io.progress import progress_callback
+
+        say, bar = progress_callback("optimize-stability", args.quiet)
+        with run.solving(), bar:
+            res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, progress=say)
         result = res.to_dict()
         result["run_dir"] = str(run.dir)
         run.write(res.cfg or cfg, result)

@@ -36,7 +36,6 @@ def register(sub, common) -> None:
     p.add_argument("--out", metavar="DIR", help="run folder (new or empty; with --resume an earlier sweep's folder); "
                                                 "default runs/<time>-sweep-<id>/")
     p.add_argument("--resume", action="store_true", help="continue the sweep (or grid) in --out DIR (same arguments)")
-    p.add_argument("--quiet", action="store_true", help="no progress line on stderr")
     level_options(p, True)
     solve_shortcuts(p)
     x = p.add_argument_group("grid and executors")

@@ -54,22 +54,34 @@ _IPOPT_DEFAULTS = {
 class MultipleShooting:
     """How to solve a LimitCycleProblem.
 
-    points:           M, shooting points INCLUDING the closing one (M-1 segments), M >= 2.
-    steps_per_period: N, RK4 steps over the period; a multiple of points-1.
-    solver:           "ipopt" | "lm" (the paper's Levenberg-Marquardt).
-    derivatives:      "exact" (CasADi AD) | "fd" (forward differences of the segment flow, relative
-                      step 1e-3*x_j, absolute step 1e-3*fd_floor when |x_j| < fd_floor; lm only).
-    tol:              None -> 1e-10 for ipopt (``constr_viol_tol`` and ``tol``),
-                      1e-5 for lm (max |E|, as in the paper). Both are absolute max-norms.
-    max_iter:         iteration limit.
-    ipopt_options:    merged over the defaults (full steps ``accept_every_trial_step``, limited-
-                      memory Hessian, MUMPS, silent).
-    fd_floor:         see ``derivatives``.
-    regularization:   ipopt objective weight w in w/2 |z - z_guess|^2 (z = shooting points and free
-                      parameters). Default 0: pure feasibility (measured: no weight in 1e-8..1e-2
-                      helped IPOPT converge; the square system fixes the solution anyway).
-    ipopt_fallback:   if the first IPOPT attempt (full steps) fails, retry once from the same guess
-                      with IPOPT's filter line search; iterations and histories are concatenated.
+    Attributes
+    ----------
+    points
+        M, shooting points INCLUDING the closing one (M-1 segments), M >= 2.
+    steps_per_period
+        N, RK4 steps over the period; a multiple of points-1.
+    solver
+        "ipopt" | "lm" (the paper's Levenberg-Marquardt).
+    derivatives
+        "exact" (CasADi AD) | "fd" (forward differences of the segment flow, relative
+        step 1e-3*x_j, absolute step 1e-3*fd_floor when |x_j| < fd_floor; lm only).
+    tol
+        None -> 1e-10 for ipopt (``constr_viol_tol`` and ``tol``),
+        1e-5 for lm (max |E|, as in the paper). Both are absolute max-norms.
+    max_iter
+        iteration limit.
+    ipopt_options
+        merged over the defaults (full steps ``accept_every_trial_step``, limited-
+        memory Hessian, MUMPS, silent).
+    fd_floor
+        see ``derivatives``.
+    regularization
+        ipopt objective weight w in w/2 |z - z_guess|^2 (z = shooting points and free
+        parameters). Default 0: pure feasibility (measured: no weight in 1e-8..1e-2
+        helped IPOPT converge; the square system fixes the solution anyway).
+    ipopt_fallback
+        if the first IPOPT attempt (full steps) fails, retry once from the same guess
+        with IPOPT's filter line search; iterations and histories are concatenated.
     """
 
     points: int = 5
@@ -134,18 +146,28 @@ def _jsonable(v):
 class LimitCycleResult:
     """Outcome of :func:`solve`. Failures are results (``success=False``), not exceptions.
 
-    status: IPOPT ``return_status`` (e.g. "Solve_Succeeded") for ipopt; "converged", "max_iter",
-            "nan", "singular" for lm; "nan" also when an ipopt iterate is non-finite;
-            "residual_above_tol" when the solver reported success but the max residual exceeds the
-            tolerance. ``success`` is True only for a finite residual <= tol and finite multipliers.
-    residual_history: max |continuity + periodicity (+ mean) residual| per iteration (ipopt: inf_pr
-            as reported by IPOPT, unscaled; lm: max|E| before each step and after the last).
-    max_residual: max abs of all equations (continuity, periodicity, mean conditions) at the result.
-    means: period mean of each mean-condition output and each extra output (by name).
-    monodromy_vs_full_period_jacobian: max abs difference between the product of segment Jacobians
-            and the Jacobian of the one-period map from x0 (accuracy indicator).
-    doubling_times_s: ln 2 / Re(exponent), signed (negative = minus the halving time); see floquet.
-    JSON: ``to_dict()`` gives lists/dicts/floats; complex arrays as {"real": [...], "imag": [...]};
+    Attributes
+    ----------
+    status
+        IPOPT ``return_status`` (e.g. "Solve_Succeeded") for ipopt; "converged", "max_iter",
+        "nan", "singular" for lm; "nan" also when an ipopt iterate is non-finite or the residual is
+        not finite; "residual_above_tol" when the solver reported success but the max residual
+        exceeds the tolerance. ``success`` means converged: a finite max residual at most the
+        tolerance (10 x tol for ipopt, whose own measure can differ slightly), finite multipliers.
+    residual_history
+        max |continuity + periodicity (+ mean) residual| per iteration (ipopt: inf_pr
+        as reported by IPOPT, unscaled; lm: max|E| before each step and after the last).
+    max_residual
+        max abs of all equations (continuity, periodicity, mean conditions) at the result.
+    means
+        period mean of each mean-condition output and each extra output (by name).
+    monodromy_vs_full_period_jacobian
+        max abs difference between the product of segment Jacobians
+        and the Jacobian of the one-period map from x0 (accuracy indicator).
+    doubling_times_s
+        ln 2 / Re(exponent), signed (negative = minus the halving time); see floquet.
+
+    ``to_dict()`` gives lists/dicts/floats for JSON; complex arrays as {"real": [...], "imag": [...]};
     non-finite floats stay floats (json.dumps writes Infinity/NaN).
     """
 
@@ -618,7 +640,7 @@ def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShootin
     """Find the periodic orbit (and free parameters) of ``problem`` and its Floquet multipliers.
 
     ``success`` means converged: the max residual of all equations at the result is finite and at
-    most the method's tolerance, whatever the solver's status says (IPOPT's
+    most the method's tolerance (10 x tol for IPOPT), whatever the solver's status says (IPOPT's
     ``Feasible_Point_Found`` or ``Solved_To_Acceptable_Level`` with a larger residual is a failure
     with status ``residual_above_tol``). A Ctrl-C during the solve raises ``KeyboardInterrupt``
     (never a status, never a retry), also when CasADi caught it inside IPOPT.
@@ -677,9 +699,10 @@ def _solve(problem, method, warm_start):
         iters, hists, msgs = 0, [], []
         for fallback in attempts:
             z, status, success, it, h, msg = _run_ipopt(b.ipopt(method, fallback), z0, method, lbx, ubx)
-            if success:  # the status alone is not convergence: the residual decides
+            if np.all(np.isfinite(z)):  # the status alone is not convergence: the residual decides
                 r_try = b.evaluate(z)[0]  # IPOPT's last evaluation (kept), or one more
-                success = _converged(float(np.max(np.abs(r_try))) if r_try.size else 0.0, method.resolved_tol)
+                success = _converged(float(np.max(np.abs(r_try))) if r_try.size else 0.0,
+                                     10 * method.resolved_tol)
             iters += it
             hists.append(h)
             msgs.append(("filter line search: " if fallback else "") + msg)
@@ -719,13 +742,18 @@ def _solve(problem, method, warm_start):
         means_v = np.full(grid.nq, np.nan)
         g = np.full(b.ng, np.nan)
     max_res = float(np.max(np.abs(g))) if np.all(np.isfinite(g)) else float("nan")
-    if not _converged(max_res, method.resolved_tol):
+    tol_ok = method.resolved_tol * (10 if method.solver == "ipopt" else 1)
+    if not _converged(max_res, tol_ok):
         if success or status in ("converged",) or status.startswith(("Solve_Succeeded", "Feasible_Point_Found",
                                                                        "Solved_To_Acceptable")):
-            message += (f" (max residual {max_res:.2e} > tol {method.resolved_tol:.1e}: not converged)"
+            message += (f" (max residual {max_res:.2e} > tol {tol_ok:.1e}: not converged)"
                         if np.isfinite(max_res) else " (non-finite residual: not converged)")
             status = "residual_above_tol" if np.isfinite(max_res) else "nan"
         success = False
+    elif not success and method.solver == "ipopt":
+        # converged means the residual is below the tolerance, whatever IPOPT's status says
+        message += f" (max residual {max_res:.2e}: converged)"
+        success = True
     X = z[: nx * (S + 1)].reshape(S + 1, nx)
     traj_x = np.vstack([X[0][None, :], Xt.T])
     names = problem.mean_names()

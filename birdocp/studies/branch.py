@@ -76,12 +76,12 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
         if model_key == AMPLITUDE_KEY:
             raise ValueError("with level flight held the amplitude is solved for: continue another parameter")
         lo, hi = bounds if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)
-        outputs = flight_outputs()
+        outputs = flight_outputs(m.ode.nd)
         cond = MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")
         prob = LimitCycleProblem(m.ode, m.p0, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
                                  outputs={"forward_speed_mps": outputs["forward_speed_mps"]})
     else:
-        prob = LimitCycleProblem(m.ode, m.p0, guess, outputs=flight_outputs())
+        prob = LimitCycleProblem(m.ode, m.p0, guess, outputs=flight_outputs(m.ode.nd))
     ws = start.cycle if isinstance(start, TrimResult) else start
     options.setdefault("scales", {"states": 1.0, "free": 10.0})
 

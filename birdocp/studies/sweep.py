@@ -27,7 +27,6 @@ import csv
 import io
 import json
 import math
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,6 +37,7 @@ import numpy as np
 from birdocp.bird.config import Config, ConfigError, to_dict, with_values
 from birdocp.bird.validity import VALIDITY_COLUMNS, validity_columns
 from birdocp.io.files import atomic_write_json, atomic_write_text, to_jsonable
+from birdocp.io.progress import progress_bar
 from birdocp.studies.level import AMPLITUDE_KEY, resolve_key
 
 __all__ = ["sweep", "sweep_values", "read_points", "CSV_COLUMNS", "row_of", "grid_sweep", "GRID_COLUMNS"]
@@ -171,30 +171,19 @@ def read_points(out_dir: str | Path) -> dict[int, dict]:
 
 
 class _Progress:
+    """The sweep's progress bar (:func:`birdocp.io.progress.progress_bar`): one step per point."""
+
     def __init__(self, total: int, enabled: bool, label: str):
-        self.total, self.enabled, self.label = total, enabled, label
-        self.t0 = time.perf_counter()
-        self.solved = 0
+        self.bar = progress_bar(total, label, quiet=not enabled)
+        self.total, self.done = total, 0
 
     def show(self, done: int, text: str, solved_now: bool = False):
-        if solved_now:
-            self.solved += 1
-        if not self.enabled:
-            return
-        tty = sys.stderr.isatty()
-        if not tty and not (solved_now or done == self.total):
-            return  # in logs: one line per finished point
-        width = 24
-        filled = int(width * done / max(self.total, 1))
-        el = time.perf_counter() - self.t0
-        remaining = self.total - done
-        eta = f", ~{el / self.solved * remaining:.0f} s left" if self.solved and remaining else ""
-        line = f"{self.label} [{'#' * filled}{'.' * (width - filled)}] {done}/{self.total} {text} ({el:.0f} s{eta})"
-        if tty:
-            sys.stderr.write("\r" + line + "\x1b[K" + ("\n" if done == self.total else ""))
-        else:
-            sys.stderr.write(line + "\n")
-        sys.stderr.flush()
+        if done > self.done:
+            self.bar.update(done - self.done)
+            self.done = done
+        self.bar.set_postfix_str(text)
+        if done >= self.total:
+            self.bar.close()
 
 
 def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool = False, warm: bool = True,
@@ -202,12 +191,19 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
           level_options: dict | None = None, **method_over) -> list[dict]:
     """Solve one limit cycle per value of ``key``; returns the table rows (see :data:`CSV_COLUMNS`).
 
-    level:          each point a :func:`birdocp.studies.level.level` solve (``level_options`` passed on:
-                    ``free``, ``bounds``, ``climb_rate_mps``, ``constrain``, ``target``).
-    warm:           warm-start each point from the last successful one (else from the config's guess).
-    out_dir:        run folder to write as the sweep goes (None: nothing written).
-    resume:         reuse the points found in ``out_dir`` (same key, values and configuration).
-    method_over:    overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
+    Parameters
+    ----------
+    level
+        each point a :func:`birdocp.studies.level.level` solve (``level_options`` passed on:
+        ``free``, ``bounds``, ``climb_rate_mps``, ``constrain``, ``target``).
+    warm
+        warm-start each point from the last successful one (else from the config's guess).
+    out_dir
+        run folder to write as the sweep goes (None: nothing written).
+    resume
+        reuse the points found in ``out_dir`` (same key, values and configuration).
+    method_over
+        overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
     """
     cfg = cfg or Config()
     key = resolve_key(key, "key")

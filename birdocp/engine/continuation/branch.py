@@ -44,6 +44,7 @@ class BranchPoint:
     success: bool = True
     p: list = field(default_factory=list)
     validity: dict | None = None
+    period: float | None = None   # the orbit's period (varies along a branch of autonomous orbits)
 
     def to_dict(self) -> dict:
         d = dict(self.__dict__)
