@@ -151,8 +151,9 @@ class LimitCycleResult:
     status
         IPOPT ``return_status`` (e.g. "Solve_Succeeded") for ipopt; "converged", "max_iter",
         "nan", "singular" for lm; "nan" also when an ipopt iterate is non-finite or the residual is
-        not finite; "residual_above_tol" when the solver reported success but the max residual
-        exceeds the tolerance. ``success`` means converged: a finite max residual at most the
+        not finite; "residual_above_tol" when the status claims convergence ("Solve_Succeeded",
+        "converged") but the max residual exceeds the tolerance (IPOPT's approximate statuses,
+        e.g. "Solved_To_Acceptable_Level", are kept, with success False). ``success`` means converged: a finite max residual at most the
         tolerance (10 x tol for ipopt, whose own measure can differ slightly), finite multipliers.
     residual_history
         max |continuity + periodicity (+ mean) residual| per iteration (ipopt: inf_pr
@@ -641,8 +642,8 @@ def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShootin
 
     ``success`` means converged: the max residual of all equations at the result is finite and at
     most the method's tolerance (10 x tol for IPOPT), whatever the solver's status says (IPOPT's
-    ``Feasible_Point_Found`` or ``Solved_To_Acceptable_Level`` with a larger residual is a failure
-    with status ``residual_above_tol``). A Ctrl-C during the solve raises ``KeyboardInterrupt``
+    ``Feasible_Point_Found`` or ``Solved_To_Acceptable_Level`` with a larger residual is a failure;
+    a ``Solve_Succeeded`` with a larger residual becomes status ``residual_above_tol``). A Ctrl-C during the solve raises ``KeyboardInterrupt``
     (never a status, never a retry), also when CasADi caught it inside IPOPT.
     """
     with interrupts.interruptible():
@@ -744,10 +745,9 @@ def _solve(problem, method, warm_start):
     max_res = float(np.max(np.abs(g))) if np.all(np.isfinite(g)) else float("nan")
     tol_ok = method.resolved_tol * (10 if method.solver == "ipopt" else 1)
     if not _converged(max_res, tol_ok):
-        if success or status in ("converged",) or status.startswith(("Solve_Succeeded", "Feasible_Point_Found",
-                                                                       "Solved_To_Acceptable")):
-            message += (f" (max residual {max_res:.2e} > tol {tol_ok:.1e}: not converged)"
-                        if np.isfinite(max_res) else " (non-finite residual: not converged)")
+        message += (f" (max residual {max_res:.2e} > tol {tol_ok:.1e}: not converged)"
+                    if np.isfinite(max_res) else " (non-finite residual: not converged)")
+        if status in ("converged", "Solve_Succeeded"):  # a status that claims the tolerance: replaced
             status = "residual_above_tol" if np.isfinite(max_res) else "nan"
         success = False
     elif not success and method.solver == "ipopt":
