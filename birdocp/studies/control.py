@@ -349,6 +349,14 @@ class Controller:
         return self.map.controls
 
     @property
+    def x_starts(self) -> np.ndarray:
+        return self.map.x_starts
+
+    @property
+    def updates_per_beat(self) -> int:
+        return self.map.updates_per_beat
+
+    @property
     def closed_loop_monodromy(self) -> np.ndarray:
         return closed_loop_monodromy(self.map.A, self.map.B, self.K)
 
