@@ -53,6 +53,8 @@ __all__ = ["main", "build_parser", "resolve_config", "EXIT_OK", "EXIT_NOT_CONVER
 
 COMMAND_MODULES = (
     "birdocp.cli.study",
+    "birdocp.cli.control",
+    "birdocp.cli.simulate",
 )
 """Modules that add subcommands: each defines ``register(sub, common)`` (``sub`` the subparsers
 action, ``common`` the parent parser with the configuration and output options) and sets

@@ -43,7 +43,8 @@ from birdocp.engine.integrate import RK4Grid
 
 __all__ = ["DEFAULT_CONTROLS", "ACCEPTABLE_STATE", "ACCEPTABLE_CONTROL_DEG", "DEFAULT_LIMIT_DEG",
            "WingbeatMap", "Controller", "wingbeat_map", "periodic_lqr", "design_controller",
-           "resolve_controls", "bryson_weights", "default_limits", "sorted_eigs"]
+           "resolve_controls", "bryson_weights", "default_limits", "sorted_eigs", "reference_cycle",
+           "closed_loop_monodromy", "CONTROL_ALIASES"]
 
 DEFAULT_CONTROLS = ("gait.shoulder_incidence.offset_deg", "gait.shoulder_flap.amplitude_deg",
                     "gait.shoulder_sweep.offset_deg")
@@ -407,3 +408,19 @@ def design_controller(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat:
     per = [_single_control(wm, j, Q, R) for j in range(len(wm.controls))]
     P, K = periodic_lqr(wm.A, wm.B, Q, R)
     return Controller(wm, Q, R, P, K, default_limits(cycle_result.cfg, wm.controls, wm.p, limit_deg), per)
+
+
+def reference_cycle(cfg: Config, level: bool = False):
+    """The cycle to control: the trim of ``cfg``, or with ``level`` the level-flight amplitude solved
+    first and the cycle re-trimmed at it (its ``cfg`` then holds that amplitude)."""
+    from birdocp.bird.config import with_values
+    from birdocp.studies.trim import trim
+
+    if not level:
+        return trim(cfg)
+    from birdocp.studies.level import AMPLITUDE_KEY, level as solve_level
+
+    lv = solve_level(cfg)
+    if not lv.success:
+        return lv
+    return trim(with_values(cfg, {AMPLITUDE_KEY: lv.amplitude_deg}), warm_start=lv)
