@@ -108,7 +108,7 @@ class _SecondOrder:
         return hit
 
     def __init__(self, model, steps: int):
-        from birdocp.studies.trim import flight_outputs
+        from birdocp.bird.flight import flight_outputs
 
         self.model = model.model
         W = flight_outputs()["vertical_speed_mps"]
