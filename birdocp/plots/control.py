@@ -72,13 +72,14 @@ def plot_simulation(runs: dict, path, title: str = "") -> Path:
         c = np.asarray(a["controls"])
         if c.size:
             for j, key in enumerate(a.get("control_keys", [])):
-                axes[3].step(a["control_t_s"], c[:, j] - c[0, j], where="post",
+                ref = np.asarray(a.get("control_cycle", c[0]))[j]
+                axes[3].step(a["control_t_s"], c[:, j] - ref, where="post",
                              label=f"{label}: {key.replace('gait.', '')}")
     axes[0].set_xlabel("X forward [m]")
     axes[0].set_ylabel("altitude -Z [m]")
     axes[1].set_ylabel("pitch [deg]")
     axes[2].set_ylabel("u [m/s]")
-    axes[3].set_ylabel("control - first value [deg]")
+    axes[3].set_ylabel("correction from the cycle [deg]")
     for ax in axes[1:]:
         ax.set_xlabel("t [s]")
     for ax in axes:

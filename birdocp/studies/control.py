@@ -418,7 +418,8 @@ def reference_cycle(cfg: Config, level: bool = False):
 
     if not level:
         return trim(cfg)
-    from birdocp.studies.level import AMPLITUDE_KEY, level as solve_level
+    from birdocp.bird.keys import AMPLITUDE_KEY
+    from birdocp.studies.level import level as solve_level
 
     lv = solve_level(cfg)
     if not lv.success:

@@ -16,7 +16,8 @@ Closed loop: at the start of each of the N intervals of a beat the controller's 
 
 Validity: the simulation stops (status ``left_validity``) when the forward speed u <= 0 (the
 aerodynamic model assumes air coming from ahead), |theta| > :data:`MAX_PITCH_DEG` or the air-relative
-inflow angle of G exceeds :data:`MAX_INFLOW_DEG` (no stall in the quasi-steady lifting line); non-finite
+inflow angle of G exceeds :data:`MAX_INFLOW_DEG` (no stall in the quasi-steady lifting line) or its air
+speed drops below :data:`MIN_AIRSPEED_FRACTION` of the cycle's mean flight speed; non-finite
 states give status ``non_finite``. This is a simple explicit criterion (the model-validity module of
 another branch was not on main when this was written).
 """
@@ -33,7 +34,7 @@ from birdocp.bird.config import PARAM_NAMES, ConfigError
 from birdocp.bird.model import STATE_NAMES, air_state, get_model
 from birdocp.engine.integrate import RK4Grid, stage_block_index
 
-__all__ = ["Gust", "SimulationResult", "simulate", "gust_envelope", "MAX_PITCH_DEG", "MAX_INFLOW_DEG", "STATE_ALIASES",
+__all__ = ["Gust", "SimulationResult", "simulate", "gust_envelope", "MAX_PITCH_DEG", "MAX_INFLOW_DEG", "MIN_AIRSPEED_FRACTION", "STATE_ALIASES",
            "parse_perturbation", "parse_gust"]
 
 MAX_PITCH_DEG = 60.0
@@ -42,6 +43,10 @@ MAX_INFLOW_DEG = 30.0
 """Largest |angle| of the air-relative velocity of G to the body axis, atan2(w_air, u_air), accepted
 as within the model's validity [deg] (the quasi-steady lifting line has no stall; the cycle's is a few
 degrees)."""
+MIN_AIRSPEED_FRACTION = 0.5
+"""Smallest air speed of G accepted as within the model's validity, as a fraction of the cycle's mean
+flight speed (distance per beat / period): below it the flapping velocity dominates, the reduced
+frequency pi f c / V is more than twice the cycle's and the quasi-steady lifting line is stretched."""
 STATE_ALIASES = {"u": 0, "w": 1, "q": 2, "theta": 3, **{n: i for i, n in enumerate(STATE_NAMES)}}
 DIRECTIONS = ("vertical", "horizontal")
 
@@ -144,7 +149,8 @@ class _Stepper:
         zdot = ca.vertcat(xdot, u * ca.cos(th) + w * ca.sin(th), -u * ca.sin(th) + w * ca.cos(th))
         f = ca.Function("f_sim", [z, d, p, g], [zdot])
         xa = air_state(z, wind)
-        self.inflow_deg = ca.Function("inflow_deg", [z, g], [ca.atan2(xa[1], xa[0]) * 180 / math.pi]).map(n)
+        self.inflow = ca.Function("inflow", [z, g], [ca.atan2(xa[1], xa[0]) * 180 / math.pi,
+                                                      ca.sqrt(xa[0] ** 2 + xa[1] ** 2)]).map(n)
         D3 = ca.SX.sym("D3", nd, 3)
         h = grid.h
         k1 = f(z, D3[:, 0], p, g)
@@ -187,6 +193,8 @@ class SimulationResult:
     beat_distance_m: float
     gust_spans_m: list = field(default_factory=list)
     max_inflow_deg: float = float("nan")  # largest |atan2(w_air, u_air)| along the trajectory
+    min_airspeed_mps: float = float("nan")  # smallest air speed of G along the trajectory
+    control_cycle: np.ndarray = field(default_factory=lambda: np.zeros(0))  # the controls' cycle values
 
     @property
     def final_deviation(self) -> float:
@@ -219,6 +227,7 @@ class SimulationResult:
             "min_forward_speed_mps": float(np.min(self.states[:, 0])) if len(self.states) else None,
             "max_abs_pitch_deg": float(np.degrees(np.max(np.abs(self.states[:, 3])))) if len(self.states) else None,
             "max_inflow_angle_deg": self.max_inflow_deg,
+            "min_airspeed_mps": self.min_airspeed_mps if math.isfinite(self.min_airspeed_mps) else None,
             "distance_per_beat_m": self.beat_distance_m, "gust_spans_m": self.gust_spans_m,
             "final_position_m": [float(self.X_m[-1]), float(self.Z_m[-1])] if len(self.X_m) else None,
         }
@@ -226,7 +235,8 @@ class SimulationResult:
     def arrays(self) -> dict:
         return {"t_s": self.t_s, "states": self.states, "X_m": self.X_m, "Z_m": self.Z_m,
                 "pitch_deg": np.degrees(self.states[:, 3]), "control_t_s": self.control_t_s,
-                "controls": self.controls, "deviation_per_beat": self.deviation_per_beat}
+                "controls": self.controls, "control_cycle": self.control_cycle,
+                "deviation_per_beat": self.deviation_per_beat}
 
 
 def _wind_vector(gusts, wind_mps, beat_m) -> tuple[np.ndarray, list]:
@@ -245,7 +255,8 @@ def _wind_vector(gusts, wind_mps, beat_m) -> tuple[np.ndarray, list]:
 
 
 def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, perturbation=None,
-             gusts=(), wind_mps=(0.0, 0.0), controller=None, p=None) -> SimulationResult:
+             gusts=(), wind_mps=(0.0, 0.0), controller=None, p=None,
+             stop_when_recovered: bool = False) -> SimulationResult:
     """Integrate the bird ``beats`` wingbeats from ``x0_cycle + perturbation``.
 
     cfg: the configuration of the cycle; x0_cycle: the cycle's state at the beat start (4);
@@ -254,7 +265,9 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
     gusts: :class:`Gust` objects (one per direction); wind_mps: constant (horizontal, vertical up);
     controller: a :class:`birdocp.studies.control.Controller` (or an object with ``controls``, ``K``,
     ``x_starts``, ``limits``, ``updates_per_beat``) for the closed loop; None = open loop (the gait
-    of ``cfg``); p: parameter vector of the cycle (default that of ``cfg``).
+    of ``cfg``); p: parameter vector of the cycle (default that of ``cfg``);
+    stop_when_recovered: stop once every gust is behind the bird and the deviation at a beat start is
+    back to 1/100 of its peak (the gust envelope's criterion).
     """
     if int(beats) < 1:
         raise ConfigError("--beats", f"must be >= 1, got {beats}")
@@ -281,7 +294,7 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
     traj, ctrl_t, ctrl = [z[None, :]], [], []
     dev = [float(np.linalg.norm(dx0))]
     saturated = False
-    max_inflow = 0.0
+    max_inflow, min_air = 0.0, math.inf
     status, message = "ok", f"{beats} beats simulated"
     T = m.period_s
     for k in range(beats):
@@ -304,28 +317,35 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
             if np.any(bad):
                 status, message = "non_finite", f"the state became non-finite in beat {k + 1}"
             else:
-                inflow = np.abs(np.asarray(st.inflow_deg(Zi.T, gd))).max()
-                max_inflow = max(max_inflow, float(inflow))
+                angle, speed = (np.asarray(v).ravel() for v in st.inflow(Zi.T, gd))
+                inflow = float(np.max(np.abs(angle)))
+                max_inflow = max(max_inflow, inflow)
+                min_air = min(min_air, float(np.min(speed)))
                 if (np.any(Zi[:, 0] <= 0) or np.any(np.abs(Zi[:, 3]) > math.radians(MAX_PITCH_DEG))
-                        or inflow > MAX_INFLOW_DEG):
+                        or inflow > MAX_INFLOW_DEG or min_air < MIN_AIRSPEED_FRACTION * beat_m / T):
                     status = "left_validity"
                     message = (f"left the model's validity in beat {k + 1} (forward speed u <= 0, "
-                               f"|pitch| > {MAX_PITCH_DEG:g} deg or |inflow angle| > {MAX_INFLOW_DEG:g} deg)")
+                               f"|pitch| > {MAX_PITCH_DEG:g} deg, |inflow angle| > {MAX_INFLOW_DEG:g} deg or air "
+                               f"speed < {MIN_AIRSPEED_FRACTION:g} x {beat_m / T:.3g} m/s)")
             if status != "ok":
                 break
         dev.append(float(np.linalg.norm(z[:4] - x0_cycle)) if status != "non_finite" else float("nan"))
         if status != "ok":
+            break
+        if (stop_when_recovered and max(dev) > 0 and dev[-1] <= max(dev) / 100.0
+                and all(z[4] > s["start_m"] + s["length_m"] for s in spans)):
+            message = f"recovered after {k + 1} beats"
             break
     Z = np.vstack(traj)
     t = np.arange(Z.shape[0]) * st.grid.h
     ctrl_arr = np.array(ctrl) if ctrl else np.zeros((0, len(keys)))
     return SimulationResult(status == "ok", status, message, controller is not None, beats, t, Z[:, :4],
                             Z[:, 4], Z[:, 5], np.array(ctrl_t), ctrl_arr, keys, np.array(dev), saturated,
-                            beat_m, spans, max_inflow)
+                            beat_m, spans, max_inflow, min_air, u_cyc)
 
 
 def gust_envelope(cfg, x0_cycle, controller, direction: str = "vertical", *, sign: float = 1.0,
-                  length_beats: float = 1.0, beats: int = 20, steps_per_period: int | None = None,
+                  length_beats: float = 1.0, beats: int = 40, steps_per_period: int | None = None,
                   p=None, start_mps: float = 0.5, max_mps: float = 16.0, tol_mps: float = 0.05) -> dict:
     """The largest 1 - cos gust (peak amplitude, m/s, of sign ``sign``) the closed loop recovers from
     within ``beats`` beats (deviation back to 1/100 of its peak) without saturating a joint and
@@ -335,7 +355,7 @@ def gust_envelope(cfg, x0_cycle, controller, direction: str = "vertical", *, sig
 
     def ok(a):
         r = simulate(cfg, x0_cycle, beats, steps_per_period=steps_per_period, controller=controller, p=p,
-                     gusts=[Gust(direction, sign * a, length_beats)])
+                     gusts=[Gust(direction, sign * a, length_beats)], stop_when_recovered=True)
         rec = r.beats_to_recover
         good = bool(r.success and not r.saturated and rec is not None)
         trials.append({"amplitude_mps": sign * a, "recovered": good, "status": r.status,
