@@ -19,6 +19,15 @@ def _plt():
     return plt
 
 
+def _save(fig, path, dpi) -> Path:
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return Path(path)
+
+
 def plot_multipliers(result: dict, path) -> Path:
     """Open- and closed-loop multipliers against the unit circle."""
     plt = _plt()
@@ -35,10 +44,7 @@ def plot_multipliers(result: dict, path) -> Path:
     ax.set_title(f"multipliers, N = {result.get('updates_per_beat', 1)} update(s) per beat")
     ax.legend(loc="lower left", fontsize=8)
     ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return Path(path)
+    return _save(fig, path, 120)
 
 
 def plot_deviation(curves: dict, path, title: str = "deviation from the cycle at each beat start") -> Path:
@@ -53,10 +59,7 @@ def plot_deviation(curves: dict, path, title: str = "deviation from the cycle at
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return Path(path)
+    return _save(fig, path, 120)
 
 
 def plot_simulation(runs: dict, path, title: str = "") -> Path:
@@ -88,10 +91,7 @@ def plot_simulation(runs: dict, path, title: str = "") -> Path:
             ax.legend(fontsize=7)
     if title:
         axes[0].set_title(title, fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return Path(path)
+    return _save(fig, path, 110)
 
 
 def plot_envelope(envelopes: list, path) -> Path:
@@ -107,18 +107,14 @@ def plot_envelope(envelopes: list, path) -> Path:
         rec = np.array([r["beats_to_recover"] if r["beats_to_recover"] is not None else np.nan for r in tr], float)
         exc = np.array([max((abs(hi - lo) for lo, hi in r["control_range"]), default=np.nan) for r in tr])
         line, = axes[0].plot(a[ok], rec[ok], "o-", ms=4, label=label)
-        axes[0].plot(a[~ok], np.full((~ok).sum(), np.nanmax(rec) if np.any(ok) else 0), "x",
-                     color=line.get_color())
+        axes[0].plot(a[~ok], np.zeros((~ok).sum()), "x", ms=8, color=line.get_color())
         axes[1].plot(a[ok], exc[ok], "o-", ms=4, color=line.get_color(), label=label)
     axes[0].set_xlabel("gust peak [m/s]")
     axes[0].set_ylabel("beats to recover (deviation / 100)")
     axes[1].set_xlabel("gust peak [m/s]")
     axes[1].set_ylabel("largest control excursion [deg]")
-    axes[0].set_title("x: not recovered (saturated or left validity)", fontsize=9)
+    axes[0].set_title("x at 0: not recovered (a joint saturated or the model's validity left)", fontsize=9)
     for ax in axes:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return Path(path)
+    return _save(fig, path, 120)

@@ -44,7 +44,7 @@ from birdocp.engine.integrate import RK4Grid
 __all__ = ["DEFAULT_CONTROLS", "ACCEPTABLE_STATE", "ACCEPTABLE_CONTROL_DEG", "DEFAULT_LIMIT_DEG",
            "WingbeatMap", "Controller", "wingbeat_map", "periodic_lqr", "design_controller",
            "resolve_controls", "bryson_weights", "default_limits", "sorted_eigs", "reference_cycle",
-           "closed_loop_monodromy", "CONTROL_ALIASES"]
+           "closed_loop_monodromy", "CONTROL_ALIASES", "PerModel"]
 
 DEFAULT_CONTROLS = ("gait.shoulder_incidence.offset_deg", "gait.shoulder_flap.amplitude_deg",
                     "gait.shoulder_sweep.offset_deg")
@@ -121,19 +121,28 @@ def sorted_eigs(Mat):
     return lam[order], V[:, order]
 
 
-class _Linearisation:
-    """CasADi Functions of one interval of the beat for (model, steps, N): end state, state Jacobian
-    and directional derivatives along the data/parameter directions of the controls."""
+class PerModel:
+    """Base of the classes that hold CasADi Functions built once per (model, settings): ``get``
+    returns the cached instance (one cache per subclass; rebuilt if the model object changed)."""
 
     _cache: dict = {}
 
+    def __init_subclass__(cls, **kw):
+        super().__init_subclass__(**kw)
+        cls._cache = {}
+
     @classmethod
-    def get(cls, model, steps: int, n_intervals: int):
-        key = (id(model.model), steps, n_intervals)
+    def get(cls, model, *settings):
+        key = (id(model.model), *settings)
         hit = cls._cache.get(key)
         if hit is None or hit.model is not model.model:
-            hit = cls._cache[key] = cls(model, steps, n_intervals)
+            hit = cls._cache[key] = cls(model, *settings)
         return hit
+
+
+class _Linearisation(PerModel):
+    """CasADi Functions of one interval of the beat for (model, steps, N): end state, state Jacobian
+    and directional derivatives along the data/parameter directions of the controls."""
 
     def __init__(self, model, steps: int, n_intervals: int):
         self.model = model.model

@@ -33,6 +33,7 @@ import numpy as np
 from birdocp.bird.config import PARAM_NAMES, ConfigError
 from birdocp.bird.model import STATE_NAMES, air_state, get_model
 from birdocp.engine.integrate import RK4Grid, stage_block_index
+from birdocp.studies.control import PerModel
 
 __all__ = ["Gust", "SimulationResult", "simulate", "gust_envelope", "MAX_PITCH_DEG", "MAX_INFLOW_DEG", "MIN_AIRSPEED_FRACTION", "STATE_ALIASES",
            "parse_perturbation", "parse_gust"]
@@ -114,18 +115,8 @@ def parse_perturbation(items) -> np.ndarray:
     return dx
 
 
-class _Stepper:
+class _Stepper(PerModel):
     """RK4 Functions of the position-augmented model with wind for (model, steps, N); cached."""
-
-    _cache: dict = {}
-
-    @classmethod
-    def get(cls, model, steps: int, n_intervals: int):
-        key = (id(model.model), steps, n_intervals)
-        hit = cls._cache.get(key)
-        if hit is None or hit.model is not model.model:
-            hit = cls._cache[key] = cls(model, steps, n_intervals)
-        return hit
 
     def __init__(self, model, steps: int, n_intervals: int):
         self.model = model.model
