@@ -112,7 +112,7 @@ def plot_envelope(envelopes: list, path) -> Path:
     axes[0].set_xlabel("gust peak [m/s]")
     axes[0].set_ylabel("beats to recover (deviation / 100)")
     axes[1].set_xlabel("gust peak [m/s]")
-    axes[1].set_ylabel("largest control excursion [deg]")
+    axes[1].set_ylabel("largest control range, max - min [deg]")
     axes[0].set_title("x at 0: not recovered (a joint saturated or the model's validity left)", fontsize=9)
     for ax in axes:
         ax.grid(alpha=0.3)

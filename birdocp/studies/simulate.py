@@ -312,12 +312,15 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
                 inflow = float(np.max(np.abs(angle)))
                 max_inflow = max(max_inflow, inflow)
                 min_air = min(min_air, float(np.min(speed)))
-                if (np.any(Zi[:, 0] <= 0) or np.any(np.abs(Zi[:, 3]) > math.radians(MAX_PITCH_DEG))
-                        or inflow > MAX_INFLOW_DEG or min_air < MIN_AIRSPEED_FRACTION * beat_m / T):
+                reasons = [text for bad, text in (
+                    (np.any(Zi[:, 0] <= 0), "forward speed u <= 0"),
+                    (np.any(np.abs(Zi[:, 3]) > math.radians(MAX_PITCH_DEG)), f"|pitch| > {MAX_PITCH_DEG:g} deg"),
+                    (inflow > MAX_INFLOW_DEG, f"|inflow angle| {inflow:.3g} > {MAX_INFLOW_DEG:g} deg"),
+                    (min_air < MIN_AIRSPEED_FRACTION * beat_m / T,
+                     f"air speed {min_air:.3g} m/s < {MIN_AIRSPEED_FRACTION:g} x {beat_m / T:.3g} m/s")) if bad]
+                if reasons:
                     status = "left_validity"
-                    message = (f"left the model's validity in beat {k + 1} (forward speed u <= 0, "
-                               f"|pitch| > {MAX_PITCH_DEG:g} deg, |inflow angle| > {MAX_INFLOW_DEG:g} deg or air "
-                               f"speed < {MIN_AIRSPEED_FRACTION:g} x {beat_m / T:.3g} m/s)")
+                    message = f"left the model's validity in beat {k + 1}: {', '.join(reasons)}"
             if status != "ok":
                 break
         dev.append(float(np.linalg.norm(z[:4] - x0_cycle)) if status != "non_finite" else float("nan"))
