@@ -17,6 +17,7 @@ import casadi as ca
 
 from birdocp.bird.config import PARAM_NAMES
 from birdocp.bird.model import N_DATA
+from birdocp.engine.cache import register_cache
 
 __all__ = ["inertial_velocities", "flight_outputs", "path_angle_output", "flight_path_angle_deg"]
 
@@ -40,6 +41,9 @@ def flight_outputs() -> dict:
             "forward_speed_mps": ca.Function("forward_speed_mps", [x, d, p], [U])}
 
 
+register_cache("bird.flight_outputs", flight_outputs)
+
+
 @functools.lru_cache(maxsize=64)
 def path_angle_output(beta_deg: float) -> ca.Function:
     """``W - tan(beta) U`` as a Function of ``(x, d, p)``: its period mean is zero on a flight path of
@@ -47,6 +51,9 @@ def path_angle_output(beta_deg: float) -> ca.Function:
     x, d, p = _symbols()
     W, U = inertial_velocities(x)
     return ca.Function("path_angle_residual", [x, d, p], [W - math.tan(math.radians(float(beta_deg))) * U])
+
+
+register_cache("bird.path_angle_outputs", path_angle_output)
 
 
 def flight_path_angle_deg(mean_vertical_speed_mps: float, mean_forward_speed_mps: float) -> float:

@@ -22,6 +22,7 @@ from birdocp.bird import kinematics
 from birdocp.bird import tail
 from birdocp.bird import wing
 from birdocp.bird.config import JOINT_NAMES, PARAM_NAMES, Config, param_vector
+from birdocp.engine.cache import register_cache
 from birdocp.engine.problem import PeriodicODE
 
 N_EL = aero.N_ELEMENTS
@@ -299,6 +300,9 @@ class BirdModel:
 @functools.lru_cache(maxsize=8)
 def _model_for(structure: Structure) -> BirdModel:
     return BirdModel(structure)
+
+
+register_cache("bird.models", _model_for)
 
 
 class ConfiguredModel:

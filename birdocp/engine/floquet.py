@@ -62,6 +62,8 @@ def monodromy_of(jacobians) -> np.ndarray:
 
 
 def floquet_from_jacobians(jacobians, full_period_jacobian, period_s) -> FloquetResult:
+    """Floquet analysis from the segment Jacobians (time order) of a converged orbit; the monodromy is
+    compared with ``full_period_jacobian`` (the one-period map's Jacobian) as an accuracy indicator."""
     Mo = monodromy_of(jacobians)
     lam, vec, mu, dbl, stable = multipliers_info(Mo, period_s)
     diff = float(np.max(np.abs(Mo - full_period_jacobian))) if full_period_jacobian is not None else float("nan")

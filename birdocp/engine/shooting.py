@@ -12,7 +12,7 @@ condition per free parameter), limited-memory Hessian, MUMPS.  ``solver='lm'``: 
 Algorithm 1 (Levenberg-Marquardt on the shooting matrix, every step accepted, lambda /10 or x10).
 
 CasADi graphs are built once per (ode, steps_per_period, points, solver, derivatives, free set,
-mean/extra output Functions) and cached in this module (``_BUILDERS``, ``_GRIDS``); a sweep that
+mean/extra output Functions) and cached in this module (:mod:`birdocp.engine.cache` registry); a sweep that
 re-solves with new parameter values, targets, t0 or guesses reuses them (only numbers change: the
 data grid and the parameter vector are NLP parameters, not constants baked into the graph).
 """
@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from birdocp.engine.cache import bounded_cache, clear_caches
 from birdocp.engine.floquet import FloquetResult, floquet_from_jacobians
 from birdocp.engine.integrate import RK4Grid
 from birdocp.engine.oracle import ConstraintOracle
@@ -175,30 +176,24 @@ class LimitCycleResult:
 
 # ----------------------------------------------------------------------------------------------
 # caches
-_GRIDS: dict = {}
-_BUILDERS: dict = {}
-_CACHE_SIZE = 32
+_GRIDS = bounded_cache("engine.rk4_grids", 32)
+_GRAPHS = bounded_cache("engine.shooting_graphs", 32)
 
 
 def clear_cache() -> None:
-    _GRIDS.clear()
-    _BUILDERS.clear()
-
-
-def _trim(cache: dict) -> None:
-    while len(cache) > _CACHE_SIZE:
-        cache.pop(next(iter(cache)))
+    """Clear every in-memory cache of the process (:func:`birdocp.engine.cache.clear_caches`)."""
+    clear_caches()
 
 
 def rk4_grid(ode, method: MultipleShooting, outputs) -> RK4Grid:
+    """The cached :class:`~birdocp.engine.integrate.RK4Grid` of (ode, method's grid, outputs)."""
     outputs = tuple(outputs)
     key = (id(ode), int(method.steps_per_period), int(method.points) - 1, tuple(id(g) for g in outputs))
     hit = _GRIDS.get(key)
     if hit is not None and hit[0] is ode:
         return hit[2]
     grid = RK4Grid(ode, method.steps_per_period, method.points - 1, outputs)
-    _GRIDS[key] = (ode, outputs, grid)  # holding the references keeps the ids unique
-    _trim(_GRIDS)
+    _GRIDS.put(key, (ode, outputs, grid))  # holding the references keeps the ids unique
     return grid
 
 
@@ -485,13 +480,12 @@ def shooting_graphs(problem: LimitCycleProblem, method: MultipleShooting, free_i
     free_idx = tuple(problem.free_indices() if free_idx is None else (int(j) for j in free_idx))
     key = (id(ode), int(method.steps_per_period), int(method.points), free_idx,
            tuple(id(f) for f in mean_fns), tuple(id(f) for f in extra_fns))
-    hit = _BUILDERS.get(key)
+    hit = _GRAPHS.get(key)
     if hit is not None and hit.ode is ode:
         return hit, 0.0
     t = time.perf_counter()
     b = ShootingGraphs(ode, method, free_idx, mean_fns, extra_fns)
-    _BUILDERS[key] = b
-    _trim(_BUILDERS)
+    _GRAPHS.put(key, b)
     return b, time.perf_counter() - t
 
 

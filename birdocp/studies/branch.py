@@ -39,6 +39,7 @@ def sm_percent(root_ahead_m: float, chord_m: float) -> float:
 
 
 def root_of_sm(sm_pct: float, chord_m: float) -> float:
+    """The wing-root position ``root_ahead_m`` (m) of a stability margin in percent."""
     return -float(sm_pct) / 100.0 * float(chord_m)
 
 

@@ -26,6 +26,7 @@ __all__ = ["TrimResult", "trim", "method_of"]
 
 
 def method_of(cfg: Config, **over) -> MultipleShooting:
+    """The :class:`MultipleShooting` method of ``cfg.solve`` (fields overridden by ``over``)."""
     s = cfg.solve
     kw = dict(points=s.points, steps_per_period=s.steps_per_period, solver=s.solver,
               derivatives=s.derivatives)
