@@ -9,7 +9,6 @@ Writes results/control/ (result.json, table.md, deviation.png, trajectory.png, g
     python scripts/control_study.py        # ~2-4 min on 2 cores
 """
 
-import json
 import time
 from pathlib import Path
 

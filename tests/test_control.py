@@ -10,8 +10,8 @@ from birdocp.bird.config import PARAM_NAMES, Config
 from birdocp.bird.model import get_model
 from birdocp.engine.integrate import RK4Grid
 from birdocp.studies.control import (DEFAULT_CONTROLS, closed_loop_monodromy, design_controller,
-                                     periodic_lqr, sorted_eigs, wingbeat_map)
-from birdocp.studies.simulate import _Stepper, simulate
+                                     periodic_lqr, wingbeat_map)
+from birdocp.studies.simulate import nonlinear_beat_map, simulate
 from birdocp.studies.trim import trim
 
 STEPS = 48  # coarse grid: every derivative is exact for the grid the trim uses
@@ -26,12 +26,7 @@ def cycle():
 
 def _beat_map(cycle, x0, p_per_interval):
     """The nonlinear one-beat map with the parameters of each interval (data recomputed)."""
-    N = len(p_per_interval)
-    st = _Stepper.get(get_model(cycle.cfg), STEPS, N)
-    z = np.concatenate([x0, [0.0, 0.0]])
-    for i, p in enumerate(p_per_interval):
-        z = np.asarray(st.interval(z, st.data(i, p), ca.DM(p), np.zeros(8)))[:, -1]
-    return z[:4]
+    return nonlinear_beat_map(cycle.cfg, x0, p_per_interval, STEPS)
 
 
 def test_B_and_A_match_central_differences_of_the_nonlinear_map(cycle):
@@ -69,6 +64,7 @@ def test_closed_loop_multipliers_are_the_eigenvalues_of_M_minus_BK(cycle):
     P, K, Q, R, M, B = ctl.P[0], ctl.K[0], ctl.Q, ctl.R, wm.M, wm.B[0]
     res = M.T @ P @ M - P - M.T @ P @ B @ np.linalg.solve(R + B.T @ P @ B, B.T @ P @ M) + Q
     assert np.max(np.abs(res)) < 1e-8 * np.max(np.abs(P))
+    assert np.allclose(K, np.linalg.solve(R + B.T @ P @ B, B.T @ P @ M), rtol=1e-10, atol=1e-12)
     d = ctl.to_dict()
     assert d["controllable"] == {k: True for k in DEFAULT_CONTROLS}
     for row in d["per_control"]:  # the minimal-energy gain reflects the expanding multiplier to 1/lambda

@@ -39,6 +39,7 @@ import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest
 from birdocp.bird.model import get_model
+from birdocp.engine.cache import bounded_cache
 from birdocp.engine.integrate import RK4Grid
 
 __all__ = ["DEFAULT_CONTROLS", "ACCEPTABLE_STATE", "ACCEPTABLE_CONTROL_DEG", "DEFAULT_LIMIT_DEG",
@@ -123,20 +124,23 @@ def sorted_eigs(Mat):
 
 class PerModel:
     """Base of the classes that hold CasADi Functions built once per (model, settings): ``get``
-    returns the cached instance (one cache per subclass; rebuilt if the model object changed)."""
+    returns the cached instance. One bounded cache per subclass, registered in
+    :mod:`birdocp.engine.cache` as ``studies.<ClassName>`` (8 entries; rebuilt if the model changed)."""
 
-    _cache: dict = {}
+    _cache = None
 
     def __init_subclass__(cls, **kw):
         super().__init_subclass__(**kw)
-        cls._cache = {}
+        cls._cache = bounded_cache(f"studies.{cls.__name__}", 8)
 
     @classmethod
     def get(cls, model, *settings):
+        """The cached instance for (model, settings), built on first use."""
         key = (id(model.model), *settings)
         hit = cls._cache.get(key)
         if hit is None or hit.model is not model.model:
-            hit = cls._cache[key] = cls(model, *settings)
+            hit = cls(model, *settings)
+            cls._cache.put(key, hit)
         return hit
 
 

@@ -35,7 +35,7 @@ from birdocp.bird.model import STATE_NAMES, air_state, get_model
 from birdocp.engine.integrate import RK4Grid, stage_block_index
 from birdocp.studies.control import PerModel
 
-__all__ = ["Gust", "SimulationResult", "simulate", "gust_envelope", "MAX_PITCH_DEG", "MAX_INFLOW_DEG", "MIN_AIRSPEED_FRACTION", "STATE_ALIASES",
+__all__ = ["Gust", "SimulationResult", "simulate", "gust_envelope", "nonlinear_beat_map", "MAX_PITCH_DEG", "MAX_INFLOW_DEG", "MIN_AIRSPEED_FRACTION", "STATE_ALIASES",
            "parse_perturbation", "parse_gust"]
 
 MAX_PITCH_DEG = 60.0
@@ -161,6 +161,19 @@ class _Stepper(PerModel):
         L = self.grid.pre_numeric(0.0, p)[:, cols]
         G = self.post_interval(L, ca.DM(self.times[:, cols]), ca.DM(np.asarray(p, float)))
         return G[:, self.blocks]
+
+
+def nonlinear_beat_map(cfg, x0, params_per_interval, steps_per_period: int | None = None) -> np.ndarray:
+    """The state one beat after ``x0`` in the full model (no wind), with the parameter vector
+    ``params_per_interval[i]`` held over interval i of N = len(params_per_interval) equal intervals
+    (the per-time data recomputed for each). The map :func:`birdocp.studies.control.wingbeat_map`
+    linearises."""
+    N = len(params_per_interval)
+    st = _Stepper.get(get_model(cfg), int(steps_per_period or cfg.solve.steps_per_period), N)
+    z = np.concatenate([np.asarray(x0, float).ravel(), [0.0, 0.0]])
+    for i, p in enumerate(params_per_interval):
+        z = np.asarray(st.interval(z, st.data(i, p), ca.DM(np.asarray(p, float)), np.zeros(8)))[:, -1]
+    return z[:4]
 
 
 @dataclass
