@@ -79,3 +79,14 @@ def test_bad_input_exit_2_one_line(capsys, tmp_path, argv, field):
     assert code == 2
     assert field in err and len(err.strip().splitlines()) == 1
     assert not out_dir.exists()
+
+
+def test_a_control_without_effect_is_a_failed_result(capsys, tmp_path):
+    # wrist_spread has zero amplitude: its phase moves nothing, the expanding mode stays
+    code, out, err = _run(capsys, ["control", *FAST, "--controls", "gait.wrist_spread.phase_deg", "--json",
+                                   "--out", str(tmp_path / "c")])
+    assert code == 1
+    r = json.loads(out)
+    assert r["success"] is False and r["status"] == "not_stabilised"
+    assert r["controllable"] == {"gait.wrist_spread.phase_deg": False}
+    assert abs(complex(*r["closed_loop_multipliers"][0])) > 1

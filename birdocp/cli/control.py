@@ -78,9 +78,9 @@ def cmd_control(args: argparse.Namespace, command_line: list[str]) -> int:
             ctl = design_controller(base, controls, N, limit_deg=limit)
             body, message = ctl.to_dict(), ""
         except (np.linalg.LinAlgError, ValueError) as exc:
-            ctl, body = None, {"success": False, "status": "not_stabilisable"}
+            ctl, body = None, {"success": False, "status": "not_stabilised"}
             message = f"no stabilising feedback through {', '.join(controls)}: {cli.one_line(exc)}"
-    result = {**head, **body, "message": message or body["status"], "amplitude_deg": base.amplitude_deg,
+    result = {**head, **body, "message": message or body["message"], "amplitude_deg": base.amplitude_deg,
               "mean_forward_speed_mps": base.mean_forward_speed_mps,
               "mean_vertical_speed_mps": base.mean_vertical_speed_mps,
               "wall_s": {"total": time.perf_counter() - t0}}

@@ -208,8 +208,24 @@ class WingbeatMap:
 
 
 def wingbeat_map(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int = 1) -> WingbeatMap:
-    """Exact linearisation of the wingbeat map of a converged trim (``TrimResult``) with respect to the
-    state at the beat start and to ``controls`` held over each of ``updates_per_beat`` intervals."""
+    """Exact linearisation of the wingbeat map with gait controls.
+
+    Parameters
+    ----------
+    cycle_result : TrimResult
+        A converged trim (its grid, ``steps_per_period`` RK4 steps, is linearised).
+    controls : sequence of str
+        Gait keys (or aliases) held over each interval; derivatives per unit of each key's own unit
+        (deg for angles).
+    updates_per_beat : int
+        N >= 1 intervals; must divide the RK4 steps per period.
+
+    Returns
+    -------
+    WingbeatMap
+        ``A`` (N, 4, 4), ``B`` (N, 4, m), the cycle's states at the interval starts, ``M``,
+        ``B_lifted``. State units: u, w [m/s], q [rad/s], theta [rad].
+    """
     controls = resolve_controls(controls)
     N = int(updates_per_beat)
     c = cycle_result.cycle
@@ -252,8 +268,26 @@ def wingbeat_map(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int 
 
 def periodic_lqr(A, B, Q, R):
     """Periodic discrete-time LQR of ``x_{i+1} = A_i x_i + B_i u_i`` (i mod N), cost
-    ``sum x'Qx + u'Ru``. Returns (P (N, n, n), K (N, m, n)) with ``u_i = -K_i x_i`` and the periodic
-    Riccati solution ``P_i`` (the cost-to-go from interval i).
+    ``sum x'Qx + u'Ru``.
+
+    Parameters
+    ----------
+    A : array (N, n, n)
+    B : array (N, n, m)
+    Q : array (n, n)
+        State weight at every interval start.
+    R : array (m, m)
+        Control weight of every interval.
+
+    Returns
+    -------
+    P : array (N, n, n)
+        The periodic Riccati solution (cost-to-go from interval i).
+    K : array (N, m, n)
+        Gains, ``u_i = -K_i x_i``.
+
+    Notes
+    -----
 
     Solved by :func:`scipy.linalg.solve_discrete_are` on the cyclic reformulation (state
     ``(x_0, .., x_{N-1})`` of dimension nN, ``A_i`` in block (i+1, i)), whose stabilising solution is
@@ -390,6 +424,11 @@ class Controller:
         stable = bool(rho < 1.0)
         return {
             "success": stable, "status": "stabilised" if stable else "not_stabilised",
+            "message": (f"closed-loop spectral radius {rho:.4g} < 1" if stable else
+                        f"closed-loop spectral radius {rho:.4g} >= 1: the cycle is not stabilisable through "
+                        + ", ".join(r["control"] for r in self.per_control if not r["stabilisable"])
+                        if any(not r["stabilisable"] for r in self.per_control) else
+                        f"closed-loop spectral radius {rho:.4g} >= 1"),
             "controls": list(wm.controls), "updates_per_beat": wm.updates_per_beat,
             "steps_per_period": wm.steps_per_period,
             "open_loop_multipliers": _pairs(ol), "closed_loop_multipliers": _pairs(cl),
@@ -409,11 +448,33 @@ class Controller:
 
 def design_controller(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int = 1, *,
                       Q=None, R=None, limit_deg: float = DEFAULT_LIMIT_DEG) -> Controller:
-    """Linearise the wingbeat map at ``cycle_result`` (a converged ``TrimResult``), design the periodic
-    LQR with Bryson weights (or ``Q``, ``R``) and analyse each control alone.
+    """Linearise the wingbeat map, design the periodic LQR and analyse each control alone.
 
-    Raises ConfigError on bad keys or N; numpy.linalg.LinAlgError when the controls cannot stabilise
-    the cycle (no stabilising Riccati solution)."""
+    Parameters
+    ----------
+    cycle_result : TrimResult
+        A converged trim (or a level-flight cycle re-trimmed at its amplitude: :func:`reference_cycle`).
+    controls : sequence of str
+        Gait keys or aliases (default :data:`DEFAULT_CONTROLS`).
+    updates_per_beat : int
+        N corrections per beat (1 = wingbeat to wingbeat).
+    Q, R : array, optional
+        Weights (default :func:`bryson_weights`: 1 m/s, 1 m/s, 1 rad/s, 5 deg; 5 deg per joint).
+    limit_deg : float
+        Joint range around the cycle value used by the simulation to saturate [deg].
+
+    Returns
+    -------
+    Controller
+        Gains ``K`` (N, m, 4) in control units (deg) per state unit, multipliers, per-control analysis.
+
+    Raises
+    ------
+    ConfigError
+        Unknown key or bad N.
+    numpy.linalg.LinAlgError
+        The controls cannot stabilise the cycle (no stabilising Riccati solution).
+    """
     wm = wingbeat_map(cycle_result, controls, updates_per_beat)
     Qd, Rd = bryson_weights(cycle_result.cfg, wm.controls)
     Q = Qd if Q is None else np.asarray(Q, float)

@@ -263,15 +263,35 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
              stop_when_recovered: bool = False) -> SimulationResult:
     """Integrate the bird ``beats`` wingbeats from ``x0_cycle + perturbation``.
 
-    cfg: the configuration of the cycle; x0_cycle: the cycle's state at the beat start (4);
-    steps_per_period: RK4 steps (default ``cfg.solve.steps_per_period``; use the cycle's);
-    perturbation: state deviation added at t = 0 (u, w [m/s], q [rad/s], theta [rad]);
-    gusts: :class:`Gust` objects (one per direction); wind_mps: constant (horizontal, vertical up);
-    controller: a :class:`birdocp.studies.control.Controller` (or an object with ``controls``, ``K``,
-    ``x_starts``, ``limits``, ``updates_per_beat``) for the closed loop; None = open loop (the gait
-    of ``cfg``); p: parameter vector of the cycle (default that of ``cfg``);
-    stop_when_recovered: stop once every gust is behind the bird and the deviation at a beat start is
-    back to 1/100 of its peak (the gust envelope's criterion).
+    Parameters
+    ----------
+    cfg : Config
+        The configuration of the cycle.
+    x0_cycle : array (4,)
+        The cycle's state at the beat start (u, w [m/s], q [rad/s], theta [rad]).
+    beats : int
+        Wingbeats to simulate (>= 1).
+    steps_per_period : int, optional
+        RK4 steps per beat (default ``cfg.solve.steps_per_period``; use the cycle's).
+    perturbation : array (4,), optional
+        State deviation added at t = 0 (same units as the state).
+    gusts : sequence of Gust
+        At most one per direction.
+    wind_mps : (float, float)
+        Constant wind: horizontal (positive along the flight), vertical (positive up) [m/s].
+    controller : Controller, optional
+        A :class:`birdocp.studies.control.Controller` (or any object with ``controls``, ``K``,
+        ``x_starts``, ``limits``, ``updates_per_beat``) for the closed loop; None = open loop.
+    p : array, optional
+        Parameter vector of the cycle (default that of ``cfg``).
+    stop_when_recovered : bool
+        Stop once every gust is behind the bird and the deviation at a beat start is back to 1/100
+        of its peak (the gust envelope's criterion).
+
+    Returns
+    -------
+    SimulationResult
+        ``success`` False with status ``non_finite`` or ``left_validity`` when the run stopped early.
     """
     if int(beats) < 1:
         raise ConfigError("--beats", f"must be >= 1, got {beats}")
