@@ -101,7 +101,9 @@ def plot_envelope(envelopes: list, path) -> Path:
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     for env in envelopes:
         tr = sorted(env["trials"], key=lambda r: r["amplitude_mps"])
-        label = f"{env['direction']} ({'+' if env['sign'] > 0 else '-'}), {env['length_beats']:g} beat(s)"
+        kind = {("vertical", 1): "up-gust", ("vertical", -1): "down-gust", ("horizontal", 1): "tailwind gust",
+                ("horizontal", -1): "headwind gust"}[(env["direction"], 1 if env["sign"] > 0 else -1)]
+        label = f"{kind}, {env['length_beats']:g} beat(s) long"
         a = np.array([r["amplitude_mps"] for r in tr])
         ok = np.array([r["recovered"] for r in tr])
         rec = np.array([r["beats_to_recover"] if r["beats_to_recover"] is not None else np.nan for r in tr], float)
@@ -109,9 +111,9 @@ def plot_envelope(envelopes: list, path) -> Path:
         line, = axes[0].plot(a[ok], rec[ok], "o-", ms=4, label=label)
         axes[0].plot(a[~ok], np.zeros((~ok).sum()), "x", ms=8, color=line.get_color())
         axes[1].plot(a[ok], exc[ok], "o-", ms=4, color=line.get_color(), label=label)
-    axes[0].set_xlabel("gust peak [m/s]")
+    axes[0].set_xlabel("gust peak [m/s] (vertical: + up; horizontal: + along the flight)")
     axes[0].set_ylabel("beats to recover (deviation / 100)")
-    axes[1].set_xlabel("gust peak [m/s]")
+    axes[1].set_xlabel("gust peak [m/s] (vertical: + up; horizontal: + along the flight)")
     axes[1].set_ylabel("largest control range, max - min [deg]")
     axes[0].set_title("x at 0: not recovered (a joint saturated or the model's validity left)", fontsize=9)
     for ax in axes:
