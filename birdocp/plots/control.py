@@ -116,7 +116,7 @@ def plot_envelope(envelopes: list, path) -> Path:
     axes[1].set_xlabel("gust peak [m/s] (vertical: + up; horizontal: + along the flight)")
     axes[1].set_ylabel("largest control range, max - min [deg]")
     axes[0].set_title("x at 0: not recovered (a joint saturated or the model's validity left)", fontsize=9)
-    for ax, loc in zip(axes, ("center right", "upper center")):
+    for ax, loc in zip(axes, ("center right", "center right")):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc=loc)
     return _save(fig, path, 120)
