@@ -116,7 +116,8 @@ def plot_envelope(envelopes: list, path) -> Path:
     axes[1].set_xlabel("gust peak [m/s] (vertical: + up; horizontal: + along the flight)")
     axes[1].set_ylabel("largest control range, max - min [deg]")
     axes[0].set_title("x at 0: not recovered (a joint saturated or the model's validity left)", fontsize=9)
-    for ax, loc in zip(axes, ("center right", "center right")):
+    axes[0].legend(fontsize=7, loc="center right")  # the right panel uses the same colours
+    axes[1].set_title("same colours as on the left", fontsize=9)
+    for ax in axes:
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc=loc)
     return _save(fig, path, 120)
