@@ -18,10 +18,11 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird import aero
+from birdocp.bird import inertia
 from birdocp.bird import kinematics
 from birdocp.bird import tail
 from birdocp.bird import wing
-from birdocp.bird.config import JOINT_NAMES, PARAM_NAMES, Config, param_vector
+from birdocp.bird.config import JOINT_NAMES, PARAM_NAMES, WING_MASS_SHARES, Config, param_vector
 from birdocp.engine.cache import register_cache
 from birdocp.engine.problem import PeriodicODE
 
@@ -52,6 +53,15 @@ def _offsets():
 
 
 DATA_OFFSETS, N_DATA = _offsets()
+
+N_MASS = len(inertia.MASS_BLOCK)
+"""A model with wing masses appends the sums :data:`birdocp.bird.inertia.MASS_BLOCK` to the data
+vector: its data has N_DATA + N_MASS values, the first N_DATA laid out as :data:`DATA_BLOCKS`."""
+
+
+def unpack_mass(d):
+    """The wing-mass sums of a data vector of a model with wing masses, as a dict of scalars."""
+    return {k: d[N_DATA + i] for i, k in enumerate(inertia.MASS_BLOCK)}
 
 
 def unpack_data(d):
@@ -87,13 +97,15 @@ class Structure:
     kinematic_velocity: str
     backward_step_s: float
     tail: bool = False
+    wing_mass: bool = False
 
     @staticmethod
     def of(cfg: Config) -> "Structure":
         a = cfg.aero
         return Structure(cfg.gait.frequency_hz, a.circulation, a.relaxed_evaluations,
                          a.kinematic_velocity, a.backward_step_s,
-                         bool(cfg.tail.enabled or cfg.tail.opening_angle_deg > 0))
+                         bool(cfg.tail.enabled or cfg.tail.opening_angle_deg > 0),
+                         bool(cfg.wing.inertial_terms or cfg.wing.mass_kg > 0))
 
 
 def _joint_angles(t, p, frequency_hz):
@@ -142,6 +154,39 @@ def _merged(R1, P, c_hat, up, chord, x_ep):
                       _columns(R1 @ c_hat), _columns(R1 @ up), x_ep)
 
 
+WING_POWER_NAMES = ("inertial_power_W", "shoulder_inertial_power_W", "wing_acceleration_power_W",
+                    "wing_gravity_power_W", "wing_relative_kinetic_energy_J")
+"""Outputs of ``BirdModel.wing_power_d`` (see :func:`birdocp.bird.inertia.wing_powers`)."""
+
+
+def _local_mass_points(t, p, frequency_hz):
+    q = _joint_angles(t, p, frequency_hz)
+    l1, l2, l4 = (_p(p, f"wing.{k}") for k in ("arm_length_m", "forearm_length_m", "hand_length_m"))
+    feathers = [_p(p, f"wing.feather_lengths_m.{i}") for i in range(7)]
+    return inertia.local_mass_points(q, l1, l2, l4, feathers)[0]
+
+
+def _point_masses(p):
+    """The 20 point masses of one wing [kg] (two Gauss points per segment, half its mass each)."""
+    seg_m = inertia.segment_masses(_p(p, "wing.mass_kg"), [_p(p, f"wing.{k}") for k in WING_MASS_SHARES])
+    return [0.5 * seg_m[i // 2] for i in range(2 * len(seg_m))]
+
+
+def _wing_points_body(R1, R1d, R1dd, rho, rho_d, rho_dd, p):
+    """Right-wing mass points relative to G_b in the body frame (x', y', z'): positions, velocities
+    and accelerations relative to the body, from the arm-frame points and the shoulder rotation.
+    Code frame (e1, e2, e3) -> body: x' = -e3, y' = e1, z' = -e2; shoulder at (x_ep, 0, -root_ahead)."""
+    root = ca.vertcat(_p(p, "wing.shoulder_half_separation_m"), 0, -_p(p, "wing.root_ahead_m"))
+    rc = ca.repmat(root, 1, rho.shape[1]) + R1 @ rho
+    vc = R1d @ rho + R1 @ rho_d
+    ac = R1dd @ rho + 2 * (R1d @ rho_d) + R1 @ rho_dd
+
+    def body(c):
+        return [ca.vertcat(-c[2, j], c[0, j], -c[1, j]) for j in range(c.shape[1])]
+
+    return body(rc), body(vc), body(ac)
+
+
 GEOMETRY_OUTPUTS = ("joint_angles_rad", "leading_edge_raw", "trailing_edge_raw", "leading_edge",
                     "trailing_edge", "line", "chord_m", "chord_dir", "up_dir", "diagnostics")
 
@@ -180,6 +225,14 @@ class BirdModel:
         else:
             raise ValueError(f"aero.kinematic_velocity must be 'exact' or 'backward-difference', got {s.kinematic_velocity!r}")
         ell = ca.vertcat(ca.vec(P), ca.vec(c_hat_l), ca.vec(up_l), ca.vec(chord_l), aux)
+        n_aero_local = ell.numel()
+        if s.wing_mass:
+            # wing mass points in the arm's frame with their time derivatives (AD in t): smooth
+            # functions of the elbow and wrist joints, so they belong to the numeric 'pre' part
+            rho = ca.horzcat(*_local_mass_points(t, p, f_hz))
+            rho_d = ca.jtimes(rho, t, ca.SX(1))
+            rho_dd = ca.jtimes(rho_d, t, ca.SX(1))
+            ell = ca.vertcat(ell, ca.vec(rho), ca.vec(rho_d), ca.vec(rho_dd))
         self.pre = ca.Function("wing_local", [t, p], [ell], ["t", "p"], ["local"])
         self.pre_params = tuple(int(k) for k in np.nonzero(
             np.asarray(ca.DM(ca.jacobian_sparsity(ell, p), 1)).sum(axis=0))[0])
@@ -205,6 +258,7 @@ class BirdModel:
         for n in (48, 48, 48, 16, 48):
             blocks_l.append(L[k:k + n])
             k += n
+        assert k == n_aero_local
         P_s = ca.reshape(blocks_l[0], 3, N_EL)
         c_s = ca.reshape(blocks_l[1], 3, N_EL)
         u_s = ca.reshape(blocks_l[2], 3, N_EL)
@@ -234,6 +288,27 @@ class BirdModel:
         blocks = {"r_m": r, "v_kin_mps": v_kin, "c_hat": c_hat, "up": up, "tau": tau, "ds_m": ds,
                   "G": G, "Wx": Wx, "Wy": Wy, "nodes_m": nodes + ca.repmat(r_w, 1, N_EL + 1)}
         d = ca.vertcat(*[ca.vec(blocks[name]) for name, _ in DATA_BLOCKS])
+        if s.wing_mass:
+            npt = inertia.N_POINTS_PER_WING
+            rho_s = [ca.reshape(L[k + 3 * npt * j:k + 3 * npt * (j + 1)], 3, npt) for j in range(3)]
+            R1d = ca.jtimes(R1, t, ca.SX(1))
+            R1dd = ca.jtimes(R1d, t, ca.SX(1))
+            rb, vb, ab = _wing_points_body(R1, R1d, R1dd, *rho_s, p)
+            sums = inertia.mass_sums(_point_masses(p), rb, vb, ab)
+            d = ca.vertcat(d, *[sums[kk] for kk in inertia.MASS_BLOCK])
+            mpts = ell[n_aero_local:]
+            mr = [ca.reshape(mpts[3 * npt * j:3 * npt * (j + 1)], 3, npt) for j in range(3)]
+            rb, vb, ab = _wing_points_body(R1, R1d, R1dd, *mr, p)
+            mirror = ca.diag(ca.DM([1, -1, 1]))
+            both = [ca.horzcat(ca.horzcat(*z), mirror @ ca.horzcat(*z)) for z in (rb, vb, ab)]
+            mm = ca.vertcat(*_point_masses(p))
+            # both wings' mass points relative to G_b in the body frame (x', y', z'), 3 x 40 each
+            # (right wing then left), their velocities and accelerations relative to the body, masses
+            self.mass_points = ca.Function(
+                "wing_mass_points", [t, p], both + [ca.vertcat(mm, mm)], ["t", "p"],
+                ["r_m", "v_mps", "a_mps2", "m_kg"])
+        else:
+            self.mass_points = None
         self.post = ca.Function("wing_assemble", [L, t, p], [d], ["local", "t", "p"], ["d"])
         self.data = ca.Function("data", [t, p], [self.post(ell, t, p)], ["t", "p"], ["d"])
 
@@ -243,7 +318,7 @@ class BirdModel:
         x = ca.SX.sym("x", 4)
         wind = ca.SX.sym("wind_mps", 2)
         xa = air_state(x, wind)
-        dsym = ca.SX.sym("d", N_DATA)
+        dsym = ca.SX.sym("d", N_DATA + (N_MASS if s.wing_mass else 0))
         b = unpack_data(dsym)
         F, M, Gamma, alpha, vp = aero.element_loads(
             xa, b["r_m"], b["v_kin_mps"], b["c_hat"], b["up"], b["tau"], b["ds_m"],
@@ -263,11 +338,28 @@ class BirdModel:
                           q * u + grav * ca.cos(theta) + Fz / m,
                           My / I,
                           q)
+        powers = None
+        if s.wing_mass:
+            # body.mass_kg is the whole bird M, body.pitch_inertia_kgm2 the body alone about G_b
+            # (spec inertia.md 4.3: the massless right-hand side with m = M, I = I_b, plus a
+            # correction that is exactly zero when the wings have no mass)
+            sums = unpack_mass(dsym)
+            nudot = inertia.accelerations(x, xdot[:3], sums, m, I, grav)
+            xdot = ca.vertcat(nudot, q)
+            pw = inertia.wing_powers(x, nudot, sums, grav)
+            powers = ca.vertcat(*[pw[kk] for kk in WING_POWER_NAMES])
         self.rhs_wind = ca.Function("rhs_wind", [x, dsym, p, wind], [xdot], ["x", "d", "p", "wind_mps"], ["xdot"])
         self.loads_wind = ca.Function("loads_wind", [x, dsym, p, wind], [ca.vertcat(Fx, Fz, My)],
                                       ["x", "d", "p", "wind_mps"], ["loads"])
+        zero = [ca.SX.zeros(2)]
         xdot, loads, detail = ca.substitute([xdot, ca.vertcat(Fx, Fz, My), ca.vertcat(Gamma, alpha, vp, ca.vec(F))],
-                                            [wind], [ca.SX.zeros(2)])
+                                            [wind], zero)
+        if powers is not None:
+            # (x, d, p) -> the powers WING_POWER_NAMES [W] (and T_rel [J]) at one instant
+            self.wing_power_d = ca.Function("wing_power_d", [x, dsym, p], ca.substitute([powers], [wind], zero),
+                                            ["x", "d", "p"], ["powers"])
+        else:
+            self.wing_power_d = None
         self.rhs = ca.Function("rhs", [x, dsym, p], [xdot], ["x", "d", "p"], ["xdot"])
         self.loads_d = ca.Function("loads_d", [x, dsym, p], [loads], ["x", "d", "p"], ["loads"])
         self.detail_d = ca.Function("detail_d", [x, dsym, p], ca.vertsplit(detail, [0, N_EL, 2 * N_EL, 3 * N_EL, 3 * N_EL + 3]),
@@ -286,6 +378,21 @@ class BirdModel:
         self.ode = PeriodicODE(rhs=self.rhs, data=self.data, period_s=self.period_s,
                                state_names=STATE_NAMES, param_names=PARAM_NAMES,
                                pre=self.pre, post=self.post, pre_params=self.pre_params)
+
+    def wing_power_history(self, t, X, p) -> dict:
+        """The wing powers :data:`WING_POWER_NAMES` along a trajectory (numbers).
+
+        t: times [s] (K); X: states (K x 4); p: parameter vector. Returns a dict of arrays (K), all
+        zeros for a model without wing masses (massless wings do no inertial work)."""
+        t = np.asarray(t, float).ravel()
+        X = np.asarray(X, float).reshape(len(t), 4)
+        if self.wing_power_d is None:
+            return {k: np.zeros(len(t)) for k in WING_POWER_NAMES}
+        pd = ca.DM(np.asarray(p, float))
+        K = len(t)
+        D = self.data.map(K)(ca.DM(t).T, ca.repmat(pd, 1, K))
+        P = np.asarray(self.wing_power_d.map(K)(ca.DM(X.T), D, ca.repmat(pd, 1, K)))
+        return {k: P[i].copy() for i, k in enumerate(WING_POWER_NAMES)}
 
     def evaluate(self, state, t, p) -> dict:
         """Body-frame loads and the state derivative at one (state, t) for parameters p."""
@@ -327,4 +434,4 @@ def get_model(cfg: Config) -> ConfiguredModel:
 
 
 __all__ = ["BirdModel", "get_model", "air_state", "param_vector", "STATE_NAMES", "DATA_BLOCKS", "N_DATA",
-           "unpack_data", "GEOMETRY_OUTPUTS", "Structure"]
+           "unpack_data", "GEOMETRY_OUTPUTS", "Structure", "N_MASS", "unpack_mass", "WING_POWER_NAMES"]
