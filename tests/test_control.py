@@ -125,6 +125,12 @@ def test_zero_wind_is_the_cycle_exactly_and_a_constant_wind_shifts_the_velocity(
     X = np.asarray(grid.period_map(ca.DM(cycle.x0), grid.blocks_numeric(0.0, p), ca.DM(p))[1]).T
     s = simulate(cycle.cfg, cycle.x0, 1, steps_per_period=STEPS, wind_mps=(0.0, 0.0))
     assert s.success and np.max(np.abs(s.states[1:] - X)) <= 1e-13 * np.max(np.abs(X))
+    # the simulation's validity measures on the cycle are those of birdocp.bird.validity
+    v = cycle.validity.to_dict()
+    d = s.to_dict()
+    assert d["max_stalled_fraction_per_beat"] == pytest.approx(v["stalled_fraction"], rel=1e-9)
+    assert d["max_airflow_body_angle_deg"] == pytest.approx(v["max_airflow_body_angle_deg"], rel=1e-9)
+    assert d["min_air_forward_speed_mps"] == pytest.approx(v["min_forward_speed_mps"], rel=1e-9)
     # Galilean invariance: a constant wind W and the inertial velocity shifted by W (body frame)
     # give the same air-relative motion, so u - cos(theta) W_X == u_cycle along the whole beat
     Wh, Wv = 2.0, -1.0  # horizontal (along the flight), vertical (up) [m/s]

@@ -40,6 +40,7 @@ import numpy as np
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest
 from birdocp.bird.model import get_model
 from birdocp.engine.cache import bounded_cache
+from birdocp.engine.floquet import complex_pairs, multiplier_order
 from birdocp.engine.integrate import RK4Grid
 
 __all__ = ["DEFAULT_CONTROLS", "ACCEPTABLE_STATE", "ACCEPTABLE_CONTROL_DEG", "DEFAULT_LIMIT_DEG",
@@ -116,9 +117,10 @@ def default_limits(cfg: Config, controls, p, limit_deg: float = DEFAULT_LIMIT_DE
 
 
 def sorted_eigs(Mat):
-    """Eigenvalues and right eigenvectors, largest modulus first (then imaginary part descending)."""
+    """Eigenvalues and right eigenvectors in the order of every result
+    (:func:`birdocp.engine.floquet.multiplier_order`: largest modulus first)."""
     lam, V = np.linalg.eig(np.asarray(Mat, float))
-    order = np.lexsort((-lam.imag, -np.abs(lam)))
+    order = multiplier_order(lam)
     return lam[order], V[:, order]
 
 
@@ -326,10 +328,6 @@ def closed_loop_monodromy(A, B, K) -> np.ndarray:
     return out
 
 
-def _pairs(z) -> list:
-    return [[float(v.real), float(v.imag)] for v in np.asarray(z).ravel()]
-
-
 def _single_control(wm: WingbeatMap, j: int, Q, R) -> dict:
     """Controllability of the cycle through control j alone."""
     lam, V = sorted_eigs(wm.M)
@@ -370,7 +368,7 @@ def _single_control(wm: WingbeatMap, j: int, Q, R) -> dict:
         _, K = periodic_lqr(wm.A, wm.B[:, :, j:j + 1], Q, Rj)
         mult = sorted_eigs(closed_loop_monodromy(wm.A, wm.B[:, :, j:j + 1], K))[0]
         row.update(lqr_gain=K[:, 0, :].tolist(), lqr_gain_norm=float(np.max(np.linalg.norm(K[:, 0, :], axis=1))),
-                   lqr_spectral_radius=float(np.max(np.abs(mult))), lqr_multipliers=_pairs(mult))
+                   lqr_spectral_radius=float(np.max(np.abs(mult))), lqr_multipliers=complex_pairs(mult))
     except (np.linalg.LinAlgError, ValueError):
         pass
     return row
@@ -431,7 +429,7 @@ class Controller:
                         f"closed-loop spectral radius {rho:.4g} >= 1"),
             "controls": list(wm.controls), "updates_per_beat": wm.updates_per_beat,
             "steps_per_period": wm.steps_per_period,
-            "open_loop_multipliers": _pairs(ol), "closed_loop_multipliers": _pairs(cl),
+            "open_loop_multipliers": complex_pairs(ol), "closed_loop_multipliers": complex_pairs(cl),
             "open_loop_spectral_radius": float(np.max(np.abs(ol))), "closed_loop_spectral_radius": rho,
             "beats_to_reduce_100x": (math.log(100.0) / -math.log(rho)) if 0 < rho < 1 else None,
             "gain": self.K[0].tolist(), "gains": self.K.tolist(),

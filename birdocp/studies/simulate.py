@@ -14,12 +14,13 @@ G's position):
 Closed loop: at the start of each of the N intervals of a beat the controller's gait corrections
 ``du = -K_i (x - x_i)`` are applied (held over the interval), saturated at the joint limits.
 
-Validity: the simulation stops (status ``left_validity``) when the forward speed u <= 0 (the
-aerodynamic model assumes air coming from ahead), |theta| > :data:`MAX_PITCH_DEG` or the air-relative
-inflow angle of G exceeds :data:`MAX_INFLOW_DEG` (no stall in the quasi-steady lifting line) or its air
-speed drops below :data:`MIN_AIRSPEED_FRACTION` of the cycle's mean flight speed; non-finite
-states give status ``non_finite``. This is a simple explicit criterion (the model-validity module of
-another branch was not on main when this was written).
+Validity (:mod:`birdocp.bird.validity`'s thresholds, ``[validity]`` of the configuration, applied to
+the air-relative state, since a gust changes the airflow, not the bird's inertial velocity): the
+simulation stops (status ``left_validity``) when the air-relative forward speed falls below
+``min_forward_speed_mps``, |pitch| exceeds ``max_abs_pitch_deg``, the airflow meets the body axis at
+more than ``max_airflow_body_angle_deg``, or, over a beat, more than ``max_stalled_fraction`` of the
+span-time area is beyond ``stall_angle_deg`` (effective angles of attack of the 16 elements at every
+RK4 step); non-finite states give status ``non_finite``.
 """
 
 from __future__ import annotations
@@ -32,22 +33,13 @@ import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, ConfigError
 from birdocp.bird.model import STATE_NAMES, air_state, get_model
+from birdocp.bird.validity import effective_angles
 from birdocp.engine.integrate import RK4Grid, stage_block_index
 from birdocp.studies.control import PerModel
 
-__all__ = ["Gust", "SimulationResult", "simulate", "gust_envelope", "nonlinear_beat_map", "MAX_PITCH_DEG", "MAX_INFLOW_DEG", "MIN_AIRSPEED_FRACTION", "STATE_ALIASES",
+__all__ = ["Gust", "SimulationResult", "simulate", "gust_envelope", "nonlinear_beat_map", "STATE_ALIASES",
            "parse_perturbation", "parse_gust"]
 
-MAX_PITCH_DEG = 60.0
-"""Largest |pitch| the simulation accepts as within the model's validity [deg]."""
-MAX_INFLOW_DEG = 30.0
-"""Largest |angle| of the air-relative velocity of G to the body axis, atan2(w_air, u_air), accepted
-as within the model's validity [deg] (the quasi-steady lifting line has no stall; the cycle's is a few
-degrees)."""
-MIN_AIRSPEED_FRACTION = 0.5
-"""Smallest air speed of G accepted as within the model's validity, as a fraction of the cycle's mean
-flight speed (distance per beat / period): below it the flapping velocity dominates, the reduced
-frequency pi f c / V is more than twice the cycle's and the quasi-steady lifting line is stretched."""
 STATE_ALIASES = {"u": 0, "w": 1, "q": 2, "theta": 3, **{n: i for i, n in enumerate(STATE_NAMES)}}
 DIRECTIONS = ("vertical", "horizontal")
 
@@ -140,8 +132,11 @@ class _Stepper(PerModel):
         zdot = ca.vertcat(xdot, u * ca.cos(th) + w * ca.sin(th), -u * ca.sin(th) + w * ca.cos(th))
         f = ca.Function("f_sim", [z, d, p, g], [zdot])
         xa = air_state(z, wind)
-        self.inflow = ca.Function("inflow", [z, g], [ca.atan2(xa[1], xa[0]) * 180 / math.pi,
-                                                      ca.sqrt(xa[0] ** 2 + xa[1] ** 2)]).map(n)
+        ae, _, ds = effective_angles(nd)(xa, d, p)
+        # at each step end: effective angles [deg] and element lengths (16 each), airflow-body angle
+        # [deg] and air-relative forward speed [m/s]
+        self.validity = ca.Function("beat_validity", [z, d, p, g], [
+            ae * 180 / math.pi, ds, ca.atan2(xa[1], xa[0]) * 180 / math.pi, xa[0]]).map(n)
         D3 = ca.SX.sym("D3", nd, 3)
         h = grid.h
         k1 = f(z, D3[:, 0], p, g)
@@ -197,8 +192,9 @@ class SimulationResult:
     beat_distance_m: float
     gust_spans_m: list = field(default_factory=list)
     max_inflow_deg: float = float("nan")  # largest |atan2(w_air, u_air)| along the trajectory
-    min_airspeed_mps: float = float("nan")  # smallest air speed of G along the trajectory
+    min_airspeed_mps: float = float("nan")  # smallest air-relative forward speed u_air of G
     control_cycle: np.ndarray = field(default_factory=lambda: np.zeros(0))  # the controls' cycle values
+    max_stalled_fraction: float = 0.0  # largest stalled share of the span-time area over one beat
 
     @property
     def final_deviation(self) -> float:
@@ -230,8 +226,9 @@ class SimulationResult:
                               if self.controls.size else []),
             "min_forward_speed_mps": float(np.min(self.states[:, 0])) if len(self.states) else None,
             "max_abs_pitch_deg": float(np.degrees(np.max(np.abs(self.states[:, 3])))) if len(self.states) else None,
-            "max_inflow_angle_deg": self.max_inflow_deg,
-            "min_airspeed_mps": self.min_airspeed_mps if math.isfinite(self.min_airspeed_mps) else None,
+            "max_airflow_body_angle_deg": self.max_inflow_deg,
+            "min_air_forward_speed_mps": self.min_airspeed_mps if math.isfinite(self.min_airspeed_mps) else None,
+            "max_stalled_fraction_per_beat": self.max_stalled_fraction,
             "distance_per_beat_m": self.beat_distance_m, "gust_spans_m": self.gust_spans_m,
             "final_position_m": [float(self.X_m[-1]), float(self.Z_m[-1])] if len(self.X_m) else None,
         }
@@ -318,7 +315,8 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
     traj, ctrl_t, ctrl = [z[None, :]], [], []
     dev = [float(np.linalg.norm(dx0))]
     saturated = False
-    max_inflow, min_air = 0.0, math.inf
+    max_inflow, min_air, max_stalled = 0.0, math.inf, 0.0
+    lim = cfg.validity
     status, message = "ok", f"{beats} beats simulated"
     T = m.period_s
     for k in range(beats):
@@ -334,23 +332,34 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
                 pk[idx] = uc
                 ctrl_t.append((k + i / N) * T)
                 ctrl.append(uc)
-            Zi = np.asarray(st.interval(z, st.data(i, pk), pd, gd)).T
+            if i == 0:
+                stalled_area = 0.0  # stalled share of the span-time area over this beat
+            D = st.data(i, pk)
+            Zi = np.asarray(st.interval(z, D, pd, gd)).T
             traj.append(Zi)
             z = Zi[-1]
             bad = ~np.all(np.isfinite(Zi), axis=1)
             if np.any(bad):
                 status, message = "non_finite", f"the state became non-finite in beat {k + 1}"
             else:
-                angle, speed = (np.asarray(v).ravel() for v in st.inflow(Zi.T, gd))
+                ae, ds, angle, u_air = (np.asarray(v) for v in st.validity(Zi.T, D[:, 2::3], ca.DM(pk), gd))
                 inflow = float(np.max(np.abs(angle)))
                 max_inflow = max(max_inflow, inflow)
-                min_air = min(min_air, float(np.min(speed)))
+                min_air = min(min_air, float(np.min(u_air)))
+                pitch = float(np.degrees(np.max(np.abs(Zi[:, 3]))))
+                stalled_area += float(np.mean(((np.abs(ae) > lim.stall_angle_deg) * ds).sum(axis=0)
+                                              / ds.sum(axis=0))) / N
                 reasons = [text for bad, text in (
-                    (np.any(Zi[:, 0] <= 0), "forward speed u <= 0"),
-                    (np.any(np.abs(Zi[:, 3]) > math.radians(MAX_PITCH_DEG)), f"|pitch| > {MAX_PITCH_DEG:g} deg"),
-                    (inflow > MAX_INFLOW_DEG, f"|inflow angle| {inflow:.3g} > {MAX_INFLOW_DEG:g} deg"),
-                    (min_air < MIN_AIRSPEED_FRACTION * beat_m / T,
-                     f"air speed {min_air:.3g} m/s < {MIN_AIRSPEED_FRACTION:g} x {beat_m / T:.3g} m/s")) if bad]
+                    (min_air < lim.min_forward_speed_mps,
+                     f"air-relative forward speed {min_air:.3g} m/s < {lim.min_forward_speed_mps:g} m/s"),
+                    (pitch > lim.max_abs_pitch_deg, f"|pitch| {pitch:.3g} > {lim.max_abs_pitch_deg:g} deg"),
+                    (inflow > lim.max_airflow_body_angle_deg,
+                     f"airflow at {inflow:.3g} deg to the body axis > {lim.max_airflow_body_angle_deg:g} deg"),
+                    (i == N - 1 and stalled_area > lim.max_stalled_fraction,
+                     f"{stalled_area:.1%} of the span-time area beyond the stall angle "
+                     f"{lim.stall_angle_deg:g} deg > {lim.max_stalled_fraction:.0%}")) if bad]
+                if i == N - 1:
+                    max_stalled = max(max_stalled, stalled_area)
                 if reasons:
                     status = "left_validity"
                     message = f"left the model's validity in beat {k + 1}: {', '.join(reasons)}"
@@ -368,7 +377,7 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
     ctrl_arr = np.array(ctrl) if ctrl else np.zeros((0, len(keys)))
     return SimulationResult(status == "ok", status, message, controller is not None, beats, t, Z[:, :4],
                             Z[:, 4], Z[:, 5], np.array(ctrl_t), ctrl_arr, keys, np.array(dev), saturated,
-                            beat_m, spans, max_inflow, min_air, u_cyc)
+                            beat_m, spans, max_inflow, min_air, u_cyc, max_stalled)
 
 
 def gust_envelope(cfg, x0_cycle, controller, direction: str = "vertical", *, sign: float = 1.0,
