@@ -394,7 +394,7 @@ def gust_envelope(cfg, x0_cycle, controller, direction: str = "vertical", *, sig
                      gusts=[Gust(direction, sign * a, length_beats)], stop_when_recovered=True)
         rec = r.beats_to_recover
         good = bool(r.success and not r.saturated and rec is not None)
-        trials.append({"amplitude_mps": sign * a, "recovered": good, "status": r.status,
+        trials.append({"amplitude_mps": sign * a, "recovered": good, "status": r.status, "message": r.message,
                        "saturated": r.saturated, "beats_to_recover": rec,
                        "peak_deviation": r.peak_deviation[0],
                        "control_range": r.to_dict()["control_range"]})
