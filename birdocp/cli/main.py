@@ -55,6 +55,8 @@ __all__ = ["main", "build_parser", "resolve_config", "EXIT_OK", "EXIT_NOT_CONVER
 
 COMMAND_MODULES = (
     "birdocp.cli.study",
+    "birdocp.cli.control",
+    "birdocp.cli.simulate",
     "birdocp.cli.animate",
 )
 """Modules that add subcommands: each defines ``register(sub, common)`` (``sub`` the subparsers
