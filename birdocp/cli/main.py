@@ -2,7 +2,7 @@
 
 Every command lives in its own module of :mod:`birdocp.cli` (``forces``, ``trim``, ``export_c``,
 ``level``, ``sweep``, ``continue_``, ``plot``, ``sensitivity``, ``optimize_stability``,
-``animate``, ``config_cmd``) on the shared pieces of :mod:`birdocp.cli.common`, whose :func:`run_folder` holds the
+``control``, ``simulate``, ``animate``, ``config_cmd``) on the shared pieces of :mod:`birdocp.cli.common`, whose :func:`run_folder` holds the
 one run-folder pattern (claim the folder exclusively before computing, solver noise to its log,
 atomic writes, clean-up on failure).
 
@@ -69,6 +69,8 @@ COMMAND_MODULES = (
     "birdocp.cli.plot",
     "birdocp.cli.sensitivity",
     "birdocp.cli.optimize_stability",
+    "birdocp.cli.control",
+    "birdocp.cli.simulate",
     "birdocp.cli.animate",
     "birdocp.cli.config_cmd",
 )
