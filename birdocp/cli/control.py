@@ -36,7 +36,6 @@ def register(sub, common) -> None:
 
 
 def cmd_control(args: argparse.Namespace, command_line: list[str]) -> int:
-    from birdocp.io.runs import claim_out_dir, new_run_dir, write_run
     from birdocp.bird.config import dumps
     from birdocp.studies.control import DEFAULT_CONTROLS, DEFAULT_LIMIT_DEG, resolve_controls
 
@@ -57,45 +56,43 @@ def cmd_control(args: argparse.Namespace, command_line: list[str]) -> int:
         import scipy  # noqa: F401
     except ImportError:
         raise ConfigError("scipy", "birdocp control needs scipy: pip install 'birdocp[control]'") from None
-    run_dir = claim_out_dir(args.out, "control") if args.out else new_run_dir(None, "control")
-    with cli.stdout_to_stderr():
-        from birdocp.studies.control import design_controller, reference_cycle
+    with cli.run_folder(args, "control", command_line) as run:
+        with run.solving():
+            from birdocp.studies.control import design_controller, reference_cycle
 
-        base = reference_cycle(cfg, args.level)
-    head = {"requested_config": dumps(cfg), "level": bool(args.level), "controls": controls,
-            "updates_per_beat": N, "run_dir": str(run_dir)}
-    if not base.success:
-        print(f"{cli.PROG}: the cycle did not converge (status {base.status}): {base.message}", file=sys.stderr)
-        result = {"success": False, "status": base.status, "message": base.message, **head}
-        write_run(run_dir, cfg, result, None, command_line, command="control")
+            base = reference_cycle(cfg, args.level)
+        head = {"requested_config": dumps(cfg), "level": bool(args.level), "controls": controls,
+                "updates_per_beat": N, "run_dir": str(run.dir)}
+        if not base.success:
+            result = {"success": False, "status": base.status, "message": base.message, **head}
+            run.write(cfg, result)
+            run.output(result, None)
+            return run.fail("the cycle did not converge", base.status, base.max_residual, base.message)
+        import numpy as np
+
+        with run.solving():
+            try:
+                ctl = design_controller(base, controls, N, limit_deg=limit)
+                body, message = ctl.to_dict(), ""
+            except (np.linalg.LinAlgError, ValueError) as exc:
+                ctl, body = None, {"success": False, "status": "not_stabilised"}
+                message = f"no stabilising feedback through {', '.join(controls)}: {cli.one_line(exc)}"
+        result = {**head, **body, "message": message or body["message"], "amplitude_deg": base.amplitude_deg,
+                  "mean_forward_speed_mps": base.mean_forward_speed_mps,
+                  "mean_vertical_speed_mps": base.mean_vertical_speed_mps,
+                  "wall_s": {"total": time.perf_counter() - t0}}
+        if ctl is not None:
+            from birdocp.plots.control import plot_multipliers
+
+            result["figure"] = str(plot_multipliers(result, run.dir / "multipliers.png"))
+        run.write(base.cfg, result)
         if args.json:
-            cli.print_json(result)
-        return cli.EXIT_NOT_CONVERGED
-    import numpy as np
-
-    with cli.stdout_to_stderr():
-        try:
-            ctl = design_controller(base, controls, N, limit_deg=limit)
-            body, message = ctl.to_dict(), ""
-        except (np.linalg.LinAlgError, ValueError) as exc:
-            ctl, body = None, {"success": False, "status": "not_stabilised"}
-            message = f"no stabilising feedback through {', '.join(controls)}: {cli.one_line(exc)}"
-    result = {**head, **body, "message": message or body["message"], "amplitude_deg": base.amplitude_deg,
-              "mean_forward_speed_mps": base.mean_forward_speed_mps,
-              "mean_vertical_speed_mps": base.mean_vertical_speed_mps,
-              "wall_s": {"total": time.perf_counter() - t0}}
-    if ctl is not None:
-        from birdocp.plots.control import plot_multipliers
-
-        result["figure"] = str(plot_multipliers(result, run_dir / "multipliers.png"))
-    write_run(run_dir, base.cfg, result, None, command_line, command="control")
-    if args.json:
-        cli.print_json(result)
-    else:
-        _print_table(result)
-    if not result["success"]:
-        print(f"{cli.PROG}: {result['message']}; result written to {run_dir}", file=sys.stderr)
-        return cli.EXIT_NOT_CONVERGED
+            run.output(result, None)
+        else:
+            _print_table(result)
+        if not result["success"]:
+            print(f"{cli.PROG}: {result['message']}; result written to {run.dir}", file=sys.stderr)
+            return cli.EXIT_NOT_CONVERGED
     return cli.EXIT_OK
 
 

@@ -85,7 +85,6 @@ def load_controller(path_text: str, cfg):
 
 
 def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
-    from birdocp.io.runs import claim_out_dir, new_run_dir, write_run
     from birdocp.studies.simulate import DIRECTIONS, parse_gust, parse_perturbation
 
     t0 = time.perf_counter()
@@ -114,51 +113,50 @@ def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
         if args.level:
             raise ConfigError("--level", "the controller's cycle is used with --controller; drop --level")
         ctl, sim_cfg, ctl_result = load_controller(args.controller, cfg)
-    run_dir = claim_out_dir(args.out, "simulate") if args.out else new_run_dir(None, "simulate")
-    head = {"controller": str(args.controller) if args.controller else None, "run_dir": str(run_dir),
-            "perturbation": dx0.tolist(), "wind_mps": {"horizontal": wind[0], "vertical": wind[1]}}
-    with cli.stdout_to_stderr():
-        from birdocp.studies.simulate import simulate
+    with cli.run_folder(args, "simulate", command_line) as run:
+        run_dir = run.dir
+        head = {"controller": str(args.controller) if args.controller else None, "run_dir": str(run_dir),
+                "perturbation": dx0.tolist(), "wind_mps": {"horizontal": wind[0], "vertical": wind[1]}}
+        with run.solving():
+            from birdocp.studies.simulate import simulate
 
-        if ctl is not None:
-            x0, steps = ctl_result["cycle_x0"], int(ctl_result["steps_per_period"])
+            if ctl is not None:
+                x0, steps = ctl_result["cycle_x0"], int(ctl_result["steps_per_period"])
+            else:
+                from birdocp.studies.control import reference_cycle
+
+                base = reference_cycle(cfg, args.level)
+                if not base.success:
+                    result = {"success": False, "status": base.status,
+                              "message": f"the cycle did not converge: {base.message}", **head}
+                    run.write(cfg, result)
+                    run.output(result, None)
+                    return run.fail("the cycle did not converge", base.status, base.max_residual, base.message)
+                sim_cfg, x0, steps = base.cfg, base.x0, int(base.cycle.method["steps_per_period"])
+            sim = simulate(sim_cfg, x0, args.beats, steps_per_period=steps, perturbation=dx0, gusts=gusts,
+                           wind_mps=wind, controller=ctl)
+        result = {**sim.to_dict(), **head, "cycle_x0": [float(v) for v in x0],
+                  "wall_s": {"total": time.perf_counter() - t0}}
+        arrays = sim.arrays()
+        if sim.states.shape[0] > 1:
+            from birdocp.plots.control import plot_simulation
+
+            runs = {("closed loop" if ctl is not None else "open loop"): dict(arrays, control_keys=sim.control_keys)}
+            result["figure"] = str(plot_simulation(runs, run_dir / "simulation.png",
+                                                   f"{args.beats} beats: {sim.status}"))
+        run.write(sim_cfg, result, arrays)
+        if args.json:
+            run.output(result, None)
         else:
-            from birdocp.studies.control import reference_cycle
-
-            base = reference_cycle(cfg, args.level)
-            if not base.success:
-                result = {"success": False, "status": base.status,
-                          "message": f"the cycle did not converge: {base.message}", **head}
-                write_run(run_dir, cfg, result, None, command_line, command="simulate")
-                print(f"{cli.PROG}: {result['message']}", file=sys.stderr)
-                if args.json:
-                    cli.print_json(result)
-                return cli.EXIT_NOT_CONVERGED
-            sim_cfg, x0, steps = base.cfg, base.x0, int(base.cycle.method["steps_per_period"])
-        sim = simulate(sim_cfg, x0, args.beats, steps_per_period=steps, perturbation=dx0, gusts=gusts,
-                       wind_mps=wind, controller=ctl)
-    result = {**sim.to_dict(), **head, "cycle_x0": [float(v) for v in x0],
-              "wall_s": {"total": time.perf_counter() - t0}}
-    arrays = sim.arrays()
-    if sim.states.shape[0] > 1:
-        from birdocp.plots.control import plot_simulation
-
-        runs = {("closed loop" if ctl is not None else "open loop"): dict(arrays, control_keys=sim.control_keys)}
-        result["figure"] = str(plot_simulation(runs, run_dir / "simulation.png",
-                                               f"{args.beats} beats: {sim.status}"))
-    write_run(run_dir, sim_cfg, result, arrays, command_line, command="simulate")
-    if args.json:
-        cli.print_json(result)
-    else:
-        dev = result["deviation_per_beat"]
-        print(f"simulate: {sim.status} ({'closed' if ctl is not None else 'open'} loop): {sim.message}")
-        print("  deviation per beat: " + ", ".join(f"{v:.3g}" for v in dev[:12]) + (" ..." if len(dev) > 12 else ""))
-        print(f"  final deviation {cli.fmt_num(result['final_deviation'], '.3g')}, peak "
-              f"{cli.fmt_num(result['peak_deviation'], '.3g')} at beat {result['peak_beat']}, beats to recover "
-              f"{result['beats_to_recover']}, saturated {result['saturated']}")
-        print(f"  written to {run_dir}")
-    if not sim.success:
-        print(f"{cli.PROG}: simulation failed ({sim.status}): {sim.message}; result written to {run_dir}",
-              file=sys.stderr)
-        return cli.EXIT_NOT_CONVERGED
+            dev = result["deviation_per_beat"]
+            print(f"simulate: {sim.status} ({'closed' if ctl is not None else 'open'} loop): {sim.message}")
+            print("  deviation per beat: " + ", ".join(f"{v:.3g}" for v in dev[:12]) + (" ..." if len(dev) > 12 else ""))
+            print(f"  final deviation {cli.fmt_num(result['final_deviation'], '.3g')}, peak "
+                  f"{cli.fmt_num(result['peak_deviation'], '.3g')} at beat {result['peak_beat']}, beats to recover "
+                  f"{result['beats_to_recover']}, saturated {result['saturated']}")
+            print(f"  written to {run_dir}")
+        if not sim.success:
+            print(f"{cli.PROG}: simulation failed ({sim.status}): {sim.message}; result written to {run_dir}",
+                  file=sys.stderr)
+            return cli.EXIT_NOT_CONVERGED
     return cli.EXIT_OK
