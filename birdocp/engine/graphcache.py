@@ -206,6 +206,13 @@ def store(kind: str, key: dict, functions: dict, meta: dict | None = None, direc
 
 
 def _prune(root: Path, kind: str, keep: Path) -> None:
+    now = time.time()
+    for d in list(root.glob(".tmp-*")) + list(root.glob(".del-*")):  # left by killed processes
+        try:
+            if now - d.stat().st_mtime > 3600:
+                shutil.rmtree(d, ignore_errors=True)
+        except OSError:
+            continue
     entries = []
     for d in root.glob(f"{kind}-*"):
         try:
