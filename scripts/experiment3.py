@@ -24,7 +24,9 @@ from pathlib import Path
 import numpy as np
 
 from birdocp.bird.config import Config, with_values
-from birdocp.engine.continuation import Branch, bird_branch, plot_branches, sm_percent
+from birdocp.engine.continuation import Branch
+from birdocp.plots.branch import plot_branches
+from birdocp.studies.branch import bird_branch, sm_percent
 from birdocp.engine.executors import get_executor
 from birdocp.io.files import atomic_write_json, atomic_write_text
 

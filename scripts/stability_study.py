@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from birdocp.bird.config import JOINT_NAMES, Config, get_value, with_values
-from birdocp.engine.continuation import bird_branch
+from birdocp.studies.branch import bird_branch
 from birdocp.io.files import atomic_write_json, atomic_write_text
 from birdocp.bird.kinematics import joint_angles
 from birdocp.studies.optimize import optimize_stability

@@ -98,7 +98,7 @@ def test_bird_branch_agrees_with_independent_trims(tmp_path):
     the CLI writes it and 'plot' redraws it."""
     from birdocp.cli.main import main
     from birdocp.bird.config import Config, with_values
-    from birdocp.engine.continuation import bird_branch
+    from birdocp.studies.branch import bird_branch
     from birdocp.studies.trim import trim
 
     coarse = dict(points=3, steps_per_period=48)
@@ -128,7 +128,7 @@ def test_branch_leaves_a_start_where_the_parameter_derivative_vanishes():
     0.3 deg (the branch then 'turned back' to 0). The branch must leave 0 forward, without special
     points."""
     from birdocp.bird.config import Config, with_values
-    from birdocp.engine.continuation import bird_branch
+    from birdocp.studies.branch import bird_branch
 
     br = bird_branch(with_values(Config(), {"tail.enabled": True}), "tail.opening_angle_deg", 0.0, 60.0,
                      level=True, bounds=(20.0, 90.0), max_points=3, points=3, steps_per_period=48)

@@ -5,7 +5,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from birdocp.engine.floquet import floquet
+from birdocp.engine.shooting import floquet
 from birdocp.engine.integrate import RK4Grid, simulate
 from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
 from birdocp.engine.shooting import MultipleShooting, solve

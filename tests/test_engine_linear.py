@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sl
 
-from birdocp.engine.floquet import floquet
+from birdocp.engine.shooting import floquet
 from birdocp.engine.problem import LimitCycleProblem, MeanCondition, PeriodicODE
 from birdocp.engine.shooting import MultipleShooting, solve
 
@@ -164,7 +164,7 @@ def test_data_split_identical():
 
 
 def test_floquet_standalone_matches_solve():
-    A = make_A(True)
+    make_A(True)
     prob = LimitCycleProblem(ODES[True], P, np.zeros(4))
     m = MultipleShooting(points=3, steps_per_period=200)
     r = solve(prob, m)

@@ -19,19 +19,14 @@ from dataclasses import dataclass, field, fields, is_dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from birdocp.io.errors import ConfigError
+from birdocp.io.files import dataclass_to_dict
+
 __all__ = [
     "ConfigError", "Joint", "Body", "Wing", "Gait", "Aero", "Tail", "Solve", "Config",
     "JOINT_NAMES", "PARAM_NAMES", "param_vector", "load", "dump", "loads", "dumps",
     "from_dict", "to_dict", "set_value", "with_values",
 ]
-
-
-class ConfigError(ValueError):
-    """A bad configuration key or value. ``key`` is the dotted key at fault."""
-
-    def __init__(self, key: str, message: str):
-        self.key = key
-        super().__init__(f"{key}: {message}" if key else message)
 
 
 @dataclass(frozen=True)
@@ -304,11 +299,7 @@ def _flat_keys(obj: Any, prefix: str = "") -> list[str]:
 
 def to_dict(cfg: Any) -> dict:
     """Nested plain dict (tuples as lists) of a config or section."""
-    out = {}
-    for f in fields(cfg):
-        v = getattr(cfg, f.name)
-        out[f.name] = to_dict(v) if is_dataclass(v) else (list(v) if isinstance(v, tuple) else v)
-    return out
+    return dataclass_to_dict(cfg)
 
 
 def suggest(key: str, candidates) -> str:
@@ -372,6 +363,7 @@ def from_dict(data: dict) -> Config:
 
 
 def loads(text: str) -> Config:
+    """The configuration in TOML text (defaults for missing keys; ConfigError for a bad key or value)."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -380,6 +372,7 @@ def loads(text: str) -> Config:
 
 
 def load(path: str | Path) -> Config:
+    """The configuration in a TOML file (see :func:`loads`)."""
     path = Path(path)
     if not path.is_file():
         raise ConfigError("", f"config file '{path}' does not exist; give the path of a TOML file")
@@ -387,12 +380,14 @@ def load(path: str | Path) -> Config:
 
 
 def dumps(cfg: Config) -> str:
+    """The configuration as TOML text (every key, units in the key names)."""
     import tomli_w
 
     return tomli_w.dumps(to_dict(cfg))
 
 
 def dump(cfg: Config, path: str | Path) -> None:
+    """Write the configuration as a TOML file, atomically."""
     from birdocp.io.files import atomic_write_text
 
     atomic_write_text(path, dumps(cfg))

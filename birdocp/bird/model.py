@@ -23,6 +23,7 @@ from birdocp.bird import kinematics
 from birdocp.bird import tail
 from birdocp.bird import wing
 from birdocp.bird.config import JOINT_NAMES, PARAM_NAMES, Config, param_vector
+from birdocp.engine.cache import register_cache
 from birdocp.engine.problem import PeriodicODE
 
 N_EL = aero.N_ELEMENTS
@@ -151,7 +152,7 @@ def graph_key(structure: Structure) -> dict:
     from birdocp.engine import graphcache
 
     here = Path(__file__).resolve().parent
-    sources = list(here.glob("*.py")) + list((here.parent / "engine").glob("*.py"))
+    sources = list(here.rglob("*.py")) + list((here.parent / "engine").rglob("*.py"))
     return {"model": "bird", "sources_sha256": graphcache.source_digest(sources),
             "structure": {k: getattr(structure, k) for k in structure.__dataclass_fields__},
             "param_names": list(PARAM_NAMES), "n_data": N_DATA, "birdocp": __version__}
@@ -364,6 +365,9 @@ class BirdModel:
 @functools.lru_cache(maxsize=8)
 def _model_for(structure: Structure) -> BirdModel:
     return BirdModel(structure)
+
+
+register_cache("bird.models", _model_for)
 
 
 class ConfiguredModel:

@@ -548,7 +548,7 @@ def _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start) -> int:
 # continue and plot (birdocp.engine.continuation)
 
 def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
-    from birdocp.engine.continuation import resolve_parameter, root_of_sm
+    from birdocp.studies.branch import resolve_parameter, root_of_sm
 
     t_start = time.perf_counter()
     model_key, display = resolve_parameter(args.param)
@@ -568,7 +568,8 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
     from birdocp.io.runs import claim_out_dir, new_run_dir
 
     run_dir = claim_out_dir(args.out, "continue") if args.out else new_run_dir(None, "continue")
-    from birdocp.engine.continuation import bird_branch, plot_branches
+    from birdocp.plots.branch import plot_branches
+    from birdocp.studies.branch import bird_branch
     from birdocp.io.files import atomic_write_json
 
     say = (lambda text: None) if args.quiet else (lambda text: print(f"continue: {text}", file=sys.stderr, flush=True))
@@ -622,7 +623,8 @@ def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
     figs = []
     with stdout_to_stderr():
         if (run / "branch.json").is_file():
-            from birdocp.engine.continuation import Branch, plot_branches
+            from birdocp.engine.continuation import Branch
+            from birdocp.plots.branch import plot_branches
 
             br = Branch.from_dict(json.loads((run / "branch.json").read_text()))
             figs = plot_branches({"level flight" if br.settings.get("level") else "branch": br}, run)

@@ -23,6 +23,9 @@ __all__ = ["Executor", "SerialExecutor", "ProcessExecutor", "DaskExecutor", "get
 
 
 class Executor:
+    """Runs one function over many items and returns the results in order (the contract of every
+    executor: serial, local processes, Dask distributed). Use as a context manager to release it."""
+
     name = "executor"
 
     def map(self, fn: Callable, items: Iterable) -> list:
@@ -43,6 +46,8 @@ class Executor:
 
 
 class SerialExecutor(Executor):
+    """Runs the items one after the other in this process."""
+
     name = "serial"
 
     def map(self, fn, items):
@@ -50,6 +55,8 @@ class SerialExecutor(Executor):
 
 
 class ProcessExecutor(Executor):
+    """Runs the items in ``jobs`` spawned worker processes (each builds its model once)."""
+
     name = "processes"
 
     def __init__(self, jobs: int):

@@ -17,12 +17,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import casadi as ca
 import numpy as np
 
-from birdocp.engine.problem import PeriodicODE
-
-__all__ = ["FloquetResult", "floquet", "floquet_from_jacobians", "multipliers_info"]
+__all__ = ["FloquetResult", "floquet_from_jacobians", "multipliers_info", "monodromy_of", "complex_pairs"]
 
 
 @dataclass
@@ -35,6 +32,11 @@ class FloquetResult:
     stable: bool
     monodromy_vs_full_period_jacobian: float
     segment_jacobians: list
+
+
+def complex_pairs(values) -> list:
+    """Complex numbers as JSON-ready ``[re, im]`` pairs (the one convention of every result)."""
+    return [[float(np.real(v)), float(np.imag(v))] for v in np.asarray(values).ravel()]
 
 
 def multipliers_info(monodromy: np.ndarray, period_s: float):
@@ -60,35 +62,9 @@ def monodromy_of(jacobians) -> np.ndarray:
 
 
 def floquet_from_jacobians(jacobians, full_period_jacobian, period_s) -> FloquetResult:
+    """Floquet analysis from the segment Jacobians (time order) of a converged orbit; the monodromy is
+    compared with ``full_period_jacobian`` (the one-period map's Jacobian) as an accuracy indicator."""
     Mo = monodromy_of(jacobians)
     lam, vec, mu, dbl, stable = multipliers_info(Mo, period_s)
     diff = float(np.max(np.abs(Mo - full_period_jacobian))) if full_period_jacobian is not None else float("nan")
     return FloquetResult(Mo, lam, vec, mu, dbl, stable, diff, [np.asarray(J) for J in jacobians])
-
-
-def floquet(ode: PeriodicODE, x0, p, method=None, *, t0: float = 0.0, points=None, _grid=None, _blocks=None) -> FloquetResult:
-    """Floquet analysis at the periodic orbit through ``x0`` (at time t0) for parameters ``p``.
-
-    ``method`` is a :class:`~birdocp.engine.shooting.MultipleShooting` (points, steps_per_period); default
-    ``MultipleShooting()``.  ``points`` (M x nx or (M-1) x nx) are the shooting points; by default
-    they are obtained by integrating forward from x0 (identical at a converged orbit).
-    """
-    from birdocp.engine.shooting import MultipleShooting, _get_grid
-
-    method = method or MultipleShooting()
-    method.validate()
-    grid = _grid or _get_grid(ode, method, ())
-    D = _blocks if _blocks is not None else grid.blocks_numeric(t0, p)
-    pd = ca.DM(np.asarray(p, float))
-    x0 = np.asarray(x0, float).ravel()
-    S, nx = grid.S, ode.nx
-    if points is None:
-        Xt = np.asarray(grid.period_map(ca.DM(x0), D, pd)[1])
-        pts = np.column_stack([x0] + [Xt[:, grid.n * (i + 1) - 1] for i in range(S - 1)])
-    else:
-        pts = np.asarray(points, float)[:S].T
-    _, Jcat = grid.segment_jacobians(ca.DM(pts), D, pd)
-    Jcat = np.asarray(Jcat)
-    Js = [Jcat[:, i * nx:(i + 1) * nx] for i in range(S)]
-    _, Jfull = grid.period_jacobian(ca.DM(pts[:, 0]), D, pd)
-    return floquet_from_jacobians(Js, np.asarray(Jfull), ode.period_s)

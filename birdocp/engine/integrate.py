@@ -86,7 +86,7 @@ class RK4Grid:
     M-1 segments called one after the other (the same RK4 steps on the same data columns as a
     148-step ``mapaccum``, whose unrolled graph took 0.3 s to build and 1.1 s more to differentiate);
     the Jacobian Functions are built on first use (a trim by IPOPT needs ``segment_sensitivities``
-    and ``period_jacobian``; the plain ``segment_jacobians`` only :func:`birdocp.engine.floquet.floquet`).
+    and ``period_jacobian``; the plain ``segment_jacobians`` only :func:`birdocp.engine.shooting.floquet`).
     ``period_jacobian`` is the product of the segment Jacobians along the trajectory integrated from
     x0 (chain rule: the exact Jacobian of the one-period map, as one forward-AD pass through it).
     """

@@ -12,7 +12,7 @@ condition per free parameter), limited-memory Hessian, MUMPS.  ``solver='lm'``: 
 Algorithm 1 (Levenberg-Marquardt on the shooting matrix, every step accepted, lambda /10 or x10).
 
 CasADi graphs are built once per (ode, steps_per_period, points, solver, derivatives, free set,
-mean/extra output Functions) and cached in this module (``_BUILDERS``, ``_GRIDS``); a sweep that
+mean/extra output Functions) and cached in this module (:mod:`birdocp.engine.cache` registry); a sweep that
 re-solves with new parameter values, targets, t0 or guesses reuses them (only numbers change: the
 data grid and the parameter vector are NLP parameters, not constants baked into the graph).
 """
@@ -24,12 +24,14 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from birdocp.engine.floquet import floquet_from_jacobians
+from birdocp.engine.cache import bounded_cache, clear_caches
+from birdocp.engine.floquet import FloquetResult, floquet_from_jacobians
 from birdocp.engine.integrate import RK4Grid
 from birdocp.engine.oracle import ConstraintOracle
-from birdocp.engine.problem import LimitCycleProblem
+from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
 
-__all__ = ["MultipleShooting", "LimitCycleResult", "solve", "clear_cache"]
+__all__ = ["MultipleShooting", "LimitCycleResult", "solve", "clear_cache", "floquet", "ShootingGraphs",
+           "shooting_graphs", "initial_points", "rk4_grid"]
 
 _IPOPT_DEFAULTS = {
     # Full (undamped) Newton-type steps, like the paper's LM which accepts every step. Measured on a
@@ -174,34 +176,28 @@ class LimitCycleResult:
 
 # ----------------------------------------------------------------------------------------------
 # caches
-_GRIDS: dict = {}
-_BUILDERS: dict = {}
-_CACHE_SIZE = 32
+_GRIDS = bounded_cache("engine.rk4_grids", 32)
+_GRAPHS = bounded_cache("engine.shooting_graphs", 32)
 
 
 def clear_cache() -> None:
-    _GRIDS.clear()
-    _BUILDERS.clear()
+    """Clear every in-memory cache of the process (:func:`birdocp.engine.cache.clear_caches`)."""
+    clear_caches()
 
 
-def _trim(cache: dict) -> None:
-    while len(cache) > _CACHE_SIZE:
-        cache.pop(next(iter(cache)))
-
-
-def _get_grid(ode, method: MultipleShooting, outputs) -> RK4Grid:
+def rk4_grid(ode, method: MultipleShooting, outputs) -> RK4Grid:
+    """The cached :class:`~birdocp.engine.integrate.RK4Grid` of (ode, method's grid, outputs)."""
     outputs = tuple(outputs)
     key = (id(ode), int(method.steps_per_period), int(method.points) - 1, tuple(id(g) for g in outputs))
     hit = _GRIDS.get(key)
     if hit is not None and hit[0] is ode:
         return hit[2]
     grid = RK4Grid(ode, method.steps_per_period, method.points - 1, outputs)
-    _GRIDS[key] = (ode, outputs, grid)  # holding the references keeps the ids unique
-    _trim(_GRIDS)
+    _GRIDS.put(key, (ode, outputs, grid))  # holding the references keeps the ids unique
     return grid
 
 
-class _Builder:
+class ShootingGraphs:
     """The graphs of one shooting configuration (see module docstring for the cache key).
 
     Residual and Jacobian (``evaluate``): one CasADi Function ``sens`` returns the segment ends, the
@@ -220,7 +216,7 @@ class _Builder:
         self.ode = ode
         self.refs = (tuple(mean_fns), tuple(extra_fns))
         outputs = tuple(mean_fns) + tuple(extra_fns)
-        self.grid = grid = _get_grid(ode, method, outputs)
+        self.grid = grid = rk4_grid(ode, method, outputs)
         nx, nd, np_ = ode.nx, ode.nd, ode.np
         S, N, T = grid.S, grid.N, ode.period_s
         self.M, self.S, self.N = S + 1, S, N
@@ -354,6 +350,11 @@ class _Builder:
         self._ctx_id += 1
         self._last = None
 
+    @property
+    def context(self):
+        """The numbers of the current solve, as given to :meth:`set_context` (identity changes with it)."""
+        return self._ctx
+
     def symbolic_context(self, t0: float, p) -> ca.DM:
         """The data input of the graphs when parameters are free: the stage times, and with the
         pre/post split also pre's values there (numbers: pre does not depend on the free ones)."""
@@ -470,7 +471,7 @@ def _affine_columns(ode, free_idx):
     return ca.horzcat(*cols) if cols else None
 
 
-def _get_builder(problem: LimitCycleProblem, method: MultipleShooting, free_idx=None):
+def shooting_graphs(problem: LimitCycleProblem, method: MultipleShooting, free_idx=None):
     """The cached graphs of (problem's ode, outputs, method) with the problem's free parameters, or
     ``free_idx`` instead (the continuation adds its parameter: one unknown more than equations)."""
     ode = problem.ode
@@ -479,18 +480,17 @@ def _get_builder(problem: LimitCycleProblem, method: MultipleShooting, free_idx=
     free_idx = tuple(problem.free_indices() if free_idx is None else (int(j) for j in free_idx))
     key = (id(ode), int(method.steps_per_period), int(method.points), free_idx,
            tuple(id(f) for f in mean_fns), tuple(id(f) for f in extra_fns))
-    hit = _BUILDERS.get(key)
+    hit = _GRAPHS.get(key)
     if hit is not None and hit.ode is ode:
         return hit, 0.0
     t = time.perf_counter()
-    b = _Builder(ode, method, free_idx, mean_fns, extra_fns)
-    _BUILDERS[key] = b
-    _trim(_BUILDERS)
+    b = ShootingGraphs(ode, method, free_idx, mean_fns, extra_fns)
+    _GRAPHS.put(key, b)
     return b, time.perf_counter() - t
 
 
 # ----------------------------------------------------------------------------------------------
-def _initial_points(b: _Builder, x_start, D, p):
+def initial_points(b: ShootingGraphs, x_start, D, p):
     """X_0 = x_start, X_i by integrating forward (non-finite points replaced by x_start)."""
     grid = b.grid
     Xt = np.asarray(grid.period_map(ca.DM(x_start), D, ca.DM(p))[1])
@@ -499,10 +499,10 @@ def _initial_points(b: _Builder, x_start, D, p):
     return np.column_stack(pts)
 
 
-def _lm(b: _Builder, method, problem, z, lo, hi, fd):
+def _lm(b: ShootingGraphs, method, problem, z, lo, hi, fd):
     """The paper's Algorithm 1. Returns (z, status, message, iterations, history).
 
-    Exact derivatives: the shooting matrix from :meth:`_Builder.evaluate` (segment blocks by forward
+    Exact derivatives: the shooting matrix from :meth:`ShootingGraphs.evaluate` (segment blocks by forward
     AD, assembled in numpy; residual and Jacobian in one evaluation per iterate)."""
     tol = method.resolved_tol
     nf = b.nf
@@ -545,7 +545,7 @@ def _fd_steps(v, floor):
     return np.where(np.abs(v) >= floor, 1e-3 * v, 1e-3 * floor)
 
 
-def _fd_jacobian(b: _Builder, problem, z, r0, floor):
+def _fd_jacobian(b: ShootingGraphs, problem, z, r0, floor):
     """Forward differences as in the paper: segment Jacobians column by column (all segments in one
     mapped call per state), the shooting matrix assembled around them; free-parameter columns by
     forward differences of the whole residual."""
@@ -614,7 +614,7 @@ def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShootin
     method.validate()
     ode = problem.ode
     nx, T, t0 = ode.nx, ode.period_s, float(problem.t0)
-    b, build_s = _get_builder(problem, method)
+    b, build_s = shooting_graphs(problem, method)
     grid, S, N = b.grid, b.S, b.N
     free_idx = b.free_idx
     nf = len(free_idx)
@@ -637,7 +637,7 @@ def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShootin
         x_start = np.asarray(warm_start.x0, float) if warm_start is not None else problem.x_guess
         if not np.all(np.isfinite(x_start)):
             x_start = problem.x_guess
-        X0 = _initial_points(b, x_start, D_init, p_init)
+        X0 = initial_points(b, x_start, D_init, p_init)
     z0 = np.concatenate([X0.T.ravel(), p_init[list(free_idx)]])
     targets = np.array([m.target for m in problem.means], float)
     if b.symbolic_data:
@@ -732,3 +732,29 @@ def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShootin
         wall["floquet"] = time.perf_counter() - tf
     wall["total"] = time.perf_counter() - t_total
     return res
+
+
+def floquet(ode: PeriodicODE, x0, p, method=None, *, t0: float = 0.0, points=None, grid=None, blocks=None) -> FloquetResult:
+    """Floquet analysis at the periodic orbit through ``x0`` (at time t0) for parameters ``p``.
+
+    ``method`` is a :class:`~birdocp.engine.shooting.MultipleShooting` (points, steps_per_period); default
+    ``MultipleShooting()``.  ``points`` (M x nx or (M-1) x nx) are the shooting points; by default
+    they are obtained by integrating forward from x0 (identical at a converged orbit).
+    """
+    method = method or MultipleShooting()
+    method.validate()
+    grid = grid or rk4_grid(ode, method, ())
+    D = blocks if blocks is not None else grid.blocks_numeric(t0, p)
+    pd = ca.DM(np.asarray(p, float))
+    x0 = np.asarray(x0, float).ravel()
+    S, nx = grid.S, ode.nx
+    if points is None:
+        Xt = np.asarray(grid.period_map(ca.DM(x0), D, pd)[1])
+        pts = np.column_stack([x0] + [Xt[:, grid.n * (i + 1) - 1] for i in range(S - 1)])
+    else:
+        pts = np.asarray(points, float)[:S].T
+    _, Jcat = grid.segment_jacobians(ca.DM(pts), D, pd)
+    Jcat = np.asarray(Jcat)
+    Js = [Jcat[:, i * nx:(i + 1) * nx] for i in range(S)]
+    _, Jfull = grid.period_jacobian(ca.DM(pts[:, 0]), D, pd)
+    return floquet_from_jacobians(Js, np.asarray(Jfull), ode.period_s)

@@ -33,6 +33,7 @@ from pathlib import Path
 import casadi as ca
 
 from birdocp.engine import graphcache
+from birdocp.engine.cache import bounded_cache
 from birdocp.engine.problem import PeriodicODE
 
 __all__ = ["CompiledFallbackWarning", "cache_dir", "find_compiler", "compile_functions", "compiled_ode",
@@ -51,7 +52,8 @@ class CompiledFallbackWarning(UserWarning):
 
 
 def cache_dir() -> Path:
-    """The cache folder (shared with the graph cache): :func:`birdocp.engine.graphcache.cache_dir`."""
+    """The folder of compiled libraries: ``$BIRDOCP_CACHE``, else ``$XDG_CACHE_HOME/birdocp`` or
+    ``~/.cache/birdocp`` (shared with the graph cache: :func:`birdocp.engine.graphcache.cache_dir`)."""
     return graphcache.cache_dir()
 
 
@@ -127,7 +129,7 @@ def compiled_rhs(rhs: ca.Function, key_extra: str = "", directory: Path | None =
     return ca.external(rhs.name(), lib)
 
 
-_ODES: dict = {}
+_ODES = bounded_cache("export.compiled_odes", 16)
 
 
 def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None = None) -> PeriodicODE | None:
@@ -148,5 +150,5 @@ def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None =
         warnings.warn(f"birdocp: compiled RHS unavailable, using the interpreted CasADi path ({e})",
                       CompiledFallbackWarning, stacklevel=2)
         return None
-    _ODES[id(ode)] = (ode, out)
+    _ODES.put(id(ode), (ode, out))
     return out

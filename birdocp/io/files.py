@@ -6,6 +6,7 @@ import contextlib
 import json
 import os
 import tempfile
+from dataclasses import fields, is_dataclass
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +45,18 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
 
 def atomic_write_text(path: str | Path, text: str) -> None:
     atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def dataclass_to_dict(obj: Any) -> dict:
+    """Nested plain dict of a dataclass (nested dataclasses as dicts, tuples as lists); a dict is
+    returned as it is."""
+    if isinstance(obj, dict):
+        return obj
+    out = {}
+    for f in fields(obj):
+        v = getattr(obj, f.name)
+        out[f.name] = dataclass_to_dict(v) if is_dataclass(v) else (list(v) if isinstance(v, tuple) else v)
+    return out
 
 
 def to_jsonable(obj: Any) -> Any:

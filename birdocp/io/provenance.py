@@ -15,6 +15,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from birdocp.io.files import dataclass_to_dict
+
 __all__ = ["provenance", "config_hash", "canonical_toml", "birdocp_version", "git_revision"]
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1]
@@ -70,9 +72,7 @@ def canonical_toml(cfg) -> str:
     """The resolved configuration as TOML with sorted keys: the same config gives the same text."""
     import tomli_w
 
-    from birdocp.bird.config import to_dict
-
-    return tomli_w.dumps(_sorted(to_dict(cfg)))
+    return tomli_w.dumps(_sorted(dataclass_to_dict(cfg)))
 
 
 def config_hash(cfg) -> str:
@@ -98,7 +98,6 @@ def _cpu_count() -> dict[str, int | None]:
 
 def provenance(cfg, command_line: list[str] | None, wall_s: Any = None) -> dict[str, Any]:
     """A JSON-able record of how a result was produced (stored under ``provenance`` in result.json)."""
-    from birdocp.bird.config import to_dict
 
     return {
         "birdocp_version": birdocp_version(),
@@ -112,7 +111,7 @@ def provenance(cfg, command_line: list[str] | None, wall_s: Any = None) -> dict[
         "machine": platform.machine(),
         "hostname": platform.node() or None,
         "cpu_count": _cpu_count(),
-        "config": to_dict(cfg),
+        "config": dataclass_to_dict(cfg),
         "config_sha256": config_hash(cfg),
         "command_line": list(command_line) if command_line is not None else None,
         "cwd": os.getcwd(),

@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 from typing import IO, Any, Iterator
 
-from birdocp.bird.config import ConfigError
+from birdocp.io.errors import ConfigError
 
 __all__ = [
     "DEFAULT_BASE", "RUN_FILES", "new_run_dir", "claim_out_dir", "is_run_dir", "write_run",
@@ -142,13 +142,14 @@ def write_run(run_dir: str | Path, cfg, result_dict: dict, arrays: dict | None,
     ``result.json`` holds ``result_dict`` plus ``provenance`` (see :mod:`birdocp.io.provenance`) and is
     written last. ``wall_s`` defaults to ``result_dict["wall_s"]``. Returns the result.json path.
     """
-    from birdocp.bird.config import dumps
-    from birdocp.io.files import atomic_write_json, atomic_write_text
+    import tomli_w
+
+    from birdocp.io.files import atomic_write_json, atomic_write_text, dataclass_to_dict
     from birdocp.io.provenance import provenance
 
     run_dir = Path(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(run_dir / "config.toml", dumps(cfg))
+    atomic_write_text(run_dir / "config.toml", tomli_w.dumps(dataclass_to_dict(cfg)))
     if arrays:
         _write_npz(run_dir / "arrays.npz", arrays)
     if wall_s is None:

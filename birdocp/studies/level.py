@@ -37,35 +37,20 @@ import math
 
 from typing import TYPE_CHECKING
 
-from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, suggest, get_value
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest
+from birdocp.bird.keys import AMPLITUDE_KEY, KEY_ALIASES, ROOT_AHEAD_KEY, resolve_key
 
 if TYPE_CHECKING:  # the model and the engine are imported on first solve (key checks stay light)
     from birdocp.studies.trim import TrimResult
 
 __all__ = ["level", "CONSTRAINTS", "default_bounds", "resolve_key", "resolve_constraint", "AMPLITUDE_KEY", "KEY_ALIASES"]
 
-AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
-ROOT_AHEAD_KEY = "wing.root_ahead_m"
 CONSTRAINTS = ("vertical_speed_mps", "forward_speed_mps", "flight_path_angle_deg")
-KEY_ALIASES = {
-    "amplitude": AMPLITUDE_KEY, "amplitude_deg": AMPLITUDE_KEY,
-    "root_ahead_m": ROOT_AHEAD_KEY, "root-ahead": ROOT_AHEAD_KEY, "root_ahead": ROOT_AHEAD_KEY,
-}
 _CONSTRAINT_ALIASES = {
     "vertical_speed": "vertical_speed_mps", "W": "vertical_speed_mps", "climb_rate": "vertical_speed_mps",
     "forward_speed": "forward_speed_mps", "U": "forward_speed_mps",
     "flight_path_angle": "flight_path_angle_deg", "beta": "flight_path_angle_deg",
 }
-
-
-def resolve_key(key: str, what: str = "free") -> str:
-    """A :data:`PARAM_NAMES` entry from a dotted key or an alias; ConfigError (did-you-mean) if unknown."""
-    k = KEY_ALIASES.get(str(key).strip(), str(key).strip())
-    if k not in PARAM_NAMES:
-        raise ConfigError(what, f"unknown parameter '{key}'" + suggest(k, list(PARAM_NAMES) + list(KEY_ALIASES))
-                          + " (a model parameter: a number of body, wing, gait or aero.air_density_kgm3/"
-                            "lift_slope_per_rad, or an alias: amplitude, root_ahead_m)")
-    return k
 
 
 def resolve_constraint(constrain: str, what: str = "constrain") -> str:
@@ -89,39 +74,17 @@ def default_bounds(cfg: Config, key: str) -> tuple[float, float]:
     raise ConfigError("bounds", f"no default range for '{key}'; give bounds=(lo, hi)")
 
 
-_BETA_FNS: dict = {}
-
-
-def _path_angle_output(beta_deg: float) -> ca.Function:
-    """Output W - tan(beta) U (one Function object per beta so the shooting graphs are reused)."""
-    import casadi as ca
-
-    from birdocp.bird.model import N_DATA
-
-    key = float(beta_deg)
-    f = _BETA_FNS.get(key)
-    if f is None:
-        x = ca.SX.sym("x", 4)
-        d = ca.SX.sym("d", N_DATA)
-        p = ca.SX.sym("p", len(PARAM_NAMES))
-        u, w, th = x[0], x[1], x[3]
-        W = u * ca.sin(th) - w * ca.cos(th)
-        U = u * ca.cos(th) + w * ca.sin(th)
-        f = ca.Function("path_angle_residual", [x, d, p], [W - math.tan(math.radians(key)) * U])
-        _BETA_FNS[key] = f
-    return f
-
-
 def _condition(constrain: str, target: float):
     """(MeanCondition, extra outputs) for a constraint name."""
+    from birdocp.bird.flight import flight_outputs, path_angle_output
     from birdocp.engine.problem import MeanCondition
-    from birdocp.studies.trim import _OUTPUTS
 
     c = resolve_constraint(constrain)
+    outputs = flight_outputs()
     if c == "flight_path_angle_deg":
-        return MeanCondition(_path_angle_output(target), 0.0, "path_angle_residual"), dict(_OUTPUTS)
-    other = {k: v for k, v in _OUTPUTS.items() if k != c}
-    return MeanCondition(_OUTPUTS[c], float(target), c), other
+        return MeanCondition(path_angle_output(target), 0.0, "path_angle_residual"), dict(outputs)
+    other = {k: v for k, v in outputs.items() if k != c}
+    return MeanCondition(outputs[c], float(target), c), other
 
 
 def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, climb_rate_mps: float = 0.0,
@@ -197,12 +160,12 @@ def mean_sensitivity(result, key: str = AMPLITUDE_KEY, output: str = "vertical_s
 
     from birdocp.engine.integrate import RK4Grid
     from birdocp.bird.model import get_model
-    from birdocp.studies.trim import _OUTPUTS
+    from birdocp.bird.flight import flight_outputs
 
     key = resolve_key(key, "key")
     cyc = result.cycle
     ode = get_model(result.cfg).ode
-    grid = RK4Grid(ode, int(cyc.method["steps_per_period"]), 1, outputs=(_OUTPUTS[output],))
+    grid = RK4Grid(ode, int(cyc.method["steps_per_period"]), 1, outputs=(flight_outputs()[output],))
     i = PARAM_NAMES.index(key)
     x = ca.MX.sym("x", ode.nx)
     a = ca.MX.sym("a")

@@ -111,12 +111,12 @@ class _Evaluator:
     ``z = (x0, free parameters, r)``. The wing's arm-frame shape is numeric (no free key touches it);
     the assembly ``post`` is evaluated at the stage times for the current parameters, and the
     monodromy's derivatives come from forward-over-forward AD along each direction of z
-    (:class:`birdocp.studies.sensitivity._SecondOrder`), all directions in one mapped call."""
+    (:class:`birdocp.studies.sensitivity.SecondOrderMaps`), all directions in one mapped call."""
 
     def __init__(self, model, steps: int, p0, idx, climb_rate_mps: float):
-        from birdocp.studies.sensitivity import _SecondOrder
+        from birdocp.studies.sensitivity import SecondOrderMaps
 
-        self.so = so = _SecondOrder.get(model, steps)
+        self.so = so = SecondOrderMaps.get(model, steps)
         self.grid = grid = so.grid
         self.K = K = so.n_times
         self.T = model.period_s

@@ -25,10 +25,11 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config
+from birdocp.engine.cache import bounded_cache
 from birdocp.engine.integrate import RK4Grid
 from birdocp.bird.model import get_model
 
-__all__ = ["SensitivityResult", "multiplier_sensitivities", "DEFAULT_PARAMETERS", "unit_of"]
+__all__ = ["SensitivityResult", "multiplier_sensitivities", "DEFAULT_PARAMETERS", "unit_of", "SecondOrderMaps"]
 
 AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
 
@@ -92,23 +93,25 @@ class SensitivityResult:
                 "d_amplitude_deg": None if self.d_amplitude is None else self.d_amplitude.tolist()}
 
 
-class _SecondOrder:
+_SECOND_ORDER = bounded_cache("studies.second_order_maps", 8)
+
+
+class SecondOrderMaps:
     """Functions for one (model, steps): period map with the mean-W quadrature, its x0-Jacobian, and
     directional derivatives of both along (dx0, dD, dp)."""
 
-    _cache: dict = {}
-
     @classmethod
     def get(cls, model, steps: int):
+        """The cached maps of (model, steps)."""
         key = (id(model.model), steps)
-        hit = cls._cache.get(key)
+        hit = _SECOND_ORDER.get(key)
         if hit is None or hit.model is not model.model:
             hit = cls(model, steps)
-            cls._cache[key] = hit
+            _SECOND_ORDER.put(key, hit)
         return hit
 
     def __init__(self, model, steps: int):
-        from birdocp.studies.trim import flight_outputs
+        from birdocp.bird.flight import flight_outputs
 
         self.model = model.model
         W = flight_outputs()["vertical_speed_mps"]
@@ -149,7 +152,7 @@ def multiplier_sensitivities(cycle_result, parameters=None, *, hold_level: bool 
         params = [k for k in params if k != AMPLITUDE_KEY] + [AMPLITUDE_KEY]
     m = get_model(cfg)
     steps = int(c.method["steps_per_period"])
-    so = _SecondOrder.get(m, steps)
+    so = SecondOrderMaps.get(m, steps)
     grid = so.grid
     p = np.asarray(c.p, float)
     times = ca.DM(grid.times(0.0)).reshape((1, -1))

@@ -11,44 +11,27 @@ multipliers; the result adds the flight quantities of the paper to the engine's 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
-import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config
-from birdocp.bird.model import N_DATA, get_model
+from birdocp.bird.flight import flight_outputs, flight_path_angle_deg
+from birdocp.bird.model import get_model
+from birdocp.engine.floquet import complex_pairs
 from birdocp.engine.problem import LimitCycleProblem
 from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
 
-__all__ = ["TrimResult", "trim", "method_of", "flight_outputs"]
-
-
-def flight_outputs() -> dict:
-    """Scalar outputs (x, d, p) whose period means the trim reports: W and U (m/s)."""
-    x = ca.SX.sym("x", 4)
-    d = ca.SX.sym("d", N_DATA)
-    p = ca.SX.sym("p", len(PARAM_NAMES))
-    u, w, th = x[0], x[1], x[3]
-    W = ca.Function("vertical_speed_mps", [x, d, p], [u * ca.sin(th) - w * ca.cos(th)])
-    U = ca.Function("forward_speed_mps", [x, d, p], [u * ca.cos(th) + w * ca.sin(th)])
-    return {"vertical_speed_mps": W, "forward_speed_mps": U}
-
-
-_OUTPUTS = flight_outputs()
+__all__ = ["TrimResult", "trim", "method_of"]
 
 
 def method_of(cfg: Config, **over) -> MultipleShooting:
+    """The :class:`MultipleShooting` method of ``cfg.solve`` (fields overridden by ``over``)."""
     s = cfg.solve
     kw = dict(points=s.points, steps_per_period=s.steps_per_period, solver=s.solver,
               derivatives=s.derivatives)
     kw.update(over)
     return MultipleShooting(**kw)
-
-
-def _pairs(z) -> list:
-    return [[float(np.real(v)), float(np.imag(v))] for v in np.asarray(z).ravel()]
 
 
 def _f(v):
@@ -78,7 +61,7 @@ class TrimResult:
 
     @property
     def flight_path_angle_deg(self) -> float:
-        return math.degrees(math.atan2(self.mean_vertical_speed_mps, self.mean_forward_speed_mps))
+        return flight_path_angle_deg(self.mean_vertical_speed_mps, self.mean_forward_speed_mps)
 
     @property
     def amplitude_deg(self) -> float:
@@ -96,12 +79,12 @@ class TrimResult:
             "x0": [float(v) for v in c.x0],
             "amplitude_deg": self.amplitude_deg,
             "root_ahead_m": float(c.p[PARAM_NAMES.index("wing.root_ahead_m")]),
-            "multipliers": _pairs(c.multipliers) if has_floquet else None,
+            "multipliers": complex_pairs(c.multipliers) if has_floquet else None,
             "moduli": [float(v) for v in np.abs(c.multipliers)] if has_floquet else None,
-            "floquet_exponents_per_s": _pairs(c.floquet_exponents) if has_floquet else None,
+            "floquet_exponents_per_s": complex_pairs(c.floquet_exponents) if has_floquet else None,
             "doubling_times_s": [_f(v) for v in c.doubling_times_s] if has_floquet else None,
             "stable": c.stable,
-            "eigenvectors": [_pairs(col) for col in np.asarray(c.eigenvectors).T] if has_floquet else None,
+            "eigenvectors": [complex_pairs(col) for col in np.asarray(c.eigenvectors).T] if has_floquet else None,
             "monodromy": np.asarray(c.monodromy).tolist() if has_floquet else None,
             "monodromy_vs_full_period_jacobian": _f(c.monodromy_vs_full_period_jacobian),
             "mean_vertical_speed_mps": _f(self.mean_vertical_speed_mps),
@@ -169,7 +152,7 @@ def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: Mu
     if compiled:
         from birdocp.export.compiled import compiled_ode
         ode = compiled_ode(m.ode, key_extra=repr(m.structure)) or m.ode
-    problem = LimitCycleProblem(ode=ode, p=m.p0, x_guess=guess, outputs=_OUTPUTS)
+    problem = LimitCycleProblem(ode=ode, p=m.p0, x_guess=guess, outputs=flight_outputs())
     method = method or method_of(cfg, **method_over)
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
     return TrimResult(check_physical(solve(problem, method, warm_start=ws)), cfg)

@@ -1,0 +1,61 @@
+"""Flight quantities of a cycle: inertial velocities W and U and the flight-path condition.
+
+* ``W = u sin(theta) - w cos(theta)``: inertial vertical speed (m/s, positive climbing);
+* ``U = u cos(theta) + w sin(theta)``: inertial horizontal speed (m/s, forward);
+* the flight-path angle ``atan(mean W / mean U)`` (degrees, positive climbing).
+
+The outputs are CasADi Functions ``(x, d, p) -> scalar`` as the engine's mean conditions and
+outputs expect; each is built once per process and reused, so the shooting graphs that hold them
+are reused too.
+"""
+from __future__ import annotations
+
+import functools
+import math
+
+import casadi as ca
+
+from birdocp.bird.config import PARAM_NAMES
+from birdocp.bird.model import N_DATA
+from birdocp.engine.cache import register_cache
+
+__all__ = ["inertial_velocities", "flight_outputs", "path_angle_output", "flight_path_angle_deg"]
+
+
+def inertial_velocities(x):
+    """(W, U) in m/s of the body state ``x = (u, w, q, theta)`` (symbolic or numeric)."""
+    u, w, th = x[0], x[1], x[3]
+    return u * ca.sin(th) - w * ca.cos(th), u * ca.cos(th) + w * ca.sin(th)
+
+
+def _symbols():
+    return ca.SX.sym("x", 4), ca.SX.sym("d", N_DATA), ca.SX.sym("p", len(PARAM_NAMES))
+
+
+@functools.lru_cache(maxsize=None)
+def flight_outputs() -> dict:
+    """``{"vertical_speed_mps": W, "forward_speed_mps": U}`` as Functions of ``(x, d, p)``."""
+    x, d, p = _symbols()
+    W, U = inertial_velocities(x)
+    return {"vertical_speed_mps": ca.Function("vertical_speed_mps", [x, d, p], [W]),
+            "forward_speed_mps": ca.Function("forward_speed_mps", [x, d, p], [U])}
+
+
+register_cache("bird.flight_outputs", flight_outputs)
+
+
+@functools.lru_cache(maxsize=64)
+def path_angle_output(beta_deg: float) -> ca.Function:
+    """``W - tan(beta) U`` as a Function of ``(x, d, p)``: its period mean is zero on a flight path of
+    ``beta_deg`` degrees (one Function per angle, so the shooting graphs are reused)."""
+    x, d, p = _symbols()
+    W, U = inertial_velocities(x)
+    return ca.Function("path_angle_residual", [x, d, p], [W - math.tan(math.radians(float(beta_deg))) * U])
+
+
+register_cache("bird.path_angle_outputs", path_angle_output)
+
+
+def flight_path_angle_deg(mean_vertical_speed_mps: float, mean_forward_speed_mps: float) -> float:
+    """The flight-path angle in degrees from the period-mean inertial velocities."""
+    return math.degrees(math.atan2(mean_vertical_speed_mps, mean_forward_speed_mps))

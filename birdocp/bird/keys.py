@@ -1,0 +1,32 @@
+"""Parameter keys of the bird model: the named ones and their aliases, in one place."""
+from __future__ import annotations
+
+from birdocp.bird.config import PARAM_NAMES, ConfigError, suggest
+
+__all__ = ["AMPLITUDE_KEY", "ROOT_AHEAD_KEY", "KEY_ALIASES", "resolve_key"]
+
+AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
+"""The flapping amplitude (degrees): the decision variable of level flight."""
+ROOT_AHEAD_KEY = "wing.root_ahead_m"
+"""The wing root's distance ahead of the centre of mass (metres): minus the stability margin times
+the reference chord."""
+KEY_ALIASES = {
+    "amplitude": AMPLITUDE_KEY, "amplitude_deg": AMPLITUDE_KEY,
+    "root_ahead_m": ROOT_AHEAD_KEY, "root-ahead": ROOT_AHEAD_KEY, "root_ahead": ROOT_AHEAD_KEY,
+}
+
+
+def resolve_key(key: str, what: str = "free") -> str:
+    """A :data:`~birdocp.bird.config.PARAM_NAMES` entry from a dotted key or an alias.
+
+    Raises
+    ------
+    ConfigError
+        On ``what`` (the field at fault), with a did-you-mean suggestion, if the key is unknown.
+    """
+    k = KEY_ALIASES.get(str(key).strip(), str(key).strip())
+    if k not in PARAM_NAMES:
+        raise ConfigError(what, f"unknown parameter '{key}'" + suggest(k, list(PARAM_NAMES) + list(KEY_ALIASES))
+                          + " (a model parameter: a number of body, wing, gait or aero.air_density_kgm3/"
+                            "lift_slope_per_rad, or an alias: amplitude, root_ahead_m)")
+    return k

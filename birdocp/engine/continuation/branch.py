@@ -1,0 +1,123 @@
+"""What a continuation returns: the branch, its points and its special points (typed, serialisable)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+__all__ = ["BranchPoint", "SpecialPoint", "Branch", "finite_or_none"]
+
+
+def finite_or_none(v) -> float | None:
+    """``float(v)``, or ``None`` where it is not finite (JSON has no NaN)."""
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+@dataclass
+class BranchPoint:
+    """One converged cycle of a branch.
+
+    ``multipliers`` are ``[re, im]`` pairs, largest modulus first; ``arclength`` is the scaled
+    arclength from the first point; ``tangent_parameter`` is d(parameter)/ds in scaled units (its
+    sign is the direction of travel along the parameter); ``tests`` holds the values of the
+    special-point test functions (fold, branch_point, period_doubling, neimark_sacker)."""
+
+    parameter: float
+    x0: list
+    shooting_points: list
+    free_values: dict
+    multipliers: list
+    moduli: list
+    stable: bool
+    means: dict
+    arclength: float
+    tangent_parameter: float
+    iterations: int
+    max_residual: float
+    step: float                # the scaled arclength step that produced this point (0 for the first)
+    tests: dict
+    success: bool = True
+    p: list = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        d = dict(self.__dict__)
+        d["tests"] = {k: finite_or_none(v) for k, v in self.tests.items()}
+        d["max_residual"] = finite_or_none(self.max_residual)
+        return d
+
+
+@dataclass
+class SpecialPoint:
+    """A located bifurcation between the branch points ``between`` (indices).
+
+    ``kind`` is one of ``fold``, ``branch_point``, ``period_doubling``, ``neimark_sacker``;
+    ``located`` says whether the location converged to the requested tolerance (else the best
+    bracket point is reported)."""
+
+    kind: str
+    parameter: float
+    multipliers: list
+    moduli: list
+    free_values: dict
+    x0: list
+    arclength: float
+    between: tuple
+    located: bool
+    evaluations: int
+    test_value: float
+    message: str = ""
+
+    def to_dict(self) -> dict:
+        d = dict(self.__dict__)
+        d["between"] = list(self.between)
+        d["test_value"] = finite_or_none(self.test_value)
+        return d
+
+
+@dataclass
+class Branch:
+    """A branch of periodic orbits: its points in order of arclength, the special points found
+    between them, why it ended (``end_reason``: reached_to, reached_from, corrector_failed,
+    free_parameter_bound, rejected, max_points, start_failed) and the settings used."""
+
+    parameter_name: str
+    points: list
+    special_points: list
+    end_reason: str
+    end_message: str
+    settings: dict
+    wall_s: float = 0.0
+    free_names: list = field(default_factory=list)
+
+    @property
+    def parameters(self) -> np.ndarray:
+        """The continuation parameter at every point."""
+        return np.array([pt.parameter for pt in self.points])
+
+    def multipliers(self) -> np.ndarray:
+        """Complex multipliers, one row per point (largest modulus first)."""
+        return np.array([[complex(a, b) for a, b in pt.multipliers] for pt in self.points])
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict (``from_dict`` reads it back)."""
+        return {"parameter_name": self.parameter_name, "free_names": list(self.free_names),
+                "end_reason": self.end_reason, "end_message": self.end_message,
+                "settings": self.settings, "wall_s": self.wall_s,
+                "special_points": [s.to_dict() for s in self.special_points],
+                "points": [p.to_dict() for p in self.points]}
+
+    @staticmethod
+    def from_dict(d: dict) -> "Branch":
+        """The branch written by :meth:`to_dict`."""
+        pts = [BranchPoint(**p) for p in d["points"]]
+        sps = []
+        for s in d.get("special_points", []):
+            s = dict(s)
+            s["between"] = tuple(s["between"])
+            sps.append(SpecialPoint(**s))
+        return Branch(d["parameter_name"], pts, sps, d["end_reason"], d["end_message"], d.get("settings", {}),
+                      d.get("wall_s", 0.0), d.get("free_names", []))
+

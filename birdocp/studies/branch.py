@@ -1,0 +1,97 @@
+"""Branches of the bird's periodic flight in one parameter: the stability margin (wing-root
+position), the amplitude or any dotted model key, at fixed gait or holding level flight.
+
+The generic pseudo-arclength continuation is :func:`birdocp.engine.continuation.continuation`; this
+module poses the bird's problem for it and converts the stability margin to the root position.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from birdocp.bird.config import Config
+from birdocp.bird.flight import flight_outputs
+from birdocp.bird.keys import AMPLITUDE_KEY, resolve_key
+from birdocp.bird.model import get_model
+from birdocp.engine.continuation import Branch, continuation
+from birdocp.engine.problem import LimitCycleProblem, MeanCondition
+from birdocp.studies.level import default_bounds
+from birdocp.studies.trim import TrimResult
+
+__all__ = ["STABILITY_MARGIN", "PARAM_ALIASES", "resolve_parameter", "sm_percent", "root_of_sm", "bird_branch"]
+
+STABILITY_MARGIN = "stability_margin"
+PARAM_ALIASES = ("root_ahead_m", "stability_margin", "amplitude_deg")
+
+
+def resolve_parameter(key: str) -> tuple[str, str]:
+    """(model key, display) for a continuation parameter: ``stability_margin`` (SM in percent, continued
+    as the root position ``root_ahead_m = -SM/100 * body.reference_chord_m``), an alias or a dotted key."""
+    k = str(key).strip()
+    if k in (STABILITY_MARGIN, "SM", "sm"):
+        return "wing.root_ahead_m", STABILITY_MARGIN
+    rk = resolve_key(k, "PARAM")
+    return rk, rk
+
+
+def sm_percent(root_ahead_m: float, chord_m: float) -> float:
+    """Stability margin SM = (G - O'w)/c = -root_ahead_m / c, in percent."""
+    return -100.0 * float(root_ahead_m) / float(chord_m)
+
+
+def root_of_sm(sm_pct: float, chord_m: float) -> float:
+    """The wing-root position ``root_ahead_m`` (m) of a stability margin in percent."""
+    return -float(sm_pct) / 100.0 * float(chord_m)
+
+
+def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, stop_value: float = 0.035, *,
+                level: bool = False, climb_rate_mps: float = 0.0, bounds=None, points: int | None = None,
+                steps_per_period: int | None = None, start=None, progress=None, **options) -> Branch:
+    """Continue the bird's periodic flight in one parameter (model units; for ``stability_margin`` the
+    values are SM in percent). ``level=True`` holds level flight: the flapping amplitude is an unknown
+    too, with the mean vertical speed held at ``climb_rate_mps`` (amplitude bounds: ``bounds`` or the
+    level-flight defaults, 20..70 deg). The start is solved by Newton from ``cfg.solve.initial_guess``
+    (``start``: a converged TrimResult/LimitCycleResult at the start value instead).
+
+    The branch's ``parameter`` is the model parameter (``wing.root_ahead_m`` for SM); the SM of every
+    point is added to ``settings['stability_margin_percent']`` when ``key`` is ``stability_margin``.
+    A point whose shooting points have u <= 0 is rejected (not a forward flight)."""
+    cfg = cfg or Config()
+    model_key, display = resolve_parameter(key)
+    chord = cfg.body.reference_chord_m
+    a, b = float(start_value), float(stop_value)
+    if display == STABILITY_MARGIN:
+        a, b = root_of_sm(a, chord), root_of_sm(b, chord)
+        if options.get("step"):
+            options["step"] = abs(root_of_sm(options["step"], chord))  # SM percent -> metres
+        if options.get("max_dparam"):
+            options["max_dparam"] = abs(root_of_sm(options["max_dparam"], chord))
+    m = get_model(cfg)
+    points = int(points or cfg.solve.points)
+    steps = int(steps_per_period or cfg.solve.steps_per_period)
+    guess = np.asarray(cfg.solve.initial_guess, float)
+    if level:
+        if model_key == AMPLITUDE_KEY:
+            raise ValueError("with level flight held the amplitude is solved for: continue another parameter")
+        lo, hi = bounds if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)
+        outputs = flight_outputs()
+        cond = MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")
+        prob = LimitCycleProblem(m.ode, m.p0, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
+                                 outputs={"forward_speed_mps": outputs["forward_speed_mps"]})
+    else:
+        prob = LimitCycleProblem(m.ode, m.p0, guess, outputs=flight_outputs())
+    ws = start.cycle if isinstance(start, TrimResult) else start
+    options.setdefault("scales", {"states": 1.0, "free": 10.0})
+
+    def accept(pt):
+        u = np.asarray(pt.shooting_points)[:, 0]
+        return None if np.all(u > 0) else f"u <= 0 at a shooting point (min {u.min():.3g} m/s)"
+
+    br = continuation(prob, model_key, a, b, points=points, steps_per_period=steps, start=ws, accept=accept,
+                      progress=progress, **options)
+    br.settings.update({"key": key, "display": display, "level": bool(level), "climb_rate_mps": climb_rate_mps,
+                        "reference_chord_m": chord, "config_amplitude_deg": cfg.gait.shoulder_flap.amplitude_deg})
+    if display == STABILITY_MARGIN:
+        br.settings["stability_margin_percent"] = [sm_percent(p.parameter, chord) for p in br.points]
+    return br
+
+

@@ -1,0 +1,115 @@
+"""The package's structure: the layers hold, no module reaches into another's private names, no
+import cycle, public functions are documented, ruff finds nothing."""
+from __future__ import annotations
+
+import ast
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PKG = ROOT / "birdocp"
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(ROOT).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+def _imports(path: Path):
+    """(imported module, imported names, line) of every import statement (function-level ones too)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            yield node.module, [a.name for a in node.names], node.lineno
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                yield a.name, [], node.lineno
+
+
+MODULES = {_module_name(p): p for p in PKG.rglob("*.py")}
+
+
+def test_import_contract_layers():
+    """import-linter's contracts in pyproject.toml: cli > plots > studies > export > bird > engine; the
+    engine imports only casadi, numpy and the standard library; io imports no other layer."""
+    exe = shutil.which("lint-imports") or str(Path(sys.executable).with_name("lint-imports"))
+    if not Path(exe).exists():
+        pytest.fail("lint-imports (import-linter) is not installed: pip install '.[test]'")
+    out = subprocess.run([exe, "--config", str(ROOT / "pyproject.toml")], cwd=ROOT, capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-2000:]
+
+
+def test_no_private_names_across_modules():
+    offenders = []
+    for name, path in MODULES.items():
+        for mod, names, line in _imports(path):
+            if not mod.startswith("birdocp") or mod == name:
+                continue
+            private = [n for n in names if n.startswith("_") and not n.startswith("__")]
+            private += [part for part in mod.split(".") if part.startswith("_") and part != "__init__"]
+            if private:
+                offenders.append(f"{path.relative_to(ROOT)}:{line} imports {private} from {mod}")
+    assert not offenders, "\n".join(offenders)
+
+
+def test_no_import_cycles():
+    """No cycle among birdocp's modules, counting every import statement (function-level ones too)."""
+    graph = {name: set() for name in MODULES}
+    for name, path in MODULES.items():
+        for mod, names, _ in _imports(path):
+            if not mod.startswith("birdocp"):
+                continue
+            targets = [f"{mod}.{n}" for n in names if f"{mod}.{n}" in MODULES] or [mod]
+            for t in targets:
+                while t and t not in MODULES:
+                    t = t.rpartition(".")[0]
+                if t and t != name and t != "birdocp" and not name.startswith(t + ".") :
+                    graph[name].add(t)
+    state, stack, cycles = {}, [], []
+
+    def visit(n):
+        state[n] = 1
+        stack.append(n)
+        for m in sorted(graph[n]):
+            if state.get(m) == 1:
+                cycles.append(stack[stack.index(m):] + [m])
+            elif m not in state:
+                visit(m)
+        stack.pop()
+        state[n] = 2
+
+    for n in sorted(graph):
+        if n not in state:
+            visit(n)
+    assert not cycles, "import cycles:\n" + "\n".join(" -> ".join(c) for c in cycles)
+
+
+def test_ruff_clean():
+    exe = shutil.which("ruff") or str(Path(sys.executable).with_name("ruff"))
+    if not Path(exe).exists():
+        pytest.fail("ruff is not installed: pip install '.[test]'")
+    out = subprocess.run([exe, "check", "birdocp", "tests", "scripts"], cwd=ROOT, capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout[-3000:]
+
+
+def test_public_functions_have_docstrings():
+    """Every function and class a module exports in ``__all__`` has a docstring (python-control's rule)."""
+    import importlib
+
+    missing = []
+    for name in sorted(MODULES):
+        if name.startswith("birdocp.cli") or name.endswith("__main__"):
+            continue
+        mod = importlib.import_module(name)
+        for attr in getattr(mod, "__all__", []):
+            obj = getattr(mod, attr, None)
+            if callable(obj) and getattr(obj, "__module__", None) == name and not (obj.__doc__ or "").strip():
+                missing.append(f"{name}.{attr}")
+    assert not missing, "undocumented public API: " + ", ".join(missing)
