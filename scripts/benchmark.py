@@ -294,7 +294,7 @@ def grid_throughput(n: int, warm_cache: Path) -> dict:
 
 
 _TIMING_KEY_PARTS = ("wall", "_time", "date", "created", "timing", "elapsed", "duration", "executor", "git",
-                     "provenance", "figures", "host", "python", "versions", "_file", "path")
+                     "provenance", "figures", "host", "python", "versions", "_file")
 _NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
 
 
