@@ -304,6 +304,9 @@ class BirdModel:
                     self._entry = entry
                 except (graphcache.CacheMiss, KeyError, TypeError, ValueError):
                     self._fns = {}
+                    entry.discard()
+            elif entry is not None:  # written without every Function: replace it
+                entry.discard()
         if self._entry is None:
             self._fns, self.pre_params = _build(structure)
             self.graph_source = "built"
