@@ -12,7 +12,9 @@ Jacobians at the converged points, so their differences show only where each met
 table also gives the multipliers of the *forward-difference* monodromy at the LM-fd result (what a
 finite-difference implementation such as the paper's reports).
 
-Writes jacobians.json and jacobians.md to --out.
+Writes jacobians.json, jacobians.md and the appendix figures convergence.png (max residual per
+iteration of each method and of the reference implementation) and multipliers.png (the multipliers in
+the complex plane with zooms) to --out.
 
     python scripts/appendix_jacobians.py --out results/appendix
 """
@@ -88,6 +90,26 @@ def fmt(lam) -> str:
         elif z.imag > 0:
             out.append(f"{z.real:.5f} ± {z.imag:.5f}j")
     return ", ".join(out)
+
+
+def figures(doc: dict, reference_history, out: Path) -> None:
+    """The paper's appendix figure, as two PNGs: convergence and multipliers of the Jacobian methods."""
+    from birdocp.plots import figures as plots
+
+    m = doc["methods"]
+    hist = {m[k]["label"]: m[k]["residual_history"] for k in ("lm_exact", "lm_fd", "ipopt")}
+    hist["reference implementation (paper's code, LM with FD Jacobians)"] = reference_history
+    plots.plot_convergence(hist, out / "convergence.png", tol=1e-5, tol_label="LM tolerance max|E| < 1e-5",
+                           title="Appendix: convergence with exact (CasADi) and finite-difference Jacobians")
+    f = doc["fd_monodromy_at_lm_fd_result"]
+    mults = {m["lm_exact"]["label"]: m["lm_exact"]["multipliers"],
+             m["lm_fd"]["label"] + ", exact monodromy": m["lm_fd"]["multipliers"],
+             "LM-fd result, forward-difference monodromy": f["multipliers"]}
+    rf = doc["reference"]
+    plots.plot_multipliers(mults, out / "multipliers.png",
+                           reference={"reference implementation (FD)": rf["reference_implementation_multipliers"],
+                                      "reference RK4 period-map monodromy": rf["rk4_period_map_monodromy_multipliers"]},
+                           title="Appendix: multipliers by Jacobian method")
 
 
 def main(argv=None) -> int:
@@ -167,6 +189,7 @@ def main(argv=None) -> int:
         "wall_s_script": time.perf_counter() - t_start,
     }
     atomic_write_json(out / "jacobians.json", doc)
+    figures(doc, impl["error_history"], out)
     md = table_md(doc)
     atomic_write_text(out / "jacobians.md", md)
     print(md)

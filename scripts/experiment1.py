@@ -66,7 +66,25 @@ def spread(mult_sets) -> float:
     return worst
 
 
-def summary(r, ref_rk4, paper, ref_x) -> dict:
+def expanding_eigenvector(r, paper_vec) -> dict:
+    """The eigenvector of the largest multiplier (real), unit 2-norm, its sign chosen like the paper's,
+    and the angle between it and the paper's vector (the paper prints 2 digits)."""
+    lam = np.asarray(r.multipliers)
+    k = int(np.argmax(np.abs(lam)))
+    v = np.asarray(r.eigenvectors)[:, k]
+    if np.max(np.abs(v.imag)) > 1e-9 * np.max(np.abs(v)):
+        return {"multiplier": [float(lam[k].real), float(lam[k].imag)], "complex": True}
+    v = v.real / np.linalg.norm(v.real)
+    p = np.asarray(paper_vec, float)
+    if v @ p < 0:
+        v = -v
+    cos = float(v @ p / np.linalg.norm(p))
+    return {"multiplier": [float(lam[k].real), 0.0], "vector_u_w_q_theta": v.tolist(),
+            "angle_to_paper_deg": math.degrees(math.acos(min(1.0, cos))),
+            "max_abs_component_difference_to_paper": float(np.max(np.abs(v - p)))}
+
+
+def summary(r, ref_rk4, paper, ref_x, paper_vec=None) -> dict:
     lam = sort_mults(r.multipliers)
     d_rk4 = matched_distances(lam, ref_rk4)
     d_paper = matched_distances(lam, paper)
@@ -86,7 +104,10 @@ def summary(r, ref_rk4, paper, ref_x) -> dict:
         "method": dict(r.method),
         "distance_to_reference_rk4_monodromy": {"per_multiplier": d_rk4, "max": max(d_rk4)},
         "distance_to_paper_table": {"per_multiplier": d_paper, "max": max(d_paper)},
+        "validity": r.validity.to_dict(),
     }
+    if paper_vec is not None:
+        out["expanding_eigenvector"] = expanding_eigenvector(r, paper_vec)
     if xp.shape == ref_x.shape:
         out["max_abs_x_points_minus_reference"] = float(np.max(np.abs(xp - ref_x)))
         out["max_abs_x_points_minus_reference_per_state"] = np.max(np.abs(xp - ref_x), axis=0).tolist()
@@ -129,7 +150,7 @@ def main(argv=None) -> int:
         print(f"--- variant {label}\n{r.table()}", flush=True)
         objs[key] = (r, cfg)
         results[key] = {"label": label, "config_values": values, "method_overrides": over,
-                        **summary(r, ref_rk4, paper, ref_x)}
+                        **summary(r, ref_rk4, paper, ref_x, ref["paper_table"]["expanding_eigenvector"])}
 
     # --- M-invariance on variant (a): one RK4 grid (144 steps), 1/2/4/8 segments
     studies = {}
@@ -200,7 +221,9 @@ def main(argv=None) -> int:
     plots.plot_phase_portrait(r_a, out / "phase_portrait.png",
                               title="Experiment 1, variant (a): limit cycle in (u, w, q), coloured by θ")
     plots.plot_forces(r_a, get_model(cfg_a), out / "forces.png",
-                      title="Experiment 1, variant (a): loads along the trimmed cycle")
+                      title="Experiment 1, variant (a): loads along the trimmed cycle, body frame")
+    plots.plot_forces(r_a, get_model(cfg_a), out / "forces_inertial.png", frame="inertial",
+                      title="Experiment 1, variant (a): loads along the trimmed cycle, fixed frame")
 
     doc = {
         "experiment": "paper Experiment 1: reference case A = 42 deg, wing root 0.05 m ahead of G, "
@@ -211,6 +234,9 @@ def main(argv=None) -> int:
             "reference_implementation_multipliers": [[float(z.real), float(z.imag)] for z in ref_impl_mults],
             "paper_table_multipliers": [[float(z.real), float(z.imag)] for z in paper],
             "reference_implementation_iterations": impl["iterations"],
+            "paper_iterations": ref["paper_table"]["iterations"],
+            "paper_expanding_eigenvector": ref["paper_table"]["expanding_eigenvector"],
+            "reference_implementation_expanding_eigenvector": impl["eigvecs_re"][0],
             "reference_implementation_mean_W_mps": impl["mean_W_ff"],
             "reference_implementation_mean_U_mps": impl["mean_U_ff"],
         },
@@ -248,7 +274,27 @@ def table_md(doc) -> str:
              f"| | {ref['reference_implementation_iterations']} | ~206 s per iteration |")
     L.append(f"| RK4 period-map monodromy (reference) | {fmt_mults(ref['rk4_period_map_monodromy_multipliers'])} "
              "| | 0 | | | | | | | |")
-    L.append(f"| paper table | {fmt_mults(ref['paper_table_multipliers'])} | | | 0 | | | | | 7 | |")
+    L.append(f"| paper table | {fmt_mults(ref['paper_table_multipliers'])} | | | 0 | | | | | "
+             f"{ref.get('paper_iterations', 7)} | |")
+    L += ["", "## Expanding eigenvector (u, w, q, θ), unit norm", "",
+          "| | eigenvector | angle to the paper's [deg] |", "|---|---|---|",
+          "| paper (2 digits) | (" + ", ".join(f"{c:+.2f}" for c in ref["paper_expanding_eigenvector"]) + ") | 0 |",
+          "| reference implementation | (" + ", ".join(f"{c:+.4f}" for c in ref["reference_implementation_expanding_eigenvector"])
+          + ") | |"]
+    for k, v in doc["variants"].items():
+        e = v.get("expanding_eigenvector") or {}
+        if "vector_u_w_q_theta" in e:
+            L.append(f"| {v['label']} | (" + ", ".join(f"{c:+.4f}" for c in e["vector_u_w_q_theta"])
+                     + f") | {e['angle_to_paper_deg']:.2f} |")
+    L += ["", "## Model validity (birdocp.bird.validity, default thresholds)", "",
+          "| variant | valid | effective α [deg] | span-time beyond stall | share of period with a stalled element "
+          "| min u [m/s] | θ [deg] | airflow-body angle max [deg] |", "|---|---|---|---|---|---|---|---|"]
+    for k, v in doc["variants"].items():
+        w = v["validity"]
+        L.append(f"| {v['label']} | {'yes' if w['valid'] else 'NO: ' + '; '.join(w['reasons'])} "
+                 f"| {w['alpha_eff_min_deg']:.1f} .. {w['alpha_eff_max_deg']:.1f} | {w['stalled_fraction']:.1%} "
+                 f"| {w['stalled_time_fraction']:.1%} | {w['min_forward_speed_mps']:.2f} "
+                 f"| {w['pitch_min_deg']:.1f} .. {w['pitch_max_deg']:.1f} | {w['max_airflow_body_angle_deg']:.1f} |")
     st = doc.get("studies") or {}
     if "m_invariance" in st:
         m = st["m_invariance"]

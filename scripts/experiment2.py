@@ -44,7 +44,7 @@ def level_summary(r, wall) -> dict:
             "max_residual": d["max_residual"], "mean_vertical_speed_mps": d["mean_vertical_speed_mps"],
             "mean_forward_speed_mps": d["mean_forward_speed_mps"],
             "flight_path_angle_deg": d["flight_path_angle_deg"], "multipliers": d["multipliers"],
-            "moduli": d["moduli"], "x0": d["x0"]}
+            "moduli": d["moduli"], "x0": d["x0"], "validity": d["validity"]}
 
 
 def _cm(z_m: float) -> str:
@@ -125,6 +125,7 @@ def main() -> None:
                                            "max_deviation_mps": lin_dev},
         "level_amplitude_from_linear_interpolation_deg": a_zero_interp,
         "largest_modulus_range": [float(mods[:, 0].min()), float(mods[:, 0].max())],
+        "all_valid": all(r["valid"] for r in rows),
         "rows": rows,
     }
     print(f"sweep: {len(rows)} points, {sum(r['success'] for r in rows)} converged, "
@@ -240,14 +241,16 @@ def main() -> None:
                  f"{s['mean_forward_speed_mps']:.4f} | {ms} |")
     L += ["", f"## Sweep 40-46 deg (default model, warm starts): {len(rows)} points, "
               f"{sum(r['iterations'] for r in rows)} iterations, {sweep_wall:.1f} s", "",
-          "| A [deg] | ok | it | wall [s] | mean U [m/s] | mean W [m/s] | beta [deg] | lambda1 | lambda2,3 | |lambda2,3| | lambda4 |",
-          "|---|---|---|---|---|---|---|---|---|---|---|"]
+          "| A [deg] | ok | it | wall [s] | mean U [m/s] | mean W [m/s] | beta [deg] | lambda1 | lambda2,3 | |lambda2,3| | lambda4 "
+          "| valid | max effective α [deg] | span-time beyond stall |",
+          "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         L.append(f"| {r['value']:.1f} | {'yes' if r['success'] else 'NO'} | {r['iterations']} | {r['wall_s']:.2f} | "
                  f"{r['mean_forward_speed_mps']:.4f} | {r['mean_vertical_speed_mps']:+.5f} | "
                  f"{r['flight_path_angle_deg']:+.4f} | {r['multiplier0_re']:.5f} | "
                  f"{r['multiplier1_re']:.5f} ± {abs(r['multiplier1_im']):.5f}j | {r['modulus1']:.5f} | "
-                 f"{r['multiplier3_re']:.5f} |")
+                 f"{r['multiplier3_re']:.5f} | {'yes' if r['valid'] else 'NO'} | {r['alpha_eff_max_abs_deg']:.1f} | "
+                 f"{r['stalled_fraction']:.1%} |")
     L += ["", "## Against the paper", "",
           f"- Level flight: {levels['default'][1]['amplitude_deg']:.3f} deg (default model), "
           f"{levels['relaxed_backward_difference'][1]['amplitude_deg']:.3f} deg (relaxed circulation + "
@@ -256,6 +259,14 @@ def main() -> None:
           f"from the line {lin_dev:.1e} m/s over 40-46 deg (paper: nearly linear).",
           f"- Expanding multiplier from {mods[0, 0]:.4f} (40 deg) to {mods[-1, 0]:.4f} (46 deg); complex pair "
           f"modulus {mods[0, 1]:.4f} to {mods[-1, 1]:.4f} (paper: the multipliers change only slightly).",
+          f"- Model validity (birdocp.bird.validity, default thresholds): every sweep point "
+          f"{'valid' if res['sweep']['all_valid'] else 'NOT all valid'}; largest effective angle of attack "
+          f"{rows[0]['alpha_eff_max_abs_deg']:.1f} deg at {rows[0]['value']:g} deg, {rows[-1]['alpha_eff_max_abs_deg']:.1f} deg "
+          f"at {rows[-1]['value']:g} deg (faster flight, smaller angles), "
+          f"span-time beyond the {cfg.validity.stall_angle_deg:g} deg stall angle "
+          f"{min(r['stalled_fraction'] for r in rows):.1%} to {max(r['stalled_fraction'] for r in rows):.1%} "
+          f"(the wingtips in the downstroke); level flight: "
+          + "; ".join(f"{k} {'valid' if v[1]['validity']['valid'] else 'NOT valid'}" for k, v in levels.items()) + ".",
           "- Trajectories over one wingbeat: "
           + "; ".join(f"{lab}: {v['horizontal_distance_m']:.3f} m forward, {_cm(v['height_change_m'])} cm"
                       for lab, v in res["trajectories"].items()) + "."]

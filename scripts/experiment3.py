@@ -10,7 +10,10 @@ reference cycle (root 5 cm, SM -25 %), each in both directions:
 Towards the rear the continuation goes on beyond the paper's range (to root 1 cm, SM -5 %) to see
 whether and how the branch ends. The four half-branches run as independent jobs through
 :mod:`birdocp.engine.executors` (``--jobs``). Independent ``trim`` runs at three root positions check the
-fixed-amplitude branch. Writes locus.png, moduli.png, level_*.png, branch JSONs, result.json, table.md.
+fixed-amplitude branch. Every point carries its model validity (:mod:`birdocp.bird.validity`); the
+figures shade the paper's range, draw the invalid part grey and mark the branch ends by their reason
+(stopped at the end of the requested range, or the end of the branch: the level-flight branch's
+amplitude reaches its bound). Writes locus.png, moduli.png, level_*.png, branch JSONs, result.json, table.md.
 
     python scripts/experiment3.py --out results/experiment3 --jobs 2
 """
@@ -51,7 +54,9 @@ def merge(down: Branch, up: Branch) -> Branch:
            for s in up.special_points]
     sps += [type(s)(**{**s.__dict__, "between": (s.between[0] + n_up - 1, s.between[1] + n_up - 1)})
             for s in down.special_points]
-    settings = dict(down.settings, display="stability_margin")
+    settings = dict(down.settings, display="stability_margin",
+                    ends=[{"index": 0, "reason": up.end_reason, "message": up.end_message},
+                          {"index": len(pts) - 1, "reason": down.end_reason, "message": down.end_message}])
     return Branch(down.parameter_name, pts, sps, down.end_reason, down.end_message, settings,
                   down.wall_s + up.wall_s, down.free_names)
 
@@ -78,6 +83,10 @@ def main():
             d = json.loads((out / f"branch_{j['name']}.json").read_text())
             res.append({"name": j["name"], "branch": d})
         wall_branches = None
+        try:  # keep the wall time of the run that computed the branches
+            wall_branches = json.loads((out / "result.json").read_text())["wall_s"]["branches_total"]
+        except (OSError, ValueError, KeyError):
+            pass
     else:
         with get_executor(jobs=a.jobs) as ex:
             res = ex.map(run_half, jobs)
@@ -89,8 +98,9 @@ def main():
     fams = {"fixed": merge(halves["fixed_down"], halves["fixed_up"]),
             "level": merge(halves["level_down"], halves["level_up"])}
     labels = {"fixed": "A = 42 deg", "level": "level flight"}
-    figs = plot_branches({labels[k]: v for k, v in fams.items()}, out)
-    figs += plot_branches({labels["level"]: fams["level"]}, out, prefix="level_")
+    span = (-32.5, -17.5, "the paper's range, SM -32.5 .. -17.5 %")
+    figs = plot_branches({labels[k]: v for k, v in fams.items()}, out, span=span)
+    figs += plot_branches({labels["level"]: fams["level"]}, out, prefix="level_", span=span)
 
     # independent trims at three root positions of the fixed-amplitude branch
     from birdocp.studies.trim import trim
@@ -130,6 +140,20 @@ def main():
              "expanding_modulus_range_in_paper_range": [float(M[inrange, 0].min()), float(M[inrange, 0].max())],
              "expanding_modulus_min": float(M[:, 0].min()),
              "sm_at_min_expanding_percent": float(sm[np.argmin(M[:, 0])])}
+        ok = np.array([bool(p.validity and p.validity["valid"]) for p in br.points])
+        s["valid_points"] = int(ok.sum())
+        s["valid_sm_range_percent"] = [float(sm[ok].min()), float(sm[ok].max())] if ok.any() else None
+        s["valid_everywhere_in_paper_range"] = bool(ok[inrange].all())
+        bad = np.nonzero(~ok)[0]
+        if bad.size:
+            # the first invalid point going rearward from the reference (SM -25 %)
+            rear = [i for i in bad if sm[i] > -25.0]
+            i = rear[0] if rear else bad[0]
+            s["first_invalid_rearward"] = {"sm_percent": float(sm[i]), "reasons": br.points[i].validity["reasons"]}
+        s["max_pitch_deg_range"] = [float(min(p.validity["max_abs_pitch_deg"] for p in br.points)),
+                                    float(max(p.validity["max_abs_pitch_deg"] for p in br.points))]
+        s["min_forward_speed_mps_min"] = float(min(p.validity["min_forward_speed_mps"] for p in br.points))
+        s["max_airflow_body_angle_deg_max"] = float(max(p.validity["max_airflow_body_angle_deg"] for p in br.points))
         if br.free_names:
             F = np.array([p.free_values[br.free_names[0]] for p in br.points])
             s["amplitude_deg_range"] = [float(F.min()), float(F.max())]
@@ -148,8 +172,8 @@ def main():
     for k, br in fams.items():
         lines += [f"## {labels[k]}", "",
                   "| SM [%] | root [cm] | " + ("A [deg] | " if br.free_names else "")
-                  + "Λ1 | abs Λ2 | abs Λ3 | abs Λ4 | U [m/s] | W [m/s] | stable |",
-                  "|---:|---:|" + ("---:|" if br.free_names else "") + "---:|---:|---:|---:|---:|---:|:---:|"]
+                  + "Λ1 | abs Λ2 | abs Λ3 | abs Λ4 | U [m/s] | W [m/s] | stable | model valid |",
+                  "|---:|---:|" + ("---:|" if br.free_names else "") + "---:|---:|---:|---:|---:|---:|:---:|:---|"]
         for p in br.points:
             L = [complex(*m) for m in p.multipliers]
             row = f"| {sm_percent(p.parameter, CHORD):.2f} | {100 * p.parameter:.3f} | "
@@ -157,19 +181,28 @@ def main():
                 row += f"{p.free_values[br.free_names[0]]:.3f} | "
             row += (f"{L[0].real:.4f}{L[0].imag:+.4f}j | {abs(L[1]):.4f} | {abs(L[2]):.4f} | {abs(L[3]):.4f} | "
                     f"{p.means.get('forward_speed_mps', float('nan')):.3f} | "
-                    f"{p.means.get('vertical_speed_mps', float('nan')):+.4f} | {'yes' if p.stable else 'no'} |")
+                    f"{p.means.get('vertical_speed_mps', float('nan')):+.4f} | {'yes' if p.stable else 'no'} | "
+                    + ("yes" if p.validity["valid"] else "NO: " + "; ".join(p.validity["reasons"])) + " |")
             lines.append(row)
         s = result["families"][k]
         lines += ["", f"Front end: {s['front_end']['reason']} ({s['front_end']['message']}); rear end: "
                       f"{s['rear_end']['reason']} ({s['rear_end']['message']}).",
                   "Special points: " + (", ".join(f"{sp['kind']} at SM {sp['sm_percent']:.4f} %"
                                                    for sp in s["special_points"]) or "none") + ".",
-                  f"Stable cycle anywhere on the branch: {'YES' if s['stable_anywhere'] else 'NO'}.", ""]
+                  f"Stable cycle anywhere on the branch: {'YES' if s['stable_anywhere'] else 'NO'}.",
+                  f"Model valid (birdocp.bird.validity, default thresholds) on {s['valid_points']} of {s['points']} "
+                  f"points" + (f", SM {s['valid_sm_range_percent'][0]:.2f} .. {s['valid_sm_range_percent'][1]:.2f} %"
+                               if s["valid_sm_range_percent"] else "")
+                  + f"; everywhere in the paper's range: {'yes' if s['valid_everywhere_in_paper_range'] else 'NO'}"
+                  + (f"; first invalid point rearward: SM {s['first_invalid_rearward']['sm_percent']:.2f} % ("
+                     + "; ".join(s["first_invalid_rearward"]["reasons"]) + ")" if "first_invalid_rearward" in s else "")
+                  + ".", ""]
     lines += ["## Independent trims (A = 42 deg)", "", "| SM [%] | max abs ΔΛ | max abs Δx0 |", "|---:|---:|---:|"]
     lines += [f"| {c['sm_percent']:.3f} | {c['max_abs_multiplier_difference']:.2e} | {c['max_abs_x0_difference']:.2e} |"
               for c in checks]
     atomic_write_text(out / "table.md", "\n".join(lines) + "\n")
-    print(json.dumps({k: {kk: v[kk] for kk in ("front_end", "rear_end", "stable_anywhere")}
+    print(json.dumps({k: {kk: v.get(kk) for kk in ("front_end", "rear_end", "stable_anywhere", "valid_sm_range_percent",
+                                                     "first_invalid_rearward")}
                       for k, v in result["families"].items()}, indent=1))
     print("wall", result["wall_s"])
 

@@ -3,8 +3,8 @@
 Writes ``results/wing_kinematics.png`` (or ``--out PATH``). Panels:
 
 (a) 3-D snapshots of the right wing at 8 instants t = k T/8 (one small panel each, same limits and
-    view, equal scales): bones (arm, forearm, hand) as thick lines, the 4 trailing-edge master
-    feathers, the smoothed leading and trailing edges, the lifting line, and the edges projected on
+    view, equal scales): bones (arm, forearm, hand) as thick lines, the 7 master feathers (the 4 that
+    shape the trailing edge solid, feathers 1, 3, 5 with weight 0 dotted), the smoothed leading and trailing edges, the lifting line, and the edges projected on
     the floor (a top view);
 (b) side view of the paths over one wingbeat of the wing tip (tip of the outermost feather) and of the
     centroid of the right wing's lifting line (chord-weighted), relative to the centre of mass G;
@@ -18,9 +18,9 @@ wing root (shoulder) is ``cfg.wing.root_ahead_m`` ahead of G.
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
-import casadi as ca
 import matplotlib
 
 matplotlib.use("Agg")
@@ -31,51 +31,24 @@ from matplotlib.lines import Line2D  # noqa: E402
 
 from birdocp.bird import kinematics  # noqa: E402
 from birdocp.bird.config import JOINT_NAMES, Config  # noqa: E402
-from birdocp.bird.model import GEOMETRY_OUTPUTS, get_model  # noqa: E402
+from birdocp.bird.snapshots import motion  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 N_SNAP = 8
 CMAP = plt.get_cmap("viridis")
 
 
-def bone_function(cfg: Config) -> ca.Function:
-    """t -> (joint chain points 3x4: shoulder, elbow, wrist, hand tip; feather bases 3x4; tips 3x4),
-    right-wing coordinates with origin at the right shoulder."""
-    t = ca.SX.sym("t")
-    g = cfg.gait
-    joints = {j: (getattr(g, j).offset_deg, getattr(g, j).amplitude_deg, getattr(g, j).phase_deg)
-              for j in JOINT_NAMES}
-    q = kinematics.joint_angles(t, g.frequency_hz, joints)
-    w = cfg.wing
-    sk = kinematics.skeleton(q, w.arm_length_m, w.forearm_length_m, w.hand_length_m, w.feather_lengths_m)
-    LE, TE = kinematics.raw_edges(sk, w.arm_length_m, w.forearm_length_m, w.hand_length_m,
-                                  w.section_half_thickness_m)
-    tip = sk.E2 + sk.R4 @ ca.vertcat(w.hand_length_m, 0, 0)
-    chain = ca.horzcat(ca.DM.zeros(3, 1), sk.E1, sk.E2, tip)
-    order = (6, 4, 2, 0)  # shoulder .. hand tip, the order of the trailing-edge points
-    tips = ca.horzcat(*TE)
-    bases = ca.horzcat(*[TE[i] - sk.feathers[k] for i, k in enumerate(order)])
-    return ca.Function("bones", [t], [chain, bases, tips])
-
-
 def sample(cfg: Config, times: np.ndarray) -> dict:
-    m = get_model(cfg)
-    bones = bone_function(cfg)
-    x_ep = cfg.wing.shoulder_half_separation_m
-    shift = np.array([[x_ep], [0.0], [0.0]])  # right shoulder -> body centre line (like `line`)
-    out = {k: [] for k in ("chain", "fbase", "ftip", "le", "te", "line", "chord", "le_raw")}
-    for t in times:
-        g = dict(zip(GEOMETRY_OUTPUTS, m.geometry(float(t), m.p0)))
-        chain, fb, ft = (np.array(v) for v in bones(float(t)))
-        out["chain"].append(chain + shift)
-        out["fbase"].append(fb + shift)
-        out["ftip"].append(ft + shift)
-        out["le"].append(np.array(g["leading_edge"]) + shift)
-        out["te"].append(np.array(g["trailing_edge"]) + shift)
-        out["le_raw"].append(np.array(g["leading_edge_raw"]) + shift)
-        out["line"].append(np.array(g["line"]))
-        out["chord"].append(np.array(g["chord_m"]).ravel())
-    return {k: np.array(v) for k, v in out.items()}
+    """Right-wing bones, feathers and edges and the merged lifting line at ``times``
+    (:func:`birdocp.bird.snapshots.motion`), origin on the body centre line at the shoulders."""
+    mo = motion(cfg, times)
+    up = np.array([[0.0], [0.0], [cfg.wing.root_ahead_m]])  # origin G -> the shoulders' centre line
+    names = {"chain": "chain_m", "fbase": "feather_base_m", "ftip": "feather_tip_m", "obase": "minor_feather_base_m",
+             "otip": "minor_feather_tip_m", "le": "leading_edge_m",
+             "te": "trailing_edge_m", "le_raw": "leading_edge_raw_m", "line": "line_m"}
+    out = {k: mo[v] + up for k, v in names.items()}
+    out["chord"] = mo["chord_m"]
+    return out
 
 
 def to_G(P: np.ndarray, root_ahead: float) -> dict:
@@ -113,10 +86,10 @@ def main(argv=None) -> int:
     Pth = sample(cfg, t_path)
     colors = [CMAP(0.92 * k / (N_SNAP - 1)) for k in range(N_SNAP)]
 
-    fig = plt.figure(figsize=(16, 15))
-    outer = fig.add_gridspec(2, 1, height_ratios=[1.3, 1.0], hspace=0.16)
-    top = outer[0].subgridspec(2, 4, hspace=0.16, wspace=0.0)
-    bottom = outer[1].subgridspec(1, 2, wspace=0.45, width_ratios=[1.0, 1.25])
+    fig = plt.figure(figsize=(16, 16))
+    outer = fig.add_gridspec(2, 1, height_ratios=[1.4, 1.0], hspace=0.14)
+    top = outer[0].subgridspec(2, 4, hspace=0.3, wspace=0.18)
+    bottom = outer[1].subgridspec(1, 2, wspace=0.12, width_ratios=[1.0, 1.35])
     flap = np.degrees([float(kinematics.joint_angles(t, cfg.gait.frequency_hz, {
         j: (getattr(cfg.gait, j).offset_deg, getattr(cfg.gait, j).amplitude_deg, getattr(cfg.gait, j).phase_deg)
         for j in JOINT_NAMES})["shoulder_flap"]) for t in t_snap])
@@ -134,6 +107,8 @@ def main(argv=None) -> int:
         plot3(S["chain"][k], lw=4.5, solid_capstyle="round")
         for i in range(4):
             plot3(np.stack([S["fbase"][k][:, i], S["ftip"][k][:, i]], axis=1), lw=1.8)
+        for i in range(3):
+            plot3(np.stack([S["obase"][k][:, i], S["otip"][k][:, i]], axis=1), lw=0.9, ls=":")
         plot3(S["le"][k], lw=1.0)
         plot3(S["te"][k], lw=1.0)
         plot3(S["line"][k][:, 16:], lw=1.2, ls="--")
@@ -150,7 +125,7 @@ def main(argv=None) -> int:
         ax.view_init(elev=24, azim=-52)
         ax.tick_params(labelsize=6, pad=0)
         ax.set_xlabel("e1 span [cm]", fontsize=7, labelpad=-2)
-        ax.set_ylabel("x' fwd [cm]", fontsize=7, labelpad=-2)
+        ax.set_ylabel("x' fwd [cm]", fontsize=7, labelpad=-4)
         ax.set_zlabel("e2 up [cm]", fontsize=7, labelpad=-4)
         ax.set_yticks([-20, -10, 0, 10])
         ax.set_xticks([0, 20, 40, 60])
@@ -161,13 +136,14 @@ def main(argv=None) -> int:
                      bbox=dict(facecolor=c, edgecolor="none", boxstyle="round,pad=0.25"))
         if k == 0:
             handles = [Line2D([], [], color="0.3", lw=4.5, label="bones: arm, forearm, hand"),
-                       Line2D([], [], color="0.3", lw=1.8, label="feathers 6, 4, 2, 0"),
+                       Line2D([], [], color="0.3", lw=1.8, label="feathers 6, 4, 2, 0 (trailing edge)"),
+                       Line2D([], [], color="0.3", lw=0.9, ls=":", label="feathers 5, 3, 1 (weight 0)"),
                        Line2D([], [], color="0.3", lw=1.0, label="smoothed leading/trailing edges"),
                        Line2D([], [], color="0.3", lw=1.2, ls="--", label="lifting line"),
                        Line2D([], [], color="0.75", lw=0.8, label="edges projected on the floor"),
                        Line2D([], [], color="k", marker="o", ls="", label="G"),
                        Line2D([], [], color="k", marker="^", ls="", label="right shoulder")]
-            fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.925), ncol=7,
+            fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.925), ncol=8,
                        fontsize=8, frameon=False)
     fig.text(0.5, 0.93, "(a) right wing at t = k T/8 in 3-D, viewed from behind, above and to the right; "
              "origin at G, equal scales", ha="center", fontsize=10)
@@ -205,7 +181,7 @@ def main(argv=None) -> int:
     ax.set_xlabel("x' = -e3, forward of G [cm]  (forward is to the left)")
     ax.set_ylabel("e2 (up) [cm]")
     ax.set_title("(b) side view over one wingbeat\n(circles: tip, squares: centroid, at t = k T/8)", fontsize=9)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False, borderaxespad=0.3)
+    ax.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, frameon=False)
     ax.grid(alpha=0.3)
 
     # (c) front view of the merged lifting line ------------------------------------------------

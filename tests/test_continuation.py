@@ -111,6 +111,9 @@ def test_bird_branch_agrees_with_independent_trims(tmp_path):
         assert np.max(np.abs(np.array(pt.x0) - tr.x0)) < 1e-7
         L = np.sort_complex(np.array([complex(*m) for m in pt.multipliers]))
         assert np.max(np.abs(L - np.sort_complex(tr.multipliers))) < 1e-7
+        # every branch point carries the model's validity, the same as the trim's (its trajectory)
+        assert pt.validity["valid"] is tr.validity.valid
+        assert abs(pt.validity["alpha_eff_max_deg"] - tr.validity.measures["alpha_eff_max_deg"]) < 1e-6
     # the expanding multiplier falls as the root moves back (fact: +0.354 per cm forward at 42 deg)
     assert br.points[-1].moduli[0] < br.points[0].moduli[0] - 0.05
     out = tmp_path / "run"
@@ -118,6 +121,7 @@ def test_bird_branch_agrees_with_independent_trims(tmp_path):
                  "--out", str(out), "--quiet", "--json"]) == 0
     d = json.loads((out / "branch.json").read_text())
     assert d["end_reason"] == "reached_to" and abs(d["points"][-1]["parameter"] - 0.049) < 1e-12
+    assert all(set(p["validity"]) >= {"valid", "reasons"} for p in d["points"])
     (out / "moduli.png").unlink()
     assert main(["plot", str(out)]) == 0 and (out / "moduli.png").is_file()
 

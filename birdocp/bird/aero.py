@@ -105,20 +105,8 @@ def element_loads(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho):
     relative to G, kinematic velocities, chord directions, up normals, spanwise unit vectors), ``ds``
     16 x 1 element lengths. Returns (F 3x1, M, Gamma 16x1, alpha 16x1 [rad], |Vp| 16x1).
     """
-    u, w, q = state[0], state[1], state[2]
-    n = r.shape[1]
-    ones = ca.DM.ones(1, n)
-    # V = U_inf - Omega x r - v_kin, with U_inf = (0, w, u), Omega = (q, 0, 0)
-    V = ca.vertcat(-v_kin[0, :],
-                   w * ones + q * r[2, :] - v_kin[1, :],
-                   u * ones - q * r[1, :] - v_kin[2, :])
-    tv = ca.sum1(tau * V)
-    Vp = V - tau * ca.repmat(tv, 3, 1)
-    Vp_norm = ca.sqrt(ca.sum1(Vp * Vp))
-    alpha = ca.atan2(ca.sum1(Vp * up), ca.sum1(Vp * c_hat))
-    qv = (Vp_norm * alpha).T
-    Gamma = G @ qv
-    vind = ca.vertcat((Wx @ qv).T, (Wy @ qv).T, ca.DM.zeros(1, n))
+    V, Vp_norm, alpha, vind = inflow(state, r, v_kin, c_hat, up, tau, Wx, Wy)
+    Gamma = G @ (Vp_norm * alpha).T
     W = V + vind
     # (V + v) x tau
     cross = ca.vertcat(W[1, :] * tau[2, :] - W[2, :] * tau[1, :],
@@ -128,3 +116,30 @@ def element_loads(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho):
     F = ca.sum2(dF)
     M = ca.sum2(r[1, :] * dF[2, :] - r[2, :] * dF[1, :])
     return F, M, Gamma, alpha.T, Vp_norm.T
+
+
+def section_angle(V, c_hat, up, tau):
+    """Angle of attack [rad] (1 x n) of the velocities V (3 x n) in each element's section plane:
+    ``atan2(Vp . up, Vp . c_hat)`` with ``Vp`` = V without its spanwise component along ``tau``."""
+    Vp = V - tau * ca.repmat(ca.sum1(tau * V), 3, 1)
+    return ca.atan2(ca.sum1(Vp * up), ca.sum1(Vp * c_hat)), ca.sqrt(ca.sum1(Vp * Vp))
+
+
+def inflow(state, r, v_kin, c_hat, up, tau, Wx, Wy):
+    """Relative air velocity at the element centres (code frame) and its angles.
+
+    Returns ``(V 3xn, |Vp| 1xn, alpha 1xn [rad], vind 3xn)``: ``V = U_inf - Omega x r - v_kin`` without
+    the induced velocity, ``alpha`` its (geometric) angle of attack, ``vind = (Wx q, Wy q, 0)`` the
+    induced velocity of the lifting line with ``q = |Vp| alpha``. The *effective* angle of attack of
+    a section is :func:`section_angle` of ``V + vind``.
+    """
+    u, w, q = state[0], state[1], state[2]
+    ones = ca.DM.ones(1, r.shape[1])
+    # V = U_inf - Omega x r - v_kin, with U_inf = (0, w, u), Omega = (q, 0, 0)
+    V = ca.vertcat(-v_kin[0, :],
+                   w * ones + q * r[2, :] - v_kin[1, :],
+                   u * ones - q * r[1, :] - v_kin[2, :])
+    alpha, Vp_norm = section_angle(V, c_hat, up, tau)
+    qv = (Vp_norm * alpha).T
+    vind = ca.vertcat((Wx @ qv).T, (Wy @ qv).T, ca.DM.zeros(1, r.shape[1]))
+    return V, Vp_norm, alpha, vind

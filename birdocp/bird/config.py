@@ -23,9 +23,9 @@ from birdocp.io.errors import ConfigError
 from birdocp.io.files import dataclass_to_dict
 
 __all__ = [
-    "ConfigError", "Joint", "Body", "Wing", "Gait", "Aero", "Tail", "Solve", "Config",
+    "ConfigError", "Joint", "Body", "Wing", "Gait", "Aero", "Tail", "Solve", "Validity", "Config",
     "JOINT_NAMES", "PARAM_NAMES", "param_vector", "load", "dump", "loads", "dumps",
-    "from_dict", "to_dict", "set_value", "with_values",
+    "from_dict", "to_dict", "set_value", "with_values", "WING_MASS_SHARES", "body_alone_mass_kg",
 ]
 
 
@@ -43,7 +43,10 @@ class Body:
     """Rigid body of the bird."""
 
     mass_kg: float = 1.2
+    """Mass of the whole bird, wings included (M); the body alone has M - 2 wing.mass_kg."""
     pitch_inertia_kgm2: float = 0.1
+    """Pitch inertia of the body ALONE about its own centre of mass G_b (the wings' is added by the
+    model when they have mass)."""
     gravity_mps2: float = 9.81
     reference_chord_m: float = 0.2
     """Mean chord c̄ used for the stability margin SM = -root_ahead_m / c̄ and moment coefficients."""
@@ -65,6 +68,23 @@ class Wing:
     section_half_thickness_m: float = 0.01
     smoothing_radius_m: float = 0.05
     """Corner-smoothing radius R_s of the edge resampling."""
+    mass_kg: float = 0.0
+    """Mass of ONE wing (bones, muscle, skin, feathers). 0 = massless wings, the paper's model bit for
+    bit. It is part of ``body.mass_kg`` (the whole bird): the body alone has body.mass_kg - 2 mass_kg.
+    A large bird's wing is ~7 % of its mass (van den Berg & Rayner 1995: 0.086 kg at 1.2 kg)."""
+    mass_share_arm: float = 0.50
+    """Share of the wing mass in a uniform rod shoulder -> elbow (humerus, muscle, skin, coverts)."""
+    mass_share_forearm: float = 0.25
+    """Share in a uniform rod elbow -> wrist."""
+    mass_share_hand: float = 0.08
+    """Share in a uniform rod wrist -> hand tip."""
+    mass_share_primaries: float = 0.10
+    """Share on feathers 0, 1, 2 (split 0.45, 0.30, 0.25), each a rod tapering linearly to the tip."""
+    mass_share_secondaries: float = 0.07
+    """Share on feathers 3, 4, 5, 6 (split 0.30, 0.30, 0.25, 0.15), tapered rods."""
+    inertial_terms: bool = False
+    """Put the wing-mass terms in the model graphs even at mass_kg = 0 (implied by mass_kg > 0), e.g.
+    to continue from massless wings; at mass 0 they change nothing (bit for bit)."""
 
 
 # Joint names in the order of the model's slots (spec 2.1). Docstrings carry the paper's names.
@@ -151,6 +171,39 @@ class Solve:
 
 
 @dataclass(frozen=True)
+class Validity:
+    """Where the model holds: thresholds of the validity check of a cycle (:mod:`birdocp.bird.validity`).
+
+    The model is a quasi-steady lifting line with a linear lift slope (no stall) and a straight wake
+    along the body axis. A cycle is reported as *valid* when none of these limits is crossed. The
+    defaults are deliberate, conservative choices, not fitted to any result:
+    """
+
+    stall_angle_deg: float = 15.0
+    """Stall angle of a wing section (effective angle of attack, either sign). Bird wings and thin
+    cambered aerofoils at Reynolds numbers 1e4-1e5 reach their maximum lift at about 10-20 deg
+    (e.g. Withers 1981, J. Exp. Biol. 90, on bird wings as fixed aerofoils); 15 deg is mid-range and
+    ignores the stall delay of a flapping wing (dynamic stall), so it errs on the side of caution."""
+    max_stalled_fraction: float = 0.10
+    """Largest allowed stalled share of the span-time area: the integral over the period and the span
+    (element lengths as weights) of 'the element is beyond the stall angle', divided by span x period.
+    A brief excursion at the wingtip stays well below it; 10 % of the lift-producing area-time
+    working beyond stall is not a wing the linear model represents."""
+    min_forward_speed_mps: float = 5.0
+    """Smallest allowed forward speed u along the body axis. Quasi-steady aerodynamics needs a
+    reduced frequency k = pi f c / U well below 1; with the reference wing (mean chord 0.2 m) at 4 Hz,
+    k = 0.5 at 5 m/s (0.14 at the reference cycle's 18 m/s)."""
+    max_abs_pitch_deg: float = 45.0
+    """Largest allowed |theta| over the cycle: beyond it the cycle is a steep climb or a dive, far from
+    the forward flight the model (and the paper) is about."""
+    max_airflow_body_angle_deg: float = 20.0
+    """Largest allowed angle between the airflow and the body axis, atan2(w, u) in absolute value.
+    The wake is modelled as straight filaments along the body axis; with the airflow at an angle
+    eps to it the trailing vortices leave along the wrong direction and the induced velocity is off by
+    a term of order 1 - cos(eps) (6 % at 20 deg, 13 % at 30 deg) plus the wake's displacement."""
+
+
+@dataclass(frozen=True)
 class Config:
     body: Body = field(default_factory=Body)
     wing: Wing = field(default_factory=Wing)
@@ -158,6 +211,7 @@ class Config:
     aero: Aero = field(default_factory=Aero)
     tail: Tail = field(default_factory=Tail)
     solve: Solve = field(default_factory=Solve)
+    validity: Validity = field(default_factory=Validity)
 
     def __post_init__(self):
         validate(self)
@@ -175,7 +229,7 @@ def _param_names() -> tuple[str, ...]:
     for f in fields(Wing):
         if f.name == "feather_lengths_m":
             names += [f"wing.feather_lengths_m.{i}" for i in range(7)]
-        else:
+        elif f.type in ("float", float):
             names.append(f"wing.{f.name}")
     for j in JOINT_NAMES:
         for f in fields(Joint):
@@ -248,6 +302,7 @@ def validate(cfg: Config) -> None:
             raise ConfigError(f"wing.feather_lengths_m.{i}", f"must be > 0, got {L!r}")
     if len(cfg.wing.feather_lengths_m) != 7:
         raise ConfigError("wing.feather_lengths_m", f"needs 7 lengths, got {len(cfg.wing.feather_lengths_m)}")
+    _validate_wing_mass(cfg)
     if not (-0.5 <= cfg.wing.root_ahead_m <= 0.5):
         raise ConfigError("wing.root_ahead_m", f"must lie in [-0.5, 0.5] m, got {cfg.wing.root_ahead_m!r}")
     for j in JOINT_NAMES:
@@ -266,6 +321,12 @@ def validate(cfg: Config) -> None:
                           f"must be one of {', '.join(KINEMATIC_VELOCITY_MODES)}; got {cfg.aero.kinematic_velocity!r}")
     if not 1 <= cfg.aero.relaxed_evaluations <= 1000:
         raise ConfigError("aero.relaxed_evaluations", f"must be an integer in [1, 1000], got {cfg.aero.relaxed_evaluations!r}")
+    v = cfg.validity
+    for name, lo, hi in (("stall_angle_deg", 0.0, 90.0), ("max_stalled_fraction", 0.0, 1.0),
+                         ("max_abs_pitch_deg", 0.0, 180.0), ("max_airflow_body_angle_deg", 0.0, 180.0)):
+        val = getattr(v, name)
+        if not lo < val <= hi if name != "max_stalled_fraction" else not lo <= val <= hi:
+            raise ConfigError(f"validity.{name}", f"must lie in ({lo:g}, {hi:g}], got {val!r}")
     s = cfg.solve
     if s.points < 2:
         raise ConfigError("solve.points", f"must be >= 2 (the closing point included), got {s.points!r}")
@@ -280,6 +341,33 @@ def validate(cfg: Config) -> None:
         raise ConfigError("solve.initial_guess", f"needs 4 numbers (u, w, q, theta), got {len(s.initial_guess)}")
     for i, v in enumerate(s.initial_guess):
         _check_number(f"solve.initial_guess.{i}", v)
+
+
+WING_MASS_SHARES = ("mass_share_arm", "mass_share_forearm", "mass_share_hand", "mass_share_primaries",
+                    "mass_share_secondaries")
+"""The keys of the wing-mass distribution (shares of ``wing.mass_kg``, summing to 1)."""
+
+
+def _validate_wing_mass(cfg: Config) -> None:
+    w = cfg.wing
+    if w.mass_kg < 0:
+        raise ConfigError("wing.mass_kg", f"must be >= 0 kg (0 = massless wings), got {w.mass_kg!r}")
+    if 2 * w.mass_kg >= cfg.body.mass_kg:
+        raise ConfigError("wing.mass_kg", f"both wings (2 x {w.mass_kg!r} kg) must weigh less than the whole "
+                                          f"bird, body.mass_kg = {cfg.body.mass_kg!r} kg")
+    for k in WING_MASS_SHARES:
+        v = getattr(w, k)
+        if not 0.0 <= v <= 1.0:
+            raise ConfigError(f"wing.{k}", f"must lie in [0, 1], got {v!r}")
+    total = sum(getattr(w, k) for k in WING_MASS_SHARES)
+    if abs(total - 1.0) > 1e-9:
+        raise ConfigError("wing." + WING_MASS_SHARES[0],
+                          f"the wing mass shares ({', '.join(WING_MASS_SHARES)}) must sum to 1, got {total!r}")
+
+
+def body_alone_mass_kg(cfg: Config) -> float:
+    """Mass of the body without the wings [kg]: ``body.mass_kg - 2 wing.mass_kg``."""
+    return cfg.body.mass_kg - 2.0 * cfg.wing.mass_kg
 
 
 # ---------------------------------------------------------------------------------------------

@@ -19,10 +19,11 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird import aero
+from birdocp.bird import inertia
 from birdocp.bird import kinematics
 from birdocp.bird import tail
 from birdocp.bird import wing
-from birdocp.bird.config import JOINT_NAMES, PARAM_NAMES, Config, param_vector
+from birdocp.bird.config import JOINT_NAMES, PARAM_NAMES, WING_MASS_SHARES, Config, param_vector
 from birdocp.engine.cache import register_cache
 from birdocp.engine.problem import PeriodicODE
 
@@ -54,6 +55,15 @@ def _offsets():
 
 DATA_OFFSETS, N_DATA = _offsets()
 
+N_MASS = len(inertia.MASS_BLOCK)
+"""A model with wing masses appends the sums :data:`birdocp.bird.inertia.MASS_BLOCK` to the data
+vector: its data has N_DATA + N_MASS values, the first N_DATA laid out as :data:`DATA_BLOCKS`."""
+
+
+def unpack_mass(d):
+    """The wing-mass sums of a data vector of a model with wing masses, as a dict of scalars."""
+    return {k: d[N_DATA + i] for i, k in enumerate(inertia.MASS_BLOCK)}
+
 
 def unpack_data(d):
     """Blocks of a data vector (SX/MX/DM) as a dict of matrices."""
@@ -74,13 +84,15 @@ class Structure:
     kinematic_velocity: str
     backward_step_s: float
     tail: bool = False
+    wing_mass: bool = False
 
     @staticmethod
     def of(cfg: Config) -> "Structure":
         a = cfg.aero
         return Structure(cfg.gait.frequency_hz, a.circulation, a.relaxed_evaluations,
                          a.kinematic_velocity, a.backward_step_s,
-                         bool(cfg.tail.enabled or cfg.tail.opening_angle_deg > 0))
+                         bool(cfg.tail.enabled or cfg.tail.opening_angle_deg > 0),
+                         bool(cfg.wing.inertial_terms or cfg.wing.mass_kg > 0))
 
 
 def _joint_angles(t, p, frequency_hz):
@@ -129,6 +141,39 @@ def _merged(R1, P, c_hat, up, chord, x_ep):
                       _columns(R1 @ c_hat), _columns(R1 @ up), x_ep)
 
 
+WING_POWER_NAMES = ("inertial_power_W", "shoulder_inertial_power_W", "wing_acceleration_power_W",
+                    "wing_gravity_power_W", "wing_relative_kinetic_energy_J")
+"""Outputs of ``BirdModel.wing_power_d`` (see :func:`birdocp.bird.inertia.wing_powers`)."""
+
+
+def _local_mass_points(t, p, frequency_hz):
+    q = _joint_angles(t, p, frequency_hz)
+    l1, l2, l4 = (_p(p, f"wing.{k}") for k in ("arm_length_m", "forearm_length_m", "hand_length_m"))
+    feathers = [_p(p, f"wing.feather_lengths_m.{i}") for i in range(7)]
+    return inertia.local_mass_points(q, l1, l2, l4, feathers)[0]
+
+
+def _point_masses(p):
+    """The 20 point masses of one wing [kg] (two Gauss points per segment, half its mass each)."""
+    seg_m = inertia.segment_masses(_p(p, "wing.mass_kg"), [_p(p, f"wing.{k}") for k in WING_MASS_SHARES])
+    return [0.5 * seg_m[i // 2] for i in range(2 * len(seg_m))]
+
+
+def _wing_points_body(R1, R1d, R1dd, rho, rho_d, rho_dd, p):
+    """Right-wing mass points relative to G_b in the body frame (x', y', z'): positions, velocities
+    and accelerations relative to the body, from the arm-frame points and the shoulder rotation.
+    Code frame (e1, e2, e3) -> body: x' = -e3, y' = e1, z' = -e2; shoulder at (x_ep, 0, -root_ahead)."""
+    root = ca.vertcat(_p(p, "wing.shoulder_half_separation_m"), 0, -_p(p, "wing.root_ahead_m"))
+    rc = ca.repmat(root, 1, rho.shape[1]) + R1 @ rho
+    vc = R1d @ rho + R1 @ rho_d
+    ac = R1dd @ rho + 2 * (R1d @ rho_d) + R1 @ rho_dd
+
+    def body(c):
+        return [ca.vertcat(-c[2, j], c[0, j], -c[1, j]) for j in range(c.shape[1])]
+
+    return body(rc), body(vc), body(ac)
+
+
 GEOMETRY_OUTPUTS = ("joint_angles_rad", "leading_edge_raw", "trailing_edge_raw", "leading_edge",
                     "trailing_edge", "line", "chord_m", "chord_dir", "up_dir", "diagnostics")
 
@@ -137,13 +182,17 @@ GRAPH_FUNCTIONS = ("pre", "post", "rhs", "data", "geometry", "loads_d", "detail_
 """The SX Functions of a :class:`BirdModel` that the graph cache stores (the MX compositions ``f``,
 ``loads``, ``aero_detail`` are rebuilt from them in milliseconds)."""
 
+OPTIONAL_FUNCTIONS = ("mass_points", "wing_power_d")
+"""Functions only some structures have (wing masses); None otherwise."""
+
 _EAGER = ("pre", "post", "rhs")  # what every solve needs; the rest is read from the cache on first use
 
 
 def graph_key(structure: Structure) -> dict:
     """Everything that changes the model's graphs: the source of :mod:`birdocp.bird` and
     :mod:`birdocp.engine` (hashed), the :class:`Structure` (frequency, circulation, relaxed
-    evaluations, kinematic velocity, its backward step, tail on/off; every other configuration value
+    evaluations, kinematic velocity, its backward step, tail on/off, wing masses on/off; every other
+    configuration value
     is a number in ``p``), the parameter layout and the birdocp version (CasADi's version and the
     cache format are added by :mod:`birdocp.engine.graphcache`)."""
     from pathlib import Path
@@ -159,12 +208,13 @@ def graph_key(structure: Structure) -> dict:
 
 
 def _build(s: Structure) -> tuple[dict, tuple]:
-    """The SX Functions :data:`GRAPH_FUNCTIONS` of structure ``s`` and ``pre_params``."""
+    """The SX Functions of structure ``s`` (:data:`GRAPH_FUNCTIONS`, and
+    :data:`OPTIONAL_FUNCTIONS` or None) and ``pre_params``."""
+    fns = {}
     f_hz = s.frequency_hz
     t = ca.SX.sym("t")
     p = ca.SX.sym("p", len(PARAM_NAMES))
     x_ep = _p(p, "wing.shoulder_half_separation_m")
-    fns = {}
 
     # Arm-frame shape ("pre") and its kinematic-velocity companion.
     loc = _local_expr(t, p, f_hz)
@@ -176,6 +226,14 @@ def _build(s: Structure) -> tuple[dict, tuple]:
     else:
         raise ValueError(f"aero.kinematic_velocity must be 'exact' or 'backward-difference', got {s.kinematic_velocity!r}")
     ell = ca.vertcat(ca.vec(P), ca.vec(c_hat_l), ca.vec(up_l), ca.vec(chord_l), aux)
+    n_aero_local = ell.numel()
+    if s.wing_mass:
+        # wing mass points in the arm's frame with their time derivatives (AD in t): smooth
+        # functions of the elbow and wrist joints, so they belong to the numeric 'pre' part
+        rho = ca.horzcat(*_local_mass_points(t, p, f_hz))
+        rho_d = ca.jtimes(rho, t, ca.SX(1))
+        rho_dd = ca.jtimes(rho_d, t, ca.SX(1))
+        ell = ca.vertcat(ell, ca.vec(rho), ca.vec(rho_d), ca.vec(rho_dd))
     fns["pre"] = ca.Function("wing_local", [t, p], [ell], ["t", "p"], ["local"])
     pre_params = tuple(int(k) for k in np.nonzero(
         np.asarray(ca.DM(ca.jacobian_sparsity(ell, p), 1)).sum(axis=0))[0])
@@ -192,7 +250,7 @@ def _build(s: Structure) -> tuple[dict, tuple]:
         "up_dir": ca.horzcat(*nu), "diagnostics": ca.vertcat(*[diag[k] for k in wing.DIAGNOSTICS]),
     }
     fns["geometry"] = ca.Function("geometry", [t, p], [geo[k] for k in GEOMETRY_OUTPUTS],
-                                  ["t", "p"], list(GEOMETRY_OUTPUTS))
+                                ["t", "p"], list(GEOMETRY_OUTPUTS))
 
     # Assembly ("post"): shoulder rotation, merge, kinematic velocity, lifting-line matrices.
     L = ca.SX.sym("local", ell.numel())
@@ -201,6 +259,7 @@ def _build(s: Structure) -> tuple[dict, tuple]:
     for n in (48, 48, 48, 16, 48):
         blocks_l.append(L[k:k + n])
         k += n
+    assert k == n_aero_local
     P_s = ca.reshape(blocks_l[0], 3, N_EL)
     c_s = ca.reshape(blocks_l[1], 3, N_EL)
     u_s = ca.reshape(blocks_l[2], 3, N_EL)
@@ -230,12 +289,33 @@ def _build(s: Structure) -> tuple[dict, tuple]:
     blocks = {"r_m": r, "v_kin_mps": v_kin, "c_hat": c_hat, "up": up, "tau": tau, "ds_m": ds,
               "G": G, "Wx": Wx, "Wy": Wy, "nodes_m": nodes + ca.repmat(r_w, 1, N_EL + 1)}
     d = ca.vertcat(*[ca.vec(blocks[name]) for name, _ in DATA_BLOCKS])
+    if s.wing_mass:
+        npt = inertia.N_POINTS_PER_WING
+        rho_s = [ca.reshape(L[k + 3 * npt * j:k + 3 * npt * (j + 1)], 3, npt) for j in range(3)]
+        R1d = ca.jtimes(R1, t, ca.SX(1))
+        R1dd = ca.jtimes(R1d, t, ca.SX(1))
+        rb, vb, ab = _wing_points_body(R1, R1d, R1dd, *rho_s, p)
+        sums = inertia.mass_sums(_point_masses(p), rb, vb, ab)
+        d = ca.vertcat(d, *[sums[kk] for kk in inertia.MASS_BLOCK])
+        mpts = ell[n_aero_local:]
+        mr = [ca.reshape(mpts[3 * npt * j:3 * npt * (j + 1)], 3, npt) for j in range(3)]
+        rb, vb, ab = _wing_points_body(R1, R1d, R1dd, *mr, p)
+        mirror = ca.diag(ca.DM([1, -1, 1]))
+        both = [ca.horzcat(ca.horzcat(*z), mirror @ ca.horzcat(*z)) for z in (rb, vb, ab)]
+        mm = ca.vertcat(*_point_masses(p))
+        # both wings' mass points relative to G_b in the body frame (x', y', z'), 3 x 40 each
+        # (right wing then left), their velocities and accelerations relative to the body, masses
+        fns["mass_points"] = ca.Function(
+            "wing_mass_points", [t, p], both + [ca.vertcat(mm, mm)], ["t", "p"],
+            ["r_m", "v_mps", "a_mps2", "m_kg"])
+    else:
+        fns["mass_points"] = None
     fns["post"] = ca.Function("wing_assemble", [L, t, p], [d], ["local", "t", "p"], ["d"])
     fns["data"] = ca.Function("data", [t, p], [fns["post"](ell, t, p)], ["t", "p"], ["d"])
 
     # State part.
     x = ca.SX.sym("x", 4)
-    dsym = ca.SX.sym("d", N_DATA)
+    dsym = ca.SX.sym("d", N_DATA + (N_MASS if s.wing_mass else 0))
     b = unpack_data(dsym)
     F, M, Gamma, alpha, vp = aero.element_loads(
         x, b["r_m"], b["v_kin_mps"], b["c_hat"], b["up"], b["tau"], b["ds_m"],
@@ -255,11 +335,25 @@ def _build(s: Structure) -> tuple[dict, tuple]:
                       q * u + grav * ca.cos(theta) + Fz / m,
                       My / I,
                       q)
+    if s.wing_mass:
+        # body.mass_kg is the whole bird M, body.pitch_inertia_kgm2 the body alone about G_b
+        # (spec inertia.md 4.3: the massless right-hand side with m = M, I = I_b, plus a
+        # correction that is exactly zero when the wings have no mass)
+        sums = unpack_mass(dsym)
+        nudot = inertia.accelerations(x, xdot[:3], sums, m, I, grav)
+        xdot = ca.vertcat(nudot, q)
+        powers = inertia.wing_powers(x, nudot, sums, grav)
+        # (x, d, p) -> the powers WING_POWER_NAMES [W] (and T_rel [J]) at one instant
+        fns["wing_power_d"] = ca.Function("wing_power_d", [x, dsym, p],
+                                        [ca.vertcat(*[powers[kk] for kk in WING_POWER_NAMES])],
+                                        ["x", "d", "p"], ["powers"])
+    else:
+        fns["wing_power_d"] = None
     fns["rhs"] = ca.Function("rhs", [x, dsym, p], [xdot], ["x", "d", "p"], ["xdot"])
     fns["loads_d"] = ca.Function("loads_d", [x, dsym, p], [ca.vertcat(Fx, Fz, My)],
-                                 ["x", "d", "p"], ["loads"])
+                               ["x", "d", "p"], ["loads"])
     fns["detail_d"] = ca.Function("detail_d", [x, dsym, p], [Gamma, alpha, vp, F],
-                                  ["x", "d", "p"], ["gamma", "alpha_rad", "vp_mps", "F_code"])
+                                ["x", "d", "p"], ["gamma", "alpha_rad", "vp_mps", "F_code"])
     return fns, pre_params
 
 
@@ -276,7 +370,8 @@ class BirdModel:
       ``data = post(pre(t, p), t, p)``; ``pre`` depends on the parameters ``pre_params`` only;
     * ``rhs(x, d, p) -> xdot`` and ``loads_d(x, d, p) -> [Fx_N, Fz_N, My_Nm]``;
     * ``f(x, t, p) -> xdot``, ``loads(x, t, p)`` and ``aero_detail(x, t, p)`` (circulations, angles of
-      attack) composed in MX.
+      attack) composed in MX;
+    * with wing masses, ``mass_points(t, p)`` and ``wing_power_d(x, d, p)`` (else None).
 
     ``ode`` (the :class:`~birdocp.engine.problem.PeriodicODE` the engine solves) has the data as the
     MX composition of ``pre`` and ``post`` (the same numbers as ``data``).
@@ -310,7 +405,7 @@ class BirdModel:
         if self._entry is None:
             self._fns, self.pre_params = _build(structure)
             self.graph_source = "built"
-            if use_cache and graphcache.store("bird-model", key, self._fns,
+            if use_cache and graphcache.store("bird-model", key, {k: f for k, f in self._fns.items() if f is not None},
                                               {"pre_params": list(self.pre_params)}) is not None:
                 self.graph_source = "built+stored"
         else:
@@ -323,23 +418,27 @@ class BirdModel:
                                pre=self.pre, post=self.post, pre_params=self.pre_params)
         self.graph_s = time.perf_counter() - t0
 
-    def _function(self, name: str) -> ca.Function:
-        f = self._fns.get(name)
-        if f is None:
-            from birdocp.engine import graphcache
-            try:
-                f = self._entry.function(name)
-            except graphcache.CacheMiss:  # broken after the manifest check: rebuild (and re-store)
-                built, _ = _build(self.structure)
-                graphcache.store("bird-model", graph_key(self.structure), built,
-                                 {"pre_params": list(self.pre_params)})
-                self._fns.update((k, v) for k, v in built.items() if k not in self._fns)
-                f = self._fns[name]
-            self._fns[name] = f
+    def _function(self, name: str) -> ca.Function | None:
+        if name in self._fns:
+            return self._fns[name]
+        if name in OPTIONAL_FUNCTIONS and self._entry is not None and name not in self._entry.names:
+            self._fns[name] = None  # this structure has none
+            return None
+        from birdocp.engine import graphcache
+        try:
+            f = self._entry.function(name)
+        except graphcache.CacheMiss:  # broken after the manifest check: rebuild (and re-store)
+            built, _ = _build(self.structure)
+            graphcache.store("bird-model", graph_key(self.structure),
+                             {k: v for k, v in built.items() if v is not None},
+                             {"pre_params": list(self.pre_params)})
+            self._fns.update((k, v) for k, v in built.items() if k not in self._fns)
+            f = self._fns[name]
+        self._fns[name] = f
         return f
 
     def __getattr__(self, name):
-        if name in GRAPH_FUNCTIONS:
+        if name in GRAPH_FUNCTIONS or name in OPTIONAL_FUNCTIONS:
             return self._function(name)
         if name in ("f", "loads", "aero_detail"):
             xm, tm, pm = ca.MX.sym("x", 4), ca.MX.sym("t"), ca.MX.sym("p", len(PARAM_NAMES))
@@ -354,6 +453,21 @@ class BirdModel:
             self.__dict__[name] = f
             return f
         raise AttributeError(name)
+
+    def wing_power_history(self, t, X, p) -> dict:
+        """The wing powers :data:`WING_POWER_NAMES` along a trajectory (numbers).
+
+        t: times [s] (K); X: states (K x 4); p: parameter vector. Returns a dict of arrays (K), all
+        zeros for a model without wing masses (massless wings do no inertial work)."""
+        t = np.asarray(t, float).ravel()
+        X = np.asarray(X, float).reshape(len(t), 4)
+        if self.wing_power_d is None:
+            return {k: np.zeros(len(t)) for k in WING_POWER_NAMES}
+        pd = ca.DM(np.asarray(p, float))
+        K = len(t)
+        D = self.data.map(K)(ca.DM(t).T, ca.repmat(pd, 1, K))
+        P = np.asarray(self.wing_power_d.map(K)(ca.DM(X.T), D, ca.repmat(pd, 1, K)))
+        return {k: P[i].copy() for i, k in enumerate(WING_POWER_NAMES)}
 
     def evaluate(self, state, t, p) -> dict:
         """Body-frame loads and the state derivative at one (state, t) for parameters p."""
@@ -395,4 +509,5 @@ def get_model(cfg: Config) -> ConfiguredModel:
 
 
 __all__ = ["BirdModel", "get_model", "param_vector", "STATE_NAMES", "DATA_BLOCKS", "N_DATA",
-           "unpack_data", "GEOMETRY_OUTPUTS", "Structure", "GRAPH_FUNCTIONS", "graph_key"]
+           "unpack_data", "GEOMETRY_OUTPUTS", "Structure", "N_MASS", "unpack_mass", "WING_POWER_NAMES",
+           "GRAPH_FUNCTIONS", "OPTIONAL_FUNCTIONS", "graph_key"]

@@ -56,6 +56,8 @@ def common_options() -> argparse.ArgumentParser:
     o = p.add_argument_group("output")
     o.add_argument("--json", action="store_true", help="print one JSON object on stdout instead of a table")
     o.add_argument("--debug", action="store_true", help="show Python tracebacks on errors")
+    o.add_argument("--quiet", action="store_true",
+                   help="no progress bar on stderr (there is none anyway when stderr is not a terminal)")
     return p
 
 
@@ -67,7 +69,7 @@ def one_line(text: Any) -> str:
 
 
 def config_message(exc: ConfigError) -> str:
-    """The message of a ConfigError without its ``key: `` prefix."""
+    """The message of a ConfigError without its ``"key: "`` prefix."""
     text = str(exc)
     prefix = f"{exc.key}: "
     return text[len(prefix):] if exc.key and text.startswith(prefix) else text
@@ -217,6 +219,8 @@ def growth_text(exponent: Any, doubling: Any) -> str:
 
 
 def format_trim_table(r: dict) -> str:
+    from birdocp.bird.validity import validity_text
+
     lines = []
     ok = bool(r.get("success"))
     lines.append(f"trim: {'converged' if ok else 'NOT converged'} (status: {r.get('status')})")
@@ -243,10 +247,17 @@ def format_trim_table(r: dict) -> str:
     verdict = "stable" if stable is True else "unstable" if stable is False else "unknown"
     rows = [
         ("verdict", verdict),
+        ("model validity", validity_text(r.get("validity"))),
         ("mean forward speed", f"{fmt_num(r.get('mean_forward_speed_mps'), '.4f')} m/s"),
         ("mean vertical speed", f"{fmt_num(r.get('mean_vertical_speed_mps'), '.4f')} m/s"),
         ("flight path angle", f"{fmt_num(r.get('flight_path_angle_deg'), '.4f')} deg"),
     ]
+    if (r.get("wing_mass_kg") or 0) > 0:
+        rows.append(("wing mass (each)", f"{fmt_num(r.get('wing_mass_kg'), '.4g')} kg"))
+        rows.append(("inertial power", f"dT_rel/dt mean {fmt_num(r.get('mean_inertial_power_W'), '+.3g')} W, "
+                                       f"positive part {fmt_num(r.get('mean_positive_inertial_power_W'), '.4g')} W, "
+                                       f"peak {fmt_num(r.get('peak_inertial_power_W'), '.4g')} W"))
+        rows.append(("shoulder inertial power", f"mean {fmt_num(r.get('mean_shoulder_inertial_power_W'), '+.4g')} W"))
     x0 = r.get("x0")
     if isinstance(x0, (list, tuple)) and len(x0) == 4:
         u, w, q, th = x0
@@ -269,6 +280,23 @@ def format_trim_table(r: dict) -> str:
     width = max(len(k) for k, _ in rows)
     lines += [f"{k:<{width}}  {v}" for k, v in rows]
     return "\n".join(lines)
+
+
+def validity_word(valid) -> str:
+    """The model-validity column of a table: ``valid``, ``INVALID`` or ``-`` (not checked)."""
+    return "valid" if valid is True else "INVALID" if valid is False else "-"
+
+
+def validity_notes(rows: list[dict], label: str = "value") -> list[str]:
+    """Lines naming each invalid point of a table and why (rows with ``validity`` or ``invalid_reasons``)."""
+    out = []
+    for r in rows:
+        if r.get("valid") is False:
+            reasons = (r.get("validity") or {}).get("reasons") or [r.get("invalid_reasons") or "?"]
+            out.append(f"  {label} {fmt_num(r.get(label), 'g')}: NOT VALID: {'; '.join(reasons)}")
+    if out:
+        out.insert(0, "model validity (birdocp.bird.validity; thresholds in [validity]):")
+    return out
 
 
 def print_json(obj: Any) -> None:

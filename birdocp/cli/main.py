@@ -47,12 +47,15 @@ from birdocp.cli.common import (
     print_json,
     resolve_config,
     stdout_to_stderr,
+    validity_notes,
+    validity_word,
 )
 
 __all__ = ["main", "build_parser", "resolve_config", "EXIT_OK", "EXIT_NOT_CONVERGED", "EXIT_BAD_INPUT"]
 
 COMMAND_MODULES = (
     "birdocp.cli.study",
+    "birdocp.cli.animate",
 )
 """Modules that add subcommands: each defines ``register(sub, common)`` (``sub`` the subparsers
 action, ``common`` the parent parser with the configuration and output options) and sets
@@ -122,7 +125,8 @@ def cmd_config(args: argparse.Namespace, command_line: list[str]) -> int:
     if args.json:
         print_json(C.to_dict(cfg))
     else:
-        sys.stdout.write("# birdocp configuration (resolved)\n" + C.dumps(cfg))
+        sys.stdout.write("# birdocp configuration (resolved)\n"
+                         f"# body alone (without the wings): {C.body_alone_mass_kg(cfg):.6g} kg\n" + C.dumps(cfg))
     return EXIT_OK
 
 
@@ -282,7 +286,6 @@ def _add_level_parsers(sub, common) -> None:
     p.add_argument("--out", metavar="DIR", help="run folder (new or empty; with --resume an earlier sweep's folder); "
                                                 "default runs/<time>-sweep-<id>/")
     p.add_argument("--resume", action="store_true", help="continue the sweep in --out DIR (same arguments)")
-    p.add_argument("--quiet", action="store_true", help="no progress line on stderr")
     _level_options(p, True)
     _solve_shortcuts(p)
     x = p.add_argument_group("grid and executors")
@@ -317,7 +320,6 @@ def _add_level_parsers(sub, common) -> None:
     p.add_argument("--bounds", type=float, nargs=2, metavar=("LO", "HI"),
                    help="amplitude bounds with --level (default 20 70 deg); leaving them ends the branch")
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-continue-<id>/")
-    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     _solve_shortcuts(p)
     p.set_defaults(func=cmd_continue)
 
@@ -423,7 +425,7 @@ def _sweep_out_dir(args: argparse.Namespace) -> Path:
 def format_sweep_table(rows: list[dict], key: str, level: bool) -> str:
     head = f"{'value':>10}  {'ok':>3}  {'it':>3}  {'|lambda1|':>9}  {'|lambda2,3|':>11}  {'|lambda4|':>9}  " \
            f"{'U [m/s]':>8}  {'W [m/s]':>8}  {'beta [deg]':>10}" + (f"  {'A [deg]':>9}" if level else "") + \
-           f"  {'wall [s]':>8}"
+           f"  {'wall [s]':>8}  model"
     lines = [f"sweep of {key}" + (" (level flight)" if level else ""), head]
     for r in rows:
         line = (f"{fmt_num(r['value'], 'g'):>10}  {'yes' if r['success'] else 'NO':>3}  {fmt_num(r['iterations'], 'd'):>3}  "
@@ -432,8 +434,8 @@ def format_sweep_table(rows: list[dict], key: str, level: bool) -> str:
                 f"{fmt_num(r['flight_path_angle_deg'], '+.4f'):>10}")
         if level:
             line += f"  {fmt_num(r['amplitude_deg'], '.4f'):>9}"
-        lines.append(line + f"  {fmt_num(r['wall_s'], '.2f'):>8}")
-    return "\n".join(lines)
+        lines.append(line + f"  {fmt_num(r['wall_s'], '.2f'):>8}  {validity_word(r.get('valid'))}")
+    return "\n".join(lines + validity_notes(rows))
 
 
 def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
@@ -535,11 +537,11 @@ def _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start) -> int:
         print_json(result)
     else:
         print(f"grid {row_key} x {key}" + (" (level flight)" if args.level else ""))
-        print(f"{'row value':>10}  {'value':>10}  {'ok':>3}  {'|lambda1|':>9}  {'U [m/s]':>8}  {'W [m/s]':>8}")
+        print(f"{'row value':>10}  {'value':>10}  {'ok':>3}  {'|lambda1|':>9}  {'U [m/s]':>8}  {'W [m/s]':>8}  model")
         for r in rows:
             print(f"{fmt_num(r['row_value'], 'g'):>10}  {fmt_num(r['value'], 'g'):>10}  {'yes' if r['success'] else 'NO':>3}  "
                   f"{fmt_num(r['modulus0'], '.6f'):>9}  {fmt_num(r['mean_forward_speed_mps'], '.4f'):>8}  "
-                  f"{fmt_num(r['mean_vertical_speed_mps'], '+.4f'):>8}")
+                  f"{fmt_num(r['mean_vertical_speed_mps'], '+.4f'):>8}  {validity_word(r.get('valid'))}")
         print(f"run folder  {run_dir}  (grid.csv, grid.json, timing.json)")
     return EXIT_OK if ok else EXIT_NOT_CONVERGED
 
@@ -572,8 +574,10 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
     from birdocp.studies.branch import bird_branch
     from birdocp.io.files import atomic_write_json
 
-    say = (lambda text: None) if args.quiet else (lambda text: print(f"continue: {text}", file=sys.stderr, flush=True))
-    with stdout_to_stderr():
+    from birdocp.io.progress import progress_callback
+
+    say, bar = progress_callback(f"continue {args.param}", args.quiet)
+    with stdout_to_stderr(), bar:
         br = bird_branch(cfg, args.param, a, b, level=args.level, climb_rate_mps=args.climb_rate, bounds=args.bounds,
                          step=args.step, max_points=args.max_points, progress=say)
     d = br.to_dict()
@@ -586,6 +590,7 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
                "level": bool(args.level), "end_reason": br.end_reason, "end_message": br.end_message,
                "n_points": len(br.points), "special_points": d["special_points"],
                "stable_anywhere": any(p.stable for p in br.points), "figures": [f.name for f in figs],
+               "valid_points": sum(bool(p.validity and p.validity["valid"]) for p in br.points),
                "wall_s": {"total": time.perf_counter() - t_start}, "run_dir": str(run_dir)}
     write_run(run_dir, cfg, summary, None, command_line, command="continue")
     if args.json:
@@ -594,14 +599,20 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
         sm = display == "stability_margin"
         print(f"continuation in {display}" + (" (level flight held)" if args.level else ""))
         print(f"{'SM [%]' if sm else 'value':>12}  {'|lambda1|':>9}  {'|lambda2|':>9}  {'|lambda4|':>9}  stable"
-              + ("  A [deg]" if args.level else ""))
+              + ("  A [deg]" if args.level else "") + "  model")
         for p in br.points:
             v = -100 * p.parameter / cfg.body.reference_chord_m if sm else p.parameter
             line = (f"{v:12.6g}  {p.moduli[0]:9.6f}  {p.moduli[1]:9.6f}  {p.moduli[-1]:9.6f}  "
                     f"{'yes' if p.stable else 'no':>6}")
             if args.level:
                 line += f"  {list(p.free_values.values())[0]:7.3f}"
-            print(line)
+            print(line + f"  {validity_word((p.validity or {}).get('valid'))}")
+        invalid = [p for p in br.points if p.validity and not p.validity["valid"]]
+        if invalid:
+            first = invalid[0]
+            v = -100 * first.parameter / cfg.body.reference_chord_m if sm else first.parameter
+            print(f"model validity: {len(invalid)} of {len(br.points)} points NOT valid; the first at {v:.6g}: "
+                  + "; ".join(first.validity["reasons"]))
         for sp in br.special_points:
             v = -100 * sp.parameter / cfg.body.reference_chord_m if sm else sp.parameter
             print(f"special point: {sp.kind} at {v:.8g} ({sp.message})")
@@ -680,6 +691,11 @@ def _plot_rows(rows, xkey, path, title, xlabel):
             ax[0].plot(x, y, "o-" if k == 0 else ".--", ms=4, label=f"|L{k + 1}|{lab}" if k in (0, 1) else None)
         w = np.array([np.nan if r.get("mean_vertical_speed_mps") is None else r["mean_vertical_speed_mps"] for r in rs])
         ax[1].plot(x, w, "o-", ms=4, label=f"mean W{lab}")
+        bad = np.array([r.get("valid") is False for r in rs])
+        if bad.any():  # the model does not hold on these cycles (birdocp.bird.validity)
+            m0 = np.array([np.nan if r.get("modulus0") is None else r["modulus0"] for r in rs], float)
+            ax[0].plot(x[bad], m0[bad], "x", color="0.4", ms=9, mew=2, label="model not valid")
+            ax[1].plot(x[bad], w[bad], "x", color="0.4", ms=9, mew=2, label="model not valid")
     ax[0].axhline(1, color="k", lw=0.8)
     ax[0].set_ylabel("|multiplier|")
     ax[0].set_title(title)

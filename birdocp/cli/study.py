@@ -7,6 +7,7 @@ import sys
 import time
 
 from birdocp.bird.config import PARAM_NAMES, ConfigError, suggest
+from birdocp.bird.validity import validity_text
 from birdocp.cli import common as cli
 
 
@@ -77,7 +78,7 @@ def cmd_sensitivity(args: argparse.Namespace, command_line: list[str]) -> int:
         return cli.EXIT_NOT_CONVERGED
     with cli.stdout_to_stderr():
         s = multiplier_sensitivities(base, params, hold_level=args.level)
-    result = {"success": True, "amplitude_deg": base.amplitude_deg, **s.to_dict(),
+    result = {"success": True, "amplitude_deg": base.amplitude_deg, **s.to_dict(), "validity": base.validity.to_dict(),
               "wall_s": {"total": time.perf_counter() - t0}, "run_dir": str(run_dir)}
     write_run(run_dir, base.cfg, result, None, command_line, command="sensitivity")
     if args.json:
@@ -97,6 +98,7 @@ def cmd_sensitivity(args: argparse.Namespace, command_line: list[str]) -> int:
         if args.level:
             line += f" {row['d_amplitude_deg_per_unit']:+10.3e}"
         print(line)
+    print(f"  model validity of the cycle: {validity_text(result['validity'])}")
     print(f"  ({len(s.parameters)} parameters, {result['wall_s']['total']:.1f} s; written to {run_dir})")
     return cli.EXIT_OK
 
@@ -131,8 +133,11 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
         if k not in free:
             raise ConfigError("--bounds", f"'{k}' is not free; add --free {k}")
     run_dir = claim_out_dir(args.out, "optimize-stability") if args.out else new_run_dir(None, "optimize-stability")
-    with cli.stdout_to_stderr():
-        res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, progress=not args.json)
+    from birdocp.io.progress import progress_callback
+
+    say, bar = progress_callback("optimize-stability", args.quiet)
+    with cli.stdout_to_stderr(), bar:
+        res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, progress=say)
     result = res.to_dict()
     result["run_dir"] = str(run_dir)
     write_run(run_dir, res.cfg or cfg, result, None, command_line, command="optimize-stability")
@@ -150,8 +155,9 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
         print("  multipliers: " + ", ".join(f"{z.real:.5f}{z.imag:+.5f}j" for z in res.multipliers))
         v = res.verification
         if v:
-            print(f"  check: trim from scratch at the optimum {'converged' if v['trim_from_scratch_success'] else 'FAILED'}, "
-                  f"multipliers differ by {v['max_multiplier_difference']}, mean W {v['trim_mean_vertical_speed_mps']}")
+            print(f"  check: trim at the optimum {'converged' if v.get('trim_success') else 'FAILED'}, "
+                  f"multipliers differ by {v.get('max_multiplier_difference')}, mean W {v.get('trim_mean_vertical_speed_mps')}")
+        print(f"  model validity of the optimal cycle: {validity_text(result.get('validity'))}")
         print(f"  written to {run_dir}")
     if not res.success:
         print(f"{cli.PROG}: optimisation did not converge (status {res.status}); result written to {run_dir}",

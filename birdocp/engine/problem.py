@@ -31,15 +31,21 @@ def _check_function(f, name: str, n_in: int) -> None:
 class PeriodicODE:
     """``x' = rhs(x, d, p)`` with ``d = data(t, p)``, periodic in ``t`` with period ``period_s``.
 
-    rhs:  Function (x[nx], d[nd], p[np]) -> xdot[nx]. Build it in SX: it is called at every RK4 stage.
-    data: Function (t[1], p[np]) -> d[nd] (column). It may be large; the engine evaluates it on the
-          RK4 stage-time grid only (numerically when no parameter is free).
-    period_s: the period T of the forcing in seconds (the orbit is sought with this period).
-    pre, post, pre_params (optional): a factorisation ``data(t, p) = post(pre(t, p), t, p)`` where
-          ``pre`` depends only on the parameters ``pre_params``. When no free parameter of a problem
-          is in ``pre_params``, the engine evaluates ``pre`` numerically once per solve and keeps only
-          ``post`` symbolic (e.g. the bird: the wing shape in the arm's frame is numeric, the
-          shoulder rotation, merge and lifting-line matrices are symbolic in the amplitude).
+    Attributes
+    ----------
+    rhs
+        Function (x[nx], d[nd], p[np]) -> xdot[nx]. Build it in SX: it is called at every RK4 stage.
+    data
+        Function (t[1], p[np]) -> d[nd] (column). It may be large; the engine evaluates it on the
+        RK4 stage-time grid only (numerically when no parameter is free).
+    period_s
+        the period T of the forcing in seconds (the orbit is sought with this period).
+    pre, post, pre_params
+        a factorisation ``data(t, p) = post(pre(t, p), t, p)`` where
+        ``pre`` depends only on the parameters ``pre_params``. When no free parameter of a problem
+        is in ``pre_params``, the engine evaluates ``pre`` numerically once per solve and keeps only
+        ``post`` symbolic (e.g. the bird: the wing shape in the arm's frame is numeric, the
+        shoulder rotation, merge and lifting-line matrices are symbolic in the amplitude).
 
     Equality is identity (``eq=False``): the engine caches CasADi graphs per ODE object.
     """
@@ -123,13 +129,21 @@ class MeanCondition:
 class LimitCycleProblem:
     """Find x0 (and the free parameters) such that the flow over one period returns to x0.
 
-    p:       full parameter vector (initial values for the free ones).
-    x_guess: initial guess of the state at ``t0``.
-    free:    free parameters, by index or name -> (lower, upper) bounds.
-    means:   period-mean conditions, typically one per free parameter.
-    outputs: extra scalar outputs ``(x, d, p) -> scalar`` whose period means are reported in
-             ``result.means`` (no condition imposed).
-    t0:      phase of the initial time; shooting points are at ``t0 + k T/(M-1)``.
+    Attributes
+    ----------
+    p
+        full parameter vector (initial values for the free ones).
+    x_guess
+        initial guess of the state at ``t0``.
+    free
+        free parameters, by index or name -> (lower, upper) bounds.
+    means
+        period-mean conditions, typically one per free parameter.
+    outputs
+        extra scalar outputs ``(x, d, p) -> scalar`` whose period means are reported in
+        ``result.means`` (no condition imposed).
+    t0
+        phase of the initial time; shooting points are at ``t0 + k T/(M-1)``.
     """
 
     ode: PeriodicODE

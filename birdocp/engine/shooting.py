@@ -53,22 +53,34 @@ _IPOPT_DEFAULTS = {
 class MultipleShooting:
     """How to solve a LimitCycleProblem.
 
-    points:           M, shooting points INCLUDING the closing one (M-1 segments), M >= 2.
-    steps_per_period: N, RK4 steps over the period; a multiple of points-1.
-    solver:           "ipopt" | "lm" (the paper's Levenberg-Marquardt).
-    derivatives:      "exact" (CasADi AD) | "fd" (forward differences of the segment flow, relative
-                      step 1e-3*x_j, absolute step 1e-3*fd_floor when |x_j| < fd_floor; lm only).
-    tol:              None -> 1e-10 for ipopt (``constr_viol_tol`` and ``tol``),
-                      1e-5 for lm (max |E|, as in the paper). Both are absolute max-norms.
-    max_iter:         iteration limit.
-    ipopt_options:    merged over the defaults (full steps ``accept_every_trial_step``, limited-
-                      memory Hessian, MUMPS, silent).
-    fd_floor:         see ``derivatives``.
-    regularization:   ipopt objective weight w in w/2 |z - z_guess|^2 (z = shooting points and free
-                      parameters). Default 0: pure feasibility (measured: no weight in 1e-8..1e-2
-                      helped IPOPT converge; the square system fixes the solution anyway).
-    ipopt_fallback:   if the first IPOPT attempt (full steps) fails, retry once from the same guess
-                      with IPOPT's filter line search; iterations and histories are concatenated.
+    Attributes
+    ----------
+    points
+        M, shooting points INCLUDING the closing one (M-1 segments), M >= 2.
+    steps_per_period
+        N, RK4 steps over the period; a multiple of points-1.
+    solver
+        "ipopt" | "lm" (the paper's Levenberg-Marquardt).
+    derivatives
+        "exact" (CasADi AD) | "fd" (forward differences of the segment flow, relative
+        step 1e-3*x_j, absolute step 1e-3*fd_floor when |x_j| < fd_floor; lm only).
+    tol
+        None -> 1e-10 for ipopt (``constr_viol_tol`` and ``tol``),
+        1e-5 for lm (max |E|, as in the paper). Both are absolute max-norms.
+    max_iter
+        iteration limit.
+    ipopt_options
+        merged over the defaults (full steps ``accept_every_trial_step``, limited-
+        memory Hessian, MUMPS, silent).
+    fd_floor
+        see ``derivatives``.
+    regularization
+        ipopt objective weight w in w/2 |z - z_guess|^2 (z = shooting points and free
+        parameters). Default 0: pure feasibility (measured: no weight in 1e-8..1e-2
+        helped IPOPT converge; the square system fixes the solution anyway).
+    ipopt_fallback
+        if the first IPOPT attempt (full steps) fails, retry once from the same guess
+        with IPOPT's filter line search; iterations and histories are concatenated.
     """
 
     points: int = 5
@@ -133,16 +145,25 @@ def _jsonable(v):
 class LimitCycleResult:
     """Outcome of :func:`solve`. Failures are results (``success=False``), not exceptions.
 
-    status: IPOPT ``return_status`` (e.g. "Solve_Succeeded") for ipopt; "converged", "max_iter",
-            "nan", "singular" for lm; "nan" also when an ipopt iterate is non-finite.
-    residual_history: max |continuity + periodicity (+ mean) residual| per iteration (ipopt: inf_pr
-            as reported by IPOPT, unscaled; lm: max|E| before each step and after the last).
-    max_residual: max abs of all equations (continuity, periodicity, mean conditions) at the result.
-    means: period mean of each mean-condition output and each extra output (by name).
-    monodromy_vs_full_period_jacobian: max abs difference between the product of segment Jacobians
-            and the Jacobian of the one-period map from x0 (accuracy indicator).
-    doubling_times_s: ln 2 / Re(exponent), signed (negative = minus the halving time); see floquet.
-    JSON: ``to_dict()`` gives lists/dicts/floats; complex arrays as {"real": [...], "imag": [...]};
+    Attributes
+    ----------
+    status
+        IPOPT ``return_status`` (e.g. "Solve_Succeeded") for ipopt; "converged", "max_iter",
+        "nan", "singular" for lm; "nan" also when an ipopt iterate is non-finite.
+    residual_history
+        max |continuity + periodicity (+ mean) residual| per iteration (ipopt: inf_pr
+        as reported by IPOPT, unscaled; lm: max|E| before each step and after the last).
+    max_residual
+        max abs of all equations (continuity, periodicity, mean conditions) at the result.
+    means
+        period mean of each mean-condition output and each extra output (by name).
+    monodromy_vs_full_period_jacobian
+        max abs difference between the product of segment Jacobians
+        and the Jacobian of the one-period map from x0 (accuracy indicator).
+    doubling_times_s
+        ln 2 / Re(exponent), signed (negative = minus the halving time); see floquet.
+
+    ``to_dict()`` gives lists/dicts/floats for JSON; complex arrays as {"real": [...], "imag": [...]};
     non-finite floats stay floats (json.dumps writes Infinity/NaN).
     """
 
@@ -694,8 +715,13 @@ def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShootin
         means_v = np.full(grid.nq, np.nan)
         g = np.full(b.ng, np.nan)
     max_res = float(np.max(np.abs(g))) if np.all(np.isfinite(g)) else float("nan")
-    if method.solver == "ipopt" and success and not (max_res <= 10 * method.resolved_tol):
-        message += f" (max residual {max_res:.2e})"
+    if method.solver == "ipopt":
+        # converged means the residual is below the tolerance, whatever IPOPT's status says (its
+        # Feasible_Point_Found / Solved_To_Acceptable_Level count as "success" at any residual)
+        converged = bool(max_res <= 10 * method.resolved_tol)
+        if success != converged:
+            message += f" (max residual {max_res:.2e}: {'' if converged else 'not '}converged)"
+        success = converged
     X = z[: nx * (S + 1)].reshape(S + 1, nx)
     traj_x = np.vstack([X[0][None, :], Xt.T])
     names = problem.mean_names()

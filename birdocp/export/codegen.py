@@ -196,6 +196,12 @@ def _header(info: ExportInfo, cfg: Config) -> str:
     for name, (r, c) in DATA_BLOCKS:
         blocks.append(f" *   d[{k}..{k + r * c - 1}]  {name} ({r}x{c}, column-major)")
         k += r * c
+    if info.n_data > k:  # wings with mass: their sums (birdocp.bird.inertia.MASS_BLOCK)
+        from birdocp.bird.inertia import MASS_BLOCK
+
+        blocks += [f" *   d[{k + i}]  {name} (wing masses, body frame)" for i, name in enumerate(MASS_BLOCK)]
+        blocks.append(" * With wing masses the RHS adds their inertial forces and moments (birdocp spec"
+                      " inertia.md 4): m is then the whole bird's mass and I the body's own pitch inertia.")
     return HEADER_TEMPLATE.format(
         version=__version__, casadi=ca.__version__, N=info.steps_per_period, T=repr(info.period_s),
         h=repr(info.step_s), nd=info.n_data, ncol=2 * info.steps_per_period + 1,

@@ -8,7 +8,7 @@ import numpy as np
 from birdocp.engine.continuation import Branch
 from birdocp.plots.figures import save_figure
 
-__all__ = ["plot_branches"]
+__all__ = ["plot_branches", "valid_mask", "runs", "branch_ends", "end_label", "STOPPED"]
 
 def _x_of(branch: Branch, pts=None):
     """(x values, axis label) of branch points: SM in percent for the root position, else the parameter."""
@@ -19,10 +19,54 @@ def _x_of(branch: Branch, pts=None):
     return vals, branch.parameter_name
 
 
-def plot_branches(branches: dict, out_dir, prefix: str = "") -> list:
+def valid_mask(branch: Branch) -> np.ndarray:
+    """Per point: True where the model holds (``validity.valid``), also where it was not checked."""
+    return np.array([(p.validity or {}).get("valid", True) is not False for p in branch.points], bool)
+
+
+def runs(mask: np.ndarray) -> list:
+    """Index ranges (start, stop) of the runs of equal values of ``mask``, each extended by one point so
+    that consecutive runs join in a line plot: [(start, stop, value), ...]."""
+    out, start = [], 0
+    for i in range(1, len(mask) + 1):
+        if i == len(mask) or mask[i] != mask[start]:
+            out.append((start, min(i + 1, len(mask)), bool(mask[start])))
+            start = i
+    return out
+
+
+STOPPED = ("reached_to", "reached_from", "max_points")
+"""End reasons that are where the continuation was stopped, not where the branch ends."""
+
+
+def branch_ends(branch: Branch) -> list:
+    """The ends to mark: ``settings['ends']`` (list of {index, reason, message}) or the last point."""
+    ends = branch.settings.get("ends")
+    if ends:
+        return [dict(e, index=int(e["index"]) % len(branch.points)) for e in ends]
+    return [{"index": len(branch.points) - 1, "reason": branch.end_reason, "message": branch.end_message}]
+
+
+def end_label(reason: str) -> str:
+    """Legend text of a branch end by its ``end_reason``: stopped at the requested range, or a real end."""
+    if reason in STOPPED:
+        return "continuation stopped here (end of the requested range)" if reason != "max_points" else \
+            "continuation stopped here (point budget)"
+    return {"free_parameter_bound": "branch end: the free parameter reaches its bound",
+            "corrector_failed": "branch end: the corrector fails", "rejected": "branch end: cycles rejected"}.get(
+        reason, f"branch end: {reason}")
+
+
+def plot_branches(branches: dict, out_dir, prefix: str = "", span=None) -> list:
     """Figures of one or more branches (label -> Branch): ``locus.png`` (multipliers in the complex plane,
     coloured by the parameter, unit circle), ``moduli.png`` (moduli against the parameter, special
-    points and the branch ends marked; with a free parameter a second panel shows it)."""
+    points and the branch ends marked; with a free parameter a second panel shows it).
+
+    Points where the model does not hold (``validity.valid`` false) are drawn grey (hollow in the
+    locus, dashed grey lines in the moduli); branch ends are marked by why the branch ends (``x``: the
+    continuation was stopped at the end of the requested range; filled square: the branch itself ends,
+    e.g. its free parameter reaches a bound). ``span``: (lo, hi, label) of a parameter range to shade
+    (e.g. the paper's range)."""
     import matplotlib.pyplot as plt
 
     out_dir = Path(out_dir)
@@ -40,9 +84,13 @@ def plot_branches(branches: dict, out_dir, prefix: str = "") -> list:
         th = np.linspace(0, 2 * np.pi, 400)
         ax.plot(np.cos(th), np.sin(th), "k-", lw=0.8, label="unit circle")
         L = b.multipliers()
+        ok = valid_mask(b)
         sc = None
         for k in range(L.shape[1]):
-            sc = ax.scatter(L[:, k].real, L[:, k].imag, c=x, cmap="viridis", s=18, zorder=3)
+            sc = ax.scatter(L[ok, k].real, L[ok, k].imag, c=x[ok], cmap="viridis", s=18, zorder=3,
+                            vmin=x.min(), vmax=x.max())
+            ax.scatter(L[~ok, k].real, L[~ok, k].imag, s=18, facecolors="none", edgecolors="0.55", lw=0.8, zorder=3,
+                       label="model not valid" if k == 0 and (~ok).any() else None)
             ax.plot(L[:, k].real, L[:, k].imag, "-", color="0.6", lw=0.6, zorder=2)
         for sp in b.special_points:
             m, c = marks.get(sp.kind, ("o", "k"))
@@ -67,35 +115,55 @@ def plot_branches(branches: dict, out_dir, prefix: str = "") -> list:
     plt.close(fig)
     # moduli (+ free parameter)
     has_free = any(branches[lab].free_names for lab in labels)
-    fig, axes = plt.subplots(2 if has_free else 1, 1, figsize=(8, 7.5 if has_free else 4.8), sharex=True,
+    fig, axes = plt.subplots(2 if has_free else 1, 1, figsize=(12, 7.5 if has_free else 4.8), sharex=True,
                              squeeze=False)
     ax = axes[0, 0]
     styles = ["-", "--", ":", "-."]
+    if span is not None:
+        ax.axvspan(min(span[0], span[1]), max(span[0], span[1]), color="tab:green", alpha=0.08, label=span[2])
+        if has_free:
+            axes[1, 0].axvspan(min(span[0], span[1]), max(span[0], span[1]), color="tab:green", alpha=0.08)
     for i, lab in enumerate(labels):
         b = branches[lab]
         x, xl = _x_of(b)
         M = np.array([p.moduli for p in b.points])
-        ax.plot(x, M[:, 0], styles[i % 4], color="tab:red", marker=".", label=f"{lab}: |Λ1| (expanding)")
-        for k in range(1, M.shape[1]):
-            ax.plot(x, M[:, k], styles[i % 4], color="tab:blue", lw=0.8, label=f"{lab}: |Λ2..4|" if k == 1 else None)
-        ax.plot(x[-1:], M[-1:, 0], "kx", ms=10, mew=2, label="branch end" if i == 0 else None)
+        ok = valid_mask(b)
+        F = np.array([[p.free_values[n] for n in b.free_names] for p in b.points]) if b.free_names else None
+        for a, z, valid in runs(ok):
+            col1, col = ("tab:red", "tab:blue") if valid else ("0.55", "0.7")
+            tag = "" if valid else ", model not valid"
+            ax.plot(x[a:z], M[a:z, 0], styles[i % 4], color=col1, marker="." if valid else None,
+                    lw=1.5 if valid else 1.2, label=f"{lab}: |Λ1| (expanding){tag}")
+            for k in range(1, M.shape[1]):
+                ax.plot(x[a:z], M[a:z, k], styles[i % 4], color=col, lw=0.8,
+                        label=f"{lab}: |Λ2..4|{tag}" if k == 1 else None)
+            if has_free and F is not None:
+                axes[1, 0].plot(x[a:z], F[a:z, 0], styles[i % 4], color=f"C{i}" if valid else "0.55",
+                                marker="." if valid else None, label=f"{lab}: {b.free_names[0]}{tag}")
+        for e in branch_ends(b):
+            j = e["index"]
+            stopped = e["reason"] in STOPPED
+            ax.plot(x[j], M[j, 0], "x" if stopped else "s", color="k", ms=10 if stopped else 8, mew=2,
+                    label=end_label(e["reason"]), zorder=5)
+            if has_free and F is not None:
+                axes[1, 0].plot(x[j], F[j, 0], "x" if stopped else "s", color="k", ms=10 if stopped else 8, mew=2,
+                                zorder=5)
         for sp in b.special_points:
             m, c = marks.get(sp.kind, ("o", "k"))
             xs, _ = _x_of(b, [sp])
             ax.plot(xs, [max(sp.moduli)], m, color=c, ms=9, mfc="none", mew=2, label=sp.kind)
-        if has_free and b.free_names:
-            F = np.array([[p.free_values[n] for n in b.free_names] for p in b.points])
-            axes[1, 0].plot(x, F[:, 0], styles[i % 4], marker=".", label=f"{lab}: {b.free_names[0]}")
     ax.axhline(1.0, color="k", lw=0.8)
     ax.set_ylabel("|Λ|")
     ax.set_title("Floquet multipliers' moduli along the branch (|Λ| > 1: unstable)")
     h, l_ = ax.get_legend_handles_labels()
     uniq = dict(zip(l_, h))
-    ax.legend(uniq.values(), uniq.keys(), fontsize=8, loc="best")
+    ax.legend(uniq.values(), uniq.keys(), fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.grid(alpha=0.3)
     if has_free:
         axes[1, 0].set_ylabel("solved free parameter")
-        axes[1, 0].legend(fontsize=8)
+        h, l_ = axes[1, 0].get_legend_handles_labels()
+        uniq = dict(zip(l_, h))
+        axes[1, 0].legend(uniq.values(), uniq.keys(), fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
         axes[1, 0].grid(alpha=0.3)
     axes[-1, 0].set_xlabel(xl)
     fig.tight_layout()

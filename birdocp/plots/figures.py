@@ -230,11 +230,18 @@ def plot_phase_portrait(trim_result, path, title: str = "Limit cycle: phase port
     return save_figure(fig, path)
 
 
-def plot_forces(trim_result, model, path, title: str = "Aerodynamic loads along the trimmed cycle") -> Path:
-    """Fx'/(m g), Fz'/(m g) and My'/(m g c̄) over the period, from ``model.loads`` mapped over the
-    trajectory (body frame: x' forward, z' down, My' nose-up positive)."""
+def plot_forces(trim_result, model, path, title: str = "Aerodynamic loads along the trimmed cycle",
+                frame: str = "body") -> Path:
+    """Loads over the period, from ``model.loads`` mapped over the trajectory, in units of the weight.
+
+    ``frame="body"``: Fx'/(m g) (forward along the body axis), Fz'/(m g) (down, normal to it) and
+    My'/(m g c̄) (nose-up); ``frame="inertial"`` (the fixed frame of the paper's figures): the
+    horizontal force (forward) and the vertical force (up) over m g, ``F_X = Fx' cos(theta) + Fz' sin(theta)``,
+    ``F_up = Fx' sin(theta) - Fz' cos(theta)``, and the same pitching moment."""
     from birdocp.bird.config import PARAM_NAMES  # local: keep this module importable without the model stack
 
+    if frame not in ("body", "inertial"):
+        raise ValueError(f"frame must be 'body' or 'inertial', got {frame!r}")
     t, x = _trajectory(trim_result)
     try:
         p = np.asarray(_get(trim_result, "p"), float).ravel()
@@ -247,8 +254,16 @@ def plot_forces(trim_result, model, path, title: str = "Aerodynamic loads along 
     L = np.asarray(model.loads.map(n)(x.T, t[None, :], p))
     T = _period(t)
     W = mass * grav
-    series = [(L[0] / W, r"$F_{x'}/(m g)$ (forward)"), (L[1] / W, r"$F_{z'}/(m g)$ (down)"),
-              (L[2] / (W * cbar), r"$M_{y'}/(m g \bar c)$ (nose-up)")]
+    moment = (L[2] / (W * cbar), r"$M_{y'}/(m g \bar c)$ (nose-up)")
+    if frame == "body":
+        series = [(L[0] / W, r"$F_{x'}/(m g)$ (forward)"), (L[1] / W, r"$F_{z'}/(m g)$ (down)"), moment]
+        frame_text = "body frame: x' forward along the body axis, z' down"
+    else:
+        th = x[:, 3]
+        FX = L[0] * np.cos(th) + L[1] * np.sin(th)
+        Fup = L[0] * np.sin(th) - L[1] * np.cos(th)
+        series = [(FX / W, r"$F_X/(m g)$ (horizontal, forward)"), (Fup / W, r"$F_{up}/(m g)$ (vertical, up)"), moment]
+        frame_text = "fixed (inertial) frame: X horizontal forward, vertical up"
     fig, axs = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
     for k, (ax, (v, lab)) in enumerate(zip(axs, series)):
         ax.plot(t / T, v, color=f"C{k}", lw=1.6)
@@ -259,7 +274,6 @@ def plot_forces(trim_result, model, path, title: str = "Aerodynamic loads along 
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8, loc="best")
     axs[-1].set_xlabel(f"t / T   (T = {T:.3g} s)")
-    fig.suptitle(f"{title}\n(m g = {W:.3g} N, mean chord c̄ = {cbar:.3g} m; body frame x' forward, z' down)",
-                 fontsize=11)
+    fig.suptitle(f"{title}\n({frame_text}; m g = {W:.3g} N, mean chord c̄ = {cbar:.3g} m)", fontsize=11)
     fig.tight_layout()
     return save_figure(fig, path)

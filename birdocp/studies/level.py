@@ -74,15 +74,16 @@ def default_bounds(cfg: Config, key: str) -> tuple[float, float]:
     raise ConfigError("bounds", f"no default range for '{key}'; give bounds=(lo, hi)")
 
 
-def _condition(constrain: str, target: float):
-    """(MeanCondition, extra outputs) for a constraint name."""
+def _condition(constrain: str, target: float, nd: int | None = None):
+    """(MeanCondition, extra outputs) for a constraint name; ``nd``: the model's data size."""
     from birdocp.bird.flight import flight_outputs, path_angle_output
+    from birdocp.bird.model import N_DATA
     from birdocp.engine.problem import MeanCondition
 
     c = resolve_constraint(constrain)
-    outputs = flight_outputs()
+    outputs = flight_outputs(nd or N_DATA)
     if c == "flight_path_angle_deg":
-        return MeanCondition(path_angle_output(target), 0.0, "path_angle_residual"), dict(outputs)
+        return MeanCondition(path_angle_output(target, nd or N_DATA), 0.0, "path_angle_residual"), dict(outputs)
     other = {k: v for k, v in outputs.items() if k != c}
     return MeanCondition(outputs[c], float(target), c), other
 
@@ -92,15 +93,24 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
           **method_over) -> "TrimResult":
     """Level (or climbing) periodic flight: ``free`` solved so that the mean of ``constrain`` is met.
 
-    cfg:            configuration (default: the paper's reference case); the free parameter starts
-                    from its configured value (or from ``warm_start``'s value, if given).
-    free:           a :data:`PARAM_NAMES` key or alias (``amplitude``, ``root_ahead_m``).
-    bounds:         (lo, hi) of the free parameter; default per :func:`default_bounds`.
-    climb_rate_mps: target mean vertical speed (``constrain="vertical_speed_mps"``).
-    target:         target of the condition for the other constraints (forward speed in m/s, flight
-                    path angle in deg); for the vertical speed it overrides ``climb_rate_mps``.
-    warm_start:     a previous :class:`TrimResult` / LimitCycleResult (shooting points and free value).
-    method_over:    overrides of :class:`~birdocp.engine.shooting.MultipleShooting` (default ``cfg.solve``).
+    Parameters
+    ----------
+    cfg
+        configuration (default: the paper's reference case); the free parameter starts
+        from its configured value (or from ``warm_start``'s value, if given).
+    free
+        a :data:`PARAM_NAMES` key or alias (``amplitude``, ``root_ahead_m``).
+    bounds
+        (lo, hi) of the free parameter; default per :func:`default_bounds`.
+    climb_rate_mps
+        target mean vertical speed (``constrain="vertical_speed_mps"``).
+    target
+        target of the condition for the other constraints (forward speed in m/s, flight
+        path angle in deg); for the vertical speed it overrides ``climb_rate_mps``.
+    warm_start
+        a previous :class:`TrimResult` / LimitCycleResult (shooting points and free value).
+    method_over
+        overrides of :class:`~birdocp.engine.shooting.MultipleShooting` (default ``cfg.solve``).
 
     Returns a :class:`TrimResult`; ``free_values`` holds the solved parameter, ``amplitude_deg`` the
     (solved or fixed) amplitude.
@@ -134,8 +144,8 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
     from birdocp.engine.shooting import solve as _solve
     from birdocp.studies.trim import TrimResult, method_of
 
-    cond, outputs = _condition(c, target)
     m = get_model(cfg)
+    cond, outputs = _condition(c, target, m.ode.nd)
     guess = np.asarray(cfg.solve.initial_guess if x_guess is None else x_guess, float)
     problem = LimitCycleProblem(ode=m.ode, p=m.p0, x_guess=guess, free={key: (lo, hi)}, means=[cond],
                                 outputs=outputs)
@@ -165,7 +175,7 @@ def mean_sensitivity(result, key: str = AMPLITUDE_KEY, output: str = "vertical_s
     key = resolve_key(key, "key")
     cyc = result.cycle
     ode = get_model(result.cfg).ode
-    grid = RK4Grid(ode, int(cyc.method["steps_per_period"]), 1, outputs=(flight_outputs()[output],))
+    grid = RK4Grid(ode, int(cyc.method["steps_per_period"]), 1, outputs=(flight_outputs(ode.nd)[output],))
     i = PARAM_NAMES.index(key)
     x = ca.MX.sym("x", ode.nx)
     a = ca.MX.sym("a")

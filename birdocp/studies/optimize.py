@@ -29,6 +29,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, with_values
+from birdocp.bird.validity import invalid, periodic_validity
 from birdocp.engine.oracle import ConstraintOracle
 
 __all__ = ["DEFAULT_FREE", "optimize_stability", "StabilityOptimum", "jury_conditions"]
@@ -88,6 +89,8 @@ class StabilityOptimum:
     verification: dict = field(default_factory=dict)
     wall_s: dict = field(default_factory=dict)
     cfg: Config | None = None
+    validity: dict | None = None
+    """Where the model holds on the optimal cycle (:func:`birdocp.bird.validity.periodic_validity`)."""
 
     @property
     def stable(self) -> bool:
@@ -102,6 +105,7 @@ class StabilityOptimum:
                 "multipliers": pair(self.multipliers), "moduli": np.abs(self.multipliers).tolist(),
                 "start_multipliers": pair(self.start_multipliers), "x0": self.x0.tolist(),
                 "stable": self.stable, "verification": self.verification, "wall_s": self.wall_s,
+                "validity": self.validity or invalid(self.cfg, "not checked (no optimal cycle)").to_dict(),
                 "active_bounds": [k for k, v in self.free.items()
                                   if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6]}
 
@@ -199,24 +203,30 @@ class _Evaluator:
         J[5:, :ndir] = jj[:, :16] @ dM
         J[5:, -1] = jj[:, 16]
         if self.progress:
-            import sys
-            print(f"optimize-stability: Jacobian {self.n_jac}: r = {r:.6f}, largest |multiplier| = "
-                  f"{np.max(np.abs(np.linalg.eigvals(M))):.6f}, periodicity {np.max(np.abs(xT - z[:4])):.1e}",
-                  file=sys.stderr, flush=True)
+            text = (f"Jacobian {self.n_jac}: r = {r:.6f}, largest |multiplier| = "
+                    f"{np.max(np.abs(np.linalg.eigvals(M))):.6f}, periodicity {np.max(np.abs(xT - z[:4])):.1e}")
+            if callable(self.progress):
+                self.progress(text)
+            else:
+                import sys
+                print(f"optimize-stability: {text}", file=sys.stderr, flush=True)
         return J
 
 
 def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, climb_rate_mps: float = 0.0,
                        amplitude_bounds=(20.0, 70.0), steps_per_period: int | None = None,
                        max_iter: int = 400, tol: float = 1e-7, verify: bool = True,
-                       progress: bool = False, coarse_steps: int | None = 48) -> StabilityOptimum:
+                       progress=False, coarse_steps: int | None = 48) -> StabilityOptimum:
     """Minimise the largest multiplier modulus of a level-flight cycle over the gait parameters
     ``free`` (key -> (lower, upper); default :data:`DEFAULT_FREE`).
 
     With ``coarse_steps`` (default 48 RK4 steps per period) the optimum is first found on that coarse
     grid (IPOPT's quasi-Newton iterations are ~3x cheaper there) and then refined on the full grid
     (``steps_per_period``, default ``cfg.solve.steps_per_period``) from the coarse optimum; the
-    multipliers of the two grids differ by ~1e-4."""
+    multipliers of the two grids differ by ~1e-4.
+
+    ``progress``: False (silent), True (one line per Jacobian on stderr) or a callable taking that
+    line's text (e.g. from :func:`birdocp.io.progress.progress_callback`)."""
     N_full = int(steps_per_period or (cfg or Config()).solve.steps_per_period)
     if coarse_steps and coarse_steps < N_full:
         coarse = optimize_stability(cfg, free, climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
@@ -332,6 +342,10 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
             "evaluations": {"constraints": ev.n_g, "jacobians": ev.n_jac},
         }
         wall["verify"] = time.perf_counter() - t0
+    if np.all(np.isfinite(zs)):
+        vals = dict(best)
+        vals[AMPLITUDE_KEY] = float(ps[-1])
+        out.validity = periodic_validity(with_values(cfg, vals), xs, pbest, steps_per_period=N).to_dict()
     wall["total"] = time.perf_counter() - t_start
     out.wall_s = wall
     return out

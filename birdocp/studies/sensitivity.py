@@ -114,7 +114,7 @@ class SecondOrderMaps:
         from birdocp.bird.flight import flight_outputs
 
         self.model = model.model
-        W = flight_outputs()["vertical_speed_mps"]
+        W = flight_outputs(model.ode.nd)["vertical_speed_mps"]
         self.grid = grid = RK4Grid(model.ode, steps, 1, outputs=(W,))
         nx, nd, np_ = 4, model.ode.nd, model.ode.np
         x0 = ca.MX.sym("x0", nx)

@@ -26,7 +26,6 @@ import csv
 import io
 import json
 import math
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,7 +34,9 @@ from typing import Sequence
 import numpy as np
 
 from birdocp.bird.config import Config, ConfigError, to_dict, with_values
+from birdocp.bird.validity import VALIDITY_COLUMNS, validity_columns
 from birdocp.io.files import atomic_write_json, atomic_write_text, to_jsonable
+from birdocp.io.progress import progress_bar
 from birdocp.studies.level import AMPLITUDE_KEY, resolve_key
 
 __all__ = ["sweep", "sweep_values", "read_points", "CSV_COLUMNS", "row_of", "grid_sweep", "GRID_COLUMNS"]
@@ -47,6 +48,7 @@ CSV_COLUMNS = (
     + [f"modulus{k}" for k in range(N_MULT)]
     + ["mean_forward_speed_mps", "mean_vertical_speed_mps", "mean_speed_norm_mps", "flight_path_angle_deg",
        "amplitude_deg", "free_key", "free_value", "iterations", "max_residual", "wall_s", "warm_from"]
+    + list(VALIDITY_COLUMNS)
 )
 
 
@@ -87,7 +89,9 @@ def _pair_list(v):
 
 
 def row_of(index: int, key: str, value: float, d: dict, free_key: str | None, warm_from) -> dict:
-    """The table row of a solved point (``d``: TrimResult.to_dict())."""
+    """The table row of a solved point (``d``: TrimResult.to_dict()): the :data:`CSV_COLUMNS` (the
+    validity's verdict and key numbers flat, :data:`birdocp.bird.validity.VALIDITY_COLUMNS`) and the
+    object ``validity`` (``valid``, ``reasons`` and the measured numbers)."""
     mults = _pair_list(d.get("multipliers"))
     moduli = _pair_list(d.get("moduli"))
     U, W = d.get("mean_forward_speed_mps"), d.get("mean_vertical_speed_mps")
@@ -110,6 +114,9 @@ def row_of(index: int, key: str, value: float, d: dict, free_key: str | None, wa
     row["max_residual"] = d.get("max_residual")
     row["wall_s"] = (d.get("wall_s") or {}).get("total")
     row["warm_from"] = warm_from
+    v = d.get("validity") or {}
+    row.update(validity_columns(v))
+    row["validity"] = {k: x for k, x in v.items() if k != "thresholds"} or None
     return row
 
 
@@ -145,30 +152,19 @@ def read_points(out_dir: str | Path) -> dict[int, dict]:
 
 
 class _Progress:
+    """The sweep's progress bar (:func:`birdocp.io.progress.progress_bar`): one step per point."""
+
     def __init__(self, total: int, enabled: bool, label: str):
-        self.total, self.enabled, self.label = total, enabled, label
-        self.t0 = time.perf_counter()
-        self.solved = 0
+        self.bar = progress_bar(total, label, quiet=not enabled)
+        self.total, self.done = total, 0
 
     def show(self, done: int, text: str, solved_now: bool = False):
-        if solved_now:
-            self.solved += 1
-        if not self.enabled:
-            return
-        tty = sys.stderr.isatty()
-        if not tty and not (solved_now or done == self.total):
-            return  # in logs: one line per finished point
-        width = 24
-        filled = int(width * done / max(self.total, 1))
-        el = time.perf_counter() - self.t0
-        remaining = self.total - done
-        eta = f", ~{el / self.solved * remaining:.0f} s left" if self.solved and remaining else ""
-        line = f"{self.label} [{'#' * filled}{'.' * (width - filled)}] {done}/{self.total} {text} ({el:.0f} s{eta})"
-        if tty:
-            sys.stderr.write("\r" + line + "\x1b[K" + ("\n" if done == self.total else ""))
-        else:
-            sys.stderr.write(line + "\n")
-        sys.stderr.flush()
+        if done > self.done:
+            self.bar.update(done - self.done)
+            self.done = done
+        self.bar.set_postfix_str(text)
+        if done >= self.total:
+            self.bar.close()
 
 
 def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool = False, warm: bool = True,
@@ -176,12 +172,19 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
           level_options: dict | None = None, **method_over) -> list[dict]:
     """Solve one limit cycle per value of ``key``; returns the table rows (see :data:`CSV_COLUMNS`).
 
-    level:          each point a :func:`birdocp.studies.level.level` solve (``level_options`` passed on:
-                    ``free``, ``bounds``, ``climb_rate_mps``, ``constrain``, ``target``).
-    warm:           warm-start each point from the last successful one (else from the config's guess).
-    out_dir:        run folder to write as the sweep goes (None: nothing written).
-    resume:         reuse the points found in ``out_dir`` (same key, values and configuration).
-    method_over:    overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
+    Parameters
+    ----------
+    level
+        each point a :func:`birdocp.studies.level.level` solve (``level_options`` passed on:
+        ``free``, ``bounds``, ``climb_rate_mps``, ``constrain``, ``target``).
+    warm
+        warm-start each point from the last successful one (else from the config's guess).
+    out_dir
+        run folder to write as the sweep goes (None: nothing written).
+    resume
+        reuse the points found in ``out_dir`` (same key, values and configuration).
+    method_over
+        overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
     """
     cfg = cfg or Config()
     key = resolve_key(key, "key")
@@ -328,6 +331,7 @@ def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: s
         for r in res["rows"]:
             row = {"row": res["row"], "row_key": row_key, "row_value": row_values[res["row"]]}
             row.update({c: r.get(c) for c in CSV_COLUMNS if c != "wall_s"})
+            row["validity"] = r.get("validity")
             table.append(row)
     if out_dir is not None:
         out = Path(out_dir)

@@ -11,13 +11,14 @@ multipliers; the result adds the flight quantities of the paper to the engine's 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config
 from birdocp.bird.flight import flight_outputs, flight_path_angle_deg
 from birdocp.bird.model import get_model
+from birdocp.bird.validity import CycleValidity, cycle_validity
 from birdocp.engine.floquet import complex_pairs
 from birdocp.engine.problem import LimitCycleProblem
 from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
@@ -45,11 +46,64 @@ class TrimResult:
 
     cycle: LimitCycleResult
     cfg: Config
+    _wing_power: dict | None = field(default=None, repr=False)
 
     def __getattr__(self, name):
-        if name in ("cycle", "cfg"):
+        if name in ("cycle", "cfg", "_wing_power"):
             raise AttributeError(name)
         return getattr(self.cycle, name)
+
+    @property
+    def validity(self) -> "CycleValidity":
+        """Where the model holds on this cycle (:func:`birdocp.bird.validity.cycle_validity` on the
+        trajectory; computed on first use, thresholds from ``cfg.validity``)."""
+        v = self.__dict__.get("_validity")
+        if v is None:
+            c = self.cycle
+            v = cycle_validity(self.cfg, c.trajectory_t, c.trajectory_x, c.p)
+            self.__dict__["_validity"] = v
+        return v
+
+    @property
+    def wing_power(self) -> dict:
+        """Powers of the wing masses over the cycle (spec inertia.md 6), computed once.
+
+        Keys: ``t_s`` (the trajectory times, one period), the time histories of
+        :data:`birdocp.bird.model.WING_POWER_NAMES` and their period means ``mean_<name>``, the
+        period means of their positive parts ``mean_positive_<name>`` and ``peak_<name>``
+        (maximum). ``inertial_power_W`` is dT_rel/dt of the wings' kinetic energy relative to the
+        body (its mean is 0: the cost is its positive part when no energy is recovered);
+        ``shoulder_inertial_power_W`` is what the wing joints deliver to the wing masses (add the
+        aerodynamic flapping power for the whole shoulder power:
+        :func:`birdocp.bird.inertia.total_shoulder_power_W`). Zero for massless wings."""
+        if self._wing_power is None:
+            t = np.asarray(self.cycle.trajectory_t, float)
+            X = np.asarray(self.cycle.trajectory_x, float)
+            hist = get_model(self.cfg).model.wing_power_history(t, X, self.cycle.p)
+            out = {"t_s": t}
+            for k, v in hist.items():
+                out[k] = v
+                per = v[:-1] if len(v) > 1 else v  # periodic grid: the last point repeats the first
+                out[f"mean_{k}"] = float(np.mean(per))
+                out[f"mean_positive_{k}"] = float(np.mean(np.maximum(per, 0.0)))
+                out[f"peak_{k}"] = float(np.max(per))
+            self._wing_power = out
+        return self._wing_power
+
+    def wing_power_summary(self) -> dict:
+        """JSON part of :attr:`wing_power`: the wing mass, the period means and peaks (W, J) and the
+        time histories (lists)."""
+        from birdocp.bird.model import WING_POWER_NAMES
+
+        wp = self.wing_power if self.cycle.trajectory_x is not None else None
+        out = {"wing_mass_kg": float(self.cfg.wing.mass_kg)}
+        if wp is None:
+            return out
+        for k in WING_POWER_NAMES:
+            for pre in ("mean_", "mean_positive_", "peak_"):
+                out[pre + k] = _f(wp[pre + k])
+        out["wing_power_history"] = {k: [float(v) for v in wp[k]] for k in ("t_s",) + WING_POWER_NAMES}
+        return out
 
     @property
     def mean_vertical_speed_mps(self) -> float:
@@ -90,6 +144,8 @@ class TrimResult:
             "mean_vertical_speed_mps": _f(self.mean_vertical_speed_mps),
             "mean_forward_speed_mps": _f(self.mean_forward_speed_mps),
             "flight_path_angle_deg": _f(self.flight_path_angle_deg),
+            "validity": self.validity.to_dict(),
+            **self.wing_power_summary(),
             "free_values": dict(c.free_values),
             "means": {k: _f(v) for k, v in c.means.items()},
             "shooting_times_s": np.asarray(c.shooting_times).tolist(),
@@ -130,6 +186,13 @@ class TrimResult:
         lines.append(f"  mean forward speed {self.mean_forward_speed_mps:.4f} m/s, mean vertical speed "
                      f"{self.mean_vertical_speed_mps:+.4f} m/s (positive climbing), flight path angle "
                      f"{self.flight_path_angle_deg:+.4f} deg")
+        lines.append(f"  model validity: {self.validity.summary()}")
+        if self.cfg.wing.mass_kg > 0:
+            wp = self.wing_power
+            lines.append(f"  wings {self.cfg.wing.mass_kg:.4g} kg each: inertial power dT_rel/dt mean "
+                         f"{wp['mean_inertial_power_W']:+.3g} W, positive part {wp['mean_positive_inertial_power_W']:.4g} W, "
+                         f"peak {wp['peak_inertial_power_W']:.4g} W; shoulder inertial power mean "
+                         f"{wp['mean_shoulder_inertial_power_W']:+.4g} W")
         if not c.success:
             lines.append(f"  message: {c.message}")
         return "\n".join(lines)
@@ -152,7 +215,7 @@ def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: Mu
     if compiled:
         from birdocp.export.compiled import compiled_ode
         ode = compiled_ode(m.ode, key_extra=repr(m.structure)) or m.ode
-    problem = LimitCycleProblem(ode=ode, p=m.p0, x_guess=guess, outputs=flight_outputs())
+    problem = LimitCycleProblem(ode=ode, p=m.p0, x_guess=guess, outputs=flight_outputs(m.ode.nd))
     method = method or method_of(cfg, **method_over)
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
     return TrimResult(check_physical(solve(problem, method, warm_start=ws)), cfg)

@@ -170,7 +170,7 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
 
     def make_point(st: ContinuationState, arclen: float, ds_used: float) -> BranchPoint:
         z = s * st.u
-        lam_m, _, _, _, stable = multipliers_info(st.Mon, sysm.ode.period_s)
+        lam_m, _, _, _, stable = multipliers_info(st.Mon, sysm.period_of(z))
         p = sysm.p_of(z)
         X = sysm.X_of(z)
         return BranchPoint(
@@ -180,7 +180,7 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
             means={n: float(v) for n, v in zip(sysm.mean_names, st.means)}, arclength=float(arclen),
             tangent_parameter=float(st.t[li]), iterations=int(st.iterations),
             max_residual=float(np.max(np.abs(st.g))) if st.g.size else 0.0, step=float(ds_used),
-            tests=dict(st.tests), p=p.tolist())
+            tests=dict(st.tests), p=p.tolist(), period=sysm.period_of(z))
 
     def rejection(pt: BranchPoint) -> str | None:
         if nf:

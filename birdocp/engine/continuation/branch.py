@@ -23,7 +23,9 @@ class BranchPoint:
     ``multipliers`` are ``[re, im]`` pairs, largest modulus first; ``arclength`` is the scaled
     arclength from the first point; ``tangent_parameter`` is d(parameter)/ds in scaled units (its
     sign is the direction of travel along the parameter); ``tests`` holds the values of the
-    special-point test functions (fold, branch_point, period_doubling, neimark_sacker)."""
+    special-point test functions (fold, branch_point, period_doubling, neimark_sacker);
+    ``validity`` is filled by the application (for the bird: where the model holds on the cycle,
+    :func:`birdocp.bird.validity.periodic_validity`; ``None`` when not checked)."""
 
     parameter: float
     x0: list
@@ -41,6 +43,8 @@ class BranchPoint:
     tests: dict
     success: bool = True
     p: list = field(default_factory=list)
+    validity: dict | None = None
+    period: float | None = None   # the orbit's period (varies along a branch of autonomous orbits)
 
     def to_dict(self) -> dict:
         d = dict(self.__dict__)

@@ -70,6 +70,10 @@ class Continuation:
         names = self.ode.param_names
         return [names[i] if names else f"p{i}" for i in self.free_idx]
 
+    def period_of(self, z) -> float:
+        """The period of the orbit at ``z`` (the forcing period: fixed for this system)."""
+        return float(self.ode.period_s)
+
     def p_of(self, z) -> np.ndarray:
         """The full parameter vector at unknowns ``z``."""
         p = self.problem.p.copy()

@@ -1,0 +1,280 @@
+"""Where the model holds: the validity check of a cycle.
+
+The bird model is a quasi-steady lifting line with a linear lift slope (no stall) and a straight
+wake along the body axis. A periodic solution of it is a *flight* only where these assumptions
+hold. :func:`cycle_validity` measures, on the states of a cycle at the RK4 grid times of one period:
+
+* the **effective angle of attack** of each of the 16 lifting-line elements: the angle, in the
+  element's section plane, of the relative air velocity plus the lifting line's induced velocity
+  (``aero.section_angle(V + vind)``; the section lift coefficient is the lift slope times it);
+* the **stalled fraction**: the share of the span-time area (element lengths times time) whose
+  effective angle exceeds the stall angle in absolute value, and, for information, the largest
+  stalled share of the span at one instant and the share of the period with any element stalled.
+  The verdict uses the span-time share, so a brief excursion at the wingtip does not make a stalled
+  wing;
+* the **minimum forward speed** u along the body axis;
+* the **pitch** range (min and max of theta) and the largest ``|theta|``;
+* the largest **angle between the airflow and the body axis** ``|atan2(w, u)|`` (the wake's
+  direction in the model).
+
+Thresholds: :class:`birdocp.bird.config.Validity` (section ``[validity]`` of a configuration, with
+their sources). The verdict is ``valid`` (every threshold respected) and ``reasons`` (one sentence
+per violated threshold, empty when valid).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+from birdocp.bird.config import PARAM_NAMES, Config
+from birdocp.engine.cache import bounded_cache, register_cache
+
+if TYPE_CHECKING:
+    import casadi as ca
+
+# casadi, numpy and the model are imported inside the functions that compute: the verdict helpers for
+# tables (validity_text, validity_columns) stay light to import.
+
+__all__ = ["CycleValidity", "cycle_validity", "periodic_validity", "element_angles_function",
+           "effective_angles", "invalid", "validity_text", "VALIDITY_COLUMNS", "validity_columns"]
+
+
+def effective_angles() -> "ca.Function":
+    """``angles(x, d, p) -> (alpha_eff_rad 16x1, alpha_geo_rad 16x1, ds_m 16x1)`` for one time.
+
+    ``alpha_eff``: the angle of the relative velocity plus the induced velocity in each element's
+    section plane; ``alpha_geo``: the same without the induced velocity (the model's ``alpha``);
+    ``ds_m``: the element lengths (span weights). Built once (cached)."""
+    return _effective_angles()
+
+
+@functools.lru_cache(maxsize=1)
+def _effective_angles() -> "ca.Function":
+    import casadi as ca
+
+    from birdocp.bird import aero
+    from birdocp.bird.model import N_DATA, unpack_data
+
+    x = ca.SX.sym("x", 4)
+    d = ca.SX.sym("d", N_DATA)
+    p = ca.SX.sym("p", len(PARAM_NAMES))
+    b = unpack_data(d)
+    V, _, alpha, vind = aero.inflow(x, b["r_m"], b["v_kin_mps"], b["c_hat"], b["up"], b["tau"], b["Wx"], b["Wy"])
+    alpha_eff, _ = aero.section_angle(V + vind, b["c_hat"], b["up"], b["tau"])
+    return ca.Function("effective_angles", [x, d, p], [alpha_eff.T, alpha.T, b["ds_m"]],
+                       ["x", "d", "p"], ["alpha_eff_rad", "alpha_geo_rad", "ds_m"])
+
+
+register_cache("bird.validity_angles", _effective_angles)
+
+
+def element_angles_function(cfg: Config, n_times: int) -> "ca.Function":
+    """``f(X[4 x n], T[1 x n], p) -> (alpha_eff 16 x n, alpha_geo 16 x n, ds 16 x n)`` (rad, m) for
+    the model of ``cfg``; built once per (model structure, n) and reused."""
+    import casadi as ca
+
+    from birdocp.bird.model import Structure, get_model
+
+    key = (Structure.of(cfg), int(n_times))
+    f = _ANGLE_FUNCTIONS.get(key)
+    if f is None:
+        n = key[1]
+        model = get_model(cfg).model
+        X = ca.MX.sym("X", 4, n)
+        T = ca.MX.sym("T", 1, n)
+        p = ca.MX.sym("p", len(PARAM_NAMES))
+        D = model.data.map(n)(T, p)
+        ae, ag, ds = _effective_angles().map(n)(X, D, p)
+        f = ca.Function("element_angles", [X, T, p], [ae, ag, ds], ["X", "T", "p"],
+                        ["alpha_eff_rad", "alpha_geo_rad", "ds_m"])
+        _ANGLE_FUNCTIONS.put(key, f)
+    return f
+
+
+_ANGLE_FUNCTIONS = bounded_cache("bird.validity_angles_on_times", 16)
+
+
+@dataclass
+class CycleValidity:
+    """The validity of one cycle: verdict, reasons and the measured numbers (see the module)."""
+
+    valid: bool
+    reasons: list = field(default_factory=list)
+    measures: dict = field(default_factory=dict)
+    thresholds: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        """``{"valid", "reasons", <measures>..., "thresholds": {...}}`` (JSON-able; None for NaN)."""
+        out = {"valid": bool(self.valid), "reasons": list(self.reasons)}
+        out.update({k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+                    for k, v in self.measures.items()})
+        out["thresholds"] = dict(self.thresholds)
+        return out
+
+    def summary(self) -> str:
+        """One line: the verdict, then the reasons (or the key numbers when valid)."""
+        return validity_text(self.to_dict())
+
+
+def validity_text(v: dict | None) -> str:
+    """One line for a ``validity`` dict (:meth:`CycleValidity.to_dict`): the verdict and the reasons,
+    or the key numbers when valid."""
+    if not v:
+        return "not checked"
+    if not v.get("valid"):
+        return "NOT VALID: " + "; ".join(v.get("reasons") or ["(no reason given)"])
+    try:
+        return ("valid (effective angle of attack {:.1f}..{:.1f} deg, {:.1%} of span-time beyond stall, "
+                "min u {:.2f} m/s, theta {:.1f}..{:.1f} deg, airflow-body angle <= {:.1f} deg)").format(
+            v["alpha_eff_min_deg"], v["alpha_eff_max_deg"], v["stalled_fraction"], v["min_forward_speed_mps"],
+            v["pitch_min_deg"], v["pitch_max_deg"], v["max_airflow_body_angle_deg"])
+    except (KeyError, TypeError, ValueError):
+        return "valid"
+
+
+def _thresholds(cfg: Config) -> dict:
+    v = cfg.validity
+    return {"stall_angle_deg": v.stall_angle_deg, "max_stalled_fraction": v.max_stalled_fraction,
+            "min_forward_speed_mps": v.min_forward_speed_mps, "max_abs_pitch_deg": v.max_abs_pitch_deg,
+            "max_airflow_body_angle_deg": v.max_airflow_body_angle_deg}
+
+
+def invalid(cfg: Config | None, reason: str) -> CycleValidity:
+    """A verdict without measurements (e.g. no finite cycle to measure)."""
+    return CycleValidity(False, [reason], {}, _thresholds(cfg or Config()))
+
+
+def cycle_validity(cfg: Config, t_s, x, p=None) -> CycleValidity:
+    """Validity of a cycle given by its states ``x`` (n x 4: u, w, q, theta) at times ``t_s`` (n).
+
+    The states should cover one period on a uniform grid without repeating the closing point (a
+    closing point equal to the first is dropped). ``p``: the parameter vector (default: ``cfg``'s).
+    """
+    import casadi as ca
+    import numpy as np
+
+    from birdocp.bird.model import get_model
+
+    cfg = cfg or Config()
+    t = np.asarray(t_s, float).ravel()
+    X = np.asarray(x, float).reshape(-1, 4)
+    if len(t) != X.shape[0]:
+        raise ValueError(f"{len(t)} times for {X.shape[0]} states")
+    if X.shape[0] > 2 and np.allclose(X[-1], X[0], rtol=0, atol=1e-6) and math.isclose(
+            t[-1] - t[0], 1.0 / cfg.gait.frequency_hz, rel_tol=1e-9):
+        t, X = t[:-1], X[:-1]
+    if not (np.all(np.isfinite(X)) and np.all(np.isfinite(t))):
+        return invalid(cfg, "the cycle's states are not finite (no cycle to check)")
+    p = get_model(cfg).p0 if p is None else np.asarray(p, float).ravel()
+    f = element_angles_function(cfg, len(t))
+    ae, ag, ds = (np.asarray(v) for v in f(ca.DM(X.T), ca.DM(t[None, :]), ca.DM(p)))
+    return _verdict(cfg, t, X, np.degrees(ae), np.degrees(ag), ds)
+
+
+def _verdict(cfg: Config, t, X, ae_deg, ag_deg, ds) -> CycleValidity:
+    import numpy as np
+
+    th = _thresholds(cfg)
+    stall = th["stall_angle_deg"]
+    stalled = np.abs(ae_deg) > stall                       # 16 x n
+    span = ds.sum(axis=0)                                   # n
+    stalled_span = (stalled * ds).sum(axis=0) / span        # n: stalled share of the span at each time
+    u, w, theta = X[:, 0], X[:, 1], X[:, 3]
+    airflow_deg = np.degrees(np.abs(np.arctan2(w, u)))
+    i_max = np.unravel_index(np.argmax(np.abs(ae_deg)), ae_deg.shape)
+    m = {
+        "alpha_eff_min_deg": float(ae_deg.min()), "alpha_eff_max_deg": float(ae_deg.max()),
+        "alpha_eff_max_abs_element": int(i_max[0]),
+        "alpha_eff_max_abs_time_s": float(t[i_max[1]]),
+        "alpha_geometric_min_deg": float(ag_deg.min()), "alpha_geometric_max_deg": float(ag_deg.max()),
+        "stalled_fraction": float(stalled_span.mean()),
+        "stalled_span_fraction_max": float(stalled_span.max()),
+        "stalled_time_fraction": float(np.mean(stalled.any(axis=0))),
+        "min_forward_speed_mps": float(u.min()),
+        "min_airspeed_mps": float(np.hypot(u, w).min()),
+        "pitch_min_deg": float(np.degrees(theta.min())), "pitch_max_deg": float(np.degrees(theta.max())),
+        "max_abs_pitch_deg": float(np.degrees(np.abs(theta).max())),
+        "max_airflow_body_angle_deg": float(airflow_deg.max()),
+        "n_times": int(X.shape[0]),
+    }
+    reasons = []
+    if m["stalled_fraction"] > th["max_stalled_fraction"]:
+        reasons.append(f"stall: {m['stalled_fraction']:.1%} of the span-time area beyond the stall angle "
+                       f"{stall:g} deg (limit {th['max_stalled_fraction']:.0%}; effective angle of attack "
+                       f"{m['alpha_eff_min_deg']:.1f}..{m['alpha_eff_max_deg']:.1f} deg)")
+    if not m["min_forward_speed_mps"] >= th["min_forward_speed_mps"]:
+        reasons.append(f"forward speed u falls to {m['min_forward_speed_mps']:.2f} m/s "
+                       f"(limit {th['min_forward_speed_mps']:g} m/s; quasi-steady aerodynamics needs forward flight)")
+    if m["max_abs_pitch_deg"] > th["max_abs_pitch_deg"]:
+        reasons.append(f"pitch angle reaches {m['max_abs_pitch_deg']:.1f} deg "
+                       f"(theta {m['pitch_min_deg']:.1f}..{m['pitch_max_deg']:.1f} deg; limit "
+                       f"{th['max_abs_pitch_deg']:g} deg)")
+    if m["max_airflow_body_angle_deg"] > th["max_airflow_body_angle_deg"]:
+        reasons.append(f"airflow at {m['max_airflow_body_angle_deg']:.1f} deg to the body axis (the modelled "
+                       f"wake direction; limit {th['max_airflow_body_angle_deg']:g} deg)")
+    return CycleValidity(not reasons, reasons, m, th)
+
+
+def periodic_validity(cfg: Config, x0, p=None, t0_s: float = 0.0, steps_per_period: int | None = None
+                      ) -> CycleValidity:
+    """Validity of the periodic orbit through ``x0`` at ``t0_s``: one RK4 period from it (the same
+    grid as the solver, ``cfg.solve.steps_per_period`` by default), then :func:`cycle_validity`.
+    For cycles stored without their trajectory (branch points, results on disk)."""
+    import casadi as ca
+    import numpy as np
+
+    from birdocp.bird.model import get_model
+    from birdocp.engine.integrate import RK4Grid
+
+    cfg = cfg or Config()
+    m = get_model(cfg)
+    p = m.p0 if p is None else np.asarray(p, float).ravel()
+    x0 = np.asarray(x0, float).ravel()
+    if not np.all(np.isfinite(x0)):
+        return invalid(cfg, "the cycle's states are not finite (no cycle to check)")
+    n = int(steps_per_period or cfg.solve.steps_per_period)
+    key = (id(m.ode), n)
+    hit = _GRIDS.get(key)
+    if hit is None or hit[0] is not m.ode:
+        hit = (m.ode, RK4Grid(m.ode, n, 1))  # holding the ode keeps its id unique
+        _GRIDS.put(key, hit)
+    grid = hit[1]
+    D = grid.blocks_numeric(float(t0_s), p)
+    pd = ca.DM(p)
+    X = np.asarray(grid.period_map(ca.DM(x0), D, pd)[1]).T   # states after each step
+    X = np.vstack([x0[None, :], X[:-1]])                      # x(t0 + k h), k = 0..n-1
+    t = float(t0_s) + grid.h * np.arange(n)
+    if not np.all(np.isfinite(X)):
+        return invalid(cfg, "the cycle's states are not finite (no cycle to check)")
+    # the data at the step starts t0 + k h are the first columns of the stage blocks (no second
+    # evaluation of the wing on the time grid)
+    hit = _ANGLE_MAPS.get(n)
+    if hit is None:
+        hit = _effective_angles().map(n)
+        _ANGLE_MAPS.put(n, hit)
+    ae, ag, ds = (np.asarray(v) for v in hit(ca.DM(X.T), D[:, 0::3], pd))
+    return _verdict(cfg, t, X, np.degrees(ae), np.degrees(ag), ds)
+
+
+_GRIDS = bounded_cache("bird.validity_grids", 8)
+_ANGLE_MAPS = bounded_cache("bird.validity_angle_maps", 8)
+
+
+VALIDITY_COLUMNS = ("valid", "invalid_reasons", "stalled_fraction", "alpha_eff_max_abs_deg",
+                    "min_forward_speed_mps_in_cycle", "max_abs_pitch_deg", "max_airflow_body_angle_deg")
+"""Columns of a table row (sweeps, branches) taken from a ``validity`` dict by :func:`validity_columns`."""
+
+
+def validity_columns(v: dict | None) -> dict:
+    """The flat table columns :data:`VALIDITY_COLUMNS` of a ``validity`` dict (``to_dict()``)."""
+    v = v or {}
+    amin, amax = v.get("alpha_eff_min_deg"), v.get("alpha_eff_max_deg")
+    return {"valid": v.get("valid"), "invalid_reasons": " | ".join(v.get("reasons") or []) or None,
+            "stalled_fraction": v.get("stalled_fraction"),
+            "alpha_eff_max_abs_deg": max(abs(amin), abs(amax)) if amin is not None and amax is not None else None,
+            "min_forward_speed_mps_in_cycle": v.get("min_forward_speed_mps"),
+            "max_abs_pitch_deg": v.get("max_abs_pitch_deg"),
+            "max_airflow_body_angle_deg": v.get("max_airflow_body_angle_deg")}

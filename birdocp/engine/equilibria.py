@@ -1,0 +1,326 @@
+"""Equilibria of ``x' = f(x, p)``, their continuation in one parameter, Hopf points, and the
+periodic orbit born at a Hopf point.
+
+* :func:`find_equilibrium`: damped Newton on f(x, p) = 0 with the exact Jacobian (CasADi AD).
+* :func:`continue_equilibria`: pseudo-arclength continuation of f(x, p) = 0 in one parameter
+  (tangent predictor, Newton corrector on the bordered system), eigenvalues at every point;
+  detects Hopf points (a complex pair crosses the imaginary axis) and folds (the parameter
+  component of the tangent changes sign), and locates each Hopf point to round-off by a secant
+  iteration on the real part of the critical pair.
+* :func:`orbit_from_hopf`: the periodic orbit of amplitude ``eps`` born at a Hopf point. Its guess
+  is ``x_H + eps Re(v e^{i theta})`` with v the critical eigenvector (omega the critical frequency,
+  period guess 2 pi / omega); the shooting system has the parameter as an extra unknown and two
+  linear rows: the section ``(X_0 - x_H) . Im v = 0`` (orthogonal to the orbit's velocity at
+  theta = 0) and the amplitude ``(X_0 - x_H) . Re v / |Re v| = eps`` (v rotated so Re v _|_ Im v,
+  Re v the major axis: eps is the distance of X_0 from the Hopf equilibrium along that axis).
+  The parameter offset then comes out ~ eps^2 (the square-root law of a generic Hopf point; its sign
+  tells super- from subcritical). :func:`hopf_branch` repeats this for a list of amplitudes, each
+  warm-started from the previous orbit.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import casadi as ca
+import numpy as np
+
+from birdocp.engine.ode import ODE
+from birdocp.engine.orbits import OrbitMethod, OrbitProblem, PeriodicOrbit, solve_orbit_system
+
+__all__ = ["Equilibrium", "EquilibriumBranch", "HopfPoint", "find_equilibrium", "continue_equilibria",
+           "locate_hopf", "orbit_from_hopf", "hopf_branch"]
+
+
+@dataclass
+class Equilibrium:
+    """An equilibrium: x, p, residual max|f|, eigenvalues (largest real part first), stable."""
+
+    success: bool
+    status: str
+    x: np.ndarray
+    p: np.ndarray
+    residual: float
+    iterations: int
+    eigenvalues: np.ndarray
+    eigenvectors: np.ndarray
+    stable: bool
+
+    def to_dict(self) -> dict:
+        return {"success": self.success, "status": self.status, "x": self.x.tolist(), "p": self.p.tolist(),
+                "residual": self.residual, "iterations": self.iterations,
+                "eigenvalues": [[float(v.real), float(v.imag)] for v in self.eigenvalues], "stable": self.stable}
+
+
+@dataclass
+class HopfPoint:
+    """A Hopf point: parameter ``param`` (index) at value ``p[param]``, equilibrium x, critical
+    frequency omega (rad per time unit), eigenvector v (complex, Re v _|_ Im v, |v| = 1)."""
+
+    x: np.ndarray
+    p: np.ndarray
+    param: int
+    omega: float
+    eigenvector: np.ndarray
+    real_part: float  # residual of the location (real part of the critical pair)
+
+    @property
+    def period(self) -> float:
+        return 2 * np.pi / self.omega
+
+    def to_dict(self) -> dict:
+        return {"x": self.x.tolist(), "p": self.p.tolist(), "param": self.param, "omega": self.omega,
+                "period": self.period, "real_part": self.real_part}
+
+
+@dataclass
+class EquilibriumBranch:
+    """Points of a continued equilibrium branch: params (values of the continued parameter), x (K x nx),
+    eigenvalues (K x nx), stable (K), hopf (located HopfPoints), folds (indices of fold brackets)."""
+
+    param: int
+    params: np.ndarray
+    x: np.ndarray
+    eigenvalues: np.ndarray
+    stable: np.ndarray
+    hopf: list = field(default_factory=list)
+    folds: list = field(default_factory=list)
+    status: str = "ok"
+    message: str = ""
+
+
+def _jac(ode: ODE, x, p, t=0.0):
+    fx, fp = ode.jacobian_function()(ca.DM(x), t, ca.DM(p))
+    return np.asarray(fx), np.asarray(fp)
+
+
+def _eig(J):
+    lam, V = np.linalg.eig(J)
+    order = np.lexsort((-lam.imag, -lam.real))
+    return lam[order].astype(complex), V[:, order].astype(complex)
+
+
+def find_equilibrium(ode: ODE, p, x_guess, *, tol: float = 1e-12, max_iter: int = 50, t: float = 0.0) -> Equilibrium:
+    """Damped Newton on f(x, p) = 0 (exact Jacobian); eigenvalues of df/dx at the result."""
+    p = np.asarray(p, float).ravel()
+    x = np.asarray(x_guess, float).ravel().copy()
+    f = ode.evaluate(x, t, p)
+    it, status = 0, "max_iter"
+    while it < max_iter:
+        r = float(np.max(np.abs(f)))
+        if not np.isfinite(r):
+            status = "nan"
+            break
+        if r <= tol:
+            status = "converged"
+            break
+        J, _ = _jac(ode, x, p, t)
+        try:
+            dx = np.linalg.solve(J, -f)
+        except np.linalg.LinAlgError:
+            status = "singular"
+            break
+        a = 1.0
+        while a > 1e-4:
+            fn = ode.evaluate(x + a * dx, t, p)
+            if np.all(np.isfinite(fn)) and np.linalg.norm(fn) < np.linalg.norm(f) * (1 - 1e-4 * a) + 1e-300:
+                break
+            a /= 2
+        x, f = x + a * dx, ode.evaluate(x + a * dx, t, p)
+        it += 1
+    r = float(np.max(np.abs(f)))
+    if status == "max_iter" and r <= tol:
+        status = "converged"
+    J, _ = _jac(ode, x, p, t)
+    lam, V = _eig(J) if np.all(np.isfinite(J)) else (np.full(ode.nx, np.nan + 0j), np.eye(ode.nx, dtype=complex))
+    return Equilibrium(status == "converged", status, x, p, r, it, lam, V, bool(np.all(lam.real < 0)))
+
+
+def _crit_pair(lam, tol_imag=1e-8):
+    """Index of the complex eigenvalue (Im > 0) with the real part closest to 0, or None."""
+    idx = [i for i, v in enumerate(lam) if v.imag > tol_imag]
+    if not idx:
+        return None
+    return min(idx, key=lambda i: abs(lam[i].real))
+
+
+def locate_hopf(ode: ODE, p, param, x_guess, bracket, *, tol: float = 1e-12, max_iter: int = 60) -> HopfPoint | None:
+    """Hopf point in ``bracket = (a, b)`` of parameter ``param``: the real part of the critical complex
+    pair changes sign in the bracket; secant steps safeguarded by bisection (Illinois), the
+    equilibrium re-solved by Newton at each trial value."""
+    j = ode.param_index(param)
+    p = np.asarray(p, float).ravel().copy()
+    xg = np.asarray(x_guess, float).ravel()
+
+    def h(val, xg):
+        pp = p.copy()
+        pp[j] = val
+        e = find_equilibrium(ode, pp, xg)
+        k = _crit_pair(e.eigenvalues)
+        return (e.eigenvalues[k].real if k is not None and e.success else np.nan), e, k
+
+    a, b = map(float, bracket)
+    fa, ea, _ = h(a, xg)
+    fb, eb, _ = h(b, ea.x)
+    if not (np.isfinite(fa) and np.isfinite(fb)) or fa * fb > 0:
+        return None
+    side = 0
+    e, k = ea, None
+    for _ in range(max_iter):
+        c = b - fb * (b - a) / (fb - fa)
+        if not (min(a, b) < c < max(a, b)):
+            c = 0.5 * (a + b)
+        fc, e, k = h(c, ea.x if abs(c - a) < abs(c - b) else eb.x)
+        if not np.isfinite(fc):
+            return None
+        if abs(fc) <= tol or abs(b - a) < 1e-15 * (1 + abs(c)):
+            break
+        if fc * fb < 0:
+            a, fa, ea = b, fb, eb
+            b, fb, eb = c, fc, e
+            side = 0
+        else:
+            b, fb, eb = c, fc, e
+            fa = fa / 2 if side == 1 else fa
+            side = 1
+    lam, V = e.eigenvalues, e.eigenvectors
+    v = V[:, k]
+    # rotate v so that Re v _|_ Im v (then x_H + eps Re(v e^{i theta}) is an ellipse with axes Re v, Im v)
+    vr, vi = v.real, v.imag
+    phi = 0.5 * np.arctan2(-2 * vr @ vi, vr @ vr - vi @ vi)
+    v = v * np.exp(1j * phi)
+    v = v / np.linalg.norm(v)
+    if np.linalg.norm(v.real) < np.linalg.norm(v.imag):
+        v = v * 1j  # Re v the major axis
+    return HopfPoint(e.x.copy(), e.p.copy(), j, float(lam[k].imag), v, float(lam[k].real))
+
+
+def continue_equilibria(ode: ODE, p, param, x_start, stop, *, ds: float = 0.05, max_points: int = 500,
+                        tol: float = 1e-11, locate: bool = True) -> EquilibriumBranch:
+    """Pseudo-arclength continuation of f(x, p) = 0 in ``param`` from ``(x_start, p[param])`` towards
+    ``stop`` (a parameter value), with eigenvalues; Hopf points located to ``tol``."""
+    j = ode.param_index(param)
+    p = np.asarray(p, float).ravel().copy()
+    e0 = find_equilibrium(ode, p, x_start)
+    if not e0.success:
+        return EquilibriumBranch(j, np.zeros(0), np.zeros((0, ode.nx)), np.zeros((0, ode.nx)), np.zeros(0, bool),
+                                 status="no_start", message=f"no equilibrium at the start ({e0.status})")
+    nx = ode.nx
+    direction = np.sign(stop - p[j]) or 1.0
+    u = np.concatenate([e0.x, [p[j]]])
+
+    def F(u):
+        pp = p.copy()
+        pp[j] = u[-1]
+        return ode.evaluate(u[:nx], 0.0, pp)
+
+    def DF(u):
+        pp = p.copy()
+        pp[j] = u[-1]
+        fx, fp = _jac(ode, u[:nx], pp)
+        return np.hstack([fx, fp[:, [j]]])
+
+    def tangent(u, prev=None):
+        A = DF(u)
+        _, _, Vt = np.linalg.svd(A)
+        t = Vt[-1]
+        if prev is None:
+            t = t * np.sign(t[-1] * direction or 1.0)
+        elif t @ prev < 0:
+            t = -t
+        return t / np.linalg.norm(t)
+
+    t = tangent(u)
+    pts, lams, stab = [u.copy()], [e0.eigenvalues], [e0.stable]
+    folds, hopfs = [], []
+    status, msg = "ok", ""
+    h = ds
+    while len(pts) < max_points:
+        if (u[-1] - stop) * direction >= 0:
+            break
+        un = u + h * t
+        ok = False
+        for _ in range(20):
+            r = np.concatenate([F(un), [t @ (un - u) - h]])
+            if not np.all(np.isfinite(r)):
+                break
+            if np.max(np.abs(r)) <= tol:
+                ok = True
+                break
+            Jb = np.vstack([DF(un), t[None, :]])
+            try:
+                un = un - np.linalg.solve(Jb, r)
+            except np.linalg.LinAlgError:
+                break
+        if not ok:
+            h /= 2
+            if h < 1e-8 * ds:
+                status, msg = "corrector_failed", f"corrector failed at param={u[-1]:.6g}"
+                break
+            continue
+        tn = tangent(un, t)
+        pp = p.copy()
+        pp[j] = un[-1]
+        J, _ = _jac(ode, un[:nx], pp)
+        lam, _ = _eig(J)
+        if tn[-1] * t[-1] < 0:
+            folds.append(len(pts))
+        kp, kn = _crit_pair(lams[-1]), _crit_pair(lam)
+        if locate and kp is not None and kn is not None and lams[-1][kp].real * lam[kn].real < 0:
+            hp = locate_hopf(ode, p, j, u[:nx], (u[-1], un[-1]))
+            if hp is not None:
+                hopfs.append(hp)
+        u, t = un, tn
+        pts.append(u.copy())
+        lams.append(lam)
+        stab.append(bool(np.all(lam.real < 0)))
+        h = min(1.5 * h, 4 * ds)
+    P = np.array(pts)
+    return EquilibriumBranch(j, P[:, -1], P[:, :nx], np.array(lams), np.array(stab), hopfs, folds, status, msg)
+
+
+def orbit_from_hopf(ode: ODE, hopf: HopfPoint, amplitude: float, method: OrbitMethod = OrbitMethod(points=5, steps_per_period=100),
+                    warm_start: PeriodicOrbit | None = None) -> PeriodicOrbit:
+    """The periodic orbit of amplitude ``amplitude`` (along Re v) born at ``hopf``; the continued
+    parameter is an unknown (``result.p[hopf.param]``, also in ``result.free_params``). A method
+    without steps_per_period gets 128 (rounded to the segments); the result's error estimate says
+    whether that is enough."""
+    if not ode.autonomous:
+        raise ValueError("orbit_from_hopf: the ODE must be autonomous")
+    method.validate()
+    nx, S = ode.nx, method.points - 1
+    if method.steps_per_period is None:  # a fixed grid here; its error estimate is in the result
+        method = replace(method, steps_per_period=S * int(np.ceil(128 / S)))
+    v = hopf.eigenvector
+    vr, vi = v.real, v.imag
+    xh = hopf.x
+    T = hopf.period
+    if warm_start is not None:
+        pts = warm_start.shooting_points
+        T = warm_start.period
+        p0 = warm_start.p.copy()
+    else:
+        th = 2 * np.pi * np.arange(S + 1) / S
+        # x(t) = x_H + eps Re(v e^{i omega t}) solves the linearisation at the Hopf point
+        pts = np.array([xh + amplitude / np.linalg.norm(vr) * (vr * np.cos(a) - vi * np.sin(a)) for a in th])
+        p0 = hopf.p.copy()
+    prob = OrbitProblem(ode, p0, pts, period_guess=T)
+    # the automatic phase row (the section through x_ref = x_H + eps Re v orthogonal to f(x_ref), i.e.
+    # ~ orthogonal to Im v) plus the amplitude row; the parameter is the extra unknown
+    nz = nx * (S + 1) + 2
+    A = np.zeros((1, nz))
+    nr = np.linalg.norm(vr)
+    A[0, :nx] = vr / nr
+    b = np.array([xh @ vr / nr + amplitude])
+    z0 = np.concatenate([np.asarray(pts).ravel(), [T, p0[hopf.param]]])
+    return solve_orbit_system(prob, method, None, free_idx=(hopf.param,), lin=(A, b), z_start=z0,
+                        x_ref=xh + amplitude * vr / np.linalg.norm(vr))
+
+
+def hopf_branch(ode: ODE, hopf: HopfPoint, amplitudes, method: OrbitMethod = OrbitMethod(points=5, steps_per_period=100)) -> list:
+    """Orbits at increasing amplitudes from a Hopf point, each warm-started from the previous one."""
+    out, prev = [], None
+    for a in amplitudes:
+        r = orbit_from_hopf(ode, hopf, float(a), method, warm_start=prev)
+        out.append(r)
+        prev = r if r.success else prev
+    return out
