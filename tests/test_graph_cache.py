@@ -224,3 +224,22 @@ def test_trim_json_does_not_import_matplotlib(tmp_path):
     mods = {m.split(".")[0] for m in _modules_of(["trim", "--json", "--out", str(tmp_path / "run")])}
     assert "casadi" in mods  # it did solve
     assert "matplotlib" not in mods and "scipy" not in mods
+
+
+@pytest.mark.slow
+def test_optional_wing_mass_functions_through_the_cache(bird_cache):
+    from dataclasses import replace
+
+    from birdocp.bird.config import Config, param_vector
+    from birdocp.bird.model import BirdModel
+
+    _, s, built = bird_cache
+    assert BirdModel(s).mass_points is None  # a structure without wing masses has none, cached or not
+    sm = replace(s, wing_mass=True)
+    first, second = BirdModel(sm), BirdModel(sm)
+    assert (first.graph_source, second.graph_source) == ("built+stored", "cache")
+    p0, t = param_vector(Config()), 0.031
+    a, b = first.mass_points(t, p0), second.mass_points(t, p0)
+    assert all(np.array_equal(np.asarray(u), np.asarray(v)) for u, v in zip(a, b))
+    x, d = np.array([18.0, 0.5, 0.1, 0.01]), first.data(t, p0)
+    assert np.array_equal(np.asarray(first.wing_power_d(x, d, p0)), np.asarray(second.wing_power_d(x, d, p0)))
