@@ -18,7 +18,6 @@ wing root (shoulder) is ``cfg.wing.root_ahead_m`` ahead of G.
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
 
 import matplotlib

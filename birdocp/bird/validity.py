@@ -76,7 +76,7 @@ def element_angles_function(cfg: Config, n_times: int) -> "ca.Function":
     the model of ``cfg``; built once per (model structure, n) and reused."""
     import casadi as ca
 
-    from birdocp.bird.model import Structure, get_model
+    from birdocp.bird.model import N_DATA, Structure, get_model
 
     key = (Structure.of(cfg), int(n_times))
     f = _ANGLE_FUNCTIONS.get(key)
@@ -86,7 +86,9 @@ def element_angles_function(cfg: Config, n_times: int) -> "ca.Function":
         X = ca.MX.sym("X", 4, n)
         T = ca.MX.sym("T", 1, n)
         p = ca.MX.sym("p", len(PARAM_NAMES))
-        D = model.ode.data.map(n)(T, p)  # post(pre(t, p)): no need to read the whole data graph
+        # post(pre(t, p)): no need to read the whole data graph; the aerodynamic blocks only (a model
+        # with wing masses appends its mass sums after them)
+        D = model.ode.data.map(n)(T, p)[:N_DATA, :]
         ae, ag, ds = _effective_angles().map(n)(X, D, p)
         f = ca.Function("element_angles", [X, T, p], [ae, ag, ds], ["X", "T", "p"],
                         ["alpha_eff_rad", "alpha_geo_rad", "ds_m"])
