@@ -22,13 +22,12 @@ the complex plane with zooms) to --out.
 from __future__ import annotations
 
 import argparse
-import itertools
 import time
 from pathlib import Path
 
-import casadi as ca
 import numpy as np
 
+from birdocp.engine.floquet import matched_distances, monodromy_of, sort_multipliers
 from birdocp.bird.config import Config, with_values
 from birdocp.engine.integrate import RK4Grid
 from birdocp.io.files import atomic_write_json, atomic_write_text
@@ -46,36 +45,18 @@ METHODS = {
 }
 
 
-def sort_mults(lam) -> np.ndarray:
-    lam = np.asarray(lam)
-    return lam[np.lexsort((-lam.imag, -np.abs(lam)))]
-
-
 def matched_max(a, b) -> float:
-    a, b = np.asarray(a), np.asarray(b)
-    return float(min(np.max(np.abs(a[list(p)] - b)) for p in itertools.permutations(range(len(a)))))
+    return float(np.max(matched_distances(a, b)))
 
 
 def fd_monodromy(cfg, shooting_points, steps=148, points=5, floor=1e-3) -> np.ndarray:
-    """Monodromy as the product of forward-difference segment Jacobians (steps as in the engine's
-    derivatives="fd": 1e-3 x_j, or 1e-3 * floor when |x_j| < floor)."""
+    """Monodromy as the product of the forward-difference segment Jacobians of the engine's
+    ``derivatives="fd"`` (:meth:`birdocp.engine.integrate.RK4Grid.fd_segment_jacobians`)."""
     m = get_model(cfg)
     grid = RK4Grid(m.ode, steps, points - 1)
-    D = grid.blocks_numeric(0.0, m.p0)
-    pd = ca.DM(m.p0)
     X = np.asarray(shooting_points, float)[: points - 1].T
-    Xe0 = np.asarray(grid.segments(ca.DM(X), D, pd)[0])
-    S, nx = points - 1, X.shape[0]
-    Js = np.zeros((S, nx, nx))
-    for j in range(nx):
-        h = np.where(np.abs(X[j]) >= floor, 1e-3 * X[j], 1e-3 * floor)
-        Xp = X.copy()
-        Xp[j] += h
-        Js[:, :, j] = ((np.asarray(grid.segments(ca.DM(Xp), D, pd)[0]) - Xe0) / h).T
-    M = np.eye(nx)
-    for i in range(S):
-        M = Js[i] @ M
-    return M
+    Js, _ = grid.fd_segment_jacobians(X, grid.blocks_numeric(0.0, m.p0), m.p0, floor)
+    return monodromy_of(list(Js))
 
 
 def pairs(lam):
@@ -141,7 +122,7 @@ def main(argv=None) -> int:
                   f"total {r.wall_s['total']:.2f} s", flush=True)
         cold, warm = runs
         objs[key] = warm
-        lam = sort_mults(warm.multipliers)
+        lam = sort_multipliers(warm.multipliers)
         it = max(int(warm.iterations), 1)
         rows[key] = {
             "label": label, "method": dict(warm.method), "success": bool(warm.success), "status": warm.status,
@@ -156,19 +137,19 @@ def main(argv=None) -> int:
             "moduli": [float(abs(z)) for z in lam],
             "distance_to_reference_rk4_monodromy": matched_max(lam, ref_rk4),
         }
-    base = sort_mults(objs["lm_exact"].multipliers)
+    base = sort_multipliers(objs["lm_exact"].multipliers)
     for key, row in rows.items():
-        row["multiplier_difference_to_lm_exact"] = matched_max(sort_mults(objs[key].multipliers), base)
+        row["multiplier_difference_to_lm_exact"] = matched_max(sort_multipliers(objs[key].multipliers), base)
         row["x0_difference_to_lm_exact"] = float(np.max(np.abs(objs[key].x0 - objs["lm_exact"].x0)))
 
     tf = time.perf_counter()
     Mfd = fd_monodromy(cfg, objs["lm_fd"].shooting_points)
-    lam_fd = sort_mults(np.linalg.eigvals(Mfd))
+    lam_fd = sort_multipliers(np.linalg.eigvals(Mfd))
     fd_mono = {
         "description": "monodromy = product of forward-difference segment Jacobians (relative step 1e-3) "
                        "at the LM-fd shooting points; what a finite-difference implementation reports",
         "multipliers": pairs(lam_fd),
-        "difference_to_exact_monodromy_same_points": matched_max(lam_fd, sort_mults(objs["lm_fd"].multipliers)),
+        "difference_to_exact_monodromy_same_points": matched_max(lam_fd, sort_multipliers(objs["lm_fd"].multipliers)),
         "distance_to_reference_rk4_monodromy": matched_max(lam_fd, ref_rk4),
         "distance_to_reference_implementation_multipliers": matched_max(lam_fd, ref_impl),
         "wall_s": time.perf_counter() - tf,

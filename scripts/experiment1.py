@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.plots import figures as plots
 from birdocp.bird.config import Config, with_values
 from birdocp.io.files import atomic_write_json, atomic_write_text
@@ -43,19 +44,6 @@ VARIANTS = {
     "b": ("(b) relaxed circulation + backward-difference velocity, IPOPT", RELAXED, {}),
     "c": ("(c) as (b), Levenberg-Marquardt", RELAXED, {"solver": "lm"}),
 }
-
-
-def matched_distances(lam, ref) -> list[float]:
-    """|lam_k - ref_k| with lam permuted to minimise the largest distance (ref order kept)."""
-    lam, ref = np.asarray(lam), np.asarray(ref)
-    best = min(itertools.permutations(range(len(lam))),
-               key=lambda perm: (np.max(np.abs(lam[list(perm)] - ref)), np.sum(np.abs(lam[list(perm)] - ref))))
-    return [float(v) for v in np.abs(lam[list(best)] - ref)]
-
-
-def sort_mults(lam) -> np.ndarray:
-    lam = np.asarray(lam)
-    return lam[np.lexsort((-lam.imag, -np.abs(lam)))]
 
 
 def spread(mult_sets) -> float:
@@ -85,9 +73,9 @@ def expanding_eigenvector(r, paper_vec) -> dict:
 
 
 def summary(r, ref_rk4, paper, ref_x, paper_vec=None) -> dict:
-    lam = sort_mults(r.multipliers)
-    d_rk4 = matched_distances(lam, ref_rk4)
-    d_paper = matched_distances(lam, paper)
+    lam = sort_multipliers(r.multipliers)
+    d_rk4 = matched_distances(lam, ref_rk4).tolist()
+    d_paper = matched_distances(lam, paper).tolist()
     xp = np.asarray(r.shooting_points)
     out = {
         "success": bool(r.success), "status": r.status, "iterations": int(r.iterations),
@@ -158,7 +146,7 @@ def main(argv=None) -> int:
         m_inv = {}
         for pts in (2, 3, 5, 9):
             r = trim(base, points=pts, steps_per_period=144)
-            lam = sort_mults(r.multipliers)
+            lam = sort_multipliers(r.multipliers)
             print(f"M-invariance points={pts}: {fmt_mults([[z.real, z.imag] for z in lam])} "
                   f"({r.iterations} it, {r.wall_s['total']:.1f} s, {r.status})", flush=True)
             m_inv[str(pts)] = {"success": bool(r.success), "iterations": int(r.iterations),
@@ -179,7 +167,7 @@ def main(argv=None) -> int:
         conv, lams = {}, []
         for n in steps_list:
             r = trim(base, points=5, steps_per_period=n)
-            lam = sort_mults(r.multipliers)
+            lam = sort_multipliers(r.multipliers)
             lams.append(lam)
             print(f"steps={n}: {fmt_mults([[z.real, z.imag] for z in lam])} "
                   f"({r.iterations} it, {r.wall_s['total']:.1f} s, {r.status})", flush=True)
@@ -197,7 +185,7 @@ def main(argv=None) -> int:
             "observed_order": orders,
             "distance_to_finest_grid": {str(n): max(matched_distances(lams[i], lams[-1]))
                                         for i, n in enumerate(steps_list[:-1])},
-            "paper_grid_148_distance_to_finest_grid": max(matched_distances(sort_mults(objs["a"][0].multipliers),
+            "paper_grid_148_distance_to_finest_grid": max(matched_distances(sort_multipliers(objs["a"][0].multipliers),
                                                                             lams[-1])),
             "note": "order_i = log2(d_i / d_{i+1}), d_i = max matched |Λ(N_i) - Λ(N_{i+1})|; a smooth "
                     "right-hand side gives 4 for RK4. The wing geometry has kinks in time (corner passes "

@@ -18,6 +18,7 @@ needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler (cc/gcc/clang or
 X0 = (18.0, 0.5, 0.1, 0.01)
 
 
+@pytest.mark.slow
 @needs_cc
 def test_export_builds_and_matches_python(tmp_path):
     from birdocp.export.codegen import export_c
@@ -63,6 +64,7 @@ def test_export_builds_and_matches_python(tmp_path):
     assert bad.returncode == 2 and "not a number" in bad.stderr
 
 
+@pytest.mark.slow
 @needs_cc
 def test_compiled_trim_same_multipliers(tmp_path, monkeypatch):
     from birdocp.export import compiled

@@ -1,4 +1,6 @@
 """Pseudo-arclength continuation: exact special points on constructed forced systems, a short bird branch."""
+
+import pytest
 import json
 import math
 
@@ -93,6 +95,7 @@ def test_neimark_sacker_detected():
     assert br.points[0].stable and not br.points[-1].stable
 
 
+@pytest.mark.slow
 def test_bird_branch_agrees_with_independent_trims(tmp_path):
     """A short fixed-amplitude branch in the root position (coarse grid) = trims at three root positions;
     the CLI writes it and 'plot' redraws it."""
@@ -126,6 +129,7 @@ def test_bird_branch_agrees_with_independent_trims(tmp_path):
     assert main(["plot", str(out)]) == 0 and (out / "moduli.png").is_file()
 
 
+@pytest.mark.slow
 def test_branch_leaves_a_start_where_the_parameter_derivative_vanishes():
     """The tail's loads grow like the square of its opening angle, so dG/d(angle) ~ 0 at angle 0: a
     corrector that trusted the start's Jacobian wandered to negative angles and reported a fold at

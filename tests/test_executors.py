@@ -5,7 +5,6 @@ import pytest
 from birdocp.engine.executors import DaskExecutor, ProcessExecutor, SerialExecutor, get_executor
 from birdocp.studies.sweep import grid_sweep
 
-COARSE = dict(points=3, steps_per_period=48)
 GRID = dict(key="amplitude", values=[42.0, 43.0], row_key="root_ahead_m", row_values=[0.05, 0.048])
 
 
@@ -26,9 +25,9 @@ def _files(d):
 
 
 @pytest.fixture(scope="module")
-def serial(tmp_path_factory):
+def serial(tmp_path_factory, coarse):
     d = tmp_path_factory.mktemp("serial")
-    table = grid_sweep(None, **GRID, executor=SerialExecutor(), out_dir=d, **COARSE)
+    table = grid_sweep(None, **GRID, executor=SerialExecutor(), out_dir=d, **coarse)
     return table, d
 
 
@@ -39,22 +38,24 @@ def test_serial_grid(serial):
     assert table[1]["warm_from"] == 0 and table[0]["warm_from"] is None
 
 
-def test_processes_match_serial(serial, tmp_path):
+@pytest.mark.slow
+def test_processes_match_serial(serial, tmp_path, coarse):
     table, d = serial
     with ProcessExecutor(2) as ex:
         assert ex.map(_square, [1, 2, 3]) == [1, 4, 9]
-        t2 = grid_sweep(None, **GRID, executor=ex, out_dir=tmp_path, **COARSE)
+        t2 = grid_sweep(None, **GRID, executor=ex, out_dir=tmp_path, **coarse)
     assert t2 == table
     assert _files(tmp_path) == _files(d)
 
 
-def test_dask_local_cluster_matches_serial(serial, tmp_path):
+@pytest.mark.slow
+def test_dask_local_cluster_matches_serial(serial, tmp_path, coarse):
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cl, \
             distributed.Client(cl) as client:
         ex = DaskExecutor(client=client)
         assert ex.map(_square, [3, 4]) == [9, 16]
-        t3 = grid_sweep(None, **GRID, executor=ex, out_dir=tmp_path, **COARSE)
+        t3 = grid_sweep(None, **GRID, executor=ex, out_dir=tmp_path, **coarse)
         ex.close()
     assert t3 == serial[0]
     assert _files(tmp_path) == _files(serial[1])

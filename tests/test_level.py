@@ -9,21 +9,21 @@ from __future__ import annotations
 import math
 
 import pytest
+from conftest import COARSE_METHOD
 
 from birdocp.bird.config import Config, ConfigError, with_values
 from birdocp.studies.level import AMPLITUDE_KEY, level, mean_sensitivity
 from birdocp.studies.trim import trim
 
-KW = dict(points=3, steps_per_period=48)
 
 
 @pytest.fixture(scope="module")
-def lev():
-    return level(Config(), **KW)
+def lev(coarse):
+    return level(Config(), **coarse)
 
 
 def _trim_at(a, warm=None):
-    return trim(with_values(Config(), {AMPLITUDE_KEY: float(a)}), warm_start=warm, **KW)
+    return trim(with_values(Config(), {AMPLITUDE_KEY: float(a)}), warm_start=warm, **COARSE_METHOD)
 
 
 def test_level_flight_has_zero_mean_vertical_speed(lev):
@@ -67,13 +67,13 @@ def test_mean_vertical_speed_derivative_matches_finite_differences(lev):
     assert 0.02 < s["derivative"] < 0.1  # m/s per deg: climbing with more amplitude
 
 
-def test_climb_rate_and_flight_path_angle_conditions_agree(lev):
+def test_climb_rate_and_flight_path_angle_conditions_agree(lev, coarse):
     """A climb rate, then the same flight asked for by its flight path angle: the same amplitude."""
-    climb = level(Config(), climb_rate_mps=0.05, warm_start=lev, **KW)
+    climb = level(Config(), climb_rate_mps=0.05, warm_start=lev, **coarse)
     assert climb.success and abs(climb.mean_vertical_speed_mps - 0.05) < 1e-8
     assert climb.amplitude_deg > lev.amplitude_deg
     beta = climb.flight_path_angle_deg
-    same = level(Config(), constrain="flight_path_angle_deg", target=beta, warm_start=lev, **KW)
+    same = level(Config(), constrain="flight_path_angle_deg", target=beta, warm_start=lev, **coarse)
     assert same.success
     assert math.isclose(same.flight_path_angle_deg, beta, abs_tol=1e-8)
     assert same.amplitude_deg == pytest.approx(climb.amplitude_deg, abs=1e-6)

@@ -33,6 +33,7 @@ def optimum():
     return optimize_stability(Config(), {KEY: BOUNDS}, steps_per_period=24)
 
 
+@pytest.mark.slow
 def test_optimum_is_verified_independently(optimum):
     r = optimum
     assert r.success, r.message

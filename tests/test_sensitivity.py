@@ -2,20 +2,20 @@
 
 import numpy as np
 import pytest
+from conftest import COARSE_METHOD
 
 from birdocp.bird.config import PARAM_NAMES, Config, with_values
 from birdocp.studies.sensitivity import multiplier_sensitivities
 from birdocp.studies.trim import trim
 
 # A coarse grid keeps the test fast; the derivatives are exact for whichever grid the trim uses.
-FAST = dict(points=3, steps_per_period=48)
 STEPS = {"gait.shoulder_flap.amplitude_deg": 0.01, "wing.root_ahead_m": 1e-4,
          "gait.elbow_flex.amplitude_deg": 0.01}
 
 
 @pytest.fixture(scope="module")
-def base():
-    r = trim(Config(), tol=1e-12, **FAST)
+def base(coarse):
+    r = trim(Config(), tol=1e-12, **coarse)
     assert r.success
     return r
 
@@ -27,14 +27,15 @@ def _fd(base, key, h, level=False):
         cfg = with_values(base.cfg, {key: v + s * h})
         if level:
             from birdocp.studies.level import level as solve_level
-            r = solve_level(cfg, warm_start=base, tol=1e-12, **FAST)
+            r = solve_level(cfg, warm_start=base, tol=1e-12, **COARSE_METHOD)
         else:
-            r = trim(cfg, warm_start=base, tol=1e-12, **FAST)
+            r = trim(cfg, warm_start=base, tol=1e-12, **COARSE_METHOD)
         assert r.success
         out.append(r)
     return out
 
 
+@pytest.mark.slow
 def test_multiplier_and_mean_speed_derivatives_match_finite_differences(base):
     keys = list(STEPS)
     s = multiplier_sensitivities(base, keys)
@@ -56,12 +57,12 @@ def test_multiplier_and_mean_speed_derivatives_match_finite_differences(base):
     assert ranked[0]["unit"] == "cm"
 
 
-def test_level_held_sensitivity_matches_two_level_solves(base):
+def test_level_held_sensitivity_matches_two_level_solves(base, coarse):
     key = "gait.elbow_flex.amplitude_deg"
-    lv = __import__("birdocp.studies.level", fromlist=["level"]).level(base.cfg, tol=1e-12, **FAST)
+    lv = __import__("birdocp.studies.level", fromlist=["level"]).level(base.cfg, tol=1e-12, **coarse)
     assert lv.success
     fixed = trim(with_values(base.cfg, {"gait.shoulder_flap.amplitude_deg": lv.amplitude_deg}), tol=1e-12,
-                 warm_start=lv, **FAST)
+                 warm_start=lv, **coarse)
     s = multiplier_sensitivities(fixed, [key], hold_level=True)
     assert s.parameters == [key]
     rp, rm = _fd(lv, key, 0.01, level=True)

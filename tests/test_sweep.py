@@ -15,7 +15,6 @@ import birdocp.studies.trim
 from birdocp.bird.config import Config, ConfigError
 from birdocp.studies.sweep import read_points, sweep, sweep_values
 
-KW = dict(points=3, steps_per_period=48)
 VALUES = [42.5, 43.0, 43.5, 44.0]
 REPO = Path(__file__).resolve().parents[1]
 
@@ -34,9 +33,9 @@ def test_sweep_values():
             sweep_values(*bad)
 
 
-def test_warm_started_sweep_gives_the_cold_start_cycles(tmp_path):
-    warm = sweep(Config(), "amplitude", VALUES[:3], out_dir=tmp_path / "warm", progress=False, **KW)
-    cold = sweep(Config(), "amplitude", VALUES[:3], warm=False, out_dir=tmp_path / "cold", progress=False, **KW)
+def test_warm_started_sweep_gives_the_cold_start_cycles(tmp_path, coarse):
+    warm = sweep(Config(), "amplitude", VALUES[:3], out_dir=tmp_path / "warm", progress=False, **coarse)
+    cold = sweep(Config(), "amplitude", VALUES[:3], warm=False, out_dir=tmp_path / "cold", progress=False, **coarse)
     assert [r["success"] for r in warm + cold] == [True] * 6
     assert [r["warm_from"] for r in warm] == [None, 0, 1]
     assert [r["warm_from"] for r in cold] == [None, None, None]
@@ -60,10 +59,10 @@ def _table(folder):
     return rows
 
 
-def test_interrupted_sweep_resumes_to_the_same_table(tmp_path, monkeypatch):
+def test_interrupted_sweep_resumes_to_the_same_table(tmp_path, monkeypatch, coarse):
     full = tmp_path / "full"
     part = tmp_path / "part"
-    rows_full = sweep(Config(), "amplitude", VALUES, out_dir=full, progress=False, **KW)
+    rows_full = sweep(Config(), "amplitude", VALUES, out_dir=full, progress=False, **coarse)
 
     real_trim = birdocp.studies.trim.trim
     calls = []
@@ -76,19 +75,19 @@ def test_interrupted_sweep_resumes_to_the_same_table(tmp_path, monkeypatch):
 
     monkeypatch.setattr(birdocp.studies.trim, "trim", trim_then_interrupt)
     with pytest.raises(KeyboardInterrupt):
-        sweep(Config(), "amplitude", VALUES, out_dir=part, progress=False, **KW)
+        sweep(Config(), "amplitude", VALUES, out_dir=part, progress=False, **coarse)
     monkeypatch.setattr(birdocp.studies.trim, "trim", real_trim)
     assert sorted(read_points(part)) == [0, 1]
     assert len(_table(part)) == 2
 
     with pytest.raises(ConfigError, match="already holds a sweep"):
-        sweep(Config(), "amplitude", VALUES, out_dir=part, progress=False, **KW)
+        sweep(Config(), "amplitude", VALUES, out_dir=part, progress=False, **coarse)
     with pytest.raises(ConfigError, match="differs in values"):
-        sweep(Config(), "amplitude", VALUES[:3], out_dir=part, resume=True, progress=False, **KW)
+        sweep(Config(), "amplitude", VALUES[:3], out_dir=part, resume=True, progress=False, **coarse)
 
     solved = []
     monkeypatch.setattr(birdocp.studies.trim, "trim", lambda *a, **k: solved.append(1) or real_trim(*a, **k))
-    rows_resumed = sweep(Config(), "amplitude", VALUES, out_dir=part, resume=True, progress=False, **KW)
+    rows_resumed = sweep(Config(), "amplitude", VALUES, out_dir=part, resume=True, progress=False, **coarse)
     assert len(solved) == 2  # only the missing points
     assert _table(part) == _table(full)
     strip = [{k: v for k, v in r.items() if k != "wall_s"} for r in rows_full]

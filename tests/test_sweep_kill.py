@@ -1,5 +1,7 @@
 """A sweep killed mid-run (SIGKILL, no clean-up) resumes from disk to the table of an uninterrupted run."""
 
+import pytest
+
 import csv
 import json
 import signal
@@ -28,6 +30,7 @@ def _table(folder: Path):
     return rows
 
 
+@pytest.mark.slow
 def test_killed_sweep_resumes_to_the_same_table(tmp_path):
     full, part = tmp_path / "full", tmp_path / "part"
     _run("--out", str(full))

@@ -118,6 +118,7 @@ def _cli_json(*args):
     return json.loads(out.stdout)
 
 
+@pytest.mark.slow
 def test_trim_and_sweep_json_carry_validity(tmp_path):
     tr = _cli_json("trim", "--out", str(tmp_path / "trim"))
     v = tr["validity"]
@@ -136,6 +137,7 @@ def test_trim_and_sweep_json_carry_validity(tmp_path):
     assert {"valid", "invalid_reasons", "stalled_fraction"} <= set(csv_head)
 
 
+@pytest.mark.slow
 def test_level_json_carries_validity(tmp_path):
     lv = _cli_json("level", "--out", str(tmp_path / "level"), "--set", "solve.points=2",
                    "--set", "solve.steps_per_period=60")

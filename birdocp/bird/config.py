@@ -48,6 +48,7 @@ class Body:
     """Pitch inertia of the body ALONE about its own centre of mass G_b (the wings' is added by the
     model when they have mass)."""
     gravity_mps2: float = 9.81
+    """Gravitational acceleration g (inertial frame, downwards)."""
     reference_chord_m: float = 0.2
     """Mean chord c̄ used for the stability margin SM = -root_ahead_m / c̄ and moment coefficients."""
 
@@ -57,8 +58,11 @@ class Wing:
     """Skeleton and feathers of the (right) wing; the left wing is its mirror image."""
 
     arm_length_m: float = 0.134
+    """Humerus: shoulder to elbow."""
     forearm_length_m: float = 0.162
+    """Radius/ulna: elbow to wrist."""
     hand_length_m: float = 0.084
+    """Carpometacarpus and digits: wrist to the hand's tip."""
     feather_lengths_m: tuple[float, ...] = (0.25, 0.225, 0.20, 0.175, 0.15, 0.125, 0.10)
     """Master feathers 0 (hand tip) .. 6 (shoulder); only 0, 2, 4 and 6 shape the trailing edge."""
     root_ahead_m: float = 0.05

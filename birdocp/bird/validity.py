@@ -42,24 +42,28 @@ __all__ = ["CycleValidity", "cycle_validity", "periodic_validity", "element_angl
            "effective_angles", "invalid", "validity_text", "VALIDITY_COLUMNS", "validity_columns"]
 
 
-def effective_angles() -> "ca.Function":
+def effective_angles(n_data: int | None = None) -> "ca.Function":
     """``angles(x, d, p) -> (alpha_eff_rad 16x1, alpha_geo_rad 16x1, ds_m 16x1)`` for one time.
 
     ``alpha_eff``: the angle of the relative velocity plus the induced velocity in each element's
     section plane; ``alpha_geo``: the same without the induced velocity (the model's ``alpha``);
-    ``ds_m``: the element lengths (span weights). Built once (cached)."""
-    return _effective_angles()
+    ``ds_m``: the element lengths (span weights). ``n_data``: the size of the model's data vector
+    (default: the massless model's; wing masses append their terms after the aerodynamic blocks).
+    Built once per size (cached)."""
+    from birdocp.bird.model import N_DATA
+
+    return _effective_angles(int(n_data or N_DATA))
 
 
-@functools.lru_cache(maxsize=1)
-def _effective_angles() -> "ca.Function":
+@functools.lru_cache(maxsize=4)
+def _effective_angles(n_data: int) -> "ca.Function":
     import casadi as ca
 
     from birdocp.bird import aero
-    from birdocp.bird.model import N_DATA, unpack_data
+    from birdocp.bird.model import unpack_data
 
     x = ca.SX.sym("x", 4)
-    d = ca.SX.sym("d", N_DATA)
+    d = ca.SX.sym("d", n_data)
     p = ca.SX.sym("p", len(PARAM_NAMES))
     b = unpack_data(d)
     V, _, alpha, vind = aero.inflow(x, b["r_m"], b["v_kin_mps"], b["c_hat"], b["up"], b["tau"], b["Wx"], b["Wy"])
@@ -76,7 +80,7 @@ def element_angles_function(cfg: Config, n_times: int) -> "ca.Function":
     the model of ``cfg``; built once per (model structure, n) and reused."""
     import casadi as ca
 
-    from birdocp.bird.model import N_DATA, Structure, get_model
+    from birdocp.bird.model import Structure, get_model
 
     key = (Structure.of(cfg), int(n_times))
     f = _ANGLE_FUNCTIONS.get(key)
@@ -86,10 +90,8 @@ def element_angles_function(cfg: Config, n_times: int) -> "ca.Function":
         X = ca.MX.sym("X", 4, n)
         T = ca.MX.sym("T", 1, n)
         p = ca.MX.sym("p", len(PARAM_NAMES))
-        # post(pre(t, p)): no need to read the whole data graph; the aerodynamic blocks only (a model
-        # with wing masses appends its mass sums after them)
-        D = model.ode.data.map(n)(T, p)[:N_DATA, :]
-        ae, ag, ds = _effective_angles().map(n)(X, D, p)
+        D = model.ode.data.map(n)(T, p)  # post(pre(t, p)): no need to read the whole data graph
+        ae, ag, ds = effective_angles(model.ode.nd).map(n)(X, D, p)
         f = ca.Function("element_angles", [X, T, p], [ae, ag, ds], ["X", "T", "p"],
                         ["alpha_eff_rad", "alpha_geo_rad", "ds_m"])
         _ANGLE_FUNCTIONS.put(key, f)
@@ -253,10 +255,10 @@ def periodic_validity(cfg: Config, x0, p=None, t0_s: float = 0.0, steps_per_peri
         return invalid(cfg, "the cycle's states are not finite (no cycle to check)")
     # the data at the step starts t0 + k h are the first columns of the stage blocks (no second
     # evaluation of the wing on the time grid)
-    hit = _ANGLE_MAPS.get(n)
+    hit = _ANGLE_MAPS.get((n, m.ode.nd))
     if hit is None:
-        hit = _effective_angles().map(n)
-        _ANGLE_MAPS.put(n, hit)
+        hit = effective_angles(m.ode.nd).map(n)
+        _ANGLE_MAPS.put((n, m.ode.nd), hit)
     ae, ag, ds = (np.asarray(v) for v in hit(ca.DM(X.T), D[:, 0::3], pd))
     return _verdict(cfg, t, X, np.degrees(ae), np.degrees(ag), ds)
 

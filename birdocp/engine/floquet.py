@@ -19,7 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["FloquetResult", "floquet_from_jacobians", "multipliers_info", "monodromy_of", "complex_pairs"]
+__all__ = ["FloquetResult", "floquet_from_jacobians", "multipliers_info", "monodromy_of", "complex_pairs",
+           "multiplier_order", "sort_multipliers", "matched_distances"]
 
 
 @dataclass
@@ -39,10 +40,35 @@ def complex_pairs(values) -> list:
     return [[float(np.real(v)), float(np.imag(v))] for v in np.asarray(values).ravel()]
 
 
+def multiplier_order(lam) -> np.ndarray:
+    """Indices sorting multipliers by modulus, largest first, then positive imaginary part first (the
+    order of every result)."""
+    lam = np.asarray(lam)
+    return np.lexsort((-lam.imag, -np.abs(lam)))
+
+
+def sort_multipliers(lam) -> np.ndarray:
+    """Multipliers (complex) in the order of :func:`multiplier_order`."""
+    lam = np.asarray(lam).astype(complex)
+    return lam[multiplier_order(lam)]
+
+
+def matched_distances(lam, ref) -> np.ndarray:
+    """``|lam_k - ref_k|`` with ``lam`` permuted to minimise the largest distance (``ref``'s order kept;
+    ties broken by the sum): the distance between two sets of multipliers that does not depend on how
+    each was sorted."""
+    import itertools
+
+    lam, ref = np.asarray(lam, complex), np.asarray(ref, complex)
+    best = min(itertools.permutations(range(len(lam))),
+               key=lambda perm: (np.max(np.abs(lam[list(perm)] - ref)), np.sum(np.abs(lam[list(perm)] - ref))))
+    return np.abs(lam[list(best)] - ref)
+
+
 def multipliers_info(monodromy: np.ndarray, period_s: float):
     """(multipliers, eigenvectors, exponents, doubling times, stable) from a monodromy matrix."""
     lam, vec = np.linalg.eig(monodromy)
-    order = np.lexsort((-lam.imag, -np.abs(lam)))  # modulus descending, then +imag first
+    order = multiplier_order(lam)
     lam = lam[order].astype(complex)
     vec = vec[:, order].astype(complex)
     with np.errstate(divide="ignore", invalid="ignore"):

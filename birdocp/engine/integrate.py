@@ -14,6 +14,8 @@ This is exactly RK4 on (x, q), so the means converge with the same 4th order as 
 """
 from __future__ import annotations
 
+import functools
+
 import casadi as ca
 import numpy as np
 
@@ -137,42 +139,38 @@ class RK4Grid:
                 qs.append(qi)
             self.period_map = ca.Function("period_map", [x, D, p], [xi, ca.horzcat(*Xparts), sum(qs[1:], qs[0])],
                                           ["x", "D", "p"], ["x_end", "X", "q"])
-        self._segment_jac = None
-        self._segment_jacobians = None
-        self._segment_sensitivities = None
-        self._period_jacobian = None
 
-    # -- lazily built Jacobian Functions --------------------------------------------------------
-    def _seg_jac(self) -> ca.Function:
+    # -- lazily built Jacobian Functions (built on first use, then kept) ------------------------
+    def _symbols(self, nx_cols: int, d_cols: int):
+        """MX symbols (x: nx x nx_cols, D: nd x d_cols, p: np) of a Function's inputs."""
+        ode = self.ode
+        return ca.MX.sym("x", ode.nx, nx_cols), ca.MX.sym("D", ode.nd, d_cols), ca.MX.sym("p", ode.np)
+
+    @functools.cached_property
+    def segment_jacobian(self) -> ca.Function:
         """One segment with its state Jacobians: (x, Dseg, p) -> (x_end, q, dx_end/dx, dq/dx).
 
-        Built as the RK4 steps of the variational equations (:meth:`_variational_step`), accumulated
+        Built as the RK4 steps of the variational equations (:meth:`variational_step`), accumulated
         with ``mapaccum``; if the step's SX Jacobian cannot be formed (e.g. an external RHS without
         a Jacobian), by ``casadi.jacobian`` of the MX segment."""
-        if self._segment_jac is None:
-            nx, nd, np_ = self.ode.nx, self.ode.nd, self.ode.np
-            x = ca.MX.sym("x", nx)
-            Dn = ca.MX.sym("D", nd, 3 * self.n)
-            p = ca.MX.sym("p", np_)
-            try:
-                var = self._variational_step()
-            except Exception:  # noqa: BLE001 - any failure: the generic (slower) construction
-                var = None
-            if var is not None:
-                nq = self.nq
-                s0 = ca.vertcat(x, ca.vec(ca.DM.eye(nx)), ca.DM.zeros(nq), ca.DM.zeros(nq * nx))
-                S = var.mapaccum("var_acc", self.n)(s0, Dn, p)[:, -1]
-                k = nx + nx * nx
-                outs = [S[:nx], S[k:k + nq], ca.reshape(S[nx:k], nx, nx), ca.reshape(S[k + nq:], nq, nx)]
-            else:
-                xe, _, q = self.segment(x, Dn, p)
-                J = ca.jacobian(ca.vertcat(xe, q), x)
-                outs = [xe, q, J[:nx, :], J[nx:, :]]
-            self._segment_jac = ca.Function("segment_jac", [x, Dn, p], outs,
-                                            ["x", "D", "p"], ["x_end", "q", "J", "JQ"])
-        return self._segment_jac
+        nx, nq = self.ode.nx, self.nq
+        x, Dn, p = self._symbols(1, 3 * self.n)
+        try:
+            var = self.variational_step()
+        except Exception:  # noqa: BLE001 - any failure: the generic (slower) construction
+            var = None
+        if var is not None:
+            s0 = ca.vertcat(x, ca.vec(ca.DM.eye(nx)), ca.DM.zeros(nq), ca.DM.zeros(nq * nx))
+            S = var.mapaccum("var_acc", self.n)(s0, Dn, p)[:, -1]
+            k = nx + nx * nx
+            outs = [S[:nx], S[k:k + nq], ca.reshape(S[nx:k], nx, nx), ca.reshape(S[k + nq:], nq, nx)]
+        else:
+            xe, _, q = self.segment(x, Dn, p)
+            J = ca.jacobian(ca.vertcat(xe, q), x)
+            outs = [xe, q, J[:nx, :], J[nx:, :]]
+        return ca.Function("segment_jac", [x, Dn, p], outs, ["x", "D", "p"], ["x_end", "q", "J", "JQ"])
 
-    def _variational_step(self) -> ca.Function:
+    def variational_step(self) -> ca.Function:
         """One RK4 step of the state, its sensitivity Phi = dx/dx0, the output integrals q and their
         sensitivity dq/dx0, as one SX Function of s = [x; vec(Phi); q; vec(dq/dx0)]:
         Phi+ = A Phi, dq/dx0+ = dq/dx0 + B Phi with A, B the step's Jacobians (the chain rule through
@@ -195,43 +193,64 @@ class RK4Grid:
             out.append(ca.vec(JQ + ca.mtimes(ca.jacobian(qi, x), Phi)))
         return ca.Function("rk4_variational_step", [s, D3, p], [ca.vertcat(*out)], ["s", "D3", "p"], ["s_next"])
 
-    @property
+    @functools.cached_property
     def segment_sensitivities(self) -> ca.Function:
-        if self._segment_sensitivities is None:
-            nx, nd, np_ = self.ode.nx, self.ode.nd, self.ode.np
-            Xs = ca.MX.sym("X", nx, self.S)
-            D = ca.MX.sym("D", nd, 3 * self.N)
-            p = ca.MX.sym("p", np_)
-            Xe, Q, J, JQ = self._seg_jac().map(self.S)(Xs, D, p)
-            self._segment_sensitivities = ca.Function("segment_sensitivities", [Xs, D, p], [Xe, Q, J, JQ],
-                                                      ["X", "D", "p"], ["X_end", "Q", "J", "JQ"])
-        return self._segment_sensitivities
+        """All segments with their state Jacobians: (X, D, p) -> (X_end, Q, J, JQ), mapped."""
+        Xs, D, p = self._symbols(self.S, 3 * self.N)
+        Xe, Q, J, JQ = self.segment_jacobian.map(self.S)(Xs, D, p)
+        return ca.Function("segment_sensitivities", [Xs, D, p], [Xe, Q, J, JQ],
+                           ["X", "D", "p"], ["X_end", "Q", "J", "JQ"])
 
-    @property
+    @functools.cached_property
     def segment_jacobians(self) -> ca.Function:
-        if self._segment_jacobians is None:
-            nx, nd, np_ = self.ode.nx, self.ode.nd, self.ode.np
-            Xs = ca.MX.sym("X", nx, self.S)
-            D = ca.MX.sym("D", nd, 3 * self.N)
-            p = ca.MX.sym("p", np_)
-            Xe, _, J, _ = self.segment_sensitivities(Xs, D, p)
-            self._segment_jacobians = ca.Function("segment_jacobians", [Xs, D, p], [Xe, J])
-        return self._segment_jacobians
+        """(X, D, p) -> (X_end, J): the segment ends and their state Jacobians."""
+        Xs, D, p = self._symbols(self.S, 3 * self.N)
+        Xe, _, J, _ = self.segment_sensitivities(Xs, D, p)
+        return ca.Function("segment_jacobians", [Xs, D, p], [Xe, J])
 
-    @property
+    @functools.cached_property
     def period_jacobian(self) -> ca.Function:
-        if self._period_jacobian is None:
-            nx, nd, np_ = self.ode.nx, self.ode.nd, self.ode.np
-            x = ca.MX.sym("x", nx)
-            D = ca.MX.sym("D", nd, 3 * self.N)
-            p = ca.MX.sym("p", np_)
-            sj = self._seg_jac()
-            xi, Jp = x, None
-            for i in range(self.S):
-                xi, _, Ji, _ = sj(xi, D[:, 3 * self.n * i:3 * self.n * (i + 1)], p)
-                Jp = Ji if Jp is None else ca.mtimes(Ji, Jp)
-            self._period_jacobian = ca.Function("period_jacobian", [x, D, p], [xi, Jp])
-        return self._period_jacobian
+        """(x, D, p) -> (x_T, dx_T/dx): the one-period map and its Jacobian in one go."""
+        x, D, p = self._symbols(1, 3 * self.N)
+        xi, Jp = x, None
+        for i in range(self.S):
+            xi, _, Ji, _ = self.segment_jacobian(xi, D[:, 3 * self.n * i:3 * self.n * (i + 1)], p)
+            Jp = Ji if Jp is None else ca.mtimes(Ji, Jp)
+        return ca.Function("period_jacobian", [x, D, p], [xi, Jp])
+
+    def fd_segment_jacobians(self, X, D, p, floor: float = 1e-3, rel_step: float = 1e-3):
+        """Forward-difference segment Jacobians, as the paper computes them (the engine's
+        ``derivatives="fd"``): step ``rel_step * x_j``, or ``rel_step * floor`` where ``|x_j| < floor``.
+
+        Parameters
+        ----------
+        X : (nx, S) array
+            The segments' start states.
+        D, p :
+            Stage data and parameter vector (as for :attr:`segments`).
+
+        Returns
+        -------
+        Js : (S, nx, nx) array
+            d x_end / d x of each segment.
+        dQ : (nq, S, nx) array
+            d q / d x of each segment's output integrals.
+        """
+        X = np.asarray(X, float)
+        nx, S = X.shape
+        pd = ca.DM(p)
+        Xe0, _, Q0 = (np.asarray(v) for v in self.segments(ca.DM(X), D, pd))
+        Js = np.zeros((S, nx, nx))
+        dQ = np.zeros((self.nq, S, nx))
+        for j in range(nx):
+            h = np.where(np.abs(X[j]) >= floor, rel_step * X[j], rel_step * floor)
+            Xp = X.copy()
+            Xp[j] += h
+            Xe, _, Q = (np.asarray(v) for v in self.segments(ca.DM(Xp), D, pd))
+            Js[:, :, j] = ((Xe - Xe0) / h).T
+            if self.nq:
+                dQ[:, :, j] = (Q - Q0) / h
+        return Js, dQ
 
     # -- data ---------------------------------------------------------------------------------
     def times(self, t0: float) -> np.ndarray:

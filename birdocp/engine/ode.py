@@ -25,13 +25,15 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from birdocp.engine.problem import RhsDimensions
+
 from birdocp.engine.cache import bounded_cache
 
 __all__ = ["ODE"]
 
 
 @dataclass(frozen=True, eq=False)
-class ODE:
+class ODE(RhsDimensions):
     """``x' = rhs(x, t, p)`` (nx states, np parameters); built by :meth:`from_function`.
 
     rhs:            SX Function (x[nx], t[1], p[np]) -> xdot[nx].
@@ -48,14 +50,6 @@ class ODE:
     forcing_period: float | None = None
     state_names: tuple[str, ...] = ()
     param_names: tuple[str, ...] = ()
-
-    @property
-    def nx(self) -> int:
-        return self.rhs.size1_in(0)
-
-    @property
-    def np(self) -> int:
-        return self.rhs.size1_in(2)
 
     @staticmethod
     def from_function(f, nx: int, params=0, *, forcing_period: float | None = None,

@@ -46,9 +46,9 @@ import casadi as ca
 import numpy as np
 
 from birdocp.engine.cache import bounded_cache
-from birdocp.engine.floquet import complex_pairs, monodromy_of
+from birdocp.engine.floquet import complex_pairs, monodromy_of, sort_multipliers
 from birdocp.engine.ode import ODE
-from birdocp.engine.oracle import ConstraintOracle
+from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.steppers import METHOD_ORDER, make_step
 
 __all__ = ["OrbitMethod", "OrbitProblem", "PeriodicOrbit", "solve_orbit", "solve_orbit_system",
@@ -255,7 +255,7 @@ def _graphs(ode: ODE, N: int, S: int, integrator: str) -> _Graphs:
     return _cached(_GRAPHS, (id(ode), N, S, integrator), lambda: _Graphs(ode, N, S, integrator))
 
 
-class _Evaluator:
+class _Evaluator(Evaluator):
     """Residual and exact Jacobian of the shooting system for one layout of unknowns.
 
     z = [X_0 .. X_{M-1} (point-major), T (if period_free), free parameters]; rows = continuity,
@@ -335,12 +335,6 @@ class _Evaluator:
         self._last = (key, g, J, Jx)
         return g, J
 
-    def g(self, z):
-        return self.evaluate(z)[0]
-
-    def jacobian(self, z):
-        return self.evaluate(z)[1]
-
     def blocks(self, z):
         self.evaluate(z)
         Jx = self._last[3]
@@ -352,11 +346,9 @@ class _Evaluator:
             if self._oracle is None:
                 self._oracle = ConstraintOracle(self, "orbit")
             z = ca.MX.sym("z", self.nz)
-            opts = {"ipopt.hessian_approximation": "limited-memory", "ipopt.sb": "yes", "ipopt.print_level": 0,
-                    "print_time": False, "show_eval_warnings": False, "ipopt.tol": method.tol,
-                    "ipopt.constr_viol_tol": method.tol,
-                    "ipopt.max_iter": int(method.max_iter)}
-            opts.update(method.ipopt_options)
+            opts = ipopt_options(**{"show_eval_warnings": False, "ipopt.tol": method.tol,
+                                    "ipopt.constr_viol_tol": method.tol, "ipopt.max_iter": int(method.max_iter),
+                                    **method.ipopt_options})
             s = ca.nlpsol("orbit", "ipopt", {"x": z, "f": 0, "g": self._oracle(z)}, opts)
             self._solver = (repr(sorted(method.ipopt_options.items())) + str((method.tol, method.max_iter)), s)
         return self._solver[1]
@@ -644,8 +636,7 @@ def _assemble(problem, method, ev: _Evaluator, G: _Graphs, z, sstat, message, it
         try:
             Mo = monodromy_of(ev.blocks(z))
             lam = np.linalg.eigvals(Mo).astype(complex)
-            order = np.lexsort((-lam.imag, -np.abs(lam)))
-            lam = lam[order]
+            lam = sort_multipliers(lam)
             res.monodromy, res.multipliers = Mo, lam
             if ode.autonomous:
                 k = int(np.argmin(np.abs(lam - 1.0)))

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-__all__ = ["PeriodicODE", "MeanCondition", "LimitCycleProblem"]
+__all__ = ["RhsDimensions", "PeriodicODE", "MeanCondition", "LimitCycleProblem"]
 
 
 def _check_function(f, name: str, n_in: int) -> None:
@@ -27,8 +27,22 @@ def _check_function(f, name: str, n_in: int) -> None:
         raise ValueError(f"{name}: expected {n_in} inputs, got {f.n_in()}")
 
 
+class RhsDimensions:
+    """``nx`` and ``np`` of an ODE whose ``rhs`` takes the state first and the parameters third."""
+
+    @property
+    def nx(self) -> int:
+        """Number of states."""
+        return self.rhs.size1_in(0)
+
+    @property
+    def np(self) -> int:
+        """Number of parameters."""
+        return self.rhs.size1_in(2)
+
+
 @dataclass(frozen=True, eq=False)
-class PeriodicODE:
+class PeriodicODE(RhsDimensions):
     """``x' = rhs(x, d, p)`` with ``d = data(t, p)``, periodic in ``t`` with period ``period_s``.
 
     Attributes
@@ -86,16 +100,9 @@ class PeriodicODE:
             raise ValueError(f"PeriodicODE.param_names: {len(self.param_names)} names for np={np_} parameters")
 
     @property
-    def nx(self) -> int:
-        return self.rhs.size1_in(0)
-
-    @property
     def nd(self) -> int:
+        """Size of the per-time data vector."""
         return self.rhs.size1_in(1)
-
-    @property
-    def np(self) -> int:
-        return self.rhs.size1_in(2)
 
     @staticmethod
     def from_rhs(f: ca.Function, period_s: float, state_names=(), param_names=()) -> "PeriodicODE":

@@ -27,7 +27,7 @@ import numpy as np
 from birdocp.engine.cache import bounded_cache, clear_caches
 from birdocp.engine.floquet import FloquetResult, floquet_from_jacobians
 from birdocp.engine.integrate import RK4Grid
-from birdocp.engine.oracle import ConstraintOracle
+from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
 
 __all__ = ["MultipleShooting", "LimitCycleResult", "solve", "clear_cache", "floquet", "ShootingGraphs",
@@ -41,11 +41,6 @@ _IPOPT_DEFAULTS = {
     # When this first attempt fails, solve() retries once with IPOPT's filter line search
     # (MultipleShooting.ipopt_fallback).
     "ipopt.accept_every_trial_step": "yes",
-    "ipopt.hessian_approximation": "limited-memory",
-    "ipopt.sb": "yes",
-    "ipopt.print_level": 0,
-    "print_time": False,
-    "ipopt.linear_solver": "mumps",
 }
 
 
@@ -218,7 +213,7 @@ def rk4_grid(ode, method: MultipleShooting, outputs) -> RK4Grid:
     return grid
 
 
-class ShootingGraphs:
+class ShootingGraphs(Evaluator):
     """The graphs of one shooting configuration (see module docstring for the cache key).
 
     Residual and Jacobian (``evaluate``): one CasADi Function ``sens`` returns the segment ends, the
@@ -414,12 +409,6 @@ class ShootingGraphs:
         self._last = (key, g, A, Jb, np.asarray(means).ravel())
         return g, A
 
-    def g(self, z):
-        return self.evaluate(z)[0]
-
-    def jacobian(self, z):
-        return self.evaluate(z)[1]
-
     def blocks_at(self, z):
         """The segment Jacobians J_i (list) at z if z is the last evaluated point, else None."""
         z = np.asarray(z, float).ravel()
@@ -454,7 +443,7 @@ class ShootingGraphs:
 
     def ipopt(self, method: MultipleShooting, fallback: bool = False):
         tol = method.resolved_tol
-        opts = dict(_IPOPT_DEFAULTS)
+        opts = ipopt_options(**_IPOPT_DEFAULTS)
         opts.update({"ipopt.max_iter": int(method.max_iter), "ipopt.tol": tol, "ipopt.constr_viol_tol": tol})
         opts.update(method.ipopt_options)
         if fallback:
@@ -562,10 +551,6 @@ def _lm(b: ShootingGraphs, method, problem, z, lo, hi, fd):
         it += 1
 
 
-def _fd_steps(v, floor):
-    return np.where(np.abs(v) >= floor, 1e-3 * v, 1e-3 * floor)
-
-
 def _fd_jacobian(b: ShootingGraphs, problem, z, r0, floor):
     """Forward differences as in the paper: segment Jacobians column by column (all segments in one
     mapped call per state), the shooting matrix assembled around them; free-parameter columns by
@@ -577,20 +562,10 @@ def _fd_jacobian(b: ShootingGraphs, problem, z, r0, floor):
     if nf:
         pfull[list(b.free_idx)] = z[-nf:]
     Dn = b.grid.blocks_numeric(problem.t0, pfull)
-    pd = ca.DM(pfull)
-    Xe0, _, Q0 = (np.asarray(v) for v in b.grid.segments(ca.DM(X[:, :S]), Dn, pd))
     J = np.zeros((b.ng, b.nz))
     I = np.eye(nx)
-    Js = np.zeros((S, nx, nx))
-    dM = np.zeros((nm, S, nx))
-    for j in range(nx):
-        hj = _fd_steps(X[j, :S], floor)
-        Xp = X[:, :S].copy()
-        Xp[j, :] += hj
-        Xe, _, Q = (np.asarray(v) for v in b.grid.segments(ca.DM(Xp), Dn, pd))
-        Js[:, :, j] = ((Xe - Xe0) / hj).T
-        if nm:
-            dM[:, :, j] = (Q[:nm] - Q0[:nm]) / hj / T
+    Js, dQ = b.grid.fd_segment_jacobians(X[:, :S], Dn, pfull, floor)
+    dM = dQ[:nm] / T
     for i in range(S):
         J[i * nx:(i + 1) * nx, i * nx:(i + 1) * nx] = Js[i]
         J[i * nx:(i + 1) * nx, (i + 1) * nx:(i + 2) * nx] = -I
@@ -601,7 +576,7 @@ def _fd_jacobian(b: ShootingGraphs, problem, z, r0, floor):
     for k in range(nf):
         col = b.nz - nf + k
         zp = z.copy()
-        hk = _fd_steps(np.array([z[col]]), floor)[0]
+        hk = 1e-3 * z[col] if abs(z[col]) >= floor else 1e-3 * floor
         zp[col] += hk
         rp = b.resid(zp)
         J[:, col] = (rp - r0) / hk

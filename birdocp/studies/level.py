@@ -169,6 +169,7 @@ def mean_sensitivity(result, key: str = AMPLITUDE_KEY, output: str = "vertical_s
     import numpy as np
 
     from birdocp.engine.integrate import RK4Grid
+    from birdocp.engine.sensitivity import orbit_state_derivative, total_derivative
     from birdocp.bird.model import get_model
     from birdocp.bird.flight import flight_outputs
 
@@ -189,6 +190,6 @@ def mean_sensitivity(result, key: str = AMPLITUDE_KEY, output: str = "vertical_s
     F = ca.Function("sens", [x, a], [mean, ca.jacobian(xT, x), ca.jacobian(xT, a), ca.jacobian(mean, x),
                                      ca.jacobian(mean, a)])
     mv, Px, Pa, mx, ma = (np.asarray(v) for v in F(np.asarray(cyc.x0, float), pn[i]))
-    dx0 = np.linalg.solve(np.eye(ode.nx) - Px, Pa).ravel()
-    return {"derivative": float(ma.ravel()[0] + mx.ravel() @ dx0), "dx0_da": dx0.tolist(),
+    dx0 = orbit_state_derivative(Px, Pa.ravel())
+    return {"derivative": float(total_derivative(ma.ravel()[0], mx.ravel(), dx0)), "dx0_da": dx0.tolist(),
             "mean": float(mv.ravel()[0])}

@@ -30,7 +30,8 @@ import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, with_values
 from birdocp.bird.validity import invalid, periodic_validity
-from birdocp.engine.oracle import ConstraintOracle
+from birdocp.engine.floquet import matched_distances, sort_multipliers
+from birdocp.engine.oracle import ConstraintOracle, ipopt_options
 
 __all__ = ["DEFAULT_FREE", "optimize_stability", "StabilityOptimum", "jury_conditions"]
 
@@ -286,10 +287,8 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     z = ca.MX.sym("z", ev.nz)
     g_cb = ConstraintOracle(ev, "stability")
     nlp = {"x": z, "f": z[-1], "g": g_cb(z)}
-    opts = {"ipopt.hessian_approximation": "limited-memory", "ipopt.sb": "yes", "ipopt.print_level": 0,
-            "print_time": False, "ipopt.max_iter": int(max_iter), "ipopt.tol": tol,
-            "ipopt.constr_viol_tol": 1e-9, "ipopt.linear_solver": "mumps",
-            "ipopt.acceptable_tol": 1e-5, "ipopt.acceptable_iter": 5, "ipopt.mu_strategy": "adaptive"}
+    opts = ipopt_options(**{"ipopt.max_iter": int(max_iter), "ipopt.tol": tol, "ipopt.constr_viol_tol": 1e-9,
+                            "ipopt.acceptable_tol": 1e-5, "ipopt.acceptable_iter": 5, "ipopt.mu_strategy": "adaptive"})
     solver = ca.nlpsol("stability", "ipopt", nlp, opts)
     wall["build"] = time.perf_counter() - t0
 
@@ -311,7 +310,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     pbest[idx] = ps
     Mnum = ev.base(np.concatenate([xs, ps, [rs]]))[2]
     lam = np.linalg.eigvals(Mnum)
-    lam = lam[np.lexsort((-lam.imag, -np.abs(lam)))]
+    lam = sort_multipliers(lam)
     best = {k: float(v) for k, v in zip(free, ps)}
     out = StabilityOptimum(bool(stats["success"]), str(stats["return_status"]), f"IPOPT: {stats['return_status']}",
                            int(stats["iter_count"]), best, free, float(ps[-1]), rs, lam, lam0, xs, cfg=cfg)
@@ -326,7 +325,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
         scratch = trim(cfg_best, points=5, steps_per_period=N)
         out.cfg = cfg_best
         pairs = lambda lam_: [[float(v.real), float(v.imag)] for v in lam_]
-        dist = lambda a, b: float(np.max(np.abs(np.sort_complex(a) - np.sort_complex(b))))
+        dist = lambda a, b: float(np.max(matched_distances(a, b)))
         out.verification = {
             "trim_success": bool(check.success),
             "trim_multipliers": pairs(check.multipliers) if check.success else None,

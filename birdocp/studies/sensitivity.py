@@ -26,7 +26,9 @@ import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config
 from birdocp.engine.cache import bounded_cache
+from birdocp.engine.floquet import multiplier_order
 from birdocp.engine.integrate import RK4Grid
+from birdocp.engine.sensitivity import orbit_state_derivative, total_derivative
 from birdocp.bird.model import get_model
 
 __all__ = ["SensitivityResult", "multiplier_sensitivities", "DEFAULT_PARAMETERS", "unit_of", "SecondOrderMaps"]
@@ -116,7 +118,7 @@ class SecondOrderMaps:
         self.model = model.model
         W = flight_outputs(model.ode.nd)["vertical_speed_mps"]
         self.grid = grid = RK4Grid(model.ode, steps, 1, outputs=(W,))
-        nx, nd, np_ = 4, model.ode.nd, model.ode.np
+        nx, nd, np_ = model.ode.nx, model.ode.nd, model.ode.np
         x0 = ca.MX.sym("x0", nx)
         D = ca.MX.sym("D", nd, 3 * steps)
         p = ca.MX.sym("p", np_)
@@ -163,12 +165,11 @@ def multiplier_sensitivities(cycle_result, parameters=None, *, hold_level: bool 
     _, qT, Mon = so.base(x0, D, ca.DM(p))
     Mon = np.asarray(Mon)
     T = m.period_s
-    nx = 4
+    nx = m.ode.nx
     lam, V = np.linalg.eig(Mon)
-    order = np.lexsort((-lam.imag, -np.abs(lam)))
+    order = multiplier_order(lam)
     lam, V = lam[order], V[:, order]
     Wl = np.linalg.inv(V)
-    I_M = np.eye(nx) - Mon
     zeroD = ca.DM.zeros(D.shape)
     zerox = ca.DM.zeros(nx)
     zerop = ca.DM.zeros(len(p))
@@ -195,9 +196,9 @@ def multiplier_sensitivities(cycle_result, parameters=None, *, hold_level: bool 
         ep[j] = 1.0
         dDgrid = so.data_fwd(times, ca.DM(p), Dgrid, ca.DM.zeros(1, so.n_times), ca.DM(ep))
         dPhi_dp, dq_dp, dMon_p = split(so.directional(x0, D, ca.DM(p), zerox, dDgrid[:, idx], ca.DM(ep)))
-        dx0 = np.linalg.solve(I_M, dPhi_dp)
-        dMon = dMon_p + sum(dx0[i] * dx_terms[i][2] for i in range(nx))
-        dq = dq_dp + sum(dx0[i] * dx_terms[i][1] for i in range(nx))
+        dx0 = orbit_state_derivative(Mon, dPhi_dp)
+        dMon = total_derivative(dMon_p, np.stack([t[2] for t in dx_terms], axis=-1), dx0)
+        dq = total_derivative(dq_dp, np.array([t[1] for t in dx_terms]), dx0)
         dx0s[k] = dx0
         dW[k] = dq / T
         dL[k] = np.array([Wl[i] @ dMon @ V[:, i] for i in range(nx)])
