@@ -70,6 +70,20 @@ def unpack_data(d):
     return {name: ca.reshape(d[k:k + r * c], r, c) for name, (k, r, c) in DATA_OFFSETS.items()}
 
 
+def air_state(x, wind_mps):
+    """The state as the aerodynamics sees it: (u - wind_u, w - wind_w, q, theta).
+
+    ``wind_mps`` = (W_X, W_Z): the air's velocity in the inertial frame (X forward horizontal, Z down,
+    m/s), uniform over the bird; rotated into the body frame (x' forward, z' down) by the pitch angle
+    theta: ``wind_u = cos(theta) W_X - sin(theta) W_Z``, ``wind_w = sin(theta) W_X + cos(theta) W_Z``.
+    The state's u, w stay the inertial velocity of G in the body frame (the equations of motion are
+    unchanged); a zero wind gives back x exactly."""
+    th = x[3]
+    c, s = ca.cos(th), ca.sin(th)
+    return ca.vertcat(x[0] - (c * wind_mps[0] - s * wind_mps[1]),
+                      x[1] - (s * wind_mps[0] + c * wind_mps[1]), x[2], th)
+
+
 def _p(p, name):
     return p[PARAM_NAMES.index(name)]
 
@@ -178,7 +192,8 @@ GEOMETRY_OUTPUTS = ("joint_angles_rad", "leading_edge_raw", "trailing_edge_raw",
                     "trailing_edge", "line", "chord_m", "chord_dir", "up_dir", "diagnostics")
 
 
-GRAPH_FUNCTIONS = ("pre", "post", "rhs", "data", "geometry", "loads_d", "detail_d")
+GRAPH_FUNCTIONS = ("pre", "post", "rhs", "data", "geometry", "loads_d", "detail_d", "rhs_wind",
+                   "loads_wind")
 """The SX Functions of a :class:`BirdModel` that the graph cache stores (the MX compositions ``f``,
 ``loads``, ``aero_detail`` are rebuilt from them in milliseconds)."""
 
@@ -313,12 +328,16 @@ def _build(s: Structure) -> tuple[dict, tuple]:
     fns["post"] = ca.Function("wing_assemble", [L, t, p], [d], ["local", "t", "p"], ["d"])
     fns["data"] = ca.Function("data", [t, p], [fns["post"](ell, t, p)], ["t", "p"], ["d"])
 
-    # State part.
+    # State part. The aerodynamics sees the air-relative state (``air_state``: the wind in the
+    # inertial frame, rotated into the body frame, subtracted from u, w); rhs/loads_d/detail_d
+    # are the same graphs with the wind substituted by zero (the exact graphs of before).
     x = ca.SX.sym("x", 4)
+    wind = ca.SX.sym("wind_mps", 2)
+    xa = air_state(x, wind)
     dsym = ca.SX.sym("d", N_DATA + (N_MASS if s.wing_mass else 0))
     b = unpack_data(dsym)
     F, M, Gamma, alpha, vp = aero.element_loads(
-        x, b["r_m"], b["v_kin_mps"], b["c_hat"], b["up"], b["tau"], b["ds_m"],
+        xa, b["r_m"], b["v_kin_mps"], b["c_hat"], b["up"], b["tau"], b["ds_m"],
         b["G"], b["Wx"], b["Wy"], _p(p, "aero.air_density_kgm3"))
     m = _p(p, "body.mass_kg")
     I = _p(p, "body.pitch_inertia_kgm2")
@@ -326,7 +345,7 @@ def _build(s: Structure) -> tuple[dict, tuple]:
     u, w, q, theta = x[0], x[1], x[2], x[3]
     Fx, Fz, My = -F[2], -F[1], M
     if s.tail:
-        Lt, Dt, Mt = tail.tail_loads(x, b["nodes_m"], Gamma, _p(p, "aero.air_density_kgm3"),
+        Lt, Dt, Mt = tail.tail_loads(xa, b["nodes_m"], Gamma, _p(p, "aero.air_density_kgm3"),
                                      *[_p(p, f"tail.{k}") for k in (
                                          "opening_angle_deg", "root_behind_m", "length_m",
                                          "kinematic_viscosity_m2ps", "reynolds_speed_mps")])
@@ -335,6 +354,7 @@ def _build(s: Structure) -> tuple[dict, tuple]:
                       q * u + grav * ca.cos(theta) + Fz / m,
                       My / I,
                       q)
+    powers = None
     if s.wing_mass:
         # body.mass_kg is the whole bird M, body.pitch_inertia_kgm2 the body alone about G_b
         # (spec inertia.md 4.3: the massless right-hand side with m = M, I = I_b, plus a
@@ -342,17 +362,23 @@ def _build(s: Structure) -> tuple[dict, tuple]:
         sums = unpack_mass(dsym)
         nudot = inertia.accelerations(x, xdot[:3], sums, m, I, grav)
         xdot = ca.vertcat(nudot, q)
-        powers = inertia.wing_powers(x, nudot, sums, grav)
+        pw = inertia.wing_powers(x, nudot, sums, grav)
+        powers = ca.vertcat(*[pw[kk] for kk in WING_POWER_NAMES])
+    fns["rhs_wind"] = ca.Function("rhs_wind", [x, dsym, p, wind], [xdot], ["x", "d", "p", "wind_mps"], ["xdot"])
+    fns["loads_wind"] = ca.Function("loads_wind", [x, dsym, p, wind], [ca.vertcat(Fx, Fz, My)],
+                                  ["x", "d", "p", "wind_mps"], ["loads"])
+    zero = [ca.SX.zeros(2)]
+    xdot, loads, detail = ca.substitute([xdot, ca.vertcat(Fx, Fz, My), ca.vertcat(Gamma, alpha, vp, ca.vec(F))],
+                                        [wind], zero)
+    if powers is not None:
         # (x, d, p) -> the powers WING_POWER_NAMES [W] (and T_rel [J]) at one instant
-        fns["wing_power_d"] = ca.Function("wing_power_d", [x, dsym, p],
-                                        [ca.vertcat(*[powers[kk] for kk in WING_POWER_NAMES])],
+        fns["wing_power_d"] = ca.Function("wing_power_d", [x, dsym, p], ca.substitute([powers], [wind], zero),
                                         ["x", "d", "p"], ["powers"])
     else:
         fns["wing_power_d"] = None
     fns["rhs"] = ca.Function("rhs", [x, dsym, p], [xdot], ["x", "d", "p"], ["xdot"])
-    fns["loads_d"] = ca.Function("loads_d", [x, dsym, p], [ca.vertcat(Fx, Fz, My)],
-                               ["x", "d", "p"], ["loads"])
-    fns["detail_d"] = ca.Function("detail_d", [x, dsym, p], [Gamma, alpha, vp, F],
+    fns["loads_d"] = ca.Function("loads_d", [x, dsym, p], [loads], ["x", "d", "p"], ["loads"])
+    fns["detail_d"] = ca.Function("detail_d", [x, dsym, p], ca.vertsplit(detail, [0, N_EL, 2 * N_EL, 3 * N_EL, 3 * N_EL + 3]),
                                 ["x", "d", "p"], ["gamma", "alpha_rad", "vp_mps", "F_code"])
     return fns, pre_params
 
@@ -369,6 +395,9 @@ class BirdModel:
     * ``pre(t, p)`` (the wing in the arm frame) and ``post(local, t, p) -> d``, with
       ``data = post(pre(t, p), t, p)``; ``pre`` depends on the parameters ``pre_params`` only;
     * ``rhs(x, d, p) -> xdot`` and ``loads_d(x, d, p) -> [Fx_N, Fz_N, My_Nm]``;
+    * ``rhs_wind(x, d, p, wind_mps)`` and ``loads_wind``: the same with a uniform wind (inertial frame,
+      X forward, Z down, m/s) in the air velocity of every wing element and of the tail
+      (:func:`air_state`); with a zero wind they equal ``rhs`` and ``loads_d`` exactly;
     * ``f(x, t, p) -> xdot``, ``loads(x, t, p)`` and ``aero_detail(x, t, p)`` (circulations, angles of
       attack) composed in MX;
     * with wing masses, ``mass_points(t, p)`` and ``wing_power_d(x, d, p)`` (else None).
@@ -508,6 +537,6 @@ def get_model(cfg: Config) -> ConfiguredModel:
     return ConfiguredModel(_model_for(Structure.of(cfg)), cfg)
 
 
-__all__ = ["BirdModel", "get_model", "param_vector", "STATE_NAMES", "DATA_BLOCKS", "N_DATA",
+__all__ = ["BirdModel", "get_model", "air_state", "param_vector", "STATE_NAMES", "DATA_BLOCKS", "N_DATA",
            "unpack_data", "GEOMETRY_OUTPUTS", "Structure", "N_MASS", "unpack_mass", "WING_POWER_NAMES",
            "GRAPH_FUNCTIONS", "OPTIONAL_FUNCTIONS", "graph_key"]

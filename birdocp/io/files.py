@@ -13,6 +13,13 @@ from pathlib import Path
 from typing import Any
 
 
+def umask_mode() -> int:
+    """The mode a new file gets under the process umask (0o666 & ~umask), e.g. 0o644."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
 @contextlib.contextmanager
 def atomic_target(path: str | Path, suffix: str = ".tmp"):
     """Yield a temporary path in the target's folder; on success it is renamed over ``path`` (with
@@ -23,9 +30,7 @@ def atomic_target(path: str | Path, suffix: str = ".tmp"):
     os.close(fd)
     try:
         yield tmp
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600
+        os.chmod(tmp, umask_mode())  # mkstemp creates 0600
         os.replace(tmp, path)
     except BaseException:
         try:
