@@ -90,7 +90,7 @@ def element_angles_function(cfg: Config, n_times: int) -> "ca.Function":
         X = ca.MX.sym("X", 4, n)
         T = ca.MX.sym("T", 1, n)
         p = ca.MX.sym("p", len(PARAM_NAMES))
-        D = model.data.map(n)(T, p)
+        D = model.ode.data.map(n)(T, p)  # post(pre(t, p)): no need to read the whole data graph
         ae, ag, ds = effective_angles(model.ode.nd).map(n)(X, D, p)
         f = ca.Function("element_angles", [X, T, p], [ae, ag, ds], ["X", "T", "p"],
                         ["alpha_eff_rad", "alpha_geo_rad", "ds_m"])

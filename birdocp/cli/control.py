@@ -77,6 +77,14 @@ def cmd_control(args: argparse.Namespace, command_line: list[str]) -> int:
             except (np.linalg.LinAlgError, ValueError) as exc:
                 ctl, body = None, {"success": False, "status": "not_stabilised"}
                 message = f"no stabilising feedback through {', '.join(controls)}: {cli.one_line(exc)}"
+                wm, per = getattr(exc, "wingbeat_map", None), getattr(exc, "per_control", None)
+                if wm is not None and per is not None:
+                    # no feedback was found: the closed loop is the open loop
+                    from birdocp.engine.floquet import complex_pairs
+
+                    ol = complex_pairs(wm.multipliers)
+                    body.update(controls=list(wm.controls), open_loop_multipliers=ol, closed_loop_multipliers=ol,
+                                controllable={r["control"]: r["stabilisable"] for r in per}, per_control=per)
         result = {**head, **body, "message": message or body["message"], "amplitude_deg": base.amplitude_deg,
                   "mean_forward_speed_mps": base.mean_forward_speed_mps,
                   "mean_vertical_speed_mps": base.mean_vertical_speed_mps,
@@ -97,7 +105,7 @@ def cmd_control(args: argparse.Namespace, command_line: list[str]) -> int:
 
 
 def _print_table(r: dict) -> None:
-    if "open_loop_multipliers" not in r:
+    if "gain" not in r:  # no controller (a failure carries the multipliers and per-control analysis only)
         print(f"control: {r['status']}: {r['message']}")
         return
     print(f"control: {r['status']} with {len(r['controls'])} control(s), {r['updates_per_beat']} update(s) per beat, "

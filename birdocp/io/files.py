@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
+import sys
 import tempfile
 from dataclasses import fields, is_dataclass
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 
 def umask_mode() -> int:
@@ -70,6 +70,13 @@ def to_jsonable(obj: Any) -> Any:
         return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [to_jsonable(v) for v in obj]
+    np = sys.modules.get("numpy")  # no numpy object exists unless numpy was imported (kept off --help)
+    if np is None:
+        if isinstance(obj, complex):
+            return [to_jsonable(obj.real), to_jsonable(obj.imag)]
+        if isinstance(obj, float):
+            return obj if math.isfinite(obj) else None
+        return obj
     if isinstance(obj, np.ndarray):
         return to_jsonable(obj.tolist())
     if isinstance(obj, (complex, np.complexfloating)):

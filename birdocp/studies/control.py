@@ -471,14 +471,20 @@ def design_controller(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat:
     ConfigError
         Unknown key or bad N.
     numpy.linalg.LinAlgError
-        The controls cannot stabilise the cycle (no stabilising Riccati solution).
+        The controls cannot stabilise the cycle (no stabilising Riccati solution); the exception
+        carries ``wingbeat_map`` and ``per_control`` (the analysis of each control alone).
     """
     wm = wingbeat_map(cycle_result, controls, updates_per_beat)
     Qd, Rd = bryson_weights(cycle_result.cfg, wm.controls)
     Q = Qd if Q is None else np.asarray(Q, float)
     R = Rd if R is None else np.asarray(R, float)
     per = [_single_control(wm, j, Q, R) for j in range(len(wm.controls))]
-    P, K = periodic_lqr(wm.A, wm.B, Q, R)
+    try:
+        P, K = periodic_lqr(wm.A, wm.B, Q, R)
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        # the analysis survives the failure: the wingbeat map and each control alone
+        exc.wingbeat_map, exc.per_control = wm, per
+        raise
     return Controller(wm, Q, R, P, K, default_limits(cycle_result.cfg, wm.controls, wm.p, limit_deg), per)
 
 
