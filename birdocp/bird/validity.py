@@ -188,7 +188,9 @@ def _verdict(cfg: Config, t, X, ae_deg, ag_deg, ds) -> CycleValidity:
     stalled_span = (stalled * ds).sum(axis=0) / span        # n: stalled share of the span at each time
     u, w, theta = X[:, 0], X[:, 1], X[:, 3]
     airflow_deg = np.degrees(np.abs(np.arctan2(w, u)))
-    i_max = np.unravel_index(np.argmax(np.abs(ae_deg)), ae_deg.shape)
+    # the two wings are mirror images: their angles agree to round-off, so the largest is taken on
+    # values rounded to 1e-9 deg and the first (left-wing) element of a tie is reported, every time
+    i_max = np.unravel_index(np.argmax(np.round(np.abs(ae_deg), 9)), ae_deg.shape)
     m = {
         "alpha_eff_min_deg": float(ae_deg.min()), "alpha_eff_max_deg": float(ae_deg.max()),
         "alpha_eff_max_abs_element": int(i_max[0]),

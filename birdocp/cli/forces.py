@@ -52,7 +52,7 @@ def cmd_forces(args: argparse.Namespace, command_line: list[str]) -> int:
         print(f"{PROG}: forces: {message}{warn}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     if args.json:
-        print_json(res)  # the four documented keys (a success needs no status)
+        print_json(dict(res, success=True, status="ok"))  # the four documented keys, success and status
         return EXIT_OK
     u, w, q, th = state
     xd = res["xdot"] + [float("nan")] * (4 - len(res["xdot"]))

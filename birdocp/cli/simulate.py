@@ -133,8 +133,14 @@ def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
                     run.output(result, None)
                     return run.fail("the cycle did not converge", base.status, base.max_residual, base.message)
                 sim_cfg, x0, steps = base.cfg, base.x0, int(base.cycle.method["steps_per_period"])
-            sim = simulate(sim_cfg, x0, args.beats, steps_per_period=steps, perturbation=dx0, gusts=gusts,
-                           wind_mps=wind, controller=ctl)
+            from birdocp.io.progress import progress_callback
+
+            say, bar = progress_callback("simulate", getattr(args, "quiet", False), total=args.beats)
+            try:
+                sim = simulate(sim_cfg, x0, args.beats, steps_per_period=steps, perturbation=dx0, gusts=gusts,
+                               wind_mps=wind, controller=ctl, progress=say)
+            finally:
+                bar.close()
         result = {**sim.to_dict(), **head, "cycle_x0": [float(v) for v in x0],
                   "wall_s": {"total": time.perf_counter() - t0}}
         arrays = sim.arrays()

@@ -257,7 +257,7 @@ def _wind_vector(gusts, wind_mps, beat_m) -> tuple[np.ndarray, list]:
 
 def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, perturbation=None,
              gusts=(), wind_mps=(0.0, 0.0), controller=None, p=None,
-             stop_when_recovered: bool = False) -> SimulationResult:
+             stop_when_recovered: bool = False, progress=None) -> SimulationResult:
     """Integrate the bird ``beats`` wingbeats from ``x0_cycle + perturbation``.
 
     Parameters
@@ -268,6 +268,8 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
         The cycle's state at the beat start (u, w [m/s], q [rad/s], theta [rad]).
     beats : int
         Wingbeats to simulate (>= 1).
+    progress : callable, optional
+        ``progress(text)`` called at the start of every beat (e.g. a progress bar).
     steps_per_period : int, optional
         RK4 steps per beat (default ``cfg.solve.steps_per_period``; use the cycle's).
     perturbation : array (4,), optional
@@ -320,6 +322,8 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
     status, message = "ok", f"{beats} beats simulated"
     T = m.period_s
     for k in range(beats):
+        if progress is not None:
+            progress(f"beat {k + 1}/{beats}")
         for i in range(N):
             pk = p_cyc
             if controller is not None:
