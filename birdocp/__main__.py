@@ -2,7 +2,11 @@
 
 import sys
 
-from birdocp.cli.main import main
+try:
+    from birdocp.cli.main import main
+except KeyboardInterrupt:  # Ctrl-C while starting up
+    sys.stderr.write("birdocp: interrupted\n")
+    raise SystemExit(130) from None
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -48,8 +48,9 @@ print(json.dumps({"import_s": t1 - t0, "build_s": t2 - t1,
 
 def fresh_build(values: dict) -> dict:
     """Import and graph-build times of get_model in a fresh interpreter."""
+    env = dict(os.environ, BIRDOCP_GRAPH_CACHE="0")  # the build itself, not a read of the graph cache
     res = subprocess.run([sys.executable, "-c", BUILD_SNIPPET, json.dumps(values)],
-                         capture_output=True, text=True, check=True, cwd=ROOT)
+                         capture_output=True, text=True, check=True, cwd=ROOT, env=env)
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 

@@ -178,8 +178,9 @@ def test_forces_json_and_table(fake_model, capfd):
     assert cli.main(["forces", "--state", "18", "0.5", "0.1", "0.01", "--time", "0.1", "--json"]) == 0
     out = capfd.readouterr().out
     res = json.loads(out)
-    assert list(res) == ["Fx_N", "Fz_N", "My_Nm", "xdot"]
-    assert res == {"Fx_N": 1.5, "Fz_N": -29.0, "My_Nm": 0.025, "xdot": [0.1, 0.2, 0.3, 0.1]}
+    assert list(res) == ["Fx_N", "Fz_N", "My_Nm", "xdot", "success", "status"]
+    assert res == {"Fx_N": 1.5, "Fz_N": -29.0, "My_Nm": 0.025, "xdot": [0.1, 0.2, 0.3, 0.1], "success": True,
+                   "status": "ok"}
     assert cli.main(["forces", "--state", "18", "0.5", "0.1", "0.01", "--time", "0.1"]) == 0
     out = capfd.readouterr().out
     for text in ("Fx", "1.5 N", "-29 N", "0.025 N m", "du/dt", "m/s^2", "rad/s^2", "dtheta/dt"):
@@ -215,6 +216,6 @@ def test_forces_with_the_real_model(tmp_path):
                           timeout=120)
     assert proc.returncode == 0, proc.stderr
     res = json.loads(proc.stdout)
-    assert list(res) == ["Fx_N", "Fz_N", "My_Nm", "xdot"] and len(res["xdot"]) == 4
+    assert list(res) == ["Fx_N", "Fz_N", "My_Nm", "xdot", "success", "status"] and len(res["xdot"]) == 4
     assert all(np.isfinite(v) for v in [res["Fx_N"], res["Fz_N"], res["My_Nm"], *res["xdot"]])
     assert res["xdot"][3] == pytest.approx(0.1)  # dtheta/dt = q

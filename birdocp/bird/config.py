@@ -303,6 +303,11 @@ _POSITIVE = {
     "drag.body_frontal_area_m2",
 }
 ANGLE_LIMIT_DEG = 180.0
+MAX_POINTS = 500
+"""Upper bound of solve.points (shooting points per period)."""
+MAX_STEPS_PER_PERIOD = 10000
+"""Upper bound of solve.steps_per_period: the RK4 graphs and the data grid grow with it (the
+reference case uses 148)."""
 """Joint offsets and amplitudes must lie in [-180, 180] deg, phases in [-360, 360] deg."""
 
 
@@ -364,6 +369,11 @@ def validate(cfg: Config) -> None:
     s = cfg.solve
     if s.points < 2:
         raise ConfigError("solve.points", f"must be >= 2 (the closing point included), got {s.points!r}")
+    if s.points > MAX_POINTS:
+        raise ConfigError("solve.points", f"must be <= {MAX_POINTS}, got {s.points!r}")
+    if s.steps_per_period > MAX_STEPS_PER_PERIOD:
+        raise ConfigError("solve.steps_per_period",
+                          f"must be <= {MAX_STEPS_PER_PERIOD} (the reference uses 148), got {s.steps_per_period!r}")
     if s.steps_per_period < 1 or s.steps_per_period % (s.points - 1):
         raise ConfigError("solve.steps_per_period",
                           f"must be a positive multiple of points - 1 = {s.points - 1}, got {s.steps_per_period!r}")

@@ -12,6 +12,7 @@ positive) about the centre of mass G. Parameters ``p``: :data:`birdocp.bird.conf
 from __future__ import annotations
 
 import functools
+import time
 from dataclasses import dataclass
 
 import casadi as ca
@@ -70,6 +71,20 @@ def unpack_data(d):
     return {name: ca.reshape(d[k:k + r * c], r, c) for name, (k, r, c) in DATA_OFFSETS.items()}
 
 
+def air_state(x, wind_mps):
+    """The state as the aerodynamics sees it: (u - wind_u, w - wind_w, q, theta).
+
+    ``wind_mps`` = (W_X, W_Z): the air's velocity in the inertial frame (X forward horizontal, Z down,
+    m/s), uniform over the bird; rotated into the body frame (x' forward, z' down) by the pitch angle
+    theta: ``wind_u = cos(theta) W_X - sin(theta) W_Z``, ``wind_w = sin(theta) W_X + cos(theta) W_Z``.
+    The state's u, w stay the inertial velocity of G in the body frame (the equations of motion are
+    unchanged); a zero wind gives back x exactly."""
+    th = x[3]
+    c, s = ca.cos(th), ca.sin(th)
+    return ca.vertcat(x[0] - (c * wind_mps[0] - s * wind_mps[1]),
+                      x[1] - (s * wind_mps[0] + c * wind_mps[1]), x[2], th)
+
+
 def _p(p, name):
     return p[PARAM_NAMES.index(name)]
 
@@ -84,8 +99,8 @@ class Structure:
     kinematic_velocity: str
     backward_step_s: float
     tail: bool = False
-    drag: bool = False
     wing_mass: bool = False
+    drag: bool = False
 
     @staticmethod
     def of(cfg: Config) -> "Structure":
@@ -94,8 +109,8 @@ class Structure:
         return Structure(cfg.gait.frequency_hz, a.circulation, a.relaxed_evaluations,
                          a.kinematic_velocity, a.backward_step_s,
                          bool(cfg.tail.enabled or cfg.tail.opening_angle_deg > 0),
-                         bool(dr.enabled or dr.body_drag_coefficient > 0 or dr.profile_drag_coefficient > 0),
-                         bool(cfg.wing.inertial_terms or cfg.wing.mass_kg > 0))
+                         bool(cfg.wing.inertial_terms or cfg.wing.mass_kg > 0),
+                         drag=bool(dr.enabled or dr.body_drag_coefficient > 0 or dr.profile_drag_coefficient > 0))
 
 
 def _joint_angles(t, p, frequency_hz):
@@ -144,6 +159,43 @@ def _merged(R1, P, c_hat, up, chord, x_ep):
                       _columns(R1 @ c_hat), _columns(R1 @ up), x_ep)
 
 
+WING_POWER_NAMES = ("inertial_power_W", "shoulder_inertial_power_W", "wing_acceleration_power_W",
+                    "wing_gravity_power_W", "wing_relative_kinetic_energy_J")
+"""Outputs of ``BirdModel.wing_power_d`` (see :func:`birdocp.bird.inertia.wing_powers`)."""
+
+
+def _local_mass_points(t, p, frequency_hz):
+    q = _joint_angles(t, p, frequency_hz)
+    l1, l2, l4 = (_p(p, f"wing.{k}") for k in ("arm_length_m", "forearm_length_m", "hand_length_m"))
+    feathers = [_p(p, f"wing.feather_lengths_m.{i}") for i in range(7)]
+    return inertia.local_mass_points(q, l1, l2, l4, feathers)[0]
+
+
+def _point_masses(p):
+    """The 20 point masses of one wing [kg] (two Gauss points per segment, half its mass each)."""
+    seg_m = inertia.segment_masses(_p(p, "wing.mass_kg"), [_p(p, f"wing.{k}") for k in WING_MASS_SHARES])
+    return [0.5 * seg_m[i // 2] for i in range(2 * len(seg_m))]
+
+
+def _wing_points_body(R1, R1d, R1dd, rho, rho_d, rho_dd, p):
+    """Right-wing mass points relative to G_b in the body frame (x', y', z'): positions, velocities
+    and accelerations relative to the body, from the arm-frame points and the shoulder rotation.
+    Code frame (e1, e2, e3) -> body: x' = -e3, y' = e1, z' = -e2; shoulder at (x_ep, 0, -root_ahead)."""
+    root = ca.vertcat(_p(p, "wing.shoulder_half_separation_m"), 0, -_p(p, "wing.root_ahead_m"))
+    rc = ca.repmat(root, 1, rho.shape[1]) + R1 @ rho
+    vc = R1d @ rho + R1 @ rho_d
+    ac = R1dd @ rho + 2 * (R1d @ rho_d) + R1 @ rho_dd
+
+    def body(c):
+        return [ca.vertcat(-c[2, j], c[0, j], -c[1, j]) for j in range(c.shape[1])]
+
+    return body(rc), body(vc), body(ac)
+
+
+GEOMETRY_OUTPUTS = ("joint_angles_rad", "leading_edge_raw", "trailing_edge_raw", "leading_edge",
+                    "trailing_edge", "line", "chord_m", "chord_dir", "up_dir", "diagnostics")
+
+
 def load_terms(structure: Structure, x, d, p) -> dict:
     """Every aerodynamic load term at state x (SX 4), data d and parameters p, as expressions.
 
@@ -186,209 +238,289 @@ def load_terms(structure: Structure, x, d, p) -> dict:
     return out
 
 
-WING_POWER_NAMES = ("inertial_power_W", "shoulder_inertial_power_W", "wing_acceleration_power_W",
-                    "wing_gravity_power_W", "wing_relative_kinetic_energy_J")
-"""Outputs of ``BirdModel.wing_power_d`` (see :func:`birdocp.bird.inertia.wing_powers`)."""
+GRAPH_FUNCTIONS = ("pre", "post", "rhs", "data", "geometry", "loads_d", "detail_d", "rhs_wind",
+                   "loads_wind")
+"""The SX Functions of a :class:`BirdModel` that the graph cache stores (the MX compositions ``f``,
+``loads``, ``aero_detail`` are rebuilt from them in milliseconds)."""
+
+OPTIONAL_FUNCTIONS = ("mass_points", "wing_power_d")
+"""Functions only some structures have (wing masses); None otherwise."""
+
+_EAGER = ("pre", "post", "rhs")  # what every solve needs; the rest is read from the cache on first use
 
 
-def _local_mass_points(t, p, frequency_hz):
-    q = _joint_angles(t, p, frequency_hz)
-    l1, l2, l4 = (_p(p, f"wing.{k}") for k in ("arm_length_m", "forearm_length_m", "hand_length_m"))
-    feathers = [_p(p, f"wing.feather_lengths_m.{i}") for i in range(7)]
-    return inertia.local_mass_points(q, l1, l2, l4, feathers)[0]
+def graph_key(structure: Structure) -> dict:
+    """Everything that changes the model's graphs: the source of :mod:`birdocp.bird` and
+    :mod:`birdocp.engine` (hashed), the :class:`Structure` (frequency, circulation, relaxed
+    evaluations, kinematic velocity, its backward step, tail on/off, wing masses on/off; every other
+    configuration value
+    is a number in ``p``), the parameter layout and the birdocp version (CasADi's version and the
+    cache format are added by :mod:`birdocp.engine.graphcache`)."""
+    from pathlib import Path
+
+    from birdocp import __version__
+    from birdocp.engine import graphcache
+
+    here = Path(__file__).resolve().parent
+    sources = list(here.rglob("*.py")) + list((here.parent / "engine").rglob("*.py"))
+    return {"model": "bird", "sources_sha256": graphcache.source_digest(sources),
+            "structure": {k: getattr(structure, k) for k in structure.__dataclass_fields__},
+            "param_names": list(PARAM_NAMES), "n_data": N_DATA, "birdocp": __version__}
 
 
-def _point_masses(p):
-    """The 20 point masses of one wing [kg] (two Gauss points per segment, half its mass each)."""
-    seg_m = inertia.segment_masses(_p(p, "wing.mass_kg"), [_p(p, f"wing.{k}") for k in WING_MASS_SHARES])
-    return [0.5 * seg_m[i // 2] for i in range(2 * len(seg_m))]
+def _build(s: Structure) -> tuple[dict, tuple]:
+    """The SX Functions of structure ``s`` (:data:`GRAPH_FUNCTIONS`, and
+    :data:`OPTIONAL_FUNCTIONS` or None) and ``pre_params``."""
+    fns = {}
+    f_hz = s.frequency_hz
+    t = ca.SX.sym("t")
+    p = ca.SX.sym("p", len(PARAM_NAMES))
+    x_ep = _p(p, "wing.shoulder_half_separation_m")
 
+    # Arm-frame shape ("pre") and its kinematic-velocity companion.
+    loc = _local_expr(t, p, f_hz)
+    P, c_hat_l, up_l, chord_l = loc["P"], loc["c_hat"], loc["up"], loc["chord"]
+    if s.kinematic_velocity == "exact":
+        aux = ca.jtimes(ca.vec(P), t, ca.SX(1))       # dP/dt in the arm frame
+    elif s.kinematic_velocity == "backward-difference":
+        aux = ca.vec(ca.Function("P_local", [t, p], [P])(t - s.backward_step_s, p))  # P(t - delta)
+    else:
+        raise ValueError(f"aero.kinematic_velocity must be 'exact' or 'backward-difference', got {s.kinematic_velocity!r}")
+    ell = ca.vertcat(ca.vec(P), ca.vec(c_hat_l), ca.vec(up_l), ca.vec(chord_l), aux)
+    n_aero_local = ell.numel()
+    if s.wing_mass:
+        # wing mass points in the arm's frame with their time derivatives (AD in t): smooth
+        # functions of the elbow and wrist joints, so they belong to the numeric 'pre' part
+        rho = ca.horzcat(*_local_mass_points(t, p, f_hz))
+        rho_d = ca.jtimes(rho, t, ca.SX(1))
+        rho_dd = ca.jtimes(rho_d, t, ca.SX(1))
+        ell = ca.vertcat(ell, ca.vec(rho), ca.vec(rho_d), ca.vec(rho_dd))
+    fns["pre"] = ca.Function("wing_local", [t, p], [ell], ["t", "p"], ["local"])
+    pre_params = tuple(int(k) for k in np.nonzero(
+        np.asarray(ca.DM(ca.jacobian_sparsity(ell, p), 1)).sum(axis=0))[0])
 
-def _wing_points_body(R1, R1d, R1dd, rho, rho_d, rho_dd, p):
-    """Right-wing mass points relative to G_b in the body frame (x', y', z'): positions, velocities
-    and accelerations relative to the body, from the arm-frame points and the shoulder rotation.
-    Code frame (e1, e2, e3) -> body: x' = -e3, y' = e1, z' = -e2; shoulder at (x_ep, 0, -root_ahead)."""
-    root = ca.vertcat(_p(p, "wing.shoulder_half_separation_m"), 0, -_p(p, "wing.root_ahead_m"))
-    rc = ca.repmat(root, 1, rho.shape[1]) + R1 @ rho
-    vc = R1d @ rho + R1 @ rho_d
-    ac = R1dd @ rho + 2 * (R1d @ rho_d) + R1 @ rho_dd
+    # Geometry for users and plots: the arm-frame shape rotated by R1, merged.
+    R1 = _shoulder(t, p, f_hz)
+    Q, ch, cd, nu = _merged(R1, P, c_hat_l, up_l, chord_l, x_ep)
+    diag = dict(loc["diag"], n_mid=ca.ceil(2 * x_ep / loc["dx"]))
+    geo = {
+        "joint_angles_rad": loc["joint_angles_rad"],
+        "leading_edge_raw": R1 @ loc["leading_edge_raw"], "trailing_edge_raw": R1 @ loc["trailing_edge_raw"],
+        "leading_edge": R1 @ loc["leading_edge"], "trailing_edge": R1 @ loc["trailing_edge"],
+        "line": ca.horzcat(*Q), "chord_m": ca.horzcat(*ch), "chord_dir": ca.horzcat(*cd),
+        "up_dir": ca.horzcat(*nu), "diagnostics": ca.vertcat(*[diag[k] for k in wing.DIAGNOSTICS]),
+    }
+    fns["geometry"] = ca.Function("geometry", [t, p], [geo[k] for k in GEOMETRY_OUTPUTS],
+                                ["t", "p"], list(GEOMETRY_OUTPUTS))
 
-    def body(c):
-        return [ca.vertcat(-c[2, j], c[0, j], -c[1, j]) for j in range(c.shape[1])]
+    # Assembly ("post"): shoulder rotation, merge, kinematic velocity, lifting-line matrices.
+    L = ca.SX.sym("local", ell.numel())
+    k = 0
+    blocks_l = []
+    for n in (48, 48, 48, 16, 48):
+        blocks_l.append(L[k:k + n])
+        k += n
+    assert k == n_aero_local
+    P_s = ca.reshape(blocks_l[0], 3, N_EL)
+    c_s = ca.reshape(blocks_l[1], 3, N_EL)
+    u_s = ca.reshape(blocks_l[2], 3, N_EL)
+    ch_s = ca.reshape(blocks_l[3], 1, N_EL)
+    aux_s = ca.reshape(blocks_l[4], 3, N_EL)
+    Q, ch, cd, nu = _merged(R1, P_s, c_s, u_s, ch_s, x_ep)
+    line = ca.horzcat(*Q)
+    centres, nodes = line[:, 1::2], line[:, 0::2]
+    if s.kinematic_velocity == "exact":
+        Pdot = ca.jtimes(R1, t, ca.SX(1)) @ P_s + R1 @ aux_s
+        Qd = wing.merge(_columns(Pdot), [0] * N_EL, _columns(P_s), _columns(P_s), 0.0)[0]
+        v_kin = ca.horzcat(*Qd)[:, 1::2]
+    else:
+        R1_prev = _shoulder(t - s.backward_step_s, p, f_hz)
+        Qp = wing.merge(_columns(R1_prev @ aux_s), [0] * N_EL, _columns(P_s), _columns(P_s), x_ep)[0]
+        v_kin = (centres - ca.horzcat(*Qp)[:, 1::2]) / s.backward_step_s
+    c_hat = ca.horzcat(*cd)[:, 1::2]
+    up = ca.horzcat(*nu)[:, 1::2]
+    chord = ca.horzcat(*ch)[1::2]
+    tau = ca.horzcat(*[ca.cross(up[:, j], c_hat[:, j]) for j in range(N_EL)])
+    ds = ca.vertcat(*[ca.norm_2(nodes[:, j + 1] - nodes[:, j]) for j in range(N_EL)])
+    r_w = ca.vertcat(0, 0, -_p(p, "wing.root_ahead_m"))
+    r = centres + ca.repmat(r_w, 1, N_EL)
+    G, Wx, Wy = aero.circulation_matrices(
+        _columns(centres), _columns(nodes), [chord[j] for j in range(N_EL)],
+        _p(p, "aero.lift_slope_per_rad"), s.circulation, s.relaxed_evaluations)
+    blocks = {"r_m": r, "v_kin_mps": v_kin, "c_hat": c_hat, "up": up, "tau": tau, "ds_m": ds,
+              "G": G, "Wx": Wx, "Wy": Wy, "nodes_m": nodes + ca.repmat(r_w, 1, N_EL + 1),
+              "chord_m": chord.T}
+    d = ca.vertcat(*[ca.vec(blocks[name]) for name, _ in DATA_BLOCKS])
+    if s.wing_mass:
+        npt = inertia.N_POINTS_PER_WING
+        rho_s = [ca.reshape(L[k + 3 * npt * j:k + 3 * npt * (j + 1)], 3, npt) for j in range(3)]
+        R1d = ca.jtimes(R1, t, ca.SX(1))
+        R1dd = ca.jtimes(R1d, t, ca.SX(1))
+        rb, vb, ab = _wing_points_body(R1, R1d, R1dd, *rho_s, p)
+        sums = inertia.mass_sums(_point_masses(p), rb, vb, ab)
+        d = ca.vertcat(d, *[sums[kk] for kk in inertia.MASS_BLOCK])
+        mpts = ell[n_aero_local:]
+        mr = [ca.reshape(mpts[3 * npt * j:3 * npt * (j + 1)], 3, npt) for j in range(3)]
+        rb, vb, ab = _wing_points_body(R1, R1d, R1dd, *mr, p)
+        mirror = ca.diag(ca.DM([1, -1, 1]))
+        both = [ca.horzcat(ca.horzcat(*z), mirror @ ca.horzcat(*z)) for z in (rb, vb, ab)]
+        mm = ca.vertcat(*_point_masses(p))
+        # both wings' mass points relative to G_b in the body frame (x', y', z'), 3 x 40 each
+        # (right wing then left), their velocities and accelerations relative to the body, masses
+        fns["mass_points"] = ca.Function(
+            "wing_mass_points", [t, p], both + [ca.vertcat(mm, mm)], ["t", "p"],
+            ["r_m", "v_mps", "a_mps2", "m_kg"])
+    else:
+        fns["mass_points"] = None
+    fns["post"] = ca.Function("wing_assemble", [L, t, p], [d], ["local", "t", "p"], ["d"])
+    fns["data"] = ca.Function("data", [t, p], [fns["post"](ell, t, p)], ["t", "p"], ["d"])
 
-    return body(rc), body(vc), body(ac)
-
-
-GEOMETRY_OUTPUTS = ("joint_angles_rad", "leading_edge_raw", "trailing_edge_raw", "leading_edge",
-                    "trailing_edge", "line", "chord_m", "chord_dir", "up_dir", "diagnostics")
+    # State part. The aerodynamics sees the air-relative state (``air_state``: the wind in the
+    # inertial frame, rotated into the body frame, subtracted from u, w); rhs/loads_d/detail_d
+    # are the same graphs with the wind substituted by zero (the exact graphs of before).
+    x = ca.SX.sym("x", 4)
+    wind = ca.SX.sym("wind_mps", 2)
+    xa = air_state(x, wind)
+    dsym = ca.SX.sym("d", N_DATA + (N_MASS if s.wing_mass else 0))
+    lt = load_terms(s, xa, dsym, p)
+    Fx, Fz, My, Gamma, alpha, vp, F = (lt[k] for k in ("Fx_N", "Fz_N", "My_Nm", "Gamma", "alpha", "Vp_norm",
+                                                      "F_code"))
+    m = _p(p, "body.mass_kg")
+    I = _p(p, "body.pitch_inertia_kgm2")
+    grav = _p(p, "body.gravity_mps2")
+    u, w, q, theta = x[0], x[1], x[2], x[3]
+    xdot = ca.vertcat(-q * w - grav * ca.sin(theta) + Fx / m,
+                      q * u + grav * ca.cos(theta) + Fz / m,
+                      My / I,
+                      q)
+    powers = None
+    if s.wing_mass:
+        # body.mass_kg is the whole bird M, body.pitch_inertia_kgm2 the body alone about G_b
+        # (spec inertia.md 4.3: the massless right-hand side with m = M, I = I_b, plus a
+        # correction that is exactly zero when the wings have no mass)
+        sums = unpack_mass(dsym)
+        nudot = inertia.accelerations(x, xdot[:3], sums, m, I, grav)
+        xdot = ca.vertcat(nudot, q)
+        pw = inertia.wing_powers(x, nudot, sums, grav)
+        powers = ca.vertcat(*[pw[kk] for kk in WING_POWER_NAMES])
+    fns["rhs_wind"] = ca.Function("rhs_wind", [x, dsym, p, wind], [xdot], ["x", "d", "p", "wind_mps"], ["xdot"])
+    fns["loads_wind"] = ca.Function("loads_wind", [x, dsym, p, wind], [ca.vertcat(Fx, Fz, My)],
+                                  ["x", "d", "p", "wind_mps"], ["loads"])
+    zero = [ca.SX.zeros(2)]
+    xdot, loads, detail = ca.substitute([xdot, ca.vertcat(Fx, Fz, My), ca.vertcat(Gamma, alpha, vp, ca.vec(F))],
+                                        [wind], zero)
+    if powers is not None:
+        # (x, d, p) -> the powers WING_POWER_NAMES [W] (and T_rel [J]) at one instant
+        fns["wing_power_d"] = ca.Function("wing_power_d", [x, dsym, p], ca.substitute([powers], [wind], zero),
+                                        ["x", "d", "p"], ["powers"])
+    else:
+        fns["wing_power_d"] = None
+    fns["rhs"] = ca.Function("rhs", [x, dsym, p], [xdot], ["x", "d", "p"], ["xdot"])
+    fns["loads_d"] = ca.Function("loads_d", [x, dsym, p], [loads], ["x", "d", "p"], ["loads"])
+    fns["detail_d"] = ca.Function("detail_d", [x, dsym, p], ca.vertsplit(detail, [0, N_EL, 2 * N_EL, 3 * N_EL, 3 * N_EL + 3]),
+                                ["x", "d", "p"], ["gamma", "alpha_rad", "vp_mps", "F_code"])
+    return fns, pre_params
 
 
 class BirdModel:
     """CasADi Functions of the bird for one :class:`Structure`; numbers go in ``p``.
 
-    Functions (all built once):
+    Functions (built once, or read from the graph cache :mod:`birdocp.engine.graphcache` keyed by
+    :func:`graph_key`; Functions other than ``pre``, ``post``, ``rhs`` are read on first use):
 
     * ``geometry(t, p)``: named outputs :data:`GEOMETRY_OUTPUTS` (merged line 3x33 in the code frame
       with origin on the body centre line at the shoulders, chords, directions, diagnostics);
     * ``data(t, p) -> d`` (:data:`N_DATA` values, layout :data:`DATA_BLOCKS`);
+    * ``pre(t, p)`` (the wing in the arm frame) and ``post(local, t, p) -> d``, with
+      ``data = post(pre(t, p), t, p)``; ``pre`` depends on the parameters ``pre_params`` only;
     * ``rhs(x, d, p) -> xdot`` and ``loads_d(x, d, p) -> [Fx_N, Fz_N, My_Nm]``;
+    * ``rhs_wind(x, d, p, wind_mps)`` and ``loads_wind``: the same with a uniform wind (inertial frame,
+      X forward, Z down, m/s) in the air velocity of every wing element and of the tail
+      (:func:`air_state`); with a zero wind they equal ``rhs`` and ``loads_d`` exactly;
     * ``f(x, t, p) -> xdot``, ``loads(x, t, p)`` and ``aero_detail(x, t, p)`` (circulations, angles of
-      attack) composed in MX.
+      attack) composed in MX;
+    * with wing masses, ``mass_points(t, p)`` and ``wing_power_d(x, d, p)`` (else None).
+
+    ``ode`` (the :class:`~birdocp.engine.problem.PeriodicODE` the engine solves) has the data as the
+    MX composition of ``pre`` and ``post`` (the same numbers as ``data``).
+
+    ``graph_source`` says where the graphs came from: ``"built"``, ``"cache"`` (read) or
+    ``"built+stored"``; ``graph_s`` the seconds it took.
     """
 
-    def __init__(self, structure: Structure):
+    def __init__(self, structure: Structure, use_cache: bool = True):
+        from birdocp.engine import graphcache
+
         self.structure = structure
-        s = structure
-        f_hz = s.frequency_hz
-        t = ca.SX.sym("t")
-        p = ca.SX.sym("p", len(PARAM_NAMES))
-        x_ep = _p(p, "wing.shoulder_half_separation_m")
-
-        # Arm-frame shape ("pre") and its kinematic-velocity companion.
-        loc = _local_expr(t, p, f_hz)
-        P, c_hat_l, up_l, chord_l = loc["P"], loc["c_hat"], loc["up"], loc["chord"]
-        if s.kinematic_velocity == "exact":
-            aux = ca.jtimes(ca.vec(P), t, ca.SX(1))       # dP/dt in the arm frame
-        elif s.kinematic_velocity == "backward-difference":
-            aux = ca.vec(ca.Function("P_local", [t, p], [P])(t - s.backward_step_s, p))  # P(t - delta)
+        t0 = time.perf_counter()
+        self._entry = None
+        self._fns: dict = {}
+        use_cache = use_cache and graphcache.enabled()
+        key = graph_key(structure) if use_cache else None
+        if use_cache:
+            entry = graphcache.load("bird-model", key)
+            if entry is not None and set(GRAPH_FUNCTIONS) <= set(entry.names):
+                try:
+                    for name in _EAGER:
+                        self._fns[name] = entry.function(name)
+                    self.pre_params = tuple(int(i) for i in entry.meta["pre_params"])
+                    self._entry = entry
+                except (graphcache.CacheMiss, KeyError, TypeError, ValueError):
+                    self._fns = {}
+                    entry.discard()
+            elif entry is not None:  # written without every Function: replace it
+                entry.discard()
+        if self._entry is None:
+            self._fns, self.pre_params = _build(structure)
+            self.graph_source = "built"
+            if use_cache and graphcache.store("bird-model", key, {k: f for k, f in self._fns.items() if f is not None},
+                                              {"pre_params": list(self.pre_params)}) is not None:
+                self.graph_source = "built+stored"
         else:
-            raise ValueError(f"aero.kinematic_velocity must be 'exact' or 'backward-difference', got {s.kinematic_velocity!r}")
-        ell = ca.vertcat(ca.vec(P), ca.vec(c_hat_l), ca.vec(up_l), ca.vec(chord_l), aux)
-        n_aero_local = ell.numel()
-        if s.wing_mass:
-            # wing mass points in the arm's frame with their time derivatives (AD in t): smooth
-            # functions of the elbow and wrist joints, so they belong to the numeric 'pre' part
-            rho = ca.horzcat(*_local_mass_points(t, p, f_hz))
-            rho_d = ca.jtimes(rho, t, ca.SX(1))
-            rho_dd = ca.jtimes(rho_d, t, ca.SX(1))
-            ell = ca.vertcat(ell, ca.vec(rho), ca.vec(rho_d), ca.vec(rho_dd))
-        self.pre = ca.Function("wing_local", [t, p], [ell], ["t", "p"], ["local"])
-        self.pre_params = tuple(int(k) for k in np.nonzero(
-            np.asarray(ca.DM(ca.jacobian_sparsity(ell, p), 1)).sum(axis=0))[0])
-
-        # Geometry for users and plots: the arm-frame shape rotated by R1, merged.
-        R1 = _shoulder(t, p, f_hz)
-        Q, ch, cd, nu = _merged(R1, P, c_hat_l, up_l, chord_l, x_ep)
-        diag = dict(loc["diag"], n_mid=ca.ceil(2 * x_ep / loc["dx"]))
-        geo = {
-            "joint_angles_rad": loc["joint_angles_rad"],
-            "leading_edge_raw": R1 @ loc["leading_edge_raw"], "trailing_edge_raw": R1 @ loc["trailing_edge_raw"],
-            "leading_edge": R1 @ loc["leading_edge"], "trailing_edge": R1 @ loc["trailing_edge"],
-            "line": ca.horzcat(*Q), "chord_m": ca.horzcat(*ch), "chord_dir": ca.horzcat(*cd),
-            "up_dir": ca.horzcat(*nu), "diagnostics": ca.vertcat(*[diag[k] for k in wing.DIAGNOSTICS]),
-        }
-        self.geometry = ca.Function("geometry", [t, p], [geo[k] for k in GEOMETRY_OUTPUTS],
-                                    ["t", "p"], list(GEOMETRY_OUTPUTS))
-
-        # Assembly ("post"): shoulder rotation, merge, kinematic velocity, lifting-line matrices.
-        L = ca.SX.sym("local", ell.numel())
-        k = 0
-        blocks_l = []
-        for n in (48, 48, 48, 16, 48):
-            blocks_l.append(L[k:k + n])
-            k += n
-        assert k == n_aero_local
-        P_s = ca.reshape(blocks_l[0], 3, N_EL)
-        c_s = ca.reshape(blocks_l[1], 3, N_EL)
-        u_s = ca.reshape(blocks_l[2], 3, N_EL)
-        ch_s = ca.reshape(blocks_l[3], 1, N_EL)
-        aux_s = ca.reshape(blocks_l[4], 3, N_EL)
-        Q, ch, cd, nu = _merged(R1, P_s, c_s, u_s, ch_s, x_ep)
-        line = ca.horzcat(*Q)
-        centres, nodes = line[:, 1::2], line[:, 0::2]
-        if s.kinematic_velocity == "exact":
-            Pdot = ca.jtimes(R1, t, ca.SX(1)) @ P_s + R1 @ aux_s
-            Qd = wing.merge(_columns(Pdot), [0] * N_EL, _columns(P_s), _columns(P_s), 0.0)[0]
-            v_kin = ca.horzcat(*Qd)[:, 1::2]
-        else:
-            R1_prev = _shoulder(t - s.backward_step_s, p, f_hz)
-            Qp = wing.merge(_columns(R1_prev @ aux_s), [0] * N_EL, _columns(P_s), _columns(P_s), x_ep)[0]
-            v_kin = (centres - ca.horzcat(*Qp)[:, 1::2]) / s.backward_step_s
-        c_hat = ca.horzcat(*cd)[:, 1::2]
-        up = ca.horzcat(*nu)[:, 1::2]
-        chord = ca.horzcat(*ch)[1::2]
-        tau = ca.horzcat(*[ca.cross(up[:, j], c_hat[:, j]) for j in range(N_EL)])
-        ds = ca.vertcat(*[ca.norm_2(nodes[:, j + 1] - nodes[:, j]) for j in range(N_EL)])
-        r_w = ca.vertcat(0, 0, -_p(p, "wing.root_ahead_m"))
-        r = centres + ca.repmat(r_w, 1, N_EL)
-        G, Wx, Wy = aero.circulation_matrices(
-            _columns(centres), _columns(nodes), [chord[j] for j in range(N_EL)],
-            _p(p, "aero.lift_slope_per_rad"), s.circulation, s.relaxed_evaluations)
-        blocks = {"r_m": r, "v_kin_mps": v_kin, "c_hat": c_hat, "up": up, "tau": tau, "ds_m": ds,
-                  "G": G, "Wx": Wx, "Wy": Wy, "nodes_m": nodes + ca.repmat(r_w, 1, N_EL + 1),
-                  "chord_m": chord.T}
-        d = ca.vertcat(*[ca.vec(blocks[name]) for name, _ in DATA_BLOCKS])
-        if s.wing_mass:
-            npt = inertia.N_POINTS_PER_WING
-            rho_s = [ca.reshape(L[k + 3 * npt * j:k + 3 * npt * (j + 1)], 3, npt) for j in range(3)]
-            R1d = ca.jtimes(R1, t, ca.SX(1))
-            R1dd = ca.jtimes(R1d, t, ca.SX(1))
-            rb, vb, ab = _wing_points_body(R1, R1d, R1dd, *rho_s, p)
-            sums = inertia.mass_sums(_point_masses(p), rb, vb, ab)
-            d = ca.vertcat(d, *[sums[kk] for kk in inertia.MASS_BLOCK])
-            mpts = ell[n_aero_local:]
-            mr = [ca.reshape(mpts[3 * npt * j:3 * npt * (j + 1)], 3, npt) for j in range(3)]
-            rb, vb, ab = _wing_points_body(R1, R1d, R1dd, *mr, p)
-            mirror = ca.diag(ca.DM([1, -1, 1]))
-            both = [ca.horzcat(ca.horzcat(*z), mirror @ ca.horzcat(*z)) for z in (rb, vb, ab)]
-            mm = ca.vertcat(*_point_masses(p))
-            # both wings' mass points relative to G_b in the body frame (x', y', z'), 3 x 40 each
-            # (right wing then left), their velocities and accelerations relative to the body, masses
-            self.mass_points = ca.Function(
-                "wing_mass_points", [t, p], both + [ca.vertcat(mm, mm)], ["t", "p"],
-                ["r_m", "v_mps", "a_mps2", "m_kg"])
-        else:
-            self.mass_points = None
-        self.post = ca.Function("wing_assemble", [L, t, p], [d], ["local", "t", "p"], ["d"])
-        self.data = ca.Function("data", [t, p], [self.post(ell, t, p)], ["t", "p"], ["d"])
-
-        # State part.
-        x = ca.SX.sym("x", 4)
-        dsym = ca.SX.sym("d", N_DATA + (N_MASS if s.wing_mass else 0))
-        lt = load_terms(s, x, dsym, p)
-        Fx, Fz, My, Gamma, alpha, vp, F = (lt[k] for k in ("Fx_N", "Fz_N", "My_Nm", "Gamma", "alpha", "Vp_norm",
-                                                          "F_code"))
-        m = _p(p, "body.mass_kg")
-        I = _p(p, "body.pitch_inertia_kgm2")
-        grav = _p(p, "body.gravity_mps2")
-        u, w, q, theta = x[0], x[1], x[2], x[3]
-        xdot = ca.vertcat(-q * w - grav * ca.sin(theta) + Fx / m,
-                          q * u + grav * ca.cos(theta) + Fz / m,
-                          My / I,
-                          q)
-        if s.wing_mass:
-            # body.mass_kg is the whole bird M, body.pitch_inertia_kgm2 the body alone about G_b
-            # (spec inertia.md 4.3: the massless right-hand side with m = M, I = I_b, plus a
-            # correction that is exactly zero when the wings have no mass)
-            sums = unpack_mass(dsym)
-            nudot = inertia.accelerations(x, xdot[:3], sums, m, I, grav)
-            xdot = ca.vertcat(nudot, q)
-            powers = inertia.wing_powers(x, nudot, sums, grav)
-            # (x, d, p) -> the powers WING_POWER_NAMES [W] (and T_rel [J]) at one instant
-            self.wing_power_d = ca.Function("wing_power_d", [x, dsym, p],
-                                            [ca.vertcat(*[powers[kk] for kk in WING_POWER_NAMES])],
-                                            ["x", "d", "p"], ["powers"])
-        else:
-            self.wing_power_d = None
-        self.rhs = ca.Function("rhs", [x, dsym, p], [xdot], ["x", "d", "p"], ["xdot"])
-        self.loads_d = ca.Function("loads_d", [x, dsym, p], [ca.vertcat(Fx, Fz, My)],
-                                   ["x", "d", "p"], ["loads"])
-        self.detail_d = ca.Function("detail_d", [x, dsym, p], [Gamma, alpha, vp, F],
-                                    ["x", "d", "p"], ["gamma", "alpha_rad", "vp_mps", "F_code"])
-
-        xm = ca.MX.sym("x", 4)
-        tm = ca.MX.sym("t")
-        pm = ca.MX.sym("p", len(PARAM_NAMES))
-        dm = self.data(tm, pm)
-        self.f = ca.Function("f", [xm, tm, pm], [self.rhs(xm, dm, pm)], ["x", "t", "p"], ["xdot"])
-        self.loads = ca.Function("loads", [xm, tm, pm], [self.loads_d(xm, dm, pm)],
-                                 ["x", "t", "p"], ["loads"])
-        self.aero_detail = ca.Function("aero_detail", [xm, tm, pm], self.detail_d(xm, dm, pm),
-                                       ["x", "t", "p"], ["gamma", "alpha_rad", "vp_mps", "F_code"])
-        self.period_s = 1.0 / s.frequency_hz
-        self.ode = PeriodicODE(rhs=self.rhs, data=self.data, period_s=self.period_s,
+            self.graph_source = "cache"
+        self.period_s = 1.0 / structure.frequency_hz
+        tm, pm = ca.MX.sym("t"), ca.MX.sym("p", len(PARAM_NAMES))
+        data_mx = ca.Function("data", [tm, pm], [self.post(self.pre(tm, pm), tm, pm)], ["t", "p"], ["d"])
+        self.ode = PeriodicODE(rhs=self.rhs, data=data_mx, period_s=self.period_s,
                                state_names=STATE_NAMES, param_names=PARAM_NAMES,
                                pre=self.pre, post=self.post, pre_params=self.pre_params)
+        self.graph_s = time.perf_counter() - t0
+
+    def _function(self, name: str) -> ca.Function | None:
+        if name in self._fns:
+            return self._fns[name]
+        if name in OPTIONAL_FUNCTIONS and self._entry is not None and name not in self._entry.names:
+            self._fns[name] = None  # this structure has none
+            return None
+        from birdocp.engine import graphcache
+        try:
+            f = self._entry.function(name)
+        except graphcache.CacheMiss:  # broken after the manifest check: rebuild (and re-store)
+            built, _ = _build(self.structure)
+            graphcache.store("bird-model", graph_key(self.structure),
+                             {k: v for k, v in built.items() if v is not None},
+                             {"pre_params": list(self.pre_params)})
+            self._fns.update((k, v) for k, v in built.items() if k not in self._fns)
+            f = self._fns[name]
+        self._fns[name] = f
+        return f
+
+    def __getattr__(self, name):
+        if name in GRAPH_FUNCTIONS or name in OPTIONAL_FUNCTIONS:
+            return self._function(name)
+        if name in ("f", "loads", "aero_detail"):
+            xm, tm, pm = ca.MX.sym("x", 4), ca.MX.sym("t"), ca.MX.sym("p", len(PARAM_NAMES))
+            dm = self._function("data")(tm, pm)
+            if name == "f":
+                f = ca.Function("f", [xm, tm, pm], [self.rhs(xm, dm, pm)], ["x", "t", "p"], ["xdot"])
+            elif name == "loads":
+                f = ca.Function("loads", [xm, tm, pm], [self.loads_d(xm, dm, pm)], ["x", "t", "p"], ["loads"])
+            else:
+                f = ca.Function("aero_detail", [xm, tm, pm], self.detail_d(xm, dm, pm),
+                                ["x", "t", "p"], ["gamma", "alpha_rad", "vp_mps", "F_code"])
+            self.__dict__[name] = f
+            return f
+        raise AttributeError(name)
 
     def wing_power_history(self, t, X, p) -> dict:
         """The wing powers :data:`WING_POWER_NAMES` along a trajectory (numbers).
@@ -444,5 +576,6 @@ def get_model(cfg: Config) -> ConfiguredModel:
     return ConfiguredModel(_model_for(Structure.of(cfg)), cfg)
 
 
-__all__ = ["BirdModel", "get_model", "load_terms", "param_vector", "STATE_NAMES", "DATA_BLOCKS", "N_DATA",
-           "unpack_data", "GEOMETRY_OUTPUTS", "Structure", "N_MASS", "unpack_mass", "WING_POWER_NAMES"]
+__all__ = ["BirdModel", "get_model", "air_state", "load_terms", "param_vector", "STATE_NAMES", "DATA_BLOCKS", "N_DATA",
+           "unpack_data", "GEOMETRY_OUTPUTS", "Structure", "N_MASS", "unpack_mass", "WING_POWER_NAMES",
+           "GRAPH_FUNCTIONS", "OPTIONAL_FUNCTIONS", "graph_key"]

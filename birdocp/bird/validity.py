@@ -90,7 +90,7 @@ def element_angles_function(cfg: Config, n_times: int) -> "ca.Function":
         X = ca.MX.sym("X", 4, n)
         T = ca.MX.sym("T", 1, n)
         p = ca.MX.sym("p", len(PARAM_NAMES))
-        D = model.data.map(n)(T, p)
+        D = model.ode.data.map(n)(T, p)  # post(pre(t, p)): no need to read the whole data graph
         ae, ag, ds = effective_angles(model.ode.nd).map(n)(X, D, p)
         f = ca.Function("element_angles", [X, T, p], [ae, ag, ds], ["X", "T", "p"],
                         ["alpha_eff_rad", "alpha_geo_rad", "ds_m"])
@@ -188,7 +188,9 @@ def _verdict(cfg: Config, t, X, ae_deg, ag_deg, ds) -> CycleValidity:
     stalled_span = (stalled * ds).sum(axis=0) / span        # n: stalled share of the span at each time
     u, w, theta = X[:, 0], X[:, 1], X[:, 3]
     airflow_deg = np.degrees(np.abs(np.arctan2(w, u)))
-    i_max = np.unravel_index(np.argmax(np.abs(ae_deg)), ae_deg.shape)
+    # the two wings are mirror images: their angles agree to round-off, so the largest is taken on
+    # values rounded to 1e-9 deg and the first (left-wing) element of a tie is reported, every time
+    i_max = np.unravel_index(np.argmax(np.round(np.abs(ae_deg), 9)), ae_deg.shape)
     m = {
         "alpha_eff_min_deg": float(ae_deg.min()), "alpha_eff_max_deg": float(ae_deg.max()),
         "alpha_eff_max_abs_element": int(i_max[0]),

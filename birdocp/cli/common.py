@@ -1,5 +1,6 @@
 """Shared pieces of every CLI command: exit codes, the common options, configuration resolution
-(defaults <- CONFIG <- --set <- dedicated flags), output helpers and the trim table.
+(defaults <- CONFIG <- --set <- dedicated flags), output helpers, the trim table and the run-folder
+context manager :func:`run_folder` (claim, solver noise, clean-up, one JSON object, exit codes).
 
 Every command module in :mod:`birdocp.cli` builds on these; none of them is private.
 """
@@ -18,6 +19,7 @@ from typing import Any, Iterator, Sequence
 
 from birdocp.bird import config as C
 from birdocp.bird.config import ConfigError
+from birdocp.engine.solver_log import LOG_ENV, NoiseFilter
 
 PROG = "birdocp"
 EXIT_OK = 0
@@ -56,6 +58,9 @@ def common_options() -> argparse.ArgumentParser:
     o = p.add_argument_group("output")
     o.add_argument("--json", action="store_true", help="print one JSON object on stdout instead of a table")
     o.add_argument("--debug", action="store_true", help="show Python tracebacks on errors")
+    o.add_argument("--verbose", action="store_true",
+                   help="show the solvers' own warnings (CasADi 'NaN detected', ...) on the terminal instead of "
+                        "writing them to the run folder's solver.log")
     o.add_argument("--quiet", action="store_true",
                    help="no progress bar on stderr (there is none anyway when stderr is not a terminal)")
     return p
@@ -296,12 +301,36 @@ def format_trim_table(r: dict) -> str:
     return "\n".join(lines)
 
 
+def power_figure(arrays, run_dir: Path) -> None:
+    """power.png (power over the wingbeat) in the run folder, when the power outputs exist."""
+    if arrays and "power_t_s" in arrays:
+        with stdout_to_stderr():
+            from birdocp.plots.energetics import plot_power
+
+            plot_power(arrays, Path(run_dir) / "power.png")
+
+
 def record_result(run_dir: Path, cfg, result: dict, command_line: list[str], command: str) -> None:
     """Record ``run_dir`` in ``result`` and write the run folder (configuration, result.json)."""
     from birdocp.io.runs import write_run
 
     result["run_dir"] = str(run_dir)
     write_run(run_dir, cfg, result, None, command_line, command=command)
+
+
+class _State:
+    """What the entry point needs to know when a command ends with an exception: whether the one
+    JSON object was printed already, and the run folder (if one was kept)."""
+
+    json_printed = False
+    run_dir: Path | None = None
+
+    @classmethod
+    def reset(cls) -> None:
+        cls.json_printed, cls.run_dir = False, None
+
+
+STATE = _State
 
 
 def validity_word(valid) -> str:
@@ -322,10 +351,12 @@ def validity_notes(rows: list[dict], label: str = "value") -> list[str]:
 
 
 def print_json(obj: Any) -> None:
+    """Print ``obj`` as the command's one JSON object (complex as [re, im], NaN/inf as null)."""
     from birdocp.io.files import to_jsonable
 
     sys.stdout.write(json.dumps(to_jsonable(obj)) + "\n")
     sys.stdout.flush()
+    STATE.json_printed = True
 
 
 def finish_result(result: dict, command: str, t_start: float, run_dir: Path) -> None:
@@ -340,3 +371,165 @@ def finish_result(result: dict, command: str, t_start: float, run_dir: Path) -> 
     result["run_dir"] = str(run_dir)
 
 
+
+
+# ---------------------------------------------------------------------------------------------
+# Solver noise and run folders
+
+SOLVER_LOG = "solver.log"
+"""File of a run folder that receives the solvers' own warnings (unless --verbose)."""
+
+def noise_summary(noise: NoiseFilter | None) -> str:
+    """'' or '; 12 solver warnings (first: ...) in DIR/solver.log' (warnings of worker processes,
+    which append to the same log, included)."""
+    if noise is None:
+        return ""
+    count, first = noise.count, noise.first
+    if noise.log_path is not None and noise.log_path.is_file():
+        with contextlib.suppress(OSError):
+            lines = noise.log_path.read_text(encoding="utf-8", errors="replace").splitlines()
+            count, first = len(lines), (lines[0] if lines else first)
+    if not count:
+        return ""
+    first = one_line(first or "")
+    first = first[first.find("WARNING"):] if "WARNING" in first else first
+    where = f" in {noise.log_path}" if noise.log_path is not None else " (--verbose shows them)"
+    return f"; {count} solver warning{'s' if count != 1 else ''} ({first[:100]}){where}"
+
+
+@contextlib.contextmanager
+def solver_noise(log_path: Path | None, verbose: bool = False) -> Iterator[NoiseFilter | None]:
+    """While the body runs: stdout (Python and C level) goes to stderr (stdout is for the result
+    only), and unless ``verbose`` CasADi's warning lines go to ``log_path`` (created when the first
+    one arrives) instead of the terminal, also those of worker processes started meanwhile
+    (:data:`birdocp.engine.solver_log.LOG_ENV`). Yields the filter (None with ``verbose``)."""
+    with stdout_to_stderr():
+        if verbose:
+            yield None
+            return
+        filt = NoiseFilter(sys.stderr, log_path)
+        saved = sys.stderr
+        saved_env = os.environ.get(LOG_ENV)
+        sys.stderr = filt
+        if log_path is not None:
+            os.environ[LOG_ENV] = str(Path(log_path).resolve())
+        else:
+            os.environ.pop(LOG_ENV, None)
+        try:
+            with contextlib.redirect_stdout(filt):
+                yield filt
+        finally:
+            sys.stderr = saved
+            filt.close()
+            if saved_env is None:
+                os.environ.pop(LOG_ENV, None)
+            else:
+                os.environ[LOG_ENV] = saved_env
+
+
+class Run:
+    """The run folder of one command (from :func:`run_folder`).
+
+    dir:     the claimed folder.
+    noise:   the :class:`NoiseFilter` of the solve (None with --verbose).
+    """
+
+    def __init__(self, args: argparse.Namespace, command: str, run_dir: Path, command_line: list[str]):
+        self.args, self.command, self.dir, self.command_line = args, command, run_dir, command_line
+        self.noise: NoiseFilter | None = None
+        self._verbose = bool(getattr(args, "verbose", False))
+
+    @contextlib.contextmanager
+    def solving(self) -> Iterator[None]:
+        """Around the computation: solver noise to the run folder's log (see :func:`solver_noise`)."""
+        with solver_noise(self.dir / SOLVER_LOG, self._verbose) as filt:
+            self.noise = filt
+            yield
+
+    def write(self, cfg, result: dict, arrays: dict | None = None) -> Path:
+        """config.toml, arrays.npz (if any) and result.json (with provenance, written last), atomically."""
+        from birdocp.io.runs import write_run
+
+        return write_run(self.dir, cfg, result, arrays, self.command_line, command=self.command)
+
+    def output(self, result: dict, table: str | None) -> None:
+        """Print the result: the one JSON object with --json, else the table."""
+        if getattr(self.args, "json", False):
+            print_json(result)
+        elif table is not None:
+            print(table)
+
+    def fail(self, what: str, status: Any, residual: Any, message: Any) -> int:
+        """One line on stderr for a failed solve (status, residual, folder); returns exit code 1."""
+        warn = noise_summary(self.noise)
+        print(f"{PROG}: {what} (status: {one_line(status)}, last residual: {fmt_num(residual, '.3e')}): "
+              f"{one_line(message)}; result written to {self.dir}{warn}", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+
+
+@contextlib.contextmanager
+def run_folder(args: argparse.Namespace, command: str, command_line: list[str], *,
+               out: str | None = None, resume_file: str | None = None,
+               scaffold: Sequence[str] = ()) -> Iterator[Run]:
+    """The one run-folder pattern of every command that writes results.
+
+    1. Claim the folder before any computation: ``--out DIR`` (validated and locked exclusively, see
+       :func:`birdocp.io.runs.claim_out_dir`; ``resume_file``: an earlier run holding this file may
+       be continued) or a new ``runs/<time>-<command>-<id>/``. Anything wrong with the location is a
+       :class:`ConfigError` (exit 2), and nothing is created.
+    2. The body computes inside ``run.solving()`` (solver noise to ``solver.log``) and writes with
+       ``run.write`` (atomic files, result.json last) or its own atomic writers.
+    3. On any exception (bad input found late, error, Ctrl-C) a folder that got no result is
+       removed again: new files named in ``scaffold`` (written before the first result, e.g. a
+       sweep's definition), the solver log and empty sub-folders do not count as results (a
+       non-empty sub-folder, e.g. a sweep's points/, does); the folder
+       itself only goes if this run created it. What was finished stays. The lock is released on
+       every exit.
+    """
+    from birdocp.io.runs import claim_out_dir, folder_entries, held_lock, new_run_dir, release_out_dir
+
+    out = getattr(args, "out", None) if out is None else out
+    if out:
+        run_dir = claim_out_dir(out, command, resume_file=resume_file)
+        lock = held_lock(run_dir)
+        created = bool(lock and lock.created)
+        before = set(folder_entries(run_dir))
+    else:
+        run_dir = new_run_dir(None, command)
+        created, before = True, set()
+    run = Run(args, command, run_dir, command_line)
+    STATE.run_dir = run_dir
+    try:
+        yield run
+    except BaseException:
+        with contextlib.suppress(OSError):
+            _remove_if_empty(run_dir, before, {SOLVER_LOG, *scaffold}, created)
+        raise
+    finally:
+        release_out_dir(run_dir)
+
+
+def _remove_if_empty(run_dir: Path, before: set, scaffold: set, created: bool) -> None:
+    from birdocp.io.runs import folder_entries, release_out_dir
+
+    new = set(folder_entries(run_dir)) - before
+    # a result: a non-empty sub-folder (points/, rows/) or a file that is not scaffold
+    results = [n for n in new if (any((run_dir / n).iterdir()) if (run_dir / n).is_dir() else n not in scaffold)]
+    if results:
+        return
+    for n in new:
+        path = run_dir / n
+        if path.is_dir():
+            path.rmdir()
+        else:
+            path.unlink()
+    release_out_dir(run_dir)
+    if created and not folder_entries(run_dir):
+        run_dir.rmdir()
+    STATE.run_dir = None
+
+
+def failure_json(status: str, message: str) -> dict:
+    """The one JSON object of a command that ended without its own (interrupt, internal error)."""
+    return {"success": False, "status": status, "message": message,
+            "run_dir": str(STATE.run_dir) if STATE.run_dir is not None else None}

@@ -40,7 +40,7 @@ def register(sub, common) -> None:
 
 
 def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
-    from birdocp.cli.study import free_with_bounds
+    from birdocp.cli.optimize_stability import free_with_bounds
     from birdocp.io.runs import claim_out_dir, new_run_dir
     from birdocp.studies.gait import DEFAULT_GAIT_FREE, check_free_keys, optimize_gait
 

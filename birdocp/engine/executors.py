@@ -1,15 +1,16 @@
 """One interface for running independent jobs: serial, local processes, or a Dask distributed cluster.
 
-``executor.map(fn, items)`` returns ``[fn(item) for item in items]`` in the order of ``items``,
-whatever the backend; ``fn`` and the items must be picklable (module-level functions) for the
+``executor.map(fn, items, on_result=None)`` returns ``[fn(item) for item in items]`` in the order of
+``items``, whatever the backend (``on_result(index, result)`` is called as each job finishes); ``fn`` and the items must be picklable (module-level functions) for the
 process and Dask backends. Each job runs in a fresh interpreter state as far as results go: the
 engine's graph caches only save time, they never change numbers, so a job's result does not depend
 on which worker ran it or what ran there before.
 
 * :class:`SerialExecutor` (default): in this process, one after another.
-* :class:`ProcessExecutor` (``--jobs N``): ``concurrent.futures.ProcessPoolExecutor`` with the
-  ``spawn`` start method (no fork of a process holding CasADi/IPOPT state); each worker builds the
-  model once and reuses it for the jobs it runs.
+* :class:`ProcessExecutor` (``--jobs N``): a ``multiprocessing`` pool with the ``spawn`` start
+  method (no fork of a process holding CasADi/IPOPT state); each worker builds the model once and
+  reuses it for the jobs it runs. Workers ignore SIGINT: on Ctrl-C the parent terminates them (and
+  on Linux they get SIGTERM when the parent dies), so no worker outlives the command.
 * :class:`DaskExecutor` (``--scheduler ADDRESS``): ``distributed.Client(ADDRESS).map`` (needs the
   ``cluster`` extra: ``pip install birdocp[cluster]``); the workers need birdocp installed.
 
@@ -28,11 +29,17 @@ class Executor:
 
     name = "executor"
 
-    def map(self, fn: Callable, items: Iterable) -> list:
+    def map(self, fn: Callable, items: Iterable, on_result: Callable | None = None) -> list:
+        """``[fn(item) for item in items]``; ``on_result(index, result)`` is called in this process as
+        each job finishes (in any order), e.g. to write it to disk before the others are done."""
         raise NotImplementedError
 
     def close(self) -> None:
         pass
+
+    def terminate(self) -> None:
+        """Stop at once: jobs not started are dropped, running ones are killed (Ctrl-C)."""
+        self.close()
 
     def describe(self) -> dict:
         return {"executor": self.name}
@@ -40,8 +47,11 @@ class Executor:
     def __enter__(self):
         return self
 
-    def __exit__(self, *exc):
-        self.close()
+    def __exit__(self, exc_type, *exc):
+        if exc_type is not None and not issubclass(exc_type, Exception):  # KeyboardInterrupt, SystemExit
+            self.terminate()
+        else:
+            self.close()
         return False
 
 
@@ -50,8 +60,39 @@ class SerialExecutor(Executor):
 
     name = "serial"
 
-    def map(self, fn, items):
-        return [fn(x) for x in items]
+    def map(self, fn, items, on_result=None):
+        out = []
+        for i, x in enumerate(items):
+            out.append(fn(x))
+            if on_result is not None:
+                on_result(i, out[-1])
+        return out
+
+
+def _call_indexed(job):
+    fn, i, x = job
+    return i, fn(x)
+
+
+def _worker_init() -> None:
+    """In each worker: Ctrl-C is the parent's business (it terminates the pool, so a worker never
+    dies half-way through writing its result), and on Linux the worker is sent SIGTERM when the parent
+    dies (even by SIGKILL), so no orphan goes on computing."""
+    import signal
+    import sys
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    from birdocp.engine.solver_log import install_from_env
+
+    install_from_env()  # CasADi's warnings to the parent's solver log, if it names one
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):  # pragma: no cover - no prctl
+            pass
 
 
 class ProcessExecutor(Executor):
@@ -68,20 +109,35 @@ class ProcessExecutor(Executor):
     def _get(self):
         if self._pool is None:
             import multiprocessing as mp
-            from concurrent.futures import ProcessPoolExecutor
 
-            self._pool = ProcessPoolExecutor(max_workers=self.jobs, mp_context=mp.get_context("spawn"))
+            self._pool = mp.get_context("spawn").Pool(self.jobs, initializer=_worker_init)
         return self._pool
 
-    def map(self, fn, items):
+    def map(self, fn, items, on_result=None):
         items = list(items)
         if not items:
             return []
-        return list(self._get().map(fn, items))
+        results = [None] * len(items)
+        try:
+            for i, r in self._get().imap_unordered(_call_indexed, [(fn, i, x) for i, x in enumerate(items)]):
+                results[i] = r
+                if on_result is not None:
+                    on_result(i, r)
+        except BaseException:
+            self.terminate()  # a failed or interrupted map leaves no worker running
+            raise
+        return results
 
     def close(self):
         if self._pool is not None:
-            self._pool.shutdown(wait=True)
+            self._pool.close()
+            self._pool.join()
+            self._pool = None
+
+    def terminate(self):
+        if self._pool is not None:
+            self._pool.terminate()
+            self._pool.join()
             self._pool = None
 
     def describe(self):
@@ -112,13 +168,23 @@ class DaskExecutor(Executor):
             self._client = Client(self.address)
         return self._client
 
-    def map(self, fn, items):
+    def map(self, fn, items, on_result=None):
         items = list(items)
         if not items:
             return []
         c = self._get()
         futures = c.map(fn, items, pure=False)
-        return c.gather(futures)
+        try:
+            if on_result is not None:
+                from distributed import as_completed
+
+                index = {f.key: i for i, f in enumerate(futures)}
+                for f in as_completed(futures):
+                    on_result(index[f.key], f.result())
+            return c.gather(futures)
+        except BaseException:
+            c.cancel(futures)  # Ctrl-C or a failed job: nothing left running on the cluster
+            raise
 
     def close(self):
         if self._own and self._client is not None:

@@ -149,13 +149,50 @@ class RK4Grid:
 
     @functools.cached_property
     def segment_jacobian(self) -> ca.Function:
-        """One segment with its state Jacobians: (x, Dseg, p) -> (x_end, q, dx_end/dx, dq/dx)."""
-        nx = self.ode.nx
+        """One segment with its state Jacobians: (x, Dseg, p) -> (x_end, q, dx_end/dx, dq/dx).
+
+        Built as the RK4 steps of the variational equations (:meth:`variational_step`), accumulated
+        with ``mapaccum``; if the step's SX Jacobian cannot be formed (e.g. an external RHS without
+        a Jacobian), by ``casadi.jacobian`` of the MX segment."""
+        nx, nq = self.ode.nx, self.nq
         x, Dn, p = self._symbols(1, 3 * self.n)
-        xe, _, q = self.segment(x, Dn, p)
-        J = ca.jacobian(ca.vertcat(xe, q), x)
-        return ca.Function("segment_jac", [x, Dn, p], [xe, q, J[:nx, :], J[nx:, :]],
-                           ["x", "D", "p"], ["x_end", "q", "J", "JQ"])
+        try:
+            var = self.variational_step()
+        except Exception:  # noqa: BLE001 - any failure: the generic (slower) construction
+            var = None
+        if var is not None:
+            s0 = ca.vertcat(x, ca.vec(ca.DM.eye(nx)), ca.DM.zeros(nq), ca.DM.zeros(nq * nx))
+            S = var.mapaccum("var_acc", self.n)(s0, Dn, p)[:, -1]
+            k = nx + nx * nx
+            outs = [S[:nx], S[k:k + nq], ca.reshape(S[nx:k], nx, nx), ca.reshape(S[k + nq:], nq, nx)]
+        else:
+            xe, _, q = self.segment(x, Dn, p)
+            J = ca.jacobian(ca.vertcat(xe, q), x)
+            outs = [xe, q, J[:nx, :], J[nx:, :]]
+        return ca.Function("segment_jac", [x, Dn, p], outs, ["x", "D", "p"], ["x_end", "q", "J", "JQ"])
+
+    def variational_step(self) -> ca.Function:
+        """One RK4 step of the state, its sensitivity Phi = dx/dx0, the output integrals q and their
+        sensitivity dq/dx0, as one SX Function of s = [x; vec(Phi); q; vec(dq/dx0)]:
+        Phi+ = A Phi, dq/dx0+ = dq/dx0 + B Phi with A, B the step's Jacobians (the chain rule through
+        the same RK4 steps: the exact Jacobian of the discrete segment, as forward AD gives it).
+        Measured on the bird (148 steps, 4 segments): 10 ms per segment against 25 ms for
+        ``casadi.jacobian`` of the MX segment (forward AD through ``mapaccum``)."""
+        nx, nd, np_, nq = self.ode.nx, self.ode.nd, self.ode.np, self.nq
+        s = ca.SX.sym("s", nx + nx * nx + nq + nq * nx)
+        D3 = ca.SX.sym("D3", nd, 3)
+        p = ca.SX.sym("p", np_)
+        x = s[:nx]
+        Phi = ca.reshape(s[nx:nx + nx * nx], nx, nx)
+        k = nx + nx * nx
+        q = s[k:k + nq]
+        JQ = ca.reshape(s[k + nq:], nq, nx)
+        xn, qi = self.step(x, D3, p, self.h)
+        A = ca.jacobian(xn, x)
+        out = [xn, ca.vec(ca.mtimes(A, Phi)), q + qi]
+        if nq:
+            out.append(ca.vec(JQ + ca.mtimes(ca.jacobian(qi, x), Phi)))
+        return ca.Function("rk4_variational_step", [s, D3, p], [ca.vertcat(*out)], ["s", "D3", "p"], ["s_next"])
 
     @functools.cached_property
     def segment_sensitivities(self) -> ca.Function:

@@ -58,7 +58,7 @@ class LyapunovResult:
         return {"lyapunov_exponents": self.exponents.tolist(), "standard_error": self.standard_error.tolist(),
                 "sum": self.sum, "averaging_time": self.averaging_time, "dt": self.dt,
                 "renorm_time": self.renorm_time, "n_blocks": self.n_blocks,
-                "kaplan_yorke_dimension": self.kaplan_yorke_dimension, "wall_s": self.wall_s,
+                "kaplan_yorke_dimension": self.kaplan_yorke_dimension, "wall_s": {"total": self.wall_s},
                 "method": self.method}
 
 

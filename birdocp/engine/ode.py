@@ -36,11 +36,18 @@ __all__ = ["ODE"]
 class ODE(RhsDimensions):
     """``x' = rhs(x, t, p)`` (nx states, np parameters); built by :meth:`from_function`.
 
-    rhs:            SX Function (x[nx], t[1], p[np]) -> xdot[nx].
-    autonomous:     True when rhs does not depend on t (then the period of an orbit is an unknown).
-    forcing_period: the period of the explicit time dependence, in the system's time units
-                    (forced systems; informative: an orbit's period may be a multiple of it).
-    state_names, param_names: optional names.
+    Attributes
+    ----------
+    rhs
+        SX Function (x[nx], t[1], p[np]) -> xdot[nx].
+    autonomous
+        True when rhs does not depend on t (then the period of an orbit is an unknown).
+    forcing_period
+        the period of the explicit time dependence, in the system's time units
+        (forced systems; informative: an orbit's period may be a multiple of it).
+    state_names, param_names
+        optional names.
+
 
     Equality is identity (``eq=False``): the engine caches CasADi graphs per ODE object.
     """

@@ -11,6 +11,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from birdocp.engine import interrupts
+
 __all__ = ["Evaluator", "ConstraintOracle", "ipopt_options"]
 
 
@@ -68,6 +70,13 @@ class ConstraintOracle(ca.Callback):
         return self.ev.jac_sparsity if self.is_jac else ca.Sparsity.dense(self.ev.ng, 1)
 
     def eval(self, arg):
+        try:
+            return self._eval(arg)
+        except KeyboardInterrupt:
+            interrupts.note()  # CasADi turns it into a solver status: the caller re-raises it
+            raise
+
+    def _eval(self, arg):
         z = np.asarray(arg[0], float).ravel()
         if self.is_jac:
             J = self.ev.jacobian(z)

@@ -45,6 +45,7 @@ from dataclasses import dataclass, field, replace
 import casadi as ca
 import numpy as np
 
+from birdocp.engine import interrupts
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.floquet import complex_pairs, monodromy_of, sort_multipliers
 from birdocp.engine.ode import ODE
@@ -59,20 +60,31 @@ __all__ = ["OrbitMethod", "OrbitProblem", "PeriodicOrbit", "solve_orbit", "solve
 class OrbitMethod:
     """How to compute a periodic orbit.
 
-    points:            M, shooting points including the closing one (M-1 segments), M >= 2.
-    steps_per_period:  N (a multiple of points-1), or None (default): chosen by doubling from
-                       ``min_steps`` until the error estimate is below ``accuracy`` (no fixed default
-                       that ignores the period and the stiffness of the system).
-    integrator:        "rk4" | "radau" (stiff systems) | "gauss".
-    solver:            "lm" (Levenberg-Marquardt / damped Newton on the exact shooting matrix) | "ipopt"
-                       (feasibility NLP through the same exact Jacobian). LM is the default: on the
-                       Rossler orbit it took 7 iterations (18 ms) against IPOPT's 11 (70 ms), and it
-                       converged with the Radau integrator where IPOPT's line search wandered off.
-    tol:               max |residual| for success (absolute, all equations).
-    accuracy:          relative error tolerance of period, x0 and multipliers (error estimate).
-    error_estimate:    re-solve with 2N steps to estimate the discretisation error.
-    min_amplitude:     relative amplitude below which a solution is an equilibrium (failure).
-    period_bounds:     (lo, hi) as factors of the period guess (autonomous).
+    Attributes
+    ----------
+    points
+        M, shooting points including the closing one (M-1 segments), M >= 2.
+    steps_per_period
+        N (a multiple of points-1), or None (default): chosen by doubling from
+        ``min_steps`` until the error estimate is below ``accuracy`` (no fixed default
+        that ignores the period and the stiffness of the system).
+    integrator
+        "rk4" | "radau" (stiff systems) | "gauss".
+    solver
+        "lm" (Levenberg-Marquardt / damped Newton on the exact shooting matrix) | "ipopt"
+        (feasibility NLP through the same exact Jacobian). LM is the default: on the
+        Rossler orbit it took 7 iterations (18 ms) against IPOPT's 11 (70 ms), and it
+        converged with the Radau integrator where IPOPT's line search wandered off.
+    tol
+        max |residual| for success (absolute, all equations).
+    accuracy
+        relative error tolerance of period, x0 and multipliers (error estimate).
+    error_estimate
+        re-solve with 2N steps to estimate the discretisation error.
+    min_amplitude
+        relative amplitude below which a solution is an equilibrium (failure).
+    period_bounds
+        (lo, hi) as factors of the period guess (autonomous).
     """
 
     points: int = 5
@@ -110,12 +122,18 @@ class OrbitMethod:
 class OrbitProblem:
     """A periodic orbit of ``ode`` at parameters ``p``.
 
-    x_guess:      a point near the orbit (nx,), or guesses of the shooting points (M or M-1, nx).
-    period_guess: the period guess (autonomous: an unknown; forced: the period itself, default
-                  ``ode.forcing_period``; give a multiple for subharmonic orbits).
-    t0:           the start time of the period (forced systems; it fixes the phase).
-    phase_point:  the point the Poincare section passes through (autonomous; default: the first
-                  guess point). The section is orthogonal to f there.
+    Attributes
+    ----------
+    x_guess
+        a point near the orbit (nx,), or guesses of the shooting points (M or M-1, nx).
+    period_guess
+        the period guess (autonomous: an unknown; forced: the period itself, default
+        ``ode.forcing_period``; give a multiple for subharmonic orbits).
+    t0
+        the start time of the period (forced systems; it fixes the phase).
+    phase_point
+        the point the Poincare section passes through (autonomous; default: the first
+        guess point). The section is orthogonal to f there.
     """
 
     ode: ODE
@@ -144,21 +162,30 @@ class OrbitProblem:
 class PeriodicOrbit:
     """Result of :func:`solve_orbit` (failures are results with ``success=False``).
 
-    status: "converged" (max residual <= tol, a true orbit), "equilibrium" (the equations hold but the
-            solution is a constant), "not_converged" (residual above tol), "nan" (non-finite
-            iterate), "bad_phase_point" (f = 0 at the section's point), "bad_period" (T <= 0).
-            ``solver_status`` keeps what the solver said (IPOPT's return status, or the LM's
-            "converged" / "max_iter" / "stalled" / "nan").
-    period: T (time units of the system); x0: X_0; shooting_points (M x nx).
-    multipliers: all Floquet multipliers, largest modulus first (autonomous: the trivial one
-            included); ``trivial_multiplier`` (autonomous) is the one closest to 1 and
-            ``trivial_multiplier_error`` = |it - 1| (an accuracy measure: exactly 0 for the exact flow);
-            ``stable`` is decided on the other multipliers only.
-    amplitude: max_t |x(t) - x0|_inf; arc_length: integral of |f| over the period (polygon of the steps).
-    error_estimate: {"period", "x0", "multipliers"} absolute estimates (Richardson, from 2N steps);
-            ``accurate``: every relative estimate <= method accuracy.
-    wall_s: seconds: build, solve, error_estimate, total (this grid); all_grids (steps_per_period=None:
-            every grid tried).
+    Attributes
+    ----------
+    status
+        ``"converged"`` (max residual <= tol, a true orbit), ``"equilibrium"`` (the equations hold
+        but the solution is a constant), ``"not_converged"`` (residual above tol), ``"nan"``
+        (non-finite iterate), ``"bad_phase_point"`` (f = 0 at the section's point), ``"bad_period"``
+        (T <= 0). ``solver_status`` keeps what the solver said (IPOPT's return status, or the LM's
+        ``"converged"`` / ``"max_iter"`` / ``"stalled"`` / ``"nan"``).
+    period, x0, shooting_points
+        T (time units of the system); X_0; the shooting points (M x nx).
+    multipliers
+        All Floquet multipliers, largest modulus first (autonomous: the trivial one included);
+        ``trivial_multiplier`` (autonomous) is the one closest to 1 and ``trivial_multiplier_error``
+        = abs(it - 1) (an accuracy measure: exactly 0 for the exact flow); ``stable`` is decided on
+        the other multipliers only.
+    amplitude, arc_length
+        max_t of the largest abs(x(t) - x0) component; the integral of the norm of f over the period
+        (polygon of the steps).
+    error_estimate
+        ``{"period", "x0", "multipliers"}`` absolute estimates (Richardson, from 2N steps);
+        ``accurate``: every relative estimate <= the method's accuracy.
+    wall_s
+        Seconds: build, solve, error_estimate, total (this grid); ``all_grids`` (with
+        ``steps_per_period=None``: every grid tried).
     """
 
     success: bool
@@ -397,15 +424,17 @@ def _lm(ev: _Evaluator, z, tol, max_iter, lo, hi):
 
 
 def _run_ipopt(ev: _Evaluator, z0, method, lo, hi):
-    try:
-        s = ev.ipopt(method)
-        sol = s(x0=z0, lbx=lo, ubx=hi, lbg=0, ubg=0)
-        st = s.stats()
-        z = np.asarray(sol["x"]).ravel()
-        return (z, str(st.get("return_status", "unknown")), int(st.get("iter_count", 0)),
-                list(np.asarray(st.get("iterations", {}).get("inf_pr", []), float)))
-    except Exception as e:  # evaluation errors inside IPOPT
-        return z0, f"error: {e}", 0, []
+    with interrupts.interruptible():  # Ctrl-C inside IPOPT: KeyboardInterrupt, not a status
+        try:
+            s = ev.ipopt(method)
+            sol = s(x0=z0, lbx=lo, ubx=hi, lbg=0, ubg=0)
+            st = s.stats()
+            z = np.asarray(sol["x"]).ravel()
+            return (z, str(st.get("return_status", "unknown")), int(st.get("iter_count", 0)),
+                    list(np.asarray(st.get("iterations", {}).get("inf_pr", []), float)))
+        except Exception as e:  # evaluation errors inside IPOPT
+            interrupts.check_from(e)
+            return z0, f"error: {e}", 0, []
 
 
 def orbit_residual_system(ode: ODE, method: OrbitMethod, *, period_free: bool, free_idx=(), n_lin: int = 0,

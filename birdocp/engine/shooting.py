@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from birdocp.engine import interrupts
 from birdocp.engine.cache import bounded_cache, clear_caches
 from birdocp.engine.floquet import FloquetResult, floquet_from_jacobians
 from birdocp.engine.integrate import RK4Grid
@@ -144,7 +145,11 @@ class LimitCycleResult:
     ----------
     status
         IPOPT ``return_status`` (e.g. "Solve_Succeeded") for ipopt; "converged", "max_iter",
-        "nan", "singular" for lm; "nan" also when an ipopt iterate is non-finite.
+        "nan", "singular" for lm; "nan" also when an ipopt iterate is non-finite or the residual is
+        not finite; "residual_above_tol" when the status claims convergence ("Solve_Succeeded",
+        "converged") but the max residual exceeds the tolerance (IPOPT's approximate statuses,
+        e.g. "Solved_To_Acceptable_Level", are kept, with success False). ``success`` means converged: a finite max residual at most the
+        tolerance (10 x tol for ipopt, whose own measure can differ slightly), finite multipliers.
     residual_history
         max |continuity + periodicity (+ mean) residual| per iteration (ipopt: inf_pr
         as reported by IPOPT, unscaled; lm: max|E| before each step and after the last).
@@ -282,12 +287,12 @@ class ShootingGraphs(Evaluator):
                 Dg, dDt = dfw.map(K)(dsym[0, :], dsym[1:, :], pfull)
                 dDg = ca.horzcat(*[dDt[:, list(range(k, K * nf, nf))] for k in range(nf)])
                 D_plain = grid.post_grid(dsym[1:, :], dsym[0, :], pfull)[:, grid.block_index]
-            elif ode.data.is_a("SXFunction"):
+            elif ode.data.is_a("SXFunction") or ode.pre is not None:
                 # data and its derivative along the free parameters as one SX Function (shared
                 # subexpressions; constant seeds prune the parts that do not depend on them):
                 # measured 0.43 s on the stage grid vs 0.2 s data + 0.64 s its forward derivative
                 ts_, ps_ = ca.SX.sym("t"), ca.SX.sym("p", np_)
-                d_ = ode.data(ts_, ps_)
+                d_ = ode.post(ode.pre(ts_, ps_), ts_, ps_) if ode.pre is not None else ode.data(ts_, ps_)
                 dfw = ca.Function("data_dpf", [ts_, ps_], [d_, ca.jtimes(d_, ps_, seed_p)])
                 Dg, dDt = dfw.map(K)(dsym, pfull)  # dDt: time-major (nf columns per time)
                 dDg = ca.horzcat(*[dDt[:, list(range(k, K * nf, nf))] for k in range(nf)])
@@ -521,6 +526,7 @@ def _lm(b: ShootingGraphs, method, problem, z, lo, hi, fd):
     lam = 1.0
     it = 0
     while True:
+        interrupts.check()  # a Ctrl-C swallowed by a CasADi call in the last step
         if not np.all(np.isfinite(r)) or not np.all(np.isfinite(z)):
             return z, "nan", "non-finite residual or iterate", it, hist
         if hist[-1] < tol:
@@ -595,8 +601,10 @@ def _run_ipopt(solver, z0, method, lbx, ubx):
         hist = np.asarray(st.get("iterations", {}).get("inf_pr", []), float)
         message = f"IPOPT: {status}"
     except Exception as e:  # CasADi may raise on evaluation errors
+        interrupts.check_from(e)  # ... or on an interrupt inside a callback
         z, status, success, iters, hist = z0, "error", False, 0, np.zeros(0)
         message = f"IPOPT raised: {e}"
+    interrupts.check()  # CasADi turns Ctrl-C into a status (NonIpopt_Exception_Thrown): never retry it
     if not np.all(np.isfinite(z)):
         success, status = False, "nan"
         message += " (non-finite iterate)"
@@ -605,7 +613,24 @@ def _run_ipopt(solver, z0, method, lbx, ubx):
 
 def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShooting(),
           warm_start: "LimitCycleResult | None" = None) -> LimitCycleResult:
-    """Find the periodic orbit (and free parameters) of ``problem`` and its Floquet multipliers."""
+    """Find the periodic orbit (and free parameters) of ``problem`` and its Floquet multipliers.
+
+    ``success`` means converged: the max residual of all equations at the result is finite and at
+    most the method's tolerance (10 x tol for IPOPT), whatever the solver's status says (IPOPT's
+    ``Feasible_Point_Found`` or ``Solved_To_Acceptable_Level`` with a larger residual is a failure;
+    a ``Solve_Succeeded`` with a larger residual becomes status ``residual_above_tol``). A Ctrl-C
+    during the solve raises ``KeyboardInterrupt`` (never a status, never a retry), also when CasADi
+    caught it inside IPOPT.
+    """
+    with interrupts.interruptible():
+        return _solve(problem, method, warm_start)
+
+
+def _converged(max_res: float, tol: float) -> bool:
+    return bool(np.isfinite(max_res) and max_res <= tol)
+
+
+def _solve(problem, method, warm_start):
     t_total = time.perf_counter()
     method.validate()
     ode = problem.ode
@@ -651,6 +676,10 @@ def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShootin
         iters, hists, msgs = 0, [], []
         for fallback in attempts:
             z, status, success, it, h, msg = _run_ipopt(b.ipopt(method, fallback), z0, method, lbx, ubx)
+            if np.all(np.isfinite(z)):  # the status alone is not convergence: the residual decides
+                r_try = b.evaluate(z)[0]  # IPOPT's last evaluation (kept), or one more
+                success = _converged(float(np.max(np.abs(r_try))) if r_try.size else 0.0,
+                                     10 * method.resolved_tol)
             iters += it
             hists.append(h)
             msgs.append(("filter line search: " if fallback else "") + msg)
@@ -690,13 +719,17 @@ def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShootin
         means_v = np.full(grid.nq, np.nan)
         g = np.full(b.ng, np.nan)
     max_res = float(np.max(np.abs(g))) if np.all(np.isfinite(g)) else float("nan")
-    if method.solver == "ipopt":
-        # converged means the residual is below the tolerance, whatever IPOPT's status says (its
-        # Feasible_Point_Found / Solved_To_Acceptable_Level count as "success" at any residual)
-        converged = bool(max_res <= 10 * method.resolved_tol)
-        if success != converged:
-            message += f" (max residual {max_res:.2e}: {'' if converged else 'not '}converged)"
-        success = converged
+    tol_ok = method.resolved_tol * (10 if method.solver == "ipopt" else 1)
+    if not _converged(max_res, tol_ok):
+        message += (f" (max residual {max_res:.2e} > tol {tol_ok:.1e}: not converged)"
+                    if np.isfinite(max_res) else " (non-finite residual: not converged)")
+        if status in ("converged", "Solve_Succeeded"):  # a status that claims the tolerance: replaced
+            status = "residual_above_tol" if np.isfinite(max_res) else "nan"
+        success = False
+    elif not success and method.solver == "ipopt":
+        # converged means the residual is below the tolerance, whatever IPOPT's status says
+        message += f" (max residual {max_res:.2e}: converged)"
+        success = True
     X = z[: nx * (S + 1)].reshape(S + 1, nx)
     traj_x = np.vstack([X[0][None, :], Xt.T])
     names = problem.mean_names()
@@ -729,7 +762,11 @@ def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShootin
             res.stable = fr.stable
             res.monodromy_vs_full_period_jacobian = fr.monodromy_vs_full_period_jacobian
         except Exception as e:  # never raise from the analysis of a result
+            interrupts.check_from(e)
             res.message += f"; Floquet analysis failed: {e}"
+        if res.success and (res.multipliers is None or not np.all(np.isfinite(res.multipliers))):
+            res.success, res.status = False, "nan"  # a cycle without finite multipliers is no success
+            res.message += "; non-finite Floquet multipliers"
         wall["floquet"] = time.perf_counter() - tf
     wall["total"] = time.perf_counter() - t_total
     return res

@@ -32,6 +32,7 @@ from pathlib import Path
 
 import casadi as ca
 
+from birdocp.engine import graphcache
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.problem import PeriodicODE
 
@@ -51,12 +52,9 @@ class CompiledFallbackWarning(UserWarning):
 
 
 def cache_dir() -> Path:
-    """The folder of compiled libraries: ``$BIRDOCP_CACHE``, else ``$XDG_CACHE_HOME/birdocp`` or ``~/.cache/birdocp``."""
-    env = os.environ.get("BIRDOCP_CACHE")
-    if env:
-        return Path(env).expanduser()
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "birdocp"
+    """The folder of compiled libraries: ``$BIRDOCP_CACHE``, else ``$XDG_CACHE_HOME/birdocp`` or
+    ``~/.cache/birdocp`` (shared with the graph cache: :func:`birdocp.engine.graphcache.cache_dir`)."""
+    return graphcache.cache_dir()
 
 
 def find_compiler() -> list[str] | None:
@@ -145,8 +143,9 @@ def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None =
         return hit[1]
     try:
         ext = compiled_rhs(ode.rhs, key_extra, directory)
+        # pre/post kept: a sweep in parameters that pre does not read re-evaluates post only
         out = PeriodicODE(rhs=ext, data=ode.data, period_s=ode.period_s, state_names=ode.state_names,
-                          param_names=ode.param_names)
+                          param_names=ode.param_names, pre=ode.pre, post=ode.post, pre_params=ode.pre_params)
     except Exception as e:  # never fail the solve because of the compiler
         warnings.warn(f"birdocp: compiled RHS unavailable, using the interpreted CasADi path ({e})",
                       CompiledFallbackWarning, stacklevel=2)

@@ -4,13 +4,20 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
+import sys
 import tempfile
 from dataclasses import fields, is_dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+
+def umask_mode() -> int:
+    """The mode a new file gets under the process umask (0o666 & ~umask), e.g. 0o644."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
 
 
 @contextlib.contextmanager
@@ -23,9 +30,7 @@ def atomic_target(path: str | Path, suffix: str = ".tmp"):
     os.close(fd)
     try:
         yield tmp
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600
+        os.chmod(tmp, umask_mode())  # mkstemp creates 0600
         os.replace(tmp, path)
     except BaseException:
         try:
@@ -65,6 +70,13 @@ def to_jsonable(obj: Any) -> Any:
         return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [to_jsonable(v) for v in obj]
+    np = sys.modules.get("numpy")  # no numpy object exists unless numpy was imported (kept off --help)
+    if np is None:
+        if isinstance(obj, complex):
+            return [to_jsonable(obj.real), to_jsonable(obj.imag)]
+        if isinstance(obj, float):
+            return obj if math.isfinite(obj) else None
+        return obj
     if isinstance(obj, np.ndarray):
         return to_jsonable(obj.tolist())
     if isinstance(obj, (complex, np.complexfloating)):

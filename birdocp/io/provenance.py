@@ -17,7 +17,8 @@ from typing import Any
 
 from birdocp.io.files import dataclass_to_dict
 
-__all__ = ["provenance", "config_hash", "canonical_toml", "birdocp_version", "git_revision"]
+__all__ = ["provenance", "config_hash", "canonical_toml", "birdocp_version", "git_revision", "build_revision",
+           "source_revision"]
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1]
 
@@ -62,6 +63,32 @@ def git_revision(path: str | Path = PACKAGE_DIR) -> dict[str, Any] | None:
     return {"commit": commit, "dirty": None if status is None else bool(status)}
 
 
+def build_revision() -> dict[str, Any] | None:
+    """``{"commit", "dirty", "source": "build"}`` recorded by setuptools-scm when the package was built
+    (``birdocp/build_info.py``), or None (a source tree that was never built, or no git at build time)."""
+    try:
+        from birdocp import build_info
+    except ImportError:
+        return None
+    node = str(getattr(build_info, "git_commit", "") or "")
+    commit = node[1:] if node.startswith("g") and len(node) > 1 else node
+    if not commit or not all(c in "0123456789abcdef" for c in commit.lower()):
+        return None
+    return {"commit": commit, "dirty": bool(getattr(build_info, "git_dirty", False)), "source": "build"}
+
+
+def source_revision() -> dict[str, Any] | None:
+    """The revision of the code that runs: live git when the package is imported from its own source
+    checkout (an editable install; reflects later commits and edits), else the revision recorded at
+    build time (:func:`build_revision`), else None."""
+    root = PACKAGE_DIR.parent
+    if (root / "pyproject.toml").is_file() and (root / ".git").exists():
+        live = git_revision(PACKAGE_DIR)
+        if live is not None:
+            return dict(live, source="checkout")
+    return build_revision()
+
+
 def _sorted(obj: Any) -> Any:
     if isinstance(obj, dict):
         return {k: _sorted(obj[k]) for k in sorted(obj)}
@@ -101,7 +128,7 @@ def provenance(cfg, command_line: list[str] | None, wall_s: Any = None) -> dict[
 
     return {
         "birdocp_version": birdocp_version(),
-        "git": git_revision(),
+        "git": source_revision(),
         "python": platform.python_version(),
         "python_executable": sys.executable,
         "casadi": _module_version("casadi"),

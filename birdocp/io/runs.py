@@ -14,11 +14,14 @@ reader (or a crash) never sees a half-written file.
 
 from __future__ import annotations
 
+import atexit
 import contextlib
+import errno
 import json
 import os
 import re
 import secrets
+import socket
 import tempfile
 import time
 from pathlib import Path
@@ -27,8 +30,9 @@ from typing import IO, Any, Iterator
 from birdocp.io.errors import ConfigError
 
 __all__ = [
-    "DEFAULT_BASE", "RUN_FILES", "new_run_dir", "claim_out_dir", "is_run_dir", "write_run",
-    "atomic_file", "read_result",
+    "DEFAULT_BASE", "RUN_FILES", "LOCK_NAME", "new_run_dir", "claim_out_dir", "release_out_dir", "held_lock",
+    "check_out_path", "lock_folder", "folder_entries", "RunLock", "is_run_dir", "write_run", "atomic_file",
+    "read_result",
 ]
 
 DEFAULT_BASE = Path("runs")
@@ -40,16 +44,206 @@ def _slug(command: str) -> str:
     return slug or "run"
 
 
+LOCK_NAME = ".birdocp.lock"
+"""Lock file of a claimed run folder: created with ``O_EXCL`` (and held with ``flock`` where the
+platform has it, so the lock of a killed run is recognised as stale); removed when the run ends."""
+
+
+def _os_reason(exc: OSError) -> str:
+    if exc.errno == errno.ENAMETOOLONG:
+        return "the name is too long for the file system"
+    if exc.errno in (errno.EROFS,):
+        return "the file system is read-only"
+    if exc.errno in (errno.EACCES, errno.EPERM):
+        return "permission denied (the folder is read-only)"
+    if exc.errno == errno.ELOOP:
+        return "too many levels of symbolic links"
+    if exc.errno == errno.ENOSPC:
+        return "no space left on the device"
+    return exc.strerror or str(exc)
+
+
+def check_out_path(path: str | Path, flag: str = "--out") -> Path:
+    """Refuse (:class:`ConfigError` on ``flag``) an output location that cannot be a run folder.
+
+    Checked without creating anything: a dangling symbolic link, a name longer than the file system
+    allows, an existing file, a path through a file, and a nearest existing folder that this process
+    cannot write into. The final word is the atomic create of :func:`claim_out_dir`, which maps any
+    remaining ``OSError`` to a ``ConfigError`` too.
+    """
+    path = Path(path)
+    text = str(path)
+    if not text or "\x00" in text:
+        raise ConfigError(flag, f"{text!r} is not a usable path")
+    if os.path.islink(path) and not os.path.exists(path):
+        raise ConfigError(flag, f"'{path}' is a dangling symbolic link (to '{os.readlink(path)}'); remove it or "
+                            "give another folder")
+    # the nearest existing ancestor: where the folder would be created
+    anc = path
+    missing = []
+    while not os.path.lexists(anc):
+        missing.append(anc.name)
+        if anc.parent == anc:
+            break
+        anc = anc.parent
+    if os.path.islink(anc) and not os.path.exists(anc):
+        raise ConfigError(flag, f"'{anc}' (in '{path}') is a dangling symbolic link; remove it or give another folder")
+    try:
+        name_max = os.pathconf(anc if os.path.isdir(anc) else anc.parent, "PC_NAME_MAX")
+    except (OSError, ValueError, AttributeError):
+        name_max = 255
+    for part in path.parts:
+        if len(os.fsencode(part)) > name_max:
+            raise ConfigError(flag, f"'{part[:40]}...' is {len(os.fsencode(part))} bytes long; the file system "
+                                f"allows {name_max} per name")
+    if len(os.fsencode(os.path.abspath(path))) + 64 > 4096:
+        raise ConfigError(flag, "the path is too long for the file system")
+    if path.exists() and not path.is_dir():
+        raise ConfigError(flag, f"'{path}' is an existing file; give a new or empty folder")
+    if not os.path.isdir(anc):
+        raise ConfigError(flag, f"'{anc}' is a file, so '{path}' cannot be created; give another folder")
+    if missing and not os.access(anc, os.W_OK | os.X_OK):
+        raise ConfigError(flag, f"cannot create '{path}': '{anc}' is read-only; give another folder")
+    if not missing and not os.access(path, os.W_OK | os.X_OK):
+        raise ConfigError(flag, f"'{path}' is read-only; give a writable folder")
+    return path
+
+
+class RunLock:
+    """The lock of a claimed run folder (see :data:`LOCK_NAME`). ``created``: the folder did not exist
+    before the claim (so an unused one may be removed again)."""
+
+    def __init__(self, folder: Path, fd: int, created: bool):
+        self.folder, self.fd, self.created = folder, fd, created
+        self.path = folder / LOCK_NAME
+
+    def release(self) -> None:
+        """Remove the lock file (if it is still this lock's) and close it; idempotent."""
+        if self.fd is None:
+            return
+        with contextlib.suppress(OSError):
+            if os.stat(self.path).st_ino == os.fstat(self.fd).st_ino:
+                os.unlink(self.path)
+        with contextlib.suppress(OSError):
+            os.close(self.fd)
+        self.fd = None
+        _HELD.pop(str(self.folder), None)
+
+
+_HELD: dict[str, RunLock] = {}
+
+
+def _release_all() -> None:
+    for lock in list(_HELD.values()):
+        lock.release()
+
+
+atexit.register(_release_all)
+
+
+def _try_flock(fd: int) -> bool:
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        return True
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return False
+    except OSError:  # file system without flock: the O_EXCL create alone decides
+        return True
+    return True
+
+
+def _holder(lock_path: Path) -> str:
+    with contextlib.suppress(OSError, ValueError):
+        text = lock_path.read_text().split()
+        return f" (process {text[0]} on {text[1]})" if len(text) >= 2 else ""
+    return ""
+
+
+def lock_folder(folder: str | Path, flag: str = "--out", created: bool = False) -> RunLock:
+    """Take the lock of ``folder`` (which exists): an ``O_EXCL`` create of its lock file, held with
+    ``flock``. A lock file whose ``flock`` can be taken belongs to a run that died (SIGKILL, power
+    loss): it is taken over. Raises :class:`ConfigError` when another live run holds the folder."""
+    folder = Path(folder)
+    lock_path = folder / LOCK_NAME
+    for _ in range(20):
+        try:
+            fd = os.open(lock_path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o666)
+        except FileExistsError:
+            try:
+                fd = os.open(lock_path, os.O_RDWR)
+            except FileNotFoundError:  # released meanwhile: try again
+                continue
+            except OSError as exc:
+                raise ConfigError(flag, f"cannot lock '{folder}': {_os_reason(exc)}") from None
+            has_flock = True
+            try:
+                import fcntl  # noqa: F401
+            except ImportError:  # pragma: no cover - not POSIX: a lock file is never stale
+                has_flock = False
+            if not has_flock or not _try_flock(fd):
+                os.close(fd)
+                raise ConfigError(flag, f"'{folder}' is in use by another birdocp run{_holder(lock_path)}; "
+                                    "give another folder (or wait for that run to end)")
+        except OSError as exc:
+            raise ConfigError(flag, f"cannot write into '{folder}': {_os_reason(exc)}; give another folder") from None
+        else:
+            if not _try_flock(fd):  # pragma: no cover - a fresh file: only a racing taker can hold it
+                os.close(fd)
+                raise ConfigError(flag, f"'{folder}' is in use by another birdocp run; give another folder")
+        # the file we hold must still be the lock file (not one its owner just removed)
+        try:
+            same = os.stat(lock_path).st_ino == os.fstat(fd).st_ino
+        except FileNotFoundError:
+            same = False
+        if not same:
+            os.close(fd)
+            continue
+        with contextlib.suppress(OSError):
+            os.ftruncate(fd, 0)
+            os.write(fd, f"{os.getpid()} {socket.gethostname()}\n".encode())
+        lock = RunLock(folder, fd, created)
+        _HELD[str(folder)] = lock
+        return lock
+    raise ConfigError(flag, f"could not lock '{folder}' (its lock file keeps changing); give another folder")
+
+
+def release_out_dir(folder: str | Path) -> None:
+    """Release the lock taken by :func:`claim_out_dir` (also released when the process exits)."""
+    lock = _HELD.get(str(Path(folder)))
+    if lock is not None:
+        lock.release()
+
+
+def held_lock(folder: str | Path) -> RunLock | None:
+    """The lock this process holds on ``folder``, if any."""
+    return _HELD.get(str(Path(folder)))
+
+
+def folder_entries(folder: str | Path) -> list[str]:
+    """Names in ``folder`` other than the lock file."""
+    return [n for n in os.listdir(folder) if n != LOCK_NAME]
+
+
 def new_run_dir(base: str | Path | None, command: str) -> Path:
     """Create and return a new, unique folder ``base/YYYYmmdd-HHMMSS-<command>-<random>``.
 
     The folder is created with ``mkdir(exist_ok=False)``, so two runs (even concurrent ones, in
-    the same second) never share a folder.
+    the same second) never share a folder. A ``base`` that cannot be written is a
+    :class:`ConfigError` on ``--out`` (the CLI exits 2 before any computation).
     """
     base = DEFAULT_BASE if base is None else Path(base)
     if base.exists() and not base.is_dir():
         raise ConfigError(str(base), "the runs folder is an existing file; remove it or pass --out DIR")
-    base.mkdir(parents=True, exist_ok=True)
+    if os.path.islink(base) and not os.path.exists(base):
+        raise ConfigError("--out", f"the runs folder '{base}' is a dangling symbolic link; fix it or pass --out DIR")
+    try:
+        base.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError("--out", f"cannot create the runs folder '{base}': {_os_reason(exc)}; "
+                                   "pass --out DIR") from None
     stamp = time.strftime("%Y%m%d-%H%M%S")
     for _ in range(100):
         path = base / f"{stamp}-{_slug(command)}-{secrets.token_hex(3)}"
@@ -57,6 +251,9 @@ def new_run_dir(base: str | Path | None, command: str) -> Path:
             path.mkdir(exist_ok=False)
         except FileExistsError:
             continue
+        except OSError as exc:
+            raise ConfigError("--out", f"cannot create a run folder in '{base}': {_os_reason(exc)}; "
+                                       "pass --out DIR") from None
         return path
     raise RuntimeError(f"could not create a unique run folder in {base}")  # pragma: no cover
 
@@ -72,7 +269,7 @@ def read_result(run_dir: str | Path) -> dict | None:
 def is_run_dir(path: str | Path, command: str | None = None) -> bool:
     """Whether ``path`` is a complete run folder (of ``command`` when given).
 
-    Helper for a future ``--resume``: a run folder is complete when its result.json exists.
+    A run folder is complete when its result.json exists.
     """
     result = read_result(path)
     if not isinstance(result, dict):
@@ -83,27 +280,45 @@ def is_run_dir(path: str | Path, command: str | None = None) -> bool:
     return isinstance(prov, dict) and prov.get("command") == command
 
 
-def claim_out_dir(out: str | Path, command: str) -> Path:
-    """Use ``--out DIR`` as the run folder: created if missing, accepted if an empty folder.
+def claim_out_dir(out: str | Path, command: str, *, resume_file: str | None = None,
+                  flag: str = "--out") -> Path:
+    """Use ``--out DIR`` as the run folder, exclusively: created if missing, accepted if empty.
 
-    Anything else is refused with a :class:`ConfigError` on ``--out`` (the CLI exits 2).
+    The claim is atomic: the folder's lock file (:data:`LOCK_NAME`) is created with ``O_EXCL`` and
+    held until :func:`release_out_dir` or the end of the process, so of two runs started together
+    with the same folder exactly one gets it. ``resume_file``: the folder may also hold an earlier
+    run that has this file (``sweep.json`` for ``sweep --resume``).
+
+    Anything else is refused with a :class:`ConfigError` on ``flag`` (the CLI exits 2), before any
+    computation: a file, a non-empty folder, a folder in use by another run, a dangling symbolic
+    link, a name too long for the file system, a read-only location.
     """
-    path = Path(out)
-    if path.exists() and not path.is_dir():
-        raise ConfigError("--out", f"'{path}' is an existing file; give a new or empty folder")
-    if path.is_dir():
-        if any(path.iterdir()):
-            if is_run_dir(path, command):
-                raise ConfigError("--out", f"'{path}' holds a previous '{command}' run and resuming is not "
-                                  "supported yet; give a new folder or remove it")
-            raise ConfigError("--out", f"folder '{path}' is not empty; give a new or empty folder")
-        return path
+    path = check_out_path(out, flag)
+    created = False
+    if not path.is_dir():
+        try:
+            path.mkdir(parents=True, exist_ok=False)
+            created = True
+        except FileExistsError:  # created concurrently: the lock decides
+            pass
+        except OSError as exc:
+            raise ConfigError(flag, f"cannot create folder '{path}': {_os_reason(exc)}") from None
+    if not path.is_dir():
+        raise ConfigError(flag, f"'{path}' is an existing file; give a new or empty folder")
+    lock = lock_folder(path, flag, created)
     try:
-        path.mkdir(parents=True, exist_ok=False)
-    except FileExistsError:  # created concurrently: re-check it
-        return claim_out_dir(path, command)
+        entries = folder_entries(path)
     except OSError as exc:
-        raise ConfigError("--out", f"cannot create folder '{path}': {exc.strerror or exc}") from None
+        lock.release()
+        raise ConfigError(flag, f"cannot read folder '{path}': {_os_reason(exc)}") from None
+    if entries and not (resume_file and resume_file in entries):
+        lock.release()
+        if resume_file:
+            raise ConfigError(flag, f"'{path}' holds no {resume_file} to resume from")
+        if is_run_dir(path, command):
+            raise ConfigError(flag, f"'{path}' holds a previous '{command}' run and resuming is not "
+                              "supported yet; give a new folder or remove it")
+        raise ConfigError(flag, f"folder '{path}' is not empty; give a new or empty folder")
     return path
 
 
@@ -113,6 +328,8 @@ def atomic_file(path: str | Path) -> Iterator[IO[bytes]]:
 
     If the body raises, the temporary file is removed and ``path`` is left untouched.
     """
+    from birdocp.io.files import umask_mode
+
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
@@ -120,6 +337,7 @@ def atomic_file(path: str | Path) -> Iterator[IO[bytes]]:
             yield fh
             fh.flush()
             os.fsync(fh.fileno())
+        os.chmod(tmp, umask_mode())  # mkstemp creates 0600; the file follows the umask like the others
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):

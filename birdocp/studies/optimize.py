@@ -30,6 +30,7 @@ import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, with_values
 from birdocp.bird.validity import invalid, periodic_validity
+from birdocp.engine import interrupts
 from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.engine.oracle import ConstraintOracle, ipopt_options
 
@@ -301,7 +302,8 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     lbg = np.concatenate([np.zeros(5), np.full(5, JURY_MARGIN)])
     ubg = np.concatenate([np.zeros(5), np.full(5, np.inf)])
     t0 = time.perf_counter()
-    sol = solver(x0=zinit, lbx=lo, ubx=hi, lbg=lbg, ubg=ubg)
+    with interrupts.interruptible():  # Ctrl-C inside IPOPT: KeyboardInterrupt, not a status
+        sol = solver(x0=zinit, lbx=lo, ubx=hi, lbg=lbg, ubg=ubg)
     stats = solver.stats()
     wall["solve"] = time.perf_counter() - t0
     zs = np.asarray(sol["x"]).ravel()
@@ -312,7 +314,9 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     lam = np.linalg.eigvals(Mnum)
     lam = sort_multipliers(lam)
     best = {k: float(v) for k, v in zip(free, ps)}
-    out = StabilityOptimum(bool(stats["success"]), str(stats["return_status"]), f"IPOPT: {stats['return_status']}",
+    finite = bool(np.all(np.isfinite(zs)) and np.all(np.isfinite(lam)))  # non-finite numbers are no success
+    out = StabilityOptimum(bool(stats["success"]) and finite, str(stats["return_status"]) if finite else "nan",
+                           f"IPOPT: {stats['return_status']}" + ("" if finite else " (non-finite result)"),
                            int(stats["iter_count"]), best, free, float(ps[-1]), rs, lam, lam0, xs, cfg=cfg)
 
     if verify and np.all(np.isfinite(zs)):

@@ -22,6 +22,7 @@ A failed point is recorded (``success`` false) and the sweep goes on.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import json
@@ -52,18 +53,36 @@ CSV_COLUMNS = (
 )
 
 
+MAX_SWEEP_POINTS = 10000
+"""At most this many values in one sweep (a larger count is almost always a step in the wrong unit)."""
+
+
 def sweep_values(start: float, stop: float, step: float) -> list[float]:
-    """``start, start +- step, ...`` up to ``stop`` inclusive (direction from the signs; step > 0)."""
+    """``start, start +- step, ...`` and ``stop`` itself (direction from the signs; step > 0).
+
+    The end is always included: when ``|stop - start|`` is not a multiple of ``step`` the last
+    interval is shorter than ``step``. A step larger than a non-empty range is refused
+    (:class:`ConfigError` on ``--step``): it would solve the two ends only, which is rarely what was
+    meant (e.g. a step in centimetres for a parameter in metres).
+    """
     for name, v in (("--from", start), ("--to", stop), ("--step", step)):
         if not math.isfinite(v):
             raise ConfigError(name, f"must be finite, got {v!r}")
     if not step > 0:
         raise ConfigError("--step", f"must be positive, got {step!r}")
-    n = int(math.floor(abs(stop - start) / step + 1e-9))
-    if n > 10000:
-        raise ConfigError("--step", f"{n + 1} points from {start} to {stop}; use a larger step")
+    span = abs(stop - start)
+    if span > 0 and step > span * (1 + 1e-9):
+        raise ConfigError("--step", f"{step:g} is larger than the range {start:g} .. {stop:g} (width {span:g}); "
+                                    f"give a step <= {span:g}")
+    n = int(math.floor(span / step + 1e-9))
+    if n + 1 > MAX_SWEEP_POINTS:
+        raise ConfigError("--step", f"{n + 1} points from {start:g} to {stop:g}; at most {MAX_SWEEP_POINTS}: "
+                                    "use a larger step")
     sign = 1.0 if stop >= start else -1.0
-    return [float(np.round(start + sign * k * step, 12)) for k in range(n + 1)]
+    values = [float(np.round(start + sign * k * step, 12)) for k in range(n + 1)]
+    if abs(values[-1] - stop) > 1e-9 * max(step, abs(stop)):
+        values.append(float(stop))  # the end is inclusive, also off the step grid
+    return values
 
 
 @dataclass
@@ -293,16 +312,22 @@ def _grid_row(job: dict) -> dict:
     return {"row": job["row"], "rows": rows, "wall_s": time.perf_counter() - t}
 
 
+def _row_path(out: Path, row: int) -> Path:
+    return out / "rows" / f"row-{row:04d}.json"
+
+
 def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: str, row_values: Sequence[float], *,
                executor=None, level: bool = False, warm: bool = True, out_dir: str | Path | None = None,
-               level_options: dict | None = None, **method_over) -> list[dict]:
+               resume: bool = False, level_options: dict | None = None, **method_over) -> list[dict]:
     """A grid ``row_key x key``: one warm-started line over ``values`` of ``key`` per value of
     ``row_key``, the rows independent jobs run by ``executor`` (:mod:`birdocp.engine.executors`; default
     serial). Returns the table rows (``GRID_COLUMNS``), row after row.
 
-    Written to ``out_dir`` when all rows are done: ``grid.json`` (definition + rows), ``grid.csv``, and
-    ``timing.json`` (executor and wall times). ``grid.json`` and ``grid.csv`` hold no wall times, so
-    they do not depend on the executor."""
+    Written to ``out_dir``: ``grid.json`` (the definition) at the start; ``rows/row-0003.json`` as each
+    row finishes (so an interrupted grid keeps its finished rows: ``resume=True`` solves only the
+    missing ones); when all rows are done ``grid.json`` (definition + rows, ``complete: true``),
+    ``grid.csv``, and ``timing.json`` (executor and wall times). ``grid.json`` and ``grid.csv`` hold no
+    wall times, so they do not depend on the executor."""
     from birdocp.engine.executors import SerialExecutor
 
     cfg = cfg or Config()
@@ -322,24 +347,50 @@ def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: s
     executor = executor or SerialExecutor()
     base = {"config": to_dict(cfg), "key": key, "values": values, "row_key": row_key, "level": bool(level),
             "warm": bool(warm), "level_options": level_options, "method_over": dict(method_over)}
+    spec = to_jsonable(dict({k: base[k] for k in ("key", "values", "row_key", "level", "warm", "level_options",
+                                                  "method_over", "config")}, row_values=row_values))
     jobs = [dict(base, row=i, row_value=v) for i, v in enumerate(row_values)]
+    out = Path(out_dir) if out_dir is not None else None
+    done: dict[int, dict] = {}
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        old = None
+        with contextlib.suppress(OSError, ValueError):
+            old = json.loads((out / "grid.json").read_text())
+        if old is not None and not resume:
+            raise ConfigError("--out", f"'{out}' already holds a grid; pass resume=True (--resume) or a new folder")
+        if old is not None:
+            diff = [k for k in spec if json.dumps(old.get(k)) != json.dumps(spec[k])]
+            if diff:
+                raise ConfigError("--resume", f"the grid in '{out}' differs in {', '.join(diff)}; "
+                                              "resume with the same arguments or use a new folder")
+            for f in sorted((out / "rows").glob("row-*.json")) if (out / "rows").is_dir() else []:
+                with contextlib.suppress(OSError, ValueError, KeyError, TypeError):
+                    r = json.loads(f.read_text())
+                    done[int(r["row"])] = r
+        else:
+            atomic_write_json(out / "grid.json", dict(spec, points=[], complete=False))
+
+    def keep(i: int, res: dict) -> None:
+        if out is not None:
+            atomic_write_json(_row_path(out, res["row"]), res)
+
+    todo = [j for j in jobs if j["row"] not in done]
     t = time.perf_counter()
-    results = executor.map(_grid_row, jobs)
+    fresh = executor.map(_grid_row, todo, on_result=lambda i, r: keep(i, r)) if todo else []
     wall = time.perf_counter() - t
+    results = sorted(list(done.values()) + list(fresh), key=lambda r: r["row"])
     table = []
-    for res in sorted(results, key=lambda r: r["row"]):
+    for res in results:
         for r in res["rows"]:
             row = {"row": res["row"], "row_key": row_key, "row_value": row_values[res["row"]]}
             row.update({c: r.get(c) for c in CSV_COLUMNS if c != "wall_s"})
             row["validity"] = r.get("validity")
             table.append(row)
-    if out_dir is not None:
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
-        spec = {k: base[k] for k in ("key", "values", "row_key", "level", "warm", "level_options", "method_over",
-                                     "config")}
-        atomic_write_json(out / "grid.json", to_jsonable(dict(spec, row_values=row_values, points=table)))
+    if out is not None:
+        atomic_write_json(out / "grid.json", dict(spec, points=table, complete=True))
         atomic_write_text(out / "grid.csv", _csv_text(table, GRID_COLUMNS))
         atomic_write_json(out / "timing.json", {**executor.describe(), "wall_s": wall,
-                                                "row_wall_s": [r["wall_s"] for r in sorted(results, key=lambda r: r["row"])]})
+                                                "row_wall_s": [r["wall_s"] for r in results],
+                                                "rows_from_disk": sorted(done)})
     return table

@@ -74,7 +74,8 @@ __all__ = ["Branch", "BranchPoint", "SpecialPoint", "Continuation", "Continuatio
 
 def continuation(problem: LimitCycleProblem, param, start_value: float, stop_value: float, *,
                  options: ContinuationOptions | None = None, start=None, accept: Callable | None = None,
-                 progress: Callable | None = None, system: Continuation | None = None, **settings) -> Branch:
+                 progress: Callable | None = None, system: Continuation | None = None,
+                 on_point: Callable | None = None, **settings) -> Branch:
     """Follow the periodic orbits of ``problem`` as ``param`` goes from ``start_value`` to ``stop_value``.
 
     Parameters
@@ -99,6 +100,9 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
         ``progress(text)``, one line per point.
     system : Continuation, optional
         A prebuilt augmented system (same problem, parameter and grid) to reuse.
+    on_point : callable, optional
+        ``on_point(point)`` with each accepted :class:`BranchPoint` as soon as it is accepted (e.g. to
+        keep the points of a run that is interrupted before the branch is returned).
 
     Returns
     -------
@@ -194,6 +198,8 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
         return None
 
     pts = [make_point(cur, 0.0, 0.0)]
+    keep = on_point or (lambda point: None)
+    keep(pts[0])
     specials: list[SpecialPoint] = []
     arclen = 0.0
     end_reason, end_message = "max_points", f"max_points={opts.max_points} reached"
@@ -229,6 +235,7 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
                 pt = make_point(last, arclen, ds)
                 if rejection(pt) is None:
                     pts.append(pt)
+                    keep(pt)
             folded = any(q.kind == "fold" for q in specials)
             end_reason = "reached_to" if boundary == (rhi if direction > 0 else rlo) else "reached_from"
             end_message = (f"{name} reached {boundary:g}" + (" after turning back at a fold" if folded
@@ -244,6 +251,7 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
                 end_message += f" (free values {pt.free_values}, bounds {sysm.lo.tolist()}..{sysm.hi.tolist()})"
             break
         pts.append(pt)
+        keep(pt)
         say(f"{name} = {pt.parameter:.6g}: {nxt.iterations} it, ds {ds:.3g}, |L|max {max(pt.moduli):.4f}"
             + (f", free {pt.free_values}" if nf else ""))
         cur = nxt

@@ -10,6 +10,12 @@ import numpy as np
 __all__ = ["BranchPoint", "SpecialPoint", "Branch", "finite_or_none"]
 
 
+def _total_s(wall) -> float:
+    """The total of a ``wall_s`` entry: a dict with ``total`` (every result's convention) or, in
+    branch files written before it, a number."""
+    return float(wall.get("total", 0.0)) if isinstance(wall, dict) else float(wall)
+
+
 def finite_or_none(v) -> float | None:
     """``float(v)``, or ``None`` where it is not finite (JSON has no NaN)."""
     v = float(v)
@@ -109,7 +115,7 @@ class Branch:
         """JSON-ready dict (``from_dict`` reads it back)."""
         return {"parameter_name": self.parameter_name, "free_names": list(self.free_names),
                 "end_reason": self.end_reason, "end_message": self.end_message,
-                "settings": self.settings, "wall_s": self.wall_s,
+                "settings": self.settings, "wall_s": {"total": self.wall_s},
                 "special_points": [s.to_dict() for s in self.special_points],
                 "points": [p.to_dict() for p in self.points]}
 
@@ -123,5 +129,5 @@ class Branch:
             s["between"] = tuple(s["between"])
             sps.append(SpecialPoint(**s))
         return Branch(d["parameter_name"], pts, sps, d["end_reason"], d["end_message"], d.get("settings", {}),
-                      d.get("wall_s", 0.0), d.get("free_names", []))
+                      _total_s(d.get("wall_s", 0.0)), d.get("free_names", []))
 

@@ -1,0 +1,145 @@
+"""``birdocp continue``: pseudo-arclength continuation of the periodic flight in one parameter."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+
+from birdocp.bird import config as C
+from birdocp.bird.config import ConfigError
+from birdocp.cli.common import (AMPLITUDE_KEY, EXIT_NOT_CONVERGED, EXIT_OK, PROG, finite_values, noise_summary,
+                                resolve_config, run_folder, validity_word)
+from birdocp.cli.level import checked_bounds
+from birdocp.cli.trim import solve_shortcuts
+
+
+def register(sub, common) -> None:
+    par = argparse.ArgumentParser(add_help=False)
+    par.add_argument("param", metavar="PARAM", help="root_ahead_m | stability_margin (percent) | amplitude_deg | KEY")
+    p = sub.add_parser("continue", parents=[par, common], help="follow a branch of periodic flights in one parameter "
+                                                          "(pseudo-arclength continuation)",
+                       description="Pseudo-arclength continuation of the trimmed flight from --from to --to, "
+                                   "through folds, with fold / branch point / period doubling / Neimark-Sacker "
+                                   "detection (located on the branch). PARAM: root_ahead_m (metres ahead of G), "
+                                   "stability_margin (SM = -root_ahead_m / body.reference_chord_m, given in "
+                                   "PERCENT: --from -32.5 --to -17.5), amplitude_deg, or a dotted model key. "
+                                   "Writes branch.json, locus.png and moduli.png to the run folder.")
+    p.add_argument("--from", dest="start", type=float, required=True, metavar="A", help="start value (a cycle is "
+                   "solved there first)")
+    p.add_argument("--to", dest="stop", type=float, required=True, metavar="B", help="end value")
+    p.add_argument("--step", type=float, metavar="S", help="first step in PARAM's units (default |B-A|/10)")
+    p.add_argument("--max-points", type=int, default=200, metavar="N", help="at most N points (default 200, "
+                   "at most 100000)")
+    p.add_argument("--level", action="store_true",
+                   help="hold level flight: the flapping amplitude is solved at every point (mean W = --climb-rate)")
+    p.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS", help="held mean vertical speed with --level")
+    p.add_argument("--bounds", type=float, nargs=2, metavar=("LO", "HI"),
+                   help="amplitude bounds with --level (default 20 70 deg; LO < HI); leaving them ends the branch")
+    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-continue-<id>/")
+    solve_shortcuts(p)
+    p.set_defaults(func=cmd_continue)
+
+
+def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
+    from birdocp.studies.branch import resolve_parameter, root_of_sm
+
+    t_start = time.perf_counter()
+    model_key, display = resolve_parameter(args.param)
+    cfg = resolve_config(args)
+    a, b = finite_values("--from/--to", [args.start, args.stop])
+    if a == b:
+        raise ConfigError("--to", "must differ from --from")
+    conv = (lambda v: root_of_sm(v, cfg.body.reference_chord_m)) if display == "stability_margin" else (lambda v: v)
+    for v in (a, b):
+        C.with_values(cfg, {model_key: conv(v)})
+    if args.level and model_key == AMPLITUDE_KEY:
+        raise ConfigError("--level", "the amplitude is what --level solves for: continue another parameter")
+    if args.step is not None and not (math.isfinite(args.step) and args.step > 0):
+        raise ConfigError("--step", f"must be positive, got {args.step!r}")
+    if not 2 <= args.max_points <= 100000:
+        raise ConfigError("--max-points", f"must be in [2, 100000], got {args.max_points}")
+    (climb,) = finite_values("--climb-rate", [args.climb_rate])
+    bounds = checked_bounds("--bounds", args.bounds) if args.bounds is not None else None
+    with run_folder(args, "continue", command_line) as run:
+        from birdocp.plots.branch import plot_branches
+        from birdocp.studies.branch import bird_branch
+        from birdocp.io.files import atomic_write_json
+
+        from birdocp.io.progress import progress_callback
+
+        say, bar = progress_callback(f"continue {args.param}", args.quiet)
+        done: list = []  # the accepted points, kept if the run is interrupted
+        try:
+            with run.solving(), bar:
+                br = bird_branch(cfg, args.param, a, b, level=args.level, climb_rate_mps=climb, bounds=bounds,
+                                 step=args.step, max_points=args.max_points, progress=say, on_point=done.append)
+        except KeyboardInterrupt:
+            if done:
+                _keep_partial(run, cfg, model_key, display, a, b, args.level, done, t_start)
+            raise
+        d = br.to_dict()
+        atomic_write_json(run.dir / "branch.json", d)
+        figs = plot_branches({"level flight" if args.level else "branch": br}, run.dir) if br.points else []
+        ok = br.end_reason in ("reached_to", "reached_from") and bool(br.points)
+        summary = {"success": ok, "status": br.end_reason, "parameter": br.parameter_name, "display": display,
+                   "from": a, "to": b, "level": bool(args.level), "end_reason": br.end_reason,
+                   "end_message": br.end_message, "n_points": len(br.points), "special_points": d["special_points"],
+                   "stable_anywhere": any(p.stable for p in br.points), "figures": [f.name for f in figs],
+                   "valid_points": sum(bool(p.validity and p.validity["valid"]) for p in br.points),
+                   "wall_s": {"total": time.perf_counter() - t_start}, "run_dir": str(run.dir)}
+        run.write(cfg, summary)
+        if args.json:
+            run.output(dict(summary, branch=d), None)
+        else:
+            print(_table(br, cfg, display, args.level, figs, run.dir))
+        if not ok:
+            warn = noise_summary(run.noise)
+            print(f"{PROG}: the branch ended before --to ({br.end_reason}: {br.end_message}); "
+                  f"{len(br.points)} points written to {run.dir}{warn}", file=sys.stderr)
+            return EXIT_NOT_CONVERGED
+    return EXIT_OK
+
+
+def _keep_partial(run, cfg, model_key: str, display: str, a: float, b: float, level: bool, points: list,
+                  t_start: float) -> None:
+    """branch.json and result.json of an interrupted continuation: the points accepted so far."""
+    from birdocp.engine.continuation import Branch
+    from birdocp.io.files import atomic_write_json
+
+    message = f"interrupted (Ctrl-C) after {len(points)} points"
+    br = Branch(model_key, list(points), [], "interrupted", message, {"level": bool(level), "interrupted": True},
+                time.perf_counter() - t_start, list(points[0].free_values))
+    d = br.to_dict()
+    atomic_write_json(run.dir / "branch.json", d)
+    run.write(cfg, {"success": False, "status": "interrupted", "parameter": model_key, "display": display,
+                    "from": a, "to": b, "level": bool(level), "end_reason": "interrupted", "end_message": message,
+                    "n_points": len(points), "special_points": [], "figures": [],
+                    "wall_s": {"total": time.perf_counter() - t_start}, "run_dir": str(run.dir)})
+
+
+def _table(br, cfg, display: str, level: bool, figs, run_dir) -> str:
+    sm = display == "stability_margin"
+    lines = [f"continuation in {display}" + (" (level flight held)" if level else ""),
+             f"{'SM [%]' if sm else 'value':>12}  {'|lambda1|':>9}  {'|lambda2|':>9}  {'|lambda4|':>9}  stable"
+             + ("  A [deg]" if level else "") + "  model"]
+    for p in br.points:
+        v = -100 * p.parameter / cfg.body.reference_chord_m if sm else p.parameter
+        line = (f"{v:12.6g}  {p.moduli[0]:9.6f}  {p.moduli[1]:9.6f}  {p.moduli[-1]:9.6f}  "
+                f"{'yes' if p.stable else 'no':>6}")
+        if level:
+            line += f"  {list(p.free_values.values())[0]:7.3f}"
+        lines.append(line + f"  {validity_word((p.validity or {}).get('valid'))}")
+    invalid = [p for p in br.points if p.validity and not p.validity["valid"]]
+    if invalid:
+        first = invalid[0]
+        v = -100 * first.parameter / cfg.body.reference_chord_m if sm else first.parameter
+        lines.append(f"model validity: {len(invalid)} of {len(br.points)} points NOT valid; the first at {v:.6g}: "
+                     + "; ".join(first.validity["reasons"]))
+    for sp in br.special_points:
+        v = -100 * sp.parameter / cfg.body.reference_chord_m if sm else sp.parameter
+        lines.append(f"special point: {sp.kind} at {v:.8g} ({sp.message})")
+    lines.append(f"end: {br.end_reason}: {br.end_message}")
+    lines.append(f"run folder  {run_dir}  (branch.json, {', '.join(f.name for f in figs)})")
+    return "\n".join(lines)

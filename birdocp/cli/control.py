@@ -1,0 +1,128 @@
+"""``birdocp control``: design the wingbeat-to-wingbeat (or N-updates-per-beat) feedback at a cycle."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+
+from birdocp.bird.config import ConfigError
+from birdocp.cli import common as cli
+
+
+def register(sub, common) -> None:
+    """Add ``control`` to the CLI's subparsers."""
+    p = sub.add_parser("control", parents=[common], help="design the feedback of the gait that stabilises the cycle "
+                       "(periodic LQR on the exact linearised wingbeat map)",
+                       description="Trim the configured gait (or --level flight), linearise the wingbeat map "
+                                   "exactly with respect to the state and to gait parameters held over each of "
+                                   "N intervals of the beat, and design the periodic discrete LQR (Bryson "
+                                   "weights: 1 m/s, 1 m/s, 1 rad/s, 5 deg; 5 deg per joint). Reports open- and "
+                                   "closed-loop multipliers, the gain and each control's ability to stabilise "
+                                   "the cycle alone. Needs scipy (pip install 'birdocp[control]').")
+    p.add_argument("--level", action="store_true", help="control the level-flight cycle (amplitude solved first)")
+    p.add_argument("--controls", nargs="+", metavar="KEY",
+                   help="gait keys corrected by the feedback (default: gait.shoulder_incidence.offset_deg "
+                        "gait.shoulder_flap.amplitude_deg gait.shoulder_sweep.offset_deg; aliases incidence, "
+                        "amplitude, sweep)")
+    p.add_argument("--updates-per-beat", type=int, default=1, metavar="N",
+                   help="corrections per wingbeat (1 = wingbeat to wingbeat; must divide the RK4 steps)")
+    p.add_argument("--limit-deg", type=float, default=None, metavar="DEG",
+                   help="joint range of each control around its cycle value, used by 'simulate' to saturate "
+                        "(default 15)")
+    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty)")
+    p.set_defaults(func=cmd_control)
+
+
+def cmd_control(args: argparse.Namespace, command_line: list[str]) -> int:
+    from birdocp.bird.config import dumps
+    from birdocp.studies.control import DEFAULT_CONTROLS, DEFAULT_LIMIT_DEG, resolve_controls
+
+    t0 = time.perf_counter()
+    cfg = cli.resolve_config(args)
+    controls = resolve_controls(args.controls if args.controls is not None else DEFAULT_CONTROLS)
+    N = args.updates_per_beat
+    steps = cfg.solve.steps_per_period
+    if N < 1:
+        raise ConfigError("--updates-per-beat", f"must be >= 1, got {N}")
+    if steps % N:
+        raise ConfigError("--updates-per-beat", f"must divide the RK4 steps per period ({steps}), got {N}; "
+                                                "change N or --set solve.steps_per_period")
+    limit = DEFAULT_LIMIT_DEG if args.limit_deg is None else args.limit_deg
+    if not (math.isfinite(limit) and limit > 0):
+        raise ConfigError("--limit-deg", f"must be a positive number of degrees, got {limit}")
+    try:
+        import scipy  # noqa: F401
+    except ImportError:
+        raise ConfigError("scipy", "birdocp control needs scipy: pip install 'birdocp[control]'") from None
+    with cli.run_folder(args, "control", command_line) as run:
+        with run.solving():
+            from birdocp.studies.control import design_controller, reference_cycle
+
+            base = reference_cycle(cfg, args.level)
+        head = {"requested_config": dumps(cfg), "level": bool(args.level), "controls": controls,
+                "updates_per_beat": N, "run_dir": str(run.dir)}
+        if not base.success:
+            result = {"success": False, "status": base.status, "message": base.message, **head}
+            run.write(cfg, result)
+            run.output(result, None)
+            return run.fail("the cycle did not converge", base.status, base.max_residual, base.message)
+        import numpy as np
+
+        with run.solving():
+            try:
+                ctl = design_controller(base, controls, N, limit_deg=limit)
+                body, message = ctl.to_dict(), ""
+            except (np.linalg.LinAlgError, ValueError) as exc:
+                ctl, body = None, {"success": False, "status": "not_stabilised"}
+                message = f"no stabilising feedback through {', '.join(controls)}: {cli.one_line(exc)}"
+                wm, per = getattr(exc, "wingbeat_map", None), getattr(exc, "per_control", None)
+                if wm is not None and per is not None:
+                    # no feedback was found: the closed loop is the open loop
+                    from birdocp.engine.floquet import complex_pairs
+
+                    ol = complex_pairs(wm.multipliers)
+                    body.update(controls=list(wm.controls), open_loop_multipliers=ol, closed_loop_multipliers=ol,
+                                controllable={r["control"]: r["stabilisable"] for r in per}, per_control=per)
+        result = {**head, **body, "message": message or body["message"], "amplitude_deg": base.amplitude_deg,
+                  "mean_forward_speed_mps": base.mean_forward_speed_mps,
+                  "mean_vertical_speed_mps": base.mean_vertical_speed_mps,
+                  "wall_s": {"total": time.perf_counter() - t0}}
+        if ctl is not None:
+            from birdocp.plots.control import plot_multipliers
+
+            result["figure"] = str(plot_multipliers(result, run.dir / "multipliers.png"))
+        run.write(base.cfg, result)
+        if args.json:
+            run.output(result, None)
+        else:
+            _print_table(result)
+        if not result["success"]:
+            print(f"{cli.PROG}: {result['message']}; result written to {run.dir}", file=sys.stderr)
+            return cli.EXIT_NOT_CONVERGED
+    return cli.EXIT_OK
+
+
+def _print_table(r: dict) -> None:
+    if "gain" not in r:  # no controller (a failure carries the multipliers and per-control analysis only)
+        print(f"control: {r['status']}: {r['message']}")
+        return
+    print(f"control: {r['status']} with {len(r['controls'])} control(s), {r['updates_per_beat']} update(s) per beat, "
+          f"at amplitude {r['amplitude_deg']:.4f} deg{' (level flight)' if r['level'] else ''}")
+    print(f"  spectral radius open loop {r['open_loop_spectral_radius']:.6f} -> closed loop "
+          f"{r['closed_loop_spectral_radius']:.6f}"
+          + (f" (deviation / 100 in {r['beats_to_reduce_100x']:.1f} beats)" if r["beats_to_reduce_100x"] else ""))
+    print("  closed-loop multipliers: " + ", ".join(cli.fmt_num(z, ".5f") for z in r["closed_loop_multipliers"]))
+    print(f"  gain of the first update [{r['gain_units']}]:")
+    print(f"    {'control':42s} {'u':>9s} {'w':>9s} {'q':>9s} {'theta':>9s}")
+    for key, row in zip(r["controls"], r["gain"]):
+        print(f"    {key:42s} " + " ".join(f"{v:+9.3f}" for v in row))
+    print("  each control alone:")
+    print(f"    {'control':42s} {'stabilisable':>12s} {'|w1 B|/deg':>11s} {'min effort':>11s} {'LQR rho':>8s}")
+    for row in r["per_control"]:
+        eff = row["min_effort_per_unit_mode"]
+        rho = row["lqr_spectral_radius"]
+        print(f"    {row['control']:42s} {str(row['stabilisable']):>12s} {row['modal_input_per_unit']:11.4g} "
+              f"{cli.fmt_num(eff, '.4g'):>11s} {cli.fmt_num(rho, '.4f'):>8s}")
+    print(f"  written to {r['run_dir']}")

@@ -1,0 +1,107 @@
+"""``birdocp level``: level (or climbing) flight with the flapping amplitude (or --free KEY) solved for."""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from birdocp.bird.config import ConfigError
+from birdocp.cli.common import (AMPLITUDE_KEY, power_figure, EXIT_OK, config_message, finish_result, finite_values, fmt_num,
+                                format_trim_table, resolve_config, run_folder)
+from birdocp.cli.trim import solve_shortcuts
+
+
+def level_options(p: argparse.ArgumentParser, in_sweep: bool) -> None:
+    """--free, --climb-rate, --constrain, --target, --bounds."""
+    g = p.add_argument_group("level flight" + (" (with --level)" if in_sweep else ""))
+    g.add_argument("--free", metavar="KEY", default="amplitude",
+                   help="parameter solved for: a dotted model parameter key or an alias (amplitude, "
+                        "root_ahead_m); default amplitude (gait.shoulder_flap.amplitude_deg)")
+    g.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS",
+                   help="target mean vertical speed in m/s, positive climbing (default 0: level flight)")
+    g.add_argument("--constrain", default="vertical_speed_mps", metavar="MEAN",
+                   help="condition: vertical_speed_mps (default; target --climb-rate), forward_speed_mps or "
+                        "flight_path_angle_deg (target --target)")
+    g.add_argument("--target", type=float, metavar="VALUE",
+                   help="target of --constrain forward_speed_mps [m/s] or flight_path_angle_deg [deg]")
+    g.add_argument("--bounds", type=float, nargs=2, metavar=("LO", "HI"),
+                   help="bounds of the free parameter (default: 20..70 deg for the amplitude, value +-30 for "
+                        "other _deg keys, -0.2..0.3 m for the wing root; required otherwise)")
+
+
+def register(sub, common) -> None:
+    p = sub.add_parser("level", parents=[common], help="level (or climbing) flight: solve for the flapping amplitude",
+                       description="Find the periodic flight with the flapping amplitude (or --free KEY) as an "
+                                   "unknown such that the mean vertical speed is zero (or --climb-rate), in one "
+                                   "NLP, and its Floquet multipliers. Writes a run folder like 'trim'.")
+    level_options(p, False)
+    solve_shortcuts(p)
+    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-level-<id>/")
+    p.set_defaults(func=cmd_level)
+
+
+def checked_bounds(flag: str, bounds) -> tuple[float, float]:
+    """(LO, HI) finite with LO < HI, else a ConfigError on ``flag``."""
+    lo, hi = finite_values(flag, bounds)
+    if not lo < hi:
+        raise ConfigError(flag, f"need LO < HI, got {lo:g} {hi:g}")
+    return lo, hi
+
+
+def level_kwargs(args: argparse.Namespace, cfg) -> dict:
+    """Checked keyword arguments of birdocp.studies.level.level from the level options (no model import)."""
+    from birdocp.studies.level import default_bounds, resolve_constraint, resolve_key
+
+    free = resolve_key(args.free, "--free")
+    constrain = resolve_constraint(args.constrain, "--constrain")
+    (climb,) = finite_values("--climb-rate", [args.climb_rate])
+    kw: dict = {"free": free, "constrain": constrain, "climb_rate_mps": climb}
+    if constrain != "vertical_speed_mps":
+        if args.target is None:
+            raise ConfigError("--target", f"--constrain {constrain} needs --target VALUE")
+        (kw["target"],) = finite_values("--target", [args.target])
+        if constrain == "flight_path_angle_deg" and not -89 < kw["target"] < 89:
+            raise ConfigError("--target", f"flight path angle must lie in (-89, 89) deg, got {kw['target']!r}")
+    elif args.target is not None:
+        (kw["climb_rate_mps"],) = finite_values("--target", [args.target])
+    if args.bounds is not None:
+        kw["bounds"] = checked_bounds("--bounds", args.bounds)
+    else:
+        try:
+            default_bounds(cfg, free)
+        except ConfigError as exc:
+            raise ConfigError("--bounds", f"{config_message(exc)} (--bounds LO HI)") from None
+    return kw
+
+
+def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
+    t_start = time.perf_counter()
+    cfg = resolve_config(args)
+    kw = level_kwargs(args, cfg)
+    with run_folder(args, "level", command_line) as run:
+        with run.solving():
+            from birdocp.studies.level import level
+
+            res = level(cfg, **kw)
+            getattr(res, "energetics", None)  # computes the power outputs (result.json and the table)
+            result = dict(res.to_dict())
+            arrays = res.arrays()
+        free = kw["free"]
+        result["free_key"] = free
+        result["free_value"] = result.get("free_values", {}).get(free)
+        result["constrain"] = kw["constrain"]
+        result["target"] = kw.get("target", kw["climb_rate_mps"])
+        finish_result(result, "level", t_start, run.dir)
+        run.write(cfg, result, arrays)
+        power_figure(arrays, run.dir)
+        table = format_trim_table(result).replace("trim:", "level:", 1)
+        name = "amplitude A" if free == AMPLITUDE_KEY else free
+        unit = " deg" if free.endswith("_deg") else " m" if free.endswith("_m") else ""
+        head = [f"level flight: {name} = {fmt_num(result['free_value'], '.6f')}{unit} "
+                f"(mean {kw['constrain']} = {fmt_num(result['target'], 'g')})"]
+        if free != AMPLITUDE_KEY:
+            head.append(f"amplitude: {fmt_num(result.get('amplitude_deg'), '.6f')} deg")
+        run.output(result, "\n".join(head) + "\n" + table)
+        if not res.success:
+            return run.fail("level flight not found", res.status, result.get("max_residual"), res.message)
+    return EXIT_OK

@@ -1,0 +1,112 @@
+"""``birdocp optimize-stability``: the gait within bounds that minimises the largest multiplier."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+from birdocp.bird.config import ConfigError
+from birdocp.bird.validity import validity_text
+from birdocp.cli import common as cli
+from birdocp.cli.sensitivity import check_key
+
+
+def register(sub, common) -> None:
+    """Add ``optimize-stability`` to the CLI's subparsers."""
+    p = sub.add_parser("optimize-stability", parents=[common],
+                       help="the gait within bounds that minimises the largest multiplier of level flight",
+                       description="Minimise the largest Floquet multiplier modulus of a level-flight cycle "
+                                   "over free gait parameters within bounds (Jury conditions on the "
+                                   "monodromy's characteristic polynomial), then verify with numpy "
+                                   "eigenvalues and a trim from scratch at the optimum.")
+    p.add_argument("--free", action="append", metavar="KEY",
+                   help="free parameter (repeatable; default: shoulder incidence and sweep offsets "
+                        "and amplitudes)")
+    p.add_argument("--bounds", action="append", metavar="KEY=LO:HI",
+                   help="bounds of a free parameter (repeatable, LO < HI; default: "
+                        "birdocp.studies.optimize.DEFAULT_FREE)")
+    p.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS", help="mean vertical speed (default 0)")
+    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty)")
+    p.set_defaults(func=cmd_optimize)
+
+
+def parse_bounds(texts) -> dict:
+    """{key: (lo, hi)} from ``KEY=LO:HI`` texts (finite, LO < HI)."""
+    bounds = {}
+    for text in texts or []:
+        try:
+            key, rng = text.split("=", 1)
+            lo, hi = (float(v) for v in rng.split(":"))
+        except ValueError:
+            raise ConfigError("--bounds", f"expected KEY=LO:HI, got '{text}'") from None
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise ConfigError("--bounds", f"need finite LO < HI, got '{text}'")
+        bounds[check_key(key.strip(), "--bounds")] = (lo, hi)
+    return bounds
+
+
+def free_with_bounds(args: argparse.Namespace, defaults: dict) -> dict:
+    """key -> (lo, hi) from ``--free KEY`` (default: the keys of ``defaults``) and ``--bounds KEY=LO:HI``
+    (default: ``defaults``' range); ConfigError (exit 2) on an unknown key or a malformed range."""
+    keys = [check_key(k, "--free") for k in (args.free or [])] or list(defaults)
+    bounds = parse_bounds(args.bounds)
+    free = {}
+    for k in keys:
+        if k in bounds:
+            free[k] = bounds[k]
+        elif k in defaults:
+            free[k] = defaults[k]
+        else:
+            raise ConfigError("--bounds", f"'{k}' has no default range; give --bounds {k}=LO:HI")
+    for k in bounds:
+        if k not in free:
+            raise ConfigError("--bounds", f"'{k}' is not free; add --free {k}")
+    return free
+
+
+def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
+    from birdocp.studies.optimize import DEFAULT_FREE, optimize_stability
+
+    cfg = cli.resolve_config(args)
+    if not math.isfinite(args.climb_rate):
+        raise ConfigError("--climb-rate", f"must be finite, got {args.climb_rate}")
+    free = free_with_bounds(args, DEFAULT_FREE)
+    with cli.run_folder(args, "optimize-stability", command_line) as run:
+        from birdocp.io.progress import progress_callback
+
+        say, bar = progress_callback("optimize-stability", args.quiet)
+        with run.solving(), bar:
+            res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, progress=say)
+        result = res.to_dict()
+        result["run_dir"] = str(run.dir)
+        run.write(res.cfg or cfg, result)
+        if args.json:
+            cli.print_json(result)
+        else:
+            _print_table(res, result, run.dir)
+        if not res.success:
+            warn = cli.noise_summary(run.noise)
+            print(f"{cli.PROG}: optimisation did not converge (status {res.status}); result written to {run.dir}"
+                  f"{warn}", file=sys.stderr)
+            return cli.EXIT_NOT_CONVERGED
+    return cli.EXIT_OK
+
+
+def _print_table(res, result: dict, run_dir) -> None:
+    print(f"optimize-stability: {'converged' if res.success else 'NOT converged'} ({res.status}), "
+          f"{res.iterations} iterations, {res.wall_s.get('total', 0):.1f} s")
+    print(f"  largest multiplier modulus {max(abs(res.multipliers)):.6f} (start {max(abs(res.start_multipliers)):.6f}); "
+          f"{'STABLE' if res.stable else 'UNSTABLE'} level flight at amplitude {res.amplitude_deg:.4f} deg")
+    for k, v in res.free.items():
+        lo, hi = res.bounds[k]
+        at = " (at a bound)" if min(abs(v - lo), abs(v - hi)) < 1e-6 else ""
+        print(f"  {k:40s} {v:+10.4f}   in [{lo:g}, {hi:g}]{at}")
+    print("  multipliers: " + ", ".join(f"{z.real:.5f}{z.imag:+.5f}j" for z in res.multipliers))
+    v = res.verification
+    if v:
+        print(f"  check: trim at the optimum {'converged' if v.get('trim_success') else 'FAILED'}, "
+              f"multipliers differ by {v.get('max_multiplier_difference')}, "
+              f"mean W {v.get('trim_mean_vertical_speed_mps')}")
+    print(f"  model validity of the optimal cycle: {validity_text(result.get('validity'))}")
+    print(f"  written to {run_dir}")

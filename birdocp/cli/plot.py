@@ -1,0 +1,142 @@
+"""``birdocp plot``: redraw the figures of a run folder."""
+
+from __future__ import annotations
+
+import argparse
+import errno
+import json
+from pathlib import Path
+
+from birdocp.bird.config import ConfigError
+from birdocp.cli.common import EXIT_OK, print_json, solver_noise
+
+
+def register(sub, common) -> None:
+    p = sub.add_parser("plot", help="redraw the figures of a run folder (trim, level, sweep, continue)",
+                       description="Read RUN_DIR/result.json (and arrays.npz, sweep.json, branch.json) and write "
+                                   "the run's figures into RUN_DIR.")
+    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.add_argument("--debug", action="store_true", help="show Python tracebacks on errors")
+    p.add_argument("--json", action="store_true", help="print the list of figures as JSON")
+    p.add_argument("--verbose", action="store_true", help="show library warnings on the terminal")
+    p.set_defaults(func=cmd_plot)
+
+
+def _read_json(path: Path, what: str):
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise ConfigError("RUN_DIR", f"unreadable {what}: {exc}") from None
+
+
+def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
+    run = Path(args.run_dir)
+    res_path = run / "result.json"
+    if not res_path.is_file():
+        raise ConfigError("RUN_DIR", f"'{run}' holds no result.json (not a birdocp run folder)")
+    res = _read_json(res_path, "result.json")
+    if not isinstance(res, dict) or not isinstance(res.get("provenance", {}), dict):
+        raise ConfigError("RUN_DIR", f"'{res_path}' is not a birdocp result (expected a JSON object with "
+                                     "provenance)")
+    command = (res.get("provenance") or {}).get("command")
+    try:
+        with solver_noise(None, getattr(args, "verbose", False)):
+            figs = _figures(run, res, command)
+    except ConfigError:
+        raise
+    except OSError as exc:
+        if exc.errno in (errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOSPC):
+            raise ConfigError("RUN_DIR", f"cannot write the figures into '{run}': {exc.strerror}") from None
+        raise
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
+        raise ConfigError("RUN_DIR", f"the files of '{run}' are not a complete birdocp {command or ''} run "
+                                     f"({type(exc).__name__}: {exc})") from None
+    names = [Path(f).name for f in figs]
+    if args.json:
+        print_json({"run_dir": str(run), "figures": names, "success": True, "status": "plotted"})
+    else:
+        print(f"wrote {', '.join(names) or 'no figures'} in {run}")
+    return EXIT_OK
+
+
+def _figures(run: Path, res: dict, command) -> list:
+    figs = []
+    if (run / "branch.json").is_file():
+        from birdocp.engine.continuation import Branch
+        from birdocp.plots.branch import plot_branches
+
+        br = Branch.from_dict(_read_json(run / "branch.json", "branch.json"))
+        figs = plot_branches({"level flight" if br.settings.get("level") else "branch": br}, run)
+    elif (run / "grid.json").is_file():
+        d = _read_json(run / "grid.json", "grid.json")
+        figs = [plot_rows(d.get("points", []), "value", run / "grid.png",
+                          f"grid: lines over {d.get('key')}, one per {d.get('row_key')}", d.get("key"))]
+    elif (run / "sweep.json").is_file():
+        d = _read_json(run / "sweep.json", "sweep.json")
+        figs = [plot_rows(d.get("points", []), "value", run / "sweep.png", f"sweep of {d.get('key')}", d.get("key"))]
+    elif command in ("trim", "level") or "x0" in res:
+        from birdocp.plots import figures as plots
+
+        arrays = {}
+        if (run / "arrays.npz").is_file():
+            import numpy as np
+
+            with np.load(run / "arrays.npz") as z:
+                arrays = {k: z[k] for k in z.files}
+        cyc = dict(res, **arrays)
+        if "trajectory_x" in cyc:
+            figs.append(plots.plot_states(cyc, run / "states.png"))
+            figs.append(plots.plot_phase_portrait(cyc, run / "phase.png"))
+        if cyc.get("multipliers") is not None:
+            figs.append(plots.plot_multipliers({command or "cycle": cyc["multipliers"]}, run / "multipliers.png"))
+        if cyc.get("residual_history") is not None:
+            figs.append(plots.plot_convergence({command or "cycle": cyc["residual_history"]}, run / "convergence.png"))
+            if "power_t_s" in cyc:
+                from birdocp.plots.energetics import plot_power
+
+                figs.append(plot_power(cyc, run / "power.png"))
+    else:
+        raise ConfigError("RUN_DIR", f"do not know how to plot a '{command}' run")
+    return figs
+
+
+def plot_rows(rows, xkey, path, title, xlabel):
+    """|multipliers| and mean vertical speed of sweep or grid rows against ``xkey``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from birdocp.plots.figures import save_figure
+
+    fig, ax = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
+    groups = {}
+    for r in rows:
+        groups.setdefault(r.get("row_value"), []).append(r)
+    for g, rs in groups.items():
+        x = np.array([r[xkey] for r in rs], float)
+        lab = "" if g is None else f" ({g:g})"
+        for k in range(4):
+            y = np.array([np.nan if r.get(f"modulus{k}") is None else r[f"modulus{k}"] for r in rs], float)
+            ax[0].plot(x, y, "o-" if k == 0 else ".--", ms=4, label=f"|L{k + 1}|{lab}" if k in (0, 1) else None)
+        w = np.array([np.nan if r.get("mean_vertical_speed_mps") is None else r["mean_vertical_speed_mps"] for r in rs])
+        ax[1].plot(x, w, "o-", ms=4, label=f"mean W{lab}")
+        bad = np.array([r.get("valid") is False for r in rs])
+        if bad.any():  # the model does not hold on these cycles (birdocp.bird.validity)
+            m0 = np.array([np.nan if r.get("modulus0") is None else r["modulus0"] for r in rs], float)
+            ax[0].plot(x[bad], m0[bad], "x", color="0.4", ms=9, mew=2, label="model not valid")
+            ax[1].plot(x[bad], w[bad], "x", color="0.4", ms=9, mew=2, label="model not valid")
+    ax[0].axhline(1, color="k", lw=0.8)
+    ax[0].set_ylabel("|multiplier|")
+    ax[0].set_title(title)
+    ax[0].legend(fontsize=7)
+    ax[1].set_ylabel("mean vertical speed [m/s]")
+    ax[1].set_xlabel(xlabel)
+    ax[1].legend(fontsize=7)
+    for a in ax:
+        a.grid(alpha=0.3)
+    fig.tight_layout()
+    p = save_figure(fig, path)
+    plt.close(fig)
+    return p

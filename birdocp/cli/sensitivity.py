@@ -1,0 +1,92 @@
+"""``birdocp sensitivity``: exact derivatives of the Floquet multipliers, ranked."""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from birdocp.bird.config import PARAM_NAMES, ConfigError, suggest
+from birdocp.bird.validity import validity_text
+from birdocp.cli import common as cli
+
+
+def register(sub, common) -> None:
+    """Add ``sensitivity`` to the CLI's subparsers."""
+    p = sub.add_parser("sensitivity", parents=[common], help="exact derivatives of the Floquet multipliers "
+                       "with respect to gait and morphology parameters, ranked",
+                       description="Trim the configured gait and rank the parameters by the exact "
+                                   "derivative of the expanding multiplier's modulus (the change of the "
+                                   "cycle included), per degree or per cm. --level holds level flight: "
+                                   "the amplitude is first solved for level flight and re-solved along "
+                                   "every parameter direction.")
+    p.add_argument("--param", action="append", metavar="KEY",
+                   help="parameter to differentiate (repeatable; default: every gait joint and the morphology)")
+    p.add_argument("--level", action="store_true", help="hold level flight (amplitude re-solved)")
+    p.add_argument("--top", type=int, default=15, metavar="N", help="rows to print (default 15)")
+    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty)")
+    p.set_defaults(func=cmd_sensitivity)
+
+
+def check_key(key: str, flag: str) -> str:
+    """``key`` if it is a model parameter, else a ConfigError on ``flag`` with a suggestion."""
+    if key not in PARAM_NAMES:
+        raise ConfigError(flag, f"unknown parameter '{key}'" + suggest(key, PARAM_NAMES))
+    return key
+
+
+def cmd_sensitivity(args: argparse.Namespace, command_line: list[str]) -> int:
+    t0 = time.perf_counter()
+    cfg = cli.resolve_config(args)
+    params = [check_key(k, "--param") for k in (args.param or [])] or None
+    if args.top < 1:
+        raise ConfigError("--top", f"must be >= 1, got {args.top}")
+    with cli.run_folder(args, "sensitivity", command_line) as run:
+        with run.solving():
+            from birdocp.bird.config import with_values
+            from birdocp.studies.sensitivity import multiplier_sensitivities
+            from birdocp.studies.trim import trim
+
+            if args.level:
+                from birdocp.studies.level import level
+
+                lv = level(cfg)
+                base = trim(with_values(cfg, {"gait.shoulder_flap.amplitude_deg": lv.amplitude_deg}),
+                            warm_start=lv) if lv.success else lv
+            else:
+                base = trim(cfg)
+        if not base.success:
+            result = {"success": False, "status": base.status, "message": base.message,
+                      "max_residual": getattr(base, "max_residual", None),
+                      "wall_s": {"total": time.perf_counter() - t0}, "run_dir": str(run.dir)}
+            run.write(cfg, result)
+            run.output(result, None)
+            return run.fail("sensitivity: the cycle did not converge", base.status, result["max_residual"],
+                            base.message)
+        with run.solving():
+            s = multiplier_sensitivities(base, params, hold_level=args.level)
+        result = {"success": True, "status": base.status, "amplitude_deg": base.amplitude_deg, **s.to_dict(),
+                  "validity": base.validity.to_dict(),
+                  "wall_s": {"total": time.perf_counter() - t0}, "run_dir": str(run.dir)}
+        run.write(base.cfg, result)
+        run.output(result, None if args.json else _table(s, base, args, result, run.dir))
+    return cli.EXIT_OK
+
+
+def _table(s, base, args, result, run_dir) -> str:
+    lam = s.multipliers[0]
+    lines = [f"sensitivity of the expanding multiplier {lam.real:.6f} (|.| = {abs(lam):.6f}) at amplitude "
+             f"{base.amplitude_deg:.4f} deg{' (level flight held)' if args.level else ''}; per unit of the parameter:"]
+    head = f"  {'parameter':42s} {'d|L1|':>11s} {'dL1 (re, im)':>24s} {'d mean W [m/s]':>15s}"
+    if args.level:
+        head += f" {'dA [deg]':>10s}"
+    lines.append(head)
+    for row in s.ranked()[:args.top]:
+        line = (f"  {row['parameter'] + ' /' + row['unit']:42s} {row['d_modulus_per_unit']:+11.3e} "
+                f"{row['d_multiplier_per_unit'][0]:+11.3e} {row['d_multiplier_per_unit'][1]:+11.3e}j "
+                f"{row['d_mean_vertical_speed_mps_per_unit']:+15.3e}")
+        if args.level:
+            line += f" {row['d_amplitude_deg_per_unit']:+10.3e}"
+        lines.append(line)
+    lines.append(f"  model validity of the cycle: {validity_text(result['validity'])}")
+    lines.append(f"  ({len(s.parameters)} parameters, {result['wall_s']['total']:.1f} s; written to {run_dir})")
+    return "\n".join(lines)

@@ -1,0 +1,168 @@
+"""``birdocp simulate``: many wingbeats of the full model from the cycle, with a perturbation and/or a
+gust, open loop or with a controller designed by ``birdocp control``."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+from birdocp.bird.config import ConfigError
+from birdocp.cli import common as cli
+
+MAX_BEATS = 10000
+
+
+def register(sub, common) -> None:
+    """Add ``simulate`` to the CLI's subparsers."""
+    p = sub.add_parser("simulate", parents=[common], help="simulate many wingbeats with a perturbation or a gust, "
+                       "open or closed loop",
+                       description="Integrate the full model from the cycle for K beats (state augmented with "
+                                   "the inertial position X forward, Z down). Perturbations add to the cycle's "
+                                   "state at t = 0; gusts are 1 - cos, frozen in space, starting one beat ahead; "
+                                   "with --controller the feedback of a 'birdocp control' run is applied at "
+                                   "each update, saturated at its joint limits. Writes the time histories "
+                                   "(arrays.npz), result.json and simulation.png.")
+    p.add_argument("--beats", type=int, required=True, metavar="K", help="wingbeats to simulate")
+    p.add_argument("--perturb", action="append", default=[], metavar="KEY=VALUE",
+                   help="initial state deviation: u=, w= [m/s], q= [rad/s], theta= [rad] (repeatable)")
+    p.add_argument("--gust", action="append", default=[], metavar="DIR=MPS:BEATS",
+                   help="1 - cos gust: vertical (positive up) or horizontal (positive along the flight, i.e. "
+                        "tailwind) peak in m/s and length in beats (or metres with a trailing m: 3:10m)")
+    p.add_argument("--gust-start", type=float, default=1.0, metavar="BEATS",
+                   help="distance to the gust's start, in beats of the cycle's flight distance (default 1)")
+    p.add_argument("--wind", action="append", default=[], metavar="DIR=MPS",
+                   help="constant wind: vertical (positive up) or horizontal (positive along the flight)")
+    p.add_argument("--controller", metavar="RUN_DIR", help="a 'birdocp control' run folder (closed loop); its "
+                   "configuration must be the simulated one")
+    p.add_argument("--level", action="store_true", help="open loop: simulate about the level-flight cycle")
+    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty)")
+    p.set_defaults(func=cmd_simulate)
+
+
+def _first_difference(a: dict, b: dict, prefix: str = "") -> str | None:
+    for k in sorted(set(a) | set(b)):
+        va, vb = a.get(k), b.get(k)
+        if isinstance(va, dict) and isinstance(vb, dict):
+            d = _first_difference(va, vb, f"{prefix}{k}.")
+            if d:
+                return d
+        elif va != vb:
+            return f"{prefix}{k}"
+    return None
+
+
+def load_controller(path_text: str, cfg):
+    """(controller namespace, cycle cfg, result dict) from a control run folder; ConfigError if it is
+    not one or was designed for another configuration than ``cfg``."""
+    import numpy as np
+
+    from birdocp.bird import config as C
+    from birdocp.io.runs import read_result
+
+    path = Path(path_text)
+    r = read_result(path)
+    if not isinstance(r, dict) or (r.get("provenance") or {}).get("command") != "control":
+        raise ConfigError("--controller", f"'{path}' is not a 'birdocp control' run folder (no control result.json)")
+    if not r.get("success") or "gains" not in r:
+        raise ConfigError("--controller", f"'{path}' holds no stabilising controller (status {r.get('status')})")
+    try:
+        cycle_cfg = C.load(path / "config.toml")
+        requested = C.loads(r["requested_config"])
+    except (OSError, KeyError, ConfigError) as exc:
+        raise ConfigError("--controller", f"cannot read the configuration of '{path}': {cli.one_line(exc)}") from None
+    if C.dumps(cfg) not in (C.dumps(requested), C.dumps(cycle_cfg)):
+        key = _first_difference(C.to_dict(cfg), C.to_dict(requested))
+        raise ConfigError("--controller", f"'{path}' was designed for another configuration (differs in {key}); "
+                          "simulate with the same CONFIG/--set, or design a controller for this one")
+    ctl = SimpleNamespace(controls=list(r["controls"]), K=np.array(r["gains"], float),
+                          x_starts=np.array(r["x_starts"], float), limits=np.array(r["limits"], float),
+                          updates_per_beat=int(r["updates_per_beat"]))
+    return ctl, cycle_cfg, r
+
+
+def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
+    from birdocp.studies.simulate import DIRECTIONS, parse_gust, parse_perturbation
+
+    t0 = time.perf_counter()
+    cfg = cli.resolve_config(args)
+    if not 1 <= args.beats <= MAX_BEATS:
+        raise ConfigError("--beats", f"must be an integer in [1, {MAX_BEATS}], got {args.beats}")
+    dx0 = parse_perturbation(args.perturb)
+    gusts = [parse_gust(g) for g in args.gust]
+    if len({g.direction for g in gusts}) < len(gusts):
+        raise ConfigError("--gust", "at most one vertical and one horizontal gust")
+    if not math.isfinite(args.gust_start) or args.gust_start < 0:
+        raise ConfigError("--gust-start", f"must be >= 0 beats, got {args.gust_start}")
+    gusts = [type(g)(g.direction, g.amplitude_mps, g.length_beats, g.length_m, args.gust_start) for g in gusts]
+    wind = [0.0, 0.0]
+    for text in args.wind:
+        try:
+            d, v = text.split("=", 1)
+            val = float(v)
+        except ValueError:
+            raise ConfigError("--wind", f"expected vertical|horizontal=MPS, got '{text}'") from None
+        if d.strip() not in DIRECTIONS or not math.isfinite(val):
+            raise ConfigError("--wind", f"expected vertical|horizontal=MPS with a finite value, got '{text}'")
+        wind[0 if d.strip() == "horizontal" else 1] = val
+    ctl = None
+    if args.controller:
+        if args.level:
+            raise ConfigError("--level", "the controller's cycle is used with --controller; drop --level")
+        ctl, sim_cfg, ctl_result = load_controller(args.controller, cfg)
+    with cli.run_folder(args, "simulate", command_line) as run:
+        run_dir = run.dir
+        head = {"controller": str(args.controller) if args.controller else None, "run_dir": str(run_dir),
+                "perturbation": dx0.tolist(), "wind_mps": {"horizontal": wind[0], "vertical": wind[1]}}
+        with run.solving():
+            from birdocp.studies.simulate import simulate
+
+            if ctl is not None:
+                x0, steps = ctl_result["cycle_x0"], int(ctl_result["steps_per_period"])
+            else:
+                from birdocp.studies.control import reference_cycle
+
+                base = reference_cycle(cfg, args.level)
+                if not base.success:
+                    result = {"success": False, "status": base.status,
+                              "message": f"the cycle did not converge: {base.message}", **head}
+                    run.write(cfg, result)
+                    run.output(result, None)
+                    return run.fail("the cycle did not converge", base.status, base.max_residual, base.message)
+                sim_cfg, x0, steps = base.cfg, base.x0, int(base.cycle.method["steps_per_period"])
+            from birdocp.io.progress import progress_callback
+
+            say, bar = progress_callback("simulate", getattr(args, "quiet", False), total=args.beats)
+            try:
+                sim = simulate(sim_cfg, x0, args.beats, steps_per_period=steps, perturbation=dx0, gusts=gusts,
+                               wind_mps=wind, controller=ctl, progress=say)
+            finally:
+                bar.close()
+        result = {**sim.to_dict(), **head, "cycle_x0": [float(v) for v in x0],
+                  "wall_s": {"total": time.perf_counter() - t0}}
+        arrays = sim.arrays()
+        if sim.states.shape[0] > 1:
+            from birdocp.plots.control import plot_simulation
+
+            runs = {("closed loop" if ctl is not None else "open loop"): dict(arrays, control_keys=sim.control_keys)}
+            result["figure"] = str(plot_simulation(runs, run_dir / "simulation.png",
+                                                   f"{args.beats} beats: {sim.status}"))
+        run.write(sim_cfg, result, arrays)
+        if args.json:
+            run.output(result, None)
+        else:
+            dev = result["deviation_per_beat"]
+            print(f"simulate: {sim.status} ({'closed' if ctl is not None else 'open'} loop): {sim.message}")
+            print("  deviation per beat: " + ", ".join(f"{v:.3g}" for v in dev[:12]) + (" ..." if len(dev) > 12 else ""))
+            print(f"  final deviation {cli.fmt_num(result['final_deviation'], '.3g')}, peak "
+                  f"{cli.fmt_num(result['peak_deviation'], '.3g')} at beat {result['peak_beat']}, beats to recover "
+                  f"{result['beats_to_recover']}, saturated {result['saturated']}")
+            print(f"  written to {run_dir}")
+        if not sim.success:
+            print(f"{cli.PROG}: simulation failed ({sim.status}): {sim.message}; result written to {run_dir}",
+                  file=sys.stderr)
+            return cli.EXIT_NOT_CONVERGED
+    return cli.EXIT_OK

@@ -1,0 +1,57 @@
+"""``birdocp trim``: the trimmed periodic flight and its Floquet stability, in a run folder."""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from birdocp.cli.common import (EXIT_OK, finish_result, format_trim_table, power_figure, resolve_config,
+                                run_folder)
+
+
+def solve_shortcuts(p: argparse.ArgumentParser) -> None:
+    """--points, --steps, --solver, --derivatives (shortcuts for solve.* keys)."""
+    s = p.add_argument_group("solve (shortcuts for solve.* keys)")
+    s.add_argument("--points", type=int, metavar="M", help="shooting points per period, closing point included (solve.points)")
+    s.add_argument("--steps", type=int, metavar="N", help="RK4 steps per period, a multiple of M-1 (solve.steps_per_period)")
+    s.add_argument("--solver", choices=("ipopt", "lm"), help="nonlinear solver (solve.solver)")
+    s.add_argument("--derivatives", choices=("exact", "fd"), help="Jacobians by AD or finite differences (solve.derivatives)")
+
+
+def register(sub, common) -> None:
+    p = sub.add_parser("trim", parents=[common], help="find the trimmed periodic flight and its Floquet stability",
+                       description="Find the periodic (trimmed) flapping flight by multiple shooting and its "
+                                   "Floquet multipliers. Writes a run folder (config.toml, result.json, arrays.npz).")
+    solve_shortcuts(p)
+    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-trim-<id>/")
+    p.add_argument("--compiled", action="store_true",
+                   help="use the state RHS compiled to C (cached in $BIRDOCP_CACHE or ~/.cache/birdocp; "
+                        "falls back to the interpreted path with a warning if compilation fails)")
+    p.set_defaults(func=cmd_trim)
+
+
+def last_residual(result: dict):
+    """The max residual of a result, else the last of its residual history."""
+    last = result.get("max_residual")
+    hist = result.get("residual_history") or []
+    return hist[-1] if last is None and hist else last
+
+
+def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
+    t_start = time.perf_counter()
+    cfg = resolve_config(args)
+    with run_folder(args, "trim", command_line) as run:
+        with run.solving():
+            from birdocp.studies.trim import trim
+
+            res = trim(cfg, compiled=True) if getattr(args, "compiled", False) else trim(cfg)
+            getattr(res, "energetics", None)  # computes the power outputs (result.json and the table)
+            result = dict(res.to_dict())
+            arrays = res.arrays() if hasattr(res, "arrays") else None
+        finish_result(result, "trim", t_start, run.dir)
+        run.write(cfg, result, arrays)
+        power_figure(arrays, run.dir)
+        run.output(result, format_trim_table(result))
+        if not res.success:
+            return run.fail("trim did not converge", res.status, last_residual(result), res.message)
+    return EXIT_OK

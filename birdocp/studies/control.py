@@ -1,0 +1,505 @@
+"""Wingbeat-to-wingbeat feedback: the linearised wingbeat map with gait controls and its LQR.
+
+At a converged cycle (a trim or a level-flight trim) the beat is split into ``N`` equal intervals
+(``updates_per_beat``; N = 1 is wingbeat-to-wingbeat feedback). Over interval ``i`` the chosen gait
+parameters (dotted keys of :data:`birdocp.bird.config.PARAM_NAMES`, e.g. a joint offset in deg) are
+held at ``u_cycle + du_i``; the state deviation at the interval starts obeys, to first order::
+
+    dx_{i+1} = A_i dx_i + B_i du_i        (i = 0 .. N-1, dx_N = dx at the next beat's start)
+
+``A_i`` (4 x 4) and ``B_i`` (4 x m, per unit of each control's own unit) are exact derivatives of the
+RK4 map of the trim's grid: forward AD through the per-time data (wing geometry, lifting-line
+matrices) and through every RK4 step. ``M = A_{N-1} ... A_0`` is the monodromy.
+
+Controller: the periodic discrete-time LQR ``du_i = -K_i dx_i`` minimising
+``sum_k dx_k' Q dx_k + du_k' R du_k`` over all interval starts. The periodic Riccati equation is
+solved with :func:`scipy.linalg.solve_discrete_are` on the cyclic reformulation of the N-periodic
+system (Bittanti & Colaneri: the time-invariant system of dimension 4N whose DARE solution is
+block-diagonal with the periodic solution ``P_i`` on its diagonal); python-control 0.10 has no
+periodic LQR. Default weights by Bryson's rule: acceptable deviations
+:data:`ACCEPTABLE_STATE` (u, w in m/s, q in rad/s, theta in rad) and :data:`ACCEPTABLE_CONTROL_DEG`
+per control (deg; other units: 5 % of the configured value).
+
+Controllability per control (each alone): stabilisable by the PBH test on the beat map for every
+multiplier outside the unit circle, the modal input ``w^H B`` of the expanding mode, the
+minimal-energy stabilising gain (the LQR limit Q -> 0 on the unstable modal subsystem: it reflects
+each expanding multiplier lambda to 1/conj(lambda) and leaves the others in place) and the LQR gain
+with the default weights alone, with their closed-loop spectral radii.
+
+scipy is needed at run time for this module (``pip install 'birdocp[control]'``, also in ``[test]``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest
+from birdocp.bird.model import get_model
+from birdocp.engine.cache import bounded_cache
+from birdocp.engine.floquet import complex_pairs, multiplier_order
+from birdocp.engine.integrate import RK4Grid
+
+__all__ = ["DEFAULT_CONTROLS", "ACCEPTABLE_STATE", "ACCEPTABLE_CONTROL_DEG", "DEFAULT_LIMIT_DEG",
+           "WingbeatMap", "Controller", "wingbeat_map", "periodic_lqr", "design_controller",
+           "resolve_controls", "bryson_weights", "default_limits", "sorted_eigs", "reference_cycle",
+           "closed_loop_monodromy", "CONTROL_ALIASES", "PerModel"]
+
+DEFAULT_CONTROLS = ("gait.shoulder_incidence.offset_deg", "gait.shoulder_flap.amplitude_deg",
+                    "gait.shoulder_sweep.offset_deg")
+"""Shoulder incidence offset (wing pitch), flapping amplitude and sweep offset."""
+ACCEPTABLE_STATE = (1.0, 1.0, 1.0, math.radians(5.0))
+"""Acceptable deviations at a beat start for Bryson's rule: u [m/s], w [m/s], q [rad/s], theta [rad]."""
+ACCEPTABLE_CONTROL_DEG = 5.0
+"""Acceptable correction of a joint angle (offset or amplitude) for Bryson's rule [deg]."""
+DEFAULT_LIMIT_DEG = 15.0
+"""Joint range of a control around its cycle value [deg] (the simulation saturates there)."""
+
+CONTROL_ALIASES = {
+    "incidence": "gait.shoulder_incidence.offset_deg", "amplitude": "gait.shoulder_flap.amplitude_deg",
+    "sweep": "gait.shoulder_sweep.offset_deg", "flap_offset": "gait.shoulder_flap.offset_deg",
+}
+
+
+def resolve_controls(keys) -> list[str]:
+    """Control keys (dotted :data:`PARAM_NAMES` entries of the gait, or an alias in
+    :data:`CONTROL_ALIASES`); ConfigError on an unknown, non-gait or repeated key."""
+    out = []
+    for key in keys:
+        k = CONTROL_ALIASES.get(str(key).strip(), str(key).strip())
+        if k not in PARAM_NAMES or not k.startswith("gait."):
+            gait = [n for n in PARAM_NAMES if n.startswith("gait.")]
+            raise ConfigError("--controls", f"unknown control '{key}'" + suggest(k, gait + list(CONTROL_ALIASES))
+                              + " (a gait key such as gait.shoulder_sweep.offset_deg, or incidence, "
+                                "amplitude, sweep)")
+        if k in out:
+            raise ConfigError("--controls", f"control '{k}' given twice")
+        out.append(k)
+    if not out:
+        raise ConfigError("--controls", "give at least one control key")
+    return out
+
+
+def _acceptable(cfg: Config, key: str) -> float:
+    if key.endswith("_deg"):
+        return ACCEPTABLE_CONTROL_DEG
+    return max(0.05 * abs(float(get_value(cfg, key))), 1e-6)
+
+
+def bryson_weights(cfg: Config, controls, acceptable_state=ACCEPTABLE_STATE, acceptable_control=None):
+    """(Q, R) = (diag(1/dx_max^2), diag(1/du_max^2)): Bryson's rule in the state's and the controls'
+    own units. ``acceptable_control``: one value per control (default :data:`ACCEPTABLE_CONTROL_DEG`)."""
+    dx = np.asarray(acceptable_state, float)
+    du = (np.array([_acceptable(cfg, k) for k in controls]) if acceptable_control is None
+          else np.asarray(acceptable_control, float))
+    if dx.shape != (4,) or not np.all(dx > 0) or du.shape != (len(controls),) or not np.all(du > 0):
+        raise ConfigError("weights", "acceptable deviations must be positive: 4 for the state, one per control")
+    return np.diag(1.0 / dx ** 2), np.diag(1.0 / du ** 2)
+
+
+def default_limits(cfg: Config, controls, p, limit_deg: float = DEFAULT_LIMIT_DEG) -> np.ndarray:
+    """(m, 2) absolute joint limits: the cycle value +- ``limit_deg`` (amplitudes not below 0,
+    angles within the configuration's [-180, 180] deg); other units +- 20 %."""
+    out = []
+    for k in controls:
+        v = float(p[PARAM_NAMES.index(k)])
+        if k.endswith("_deg"):
+            lo, hi = max(v - limit_deg, -180.0), min(v + limit_deg, 180.0)
+            if k.endswith("amplitude_deg"):
+                lo = max(lo, 0.0)
+        else:
+            lo, hi = v - 0.2 * abs(v), v + 0.2 * abs(v)
+        out.append((lo, hi))
+    return np.array(out, float)
+
+
+def sorted_eigs(Mat):
+    """Eigenvalues and right eigenvectors in the order of every result
+    (:func:`birdocp.engine.floquet.multiplier_order`: largest modulus first)."""
+    lam, V = np.linalg.eig(np.asarray(Mat, float))
+    order = multiplier_order(lam)
+    return lam[order], V[:, order]
+
+
+class PerModel:
+    """Base of the classes that hold CasADi Functions built once per (model, settings): ``get``
+    returns the cached instance. One bounded cache per subclass, registered in
+    :mod:`birdocp.engine.cache` as ``studies.<ClassName>`` (8 entries; rebuilt if the model changed)."""
+
+    _cache = None
+
+    def __init_subclass__(cls, **kw):
+        super().__init_subclass__(**kw)
+        cls._cache = bounded_cache(f"studies.{cls.__name__}", 8)
+
+    @classmethod
+    def get(cls, model, *settings):
+        """The cached instance for (model, settings), built on first use."""
+        key = (id(model.model), *settings)
+        hit = cls._cache.get(key)
+        if hit is None or hit.model is not model.model:
+            hit = cls(model, *settings)
+            cls._cache.put(key, hit)
+        return hit
+
+
+class _Linearisation(PerModel):
+    """CasADi Functions of one interval of the beat for (model, steps, N): end state, state Jacobian
+    and directional derivatives along the data/parameter directions of the controls."""
+
+    def __init__(self, model, steps: int, n_intervals: int):
+        self.model = model.model
+        self.grid = grid = RK4Grid(model.ode, steps, n_intervals)
+        nx, nd, np_ = 4, model.ode.nd, model.ode.np
+        x = ca.MX.sym("x", nx)
+        Dn = ca.MX.sym("D", nd, 3 * grid.n)
+        p = ca.MX.sym("p", np_)
+        dD = ca.MX.sym("dD", nd, 3 * grid.n)
+        dp = ca.MX.sym("dp", np_)
+        xe = grid.segment(x, Dn, p)[0]
+        Jx = ca.jacobian(xe, x)
+        Ju = ca.jtimes(xe, ca.vertcat(ca.vec(Dn), p), ca.vertcat(ca.vec(dD), dp))
+        self.interval = ca.Function("interval_lin", [x, Dn, p, dD, dp], [xe, Jx, Ju])
+        self.n_times = 2 * steps + 1
+        self.data_fwd = model.data.forward(1).map(self.n_times)
+
+
+@dataclass
+class WingbeatMap:
+    """The linearised wingbeat map with controls, at a cycle.
+
+    controls: the control keys; updates_per_beat: N; x0: the cycle's state at the beat start;
+    p: the cycle's parameters; x_starts (N, 4): the cycle's state at each interval start;
+    A (N, 4, 4), B (N, 4, m): interval maps (B per unit of each control's own unit, e.g. per deg);
+    M (4, 4): the monodromy A_{N-1}..A_0; B_lifted (4, N m): the response of the state one beat later
+    to each interval's control (columns interval-major).
+    """
+
+    controls: list
+    updates_per_beat: int
+    steps_per_period: int
+    x0: np.ndarray
+    p: np.ndarray
+    x_starts: np.ndarray
+    A: np.ndarray
+    B: np.ndarray
+
+    @property
+    def M(self) -> np.ndarray:
+        out = np.eye(4)
+        for Ai in self.A:
+            out = Ai @ out
+        return out
+
+    @property
+    def B_lifted(self) -> np.ndarray:
+        N, cols = self.updates_per_beat, []
+        for i in range(N):
+            T = np.eye(4)
+            for j in range(i + 1, N):
+                T = self.A[j] @ T
+            cols.append(T @ self.B[i])
+        return np.hstack(cols)
+
+    @property
+    def multipliers(self) -> np.ndarray:
+        return sorted_eigs(self.M)[0]
+
+
+def wingbeat_map(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int = 1) -> WingbeatMap:
+    """Exact linearisation of the wingbeat map with gait controls.
+
+    Parameters
+    ----------
+    cycle_result : TrimResult
+        A converged trim (its grid, ``steps_per_period`` RK4 steps, is linearised).
+    controls : sequence of str
+        Gait keys (or aliases) held over each interval; derivatives per unit of each key's own unit
+        (deg for angles).
+    updates_per_beat : int
+        N >= 1 intervals; must divide the RK4 steps per period.
+
+    Returns
+    -------
+    WingbeatMap
+        ``A`` (N, 4, 4), ``B`` (N, 4, m), the cycle's states at the interval starts, ``M``,
+        ``B_lifted``. State units: u, w [m/s], q [rad/s], theta [rad].
+    """
+    controls = resolve_controls(controls)
+    N = int(updates_per_beat)
+    c = cycle_result.cycle
+    steps = int(c.method["steps_per_period"])
+    if N < 1:
+        raise ConfigError("--updates-per-beat", f"must be >= 1, got {N}")
+    if steps % N:
+        raise ConfigError("--updates-per-beat", f"must divide the RK4 steps per period ({steps}); "
+                          "change it or solve.steps_per_period")
+    if not c.success:
+        raise ValueError("the cycle did not converge: the wingbeat map needs a converged cycle")
+    m = get_model(cycle_result.cfg)
+    lin = _Linearisation.get(m, steps, N)
+    grid = lin.grid
+    p = np.asarray(c.p, float)
+    times = ca.DM(grid.times(0.0)).reshape((1, -1))
+    Dgrid = grid.data_grid(times, ca.DM(p))
+    idx = grid.block_index
+    nm = len(controls)
+    dDs, dps = [], []
+    for key in controls:
+        ep = np.zeros(len(p))
+        ep[PARAM_NAMES.index(key)] = 1.0
+        dDs.append(lin.data_fwd(times, ca.DM(p), Dgrid, ca.DM.zeros(1, lin.n_times), ca.DM(ep))[:, idx])
+        dps.append(ca.DM(ep))
+    width = 3 * grid.n
+    x = ca.DM(np.asarray(c.x0, float))
+    xs, A, B = [], np.zeros((N, 4, 4)), np.zeros((N, 4, nm))
+    D = Dgrid[:, idx]
+    for i in range(N):
+        cols = slice(width * i, width * (i + 1))
+        xs.append(np.asarray(x).ravel())
+        for j in range(nm):
+            xe, Jx, Ju = lin.interval(x, D[:, cols], ca.DM(p), dDs[j][:, cols], dps[j])
+            B[i, :, j] = np.asarray(Ju).ravel()
+        A[i] = np.asarray(Jx)
+        x = xe
+    return WingbeatMap(list(controls), N, steps, np.asarray(c.x0, float), p, np.array(xs), A, B)
+
+
+def periodic_lqr(A, B, Q, R):
+    """Periodic discrete-time LQR of ``x_{i+1} = A_i x_i + B_i u_i`` (i mod N), cost
+    ``sum x'Qx + u'Ru``.
+
+    Parameters
+    ----------
+    A : array (N, n, n)
+    B : array (N, n, m)
+    Q : array (n, n)
+        State weight at every interval start.
+    R : array (m, m)
+        Control weight of every interval.
+
+    Returns
+    -------
+    P : array (N, n, n)
+        The periodic Riccati solution (cost-to-go from interval i).
+    K : array (N, m, n)
+        Gains, ``u_i = -K_i x_i``.
+
+    Notes
+    -----
+
+    Solved by :func:`scipy.linalg.solve_discrete_are` on the cyclic reformulation (state
+    ``(x_0, .., x_{N-1})`` of dimension nN, ``A_i`` in block (i+1, i)), whose stabilising solution is
+    ``blockdiag(P_0, .., P_{N-1})``. Raises ``numpy.linalg.LinAlgError`` (from scipy) when no
+    stabilising solution exists (not stabilisable)."""
+    from scipy.linalg import solve_discrete_are
+
+    A = np.asarray(A, float)
+    B = np.asarray(B, float)
+    N, n, m = A.shape[0], A.shape[1], B.shape[2]
+    if N == 1:
+        P = solve_discrete_are(A[0], B[0], Q, R)
+        Ps = P[None]
+    else:
+        Ac = np.zeros((N * n, N * n))
+        Bc = np.zeros((N * n, N * m))
+        for i in range(N):
+            r = (i + 1) % N
+            Ac[r * n:(r + 1) * n, i * n:(i + 1) * n] = A[i]
+            Bc[r * n:(r + 1) * n, i * m:(i + 1) * m] = B[i]
+        Pc = solve_discrete_are(Ac, Bc, np.kron(np.eye(N), Q), np.kron(np.eye(N), R))
+        Ps = np.array([Pc[i * n:(i + 1) * n, i * n:(i + 1) * n] for i in range(N)])
+        Ps = 0.5 * (Ps + Ps.transpose(0, 2, 1))
+    K = np.zeros((N, m, n))
+    for i in range(N):
+        Pn = Ps[(i + 1) % N]
+        K[i] = np.linalg.solve(R + B[i].T @ Pn @ B[i], B[i].T @ Pn @ A[i])
+    return Ps, K
+
+
+def closed_loop_monodromy(A, B, K) -> np.ndarray:
+    """``prod_i (A_i - B_i K_i)`` (the beat map under periodic state feedback)."""
+    out = np.eye(np.asarray(A).shape[1])
+    for Ai, Bi, Ki in zip(A, B, K):
+        out = (Ai - Bi @ Ki) @ out
+    return out
+
+
+def _single_control(wm: WingbeatMap, j: int, Q, R) -> dict:
+    """Controllability of the cycle through control j alone."""
+    lam, V = sorted_eigs(wm.M)
+    W = np.linalg.inv(V)
+    unstable = np.abs(lam) >= 1.0
+    Bl = wm.B_lifted[:, j::len(wm.controls)]  # this control's columns, one per interval
+    scale = np.linalg.norm(wm.M, 2) + np.linalg.norm(Bl, 2)
+    pbh = [float(np.linalg.svd(np.hstack([lam[i] * np.eye(4) - wm.M, Bl]), compute_uv=False)[-1] / scale)
+           for i in np.nonzero(unstable)[0]]
+    stabilisable = bool(all(s > 1e-9 for s in pbh))
+    modal = W[0] @ Bl  # input of the expanding mode (v normalised to unit 2-norm)
+    row = {"control": wm.controls[j], "stabilisable": stabilisable,
+           "pbh_min_singular_value": min(pbh) if pbh else None,
+           "modal_input_per_unit": float(np.linalg.norm(modal)),
+           "min_gain": None, "min_gain_norm": None, "min_gain_spectral_radius": None,
+           "min_effort_per_unit_mode": None, "lqr_gain": None, "lqr_gain_norm": None,
+           "lqr_spectral_radius": None, "lqr_multipliers": None}
+    if not stabilisable:
+        return row
+    from scipy.linalg import solve_discrete_are
+
+    # minimal-energy stabilising gain: the Q -> 0 LQR of the unstable modal subsystem (lifted beat map)
+    Wu = W[unstable]
+    Au = np.diag(lam[unstable])
+    Bu = Wu @ Bl
+    Ru = np.eye(Bl.shape[1])
+    try:
+        Pu = solve_discrete_are(Au, Bu, np.zeros_like(Au), Ru)
+        Ku = np.real(np.linalg.solve(Ru + Bu.conj().T @ Pu @ Bu, Bu.conj().T @ Pu @ Au) @ Wu)
+        rho = float(np.max(np.abs(np.linalg.eigvals(wm.M - Bl @ Ku))))
+        row.update(min_gain=Ku.tolist(), min_gain_norm=float(np.linalg.norm(Ku, 2)),
+                   min_gain_spectral_radius=rho,
+                   min_effort_per_unit_mode=float(np.linalg.norm(Ku @ np.real_if_close(V[:, 0]))))
+    except (np.linalg.LinAlgError, ValueError):
+        pass
+    try:
+        Rj = R[j:j + 1, j:j + 1]
+        _, K = periodic_lqr(wm.A, wm.B[:, :, j:j + 1], Q, Rj)
+        mult = sorted_eigs(closed_loop_monodromy(wm.A, wm.B[:, :, j:j + 1], K))[0]
+        row.update(lqr_gain=K[:, 0, :].tolist(), lqr_gain_norm=float(np.max(np.linalg.norm(K[:, 0, :], axis=1))),
+                   lqr_spectral_radius=float(np.max(np.abs(mult))), lqr_multipliers=complex_pairs(mult))
+    except (np.linalg.LinAlgError, ValueError):
+        pass
+    return row
+
+
+@dataclass
+class Controller:
+    """A periodic state-feedback controller of the wingbeat map and its analysis.
+
+    ``du_i = -K_i (x - x_starts[i])`` at the start of interval i (units: each control's own unit per
+    state unit), saturated at ``limits`` (absolute, (m, 2)) by the simulation.
+    """
+
+    map: WingbeatMap
+    Q: np.ndarray
+    R: np.ndarray
+    P: np.ndarray
+    K: np.ndarray
+    limits: np.ndarray
+    per_control: list = field(default_factory=list)
+
+    @property
+    def controls(self) -> list:
+        return self.map.controls
+
+    @property
+    def x_starts(self) -> np.ndarray:
+        return self.map.x_starts
+
+    @property
+    def updates_per_beat(self) -> int:
+        return self.map.updates_per_beat
+
+    @property
+    def closed_loop_monodromy(self) -> np.ndarray:
+        return closed_loop_monodromy(self.map.A, self.map.B, self.K)
+
+    @property
+    def closed_loop_multipliers(self) -> np.ndarray:
+        return sorted_eigs(self.closed_loop_monodromy)[0]
+
+    @property
+    def spectral_radius(self) -> float:
+        return float(np.max(np.abs(self.closed_loop_multipliers)))
+
+    def to_dict(self) -> dict:
+        wm = self.map
+        ol = wm.multipliers
+        cl = self.closed_loop_multipliers
+        rho = self.spectral_radius
+        stable = bool(rho < 1.0)
+        return {
+            "success": stable, "status": "stabilised" if stable else "not_stabilised",
+            "message": (f"closed-loop spectral radius {rho:.4g} < 1" if stable else
+                        f"closed-loop spectral radius {rho:.4g} >= 1: the cycle is not stabilisable through "
+                        + ", ".join(r["control"] for r in self.per_control if not r["stabilisable"])
+                        if any(not r["stabilisable"] for r in self.per_control) else
+                        f"closed-loop spectral radius {rho:.4g} >= 1"),
+            "controls": list(wm.controls), "updates_per_beat": wm.updates_per_beat,
+            "steps_per_period": wm.steps_per_period,
+            "open_loop_multipliers": complex_pairs(ol), "closed_loop_multipliers": complex_pairs(cl),
+            "open_loop_spectral_radius": float(np.max(np.abs(ol))), "closed_loop_spectral_radius": rho,
+            "beats_to_reduce_100x": (math.log(100.0) / -math.log(rho)) if 0 < rho < 1 else None,
+            "gain": self.K[0].tolist(), "gains": self.K.tolist(),
+            "gain_units": "control unit (deg) per state unit (u, w: m/s; q: rad/s; theta: rad)",
+            "controllable": {r["control"]: r["stabilisable"] for r in self.per_control},
+            "per_control": self.per_control,
+            "Q": self.Q.tolist(), "R": self.R.tolist(), "riccati_P": self.P.tolist(),
+            "limits": self.limits.tolist(),
+            "cycle_x0": wm.x0.tolist(), "cycle_controls": [float(wm.p[PARAM_NAMES.index(k)]) for k in wm.controls],
+            "x_starts": wm.x_starts.tolist(), "A": wm.A.tolist(), "B": wm.B.tolist(),
+            "monodromy": wm.M.tolist(), "B_lifted": wm.B_lifted.tolist(),
+        }
+
+
+def design_controller(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int = 1, *,
+                      Q=None, R=None, limit_deg: float = DEFAULT_LIMIT_DEG) -> Controller:
+    """Linearise the wingbeat map, design the periodic LQR and analyse each control alone.
+
+    Parameters
+    ----------
+    cycle_result : TrimResult
+        A converged trim (or a level-flight cycle re-trimmed at its amplitude: :func:`reference_cycle`).
+    controls : sequence of str
+        Gait keys or aliases (default :data:`DEFAULT_CONTROLS`).
+    updates_per_beat : int
+        N corrections per beat (1 = wingbeat to wingbeat).
+    Q, R : array, optional
+        Weights (default :func:`bryson_weights`: 1 m/s, 1 m/s, 1 rad/s, 5 deg; 5 deg per joint).
+    limit_deg : float
+        Joint range around the cycle value used by the simulation to saturate [deg].
+
+    Returns
+    -------
+    Controller
+        Gains ``K`` (N, m, 4) in control units (deg) per state unit, multipliers, per-control analysis.
+
+    Raises
+    ------
+    ConfigError
+        Unknown key or bad N.
+    numpy.linalg.LinAlgError
+        The controls cannot stabilise the cycle (no stabilising Riccati solution); the exception
+        carries ``wingbeat_map`` and ``per_control`` (the analysis of each control alone).
+    """
+    wm = wingbeat_map(cycle_result, controls, updates_per_beat)
+    Qd, Rd = bryson_weights(cycle_result.cfg, wm.controls)
+    Q = Qd if Q is None else np.asarray(Q, float)
+    R = Rd if R is None else np.asarray(R, float)
+    per = [_single_control(wm, j, Q, R) for j in range(len(wm.controls))]
+    try:
+        P, K = periodic_lqr(wm.A, wm.B, Q, R)
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        # the analysis survives the failure: the wingbeat map and each control alone
+        exc.wingbeat_map, exc.per_control = wm, per
+        raise
+    return Controller(wm, Q, R, P, K, default_limits(cycle_result.cfg, wm.controls, wm.p, limit_deg), per)
+
+
+def reference_cycle(cfg: Config, level: bool = False):
+    """The cycle to control: the trim of ``cfg``, or with ``level`` the level-flight amplitude solved
+    first and the cycle re-trimmed at it (its ``cfg`` then holds that amplitude)."""
+    from birdocp.bird.config import with_values
+    from birdocp.studies.trim import trim
+
+    if not level:
+        return trim(cfg)
+    from birdocp.bird.keys import AMPLITUDE_KEY
+    from birdocp.studies.level import level as solve_level
+
+    lv = solve_level(cfg)
+    if not lv.success:
+        return lv
+    return trim(with_values(cfg, {AMPLITUDE_KEY: lv.amplitude_deg}), warm_start=lv)

@@ -1,0 +1,426 @@
+"""Nonlinear simulation of many wingbeats: perturbations, gusts, open or closed loop.
+
+The full model (the same RK4 grid as the trim) is integrated from the cycle's state at the beat start,
+with the state augmented by the inertial position of G: ``X' = u cos(theta) + w sin(theta)``
+(forward), ``Z' = -u sin(theta) + w cos(theta)`` (down). Wind enters the air velocity of every wing
+element and of the tail through :func:`birdocp.bird.model.air_state` (uniform over the bird, taken at
+G's position):
+
+* a constant wind (horizontal positive along the flight direction, vertical positive upwards, m/s);
+* the aeronautical "1 - cos" discrete gust, frozen in space: ``w_g(X) = A/2 (1 - cos(2 pi (X - X_s) /
+  L))`` for ``X_s <= X <= X_s + L`` (A the peak, m/s; L the length in metres, or in wingbeats times
+  the distance the cycle flies per beat; X_s its start, by default one beat ahead).
+
+Closed loop: at the start of each of the N intervals of a beat the controller's gait corrections
+``du = -K_i (x - x_i)`` are applied (held over the interval), saturated at the joint limits.
+
+Validity (:mod:`birdocp.bird.validity`'s thresholds, ``[validity]`` of the configuration, applied to
+the air-relative state, since a gust changes the airflow, not the bird's inertial velocity): the
+simulation stops (status ``left_validity``) when the air-relative forward speed falls below
+``min_forward_speed_mps``, |pitch| exceeds ``max_abs_pitch_deg``, the airflow meets the body axis at
+more than ``max_airflow_body_angle_deg``, or, over a beat, more than ``max_stalled_fraction`` of the
+span-time area is beyond ``stall_angle_deg`` (effective angles of attack of the 16 elements at every
+RK4 step); non-finite states give status ``non_finite``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from birdocp.bird.config import PARAM_NAMES, ConfigError
+from birdocp.bird.model import STATE_NAMES, air_state, get_model
+from birdocp.bird.validity import effective_angles
+from birdocp.engine.integrate import RK4Grid, stage_block_index
+from birdocp.studies.control import PerModel
+
+__all__ = ["Gust", "SimulationResult", "simulate", "gust_envelope", "nonlinear_beat_map", "STATE_ALIASES",
+           "parse_perturbation", "parse_gust"]
+
+STATE_ALIASES = {"u": 0, "w": 1, "q": 2, "theta": 3, **{n: i for i, n in enumerate(STATE_NAMES)}}
+DIRECTIONS = ("vertical", "horizontal")
+
+
+@dataclass(frozen=True)
+class Gust:
+    """A 1 - cos gust: ``direction`` 'vertical' (positive up) or 'horizontal' (positive along the
+    flight direction, i.e. a tailwind; negative = headwind), peak ``amplitude_mps``, length in
+    wingbeats (``length_beats``) or metres (``length_m``), start ``start_beats`` ahead (in beats of
+    the cycle's flight distance) or ``start_m``."""
+
+    direction: str
+    amplitude_mps: float
+    length_beats: float | None = 1.0
+    length_m: float | None = None
+    start_beats: float = 1.0
+    start_m: float | None = None
+
+    def __post_init__(self):
+        if self.direction not in DIRECTIONS:
+            raise ConfigError("--gust", f"direction must be vertical or horizontal, got '{self.direction}'")
+        if not math.isfinite(self.amplitude_mps):
+            raise ConfigError("--gust", f"amplitude must be finite, got {self.amplitude_mps}")
+        length = self.length_m if self.length_m is not None else self.length_beats
+        if length is None or not (math.isfinite(length) and length > 0):
+            raise ConfigError("--gust", f"length must be > 0, got {length}")
+
+    def span_m(self, beat_m: float) -> tuple[float, float]:
+        """(start, length) in metres given the distance flown per beat."""
+        start = self.start_m if self.start_m is not None else self.start_beats * beat_m
+        length = self.length_m if self.length_m is not None else self.length_beats * beat_m
+        return float(start), float(length)
+
+
+def parse_gust(text: str) -> Gust:
+    """``vertical|horizontal=MPS:LENGTH`` (LENGTH in beats, or metres with a trailing 'm')."""
+    try:
+        direction, rest = text.split("=", 1)
+        amp, length = rest.split(":", 1)
+        length = length.strip()
+        kw = ({"length_m": float(length[:-1]), "length_beats": None} if length.endswith("m")
+              else {"length_beats": float(length)})
+        return Gust(direction.strip(), float(amp), **kw)
+    except ValueError as exc:
+        if isinstance(exc, ConfigError):
+            raise
+        raise ConfigError("--gust", f"expected vertical|horizontal=MPS:BEATS (or MPS:METRESm), got '{text}'") from None
+
+
+def parse_perturbation(items) -> np.ndarray:
+    """``KEY=VALUE`` state perturbations (u, w [m/s], q [rad/s], theta [rad]; or the state names)."""
+    dx = np.zeros(4)
+    for text in items or []:
+        try:
+            key, val = text.split("=", 1)
+            v = float(val)
+        except ValueError:
+            raise ConfigError("--perturb", f"expected KEY=VALUE, got '{text}'") from None
+        key = key.strip()
+        if key not in STATE_ALIASES:
+            raise ConfigError("--perturb", f"unknown state '{key}' (one of u, w, q, theta or {', '.join(STATE_NAMES)})")
+        if not math.isfinite(v):
+            raise ConfigError("--perturb", f"value must be finite, got {val}")
+        dx[STATE_ALIASES[key]] += v
+    return dx
+
+
+class _Stepper(PerModel):
+    """RK4 Functions of the position-augmented model with wind for (model, steps, N); cached."""
+
+    def __init__(self, model, steps: int, n_intervals: int):
+        self.model = model.model
+        self.grid = grid = RK4Grid(model.ode, steps, n_intervals)
+        n, nd, np_ = grid.n, model.ode.nd, model.ode.np
+        z = ca.SX.sym("z", 6)
+        d = ca.SX.sym("d", nd)
+        p = ca.SX.sym("p", np_)
+        g = ca.SX.sym("g", 8)  # constant (h, v), amplitudes (h, v), start/length (h), start/length (v)
+        X = z[4]
+
+        def shape(start, length):
+            s = (X - start) / length
+            return ca.if_else(ca.logic_and(s > 0, s < 1), 0.5 * (1 - ca.cos(2 * math.pi * s)), 0)
+
+        wind_X = g[0] + g[2] * shape(g[4], g[5])
+        wind_up = g[1] + g[3] * shape(g[6], g[7])
+        u, w, th = z[0], z[1], z[3]
+        wind = ca.vertcat(wind_X, -wind_up)
+        xdot = self.model.rhs_wind(z[:4], d, p, wind)
+        zdot = ca.vertcat(xdot, u * ca.cos(th) + w * ca.sin(th), -u * ca.sin(th) + w * ca.cos(th))
+        f = ca.Function("f_sim", [z, d, p, g], [zdot])
+        xa = air_state(z, wind)
+        ae, _, ds = effective_angles(nd)(xa, d, p)
+        # at each step end: effective angles [deg] and element lengths (16 each), airflow-body angle
+        # [deg] and air-relative forward speed [m/s]
+        self.validity = ca.Function("beat_validity", [z, d, p, g], [
+            ae * 180 / math.pi, ds, ca.atan2(xa[1], xa[0]) * 180 / math.pi, xa[0]]).map(n)
+        D3 = ca.SX.sym("D3", nd, 3)
+        h = grid.h
+        k1 = f(z, D3[:, 0], p, g)
+        k2 = f(z + h / 2 * k1, D3[:, 1], p, g)
+        k3 = f(z + h / 2 * k2, D3[:, 1], p, g)
+        k4 = f(z + h * k3, D3[:, 2], p, g)
+        step = ca.Function("sim_step", [z, D3, p, g], [z + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
+        self.interval = step.mapaccum("sim_interval", n)
+        self.post_interval = model.ode.post.map(2 * n + 1)
+        self.blocks = stage_block_index(n)
+        self.times = grid.times(0.0)
+
+    def data(self, i: int, p) -> ca.DM:
+        """Stage blocks of interval i for parameters p (the arm-frame shape ``pre`` memoised)."""
+        n = self.grid.n
+        cols = slice(2 * n * i, 2 * n * (i + 1) + 1)
+        L = self.grid.pre_numeric(0.0, p)[:, cols]
+        G = self.post_interval(L, ca.DM(self.times[:, cols]), ca.DM(np.asarray(p, float)))
+        return G[:, self.blocks]
+
+
+def nonlinear_beat_map(cfg, x0, params_per_interval, steps_per_period: int | None = None) -> np.ndarray:
+    """The state one beat after ``x0`` in the full model (no wind), with the parameter vector
+    ``params_per_interval[i]`` held over interval i of N = len(params_per_interval) equal intervals
+    (the per-time data recomputed for each). The map :func:`birdocp.studies.control.wingbeat_map`
+    linearises."""
+    N = len(params_per_interval)
+    st = _Stepper.get(get_model(cfg), int(steps_per_period or cfg.solve.steps_per_period), N)
+    z = np.concatenate([np.asarray(x0, float).ravel(), [0.0, 0.0]])
+    for i, p in enumerate(params_per_interval):
+        z = np.asarray(st.interval(z, st.data(i, p), ca.DM(np.asarray(p, float)), np.zeros(8)))[:, -1]
+    return z[:4]
+
+
+@dataclass
+class SimulationResult:
+    """Time histories and per-beat deviations of a simulation (see :func:`simulate`)."""
+
+    success: bool
+    status: str
+    message: str
+    closed_loop: bool
+    beats: int
+    t_s: np.ndarray              # (n,) times of the RK4 steps
+    states: np.ndarray           # (n, 4) u [m/s], w [m/s], q [rad/s], theta [rad]
+    X_m: np.ndarray              # (n,) inertial forward position of G
+    Z_m: np.ndarray              # (n,) inertial position of G, positive down
+    control_t_s: np.ndarray      # (k,) times of the control updates
+    controls: np.ndarray         # (k, m) applied control values (absolute, own units)
+    control_keys: list
+    deviation_per_beat: np.ndarray  # (K+1,) 2-norm of x(kT) - x_cycle, first = the initial perturbation
+    saturated: bool
+    beat_distance_m: float
+    gust_spans_m: list = field(default_factory=list)
+    max_inflow_deg: float = float("nan")  # largest |atan2(w_air, u_air)| along the trajectory
+    min_airspeed_mps: float = float("nan")  # smallest air-relative forward speed u_air of G
+    control_cycle: np.ndarray = field(default_factory=lambda: np.zeros(0))  # the controls' cycle values
+    max_stalled_fraction: float = 0.0  # largest stalled share of the span-time area over one beat
+
+    @property
+    def final_deviation(self) -> float:
+        return float(self.deviation_per_beat[-1])
+
+    @property
+    def peak_deviation(self) -> tuple[float, int]:
+        k = int(np.nanargmax(self.deviation_per_beat))
+        return float(self.deviation_per_beat[k]), k
+
+    @property
+    def beats_to_recover(self) -> int | None:
+        """Beats from the peak deviation until it falls to 1/100 of the peak (None if it does not)."""
+        peak, k = self.peak_deviation
+        later = np.nonzero(self.deviation_per_beat[k:] <= peak / 100.0)[0]
+        return int(later[0]) if later.size and self.success else None
+
+    def to_dict(self) -> dict:
+        peak, k = self.peak_deviation
+        dev = [float(v) for v in self.deviation_per_beat]
+        return {
+            "success": bool(self.success), "status": self.status, "message": self.message,
+            "closed_loop": self.closed_loop, "beats": self.beats, "beats_simulated": len(dev) - 1,
+            "deviation_per_beat": dev, "final_deviation": dev[-1] if math.isfinite(dev[-1]) else None,
+            "peak_deviation": peak if math.isfinite(peak) else None, "peak_beat": k,
+            "beats_to_recover": self.beats_to_recover,
+            "saturated": bool(self.saturated), "controls": list(self.control_keys),
+            "control_range": ([[float(np.min(c)), float(np.max(c))] for c in self.controls.T]
+                              if self.controls.size else []),
+            "min_forward_speed_mps": float(np.min(self.states[:, 0])) if len(self.states) else None,
+            "max_abs_pitch_deg": float(np.degrees(np.max(np.abs(self.states[:, 3])))) if len(self.states) else None,
+            "max_airflow_body_angle_deg": self.max_inflow_deg,
+            "min_air_forward_speed_mps": self.min_airspeed_mps if math.isfinite(self.min_airspeed_mps) else None,
+            "max_stalled_fraction_per_beat": self.max_stalled_fraction,
+            "distance_per_beat_m": self.beat_distance_m, "gust_spans_m": self.gust_spans_m,
+            "final_position_m": [float(self.X_m[-1]), float(self.Z_m[-1])] if len(self.X_m) else None,
+        }
+
+    def arrays(self) -> dict:
+        return {"t_s": self.t_s, "states": self.states, "X_m": self.X_m, "Z_m": self.Z_m,
+                "pitch_deg": np.degrees(self.states[:, 3]), "control_t_s": self.control_t_s,
+                "controls": self.controls, "control_cycle": self.control_cycle,
+                "deviation_per_beat": self.deviation_per_beat}
+
+
+def _wind_vector(gusts, wind_mps, beat_m) -> tuple[np.ndarray, list]:
+    g = np.array([float(wind_mps[0]), float(wind_mps[1]), 0.0, 0.0, 0.0, 1.0, 0.0, 1.0])
+    spans = []
+    for gust in gusts:
+        start, length = gust.span_m(beat_m)
+        j = 0 if gust.direction == "horizontal" else 1
+        if g[2 + j] != 0.0:
+            raise ConfigError("--gust", f"one {gust.direction} gust at a time")
+        g[2 + j] = gust.amplitude_mps
+        g[4 + 2 * j], g[5 + 2 * j] = start, length
+        spans.append({"direction": gust.direction, "amplitude_mps": gust.amplitude_mps,
+                      "start_m": start, "length_m": length})
+    return g, spans
+
+
+def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, perturbation=None,
+             gusts=(), wind_mps=(0.0, 0.0), controller=None, p=None,
+             stop_when_recovered: bool = False, progress=None) -> SimulationResult:
+    """Integrate the bird ``beats`` wingbeats from ``x0_cycle + perturbation``.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration of the cycle.
+    x0_cycle : array (4,)
+        The cycle's state at the beat start (u, w [m/s], q [rad/s], theta [rad]).
+    beats : int
+        Wingbeats to simulate (>= 1).
+    progress : callable, optional
+        ``progress(text)`` called at the start of every beat (e.g. a progress bar).
+    steps_per_period : int, optional
+        RK4 steps per beat (default ``cfg.solve.steps_per_period``; use the cycle's).
+    perturbation : array (4,), optional
+        State deviation added at t = 0 (same units as the state).
+    gusts : sequence of Gust
+        At most one per direction.
+    wind_mps : (float, float)
+        Constant wind: horizontal (positive along the flight), vertical (positive up) [m/s].
+    controller : Controller, optional
+        A :class:`birdocp.studies.control.Controller` (or any object with ``controls``, ``K``,
+        ``x_starts``, ``limits``, ``updates_per_beat``) for the closed loop; None = open loop.
+    p : array, optional
+        Parameter vector of the cycle (default that of ``cfg``).
+    stop_when_recovered : bool
+        Stop once every gust is behind the bird and the deviation at a beat start is back to 1/100
+        of its peak (the gust envelope's criterion).
+
+    Returns
+    -------
+    SimulationResult
+        ``success`` False with status ``non_finite`` or ``left_validity`` when the run stopped early.
+    """
+    if int(beats) < 1:
+        raise ConfigError("--beats", f"must be >= 1, got {beats}")
+    beats = int(beats)
+    m = get_model(cfg)
+    steps = int(steps_per_period or cfg.solve.steps_per_period)
+    N = int(getattr(controller, "updates_per_beat", 1)) if controller is not None else 1
+    st = _Stepper.get(m, steps, N)
+    p_cyc = np.asarray(m.p0 if p is None else p, float)
+    keys = list(controller.controls) if controller is not None else []
+    idx = [PARAM_NAMES.index(k) for k in keys]
+    u_cyc = p_cyc[idx]
+    x0_cycle = np.asarray(x0_cycle, float).ravel()
+    dx0 = np.zeros(4) if perturbation is None else np.asarray(perturbation, float).ravel()
+    pd = ca.DM(p_cyc)
+    # distance flown per beat on the cycle (open loop, no wind): converts gust lengths in beats
+    zc = np.concatenate([x0_cycle, [0.0, 0.0]])
+    for i in range(N):
+        zc = np.asarray(st.interval(zc, st.data(i, p_cyc), pd, np.zeros(8)))[:, -1]
+    beat_m = float(zc[4])
+    g, spans = _wind_vector(gusts, wind_mps, beat_m)
+    gd = ca.DM(g)
+    z = np.concatenate([x0_cycle + dx0, [0.0, 0.0]])
+    traj, ctrl_t, ctrl = [z[None, :]], [], []
+    dev = [float(np.linalg.norm(dx0))]
+    saturated = False
+    max_inflow, min_air, max_stalled = 0.0, math.inf, 0.0
+    lim = cfg.validity
+    status, message = "ok", f"{beats} beats simulated"
+    T = m.period_s
+    for k in range(beats):
+        if progress is not None:
+            progress(f"beat {k + 1}/{beats}")
+        for i in range(N):
+            pk = p_cyc
+            if controller is not None:
+                du = -np.asarray(controller.K[i]) @ (z[:4] - np.asarray(controller.x_starts[i]))
+                u = u_cyc + du
+                lo, hi = np.asarray(controller.limits)[:, 0], np.asarray(controller.limits)[:, 1]
+                uc = np.clip(u, lo, hi)
+                saturated = saturated or bool(np.any(uc != u))
+                pk = p_cyc.copy()
+                pk[idx] = uc
+                ctrl_t.append((k + i / N) * T)
+                ctrl.append(uc)
+            if i == 0:
+                stalled_area = 0.0  # stalled share of the span-time area over this beat
+            D = st.data(i, pk)
+            Zi = np.asarray(st.interval(z, D, pd, gd)).T
+            traj.append(Zi)
+            z = Zi[-1]
+            bad = ~np.all(np.isfinite(Zi), axis=1)
+            if np.any(bad):
+                status, message = "non_finite", f"the state became non-finite in beat {k + 1}"
+            else:
+                ae, ds, angle, u_air = (np.asarray(v) for v in st.validity(Zi.T, D[:, 2::3], ca.DM(pk), gd))
+                inflow = float(np.max(np.abs(angle)))
+                max_inflow = max(max_inflow, inflow)
+                min_air = min(min_air, float(np.min(u_air)))
+                pitch = float(np.degrees(np.max(np.abs(Zi[:, 3]))))
+                stalled_area += float(np.mean(((np.abs(ae) > lim.stall_angle_deg) * ds).sum(axis=0)
+                                              / ds.sum(axis=0))) / N
+                reasons = [text for bad, text in (
+                    (min_air < lim.min_forward_speed_mps,
+                     f"air-relative forward speed {min_air:.3g} m/s < {lim.min_forward_speed_mps:g} m/s"),
+                    (pitch > lim.max_abs_pitch_deg, f"|pitch| {pitch:.3g} > {lim.max_abs_pitch_deg:g} deg"),
+                    (inflow > lim.max_airflow_body_angle_deg,
+                     f"airflow at {inflow:.3g} deg to the body axis > {lim.max_airflow_body_angle_deg:g} deg"),
+                    (i == N - 1 and stalled_area > lim.max_stalled_fraction,
+                     f"{stalled_area:.1%} of the span-time area beyond the stall angle "
+                     f"{lim.stall_angle_deg:g} deg > {lim.max_stalled_fraction:.0%}")) if bad]
+                if i == N - 1:
+                    max_stalled = max(max_stalled, stalled_area)
+                if reasons:
+                    status = "left_validity"
+                    message = f"left the model's validity in beat {k + 1}: {', '.join(reasons)}"
+            if status != "ok":
+                break
+        dev.append(float(np.linalg.norm(z[:4] - x0_cycle)) if status != "non_finite" else float("nan"))
+        if status != "ok":
+            break
+        if (stop_when_recovered and max(dev) > 0 and dev[-1] <= max(dev) / 100.0
+                and all(z[4] > s["start_m"] + s["length_m"] for s in spans)):
+            message = f"recovered after {k + 1} beats"
+            break
+    Z = np.vstack(traj)
+    t = np.arange(Z.shape[0]) * st.grid.h
+    ctrl_arr = np.array(ctrl) if ctrl else np.zeros((0, len(keys)))
+    return SimulationResult(status == "ok", status, message, controller is not None, beats, t, Z[:, :4],
+                            Z[:, 4], Z[:, 5], np.array(ctrl_t), ctrl_arr, keys, np.array(dev), saturated,
+                            beat_m, spans, max_inflow, min_air, u_cyc, max_stalled)
+
+
+def gust_envelope(cfg, x0_cycle, controller, direction: str = "vertical", *, sign: float = 1.0,
+                  length_beats: float = 1.0, beats: int = 40, steps_per_period: int | None = None,
+                  p=None, start_mps: float = 0.5, max_mps: float = 16.0, tol_mps: float = 0.05) -> dict:
+    """The largest 1 - cos gust (peak amplitude, m/s, of sign ``sign``) the closed loop recovers from
+    within ``beats`` beats (deviation back to 1/100 of its peak) without saturating a joint and
+    without leaving the model's validity; found by doubling from ``start_mps`` then bisection to
+    ``tol_mps``. Returns the envelope amplitude, the beats to recover there and every trial."""
+    trials = []
+
+    def ok(a):
+        r = simulate(cfg, x0_cycle, beats, steps_per_period=steps_per_period, controller=controller, p=p,
+                     gusts=[Gust(direction, sign * a, length_beats)], stop_when_recovered=True)
+        rec = r.beats_to_recover
+        good = bool(r.success and not r.saturated and rec is not None)
+        trials.append({"amplitude_mps": sign * a, "recovered": good, "status": r.status, "message": r.message,
+                       "saturated": r.saturated, "beats_to_recover": rec,
+                       "peak_deviation": r.peak_deviation[0],
+                       "control_range": r.to_dict()["control_range"]})
+        return good, rec
+
+    lo, hi, rec_lo = 0.0, None, None
+    a = start_mps
+    while a <= max_mps:
+        good, rec = ok(a)
+        if not good:
+            hi = a
+            break
+        lo, rec_lo = a, rec
+        a *= 2
+    if hi is not None:
+        while hi - lo > tol_mps:
+            mid = 0.5 * (lo + hi)
+            good, rec = ok(mid)
+            if good:
+                lo, rec_lo = mid, rec
+            else:
+                hi = mid
+    return {"direction": direction, "sign": sign, "length_beats": length_beats, "envelope_mps": sign * lo,
+            "bounded_by_search": hi is None, "beats_to_recover": rec_lo, "first_failure_mps":
+            None if hi is None else sign * hi, "trials": trials}
