@@ -93,7 +93,8 @@ def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
         result["target"] = kw.get("target", kw["climb_rate_mps"])
         finish_result(result, "level", t_start, run.dir)
         run.write(cfg, result, arrays)
-        power_figure(arrays, run.dir)
+        if not args.json:  # --json stays free of matplotlib; `birdocp plot RUN_DIR` draws it later
+            power_figure(arrays, run.dir)
         table = format_trim_table(result).replace("trim:", "level:", 1)
         name = "amplitude A" if free == AMPLITUDE_KEY else free
         unit = " deg" if free.endswith("_deg") else " m" if free.endswith("_m") else ""

@@ -50,7 +50,8 @@ def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
             arrays = res.arrays() if hasattr(res, "arrays") else None
         finish_result(result, "trim", t_start, run.dir)
         run.write(cfg, result, arrays)
-        power_figure(arrays, run.dir)
+        if not args.json:  # --json stays free of matplotlib; `birdocp plot RUN_DIR` draws it later
+            power_figure(arrays, run.dir)
         run.output(result, format_trim_table(result))
         if not res.success:
             return run.fail("trim did not converge", res.status, last_residual(result), res.message)
