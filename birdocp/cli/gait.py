@@ -42,7 +42,8 @@ def register(sub, common) -> None:
 def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
     from birdocp.cli.optimize_stability import free_with_bounds
     from birdocp.io.runs import claim_out_dir, new_run_dir
-    from birdocp.studies.gait import DEFAULT_GAIT_FREE, check_free_keys, optimize_gait
+    from birdocp.studies.gait import DEFAULT_GAIT_FREE, optimize_gait
+    from birdocp.studies.optimize import check_free_keys
 
     cfg = cli.resolve_config(args)
     if not (math.isfinite(args.speed) and args.speed > 0):

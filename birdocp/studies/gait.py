@@ -64,31 +64,6 @@ def _jury_function():
     return ca.Function("jury", [M, r], [j, ca.jacobian(j, ca.vertcat(ca.vec(M), r))])
 
 
-def check_free_keys(m, cfg, free: dict) -> None:
-    """ConfigError unless every free key can be a reduced variable (known, not the amplitude, not
-    reshaping the wing in the arm frame, finite bounds around the configured value)."""
-    for k, (lo, hi) in free.items():
-        if k not in PARAM_NAMES:
-            raise ConfigError(k, "unknown parameter for --free" + _suggest(k))
-        if k == AMPLITUDE_KEY:
-            raise ConfigError(k, "the flapping amplitude is solved for level flight; free other keys")
-        if PARAM_NAMES.index(k) in m.pre_params:
-            raise ConfigError(k, "changes the wing's shape in the arm frame (elbow, wrist, morphology): "
-                                 "free shoulder joints, wing.root_ahead_m or body/aero/drag keys")
-        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-            raise ConfigError(k, f"bounds must be finite with lower < upper, got ({lo}, {hi})")
-        v = float(get_value(cfg, k))
-        if not lo <= v <= hi:
-            raise ConfigError(k, f"configured value {v:g} lies outside its bounds ({lo:g}, {hi:g}); "
-                                 f"widen --bounds {k}=LO:HI")
-
-
-def _suggest(k):
-    from birdocp.bird.config import suggest
-
-    return suggest(k, PARAM_NAMES)
-
-
 @dataclass
 class Evaluation:
     """The level cycle at one theta and its exact gradients (per unit of each free key)."""
@@ -484,6 +459,8 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     if start:  # a previous optimum may sit on a bound to within IPOPT's tolerance
         start = {k: float(np.clip(v, *free[k])) if k in free else v for k, v in start.items()}
     cfg_start = with_values(cfg, start) if start else cfg
+    from birdocp.studies.optimize import check_free_keys
+
     check_free_keys(m, cfg_start, free)
     t_all, cpu_all = time.perf_counter(), time.process_time()
     wall = {}

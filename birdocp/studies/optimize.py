@@ -28,13 +28,13 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, with_values
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest, with_values
 from birdocp.bird.validity import invalid, periodic_validity
 from birdocp.engine import interrupts
 from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.engine.oracle import ConstraintOracle, ipopt_options
 
-__all__ = ["DEFAULT_FREE", "optimize_stability", "StabilityOptimum", "jury_conditions"]
+__all__ = ["DEFAULT_FREE", "check_free_keys", "optimize_stability", "StabilityOptimum", "jury_conditions"]
 
 AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
 JURY_MARGIN = 1e-6
@@ -215,6 +215,31 @@ class _Evaluator:
         return J
 
 
+def check_free_keys(m, cfg, free: dict) -> None:
+    """ConfigError unless every free key can be a reduced variable (known, not the amplitude, not
+    reshaping the wing in the arm frame, finite bounds around the configured value)."""
+    for k, (lo, hi) in free.items():
+        if k not in PARAM_NAMES:
+            raise ConfigError(k, "unknown parameter for --free" + suggest(k, PARAM_NAMES))
+        if k == AMPLITUDE_KEY:
+            raise ConfigError(k, "the flapping amplitude is solved for level flight; free other keys")
+        if PARAM_NAMES.index(k) in m.pre_params:
+            raise ConfigError(k, "changes the wing's shape in the arm frame (elbow, wrist, morphology): "
+                                 "free shoulder joints, wing.root_ahead_m or body/aero/drag keys")
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+            raise ConfigError(k, f"bounds must be finite with lower < upper, got ({lo}, {hi})")
+        v = float(get_value(cfg, k))
+        if not lo <= v <= hi:
+            raise ConfigError(k, f"configured value {v:g} lies outside its bounds ({lo:g}, {hi:g}); "
+                                 f"widen --bounds {k}=LO:HI")
+
+
+def _suggest(k):
+    from birdocp.bird.config import suggest
+
+    return suggest(k, PARAM_NAMES)
+
+
 def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, climb_rate_mps: float = 0.0,
                        amplitude_bounds=(20.0, 70.0), steps_per_period: int | None = None,
                        max_iter: int = 400, tol: float = 1e-7, verify: bool = True,
@@ -254,19 +279,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     free = dict(DEFAULT_FREE if free is None else free)
     t_start = time.perf_counter()
     m = get_model(cfg)
-    for k, (lo, hi) in free.items():
-        if k not in PARAM_NAMES:
-            raise ConfigError(k, "unknown parameter for --free")
-        if k == AMPLITUDE_KEY:
-            raise ConfigError(k, "the flapping amplitude is solved for level flight; free other keys")
-        if PARAM_NAMES.index(k) in m.pre_params:
-            raise ConfigError(k, "changes the wing's shape in the arm frame (elbow, wrist, morphology): "
-                                 "free shoulder joints, wing.root_ahead_m or body/aero/tail keys")
-        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
-            raise ConfigError(k, f"bounds must be finite with lower < upper, got ({lo}, {hi})")
-        v = float(get_value(cfg, k))
-        if not lo <= v <= hi:
-            raise ConfigError(k, f"configured value {v:g} lies outside its bounds ({lo:g}, {hi:g})")
+    check_free_keys(m, cfg, free)
     N = int(steps_per_period or cfg.solve.steps_per_period)
 
     # Start: the level-flight cycle of the configured gait.
