@@ -27,6 +27,8 @@ def register(sub, common) -> None:
                    help="bounds of a free parameter (repeatable, LO < HI; default: "
                         "birdocp.studies.optimize.DEFAULT_FREE)")
     p.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS", help="mean vertical speed (default 0)")
+    p.add_argument("--max-iter", type=int, default=400, metavar="N",
+                   help="IPOPT iterations at most, per stage (default 400; the result says whether it converged)")
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty)")
     p.set_defaults(func=cmd_optimize)
 
@@ -72,12 +74,14 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
     if not math.isfinite(args.climb_rate):
         raise ConfigError("--climb-rate", f"must be finite, got {args.climb_rate}")
     free = free_with_bounds(args, DEFAULT_FREE)
+    if not 1 <= args.max_iter <= 100000:
+        raise ConfigError("--max-iter", f"must be an integer in [1, 100000], got {args.max_iter}")
     with cli.run_folder(args, "optimize-stability", command_line) as run:
         from birdocp.io.progress import progress_callback
 
         say, bar = progress_callback("optimize-stability", args.quiet)
         with run.solving(), bar:
-            res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, progress=say)
+            res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, max_iter=args.max_iter, progress=say)
         result = res.to_dict()
         result["run_dir"] = str(run.dir)
         run.write(res.cfg or cfg, result)
