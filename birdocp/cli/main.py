@@ -115,6 +115,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     debug = "--debug" in argv
     args = None
     STATE.reset()
+    if as_program:  # figures are files: no GUI backend for the command line (the library leaves it alone)
+        os.environ.setdefault("MPLBACKEND", "Agg")
     old_handler = signal.getsignal(signal.SIGINT)
     try:
         interrupts.install()  # a Ctrl-C that CasADi swallows is still seen

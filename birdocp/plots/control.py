@@ -11,9 +11,6 @@ __all__ = ["plot_multipliers", "plot_simulation", "plot_deviation", "plot_envelo
 
 
 def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     return plt

@@ -15,9 +15,6 @@ __all__ = ["plot_power", "plot_power_curve", "plot_pareto"]
 
 
 def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     return plt

@@ -1,4 +1,6 @@
-"""Figures of trimmed flights (matplotlib, Agg backend); each function writes one PNG atomically.
+"""Figures of trimmed flights (matplotlib); each function writes one PNG atomically.
+
+The module leaves the matplotlib backend to the caller (the command line uses Agg).
 
 Inputs are result objects or their plain forms, so the functions serve both scripts (holding
 :class:`~birdocp.studies.trim.TrimResult` objects) and a CLI that reads ``result.json``/``arrays.npz``:
@@ -16,13 +18,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
 from birdocp.io.files import atomic_target
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
 
 __all__ = ["plot_convergence", "plot_multipliers", "plot_states", "plot_phase_portrait", "plot_forces",
            "as_complex", "save_figure"]
