@@ -41,7 +41,6 @@ def register(sub, common) -> None:
 
 def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
     from birdocp.cli.optimize_stability import free_with_bounds
-    from birdocp.io.runs import claim_out_dir, new_run_dir
     from birdocp.studies.gait import DEFAULT_GAIT_FREE, optimize_gait
     from birdocp.studies.optimize import check_free_keys
 
@@ -57,38 +56,39 @@ def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
         from birdocp.bird.model import get_model
 
         check_free_keys(get_model(cfg), cfg, free)
-    run_dir = claim_out_dir(args.out, "optimize-gait") if args.out else new_run_dir(None, "optimize-gait")
-    with cli.stdout_to_stderr():
-        res = optimize_gait(cfg, free, objective=args.objective, speed_mps=args.speed,
-                            max_multiplier=args.max_multiplier, climb_rate_mps=args.climb_rate)
-    result = res.to_dict()
-    cli.record_result(run_dir, res.cfg or cfg, result, command_line, "optimize-gait")
-    if args.json:
-        cli.print_json(result)
-    else:
-        unit = " W" if args.objective != "cost-of-transport" else ""
-        print(f"optimize-gait: {'converged' if res.success else 'NOT converged'} ({res.status}), "
-              f"{res.iterations} iterations, {res.wall_s.get('total', float('nan')):.1f} s")
-        print(f"  {args.objective}: {cli.fmt_num(result['objective_value'], '.6g')}{unit} (configured gait at "
-              f"{args.speed:g} m/s: {cli.fmt_num(result['start_objective_value'], '.6g')}{unit}); KKT residual "
-              f"{cli.fmt_num(res.kkt_residual, '.2e')}")
-        for k, v in res.free.items():
-            lo, hi = res.bounds[k]
-            at = " (at a bound)" if min(abs(v - lo), abs(v - hi)) < 1e-6 else ""
-            print(f"  {k:40s} {v:+10.4f}   in [{lo:g}, {hi:g}]{at}   (start {res.start_free.get(k, float('nan')):+.4f})")
-        print(f"  flapping amplitude {res.amplitude_deg:.4f} deg; mean forward speed "
-              f"{cli.fmt_num(result['mean_forward_speed_mps'], '.6g')} m/s")
-        print("  multipliers: " + ", ".join(f"{z.real:.5f}{z.imag:+.5f}j" for z in res.multipliers)
-              + f"  ({'STABLE' if res.largest_modulus < 1 else 'UNSTABLE'})")
-        v = res.verification
-        if v:
-            ok = v.get("trim_success")
-            print(f"  check: trim at the optimum {'converged' if ok else 'FAILED'}"
-                  + (f", power differs by {v['power_difference_W']:.2e} W, multipliers by "
-                     f"{v['max_multiplier_difference']:.2e}" if ok else ""))
-        print(f"  written to {run_dir}")
-    if not res.success:
-        print(f"{cli.PROG}: optimisation did not converge (status {res.status}: {cli.one_line(res.message)}); "
-              f"result written to {run_dir}", file=sys.stderr)
-        return cli.EXIT_NOT_CONVERGED
+    with cli.run_folder(args, "optimize-gait", command_line) as run:
+        run_dir = run.dir
+        with run.solving():
+            res = optimize_gait(cfg, free, objective=args.objective, speed_mps=args.speed,
+                                max_multiplier=args.max_multiplier, climb_rate_mps=args.climb_rate)
+        result = res.to_dict()
+        cli.record_result(run_dir, res.cfg or cfg, result, command_line, "optimize-gait")
+        if args.json:
+            cli.print_json(result)
+        else:
+            unit = " W" if args.objective != "cost-of-transport" else ""
+            print(f"optimize-gait: {'converged' if res.success else 'NOT converged'} ({res.status}), "
+                  f"{res.iterations} iterations, {res.wall_s.get('total', float('nan')):.1f} s")
+            print(f"  {args.objective}: {cli.fmt_num(result['objective_value'], '.6g')}{unit} (configured gait at "
+                  f"{args.speed:g} m/s: {cli.fmt_num(result['start_objective_value'], '.6g')}{unit}); KKT residual "
+                  f"{cli.fmt_num(res.kkt_residual, '.2e')}")
+            for k, v in res.free.items():
+                lo, hi = res.bounds[k]
+                at = " (at a bound)" if min(abs(v - lo), abs(v - hi)) < 1e-6 else ""
+                print(f"  {k:40s} {v:+10.4f}   in [{lo:g}, {hi:g}]{at}   (start {res.start_free.get(k, float('nan')):+.4f})")
+            print(f"  flapping amplitude {res.amplitude_deg:.4f} deg; mean forward speed "
+                  f"{cli.fmt_num(result['mean_forward_speed_mps'], '.6g')} m/s")
+            print("  multipliers: " + ", ".join(f"{z.real:.5f}{z.imag:+.5f}j" for z in res.multipliers)
+                  + f"  ({'STABLE' if res.largest_modulus < 1 else 'UNSTABLE'})")
+            v = res.verification
+            if v:
+                ok = v.get("trim_success")
+                print(f"  check: trim at the optimum {'converged' if ok else 'FAILED'}"
+                      + (f", power differs by {v['power_difference_W']:.2e} W, multipliers by "
+                         f"{v['max_multiplier_difference']:.2e}" if ok else ""))
+            print(f"  written to {run_dir}")
+        if not res.success:
+            print(f"{cli.PROG}: optimisation did not converge (status {res.status}: {cli.one_line(res.message)}); "
+                  f"result written to {run_dir}", file=sys.stderr)
+            return cli.EXIT_NOT_CONVERGED
     return cli.EXIT_OK
