@@ -22,12 +22,29 @@ import numpy as np
 from birdocp.engine.problem import PeriodicODE
 
 __all__ = [
+    "rk4_update",
     "rk4_step",
     "stage_time_grid",
     "stage_block_index",
     "RK4Grid",
     "simulate",
 ]
+
+
+def rk4_update(f, x, D3, h, *args):
+    """One classical RK4 step of ``x' = f(x, d, *args)`` with the data at the stage times
+    ``D3 = [d(t), d(t + h/2), d(t + h)]``: the one RK4 formula of the package (shooting, simulation,
+    C export). Returns ``(x_next, (x1, x2, x3, x4))``, the stage states for quadratures."""
+    d0, dm, d1 = D3[:, 0], D3[:, 1], D3[:, 2]
+    x1 = x
+    k1 = f(x1, d0, *args)
+    x2 = x + h / 2 * k1
+    k2 = f(x2, dm, *args)
+    x3 = x + h / 2 * k2
+    k3 = f(x3, dm, *args)
+    x4 = x + h * k3
+    k4 = f(x4, d1, *args)
+    return x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4), (x1, x2, x3, x4)
 
 
 def rk4_step(ode: PeriodicODE, outputs=()) -> ca.Function:
@@ -41,17 +58,8 @@ def rk4_step(ode: PeriodicODE, outputs=()) -> ca.Function:
     D3 = ca.SX.sym("D3", nd, 3)
     p = ca.SX.sym("p", np_)
     h = ca.SX.sym("h")
-    f = ode.rhs
+    xn, (x1, x2, x3, x4) = rk4_update(ode.rhs, x, D3, h, p)
     d0, dm, d1 = D3[:, 0], D3[:, 1], D3[:, 2]
-    x1 = x
-    k1 = f(x1, d0, p)
-    x2 = x + h / 2 * k1
-    k2 = f(x2, dm, p)
-    x3 = x + h / 2 * k2
-    k3 = f(x3, dm, p)
-    x4 = x + h * k3
-    k4 = f(x4, d1, p)
-    xn = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
     qs = []
     for g in outputs:
         qs.append(h / 6 * (g(x1, d0, p) + 2 * g(x2, dm, p) + 2 * g(x3, dm, p) + g(x4, d1, p)))

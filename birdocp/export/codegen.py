@@ -35,7 +35,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config
-from birdocp.engine.integrate import stage_time_grid
+from birdocp.engine.integrate import rk4_update, stage_time_grid
 
 __all__ = ["export_c", "ExportInfo", "runtime_parameters"]
 
@@ -89,11 +89,7 @@ def _functions(model, p0, runtime_idx, h):
     rhs_jac = ca.Function("bird_cg_rhs_jac", [x, d, pr], [xdot, ca.densify(ca.jacobian(xdot, x))],
                           ["x", "d", "p"], ["xdot", "A"])
     D3 = ca.SX.sym("D3", nd, 3)
-    k1 = rhs(x, D3[:, 0], pr)
-    k2 = rhs(x + h / 2 * k1, D3[:, 1], pr)
-    k3 = rhs(x + h / 2 * k2, D3[:, 1], pr)
-    k4 = rhs(x + h * k3, D3[:, 2], pr)
-    xn = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    xn = rk4_update(rhs, x, D3, h, pr)[0]
     step = ca.Function("bird_cg_step", [x, D3, pr], [xn], ["x", "D3", "p"], ["x_next"])
     step_jac = ca.Function("bird_cg_step_jac", [x, D3, pr], [xn, ca.densify(ca.jacobian(xn, x))],
                            ["x", "D3", "p"], ["x_next", "J"])

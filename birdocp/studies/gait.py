@@ -28,6 +28,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, with_values
+from birdocp.engine.floquet import sort_multipliers
 
 __all__ = ["ReducedLevelCycle", "GaitOptimum", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
            "level_at_speed", "power_curve", "SPEED_KEY"]
@@ -82,8 +83,7 @@ class Evaluation:
     def multipliers(self) -> np.ndarray:
         if self.monodromy is None or not np.all(np.isfinite(self.monodromy)):
             return np.full(4, np.nan, complex)
-        lam = np.linalg.eigvals(self.monodromy)
-        return lam[np.lexsort((-lam.imag, -np.abs(lam)))]
+        return sort_multipliers(np.linalg.eigvals(self.monodromy))
 
 
 class ReducedLevelCycle:

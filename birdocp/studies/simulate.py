@@ -34,7 +34,7 @@ import numpy as np
 from birdocp.bird.config import PARAM_NAMES, ConfigError
 from birdocp.bird.model import STATE_NAMES, air_state, get_model
 from birdocp.bird.validity import effective_angles
-from birdocp.engine.integrate import RK4Grid, stage_block_index
+from birdocp.engine.integrate import RK4Grid, rk4_update, stage_block_index
 from birdocp.studies.control import PerModel
 
 __all__ = ["Gust", "SimulationResult", "simulate", "gust_envelope", "nonlinear_beat_map", "STATE_ALIASES",
@@ -139,11 +139,7 @@ class _Stepper(PerModel):
             ae * 180 / math.pi, ds, ca.atan2(xa[1], xa[0]) * 180 / math.pi, xa[0]]).map(n)
         D3 = ca.SX.sym("D3", nd, 3)
         h = grid.h
-        k1 = f(z, D3[:, 0], p, g)
-        k2 = f(z + h / 2 * k1, D3[:, 1], p, g)
-        k3 = f(z + h / 2 * k2, D3[:, 1], p, g)
-        k4 = f(z + h * k3, D3[:, 2], p, g)
-        step = ca.Function("sim_step", [z, D3, p, g], [z + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
+        step = ca.Function("sim_step", [z, D3, p, g], [rk4_update(f, z, D3, h, p, g)[0]])
         self.interval = step.mapaccum("sim_interval", n)
         self.post_interval = model.ode.post.map(2 * n + 1)
         self.blocks = stage_block_index(n)
