@@ -11,7 +11,7 @@ Writes results/energetics/ (JSON, summary.md, figures):
 * the most stable gait at that speed, and the Pareto front of minimum power against the bound R on
   the largest multiplier, from the unconstrained optimum down to the most stable gait.
 
-    python scripts/energetics_study.py            # ~10-20 min on 2 shared cores
+    python scripts/energetics_study.py            # ~15-25 min on 2 shared cores
 """
 
 import argparse
@@ -24,7 +24,7 @@ import numpy as np
 from birdocp.bird.config import Config
 from birdocp.io.files import atomic_write_json, atomic_write_text
 from birdocp.plots.energetics import plot_pareto, plot_power, plot_power_curve
-from birdocp.studies.gait import optimize_gait, power_curve
+from birdocp.studies.gait import optimize_gait, power_curve, stability_pareto
 from birdocp.studies.level import level
 
 OUT = Path(__file__).resolve().parents[1] / "results" / "energetics"
@@ -48,7 +48,8 @@ def summary_row(opt):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--pareto-points", type=int, default=3)
+    ap.add_argument("--pareto-points", type=int, default=12,
+                    help="bounds R evenly spaced from the energy optimum's largest modulus to the most stable one")
     ap.add_argument("--pareto-bounds", type=float, nargs="*", default=None, metavar="R",
                     help="explicit bounds R of the Pareto points (default: evenly spaced, --pareto-points)")
     ap.add_argument("--reuse", action="store_true",
@@ -114,33 +115,53 @@ def main():
     P_stab = s["mean_shoulder_power_W"]
     log(f"  radius {s['objective_value']:.5f}, P {P_stab:.4f} W, {s['iterations']} iterations, {s['status']}")
 
-    # 4. the Pareto front: minimum power with every multiplier inside radius R
+    # 4. the Pareto front: minimum power with every multiplier inside radius R, traced from the energy
+    # optimum down to the most stable gait, each point started from the previous optimum (a failed
+    # step is retried from halfway)
     R_hi, R_lo = b["largest_modulus"], s["largest_modulus"]
-    pareto = [{"bound": None, "objective_value": b["objective_value"], "largest_modulus": R_hi,
-               "success": b["success"], "free": b["free"], "amplitude_deg": b["amplitude_deg"]}]
     start = dict(b["free"]) | {"gait.shoulder_flap.amplitude_deg": b["amplitude_deg"]}
-    x_guess = tr.x0
     bounds = args.pareto_bounds if args.pareto_bounds is not None else [
         float(R + 2e-3 * (R_hi - R_lo)) if R == R_lo else float(R)  # the last bound just above the minimum
         for R in np.linspace(R_hi, R_lo, args.pareto_points + 1)[1:]]
-    for R in bounds:
-        log(f"Pareto point: R = {R:.5f}")
-        opt = optimize_gait(cfg, objective="power", speed_mps=U_ref, max_multiplier=R, start=start, x_guess=x_guess)
-        row = {"bound": R, "objective_value": opt.objective_value, "largest_modulus": opt.largest_modulus,
-               "success": opt.success, "status": opt.status, "free": opt.free, "amplitude_deg": opt.amplitude_deg,
-               "iterations": opt.iterations, "kkt_residual": opt.kkt_residual, "wall_s": opt.wall_s,
-               "verification_power_difference_W": opt.verification.get("power_difference_W")}
-        pareto.append(row)
-        log(f"  P {opt.objective_value:.4f} W, |L1| {opt.largest_modulus:.5f}, {opt.status}, "
-            f"{opt.iterations} iterations, {opt.wall_s.get('total', float('nan')):.1f} s")
-        if opt.success:
-            start = dict(opt.free) | {"gait.shoulder_flap.amplitude_deg": opt.amplitude_deg}
-            x_guess = opt.x0
+    t0 = time.perf_counter()
+    traced = stability_pareto(cfg, U_ref, bounds, start=start, x_guess=tr.x0, progress=log)
+    pareto = [{"bound": None, "objective_value": b["objective_value"], "largest_modulus": R_hi,
+               "success": b["success"], "status": b["status"], "free": b["free"], "amplitude_deg": b["amplitude_deg"],
+               "iterations": b["iterations"], "kkt_residual": b["kkt_residual"], "wall_s": b["wall_s"]}]
+    pareto += traced
     pareto.append({"bound": "most stable", "objective_value": P_stab, "largest_modulus": R_lo,
-                   "success": s["success"], "status": s["status"], "free": s["free"], "amplitude_deg": s["amplitude_deg"]})
+                   "success": s["success"], "status": s["status"], "free": s["free"], "amplitude_deg": s["amplitude_deg"],
+                   "iterations": s["iterations"], "kkt_residual": s["kkt_residual"], "wall_s": s["wall_s"]})
     out["pareto"] = pareto
+    out["pareto_wall_s"] = time.perf_counter() - t0
+    front = [q for q in pareto if q["success"]]
+    Ps = [q["objective_value"] for q in sorted(front, key=lambda q: q["largest_modulus"])]
+    out["pareto_monotone"] = bool(all(x >= y - 1e-9 for x, y in zip(Ps, Ps[1:])))  # power falls as R loosens
+    out["pareto_failed_bounds"] = [q["bound"] for q in traced if not q["success"]]
     plot_pareto(pareto, OUT / "pareto.png",
                 title=f"Minimum mean power of level flight at {U_ref:.2f} m/s against the stability bound")
+
+    # 5. optimize-stability on the reference problem (free speed, its default keys and bounds),
+    # reduced space, against the full-space result committed in results/stability_optimum
+    log("optimize-stability (reduced space) on the reference problem")
+    from birdocp.studies.optimize import optimize_stability
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    so = optimize_stability(cfg)
+    d = so.to_dict()
+    full_path = OUT.parent / "stability_optimum" / "result.json"
+    full = json.loads(full_path.read_text()) if full_path.is_file() else {}
+    out["optimize_stability"] = {
+        "reduced": {k: d[k] for k in ("success", "status", "message", "iterations", "radius", "moduli", "free",
+                                      "amplitude_deg", "kkt_residual", "wall_s", "evaluations", "method")}
+        | {"wall_s_total": time.perf_counter() - t0, "cpu_s_total": time.process_time() - c0,
+           "verification": {k: d["verification"].get(k) for k in (
+               "trim_success", "max_multiplier_difference", "trim_x0_difference", "radius_minus_spectral_radius",
+               "scratch_trim_success", "scratch_finds_another_cycle")}},
+        "full_space_committed": {k: full.get(k) for k in ("iterations", "radius", "moduli", "free", "amplitude_deg")}
+        | {"wall_s_total": (full.get("wall_s") or {}).get("total"), "source": "results/stability_optimum/result.json"},
+    }
+    log(f"  r {so.radius:.6f}, {so.iterations} iterations, {so.wall_s['total']:.1f} s, KKT {so.kkt_residual:.1e}")
     out["wall_s"] = time.perf_counter() - t_all
     atomic_write_json(OUT / "result.json", out)
     atomic_write_text(OUT / "summary.md", summary_md(out))
@@ -180,12 +201,37 @@ def summary_md(out):
         fv = ", ".join(f"{k.split('.', 1)[1]} {v:.3f}" for k, v in r["free"].items())
         lines.append(f"| {name} | {P:.4f} | {r['largest_modulus']:.5f} | {r['amplitude_deg']:.3f} | {fv} | "
                      f"{r['iterations']} | {r['kkt_residual']:.1e} | {r['wall_s']['total']:.1f} |")
+    P0 = b["objective_value"]
     lines += ["", "## Pareto front: minimum power with every multiplier inside radius R", "",
-              "| bound R | P [W] | largest modulus | status |", "|---|---|---|---|"]
+              "Traced from the energy optimum (no bound) down to the most stable gait; every point is the "
+              "energy optimum with all multipliers inside the circle of radius R, started from the previous "
+              "point's optimum (rows marked 'retry' were inserted halfway after a failed step).", "",
+              "| bound R | P [W] | extra power vs energy optimum | largest modulus | iterations | KKT | wall [s] | status |",
+              "|---|---|---|---|---|---|---|---|"]
     for q in out["pareto"]:
         bnd = q["bound"] if isinstance(q["bound"], str) else ("none" if q["bound"] is None else f"{q['bound']:.5f}")
-        lines.append(f"| {bnd} | {q['objective_value']:.4f} | {q['largest_modulus']:.5f} | "
-                     f"{q.get('status', 'Solve_Succeeded' if q['success'] else 'failed')} |")
+        if q.get("inserted"):
+            bnd += " (retry)"
+        if not q["success"]:
+            lines.append(f"| {bnd} | - | - | - | {q.get('iterations', '-')} | - | - | {q.get('status')} (not converged) |")
+            continue
+        dP = q["objective_value"] - P0
+        wall = q.get("wall_s") or {}
+        kkt = q.get("kkt_residual")
+        lines.append(f"| {bnd} | {q['objective_value']:.4f} | {dP:+.4f} W ({100 * dP / P0:+.2f} %) | "
+                     f"{q['largest_modulus']:.5f} | {q.get('iterations', '-')} | "
+                     f"{'-' if kkt is None else f'{kkt:.1e}'} | {wall.get('total', float('nan')):.1f} | {q['status']} |")
+    lines += ["", f"Power non-increasing as R loosens: {out['pareto_monotone']}; tracing took "
+              f"{out['pareto_wall_s']:.0f} s."]
+    so = out["optimize_stability"]
+    red, ful = so["reduced"], so["full_space_committed"]
+    lines += ["", "## optimize-stability on the reference problem (free speed, default keys and bounds)", "",
+              "| method | iterations | wall [s] | r | largest modulus | KKT |", "|---|---|---|---|---|---|",
+              f"| reduced space (this run) | {red['iterations']} | {red['wall_s_total']:.1f} (CPU {red['cpu_s_total']:.1f}) | "
+              f"{red['radius']:.6f} | {max(red['moduli']):.6f} | {red['kkt_residual']:.1e} |"]
+    if ful.get("iterations") is not None:
+        lines.append(f"| full space (committed, {ful['source']}) | {ful['iterations']} | {ful['wall_s_total']:.1f} | "
+                     f"{ful['radius']:.6f} | {max(ful['moduli']):.6f} | - |")
     return "\n".join(lines) + "\n"
 
 

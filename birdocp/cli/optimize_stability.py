@@ -19,7 +19,9 @@ def register(sub, common) -> None:
                        description="Minimise the largest Floquet multiplier modulus of a level-flight cycle "
                                    "over free gait parameters within bounds (Jury conditions on the "
                                    "monodromy's characteristic polynomial), then verify with numpy "
-                                   "eigenvalues and a trim from scratch at the optimum.")
+                                   "eigenvalues and a trim from scratch at the optimum. Default: reduced "
+                                   "space (IPOPT over the gait parameters and r, the level cycle solved at "
+                                   "every iterate, exact gradients), as optimize-gait.")
     p.add_argument("--free", action="append", metavar="KEY",
                    help="free parameter (repeatable; default: shoulder incidence and sweep offsets "
                         "and amplitudes)")
@@ -29,6 +31,9 @@ def register(sub, common) -> None:
     p.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS", help="mean vertical speed (default 0)")
     p.add_argument("--max-iter", type=int, default=400, metavar="N",
                    help="IPOPT iterations at most, per stage (default 400; the result says whether it converged)")
+    p.add_argument("--method", choices=("reduced", "full"), default="reduced",
+                   help="reduced: IPOPT over the gait parameters and r, the level cycle eliminated (default); "
+                        "full: the full-space single-shooting NLP (state, parameters, amplitude, r)")
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty)")
     p.set_defaults(func=cmd_optimize)
 
@@ -81,7 +86,8 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
 
         say, bar = progress_callback("optimize-stability", args.quiet)
         with run.solving(), bar:
-            res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, max_iter=args.max_iter, progress=say)
+            res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, max_iter=args.max_iter, progress=say,
+                                     method=args.method)
         result = res.to_dict()
         result["run_dir"] = str(run.dir)
         run.write(res.cfg or cfg, result)
@@ -98,8 +104,9 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
 
 
 def _print_table(res, result: dict, run_dir) -> None:
+    kkt = f", KKT residual {res.kkt_residual:.2e}" if res.kkt_residual is not None else ""
     print(f"optimize-stability: {'converged' if res.success else 'NOT converged'} ({res.status}), "
-          f"{res.iterations} iterations, {res.wall_s.get('total', 0):.1f} s")
+          f"{res.iterations} iterations, {res.wall_s.get('total', 0):.1f} s ({res.method} space){kkt}")
     print(f"  largest multiplier modulus {max(abs(res.multipliers)):.6f} (start {max(abs(res.start_multipliers)):.6f}); "
           f"{'STABLE' if res.stable else 'UNSTABLE'} level flight at amplitude {res.amplitude_deg:.4f} deg")
     for k, v in res.free.items():

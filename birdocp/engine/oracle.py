@@ -47,15 +47,22 @@ class Evaluator:
 
 
 class ConstraintOracle(ca.Callback):
-    """g(z) for IPOPT; its Jacobian is a second oracle returning the evaluator's Jacobian."""
+    """g(z) for IPOPT; its Jacobian is a second oracle returning the evaluator's Jacobian.
 
-    def __init__(self, ev, name: str, jac: bool = False):
+    ``fd_hessian``: None (the default; a quasi-Newton Hessian is then needed), or CasADi's
+    finite-difference options (e.g. ``{"fd_method": "central", "fd_options": {"h": 1e-5}}``) under
+    which the Jacobian oracle is differentiated by finite differences of the exact Jacobian, so that
+    IPOPT can use the exact-Hessian mode (one Jacobian per direction and difference point)."""
+
+    def __init__(self, ev, name: str, jac: bool = False, fd_hessian: dict | None = None):
         ca.Callback.__init__(self)
         self.ev, self.is_jac, self.base_name = ev, jac, name
+        self.fd_hessian = fd_hessian
         self._jac = None
         r, c = ev.jac_sparsity.get_triplet()
         self._rows, self._cols = np.asarray(r), np.asarray(c)
-        self.construct(f"{name}_jac_g" if jac else f"{name}_g", {})
+        opts = {"enable_fd": True, **fd_hessian} if (jac and fd_hessian is not None) else {}
+        self.construct(f"{name}_jac_g" if jac else f"{name}_g", opts)
 
     def get_n_in(self):
         return 2 if self.is_jac else 1
@@ -88,5 +95,5 @@ class ConstraintOracle(ca.Callback):
 
     def get_jacobian(self, name, inames, onames, opts):
         if self._jac is None:
-            self._jac = ConstraintOracle(self.ev, self.base_name, True)
+            self._jac = ConstraintOracle(self.ev, self.base_name, True, self.fd_hessian)
         return self._jac

@@ -102,7 +102,9 @@ def plot_power_curve(rows: list, path, title: str = "Power curve of level flight
 def plot_pareto(points: list, path, title: str = "Power against the stability bound") -> Path:
     """Minimum mean power against the bound R on the largest multiplier modulus (Pareto front).
 
-    ``points``: dicts with ``bound``, ``objective_value`` (W), ``largest_modulus``, ``success``."""
+    ``points``: dicts with ``bound``, ``objective_value`` (W), ``largest_modulus``, ``success``. The
+    end points are marked: ``bound`` None is the unconstrained energy optimum, ``bound`` "most stable"
+    the most stable gait."""
     from birdocp.plots.figures import save_figure
 
     plt = _plt()
@@ -110,9 +112,14 @@ def plot_pareto(points: list, path, title: str = "Power against the stability bo
     R = np.array([q["largest_modulus"] for q in ok], float)
     P = np.array([q["objective_value"] for q in ok], float)
     fig, ax = plt.subplots(figsize=(8, 5))
-    ax.plot(R, P, "o-", color="C0", label="energy-optimal gait with largest |multiplier| <= R")
-    ax.axvline(1, color="k", lw=0.8, label="neutral stability |multiplier| = 1")
-    ax.set_xlabel("largest |multiplier| of the optimal gait")
+    ax.plot(R, P, "o-", color="C0", ms=4, label="energy-optimal gait with largest |multiplier| <= R")
+    ends = (("energy optimum (no stability bound)", lambda q: q.get("bound") is None, "*", "C1"),
+            ("most stable gait", lambda q: q.get("bound") == "most stable", "s", "C2"))
+    for name, which, marker, color in ends:
+        for q in (q for q in ok if which(q)):
+            ax.plot(q["largest_modulus"], q["objective_value"], marker, color=color, ms=12, zorder=3,
+                    label=f"{name}: {q['objective_value']:.3f} W, |multiplier| {q['largest_modulus']:.4f}")
+    ax.set_xlabel("largest |multiplier| of the optimal gait, R (dimensionless)")
     ax.set_ylabel("minimum mean power [W]")
     ax.set_title(title, fontsize=11)
     ax.grid(alpha=0.3)

@@ -34,7 +34,7 @@ from birdocp.engine import interrupts
 from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.engine.oracle import ConstraintOracle, ipopt_options
 
-__all__ = ["DEFAULT_FREE", "check_free_keys", "optimize_stability", "StabilityOptimum", "jury_conditions"]
+__all__ = ["DEFAULT_FREE", "METHODS", "check_free_keys", "optimize_stability", "StabilityOptimum", "jury_conditions"]
 
 AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
 JURY_MARGIN = 1e-6
@@ -93,6 +93,12 @@ class StabilityOptimum:
     cfg: Config | None = None
     validity: dict | None = None
     """Where the model holds on the optimal cycle (:func:`birdocp.bird.validity.periodic_validity`)."""
+    method: str = "reduced"
+    kkt_residual: float | None = None
+    """Largest entry of the Lagrangian's gradient at the optimum, per unit of each free parameter
+    (reduced method; None for the full-space method)."""
+    constraint_violation: float | None = None
+    evaluations: dict = field(default_factory=dict)
 
     @property
     def stable(self) -> bool:
@@ -107,6 +113,8 @@ class StabilityOptimum:
                 "multipliers": pair(self.multipliers), "moduli": np.abs(self.multipliers).tolist(),
                 "start_multipliers": pair(self.start_multipliers), "x0": self.x0.tolist(),
                 "stable": self.stable, "verification": self.verification, "wall_s": self.wall_s,
+                "method": self.method, "kkt_residual": self.kkt_residual,
+                "constraint_violation": self.constraint_violation, "evaluations": self.evaluations,
                 "validity": self.validity or invalid(self.cfg, "not checked (no optimal cycle)").to_dict(),
                 "active_bounds": [k for k, v in self.free.items()
                                   if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6]}
@@ -240,12 +248,157 @@ def _suggest(k):
     return suggest(k, PARAM_NAMES)
 
 
+METHODS = ("reduced", "full")
+COARSE_TOL = 1e-5
+"""IPOPT's tolerance in the coarse stage of the reduced method (the fine stage refines anyway)."""
+
+
 def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, climb_rate_mps: float = 0.0,
                        amplitude_bounds=(20.0, 70.0), steps_per_period: int | None = None,
                        max_iter: int = 400, tol: float = 1e-7, verify: bool = True,
-                       progress=False, coarse_steps: int | None = 48) -> StabilityOptimum:
+                       progress=False, coarse_steps: int | None = 48, method: str = "reduced") -> StabilityOptimum:
     """Minimise the largest multiplier modulus of a level-flight cycle over the gait parameters
-    ``free`` (key -> (lower, upper); default :data:`DEFAULT_FREE`).
+    ``free`` (key -> (lower, upper); default :data:`DEFAULT_FREE`): minimise r subject to the Jury
+    conditions of ``Mon / r`` (each >= :data:`JURY_MARGIN`), level flight held by the flapping
+    amplitude within ``amplitude_bounds`` [deg] (mean vertical speed = ``climb_rate_mps``).
+
+    ``method="reduced"`` (default): the reduced-space NLP of :func:`birdocp.studies.gait.optimize_gait`
+    (``objective="stability"``, free speed): IPOPT's unknowns are the free parameters and r only; the
+    level cycle is solved by Newton at every iterate, the Jury conditions' gradients are exact (implicit
+    function theorem, second-order variational equations), and the Hessian of the Lagrangian is the
+    finite difference of those exact gradients (exact-Hessian IPOPT). ``method="full"``: the
+    full-space single-shooting NLP (state, parameters, amplitude and r as unknowns; quasi-Newton).
+
+    With ``coarse_steps`` (default 48 RK4 steps per period) the optimum is first found on that coarse
+    grid and then refined on the full grid (``steps_per_period``, default
+    ``cfg.solve.steps_per_period``) from the coarse optimum; ``max_iter`` counts per stage. The answer
+    is verified independently: numpy eigenvalues of the monodromy, a multiple-shooting trim from the
+    optimum's state and a trim from scratch at the optimal gait.
+
+    ``progress``: False (silent), True (one line per evaluation on stderr) or a callable taking that
+    line's text (e.g. from :func:`birdocp.io.progress.progress_callback`)."""
+    if method not in METHODS:
+        raise ConfigError("--method", f"must be one of {', '.join(METHODS)}, got {method!r}")
+    if method == "full":
+        return _optimize_full(cfg, free, climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
+                              steps_per_period=steps_per_period, max_iter=max_iter, tol=tol, verify=verify,
+                              progress=progress, coarse_steps=coarse_steps)
+    from birdocp.bird.model import get_model
+
+    cfg = cfg or Config()
+    free = dict(DEFAULT_FREE if free is None else free)
+    check_free_keys(get_model(cfg), cfg, free)
+    t_start = time.perf_counter()
+    N = int(steps_per_period or cfg.solve.steps_per_period)
+    stages = [coarse_steps, N] if coarse_steps and coarse_steps < N else [N]
+    wall, iterations, notes = {}, 0, []
+    start, x_guess, first, opt = None, None, None, None
+    for k, steps in enumerate(stages):
+        last = k == len(stages) - 1  # a coarse stage only needs to find the basin: looser tolerance
+        opt = _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter,
+                             tol if last else max(tol, COARSE_TOL), progress, start, x_guess)
+        first = first or opt
+        iterations += opt.iterations
+        tag = "coarse_" if k < len(stages) - 1 else ""
+        wall |= {tag + key: v for key, v in opt.wall_s.items() if key != "cpu_total"}
+        if tag:
+            notes.append(f"coarse stage ({steps} steps): {opt.status}, {opt.iterations} iterations")
+            if not opt.free or not np.all(np.isfinite(list(opt.free.values()))):
+                break
+            start = dict(opt.free) | {AMPLITUDE_KEY: opt.amplitude_deg}
+            x_guess = opt.x0
+    nan4 = np.full(4, np.nan)
+    if not opt.free:
+        out = StabilityOptimum(False, opt.status, opt.message, iterations, {}, free, float("nan"), float("nan"),
+                               nan4.astype(complex), nan4.astype(complex), nan4, cfg=cfg)
+        out.method, out.wall_s = "reduced", wall | {"total": time.perf_counter() - t_start}
+        return out
+    lam = np.asarray(opt.multipliers)
+    finite = bool(np.all(np.isfinite(lam)) and np.isfinite(opt.objective_value))
+    out = StabilityOptimum(bool(opt.success and finite), opt.status if finite else "nan",
+                           "; ".join([opt.message] + notes), iterations, dict(opt.free), free, opt.amplitude_deg,
+                           float(opt.objective_value), lam, np.asarray(first.start_multipliers), np.asarray(opt.x0),
+                           cfg=cfg)
+    out.method, out.kkt_residual = "reduced", opt.kkt_residual
+    out.constraint_violation, out.evaluations = opt.constraint_violation, dict(opt.evaluations)
+    cfg_best = with_values(cfg, dict(opt.free) | {AMPLITUDE_KEY: opt.amplitude_deg})
+    if verify and finite:
+        t0 = time.perf_counter()
+        _verify(out, cfg, N)
+        wall["verify"] = time.perf_counter() - t0
+    if finite:
+        from birdocp.bird.config import param_vector
+
+        out.validity = periodic_validity(cfg_best, out.x0, param_vector(cfg_best), steps_per_period=N).to_dict()
+    wall["total"] = time.perf_counter() - t_start
+    out.wall_s = wall
+    return out
+
+
+def _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter, tol, progress, start, x_guess):
+    """One reduced-space solve (:func:`birdocp.studies.gait.optimize_gait`, objective "stability") on
+    ``steps`` RK4 steps per period.
+
+    From the configured gait: exact-Hessian IPOPT on finite differences of the exact gradients (21
+    iterations on the reference problem; limited-memory SR1 took 120 and wandered to another local
+    minimum). From a previous stage's optimum (``start``, ``x_guess``): r starts just above that
+    optimum's spectral radius, the barrier parameter small (no push away from the active Jury
+    condition) and SR1 updates, cheaper per iteration than the finite-difference Hessian and as few
+    evaluations from so close (12 iterations, 28 gradient evaluations on the reference problem)."""
+    from birdocp.studies.gait import optimize_gait
+
+    warm = start is not None
+    opts = {"ipopt.mu_init": 1e-6, "ipopt.mu_strategy": "monotone", "ipopt.bound_push": 1e-8,
+            "ipopt.bound_frac": 1e-8} if warm else None
+    return optimize_gait(cfg, free, objective="stability", climb_rate_mps=climb_rate_mps,
+                         amplitude_bounds=amplitude_bounds, steps_per_period=steps, max_iter=max_iter,
+                         tol=tol, verify=False, progress=progress, start=start, x_guess=x_guess,
+                         hessian="sr1" if warm else "fd", radius_start_factor=1.001 if warm else 1.05,
+                         ipopt_options=opts)
+
+
+def _verify(out: StabilityOptimum, cfg: Config, N: int, jury=None) -> None:
+    """Independent checks at the optimum ``out`` (sets ``out.verification`` and ``out.cfg``): a 5-point
+    multiple-shooting trim from the optimum's state, and one from scratch (the configured initial
+    guess); numpy eigenvalues; the Jury quantities of the trim's monodromy (or ``jury``) at r."""
+    from birdocp.studies.trim import trim
+
+    vals = dict(out.free)
+    vals[AMPLITUDE_KEY] = float(out.amplitude_deg)
+    cfg_best = with_values(cfg, vals)
+    xs = np.asarray(out.x0, float)
+    check = trim(cfg_best, x_guess=xs, points=5, steps_per_period=N)
+    scratch = trim(cfg_best, points=5, steps_per_period=N)
+    out.cfg = cfg_best
+    pairs = lambda lam_: [[float(v.real), float(v.imag)] for v in lam_]
+    dist = lambda a, b: float(np.max(matched_distances(a, b)))
+    lam = np.asarray(out.multipliers)
+    if jury is None and check.success and check.monodromy is not None:
+        jury = np.asarray(ca.DM(jury_conditions(ca.DM(np.asarray(check.monodromy)) / out.radius))).ravel()
+    out.verification = {
+        "trim_success": bool(check.success),
+        "trim_multipliers": pairs(check.multipliers) if check.success else None,
+        "max_multiplier_difference": dist(check.multipliers, lam) if check.success else None,
+        "trim_mean_vertical_speed_mps": float(check.mean_vertical_speed_mps) if check.success else None,
+        "trim_x0_difference": float(np.max(np.abs(check.x0 - xs))) if check.success else None,
+        "scratch_trim_success": bool(scratch.success),
+        "scratch_trim_x0": scratch.x0.tolist(),
+        "scratch_trim_multipliers": pairs(scratch.multipliers) if scratch.success else None,
+        "scratch_finds_another_cycle": bool(scratch.success and np.max(np.abs(scratch.x0 - xs)) > 1e-6),
+        "radius_minus_spectral_radius": out.radius - float(np.max(np.abs(lam))),
+        "jury_at_optimum": None if jury is None else np.asarray(jury).ravel().tolist(),
+        "kkt_residual": out.kkt_residual,
+        "evaluations": dict(out.evaluations),
+    }
+
+
+def _optimize_full(cfg: Config | None = None, free: dict | None = None, *, climb_rate_mps: float = 0.0,
+                   amplitude_bounds=(20.0, 70.0), steps_per_period: int | None = None,
+                   max_iter: int = 400, tol: float = 1e-7, verify: bool = True,
+                   progress=False, coarse_steps: int | None = 48) -> StabilityOptimum:
+    """The full-space formulation (``method="full"``): single shooting with the state at t = 0, the
+    free parameters, the amplitude and r as IPOPT's unknowns (limited-memory Hessian; 356 iterations
+    and ~6 min on the reference problem).
 
     With ``coarse_steps`` (default 48 RK4 steps per period) the optimum is first found on that coarse
     grid (IPOPT's quasi-Newton iterations are ~3x cheaper there) and then refined on the full grid
@@ -256,14 +409,14 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     line's text (e.g. from :func:`birdocp.io.progress.progress_callback`)."""
     N_full = int(steps_per_period or (cfg or Config()).solve.steps_per_period)
     if coarse_steps and coarse_steps < N_full:
-        coarse = optimize_stability(cfg, free, climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
+        coarse = _optimize_full(cfg, free, climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
                                     steps_per_period=coarse_steps, max_iter=max_iter, tol=tol, verify=False,
-                                    progress=progress, coarse_steps=None)
+                                progress=progress, coarse_steps=None)
         if np.all(np.isfinite(list(coarse.free.values()))) and coarse.free:
             start = with_values(cfg or Config(), coarse.free)
-            fine = optimize_stability(start, free, climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
+            fine = _optimize_full(start, free, climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
                                       steps_per_period=N_full, max_iter=max_iter, tol=tol, verify=verify,
-                                      progress=progress, coarse_steps=None)
+                                  progress=progress, coarse_steps=None)
             fine.iterations += coarse.iterations
             fine.start_multipliers = coarse.start_multipliers
             fine.wall_s = {"coarse_" + k: v for k, v in coarse.wall_s.items()} | fine.wall_s
@@ -273,7 +426,6 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
         return coarse
     from birdocp.studies.level import level
     from birdocp.bird.model import get_model
-    from birdocp.studies.trim import trim
 
     cfg = cfg or Config()
     free = dict(DEFAULT_FREE if free is None else free)
@@ -332,31 +484,11 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
                            f"IPOPT: {stats['return_status']}" + ("" if finite else " (non-finite result)"),
                            int(stats["iter_count"]), best, free, float(ps[-1]), rs, lam, lam0, xs, cfg=cfg)
 
+    out.method = "full"
+    out.evaluations = {"constraints": ev.n_g, "jacobians": ev.n_jac}
     if verify and np.all(np.isfinite(zs)):
         t0 = time.perf_counter()
-        vals = dict(best)
-        vals[AMPLITUDE_KEY] = float(ps[-1])
-        cfg_best = with_values(cfg, vals)
-        # independent checks: multiple shooting (5 points) from the optimum's state, and from scratch
-        check = trim(cfg_best, x_guess=xs, points=5, steps_per_period=N)
-        scratch = trim(cfg_best, points=5, steps_per_period=N)
-        out.cfg = cfg_best
-        pairs = lambda lam_: [[float(v.real), float(v.imag)] for v in lam_]
-        dist = lambda a, b: float(np.max(matched_distances(a, b)))
-        out.verification = {
-            "trim_success": bool(check.success),
-            "trim_multipliers": pairs(check.multipliers) if check.success else None,
-            "max_multiplier_difference": dist(check.multipliers, lam) if check.success else None,
-            "trim_mean_vertical_speed_mps": float(check.mean_vertical_speed_mps) if check.success else None,
-            "trim_x0_difference": float(np.max(np.abs(check.x0 - xs))) if check.success else None,
-            "scratch_trim_success": bool(scratch.success),
-            "scratch_trim_x0": scratch.x0.tolist(),
-            "scratch_trim_multipliers": pairs(scratch.multipliers) if scratch.success else None,
-            "scratch_finds_another_cycle": bool(scratch.success and np.max(np.abs(scratch.x0 - xs)) > 1e-6),
-            "radius_minus_spectral_radius": rs - float(np.max(np.abs(lam))),
-            "jury_at_optimum": ev.jury(Mnum, rs).tolist(),
-            "evaluations": {"constraints": ev.n_g, "jacobians": ev.n_jac},
-        }
+        _verify(out, cfg, N, ev.jury(Mnum, rs))
         wall["verify"] = time.perf_counter() - t0
     if np.all(np.isfinite(zs)):
         vals = dict(best)
