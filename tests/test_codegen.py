@@ -23,6 +23,7 @@ X0 = (18.0, 0.5, 0.1, 0.01)
 def test_export_builds_and_matches_python(tmp_path):
     from birdocp.export.codegen import export_c
     from birdocp.engine.integrate import RK4Grid
+    from birdocp.bird.model import get_model
 
     cfg = Config()
     info = export_c(cfg, tmp_path / "bird_c")
