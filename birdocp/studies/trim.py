@@ -18,12 +18,36 @@ import numpy as np
 from birdocp.bird.config import PARAM_NAMES, Config
 from birdocp.bird.flight import flight_outputs, flight_path_angle_deg
 from birdocp.bird.model import get_model
-from birdocp.bird.validity import CycleValidity, cycle_validity
+from birdocp.bird.validity import CycleValidity, cycle_validity, grid_validity
 from birdocp.engine.floquet import complex_pairs
 from birdocp.engine.problem import LimitCycleProblem
 from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
 
-__all__ = ["TrimResult", "trim", "method_of"]
+__all__ = ["TrimResult", "trim", "method_of", "solver_ode", "compiled_default"]
+
+_ON = ("1", "on", "yes", "true")
+
+
+def compiled_default() -> bool:
+    """True when ``$BIRDOCP_COMPILED`` is ``1``/``on``/``yes``/``true``: solves that are not told
+    otherwise use the compiled RHS and data (:func:`solver_ode`; the same numbers, faster)."""
+    import os
+
+    return os.environ.get("BIRDOCP_COMPILED", "").strip().lower() in _ON
+
+
+def solver_ode(m, compiled: bool | None = None):
+    """The ODE the engine solves for the configured model ``m``: ``m.ode``, or with ``compiled`` (None:
+    :func:`compiled_default`) its twin whose RHS and numeric data Functions are compiled C
+    (:func:`birdocp.export.compiled.compiled_ode`, cached; bit-identical numbers). Falls back to
+    ``m.ode`` with a warning on stderr if compiling fails."""
+    if compiled is None:
+        compiled = compiled_default()
+    if not compiled:
+        return m.ode
+    from birdocp.export.compiled import compiled_ode
+
+    return compiled_ode(m.ode, key_extra=repr(m.structure)) or m.ode
 
 
 def method_of(cfg: Config, **over) -> MultipleShooting:
@@ -55,12 +79,17 @@ class TrimResult:
 
     @property
     def validity(self) -> "CycleValidity":
-        """Where the model holds on this cycle (:func:`birdocp.bird.validity.cycle_validity` on the
-        trajectory; computed on first use, thresholds from ``cfg.validity``)."""
+        """Where the model holds on this cycle (:func:`birdocp.bird.validity.grid_validity` on the
+        trajectory at the solver's step times, with the solve's stage data; computed on first use,
+        thresholds from ``cfg.validity``)."""
         v = self.__dict__.get("_validity")
         if v is None:
             c = self.cycle
-            v = cycle_validity(self.cfg, c.trajectory_t, c.trajectory_x, c.p)
+            n = int(c.method["steps_per_period"])
+            if np.shape(c.trajectory_x)[0] == n + 1:
+                v = grid_validity(self.cfg, c.trajectory_x, c.p, float(c.trajectory_t[0]), n)
+            else:
+                v = cycle_validity(self.cfg, c.trajectory_t, c.trajectory_x, c.p)
             self.__dict__["_validity"] = v
         return v
 
@@ -237,23 +266,19 @@ class TrimResult:
 
 
 def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: MultipleShooting | None = None,
-         compiled: bool = False, **method_over) -> TrimResult:
+         compiled: bool | None = None, **method_over) -> TrimResult:
     """Trimmed flight of ``cfg`` (default: the paper's reference case).
 
     ``x_guess``: state (u, w, q, theta) at t = 0 (default ``cfg.solve.initial_guess``);
     ``warm_start``: a previous :class:`TrimResult` whose cycle starts the solve; ``method`` or keyword
     overrides of :class:`~birdocp.engine.shooting.MultipleShooting` (default from ``cfg.solve``);
-    ``compiled``: use the state RHS compiled to C (:mod:`birdocp.export.compiled`, cached; falls back to the
-    interpreted path with a warning on stderr if compilation fails).
+    ``compiled``: use the state RHS and data compiled to C (:func:`solver_ode`; None: ``$BIRDOCP_COMPILED``;
+    cached; falls back to the interpreted path with a warning on stderr if compilation fails).
     """
     cfg = cfg or Config()
     m = get_model(cfg)
     guess = np.asarray(cfg.solve.initial_guess if x_guess is None else x_guess, float)
-    ode = m.ode
-    if compiled:
-        from birdocp.export.compiled import compiled_ode
-        ode = compiled_ode(m.ode, key_extra=repr(m.structure)) or m.ode
-    problem = LimitCycleProblem(ode=ode, p=m.p0, x_guess=guess, outputs=flight_outputs(m.ode.nd))
+    problem = LimitCycleProblem(ode=solver_ode(m, compiled), p=m.p0, x_guess=guess, outputs=flight_outputs(m.ode.nd))
     method = method or method_of(cfg, **method_over)
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
     return TrimResult(check_physical(solve(problem, method, warm_start=ws)), cfg)
