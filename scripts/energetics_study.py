@@ -118,11 +118,15 @@ def main():
     # 4. the Pareto front: minimum power with every multiplier inside radius R, traced from the energy
     # optimum down to the most stable gait, each point started from the previous optimum (a failed
     # step is retried from halfway)
+    # the tightest bound: just above the most stable gait's r (its objective, the smallest r with the
+    # Jury conditions >= their margin: r exceeds that gait's largest modulus by ~2e-4, so a bound
+    # between the two is infeasible)
     R_hi, R_lo = b["largest_modulus"], s["largest_modulus"]
+    R_min = s["objective_value"]
     start = dict(b["free"]) | {"gait.shoulder_flap.amplitude_deg": b["amplitude_deg"]}
     bounds = args.pareto_bounds if args.pareto_bounds is not None else [
-        float(R + 2e-3 * (R_hi - R_lo)) if R == R_lo else float(R)  # the last bound just above the minimum
-        for R in np.linspace(R_hi, R_lo, args.pareto_points + 1)[1:]]
+        float(R_min + 2e-3 * (R_hi - R_min)) if R == R_min else float(R)
+        for R in np.linspace(R_hi, R_min, args.pareto_points + 1)[1:]]
     t0 = time.perf_counter()
     traced = stability_pareto(cfg, U_ref, bounds, start=start, x_guess=tr.x0, progress=log)
     pareto = [{"bound": None, "objective_value": b["objective_value"], "largest_modulus": R_hi,

@@ -3,6 +3,7 @@ against central differences, the optimum's KKT residual, the optimum re-trimmed 
 CLI's JSON, and the Pareto front's monotonicity."""
 
 import json
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -11,7 +12,7 @@ import pytest
 from birdocp.bird.config import Config, with_values
 from birdocp.cli import main as cli
 from birdocp.engine.integrate import RK4Grid
-from birdocp.studies.gait import ReducedLevelCycle, optimize_gait
+from birdocp.studies.gait import ReducedLevelCycle, optimize_gait, stability_pareto
 
 STEPS = 24
 KEYS = ["gait.shoulder_incidence.offset_deg", "gait.shoulder_sweep.offset_deg"]
@@ -94,12 +95,50 @@ def test_pareto_front_is_monotone():
     b = optimize_gait(cfg, free, objective="stability", speed_mps=18, verify=False)
     assert a.success and b.success
     assert b.objective_value <= a.largest_modulus
+    bounds = [a.largest_modulus - frac * (a.largest_modulus - b.objective_value) for frac in (0.4, 0.8)]
+    rows = stability_pareto(cfg, 18, bounds, free=free, start=a.free, verify=False)  # warm-started tracing
     powers = [a.objective_value]
-    for frac in (0.4, 0.8):
-        R = a.largest_modulus - frac * (a.largest_modulus - b.objective_value)
-        c = optimize_gait(cfg, free, speed_mps=18, max_multiplier=R, verify=False, start=a.free)
-        assert c.success, c.message
-        assert c.largest_modulus <= R + 1e-6
-        assert c.kkt_residual < 1e-5
-        powers.append(c.objective_value)
+    for R, c in zip(bounds, [q for q in rows if q["success"]]):
+        assert c["bound"] == R and c["largest_modulus"] <= R + 1e-6
+        assert c["kkt_residual"] < 1e-5
+        powers.append(c["objective_value"])
+    assert len(powers) == 3
     assert powers[0] <= powers[1] + 1e-9 <= powers[2] + 2e-9
+
+
+def test_newton_failure_is_an_error_not_a_nan_cycle():
+    """A level-cycle solve that cannot converge raises (IPOPT then sees an evaluation error and cuts its
+    step): once, a NaN residual counted as converged (NaN > tol is False) and NaN gradients reached
+    IPOPT (Invalid_Number_Detected). Same for an amplitude outside the allowed range."""
+    rc = ReducedLevelCycle(small(), KEYS[:1])
+    ev = rc.evaluate(np.array([14.0]))
+    assert np.isfinite(ev.amplitude_deg) and ev.residual <= 1e-10
+    with pytest.raises(RuntimeError, match="level cycle not found"):
+        rc.evaluate(np.array([np.nan]))
+    rc.amplitude_range_deg = (0.0, ev.amplitude_deg - 5.0)
+    with pytest.raises(RuntimeError, match="amplitude"):
+        rc.evaluate(np.array([14.5]))
+    rc.amplitude_range_deg = (0.0, 90.0)  # the last accepted cycle still restarts Newton
+    rc.accept(np.array([14.0]))
+    assert abs(rc.evaluate(np.array([14.5])).amplitude_deg - ev.amplitude_deg) < 5.0
+
+
+def test_committed_pareto_front_is_monotone():
+    """A check of the COMMITTED results (results/energetics/result.json, written by
+    scripts/energetics_study.py), not a computation: along the traced front the minimum power never
+    rises as the bound R loosens, every point keeps its bound, and the front reaches from the energy
+    optimum to the most stable gait."""
+    path = Path(__file__).resolve().parents[1] / "results" / "energetics" / "result.json"
+    front = json.loads(path.read_text())["pareto"]
+    ok = sorted((q for q in front if q["success"]), key=lambda q: q["largest_modulus"])
+    assert len(ok) >= 8
+    P = [q["objective_value"] for q in ok]
+    assert all(x >= y - 1e-9 for x, y in zip(P, P[1:]))
+    for q in ok:
+        if isinstance(q["bound"], float):
+            assert q["largest_modulus"] <= q["bound"] + 1e-6
+    assert ok[-1]["bound"] is None                             # the loose end: the energy optimum
+    stable = next(q for q in front if q["bound"] == "most stable")
+    assert ok[0]["largest_modulus"] < stable["largest_modulus"] + 1e-3  # the tight end: the most stable gait
+    for q in front:  # a failed step was retried until its bound was reached
+        assert q["success"] or any(o["success"] and o["bound"] == q["bound"] for o in front)

@@ -48,6 +48,20 @@ def test_optimum_is_verified_independently(optimum):
     assert v["scratch_trim_success"]
 
 
+def test_reduced_optimum_radius_and_kkt(optimum):
+    """The reduced-space optimum (the default method): r equals the spectral radius of the verifying
+    trim's monodromy (numpy eigenvalues of an independent multiple-shooting solve) up to the Jury
+    margin's effect, one Jury condition is active, and the gradient of the Lagrangian vanishes."""
+    r = optimum
+    assert r.method == "reduced" and r.success, r.message
+    v = r.verification
+    trim_radius = max(abs(complex(*z)) for z in v["trim_multipliers"])
+    assert 0 <= r.radius - trim_radius < 1e-3
+    assert min(v["jury_at_optimum"]) < 1e-5                    # the stability constraint is active
+    assert r.kkt_residual is not None and r.kkt_residual < 1e-6
+    assert r.to_dict()["kkt_residual"] == r.kkt_residual
+
+
 def test_optimum_is_a_local_minimum(optimum):
     """Level flight at gaits next to the optimum (the amplitude re-solved) has a larger spectral
     radius, unless the optimum sits on a bound."""
