@@ -74,3 +74,19 @@ def test_optimum_is_a_local_minimum(optimum):
         lv = level(with_values(Config(), {KEY: value}), points=2, steps_per_period=24)
         assert lv.success
         assert np.max(np.abs(lv.multipliers)) > base - 1e-9
+
+
+@pytest.mark.slow
+def test_reduced_and_full_space_reach_the_same_optimum(optimum):
+    """Two formulations, one answer: the full-space single-shooting NLP (``method="full"``, state,
+    parameters, amplitude and r as unknowns) finds the reduced-space optimum's gait and radius."""
+    full = optimize_stability(Config(), {KEY: BOUNDS}, steps_per_period=24, verify=False, method="full")
+    assert full.success and full.method == "full", full.message
+    assert abs(full.radius - optimum.radius) < 1e-6
+    assert abs(full.free[KEY] - optimum.free[KEY]) < 1e-4
+    assert abs(full.amplitude_deg - optimum.amplitude_deg) < 1e-4
+
+
+def test_unknown_method_is_refused():
+    with pytest.raises(ConfigError, match="--method"):
+        optimize_stability(Config(), {KEY: BOUNDS}, method="newton")
