@@ -47,7 +47,8 @@ import numpy as np
 
 from birdocp.engine import interrupts
 from birdocp.engine.cache import bounded_cache
-from birdocp.engine.floquet import complex_pairs, monodromy_of, sort_multipliers
+from birdocp.engine.floquet import monodromy_of, sort_multipliers
+from birdocp.engine.results import result_dict, serial
 from birdocp.engine.ode import ODE
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.steppers import METHOD_ORDER, make_step
@@ -205,10 +206,10 @@ class PeriodicOrbit:
     arc_length: float
     autonomous: bool
     monodromy: np.ndarray | None = None
-    multipliers: np.ndarray | None = None
-    trivial_multiplier: complex | None = None
+    multipliers: np.ndarray | None = field(default=None, metadata=serial(complex=True))
+    trivial_multiplier: complex | None = field(default=None, metadata=serial(complex=True))
     trivial_multiplier_error: float = float("nan")
-    nontrivial_multipliers: np.ndarray | None = None
+    nontrivial_multipliers: np.ndarray | None = field(default=None, metadata=serial(complex=True))
     stable: bool | None = None
     error_estimate: dict = field(default_factory=dict)
     accurate: bool | None = None
@@ -218,20 +219,9 @@ class PeriodicOrbit:
     free_params: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        """JSON-ready dict: complex numbers as [re, im] pairs, largest modulus first."""
-        out = {}
-        for k, v in self.__dict__.items():
-            if k in ("multipliers", "nontrivial_multipliers") and v is not None:
-                out[k] = complex_pairs(v)
-            elif k == "trivial_multiplier" and v is not None:
-                out[k] = [float(np.real(v)), float(np.imag(v))]
-            elif isinstance(v, np.ndarray):
-                out[k] = v.tolist()
-            elif isinstance(v, (np.floating, np.integer, np.bool_)):
-                out[k] = v.item()
-            else:
-                out[k] = v
-        return out
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): complex numbers as [re, im]
+        pairs, multipliers largest modulus first, NaN as null."""
+        return result_dict(self)
 
 
 # ----------------------------------------------------------------------------------------------

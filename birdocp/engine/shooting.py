@@ -30,6 +30,7 @@ from birdocp.engine.floquet import FloquetResult, floquet_from_jacobians
 from birdocp.engine.integrate import RK4Grid
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
+from birdocp.engine.results import result_dict, serial
 
 __all__ = ["MultipleShooting", "LimitCycleResult", "solve", "clear_cache", "floquet", "ShootingGraphs",
            "shooting_graphs", "initial_points", "rk4_grid"]
@@ -117,26 +118,6 @@ class MultipleShooting:
         return 1e-10 if self.solver == "ipopt" else 1e-5
 
 
-def _jsonable(v):
-    if isinstance(v, dict):
-        return {str(k): _jsonable(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_jsonable(x) for x in v]
-    if isinstance(v, np.ndarray):
-        if np.iscomplexobj(v):
-            return {"real": v.real.tolist(), "imag": v.imag.tolist()}
-        return v.tolist()
-    if isinstance(v, (np.bool_, bool)):
-        return bool(v)
-    if isinstance(v, (np.integer,)):
-        return int(v)
-    if isinstance(v, (np.floating, float)):
-        return float(v)
-    if isinstance(v, complex):
-        return {"real": v.real, "imag": v.imag}
-    return v
-
-
 @dataclass
 class LimitCycleResult:
     """Outcome of :func:`solve`. Failures are results (``success=False``), not exceptions.
@@ -163,8 +144,9 @@ class LimitCycleResult:
     doubling_times_s
         ln 2 / Re(exponent), signed (negative = minus the halving time); see floquet.
 
-    ``to_dict()`` gives lists/dicts/floats for JSON; complex arrays as {"real": [...], "imag": [...]};
-    non-finite floats stay floats (json.dumps writes Infinity/NaN).
+    ``to_dict()`` is the JSON of every result (:func:`birdocp.engine.results.result_dict`): complex
+    numbers as ``[re, im]`` pairs (``eigenvectors``: one list of pairs per mode, in the order of the
+    multipliers), NaN and inf as null.
     """
 
     success: bool
@@ -183,16 +165,17 @@ class LimitCycleResult:
     max_residual: float
     means: dict
     monodromy: np.ndarray | None = None
-    multipliers: np.ndarray | None = None
-    eigenvectors: np.ndarray | None = None
-    floquet_exponents: np.ndarray | None = None
+    multipliers: np.ndarray | None = field(default=None, metadata=serial(complex=True))
+    eigenvectors: np.ndarray | None = field(default=None, metadata=serial(complex=True, columns=True))
+    floquet_exponents: np.ndarray | None = field(default=None, metadata=serial(complex=True))
     doubling_times_s: np.ndarray | None = None
     stable: bool | None = None
     monodromy_vs_full_period_jacobian: float = float("nan")
     method: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        return {k: _jsonable(v) for k, v in self.__dict__.items()}
+        """JSON-ready dict (see the class docstring)."""
+        return result_dict(self)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from birdocp.engine.orbits import complex_pairs
+from birdocp.engine.results import complex_pairs
 from birdocp.io.files import atomic_write_json
 
 ROOT = Path(__file__).resolve().parents[2]
