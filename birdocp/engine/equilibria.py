@@ -80,7 +80,7 @@ class EquilibriumBranch:
     param: int
     params: np.ndarray
     x: np.ndarray
-    eigenvalues: np.ndarray
+    eigenvalues: np.ndarray = field(metadata=serial(complex=True))
     stable: np.ndarray
     hopf: list = field(default_factory=list)
     folds: list = field(default_factory=list)

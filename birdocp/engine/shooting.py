@@ -32,7 +32,7 @@ from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
 from birdocp.engine.results import result_dict, serial
 
-__all__ = ["MultipleShooting", "LimitCycleResult", "solve", "clear_cache", "floquet", "ShootingGraphs",
+__all__ = ["ShootingGrid", "MultipleShooting", "LimitCycleResult", "solve", "clear_cache", "floquet", "ShootingGraphs",
            "shooting_graphs", "initial_points", "rk4_grid"]
 
 _IPOPT_DEFAULTS = {
@@ -47,15 +47,43 @@ _IPOPT_DEFAULTS = {
 
 
 @dataclass(frozen=True)
-class MultipleShooting:
-    """How to solve a LimitCycleProblem.
+class ShootingGrid:
+    """The grid of a multiple-shooting method (the base of :class:`MultipleShooting` and
+    :class:`birdocp.engine.orbits.OrbitMethod`).
 
     Attributes
     ----------
     points
         M, shooting points INCLUDING the closing one (M-1 segments), M >= 2.
     steps_per_period
-        N, RK4 steps over the period; a multiple of points-1.
+        N, integrator steps over the period; a multiple of points-1 (None: chosen by the method).
+    """
+
+    points: int = 5
+    steps_per_period: int | None = None
+
+    def validate_grid(self) -> None:
+        """Raise ValueError (naming the class and the field) unless M >= 2 and N is a positive
+        multiple of M-1 (or None)."""
+        name, n = type(self).__name__, self.steps_per_period
+        if not isinstance(self.points, (int, np.integer)) or self.points < 2:
+            raise ValueError(f"{name}.points must be an integer >= 2, got {self.points!r}")
+        if n is None:
+            return
+        if not isinstance(n, (int, np.integer)) or n < 1:
+            raise ValueError(f"{name}.steps_per_period must be a positive integer, got {n!r}")
+        if n % (self.points - 1):
+            raise ValueError(f"{name}.steps_per_period={n} must be a multiple of points-1={self.points - 1}")
+
+
+@dataclass(frozen=True)
+class MultipleShooting(ShootingGrid):
+    """How to solve a LimitCycleProblem.
+
+    Attributes
+    ----------
+    points, steps_per_period
+        M and N of the grid (:class:`ShootingGrid`); N is required (RK4 steps over the period).
     solver
         "ipopt" | "lm" (the paper's Levenberg-Marquardt).
     derivatives
@@ -80,8 +108,7 @@ class MultipleShooting:
         with IPOPT's filter line search; iterations and histories are concatenated.
     """
 
-    points: int = 5
-    steps_per_period: int = 148
+    steps_per_period: int = 148  # the paper's grid (M = 5: 37 steps per segment)
     solver: str = "ipopt"
     derivatives: str = "exact"
     tol: float | None = None
@@ -92,14 +119,10 @@ class MultipleShooting:
     ipopt_fallback: bool = True
 
     def validate(self) -> None:
-        if not isinstance(self.points, (int, np.integer)) or self.points < 2:
-            raise ValueError(f"MultipleShooting.points must be an integer >= 2, got {self.points!r}")
-        if not isinstance(self.steps_per_period, (int, np.integer)) or self.steps_per_period < 1:
-            raise ValueError(f"MultipleShooting.steps_per_period must be a positive integer, got {self.steps_per_period!r}")
-        if self.steps_per_period % (self.points - 1):
-            raise ValueError(
-                f"MultipleShooting.steps_per_period={self.steps_per_period} must be a multiple of "
-                f"points-1={self.points - 1}")
+        """Raise ValueError on the first invalid field (named)."""
+        if self.steps_per_period is None:
+            raise ValueError("MultipleShooting.steps_per_period must be a positive integer, got None")
+        self.validate_grid()
         if self.solver not in ("ipopt", "lm"):
             raise ValueError(f"MultipleShooting.solver must be 'ipopt' or 'lm', got {self.solver!r}")
         if self.derivatives not in ("exact", "fd"):

@@ -157,8 +157,10 @@ class TrimResult:
                   "validity": self.validity, **self.wing_power_summary()}
         if self.__dict__.get("_energetics") is not None:
             flight.update(self.energetics_dict())
+        # the engine cycle's fields (the trajectory and p go to arrays.npz), then the flight's
         return result_dict(c, exclude=("p", "trajectory_t", "trajectory_x"), extra=flight,
-                           rename={"floquet_exponents": "floquet_exponents_per_s", "shooting_times": "shooting_times_s"})
+                           rename={"floquet_exponents": "floquet_exponents_per_s",
+                                   "shooting_times": "shooting_times_s"})
 
     def arrays(self) -> dict:
         c = self.cycle
