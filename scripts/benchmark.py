@@ -104,6 +104,7 @@ def in_process(repeats: int) -> dict:
     from birdocp.bird.flight import flight_outputs
     from birdocp.bird.model import get_model
     from birdocp.engine import shooting
+    from birdocp.engine.integrate import clear_stage_data
     from birdocp.engine.problem import LimitCycleProblem
     from birdocp.studies.trim import method_of, trim
 
@@ -139,7 +140,7 @@ def in_process(repeats: int) -> dict:
     def timed(**kw):
         rows = []
         for _ in range(repeats):
-            grid._memo.clear()  # the data on the stage grid is recomputed, as in a new solve
+            clear_stage_data()  # the data on the stage grid is recomputed, as in a new solve
             t = time.perf_counter()
             res = trim(**kw)
             w = time.perf_counter() - t

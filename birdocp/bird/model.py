@@ -483,7 +483,8 @@ class BirdModel:
         data_mx = ca.Function("data", [tm, pm], [self.post(self.pre(tm, pm), tm, pm)], ["t", "p"], ["d"])
         self.ode = PeriodicODE(rhs=self.rhs, data=data_mx, period_s=self.period_s,
                                state_names=STATE_NAMES, param_names=PARAM_NAMES,
-                               pre=self.pre, post=self.post, pre_params=self.pre_params)
+                               pre=self.pre, post=self.post, pre_params=self.pre_params,
+                               pre_key=graphcache.key_digest(key) if use_cache else "")
         self.graph_s = time.perf_counter() - t0
 
     def _function(self, name: str) -> ca.Function | None:

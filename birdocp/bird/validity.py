@@ -39,7 +39,7 @@ if TYPE_CHECKING:
 # casadi, numpy and the model are imported inside the functions that compute: the verdict helpers for
 # tables (validity_text, validity_columns) stay light to import.
 
-__all__ = ["CycleValidity", "cycle_validity", "periodic_validity", "element_angles_function",
+__all__ = ["CycleValidity", "cycle_validity", "grid_validity", "periodic_validity", "element_angles_function",
            "effective_angles", "invalid", "validity_text", "VALIDITY_COLUMNS", "validity_columns"]
 
 
@@ -225,41 +225,70 @@ def _verdict(cfg: Config, t, X, ae_deg, ag_deg, ds) -> CycleValidity:
 def periodic_validity(cfg: Config, x0, p=None, t0_s: float = 0.0, steps_per_period: int | None = None
                       ) -> CycleValidity:
     """Validity of the periodic orbit through ``x0`` at ``t0_s``: one RK4 period from it (the same
-    grid as the solver, ``cfg.solve.steps_per_period`` by default), then :func:`cycle_validity`.
+    grid as the solver, ``cfg.solve.steps_per_period`` by default), then :func:`grid_validity`.
     For cycles stored without their trajectory (branch points, results on disk)."""
     import casadi as ca
+    import numpy as np
+
+    cfg = cfg or Config()
+    x0 = np.asarray(x0, float).ravel()
+    if not np.all(np.isfinite(x0)):
+        return invalid(cfg, "the cycle's states are not finite (no cycle to check)")
+    n = int(steps_per_period or cfg.solve.steps_per_period)
+    grid, p = _grid_and_p(cfg, n, p)
+    D = grid.blocks_numeric(float(t0_s), p)
+    X = np.asarray(grid.period_map(ca.DM(x0), D, ca.DM(p))[1]).T   # states after each step
+    X = np.vstack([x0[None, :], X[:-1]])                            # x(t0 + k h), k = 0..n-1
+    return grid_validity(cfg, X, p, t0_s, n)
+
+
+def _grid_and_p(cfg: Config, n: int, p):
     import numpy as np
 
     from birdocp.bird.model import get_model
     from birdocp.engine.integrate import RK4Grid
 
-    cfg = cfg or Config()
     m = get_model(cfg)
     p = m.p0 if p is None else np.asarray(p, float).ravel()
-    x0 = np.asarray(x0, float).ravel()
-    if not np.all(np.isfinite(x0)):
-        return invalid(cfg, "the cycle's states are not finite (no cycle to check)")
-    n = int(steps_per_period or cfg.solve.steps_per_period)
     key = (id(m.ode), n)
     hit = _GRIDS.get(key)
     if hit is None or hit[0] is not m.ode:
         hit = (m.ode, RK4Grid(m.ode, n, 1))  # holding the ode keeps its id unique
         _GRIDS.put(key, hit)
-    grid = hit[1]
-    D = grid.blocks_numeric(float(t0_s), p)
-    pd = ca.DM(p)
-    X = np.asarray(grid.period_map(ca.DM(x0), D, pd)[1]).T   # states after each step
-    X = np.vstack([x0[None, :], X[:-1]])                      # x(t0 + k h), k = 0..n-1
-    t = float(t0_s) + grid.h * np.arange(n)
+    return hit[1], p
+
+
+def grid_validity(cfg: Config, x, p=None, t0_s: float = 0.0, steps_per_period: int | None = None
+                  ) -> CycleValidity:
+    """Validity of a cycle given by its states at the RK4 step times ``t0_s + k T/N`` (k = 0..N-1,
+    N = ``steps_per_period``; a closing state k = N is dropped), as a solver returns it.
+
+    The same measures as :func:`cycle_validity`, with the data at those times taken from the stage
+    data of the solver's grid (:meth:`birdocp.engine.integrate.RK4Grid.blocks_numeric`, memoised:
+    after a solve of the same gait the wing is not evaluated again)."""
+    import casadi as ca
+    import numpy as np
+
+    cfg = cfg or Config()
+    n = int(steps_per_period or cfg.solve.steps_per_period)
+    X = np.asarray(x, float).reshape(-1, 4)
+    if X.shape[0] == n + 1:
+        X = X[:n]
+    if X.shape[0] != n:
+        raise ValueError(f"{X.shape[0]} states for {n} steps per period")
     if not np.all(np.isfinite(X)):
         return invalid(cfg, "the cycle's states are not finite (no cycle to check)")
+    grid, p = _grid_and_p(cfg, n, p)
+    t = float(t0_s) + grid.h * np.arange(n)
     # the data at the step starts t0 + k h are the first columns of the stage blocks (no second
     # evaluation of the wing on the time grid)
-    hit = _ANGLE_MAPS.get((n, m.ode.nd))
+    D = grid.blocks_numeric(float(t0_s), p)
+    nd = grid.ode.nd
+    hit = _ANGLE_MAPS.get((n, nd))
     if hit is None:
-        hit = effective_angles(m.ode.nd).map(n)
-        _ANGLE_MAPS.put((n, m.ode.nd), hit)
-    ae, ag, ds = (np.asarray(v) for v in hit(ca.DM(X.T), D[:, 0::3], pd))
+        hit = effective_angles(nd).map(n)
+        _ANGLE_MAPS.put((n, nd), hit)
+    ae, ag, ds = (np.asarray(v) for v in hit(ca.DM(X.T), D[:, 0::3], ca.DM(p)))
     return _verdict(cfg, t, X, np.degrees(ae), np.degrees(ag), ds)
 
 

@@ -320,8 +320,19 @@ def format_trim_table(r: dict) -> str:
     return "\n".join(lines)
 
 
-def power_figure(arrays, run_dir: Path) -> None:
-    """power.png (power over the wingbeat) in the run folder, when the power outputs exist."""
+def add_plot_flag(p) -> None:
+    """``--plot``: draw the cycle's figures in the run folder too (the command draws none by default,
+    so that it imports no plotting library; ``birdocp plot RUN_DIR`` draws them later)."""
+    p.add_argument("--plot", action="store_true",
+                   help="also draw power.png (power over the wingbeat) in the run folder; without it "
+                        "`birdocp plot RUN_DIR` draws the figures later")
+
+
+def power_figure(arrays, run_dir: Path, args=None) -> None:
+    """power.png (power over the wingbeat) in the run folder, when the power outputs exist and
+    ``args.plot`` (:func:`add_plot_flag`) asks for it."""
+    if args is not None and not getattr(args, "plot", False):
+        return
     if arrays and "power_t_s" in arrays:
         with stdout_to_stderr():
             from birdocp.plots.energetics import plot_power

@@ -6,7 +6,7 @@ import argparse
 import time
 
 from birdocp.bird.config import ConfigError
-from birdocp.cli.common import (AMPLITUDE_KEY, power_figure, EXIT_OK, config_message, finish_result, finite_values, fmt_num,
+from birdocp.cli.common import (add_plot_flag, AMPLITUDE_KEY, power_figure, EXIT_OK, config_message, finish_result, finite_values, fmt_num,
                                 format_trim_table, resolve_config, run_folder)
 from birdocp.cli.trim import solve_shortcuts
 
@@ -37,6 +37,7 @@ def register(sub, common) -> None:
     level_options(p, False)
     solve_shortcuts(p)
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-level-<id>/")
+    add_plot_flag(p)
     p.set_defaults(func=cmd_level)
 
 
@@ -93,8 +94,7 @@ def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
         result["target"] = kw.get("target", kw["climb_rate_mps"])
         finish_result(result, "level", t_start, run.dir)
         run.write(cfg, result, arrays)
-        if not args.json:  # --json stays free of matplotlib; `birdocp plot RUN_DIR` draws it later
-            power_figure(arrays, run.dir)
+        power_figure(arrays, run.dir, args)  # only with --plot: `birdocp plot RUN_DIR` draws it later
         table = format_trim_table(result).replace("trim:", "level:", 1)
         name = "amplitude A" if free == AMPLITUDE_KEY else free
         unit = " deg" if free.endswith("_deg") else " m" if free.endswith("_m") else ""

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from birdocp.cli.common import (EXIT_OK, finish_result, format_trim_table, power_figure, resolve_config,
+from birdocp.cli.common import (add_plot_flag, EXIT_OK, finish_result, format_trim_table, power_figure, resolve_config,
                                 run_folder)
 
 
@@ -27,6 +27,7 @@ def register(sub, common) -> None:
     p.add_argument("--compiled", action="store_true",
                    help="use the state RHS compiled to C (cached in $BIRDOCP_CACHE or ~/.cache/birdocp; "
                         "falls back to the interpreted path with a warning if compilation fails)")
+    add_plot_flag(p)
     p.set_defaults(func=cmd_trim)
 
 
@@ -50,8 +51,7 @@ def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
             arrays = res.arrays() if hasattr(res, "arrays") else None
         finish_result(result, "trim", t_start, run.dir)
         run.write(cfg, result, arrays)
-        if not args.json:  # --json stays free of matplotlib; `birdocp plot RUN_DIR` draws it later
-            power_figure(arrays, run.dir)
+        power_figure(arrays, run.dir, args)  # only with --plot: `birdocp plot RUN_DIR` draws it later
         run.output(result, format_trim_table(result))
         if not res.success:
             return run.fail("trim did not converge", res.status, last_residual(result), res.message)

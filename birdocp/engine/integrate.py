@@ -19,16 +19,31 @@ import functools
 import casadi as ca
 import numpy as np
 
+from birdocp.engine import datastore
+from birdocp.engine.cache import bounded_cache
 from birdocp.engine.problem import PeriodicODE
 
 __all__ = [
     "rk4_update",
     "rk4_step",
+    "accumulate",
+    "MAPACCUM_CHUNK",
     "stage_time_grid",
     "stage_block_index",
     "RK4Grid",
     "simulate",
+    "clear_stage_data",
 ]
+
+_STAGE_DATA = bounded_cache("engine.stage_data", 6)  # (id(data), N, t0, p) -> (data, stage blocks DM)
+_PRE_DATA = bounded_cache("engine.pre_data", 6)      # (id(pre), N, t0, pre values) -> (pre, pre grid DM)
+
+
+def clear_stage_data() -> None:
+    """Forget the memoised stage data of every grid (the next solve evaluates the data again; the
+    on-disk store of pre values is not touched)."""
+    _STAGE_DATA.clear()
+    _PRE_DATA.clear()
 
 
 def rk4_update(f, x, D3, h, *args):
@@ -65,6 +80,30 @@ def rk4_step(ode: PeriodicODE, outputs=()) -> ca.Function:
         qs.append(h / 6 * (g(x1, d0, p) + 2 * g(x2, dm, p) + 2 * g(x3, dm, p) + g(x4, d1, p)))
     q = ca.vertcat(*qs) if qs else ca.SX(0, 1)
     return ca.Function("rk4_step", [x, D3, p, h], [xn, q], ["x", "D3", "p", "h"], ["xn", "q"])
+
+
+MAPACCUM_CHUNK = 74
+"""Longest ``mapaccum`` built in one piece. CasADi's ``mapaccum`` of the bird's RK4 step took 0.16 s to
+build at 148 steps against 0.01 s at 37 or 74 (measured, CasADi 3.8.2); longer runs are chained chunks,
+the same steps in the same order (results bit-identical)."""
+
+
+def accumulate(f: ca.Function, n: int, x, D, *args, name: str = "acc") -> list:
+    """``f.mapaccum(n)(x, D, *args)`` for a step ``f(x, D3, *args) -> (x_next, ...)``: n steps, the
+    state fed back, D holding 3 data columns per step, ``args`` the same at every step. Returns the
+    outputs hstacked over the n steps (as ``mapaccum``), built in chunks of at most
+    :data:`MAPACCUM_CHUNK` steps."""
+    n = int(n)
+    k = max(d for d in range(1, min(n, MAPACCUM_CHUNK) + 1) if n % d == 0)
+    if k == n or k < 8:  # short, or no useful divisor (e.g. a prime count of steps): one piece
+        return f.mapaccum(name, n).call([x, D, *args])
+    acc = f.mapaccum(name, k)
+    parts, xi = [], x
+    for c in range(n // k):
+        out = acc.call([xi, D[:, 3 * k * c:3 * k * (c + 1)], *args])
+        parts.append(out)
+        xi = out[0][:, -1]
+    return [ca.horzcat(*[o[i] for o in parts]) for i in range(len(parts[0]))]
 
 
 def stage_time_grid(t0: float, period_s: float, n_steps: int) -> np.ndarray:
@@ -111,43 +150,55 @@ class RK4Grid:
         self.n = self.N // self.S
         self.h = ode.period_s / self.N
         self.nq = sum(int(g.numel_out(0)) for g in outputs)  # an output may be a column
-        nx, nd, np_ = ode.nx, ode.nd, ode.np
-        step = rk4_step(ode, outputs)
-        self.step = step
-        h = self.h
-
-        self.data_grid = ode.data.map(2 * self.N + 1)
-        self._memo: dict = {}
-        self._pre_memo = (None, None)
+        self._outputs = tuple(outputs)
         self._pre_grid = self._post_grid = None
         self.block_index = stage_block_index(self.N)
 
-        acc = step.mapaccum("acc", self.n)
+    # -- the time-stepping Functions (built on first use: a grid used for its data builds none) ----
+    @functools.cached_property
+    def step(self) -> ca.Function:
+        """One RK4 step with the output increments (:func:`rk4_step`)."""
+        return rk4_step(self.ode, self._outputs)
+
+    @functools.cached_property
+    def segment(self) -> ca.Function:
+        """(x, Dseg, p) -> (x_end, X, q): one segment of n steps (``step.mapaccum``)."""
+        nx, nd, np_ = self.ode.nx, self.ode.nd, self.ode.np
         x = ca.MX.sym("x", nx)
         Dn = ca.MX.sym("D", nd, 3 * self.n)
         p = ca.MX.sym("p", np_)
-        X, Q = acc(x, Dn, p, h)
+        X, Q = accumulate(self.step, self.n, x, Dn, p, self.h)
         q = ca.sum2(Q) if self.nq else ca.MX(0, 1)
-        self.segment = ca.Function("segment", [x, Dn, p], [X[:, -1], X, q], ["x", "D", "p"],
-                                   ["x_end", "X", "q"])
+        return ca.Function("segment", [x, Dn, p], [X[:, -1], X, q], ["x", "D", "p"], ["x_end", "X", "q"])
 
+    @functools.cached_property
+    def segments(self) -> ca.Function:
+        """(X[nx x S], D, p) -> (X_end, Xtraj, Q): the S segments, mapped."""
+        nx, nd, np_ = self.ode.nx, self.ode.nd, self.ode.np
         segs = self.segment.map(self.S)
         Xs = ca.MX.sym("X", nx, self.S)
         D = ca.MX.sym("D", nd, 3 * self.N)
+        p = ca.MX.sym("p", np_)
         Xe, Xt, Q = segs(Xs, D, p)
-        self.segments = ca.Function("segments", [Xs, D, p], [Xe, Xt, Q], ["X", "D", "p"], ["X_end", "Xtraj", "Q"])
+        return ca.Function("segments", [Xs, D, p], [Xe, Xt, Q], ["X", "D", "p"], ["X_end", "Xtraj", "Q"])
 
+    @functools.cached_property
+    def period_map(self) -> ca.Function:
+        """(x0, D, p) -> (x_T, X[nx x N], q): the one-period map (the segments one after the other)."""
+        nx, nd, np_ = self.ode.nx, self.ode.nd, self.ode.np
+        x = ca.MX.sym("x", nx)
+        D = ca.MX.sym("D", nd, 3 * self.N)
+        p = ca.MX.sym("p", np_)
         if self.S == 1:
-            self.period_map = ca.Function("period_map", [x, D, p], self.segment(x, D, p), ["x", "D", "p"],
-                                          ["x_end", "X", "q"])
-        else:
-            xi, Xparts, qs = x, [], []
-            for i in range(self.S):
-                xi, Xi, qi = self.segment(xi, D[:, 3 * self.n * i:3 * self.n * (i + 1)], p)
-                Xparts.append(Xi)
-                qs.append(qi)
-            self.period_map = ca.Function("period_map", [x, D, p], [xi, ca.horzcat(*Xparts), sum(qs[1:], qs[0])],
-                                          ["x", "D", "p"], ["x_end", "X", "q"])
+            return ca.Function("period_map", [x, D, p], self.segment(x, D, p), ["x", "D", "p"],
+                               ["x_end", "X", "q"])
+        xi, Xparts, qs = x, [], []
+        for i in range(self.S):
+            xi, Xi, qi = self.segment(xi, D[:, 3 * self.n * i:3 * self.n * (i + 1)], p)
+            Xparts.append(Xi)
+            qs.append(qi)
+        return ca.Function("period_map", [x, D, p], [xi, ca.horzcat(*Xparts), sum(qs[1:], qs[0])],
+                           ["x", "D", "p"], ["x_end", "X", "q"])
 
     # -- lazily built Jacobian Functions (built on first use, then kept) ------------------------
     def _symbols(self, nx_cols: int, d_cols: int):
@@ -170,7 +221,7 @@ class RK4Grid:
             var = None
         if var is not None:
             s0 = ca.vertcat(x, ca.vec(ca.DM.eye(nx)), ca.DM.zeros(nq), ca.DM.zeros(nq * nx))
-            S = var.mapaccum("var_acc", self.n)(s0, Dn, p)[:, -1]
+            S = accumulate(var, self.n, s0, Dn, p, name="var_acc")[0][:, -1]
             k = nx + nx * nx
             outs = [S[:nx], S[k:k + nq], ca.reshape(S[nx:k], nx, nx), ca.reshape(S[k + nq:], nq, nx)]
         else:
@@ -265,40 +316,77 @@ class RK4Grid:
     def times(self, t0: float) -> np.ndarray:
         return stage_time_grid(t0, self.ode.period_s, self.N)
 
+    @functools.cached_property
+    def data_grid(self) -> ca.Function:
+        """``data.map(2N+1)``: (times[1 x 2N+1], p) -> the data grid nd x (2N+1) (built on first use)."""
+        return self.ode.data.map(2 * self.N + 1)
+
+    @functools.cached_property
+    def _blocks_of_data(self) -> ca.Function:
+        # the stage blocks of a data grid, sliced inside a Function (slicing the DM in Python with a
+        # list of 3N column indices cost ~13 ms on the bird's 1091 x 297 grid)
+        G = ca.MX.sym("G", self.ode.nd, 2 * self.N + 1)
+        return ca.Function("stage_blocks", [G], [G[:, self.block_index]])
+
+    @functools.cached_property
+    def _blocks_of_pre(self) -> ca.Function:
+        # post on the data grid and the stage blocks, one Function: (pre grid, times, p) -> blocks
+        ode = self.ode
+        L = ca.MX.sym("L", ode.pre.size1_out(0), 2 * self.N + 1)
+        tt = ca.MX.sym("t", 1, 2 * self.N + 1)
+        p = ca.MX.sym("p", ode.np)
+        return ca.Function("stage_blocks_post", [L, tt, p], [self.post_grid(L, tt, p)[:, self.block_index]])
+
     def blocks_numeric(self, t0: float, p) -> ca.DM:
         """Stage blocks (nd x 3N) evaluated numerically, as a DM (pass DMs, not numpy, to calls).
 
-        The last few results are memoised by (t0, p) (the data function may be expensive, and a
-        sweep or a re-solve often repeats the same gait)."""
+        Memoised by (the ODE's data Function, N, t0, p) in one process-wide bounded cache, so every grid
+        of the same data and step count (shooting, validity, power; an ODE with a compiled RHS and the
+        same data) shares the numbers of a gait instead of evaluating the data again."""
         p = np.asarray(p, float).ravel()
-        key = (float(t0), p.tobytes())
-        hit = self._memo.get(key)
-        if hit is not None:
-            return hit
-        times = ca.DM(self.times(t0))
+        key = (id(self.ode.data), self.N, float(t0), p.tobytes())
+        hit = _STAGE_DATA.get(key)
+        if hit is not None and hit[0] is self.ode.data:
+            return hit[1]
         ode = self.ode
         if ode.pre is not None:
             # data = post(pre(t, p), t, p): pre (the costly, non-smooth part) depends on a few
             # parameters only (for the bird not on the shoulder joints), so a sweep of the others
             # re-evaluates post alone
-            grid = self.post_grid(self.pre_numeric(t0, p), times, ca.DM(p))
+            out = self._blocks_of_pre(self.pre_numeric(t0, p), ca.DM(self.times(t0)), ca.DM(p))
         else:
-            grid = self.data_grid(times, ca.DM(p))
-        out = grid[:, self.block_index]  # sliced as a DM (a round trip through numpy costs 4x)
-        self._memo[key] = out
-        while len(self._memo) > 4:
-            self._memo.pop(next(iter(self._memo)))
+            out = self._blocks_of_data(self.data_grid(ca.DM(self.times(t0)), ca.DM(p)))
+        _STAGE_DATA.put(key, (ode.data, out))  # holding the Function keeps its id unique
         return out
 
     def pre_numeric(self, t0: float, p) -> ca.DM:
-        """pre(t, p) on the data grid (nl x (2N+1)), memoised by (t0, the pre parameters' values)."""
+        """pre(t, p) on the data grid (nl x (2N+1)), memoised by (pre, N, t0, the pre parameters'
+        values); with ``ode.pre_key`` also kept on disk for later processes
+        (:mod:`birdocp.engine.datastore`)."""
         p = np.asarray(p, float).ravel()
-        key = (float(t0), p[list(self.ode.pre_params)].tobytes())
-        if self._pre_memo[0] != key:
+        ode = self.ode
+        pre_values = p[list(ode.pre_params)]
+        key = (id(ode.pre), self.N, float(t0), pre_values.tobytes())
+        hit = _PRE_DATA.get(key)
+        if hit is not None and hit[0] is ode.pre:
+            return hit[1]
+        disk_key = None
+        out = None
+        if ode.pre_key:
+            disk_key = {"pre": ode.pre_key, "steps": self.N, "period_s": repr(float(ode.period_s)),
+                        "t0": repr(float(t0)), "pre_params": list(ode.pre_params),
+                        "values": [repr(float(v)) for v in pre_values]}
+            arr = datastore.load("pre-grid", disk_key)
+            if arr is not None and arr.shape == (ode.pre.size1_out(0), 2 * self.N + 1):
+                out = ca.DM(arr)
+        if out is None:
             if self._pre_grid is None:
-                self._pre_grid = self.ode.pre.map(2 * self.N + 1)
-            self._pre_memo = (key, self._pre_grid(ca.DM(self.times(t0)), ca.DM(p)))
-        return self._pre_memo[1]
+                self._pre_grid = ode.pre.map(2 * self.N + 1)
+            out = self._pre_grid(ca.DM(self.times(t0)), ca.DM(p))
+            if disk_key is not None:
+                datastore.store("pre-grid", disk_key, np.asarray(out))
+        _PRE_DATA.put(key, (ode.pre, out))
+        return out
 
     @property
     def post_grid(self) -> ca.Function:

@@ -60,6 +60,11 @@ class PeriodicODE(RhsDimensions):
         is in ``pre_params``, the engine evaluates ``pre`` numerically once per solve and keeps only
         ``post`` symbolic (e.g. the bird: the wing shape in the arm's frame is numeric, the
         shoulder rotation, merge and lifting-line matrices are symbolic in the amplitude).
+    pre_key
+        optional identifier of the ``pre`` graph (e.g. a hash of the code that built it). When set,
+        pre's values on a stage-time grid are kept on disk (:mod:`birdocp.engine.datastore`, in the
+        graph-cache folder) and read back by later processes instead of evaluating ``pre`` again;
+        two ODEs with the same ``pre_key`` must have the same ``pre``.
 
     Equality is identity (``eq=False``): the engine caches CasADi graphs per ODE object.
     """
@@ -72,6 +77,7 @@ class PeriodicODE(RhsDimensions):
     pre: ca.Function | None = None
     post: ca.Function | None = None
     pre_params: tuple[int, ...] = ()
+    pre_key: str = ""
 
     def __post_init__(self):
         _check_function(self.rhs, "PeriodicODE.rhs", 3)

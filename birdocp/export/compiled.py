@@ -145,7 +145,8 @@ def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None =
         ext = compiled_rhs(ode.rhs, key_extra, directory)
         # pre/post kept: a sweep in parameters that pre does not read re-evaluates post only
         out = PeriodicODE(rhs=ext, data=ode.data, period_s=ode.period_s, state_names=ode.state_names,
-                          param_names=ode.param_names, pre=ode.pre, post=ode.post, pre_params=ode.pre_params)
+                          param_names=ode.param_names, pre=ode.pre, post=ode.post, pre_params=ode.pre_params,
+                          pre_key=ode.pre_key)
     except Exception as e:  # never fail the solve because of the compiler
         warnings.warn(f"birdocp: compiled RHS unavailable, using the interpreted CasADi path ({e})",
                       CompiledFallbackWarning, stacklevel=2)

@@ -18,7 +18,7 @@ import numpy as np
 from birdocp.bird.config import PARAM_NAMES, Config
 from birdocp.bird.flight import flight_outputs, flight_path_angle_deg
 from birdocp.bird.model import get_model
-from birdocp.bird.validity import CycleValidity, cycle_validity
+from birdocp.bird.validity import CycleValidity, cycle_validity, grid_validity
 from birdocp.engine.problem import LimitCycleProblem
 from birdocp.engine.results import finite_or_none, result_dict
 from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
@@ -51,12 +51,17 @@ class TrimResult:
 
     @property
     def validity(self) -> "CycleValidity":
-        """Where the model holds on this cycle (:func:`birdocp.bird.validity.cycle_validity` on the
-        trajectory; computed on first use, thresholds from ``cfg.validity``)."""
+        """Where the model holds on this cycle (:func:`birdocp.bird.validity.grid_validity` on the
+        trajectory at the solver's step times, with the solve's stage data; computed on first use,
+        thresholds from ``cfg.validity``)."""
         v = self.__dict__.get("_validity")
         if v is None:
             c = self.cycle
-            v = cycle_validity(self.cfg, c.trajectory_t, c.trajectory_x, c.p)
+            n = int(c.method["steps_per_period"])
+            if np.shape(c.trajectory_x)[0] == n + 1:
+                v = grid_validity(self.cfg, c.trajectory_x, c.p, float(c.trajectory_t[0]), n)
+            else:
+                v = cycle_validity(self.cfg, c.trajectory_t, c.trajectory_x, c.p)
             self.__dict__["_validity"] = v
         return v
 
