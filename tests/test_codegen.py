@@ -86,6 +86,39 @@ def test_compiled_trim_same_multipliers(tmp_path, monkeypatch):
     assert np.max(np.abs(b2.multipliers - b.multipliers)) < 1e-10
 
 
+@pytest.mark.slow
+@needs_cc
+def test_compiled_level_bit_identical(tmp_path, monkeypatch, coarse, default_model):
+    """Level flight (the amplitude free: post and its amplitude derivative evaluated on the stage grid
+    at every iterate) with the compiled RHS and data gives the interpreted numbers bit for bit, and a
+    second process finds the libraries by the graph key alone."""
+    from birdocp.engine.integrate import clear_stage_data
+    from birdocp.export import compiled
+    from birdocp.studies.level import level
+
+    monkeypatch.setenv("BIRDOCP_CACHE", str(tmp_path / "cache"))
+    compiled._ODES.clear()
+    clear_stage_data()
+    a = level(**coarse)
+    clear_stage_data()  # the compiled solve evaluates the data itself
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", CompiledFallbackWarning)
+        b = level(compiled=True, **coarse)
+    assert a.success and b.success
+    names = {f.name.split("-")[0] for f in (tmp_path / "cache").glob("birdocp_*.so")}
+    assert {"birdocp_rhs", f"birdocp_{default_model.ode.post.name()}", "birdocp_post_dpf"} <= names
+    assert np.array_equal(a.multipliers, b.multipliers)
+    assert a.amplitude_deg == b.amplitude_deg
+    assert np.array_equal(a.x0, b.x0)
+    compiled._ODES.clear()
+    compiled._NUMERIC.clear()
+    clear_stage_data()
+    c = level(compiled=True, **coarse)
+    assert compiled.last_compile_s["birdocp_post_dpf"] == {"generate": 0.0, "compile": 0.0, "cached": True,
+                                                           "path": compiled.last_compile_s["birdocp_post_dpf"]["path"]}
+    assert np.array_equal(c.multipliers, b.multipliers)
+
+
 def test_compile_failure_falls_back_with_warning(tmp_path, monkeypatch):
     from birdocp.engine.problem import PeriodicODE
 

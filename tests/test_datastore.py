@@ -65,8 +65,8 @@ def test_pre_grid_from_disk_equals_computed(store_dir, default_model):
     """A new process (simulated: memo cleared) reads pre's grid from disk: the same doubles, and
     the stage blocks built from them equal the plain data grid sliced into blocks."""
     m = default_model
-    if not m.ode.pre_key:
-        pytest.skip("graph cache disabled: no pre_key")
+    if not m.ode.graph_key:
+        pytest.skip("graph cache disabled: no graph_key")
     grid = RK4Grid(m.ode, 148, 4)
     clear_stage_data()
     computed = np.asarray(grid.pre_numeric(0.0, m.p0))

@@ -484,7 +484,7 @@ class BirdModel:
         self.ode = PeriodicODE(rhs=self.rhs, data=data_mx, period_s=self.period_s,
                                state_names=STATE_NAMES, param_names=PARAM_NAMES,
                                pre=self.pre, post=self.post, pre_params=self.pre_params,
-                               pre_key=graphcache.key_digest(key) if use_cache else "")
+                               graph_key=graphcache.key_digest(key) if use_cache else "")
         self.graph_s = time.perf_counter() - t0
 
     def _function(self, name: str) -> ca.Function | None:

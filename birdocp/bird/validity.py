@@ -222,11 +222,12 @@ def _verdict(cfg: Config, t, X, ae_deg, ag_deg, ds) -> CycleValidity:
     return CycleValidity(not reasons, reasons, m, th)
 
 
-def periodic_validity(cfg: Config, x0, p=None, t0_s: float = 0.0, steps_per_period: int | None = None
-                      ) -> CycleValidity:
+def periodic_validity(cfg: Config, x0, p=None, t0_s: float = 0.0, steps_per_period: int | None = None,
+                      ode=None) -> CycleValidity:
     """Validity of the periodic orbit through ``x0`` at ``t0_s``: one RK4 period from it (the same
     grid as the solver, ``cfg.solve.steps_per_period`` by default), then :func:`grid_validity`.
-    For cycles stored without their trajectory (branch points, results on disk)."""
+    For cycles stored without their trajectory (branch points, results on disk). ``ode``: the
+    model's ODE (default) or an equivalent one (e.g. with compiled Functions) to integrate with."""
     import casadi as ca
     import numpy as np
 
@@ -235,37 +236,39 @@ def periodic_validity(cfg: Config, x0, p=None, t0_s: float = 0.0, steps_per_peri
     if not np.all(np.isfinite(x0)):
         return invalid(cfg, "the cycle's states are not finite (no cycle to check)")
     n = int(steps_per_period or cfg.solve.steps_per_period)
-    grid, p = _grid_and_p(cfg, n, p)
+    grid, p = _grid_and_p(cfg, n, p, ode)
     D = grid.blocks_numeric(float(t0_s), p)
     X = np.asarray(grid.period_map(ca.DM(x0), D, ca.DM(p))[1]).T   # states after each step
     X = np.vstack([x0[None, :], X[:-1]])                            # x(t0 + k h), k = 0..n-1
-    return grid_validity(cfg, X, p, t0_s, n)
+    return grid_validity(cfg, X, p, t0_s, n, ode)
 
 
-def _grid_and_p(cfg: Config, n: int, p):
+def _grid_and_p(cfg: Config, n: int, p, ode=None):
     import numpy as np
 
     from birdocp.bird.model import get_model
     from birdocp.engine.integrate import RK4Grid
 
     m = get_model(cfg)
+    ode = m.ode if ode is None else ode
     p = m.p0 if p is None else np.asarray(p, float).ravel()
-    key = (id(m.ode), n)
+    key = (id(ode), n)
     hit = _GRIDS.get(key)
-    if hit is None or hit[0] is not m.ode:
-        hit = (m.ode, RK4Grid(m.ode, n, 1))  # holding the ode keeps its id unique
+    if hit is None or hit[0] is not ode:
+        hit = (ode, RK4Grid(ode, n, 1))  # holding the ode keeps its id unique
         _GRIDS.put(key, hit)
     return hit[1], p
 
 
-def grid_validity(cfg: Config, x, p=None, t0_s: float = 0.0, steps_per_period: int | None = None
-                  ) -> CycleValidity:
+def grid_validity(cfg: Config, x, p=None, t0_s: float = 0.0, steps_per_period: int | None = None,
+                  ode=None) -> CycleValidity:
     """Validity of a cycle given by its states at the RK4 step times ``t0_s + k T/N`` (k = 0..N-1,
     N = ``steps_per_period``; a closing state k = N is dropped), as a solver returns it.
 
     The same measures as :func:`cycle_validity`, with the data at those times taken from the stage
     data of the solver's grid (:meth:`birdocp.engine.integrate.RK4Grid.blocks_numeric`, memoised:
-    after a solve of the same gait the wing is not evaluated again)."""
+    after a solve of the same gait the wing is not evaluated again; ``ode`` as in
+    :func:`periodic_validity`)."""
     import casadi as ca
     import numpy as np
 
@@ -278,7 +281,7 @@ def grid_validity(cfg: Config, x, p=None, t0_s: float = 0.0, steps_per_period: i
         raise ValueError(f"{X.shape[0]} states for {n} steps per period")
     if not np.all(np.isfinite(X)):
         return invalid(cfg, "the cycle's states are not finite (no cycle to check)")
-    grid, p = _grid_and_p(cfg, n, p)
+    grid, p = _grid_and_p(cfg, n, p, ode)
     t = float(t0_s) + grid.h * np.arange(n)
     # the data at the step starts t0 + k h are the first columns of the stage blocks (no second
     # evaluation of the wing on the time grid)

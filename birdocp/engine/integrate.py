@@ -325,7 +325,8 @@ class RK4Grid:
         L = ca.MX.sym("L", ode.pre.size1_out(0), 2 * self.N + 1)
         tt = ca.MX.sym("t", 1, 2 * self.N + 1)
         p = ca.MX.sym("p", ode.np)
-        return ca.Function("stage_blocks_post", [L, tt, p], [self.post_grid(L, tt, p)[:, self.block_index]])
+        post = ode.fast(ode.post, "post").map(2 * self.N + 1)  # numbers only: a compiled post where available
+        return ca.Function("stage_blocks_post", [L, tt, p], [post(L, tt, p)[:, self.block_index]])
 
     def blocks_numeric(self, t0: float, p) -> ca.DM:
         """Stage blocks (nd x 3N) evaluated numerically, as a DM (pass DMs, not numpy, to calls).
@@ -351,7 +352,7 @@ class RK4Grid:
 
     def pre_numeric(self, t0: float, p) -> ca.DM:
         """pre(t, p) on the data grid (nl x (2N+1)), memoised by (pre, N, t0, the pre parameters'
-        values); with ``ode.pre_key`` also kept on disk for later processes
+        values); with ``ode.graph_key`` also kept on disk for later processes
         (:mod:`birdocp.engine.datastore`)."""
         p = np.asarray(p, float).ravel()
         ode = self.ode
@@ -362,8 +363,8 @@ class RK4Grid:
             return hit[1]
         disk_key = None
         out = None
-        if ode.pre_key:
-            disk_key = {"pre": ode.pre_key, "steps": self.N, "period_s": repr(float(ode.period_s)),
+        if ode.graph_key:
+            disk_key = {"pre": ode.graph_key, "steps": self.N, "period_s": repr(float(ode.period_s)),
                         "t0": repr(float(t0)), "pre_params": list(ode.pre_params),
                         "values": [repr(float(v)) for v in pre_values]}
             arr = datastore.load("pre-grid", disk_key)

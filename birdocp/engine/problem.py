@@ -60,11 +60,19 @@ class PeriodicODE(RhsDimensions):
         is in ``pre_params``, the engine evaluates ``pre`` numerically once per solve and keeps only
         ``post`` symbolic (e.g. the bird: the wing shape in the arm's frame is numeric, the
         shoulder rotation, merge and lifting-line matrices are symbolic in the amplitude).
-    pre_key
-        optional identifier of the ``pre`` graph (e.g. a hash of the code that built it). When set,
-        pre's values on a stage-time grid are kept on disk (:mod:`birdocp.engine.datastore`, in the
-        graph-cache folder) and read back by later processes instead of evaluating ``pre`` again;
-        two ODEs with the same ``pre_key`` must have the same ``pre``.
+    graph_key
+        optional identifier of the ODE's graphs (``rhs``, ``data``, ``pre``, ``post``; e.g. a hash of
+        the code that built them and of every structural setting): two ODEs with the same key must
+        have the same graphs. When set, pre's values on a stage-time grid are kept on disk
+        (:mod:`birdocp.engine.datastore`, in the graph-cache folder) and read back by later processes
+        instead of evaluating ``pre`` again, and compiled twins of the Functions are found in the
+        cache by it.
+    numeric
+        optional ``(Function, key) -> Function``: given a Function the engine builds from ``post`` (or
+        ``data``) only to evaluate numbers, never to differentiate (post mapped on the stage grid,
+        post with its directional derivatives along free parameters), returns an equivalent one that
+        evaluates faster, e.g. compiled C (:func:`birdocp.export.compiled.compiled_ode`). None: the
+        Function itself. It must return the same numbers (CasADi's generated C does, bit for bit).
 
     Equality is identity (``eq=False``): the engine caches CasADi graphs per ODE object.
     """
@@ -77,7 +85,8 @@ class PeriodicODE(RhsDimensions):
     pre: ca.Function | None = None
     post: ca.Function | None = None
     pre_params: tuple[int, ...] = ()
-    pre_key: str = ""
+    graph_key: str = ""
+    numeric: object = None
 
     def __post_init__(self):
         _check_function(self.rhs, "PeriodicODE.rhs", 3)
@@ -104,6 +113,14 @@ class PeriodicODE(RhsDimensions):
                 raise ValueError("PeriodicODE.post: takes pre's output and returns the data vector")
         if self.param_names and len(self.param_names) != np_:
             raise ValueError(f"PeriodicODE.param_names: {len(self.param_names)} names for np={np_} parameters")
+
+    def fast(self, f: ca.Function, what: str) -> ca.Function:
+        """``numeric(f, key)`` when set (a faster Function for numbers only), else ``f``. ``what`` names
+        how the engine built ``f`` from this ODE's Functions (e.g. ``"post"``, ``"post_dpf 3,40"``);
+        with ``graph_key`` set, ``key`` = graph_key + what identifies ``f``'s graph (else "")."""
+        if self.numeric is None:
+            return f
+        return self.numeric(f, f"{self.graph_key}:{what}" if self.graph_key else "")
 
     @property
     def nd(self) -> int:

@@ -289,10 +289,11 @@ class ShootingGraphs(Evaluator):
                 dsym = ca.MX.sym("data", 1 + nl, K)
                 ts_, ls_, ps_ = ca.SX.sym("t"), ca.SX.sym("local", nl), ca.SX.sym("p", np_)
                 d_ = ode.post(ls_, ts_, ps_)
-                dfw = ca.Function("post_dpf", [ts_, ls_, ps_], [d_, ca.jtimes(d_, ps_, seed_p)])
+                dfw = ode.fast(ca.Function("post_dpf", [ts_, ls_, ps_], [d_, ca.jtimes(d_, ps_, seed_p)]),
+                               "post_dpf " + ",".join(str(j) for j in free_idx))
                 Dg, dDt = dfw.map(K)(dsym[0, :], dsym[1:, :], pfull)
                 dDg = ca.horzcat(*[dDt[:, list(range(k, K * nf, nf))] for k in range(nf)])
-                D_plain = grid.post_grid(dsym[1:, :], dsym[0, :], pfull)[:, grid.block_index]
+                D_plain = ode.fast(ode.post, "post").map(K)(dsym[1:, :], dsym[0, :], pfull)[:, grid.block_index]
             elif ode.data.is_a("SXFunction") or ode.pre is not None:
                 # data and its derivative along the free parameters as one SX Function (shared
                 # subexpressions; constant seeds prune the parts that do not depend on them):

@@ -15,7 +15,7 @@ from birdocp.bird.model import get_model
 from birdocp.engine.continuation import Branch, continuation
 from birdocp.engine.problem import LimitCycleProblem, MeanCondition
 from birdocp.studies.level import default_bounds
-from birdocp.studies.trim import TrimResult
+from birdocp.studies.trim import TrimResult, solver_ode
 
 __all__ = ["STABILITY_MARGIN", "PARAM_ALIASES", "resolve_parameter", "sm_percent", "root_of_sm", "bird_branch"]
 
@@ -46,7 +46,7 @@ def root_of_sm(sm_pct: float, chord_m: float) -> float:
 def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, stop_value: float = 0.035, *,
                 level: bool = False, climb_rate_mps: float = 0.0, bounds=None, points: int | None = None,
                 steps_per_period: int | None = None, start=None, progress=None, validity: bool = True,
-                **options) -> Branch:
+                compiled: bool | None = None, **options) -> Branch:
     """Continue the bird's periodic flight in one parameter (model units; for ``stability_margin`` the
     values are SM in percent). ``level=True`` holds level flight: the flapping amplitude is an unknown
     too, with the mean vertical speed held at ``climb_rate_mps`` (amplitude bounds: ``bounds`` or the
@@ -57,7 +57,8 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
     point is added to ``settings['stability_margin_percent']`` when ``key`` is ``stability_margin``.
     A point whose shooting points have u <= 0 is rejected (not a forward flight). With ``validity``
     every point gets ``validity`` (:func:`birdocp.bird.validity.periodic_validity`: one RK4 period
-    from its x0 with its parameters, about 0.25 s per point)."""
+    from its x0 with its parameters). ``compiled``: the RHS and data compiled to C
+    (:func:`birdocp.studies.trim.solver_ode`; None: ``$BIRDOCP_COMPILED``)."""
     cfg = cfg or Config()
     model_key, display = resolve_parameter(key)
     chord = cfg.body.reference_chord_m
@@ -72,16 +73,17 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
     points = int(points or cfg.solve.points)
     steps = int(steps_per_period or cfg.solve.steps_per_period)
     guess = np.asarray(cfg.solve.initial_guess, float)
+    ode = solver_ode(m, compiled)
     if level:
         if model_key == AMPLITUDE_KEY:
             raise ValueError("with level flight held the amplitude is solved for: continue another parameter")
         lo, hi = bounds if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)
         outputs = flight_outputs(m.ode.nd)
         cond = MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")
-        prob = LimitCycleProblem(m.ode, m.p0, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
+        prob = LimitCycleProblem(ode, m.p0, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
                                  outputs={"forward_speed_mps": outputs["forward_speed_mps"]})
     else:
-        prob = LimitCycleProblem(m.ode, m.p0, guess, outputs=flight_outputs(m.ode.nd))
+        prob = LimitCycleProblem(ode, m.p0, guess, outputs=flight_outputs(m.ode.nd))
     ws = start.cycle if isinstance(start, TrimResult) else start
     options.setdefault("scales", {"states": 1.0, "free": 10.0})
 
@@ -96,20 +98,21 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
     if display == STABILITY_MARGIN:
         br.settings["stability_margin_percent"] = [sm_percent(p.parameter, chord) for p in br.points]
     if validity:
-        add_validity(cfg, br, steps)
+        add_validity(cfg, br, steps, ode)
     return br
 
 
-def add_validity(cfg, br: Branch, steps_per_period: int | None = None) -> Branch:
+def add_validity(cfg, br: Branch, steps_per_period: int | None = None, ode=None) -> Branch:
     """Fill ``validity`` (a dict, :meth:`birdocp.bird.validity.CycleValidity.to_dict`) of every point of
-    ``br`` that has none: one RK4 period from the point's x0 with the point's parameter vector."""
+    ``br`` that has none: one RK4 period from the point's x0 with the point's parameter vector
+    (``ode``: the model's ODE or its compiled twin, :func:`birdocp.studies.trim.solver_ode`)."""
     from birdocp.bird.validity import periodic_validity
 
     n = int(steps_per_period or br.settings.get("steps_per_period") or cfg.solve.steps_per_period)
     for pt in br.points:
         if pt.validity is None:
             pt.validity = periodic_validity(cfg, pt.x0, np.asarray(pt.p, float) if len(pt.p) else None,
-                                            steps_per_period=n).to_dict()
+                                            steps_per_period=n, ode=ode).to_dict()
     return br
 
 

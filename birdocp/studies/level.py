@@ -90,7 +90,7 @@ def _condition(constrain: str, target: float, nd: int | None = None):
 
 def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, climb_rate_mps: float = 0.0,
           constrain: str = "vertical_speed_mps", x_guess=None, warm_start=None, *, target: float | None = None,
-          **method_over) -> "TrimResult":
+          compiled: bool | None = None, **method_over) -> "TrimResult":
     """Level (or climbing) periodic flight: ``free`` solved so that the mean of ``constrain`` is met.
 
     Parameters
@@ -109,6 +109,9 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
         path angle in deg); for the vertical speed it overrides ``climb_rate_mps``.
     warm_start
         a previous :class:`TrimResult` / LimitCycleResult (shooting points and free value).
+    compiled
+        use the RHS and data compiled to C (:func:`birdocp.studies.trim.solver_ode`; None:
+        ``$BIRDOCP_COMPILED``).
     method_over
         overrides of :class:`~birdocp.engine.shooting.MultipleShooting` (default ``cfg.solve``).
 
@@ -142,12 +145,12 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
     from birdocp.bird.model import get_model
     from birdocp.engine.problem import LimitCycleProblem
     from birdocp.engine.shooting import solve as _solve
-    from birdocp.studies.trim import TrimResult, method_of
+    from birdocp.studies.trim import TrimResult, method_of, solver_ode
 
     m = get_model(cfg)
     cond, outputs = _condition(c, target, m.ode.nd)
     guess = np.asarray(cfg.solve.initial_guess if x_guess is None else x_guess, float)
-    problem = LimitCycleProblem(ode=m.ode, p=m.p0, x_guess=guess, free={key: (lo, hi)}, means=[cond],
+    problem = LimitCycleProblem(ode=solver_ode(m, compiled), p=m.p0, x_guess=guess, free={key: (lo, hi)}, means=[cond],
                                 outputs=outputs)
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
     if ws is not None and not all(hasattr(ws, a) for a in ("p", "shooting_points", "x0")):

@@ -23,7 +23,31 @@ from birdocp.engine.problem import LimitCycleProblem
 from birdocp.engine.results import finite_or_none, result_dict
 from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
 
-__all__ = ["TrimResult", "trim", "method_of"]
+__all__ = ["TrimResult", "trim", "method_of", "solver_ode", "compiled_default"]
+
+_ON = ("1", "on", "yes", "true")
+
+
+def compiled_default() -> bool:
+    """True when ``$BIRDOCP_COMPILED`` is ``1``/``on``/``yes``/``true``: solves that are not told
+    otherwise use the compiled RHS and data (:func:`solver_ode`; the same numbers, faster)."""
+    import os
+
+    return os.environ.get("BIRDOCP_COMPILED", "").strip().lower() in _ON
+
+
+def solver_ode(m, compiled: bool | None = None):
+    """The ODE the engine solves for the configured model ``m``: ``m.ode``, or with ``compiled`` (None:
+    :func:`compiled_default`) its twin whose RHS and numeric data Functions are compiled C
+    (:func:`birdocp.export.compiled.compiled_ode`, cached; bit-identical numbers). Falls back to
+    ``m.ode`` with a warning on stderr if compiling fails."""
+    if compiled is None:
+        compiled = compiled_default()
+    if not compiled:
+        return m.ode
+    from birdocp.export.compiled import compiled_ode
+
+    return compiled_ode(m.ode, key_extra=repr(m.structure)) or m.ode
 
 
 def method_of(cfg: Config, **over) -> MultipleShooting:
@@ -219,23 +243,19 @@ class TrimResult:
 
 
 def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: MultipleShooting | None = None,
-         compiled: bool = False, **method_over) -> TrimResult:
+         compiled: bool | None = None, **method_over) -> TrimResult:
     """Trimmed flight of ``cfg`` (default: the paper's reference case).
 
     ``x_guess``: state (u, w, q, theta) at t = 0 (default ``cfg.solve.initial_guess``);
     ``warm_start``: a previous :class:`TrimResult` whose cycle starts the solve; ``method`` or keyword
     overrides of :class:`~birdocp.engine.shooting.MultipleShooting` (default from ``cfg.solve``);
-    ``compiled``: use the state RHS compiled to C (:mod:`birdocp.export.compiled`, cached; falls back to the
-    interpreted path with a warning on stderr if compilation fails).
+    ``compiled``: use the state RHS and data compiled to C (:func:`solver_ode`; None: ``$BIRDOCP_COMPILED``;
+    cached; falls back to the interpreted path with a warning on stderr if compilation fails).
     """
     cfg = cfg or Config()
     m = get_model(cfg)
     guess = np.asarray(cfg.solve.initial_guess if x_guess is None else x_guess, float)
-    ode = m.ode
-    if compiled:
-        from birdocp.export.compiled import compiled_ode
-        ode = compiled_ode(m.ode, key_extra=repr(m.structure)) or m.ode
-    problem = LimitCycleProblem(ode=ode, p=m.p0, x_guess=guess, outputs=flight_outputs(m.ode.nd))
+    problem = LimitCycleProblem(ode=solver_ode(m, compiled), p=m.p0, x_guess=guess, outputs=flight_outputs(m.ode.nd))
     method = method or method_of(cfg, **method_over)
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
     return TrimResult(check_physical(solve(problem, method, warm_start=ws)), cfg)
