@@ -16,7 +16,8 @@ Rows (targets from issue 7; 2-core machine; medians of ``--repeats`` runs unless
 Issue 20 rows (ratios measured in the same run, interleaved repeat by repeat):
 
 * the floor ``python -c "import casadi, numpy"``; ``birdocp trim`` whole process with an **empty**
-  graph cache (build + store), a **warm** one (load), and the cache disabled (``BIRDOCP_GRAPH_CACHE=0``);
+  graph cache (build + store), a **warm** one (load; also ``--compiled`` with its libraries built), and
+  the cache disabled (``BIRDOCP_GRAPH_CACHE=0``);
   target: warm <= 3 x the floor;
 * the breakdown of one trim process (imports, graph load/build, shooting graphs, data, solve,
   Floquet, writing the run folder), with an empty and a warm cache;
@@ -25,8 +26,10 @@ Issue 20 rows (ratios measured in the same run, interleaved repeat by repeat):
   ``--jobs 2``; target >= 5 trims per second per core, compiled;
 * the paper reproduction (``experiment1.py --skip-studies``, ``experiment2.py``,
   ``experiment3.py --jobs 2``) into a temporary folder, its result JSONs compared with the committed
-  ones (every number outside timings to 1e-9); with ``--baseline DIR`` the same scripts of another
-  checkout (``PYTHONPATH=DIR``, e.g. /work/main) in the same run: target <= half its time.
+  ones (every number outside timings to 1e-9), once interpreted and once with ``BIRDOCP_COMPILED=1``
+  (the RHS and data compiled to C; libraries built before, untimed); with ``--baseline DIR`` the
+  same scripts of another checkout (``PYTHONPATH=DIR``; the issue's "today" is the tree before issue
+  20's work, ``git worktree add /tmp/base af27cc1``) in the same run: target <= half its time.
 
 ``--readme`` rewrites the table between the ``benchmark-table`` markers of README.md from the JSON.
 
@@ -184,17 +187,21 @@ T2 = time.perf_counter()
 cfg = Config()
 m = get_model(cfg)
 T3 = time.perf_counter()
-res = trim(cfg)
+res = trim(cfg, compiled=len(sys.argv) > 2 and sys.argv[2] == "compiled")
 T4 = time.perf_counter()
+res.energetics  # as the command line: power outputs and validity in result.json
+res.validity
+T5 = time.perf_counter()
 run = new_run_dir(sys.argv[1], "trim")
 write_run(run, cfg, res.to_dict(), res.arrays(), ["trim"], command="trim")
-T5 = time.perf_counter()
+T6 = time.perf_counter()
 w = res.wall_s
 print(json.dumps({"import_casadi_numpy_s": T1 - T0, "import_birdocp_s": T2 - T1,
                   "model_graphs_s": T3 - T2, "graph_source": m.model.graph_source,
                   "shooting_graphs_s": w["build"], "data_s": w["data"], "solve_s": w["solve"],
                   "floquet_s": w["floquet"], "trim_other_s": (T4 - T3) - w["build"] - w["data"] - w["solve"] - w["floquet"],
-                  "writing_s": T5 - T4, "in_process_total_s": T5 - T0, "success": bool(res.success)}))
+                  "power_validity_s": T5 - T4, "writing_s": T6 - T5, "in_process_total_s": T6 - T0,
+                  "success": bool(res.success)}))
 """
 
 
@@ -222,10 +229,11 @@ def cold_start(repeats: int, tmp: Path) -> dict:
     py = sys.executable
     warm = tmp / "cache-warm"
     rows: dict = {k: [] for k in ("python_startup", "import_casadi_numpy", "trim_empty_cache", "trim_warm_cache",
-                                  "trim_cache_disabled")}
-    brk: dict = {"empty": [], "warm": []}
-    # fill the warm cache once (compiled libraries are not involved)
+                                  "trim_warm_cache_compiled", "trim_cache_disabled")}
+    brk: dict = {"empty": [], "warm": [], "warm_compiled": []}
+    # fill the warm cache once: graphs, pre's stage data, and the compiled libraries (built here, untimed)
     run_child([py, "-m", "birdocp", "trim", "--out", str(tmp / "fill")], env=_env(BIRDOCP_CACHE=warm))
+    run_child([py, "-m", "birdocp", "trim", "--compiled", "--out", str(tmp / "fill-c")], env=_env(BIRDOCP_CACHE=warm))
     for k in range(repeats):
         rows["python_startup"].append(run_child([py, "-c", "pass"])[0])
         rows["import_casadi_numpy"].append(run_child([py, "-c", "import casadi, numpy"])[0])
@@ -234,17 +242,21 @@ def cold_start(repeats: int, tmp: Path) -> dict:
                                                   env=_env(BIRDOCP_CACHE=empty))[0])
         rows["trim_warm_cache"].append(run_child([py, "-m", "birdocp", "trim", "--out", str(tmp / f"tw{k}")],
                                                  env=_env(BIRDOCP_CACHE=warm))[0])
+        rows["trim_warm_cache_compiled"].append(run_child([py, "-m", "birdocp", "trim", "--compiled", "--out",
+                                                           str(tmp / f"twc{k}")], env=_env(BIRDOCP_CACHE=warm))[0])
         rows["trim_cache_disabled"].append(run_child([py, "-m", "birdocp", "trim", "--out", str(tmp / f"td{k}")],
                                                      env=_env(BIRDOCP_CACHE=warm, BIRDOCP_GRAPH_CACHE=0))[0])
         brk["empty"].append(_child_json([py, "-c", _BREAKDOWN, str(tmp / "runs")],
                                         _env(BIRDOCP_CACHE=tmp / f"cache-brk-{k}")))
         brk["warm"].append(_child_json([py, "-c", _BREAKDOWN, str(tmp / "runs")], _env(BIRDOCP_CACHE=warm)))
+        brk["warm_compiled"].append(_child_json([py, "-c", _BREAKDOWN, str(tmp / "runs"), "compiled"],
+                                                _env(BIRDOCP_CACHE=warm)))
         shutil.rmtree(empty, ignore_errors=True)
         shutil.rmtree(tmp / f"cache-brk-{k}", ignore_errors=True)
     out = {k: {"median_s": float(np.median(v)), "runs_s": v} for k, v in rows.items()}
     floor = out["import_casadi_numpy"]["median_s"]
     # ratios per repeat (same moment of the machine's load), then their median
-    for k in ("trim_empty_cache", "trim_warm_cache", "trim_cache_disabled"):
+    for k in ("trim_empty_cache", "trim_warm_cache", "trim_warm_cache_compiled", "trim_cache_disabled"):
         out[k]["over_import_floor"] = float(np.median(np.array(rows[k]) / np.array(rows["import_casadi_numpy"])))
     out["breakdown"] = {c: {key: float(np.median([r[key] for r in runs])) for key in runs[0]
                             if isinstance(runs[0][key], float)} for c, runs in brk.items()}
@@ -375,11 +387,17 @@ def reproduction(tmp: Path, baseline: str | None, warm_cache: Path, repeats: int
     compared with the committed ones; with ``baseline`` the same scripts of that checkout, in turn."""
     py = sys.executable
     out: dict = {"scripts": {}, "compare": {}}
-    sides = [("this", str(ROOT), None)] + ([("baseline", str(Path(baseline).resolve()), baseline)] if baseline else [])
-    totals: dict = {name: [] for name, _, _ in sides}
+    sides = [("this", str(ROOT), None, None), ("this_compiled", str(ROOT), None, "1")]
+    if baseline:
+        sides.append(("baseline", str(Path(baseline).resolve()), baseline, None))
+    # the compiled libraries of the reproduction built once, untimed (warm cache)
+    for name, extra in REPRODUCTION:
+        run_child([py, str(ROOT / "scripts" / f"{name}.py"), *extra, "--out", str(tmp / "repro-fill" / name)],
+                  env=_env(BIRDOCP_CACHE=warm_cache, BIRDOCP_COMPILED="1"), cwd=str(ROOT))
+    totals: dict = {name: [] for name, _, _, _ in sides}
     for k in range(repeats):
-        for side, root, pypath in sides:
-            env = _env(BIRDOCP_CACHE=warm_cache, PYTHONPATH=pypath)
+        for side, root, pypath, comp in sides:
+            env = _env(BIRDOCP_CACHE=warm_cache, PYTHONPATH=pypath, BIRDOCP_COMPILED=comp)
             total = 0.0
             for name, extra in REPRODUCTION:
                 script = Path(root) / "scripts" / f"{name}.py"
@@ -392,21 +410,25 @@ def reproduction(tmp: Path, baseline: str | None, warm_cache: Path, repeats: int
             totals[side].append(total)
     out["total_s"] = {side: {"median_s": float(np.median(v)), "runs_s": v} for side, v in totals.items()}
     if baseline:
-        out["ratio_this_over_baseline"] = float(np.median(np.array(totals["this"]) / np.array(totals["baseline"])))
+        for side in ("this", "this_compiled"):
+            out[f"ratio_{side}_over_baseline"] = float(np.median(np.array(totals[side]) / np.array(totals["baseline"])))
     out["baseline"] = baseline
-    # results identical to the committed ones (this checkout's run, first repeat)
-    for name, _ in REPRODUCTION:
-        new_dir = tmp / "repro-this-0" / name
-        cmp = {}
-        for f in sorted((ROOT / "results" / name).glob("*.json")):
-            g = new_dir / f.name
-            if not g.exists():
-                cmp[f.name] = {"missing": True}
-                continue
-            cmp[f.name] = compare_json(json.loads(f.read_text()), json.loads(g.read_text()))
-        out["compare"][name] = cmp
-    out["identical_to_committed_1e-9"] = all(
-        not c.get("missing") and c["n_mismatches"] == 0 for d in out["compare"].values() for c in d.values())
+    # results identical to the committed ones (this checkout's runs, interpreted and compiled, first repeat)
+    for side in ("this", "this_compiled"):
+        compare = out["compare"] if side == "this" else out.setdefault("compare_compiled", {})
+        for name, _ in REPRODUCTION:
+            new_dir = tmp / f"repro-{side}-0" / name
+            cmp = {}
+            for f in sorted((ROOT / "results" / name).glob("*.json")):
+                g = new_dir / f.name
+                if not g.exists():
+                    cmp[f.name] = {"missing": True}
+                    continue
+                cmp[f.name] = compare_json(json.loads(f.read_text()), json.loads(g.read_text()))
+            compare[name] = cmp
+    for key, compare in (("identical_to_committed_1e-9", out["compare"]),
+                         ("compiled_identical_to_committed_1e-9", out["compare_compiled"])):
+        out[key] = all(not c.get("missing") and c["n_mismatches"] == 0 for d in compare.values() for c in d.values())
     return out
 
 
@@ -424,6 +446,11 @@ def readme_table(res: dict) -> str:
     w = cs["trim_warm_cache"]
     row("`birdocp trim`, whole process, warm graph cache", f"{w['median_s']:.2f} s (×{w['over_import_floor']:.1f} the floor)",
         "≤ 3 × the floor", w["over_import_floor"] <= 3.0)
+    if "trim_warm_cache_compiled" in cs:
+        c = cs["trim_warm_cache_compiled"]
+        row("`birdocp trim --compiled`, whole process, warm cache (libraries built)",
+            f"{c['median_s']:.2f} s (×{c['over_import_floor']:.1f} the floor)", "≤ 3 × the floor",
+            c["over_import_floor"] <= 3.0)
     e = cs["trim_empty_cache"]
     row("`birdocp trim`, whole process, empty graph cache (build + store)",
         f"{e['median_s']:.2f} s (×{e['over_import_floor']:.1f})")
@@ -457,18 +484,23 @@ def readme_table(res: dict) -> str:
         row("memory of a trim (peak resident)", f"{mem:.0f} MB", "≤ 1 GB", mem <= TARGETS["memory_trim_mb"])
     rp = res.get("reproduction")
     if rp:
-        t = rp["total_s"]["this"]["median_s"]
-        per = ", ".join(f"{np.median([x['wall_s'] for x in v]):.1f}" for v in rp["scripts"]["this"].values())
-        if "baseline" in rp["total_s"]:
-            b = rp["total_s"]["baseline"]["median_s"]
-            row("paper reproduction (Exp. 1 `--skip-studies`, 2, 3 `--jobs 2`)",
-                f"{t:.1f} s ({per}) vs {b:.1f} s before: ×{rp['ratio_this_over_baseline']:.2f}",
-                "≤ 0.5 × before", rp["ratio_this_over_baseline"] <= 0.5)
-        else:
-            row("paper reproduction (Exp. 1 `--skip-studies`, 2, 3 `--jobs 2`)", f"{t:.1f} s ({per})")
-        row("its result JSONs vs the committed ones (1e-9, timings aside)",
-            "identical" if rp["identical_to_committed_1e-9"] else "DIFFERENT", "identical",
-            rp["identical_to_committed_1e-9"])
+        for side, label in (("this", ""), ("this_compiled", ", `BIRDOCP_COMPILED=1`")):
+            if side not in rp["total_s"]:
+                continue
+            t = rp["total_s"][side]["median_s"]
+            per = ", ".join(f"{np.median([x['wall_s'] for x in v]):.1f}" for v in rp["scripts"][side].values())
+            name = f"paper reproduction (Exp. 1 `--skip-studies`, 2, 3 `--jobs 2`){label}"
+            if "baseline" in rp["total_s"]:
+                b = rp["total_s"]["baseline"]["median_s"]
+                ratio = rp[f"ratio_{side}_over_baseline"]
+                row(name, f"{t:.1f} s ({per}) vs {b:.1f} s at {rp.get('baseline_revision', 'the baseline')}: ×{ratio:.2f}",
+                    "≤ 0.5 × before", ratio <= 0.5)
+            else:
+                row(name, f"{t:.1f} s ({per})")
+        for key, label in (("identical_to_committed_1e-9", ""), ("compiled_identical_to_committed_1e-9", ", compiled")):
+            if key in rp:
+                row(f"its result JSONs vs the committed ones{label} (1e-9, timings aside)",
+                    "identical" if rp[key] else "DIFFERENT", "identical", rp[key])
     return "\n".join(lines)
 
 
@@ -477,11 +509,14 @@ def breakdown_table(res: dict) -> str:
     keys = [("import_casadi_numpy_s", "import casadi, numpy"), ("import_birdocp_s", "import birdocp"),
             ("model_graphs_s", "model graphs (build or load)"), ("shooting_graphs_s", "shooting graphs"),
             ("data_s", "stage data"), ("solve_s", "solve (IPOPT)"), ("floquet_s", "Floquet"),
-            ("trim_other_s", "rest of the trim"), ("writing_s", "writing the run folder"),
-            ("in_process_total_s", "total in the process")]
-    lines = ["| phase of one trim process | empty cache | warm cache |", "|---|---|---|"]
+            ("trim_other_s", "rest of the trim"), ("power_validity_s", "power outputs and validity"),
+            ("writing_s", "writing the run folder"), ("in_process_total_s", "total in the process")]
+    cols = [c for c in ("empty", "warm", "warm_compiled") if c in b]
+    head = {"empty": "empty cache", "warm": "warm cache", "warm_compiled": "warm cache, compiled"}
+    lines = ["| phase of one trim process | " + " | ".join(head[c] for c in cols) + " |",
+             "|---|" + "---|" * len(cols)]
     for k, label in keys:
-        lines.append(f"| {label} | {b['empty'][k]:.3f} s | {b['warm'][k]:.3f} s |")
+        lines.append(f"| {label} | " + " | ".join(f"{b[c][k]:.3f} s" if k in b[c] else "" for c in cols) + " |")
     return "\n".join(lines)
 
 
@@ -563,6 +598,10 @@ def main(argv=None) -> int:
         if not args.skip_scripts:
             print("paper reproduction ...", flush=True)
             res["reproduction"] = reproduction(tmp, args.baseline, warm)
+            if args.baseline:
+                rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=args.baseline, capture_output=True,
+                                     text=True)
+                res["reproduction"]["baseline_revision"] = rev.stdout.strip() or args.baseline
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     res["load_average_after"] = list(os.getloadavg())
@@ -570,13 +609,16 @@ def main(argv=None) -> int:
     met = {}
     cs = res["cold_start"]
     met["trim_warm_cache_over_import_floor"] = cs["trim_warm_cache"]["over_import_floor"] <= 3.0
+    met["trim_compiled_warm_cache_over_import_floor"] = cs["trim_warm_cache_compiled"]["over_import_floor"] <= 3.0
     if "grid" in res:
         met["grid_compiled_per_core"] = res["grid"]["compiled"]["trims_per_s_per_core"] >= 5.0
     if "reproduction" in res:
         rp = res["reproduction"]
         met["reproduction_identical"] = rp["identical_to_committed_1e-9"]
-        if "ratio_this_over_baseline" in rp:
-            met["reproduction_half_of_baseline"] = rp["ratio_this_over_baseline"] <= 0.5
+        met["reproduction_compiled_identical"] = rp["compiled_identical_to_committed_1e-9"]
+        for side in ("this", "this_compiled"):
+            if f"ratio_{side}_over_baseline" in rp:
+                met[f"reproduction_{side}_half_of_baseline"] = rp[f"ratio_{side}_over_baseline"] <= 0.5
     if "in_process" in res:
         ip = res["in_process"]
         tg = ip["trim_graphs_built"]
@@ -598,7 +640,8 @@ def main(argv=None) -> int:
     print(readme_table(res))
     print(breakdown_table(res))
     if "reproduction" in res:
-        for name, c in res["reproduction"]["compare"].items():
+        for name, c in list(res["reproduction"]["compare"].items()) + [
+                (n + " (compiled)", c) for n, c in res["reproduction"].get("compare_compiled", {}).items()]:
             for f, d in c.items():
                 print(f"  {name}/{f}: " + ("missing" if d.get("missing") else
                                            f"{d['numbers']} numbers, max diff {d['max_abs_diff']:.2e}, "

@@ -291,7 +291,7 @@ def grid_validity(cfg: Config, x, p=None, t0_s: float = 0.0, steps_per_period: i
     if hit is None:
         hit = effective_angles(nd).map(n)
         _ANGLE_MAPS.put((n, nd), hit)
-    ae, ag, ds = (np.asarray(v) for v in hit(ca.DM(X.T), D[:, 0::3], ca.DM(p)))
+    ae, ag, ds = (np.asarray(v) for v in hit(ca.DM(X.T), grid.step_start_data(D), ca.DM(p)))
     return _verdict(cfg, t, X, np.degrees(ae), np.degrees(ag), ds)
 
 
