@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 
 from birdocp.bird.config import PARAM_NAMES, Config
 from birdocp.engine.cache import bounded_cache, register_cache
+from birdocp.engine.results import result_dict, serial
 
 if TYPE_CHECKING:
     import casadi as ca
@@ -107,16 +108,13 @@ class CycleValidity:
 
     valid: bool
     reasons: list = field(default_factory=list)
-    measures: dict = field(default_factory=dict)
+    measures: dict = field(default_factory=dict, metadata=serial(flatten=True))
     thresholds: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        """``{"valid", "reasons", <measures>..., "thresholds": {...}}`` (JSON-able; None for NaN)."""
-        out = {"valid": bool(self.valid), "reasons": list(self.reasons)}
-        out.update({k: (None if isinstance(v, float) and not math.isfinite(v) else v)
-                    for k, v in self.measures.items()})
-        out["thresholds"] = dict(self.thresholds)
-        return out
+        """``{"valid", "reasons", <measures>..., "thresholds": {...}}``
+        (:func:`birdocp.engine.results.result_dict`; None for NaN)."""
+        return result_dict(self)
 
     def summary(self) -> str:
         """One line: the verdict, then the reasons (or the key numbers when valid)."""

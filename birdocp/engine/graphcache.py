@@ -39,7 +39,7 @@ from pathlib import Path
 import casadi as ca
 
 __all__ = ["FORMAT", "MAX_ENTRIES", "CacheMiss", "Entry", "cache_dir", "enabled", "key_digest",
-           "source_digest", "load", "store", "clear"]
+           "source_digest", "load", "store", "clear", "remove_oldest"]
 
 FORMAT = 1
 """Version of the entry layout (part of every key)."""
@@ -219,10 +219,15 @@ def _prune(root: Path, kind: str, keep: Path) -> None:
             entries.append(((d / "manifest.json").stat().st_mtime, d))
         except OSError:
             continue
-    entries.sort(reverse=True)
-    for _, d in entries[MAX_ENTRIES:]:
-        if d != keep:
-            _remove(d)
+    remove_oldest(entries, MAX_ENTRIES, keep, _remove)
+
+
+def remove_oldest(entries: list, n_kept: int, keep: Path, remove) -> None:
+    """Keep the ``n_kept`` newest of ``entries`` (``(mtime, path)`` pairs) and pass the others to
+    ``remove`` (the cache's policy, also the data store's); ``keep``, the entry just written, stays."""
+    for _, path in sorted(entries, reverse=True)[n_kept:]:
+        if path != keep:
+            remove(path)
 
 
 def clear(directory=None) -> int:

@@ -29,6 +29,7 @@ import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, with_values
 from birdocp.engine.floquet import sort_multipliers
+from birdocp.engine.results import result_dict, serial
 
 __all__ = ["ReducedLevelCycle", "GaitOptimum", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
            "level_at_speed", "power_curve", "SPEED_KEY"]
@@ -285,8 +286,8 @@ class GaitOptimum:
     start_free: dict
     amplitude_deg: float
     x0: np.ndarray
-    multipliers: np.ndarray
-    start_multipliers: np.ndarray
+    multipliers: np.ndarray = field(metadata=serial(complex=True))
+    start_multipliers: np.ndarray = field(metadata=serial(complex=True))
     mean_forward_speed_mps: float
     speed_mps: float | None
     max_multiplier: float | None
@@ -304,28 +305,14 @@ class GaitOptimum:
         return float(np.max(np.abs(self.multipliers)))
 
     def to_dict(self) -> dict:
-        pair = lambda z: [[float(v.real), float(v.imag)] for v in np.asarray(z)]
-        fin = lambda v: float(v) if v is not None and math.isfinite(v) else None
-        return {
-            "success": self.success, "status": self.status, "message": self.message,
-            "objective": self.objective, "iterations": self.iterations,
-            "objective_value": fin(self.objective_value), "start_objective_value": fin(self.start_objective_value),
-            "free": dict(self.free), "start_free": dict(self.start_free),
-            "bounds": {k: list(v) for k, v in self.bounds.items()},
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): the documented keys."""
+        return result_dict(self, exclude=("cfg", "start_x0", "means"), derived=("largest_modulus",), extra={
             "active_bounds": [k for k, v in self.free.items()
                               if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6],
-            "amplitude_deg": self.amplitude_deg, "x0": np.asarray(self.x0).tolist(),
-            "multipliers": pair(self.multipliers), "moduli": np.abs(self.multipliers).tolist(),
-            "largest_modulus": self.largest_modulus, "stable": bool(self.largest_modulus < 1),
-            "start_multipliers": pair(self.start_multipliers),
-            "mean_forward_speed_mps": self.mean_forward_speed_mps, "speed_mps": self.speed_mps,
-            "max_multiplier": self.max_multiplier,
+            "moduli": np.abs(self.multipliers), "stable": bool(self.largest_modulus < 1),
             "mean_shoulder_power_W": self.means.get("flapping_power_W"),
             "mean_aerodynamic_power_W": self.means.get("aerodynamic_power_W"),
-            "mean_vertical_speed_mps": self.means.get("vertical_speed_mps"),
-            "kkt_residual": self.kkt_residual, "constraint_violation": self.constraint_violation,
-            "verification": self.verification, "wall_s": self.wall_s, "evaluations": self.evaluations,
-        }
+            "mean_vertical_speed_mps": self.means.get("vertical_speed_mps")})
 
 
 class _Problem:

@@ -33,6 +33,7 @@ from birdocp.bird.validity import invalid, periodic_validity
 from birdocp.engine import interrupts
 from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.engine.oracle import ConstraintOracle, ipopt_options
+from birdocp.engine.results import result_dict, serial
 
 __all__ = ["DEFAULT_FREE", "check_free_keys", "optimize_stability", "StabilityOptimum", "jury_conditions"]
 
@@ -85,8 +86,8 @@ class StabilityOptimum:
     bounds: dict
     amplitude_deg: float
     radius: float                  # optimal r
-    multipliers: np.ndarray        # numpy eigenvalues of the optimal monodromy
-    start_multipliers: np.ndarray  # at the level-flight start
+    multipliers: np.ndarray = field(metadata=serial(complex=True))  # eigenvalues of the optimal monodromy
+    start_multipliers: np.ndarray = field(metadata=serial(complex=True))  # at the level-flight start
     x0: np.ndarray
     verification: dict = field(default_factory=dict)
     wall_s: dict = field(default_factory=dict)
@@ -99,17 +100,12 @@ class StabilityOptimum:
         return bool(np.max(np.abs(self.multipliers)) < 1.0)
 
     def to_dict(self) -> dict:
-        pair = lambda z: [[float(v.real), float(v.imag)] for v in np.asarray(z)]
-        return {"success": self.success, "status": self.status, "message": self.message,
-                "iterations": self.iterations, "free": self.free,
-                "bounds": {k: list(v) for k, v in self.bounds.items()},
-                "amplitude_deg": self.amplitude_deg, "radius": self.radius,
-                "multipliers": pair(self.multipliers), "moduli": np.abs(self.multipliers).tolist(),
-                "start_multipliers": pair(self.start_multipliers), "x0": self.x0.tolist(),
-                "stable": self.stable, "verification": self.verification, "wall_s": self.wall_s,
-                "validity": self.validity or invalid(self.cfg, "not checked (no optimal cycle)").to_dict(),
-                "active_bounds": [k for k, v in self.free.items()
-                                  if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6]}
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`)."""
+        return result_dict(self, exclude=("cfg",), derived=("stable",), extra={
+            "moduli": np.abs(self.multipliers),
+            "validity": self.validity or invalid(self.cfg, "not checked (no optimal cycle)"),
+            "active_bounds": [k for k, v in self.free.items()
+                              if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6]})
 
 
 class _Evaluator:
