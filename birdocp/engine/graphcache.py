@@ -38,6 +38,8 @@ from pathlib import Path
 
 import casadi as ca
 
+from birdocp.engine.lazy import signature
+
 __all__ = ["FORMAT", "MAX_ENTRIES", "CacheMiss", "Entry", "cache_dir", "enabled", "key_digest",
            "source_digest", "load", "store", "clear", "remove_oldest"]
 
@@ -109,6 +111,12 @@ class Entry:
     @property
     def names(self) -> tuple[str, ...]:
         return tuple(self.manifest["files"])
+
+    def signature(self, name: str) -> dict | None:
+        """The stored signature of ``name`` (:func:`birdocp.engine.lazy.signature`), or None."""
+        info = self.manifest["files"].get(name) or {}
+        sig = info.get("signature")
+        return sig if isinstance(sig, dict) and {"name", "size_in", "size_out"} <= set(sig) else None
 
     def function(self, name: str) -> ca.Function:
         """The Function ``name``; raises :class:`CacheMiss` (and removes the entry) if its file is
@@ -187,7 +195,7 @@ def store(kind: str, key: dict, functions: dict, meta: dict | None = None, direc
         for name, f in functions.items():
             data = f.serialize().encode("ascii")
             (tmp / f"{name}.casadi").write_bytes(data)
-            files[name] = {"size": len(data), "sha256": hashlib.sha256(data).hexdigest()}
+            files[name] = {"size": len(data), "sha256": hashlib.sha256(data).hexdigest(), "signature": signature(f)}
         manifest = {"key": json.loads(_canonical(key)), "files": files, "meta": meta or {},
                     "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=1))
