@@ -25,8 +25,9 @@ def register(sub, common) -> None:
     solve_shortcuts(p)
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-trim-<id>/")
     p.add_argument("--compiled", action="store_true",
-                   help="use the state RHS compiled to C (cached in $BIRDOCP_CACHE or ~/.cache/birdocp; "
-                        "falls back to the interpreted path with a warning if compilation fails)")
+                   help="use the state RHS and the data's post compiled to C (the same numbers; compiled once, "
+                        "~15 s, and cached in $BIRDOCP_CACHE or ~/.cache/birdocp; falls back to the interpreted "
+                        "path with a warning if compilation fails; BIRDOCP_COMPILED=1 makes it the default)")
     add_plot_flag(p)
     p.set_defaults(func=cmd_trim)
 
