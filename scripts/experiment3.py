@@ -26,7 +26,6 @@ import numpy as np
 
 from birdocp.bird.config import Config, with_values
 from birdocp.engine.continuation import Branch
-from birdocp.plots.branch import plot_branches
 from birdocp.studies.branch import bird_branch, sm_percent
 from birdocp.engine.executors import get_executor
 from birdocp.io.files import atomic_write_json, atomic_write_text
@@ -95,6 +94,10 @@ def main():
             "level": merge(halves["level_down"], halves["level_up"])}
     labels = {"fixed": "A = 42 deg", "level": "level flight"}
     span = (-32.5, -17.5, "the paper's range, SM -32.5 .. -17.5 %")
+    # matplotlib imported here, not at the top: the spawned workers import this module, and would
+    # each spend ~0.5 s importing it for nothing
+    from birdocp.plots.branch import plot_branches
+
     figs = plot_branches({labels[k]: v for k, v in fams.items()}, out, span=span)
     figs += plot_branches({labels["level"]: fams["level"]}, out, prefix="level_", span=span)
 
