@@ -21,7 +21,6 @@ the complex plane with zooms) to --out.
 
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 
@@ -35,6 +34,7 @@ from birdocp.bird.model import get_model
 from birdocp.studies.trim import trim
 from birdocp.io.reference import load as load_reference
 from birdocp.io.reference import multipliers as reference_multipliers
+from script_common import parse_with_out, script_parser
 
 RELAXED = {"aero.circulation": "relaxed", "aero.kinematic_velocity": "backward-difference"}
 METHODS = {
@@ -94,11 +94,7 @@ def figures(doc: dict, reference_history, out: Path) -> None:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", default="results/appendix", help="output folder")
-    args = ap.parse_args(argv)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    args, out = parse_with_out(script_parser(__doc__, "results/appendix"), argv)
     t_start = time.perf_counter()
     ref = load_reference("reference_cycle")
     rk4 = ref["rk4_period_map_monodromy_central_differences"]

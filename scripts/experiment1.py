@@ -19,11 +19,9 @@ forces.png (the last three for variant (a)) to --out.
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import math
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -36,6 +34,7 @@ from birdocp.studies.trim import trim
 from birdocp.io.reference import load as load_reference
 from birdocp.io.reference import multipliers as reference_multipliers
 from birdocp.io.reference import reference_dir
+from script_common import parse_with_out, script_parser
 
 REFERENCE = reference_dir() / "reference_cycle.json"
 RELAXED = {"aero.circulation": "relaxed", "aero.kinematic_velocity": "backward-difference"}
@@ -113,13 +112,10 @@ def fmt_mults(pairs) -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", default="results/experiment1", help="output folder")
+    ap = script_parser(__doc__, "results/experiment1")
     ap.add_argument("--skip-studies", action="store_true",
                     help="skip the M-invariance and RK4 step studies (quick run)")
-    args = ap.parse_args(argv)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    args, out = parse_with_out(ap, argv)
     t_start = time.perf_counter()
 
     ref = load_reference("reference_cycle")

@@ -14,11 +14,9 @@
 
 from __future__ import annotations
 
-import argparse
 import math
 import shutil
 import time
-from pathlib import Path
 
 import matplotlib
 
@@ -31,6 +29,7 @@ from birdocp.io.files import atomic_write_json, atomic_write_text  # noqa: E402
 from birdocp.studies.level import level  # noqa: E402
 from birdocp.studies.trim import trim  # noqa: E402
 from birdocp.studies.sweep import sweep, sweep_values  # noqa: E402
+from script_common import parse_with_out, script_parser
 
 AMP = "gait.shoulder_flap.amplitude_deg"
 RELAXED = {"aero.circulation": "relaxed", "aero.kinematic_velocity": "backward-difference"}
@@ -66,11 +65,7 @@ def flight_path(r):
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", default="results/experiment2")
-    args = ap.parse_args()
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    args, out = parse_with_out(script_parser(__doc__, "results/experiment2"))
     cfg = Config()
     res: dict = {"paper": {"level_amplitude_deg": PAPER_LEVEL_DEG,
                            "statements": ["level flight at A = 43.47 deg",

@@ -19,19 +19,17 @@ amplitude reaches its bound). Writes locus.png, moduli.png, level_*.png, branch 
 """
 from __future__ import annotations
 
-import argparse
 import json
 import time
-from pathlib import Path
 
 import numpy as np
 
 from birdocp.bird.config import Config, with_values
 from birdocp.engine.continuation import Branch
-from birdocp.plots.branch import plot_branches
 from birdocp.studies.branch import bird_branch, sm_percent
 from birdocp.engine.executors import get_executor
 from birdocp.io.files import atomic_write_json, atomic_write_text
+from script_common import parse_with_out, script_parser
 
 CHORD = 0.2
 PAPER_RANGE_CM = (3.5, 6.5)
@@ -62,14 +60,11 @@ def merge(down: Branch, up: Branch) -> Branch:
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--out", default="results/experiment3")
+    ap = script_parser(__doc__, "results/experiment3")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--rear-sm", type=float, default=-5.0, help="how far towards the rear (SM %%) to continue")
     ap.add_argument("--reuse", action="store_true", help="reuse the branch_*.json of --out (no continuation)")
-    a = ap.parse_args()
-    out = Path(a.out)
-    out.mkdir(parents=True, exist_ok=True)
+    a, out = parse_with_out(ap)
     t0 = time.perf_counter()
     # longest first (measured: level-down ~16 s, fixed-down ~5.5 s, level-up ~5 s, fixed-up ~1.8 s), so
     # that two workers finish together
@@ -99,6 +94,10 @@ def main():
             "level": merge(halves["level_down"], halves["level_up"])}
     labels = {"fixed": "A = 42 deg", "level": "level flight"}
     span = (-32.5, -17.5, "the paper's range, SM -32.5 .. -17.5 %")
+    # matplotlib imported here, not at the top: the spawned workers import this module, and would
+    # each spend ~0.5 s importing it for nothing
+    from birdocp.plots.branch import plot_branches
+
     figs = plot_branches({labels[k]: v for k, v in fams.items()}, out, span=span)
     figs += plot_branches({labels["level"]: fams["level"]}, out, prefix="level_", span=span)
 

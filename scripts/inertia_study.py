@@ -19,7 +19,6 @@ Writes results/inertia/: result.json, table.md, fraction.png, moduli.png, margin
 """
 from __future__ import annotations
 
-import argparse
 import time
 from pathlib import Path
 
@@ -32,6 +31,7 @@ from birdocp.studies.inertia import (config_with_wing_mass, cycle_summary, hold_
                                      stability_margin_mean_com_percent, wing_mass_of_fraction)
 from birdocp.studies.level import level
 from birdocp.studies.trim import trim
+from script_common import parse_with_out, script_parser
 
 M_TOTAL = 1.2
 ROOT_REF = 0.05
@@ -192,12 +192,10 @@ def figures(res, out: Path):
         ax[1].plot([r["stability_margin_percent"] for r in rows], [r["amplitude_deg"] for r in rows], "-", color=col,
                    marker=".", label=lab)
     ax[0].axhline(1.0, color="0.5", lw=0.8)
-    ax[0].set_xlabel("stability margin SM [%]")
-    ax[0].set_ylabel("largest multiplier modulus |Λ1|")
-    ax[0].set_title("level flight: instability against SM")
-    ax[1].set_xlabel("stability margin SM (from G_b) [%]")
-    ax[1].set_ylabel("level-flight amplitude [deg]")
-    ax[1].set_title("level flight: amplitude against SM")
+    ax[0].set(xlabel="stability margin SM [%]", ylabel="largest multiplier modulus |Λ1|",
+              title="level flight: instability against SM")
+    ax[1].set(xlabel="stability margin SM (from G_b) [%]", ylabel="level-flight amplitude [deg]",
+              title="level flight: amplitude against SM")
     for a in ax:
         a.grid(alpha=0.3)
         a.legend(fontsize=8)
@@ -252,12 +250,9 @@ def table(res) -> str:
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", default="results/inertia")
+    ap = script_parser(__doc__, "results/inertia")
     ap.add_argument("--replot", action="store_true", help="redraw the figures and table from --out/result.json")
-    a = ap.parse_args()
-    out = Path(a.out)
-    out.mkdir(parents=True, exist_ok=True)
+    a, out = parse_with_out(ap)
     if a.replot:
         import json
 

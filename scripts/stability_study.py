@@ -153,9 +153,8 @@ def stability_optimum(out: Path, reuse: bool = False):
     for k, j in enumerate(("shoulder_incidence", "shoulder_flap", "shoulder_sweep")):
         ax.plot(t / t[-1], qa[j], "-", color=f"C{k}", lw=1, label=f"{j} (paper)")
         ax.plot(t / t[-1], qb[j], "--", color=f"C{k}", lw=2, label=f"{j} (optimum)")
-    ax.set_xlabel("t / T")
-    ax.set_ylabel("joint angle [deg]")
-    ax.set_title("shoulder joint laws over one wingbeat")
+    ax.set(xlabel="t / T", ylabel="joint angle [deg]",
+           title="shoulder joint laws over one wingbeat")
     ax.legend(fontsize=7, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.13), frameon=False)
     vtext = "model valid" if d["validity"]["valid"] else "model NOT valid: " + "; ".join(d["validity"]["reasons"])
     fig.suptitle("Most stable level flight within the default gait bounds"
@@ -261,9 +260,8 @@ def tail_study(out: Path, max_angle: float, reuse: bool = False):
                               if "invalid" in cls else None),
         }
     axes[0].axhline(1, color="k", lw=0.8)
-    axes[0].set_xlabel("tail opening angle β [deg]")
-    axes[0].set_ylabel("largest multiplier modulus |Λ1|")
-    axes[0].set_title("expanding multiplier against the tail opening angle")
+    axes[0].set(xlabel="tail opening angle β [deg]", ylabel="largest multiplier modulus |Λ1|",
+                title="expanding multiplier against the tail opening angle")
     axes[0].legend(fontsize=7, loc="lower left")
     axes[1].axhline(0, color="k", lw=0.8)
     axes[1].axhline(-1, color="0.5", lw=0.8, ls=":")
@@ -271,12 +269,10 @@ def tail_study(out: Path, max_angle: float, reuse: bool = False):
     axes[1].set_ylim(min(-2, np.nanmin([p["means"].get("vertical_speed_mps", 0) for d in results.values()
                                         for p in d["points"]]) * 1.05), 2)
     axes[1].text(0.5, -1.5, "dive region: mean W < -1 m/s", fontsize=8, color="tab:red", va="top")
-    axes[1].set_xlabel("tail opening angle β [deg]")
-    axes[1].set_ylabel("mean vertical speed W [m/s] (+ climbing)")
-    axes[1].set_title("mean vertical speed: the fixed-amplitude branch dives")
-    axes[2].set_xlabel("tail opening angle β [deg]")
-    axes[2].set_ylabel("level-flight flapping amplitude [deg]")
-    axes[2].set_title("amplitude needed for level flight")
+    axes[1].set(xlabel="tail opening angle β [deg]", ylabel="mean vertical speed W [m/s] (+ climbing)",
+                title="mean vertical speed: the fixed-amplitude branch dives")
+    axes[2].set(xlabel="tail opening angle β [deg]", ylabel="level-flight flapping amplitude [deg]",
+                title="amplitude needed for level flight")
     axes[2].legend(fontsize=8, loc="upper left")
     fig.suptitle("The tail (continuation in its opening angle). Solid: flight (model valid, |mean W| < 1 m/s); "
                  "dotted: dive (mean W < -1 m/s); grey dashed: model not valid (birdocp.bird.validity); | : branch end",

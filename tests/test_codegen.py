@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import os
 import shutil
+from pathlib import Path
 import subprocess
 import warnings
 
@@ -117,6 +118,29 @@ def test_compiled_level_bit_identical(tmp_path, monkeypatch, coarse, default_mod
     assert compiled.last_compile_s["birdocp_post_dpf"] == {"generate": 0.0, "compile": 0.0, "cached": True,
                                                            "path": compiled.last_compile_s["birdocp_post_dpf"]["path"]}
     assert np.array_equal(c.multipliers, b.multipliers)
+
+
+@needs_cc
+def test_compiled_library_is_checked_before_use(tmp_path):
+    """A cached library that does not match the SHA-256 written when it was built (truncated,
+    replaced, or without its seal) is removed and rebuilt, never loaded."""
+    from birdocp.export import compiled
+
+    x = ca.SX.sym("x", 2)
+    f = ca.Function("tiny_fn", [x], [ca.sin(x) * x[0]])
+    lib = Path(compiled.compile_functions("birdocp_tiny", [f], directory=tmp_path, graph_key="k1"))
+    assert not compiled.last_compile_s["birdocp_tiny"]["cached"]
+    assert compiled.compile_functions("birdocp_tiny", [f], directory=tmp_path, graph_key="k1") == str(lib)
+    assert compiled.last_compile_s["birdocp_tiny"]["cached"]
+    good = lib.read_bytes()
+    for damage in (lambda: lib.write_bytes(good[: len(good) // 2]),          # truncated
+                   lambda: lib.write_bytes(good[:-1] + bytes([good[-1] ^ 1])),  # one bit changed
+                   lambda: lib.with_name(lib.name + ".sha256").unlink()):    # no seal
+        damage()
+        assert compiled.compile_functions("birdocp_tiny", [f], directory=tmp_path, graph_key="k1") == str(lib)
+        assert not compiled.last_compile_s["birdocp_tiny"]["cached"]  # rebuilt
+        out = ca.external("tiny_fn", str(lib))(ca.DM([0.5, 2.0]))
+        assert np.allclose(np.asarray(out).ravel(), np.sin([0.5, 2.0]) * 0.5, rtol=0, atol=1e-15)
 
 
 def test_compile_failure_falls_back_with_warning(tmp_path, monkeypatch):

@@ -70,25 +70,25 @@ def test_fold_located_to_1e_minus_6_and_branch_turns_back():
     assert Branch.from_dict(d).to_dict() == d
 
 
-def test_period_doubling_detected():
-    prob = LimitCycleProblem(pd_ode(), [-0.5], [0.0, 0.0])
-    br = continuation(prob, "lam", -0.5, 0.5, points=3, steps_per_period=120)
+def _one_special_point(ode, lam_from: float, lam_to: float, steps: int, kind: str):
+    """The branch of ``ode`` from lam_from to lam_to (reached) and its only special point, of ``kind``."""
+    prob = LimitCycleProblem(ode, [lam_from], [0.0, 0.0])
+    br = continuation(prob, "lam", lam_from, lam_to, points=3, steps_per_period=steps)
     assert br.end_reason == "reached_to"
     kinds = [s.kind for s in br.special_points]
-    assert kinds == ["period_doubling"], kinds
-    sp = br.special_points[0]
+    assert kinds == [kind], kinds
+    return br, br.special_points[0]
+
+
+def test_period_doubling_detected():
+    br, sp = _one_special_point(pd_ode(), -0.5, 0.5, 120, "period_doubling")
     assert abs(sp.parameter) < 1e-4
     mult = np.array([complex(*m) for m in sp.multipliers])
     assert np.min(np.abs(mult + 1)) < 1e-8
 
 
 def test_neimark_sacker_detected():
-    prob = LimitCycleProblem(ns_ode(), [-0.3], [0.0, 0.0])
-    br = continuation(prob, "lam", -0.3, 0.3, points=3, steps_per_period=60)
-    assert br.end_reason == "reached_to"
-    kinds = [s.kind for s in br.special_points]
-    assert kinds == ["neimark_sacker"], kinds
-    sp = br.special_points[0]
+    br, sp = _one_special_point(ns_ode(), -0.3, 0.3, 60, "neimark_sacker")
     assert abs(sp.parameter) < 1e-6
     mods = np.array(sp.moduli)
     assert np.max(np.abs(mods - 1)) < 1e-8

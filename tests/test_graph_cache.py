@@ -167,6 +167,54 @@ def test_bird_model_from_cache_gives_bit_identical_trim(bird_cache):
 
 
 @pytest.mark.slow
+def test_pre_is_read_only_when_evaluated(bird_cache):
+    """A model from the cache leaves its largest graph (pre) unread through a trim whose stage data
+    are on disk (engine.datastore), with the same numbers; evaluating pre reads it."""
+    from birdocp.bird.config import Config, param_vector
+    from birdocp.bird.model import BirdModel
+    from birdocp.engine.integrate import clear_stage_data
+    from birdocp.engine.lazy import LazyFunction
+    from birdocp.engine.problem import LimitCycleProblem
+    from birdocp.engine.shooting import MultipleShooting, solve
+
+    root, s, built = bird_cache
+    cfg = Config()
+    p0 = param_vector(cfg)
+    method = MultipleShooting(points=5, steps_per_period=148)
+    a = solve(LimitCycleProblem(ode=built.ode, p=p0, x_guess=cfg.solve.initial_guess), method)  # stores pre's values
+    clear_stage_data()
+    m = BirdModel(s)
+    assert m.graph_source == "cache"
+    assert isinstance(m.ode.pre, LazyFunction) and not m.ode.pre.loaded and not m.ode.data.loaded
+    b = solve(LimitCycleProblem(ode=m.ode, p=p0, x_guess=cfg.solve.initial_guess), method)
+    assert not m.ode.pre.loaded  # read from disk, not evaluated
+    assert np.array_equal(a.multipliers, b.multipliers) and np.array_equal(a.x0, b.x0)
+    t = 0.0123
+    assert np.array_equal(np.asarray(m.ode.data(t, p0)), np.asarray(built.ode.data(t, p0)))
+    assert m.ode.pre.loaded and m.ode.data.loaded
+
+
+def test_lazy_function_signature_without_loading():
+    import casadi as ca
+
+    from birdocp.engine.lazy import LazyFunction, signature
+
+    x = ca.SX.sym("x", 3)
+    f = ca.Function("f", [x, ca.SX.sym("p", 2, 1)], [2 * x, ca.sumsqr(x)])
+    calls = []
+    lazy = LazyFunction(lambda: calls.append(1) or f, signature(f))
+    assert isinstance(lazy, ca.Function)
+    assert (lazy.n_in(), lazy.n_out(), lazy.size_in(1), lazy.size1_out(0), lazy.numel_out(1), lazy.name()) == \
+        (2, 2, (2, 1), 3, 1, "f")
+    assert not lazy.loaded and calls == []
+    out = lazy(ca.DM([1, 2, 3]), ca.DM([0, 0]))
+    assert np.array_equal(np.asarray(out[0]).ravel(), [2, 4, 6]) and calls == [1]
+    m = ca.MX.sym("m", 3)
+    g = ca.Function("g", [m], [lazy(m, ca.DM([0, 0]))[1]])  # passed into CasADi graphs like any Function
+    assert float(g(ca.DM([1, 1, 1]))) == 3.0 and calls == [1]
+
+
+@pytest.mark.slow
 def test_bird_model_rebuilds_a_corrupt_entry(bird_cache):
     from birdocp.bird.model import BirdModel
 
@@ -175,9 +223,13 @@ def test_bird_model_rebuilds_a_corrupt_entry(bird_cache):
     pre = folder / "pre.casadi"
     pre.write_bytes(pre.read_bytes()[:1000])
     m = BirdModel(s)
-    assert m.graph_source == "built+stored"  # not trusted: rebuilt and stored again
-    assert BirdModel(s).graph_source == "cache"
+    # pre is read on first use (LazyFunction): the broken file is found then, not trusted, and the
+    # model rebuilt and stored again
+    assert m.graph_source == "cache"
     assert m.pre.n_instructions() == built.pre.n_instructions()
+    fresh = BirdModel(s)
+    assert fresh.graph_source == "cache"
+    assert fresh.pre.n_instructions() == built.pre.n_instructions()
 
 
 def test_bird_model_key_follows_structure_and_sources(bird_cache):

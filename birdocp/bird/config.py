@@ -34,13 +34,17 @@ class Joint:
     """Harmonic joint law ``q(t) = offset + amplitude * sin(2 pi f t + phase)``."""
 
     offset_deg: float = 0.0
+    """The mean angle of the joint over a beat."""
     amplitude_deg: float = 0.0
+    """Half the peak-to-peak excursion about the offset."""
     phase_deg: float = 0.0
+    """The phase of the sine at t = 0 (the flap's phase sets the beat's start)."""
 
 
 @dataclass(frozen=True)
 class Body:
-    """Rigid body of the bird."""
+    """Rigid body of the bird: its mass and pitch inertia, the gravity it flies in and the chord that
+    scales its stability margin."""
 
     mass_kg: float = 1.2
     """Mass of the whole bird, wings included (M); the body alone has M - 2 wing.mass_kg."""

@@ -25,6 +25,7 @@ from birdocp.bird import tail
 from birdocp.bird import wing
 from birdocp.bird.config import JOINT_NAMES, PARAM_NAMES, WING_MASS_SHARES, Config, param_vector
 from birdocp.engine.cache import register_cache
+from birdocp.engine.lazy import LazyFunction
 from birdocp.engine.problem import PeriodicODE
 
 N_EL = aero.N_ELEMENTS
@@ -247,6 +248,7 @@ OPTIONAL_FUNCTIONS = ("mass_points", "wing_power_d")
 """Functions only some structures have (wing masses); None otherwise."""
 
 _EAGER = ("pre", "post", "rhs")  # what every solve needs; the rest is read from the cache on first use
+_LAZY = ("pre",)  # of those, read only when evaluated (LazyFunction): its stage-grid values are on disk
 
 
 def graph_key(structure: Structure) -> dict:
@@ -462,7 +464,11 @@ class BirdModel:
             if entry is not None and set(GRAPH_FUNCTIONS) <= set(entry.names):
                 try:
                     for name in _EAGER:
-                        self._fns[name] = entry.function(name)
+                        sig = entry.signature(name) if name in _LAZY else None
+                        # pre (0.25 s to read) only when it is evaluated: its stage-grid values are
+                        # usually on disk (engine.datastore)
+                        self._fns[name] = (LazyFunction(functools.partial(self._read, name), sig) if sig
+                                           else entry.function(name))
                     self.pre_params = tuple(int(i) for i in entry.meta["pre_params"])
                     self._entry = entry
                 except (graphcache.CacheMiss, KeyError, TypeError, ValueError):
@@ -479,13 +485,32 @@ class BirdModel:
         else:
             self.graph_source = "cache"
         self.period_s = 1.0 / structure.frequency_hz
-        tm, pm = ca.MX.sym("t"), ca.MX.sym("p", len(PARAM_NAMES))
-        data_mx = ca.Function("data", [tm, pm], [self.post(self.pre(tm, pm), tm, pm)], ["t", "p"], ["d"])
+        data_sig = {"name": "data", "size_in": [[1, 1], [len(PARAM_NAMES), 1]],
+                    "size_out": [list(self.post.size_out(0))]}
+        data_mx = LazyFunction(self._compose_data, data_sig) if isinstance(self.pre, LazyFunction) \
+            else self._compose_data()
         self.ode = PeriodicODE(rhs=self.rhs, data=data_mx, period_s=self.period_s,
                                state_names=STATE_NAMES, param_names=PARAM_NAMES,
                                pre=self.pre, post=self.post, pre_params=self.pre_params,
                                graph_key=graphcache.key_digest(key) if use_cache else "")
         self.graph_s = time.perf_counter() - t0
+
+    def _compose_data(self) -> ca.Function:
+        # data(t, p) = post(pre(t, p), t, p), composed in MX (the same numbers as the full data graph)
+        tm, pm = ca.MX.sym("t"), ca.MX.sym("p", len(PARAM_NAMES))
+        return ca.Function("data", [tm, pm], [self.post(self.pre(tm, pm), tm, pm)], ["t", "p"], ["d"])
+
+    def _read(self, name: str) -> ca.Function:
+        """``name`` from the cache entry, rebuilt (and re-stored) if the entry broke since it was opened."""
+        from birdocp.engine import graphcache
+
+        try:
+            return self._entry.function(name)
+        except graphcache.CacheMiss:
+            built, _ = _build(self.structure)
+            graphcache.store("bird-model", graph_key(self.structure), {k: v for k, v in built.items() if v is not None},
+                             {"pre_params": list(self.pre_params)})
+            return built[name]
 
     def _function(self, name: str) -> ca.Function | None:
         if name in self._fns:

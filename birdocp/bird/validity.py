@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 
 from birdocp.bird.config import PARAM_NAMES, Config
 from birdocp.engine.cache import bounded_cache, register_cache
+from birdocp.engine.results import result_dict, serial
 
 if TYPE_CHECKING:
     import casadi as ca
@@ -107,16 +108,13 @@ class CycleValidity:
 
     valid: bool
     reasons: list = field(default_factory=list)
-    measures: dict = field(default_factory=dict)
+    measures: dict = field(default_factory=dict, metadata=serial(flatten=True))
     thresholds: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        """``{"valid", "reasons", <measures>..., "thresholds": {...}}`` (JSON-able; None for NaN)."""
-        out = {"valid": bool(self.valid), "reasons": list(self.reasons)}
-        out.update({k: (None if isinstance(v, float) and not math.isfinite(v) else v)
-                    for k, v in self.measures.items()})
-        out["thresholds"] = dict(self.thresholds)
-        return out
+        """``{"valid", "reasons", <measures>..., "thresholds": {...}}``
+        (:func:`birdocp.engine.results.result_dict`; None for NaN)."""
+        return result_dict(self)
 
     def summary(self) -> str:
         """One line: the verdict, then the reasons (or the key numbers when valid)."""
@@ -188,9 +186,13 @@ def _verdict(cfg: Config, t, X, ae_deg, ag_deg, ds) -> CycleValidity:
     stalled_span = (stalled * ds).sum(axis=0) / span        # n: stalled share of the span at each time
     u, w, theta = X[:, 0], X[:, 1], X[:, 3]
     airflow_deg = np.degrees(np.abs(np.arctan2(w, u)))
-    # the two wings are mirror images: their angles agree to round-off, so the largest is taken on
-    # values rounded to 1e-9 deg and the first (left-wing) element of a tie is reported, every time
-    i_max = np.unravel_index(np.argmax(np.round(np.abs(ae_deg), 9)), ae_deg.shape)
+    # the two wings are mirror images: their angles agree to round-off (1e-14 deg), so every element
+    # within 1e-9 deg of the largest is a tie and the first one (element index, then time) is reported,
+    # the same whatever the last bits (rounding to 1e-9 instead flipped between the wings where a
+    # value straddled a rounding boundary)
+    a_abs = np.abs(ae_deg)
+    ties = np.argwhere(a_abs >= a_abs.max() - 1e-9)
+    i_max = tuple(ties[np.lexsort((ties[:, 1], ties[:, 0]))[0]])
     m = {
         "alpha_eff_min_deg": float(ae_deg.min()), "alpha_eff_max_deg": float(ae_deg.max()),
         "alpha_eff_max_abs_element": int(i_max[0]),

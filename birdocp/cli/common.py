@@ -66,6 +66,25 @@ def common_options() -> argparse.ArgumentParser:
     return p
 
 
+def add_run_command(sub, common: argparse.ArgumentParser, name: str, func, *, help: str,
+                    description: str) -> argparse.ArgumentParser:
+    """The subparser of a command that writes a run folder: the common options, ``--out DIR`` and
+    ``func(args, command_line) -> exit code`` as its handler; the command adds its own options."""
+    p = sub.add_parser(name, parents=[common], help=help, description=description)
+    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty)")
+    p.set_defaults(func=func)
+    return p
+
+
+def add_free_gait_options(p: argparse.ArgumentParser, *, free_help: str, default_bounds: str) -> None:
+    """``--free KEY`` (repeatable), ``--bounds KEY=LO:HI`` (repeatable; default ``default_bounds``) and
+    ``--climb-rate MPS`` of the gait optimisations."""
+    p.add_argument("--free", action="append", metavar="KEY", help=free_help)
+    p.add_argument("--bounds", action="append", metavar="KEY=LO:HI",
+                   help=f"bounds of a free parameter (joint limits; repeatable, LO < HI; default: {default_bounds})")
+    p.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS", help="mean vertical speed (default 0)")
+
+
 # ---------------------------------------------------------------------------------------------
 # Configuration
 

@@ -11,16 +11,19 @@ from birdocp.bird.config import ConfigError
 from birdocp.cli import common as cli
 
 
+HELP = "design the feedback of the gait that stabilises the cycle (periodic LQR on the exact linearised wingbeat map)"
+
+DESCRIPTION = """Trim the configured gait (or --level flight), linearise the wingbeat map exactly with respect to the
+state and to gait parameters held over each of N intervals of the beat, and design the periodic discrete LQR (Bryson
+weights: 1 m/s, 1 m/s, 1 rad/s, 5 deg; 5 deg per joint). Reports open- and closed-loop multipliers, the gain and each
+control's ability to stabilise the cycle alone. Needs scipy (pip install 'birdocp[control]')."""
+"""The text of ``birdocp control --help`` (argparse joins the lines)."""
+
+
 def register(sub, common) -> None:
     """Add ``control`` to the CLI's subparsers."""
-    p = sub.add_parser("control", parents=[common], help="design the feedback of the gait that stabilises the cycle "
-                       "(periodic LQR on the exact linearised wingbeat map)",
-                       description="Trim the configured gait (or --level flight), linearise the wingbeat map "
-                                   "exactly with respect to the state and to gait parameters held over each of "
-                                   "N intervals of the beat, and design the periodic discrete LQR (Bryson "
-                                   "weights: 1 m/s, 1 m/s, 1 rad/s, 5 deg; 5 deg per joint). Reports open- and "
-                                   "closed-loop multipliers, the gain and each control's ability to stabilise "
-                                   "the cycle alone. Needs scipy (pip install 'birdocp[control]').")
+    p = cli.add_run_command(sub, common, "control", cmd_control, help=HELP,
+                            description=DESCRIPTION)
     p.add_argument("--level", action="store_true", help="control the level-flight cycle (amplitude solved first)")
     p.add_argument("--controls", nargs="+", metavar="KEY",
                    help="gait keys corrected by the feedback (default: gait.shoulder_incidence.offset_deg "
@@ -31,8 +34,6 @@ def register(sub, common) -> None:
     p.add_argument("--limit-deg", type=float, default=None, metavar="DEG",
                    help="joint range of each control around its cycle value, used by 'simulate' to saturate "
                         "(default 15)")
-    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty)")
-    p.set_defaults(func=cmd_control)
 
 
 def cmd_control(args: argparse.Namespace, command_line: list[str]) -> int:

@@ -10,33 +10,31 @@ from birdocp.bird.config import ConfigError
 from birdocp.cli import common as cli
 
 
+HELP = "the gait that minimises mean power (or cost of transport) in level flight at a speed"
+
+DESCRIPTION = """Minimise the mean mechanical power (or the cost of transport, or the positive-work power) of level
+flight at a given mean forward speed over free gait parameters within bounds, optionally with every Floquet multiplier
+inside the circle of radius R. Reduced space: IPOPT over the gait parameters, the periodic cycle and the flapping
+amplitude solved for level flight at every iterate, exact gradients by the implicit function theorem. Verified by a
+trim at the optimum."""
+"""The text of ``birdocp optimize-gait --help`` (argparse joins the lines)."""
+
+
 def register(sub, common) -> None:
     """Add ``optimize-gait`` to the CLI's subparsers."""
-    p = sub.add_parser("optimize-gait", parents=[common],
-                       help="the gait that minimises mean power (or cost of transport) in level flight at a speed",
-                       description="Minimise the mean mechanical power (or the cost of transport, or the "
-                                   "positive-work power) of level flight at a given mean forward speed over "
-                                   "free gait parameters within bounds, optionally with every Floquet "
-                                   "multiplier inside the circle of radius R. Reduced space: IPOPT over the "
-                                   "gait parameters, the periodic cycle and the flapping amplitude solved "
-                                   "for level flight at every iterate, exact gradients by the implicit "
-                                   "function theorem. Verified by a trim at the optimum.")
+    p = cli.add_run_command(sub, common, "optimize-gait", cmd_optimize_gait, help=HELP,
+                            description=DESCRIPTION)
     p.add_argument("--objective", choices=("power", "cost-of-transport", "positive-power"), default="power",
                    help="mean mechanical power [W] (default), cost of transport P/(m g U), or the smoothed "
                         "mean positive-work power [W]")
     p.add_argument("--speed", type=float, required=True, metavar="MPS",
                    help="mean forward speed of the level flight [m/s], held by the first free key")
-    p.add_argument("--free", action="append", metavar="KEY",
-                   help="free gait parameter (repeatable; default: shoulder incidence and sweep offsets and "
-                        "amplitudes; the first one also brings the start gait to --speed)")
-    p.add_argument("--bounds", action="append", metavar="KEY=LO:HI",
-                   help="bounds of a free parameter (joint limits; repeatable; default: "
-                        "birdocp.studies.gait.DEFAULT_GAIT_FREE)")
+    cli.add_free_gait_options(p, free_help="free gait parameter (repeatable; default: shoulder incidence and sweep "
+                                           "offsets and amplitudes; the first one also brings the start gait to "
+                                           "--speed)",
+                              default_bounds="birdocp.studies.gait.DEFAULT_GAIT_FREE")
     p.add_argument("--max-multiplier", type=float, default=None, metavar="R",
                    help="stability constraint: every Floquet multiplier modulus <= R (default: none)")
-    p.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS", help="mean vertical speed (default 0)")
-    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty)")
-    p.set_defaults(func=cmd_optimize_gait)
 
 
 def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:

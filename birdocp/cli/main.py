@@ -107,6 +107,24 @@ def _json_failure(args, status: str, message: str, argv: Sequence[str] = ()) -> 
             print_json(failure_json(status, message))
 
 
+@contextlib.contextmanager
+def compiled_default(on: bool):
+    """``--compiled``: ``BIRDOCP_COMPILED=1`` while the command runs (every solve of the command and
+    of its worker processes uses the compiled RHS and data; the same numbers), restored after."""
+    if not on:
+        yield
+        return
+    old = os.environ.get("BIRDOCP_COMPILED")
+    os.environ["BIRDOCP_COMPILED"] = "1"
+    try:
+        yield
+    finally:
+        if old is None:
+            os.environ.pop("BIRDOCP_COMPILED", None)
+        else:
+            os.environ["BIRDOCP_COMPILED"] = old
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (the console script passes it to ``sys.exit``)."""
     as_program = argv is None  # the console script or python -m birdocp (not a call from Python)
@@ -126,7 +144,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         except SystemExit as exc:  # --help, --version, or a usage error (already printed)
             return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
         debug = args.debug
-        code = args.func(args, command_line)
+        with compiled_default(getattr(args, "compiled", False)):
+            code = args.func(args, command_line)
         interrupts.check()
         return code
     except KeyboardInterrupt:

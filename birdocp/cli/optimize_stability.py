@@ -12,30 +12,27 @@ from birdocp.cli import common as cli
 from birdocp.cli.sensitivity import check_key
 
 
+HELP = "the gait within bounds that minimises the largest multiplier of level flight"
+
+DESCRIPTION = """Minimise the largest Floquet multiplier modulus of a level-flight cycle over free gait parameters
+within bounds (Jury conditions on the monodromy's characteristic polynomial), then verify with numpy eigenvalues and a
+trim from scratch at the optimum. Default: reduced space (IPOPT over the gait parameters and r, the level cycle solved
+at every iterate, exact gradients), as optimize-gait."""
+"""The text of ``birdocp optimize-stability --help`` (argparse joins the lines)."""
+
+
 def register(sub, common) -> None:
     """Add ``optimize-stability`` to the CLI's subparsers."""
-    p = sub.add_parser("optimize-stability", parents=[common],
-                       help="the gait within bounds that minimises the largest multiplier of level flight",
-                       description="Minimise the largest Floquet multiplier modulus of a level-flight cycle "
-                                   "over free gait parameters within bounds (Jury conditions on the "
-                                   "monodromy's characteristic polynomial), then verify with numpy "
-                                   "eigenvalues and a trim from scratch at the optimum. Default: reduced "
-                                   "space (IPOPT over the gait parameters and r, the level cycle solved at "
-                                   "every iterate, exact gradients), as optimize-gait.")
-    p.add_argument("--free", action="append", metavar="KEY",
-                   help="free parameter (repeatable; default: shoulder incidence and sweep offsets "
-                        "and amplitudes)")
-    p.add_argument("--bounds", action="append", metavar="KEY=LO:HI",
-                   help="bounds of a free parameter (repeatable, LO < HI; default: "
-                        "birdocp.studies.optimize.DEFAULT_FREE)")
-    p.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS", help="mean vertical speed (default 0)")
+    p = cli.add_run_command(sub, common, "optimize-stability", cmd_optimize, help=HELP,
+                            description=DESCRIPTION)
+    cli.add_free_gait_options(p, free_help="free parameter (repeatable; default: shoulder incidence and sweep "
+                                           "offsets and amplitudes)",
+                              default_bounds="birdocp.studies.optimize.DEFAULT_FREE")
     p.add_argument("--max-iter", type=int, default=400, metavar="N",
                    help="IPOPT iterations at most, per stage (default 400; the result says whether it converged)")
     p.add_argument("--method", choices=("reduced", "full"), default="reduced",
                    help="reduced: IPOPT over the gait parameters and r, the level cycle eliminated (default); "
                         "full: the full-space single-shooting NLP (state, parameters, amplitude, r)")
-    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty)")
-    p.set_defaults(func=cmd_optimize)
 
 
 def parse_bounds(texts) -> dict:

@@ -10,21 +10,22 @@ from birdocp.bird.validity import validity_text
 from birdocp.cli import common as cli
 
 
+HELP = "exact derivatives of the Floquet multipliers with respect to gait and morphology parameters, ranked"
+
+DESCRIPTION = """Trim the configured gait and rank the parameters by the exact derivative of the expanding
+multiplier's modulus (the change of the cycle included), per degree or per cm. --level holds level flight: the
+amplitude is first solved for level flight and re-solved along every parameter direction."""
+"""The text of ``birdocp sensitivity --help`` (argparse joins the lines)."""
+
+
 def register(sub, common) -> None:
     """Add ``sensitivity`` to the CLI's subparsers."""
-    p = sub.add_parser("sensitivity", parents=[common], help="exact derivatives of the Floquet multipliers "
-                       "with respect to gait and morphology parameters, ranked",
-                       description="Trim the configured gait and rank the parameters by the exact "
-                                   "derivative of the expanding multiplier's modulus (the change of the "
-                                   "cycle included), per degree or per cm. --level holds level flight: "
-                                   "the amplitude is first solved for level flight and re-solved along "
-                                   "every parameter direction.")
+    p = cli.add_run_command(sub, common, "sensitivity", cmd_sensitivity, help=HELP,
+                            description=DESCRIPTION)
     p.add_argument("--param", action="append", metavar="KEY",
                    help="parameter to differentiate (repeatable; default: every gait joint and the morphology)")
     p.add_argument("--level", action="store_true", help="hold level flight (amplitude re-solved)")
     p.add_argument("--top", type=int, default=15, metavar="N", help="rows to print (default 15)")
-    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty)")
-    p.set_defaults(func=cmd_sensitivity)
 
 
 def check_key(key: str, flag: str) -> str:

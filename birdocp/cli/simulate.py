@@ -15,17 +15,19 @@ from birdocp.cli import common as cli
 
 MAX_BEATS = 10000
 
+HELP = "simulate many wingbeats with a perturbation or a gust, open or closed loop"
+
+DESCRIPTION = """Integrate the full model from the cycle for K beats (state augmented with the inertial position X
+forward, Z down). Perturbations add to the cycle's state at t = 0; gusts are 1 - cos, frozen in space, starting one
+beat ahead; with --controller the feedback of a 'birdocp control' run is applied at each update, saturated at its
+joint limits. Writes the time histories (arrays.npz), result.json and simulation.png."""
+"""The text of ``birdocp simulate --help`` (argparse joins the lines)."""
+
 
 def register(sub, common) -> None:
     """Add ``simulate`` to the CLI's subparsers."""
-    p = sub.add_parser("simulate", parents=[common], help="simulate many wingbeats with a perturbation or a gust, "
-                       "open or closed loop",
-                       description="Integrate the full model from the cycle for K beats (state augmented with "
-                                   "the inertial position X forward, Z down). Perturbations add to the cycle's "
-                                   "state at t = 0; gusts are 1 - cos, frozen in space, starting one beat ahead; "
-                                   "with --controller the feedback of a 'birdocp control' run is applied at "
-                                   "each update, saturated at its joint limits. Writes the time histories "
-                                   "(arrays.npz), result.json and simulation.png.")
+    p = cli.add_run_command(sub, common, "simulate", cmd_simulate, help=HELP,
+                            description=DESCRIPTION)
     p.add_argument("--beats", type=int, required=True, metavar="K", help="wingbeats to simulate")
     p.add_argument("--perturb", action="append", default=[], metavar="KEY=VALUE",
                    help="initial state deviation: u=, w= [m/s], q= [rad/s], theta= [rad] (repeatable)")
@@ -39,8 +41,6 @@ def register(sub, common) -> None:
     p.add_argument("--controller", metavar="RUN_DIR", help="a 'birdocp control' run folder (closed loop); its "
                    "configuration must be the simulated one")
     p.add_argument("--level", action="store_true", help="open loop: simulate about the level-flight cycle")
-    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty)")
-    p.set_defaults(func=cmd_simulate)
 
 
 def _first_difference(a: dict, b: dict, prefix: str = "") -> str | None:

@@ -10,12 +10,16 @@ from birdocp.cli.common import (add_plot_flag, EXIT_OK, finish_result, format_tr
 
 
 def solve_shortcuts(p: argparse.ArgumentParser) -> None:
-    """--points, --steps, --solver, --derivatives (shortcuts for solve.* keys)."""
+    """--points, --steps, --solver, --derivatives (shortcuts for solve.* keys) and --compiled."""
     s = p.add_argument_group("solve (shortcuts for solve.* keys)")
     s.add_argument("--points", type=int, metavar="M", help="shooting points per period, closing point included (solve.points)")
     s.add_argument("--steps", type=int, metavar="N", help="RK4 steps per period, a multiple of M-1 (solve.steps_per_period)")
     s.add_argument("--solver", choices=("ipopt", "lm"), help="nonlinear solver (solve.solver)")
     s.add_argument("--derivatives", choices=("exact", "fd"), help="Jacobians by AD or finite differences (solve.derivatives)")
+    s.add_argument("--compiled", action="store_true",
+                   help="use the state RHS and the data's post compiled to C (the same numbers; compiled once, "
+                        "~15 s, and cached in $BIRDOCP_CACHE or ~/.cache/birdocp; falls back to the interpreted "
+                        "path with a warning if compilation fails; BIRDOCP_COMPILED=1 makes it the default)")
 
 
 def register(sub, common) -> None:
@@ -24,9 +28,6 @@ def register(sub, common) -> None:
                                    "Floquet multipliers. Writes a run folder (config.toml, result.json, arrays.npz).")
     solve_shortcuts(p)
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-trim-<id>/")
-    p.add_argument("--compiled", action="store_true",
-                   help="use the state RHS compiled to C (cached in $BIRDOCP_CACHE or ~/.cache/birdocp; "
-                        "falls back to the interpreted path with a warning if compilation fails)")
     add_plot_flag(p)
     p.set_defaults(func=cmd_trim)
 
@@ -45,7 +46,7 @@ def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
         with run.solving():
             from birdocp.studies.trim import trim
 
-            res = trim(cfg, compiled=True) if getattr(args, "compiled", False) else trim(cfg)
+            res = trim(cfg)  # --compiled: BIRDOCP_COMPILED=1 while the command runs (cli.main)
             getattr(res, "energetics", None)  # computes the power outputs (result.json and the table)
             result = dict(res.to_dict())
             arrays = res.arrays() if hasattr(res, "arrays") else None

@@ -117,17 +117,13 @@ def _prune(root: Path, keep: Path) -> None:
             continue
         if f.suffix == ".npz":
             files.append((st.st_mtime, f))
-    files.sort(reverse=True)
-    for _, f in files[MAX_FILES:]:
-        if f != keep:
-            _remove(f)
+    graphcache.remove_oldest(files, MAX_FILES, keep, _remove)
 
 
 def clear(directory=None) -> int:
     """Remove every stored array; returns how many files were removed."""
     root = folder(directory)
-    n = 0
-    for f in list(root.glob("*.npz")) if root.exists() else []:
+    files = list(root.glob("*.npz")) if root.exists() else []
+    for f in files:
         _remove(f)
-        n += 1
-    return n
+    return len(files)

@@ -26,6 +26,7 @@ import numpy as np
 
 from birdocp.engine.ode import ODE
 from birdocp.engine.orbits import OrbitMethod, OrbitProblem, PeriodicOrbit, solve_orbit_system
+from birdocp.engine.results import result_dict, serial
 
 __all__ = ["Equilibrium", "EquilibriumBranch", "HopfPoint", "find_equilibrium", "continue_equilibria",
            "locate_hopf", "orbit_from_hopf", "hopf_branch"]
@@ -41,14 +42,13 @@ class Equilibrium:
     p: np.ndarray
     residual: float
     iterations: int
-    eigenvalues: np.ndarray
-    eigenvectors: np.ndarray
+    eigenvalues: np.ndarray = field(metadata=serial(complex=True))
+    eigenvectors: np.ndarray = field(metadata=serial(skip=True))
     stable: bool
 
     def to_dict(self) -> dict:
-        return {"success": self.success, "status": self.status, "x": self.x.tolist(), "p": self.p.tolist(),
-                "residual": self.residual, "iterations": self.iterations,
-                "eigenvalues": [[float(v.real), float(v.imag)] for v in self.eigenvalues], "stable": self.stable}
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; eigenvectors left out)."""
+        return result_dict(self)
 
 
 @dataclass
@@ -60,7 +60,7 @@ class HopfPoint:
     p: np.ndarray
     param: int
     omega: float
-    eigenvector: np.ndarray
+    eigenvector: np.ndarray = field(metadata=serial(skip=True))
     real_part: float  # residual of the location (real part of the critical pair)
 
     @property
@@ -68,8 +68,8 @@ class HopfPoint:
         return 2 * np.pi / self.omega
 
     def to_dict(self) -> dict:
-        return {"x": self.x.tolist(), "p": self.p.tolist(), "param": self.param, "omega": self.omega,
-                "period": self.period, "real_part": self.real_part}
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`, with the period)."""
+        return result_dict(self, derived=("period",))
 
 
 @dataclass
@@ -80,12 +80,16 @@ class EquilibriumBranch:
     param: int
     params: np.ndarray
     x: np.ndarray
-    eigenvalues: np.ndarray
+    eigenvalues: np.ndarray = field(metadata=serial(complex=True))
     stable: np.ndarray
     hopf: list = field(default_factory=list)
     folds: list = field(default_factory=list)
     status: str = "ok"
     message: str = ""
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; the Hopf points nested)."""
+        return result_dict(self)
 
 
 def _jac(ode: ODE, x, p, t=0.0):

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from birdocp.engine.results import complex_pairs  # noqa: F401  (re-exported: the [re, im] convention)
+
 __all__ = ["FloquetResult", "floquet_from_jacobians", "multipliers_info", "monodromy_of", "complex_pairs",
            "multiplier_order", "sort_multipliers", "matched_distances"]
 
@@ -33,11 +35,6 @@ class FloquetResult:
     stable: bool
     monodromy_vs_full_period_jacobian: float
     segment_jacobians: list
-
-
-def complex_pairs(values) -> list:
-    """Complex numbers as JSON-ready ``[re, im]`` pairs (the one convention of every result)."""
-    return [[float(np.real(v)), float(np.imag(v))] for v in np.asarray(values).ravel()]
 
 
 def multiplier_order(lam) -> np.ndarray:

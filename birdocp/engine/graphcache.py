@@ -38,8 +38,10 @@ from pathlib import Path
 
 import casadi as ca
 
+from birdocp.engine.lazy import signature
+
 __all__ = ["FORMAT", "MAX_ENTRIES", "CacheMiss", "Entry", "cache_dir", "enabled", "key_digest",
-           "source_digest", "load", "store", "clear"]
+           "source_digest", "load", "store", "clear", "remove_oldest"]
 
 FORMAT = 1
 """Version of the entry layout (part of every key)."""
@@ -109,6 +111,12 @@ class Entry:
     @property
     def names(self) -> tuple[str, ...]:
         return tuple(self.manifest["files"])
+
+    def signature(self, name: str) -> dict | None:
+        """The stored signature of ``name`` (:func:`birdocp.engine.lazy.signature`), or None."""
+        info = self.manifest["files"].get(name) or {}
+        sig = info.get("signature")
+        return sig if isinstance(sig, dict) and {"name", "size_in", "size_out"} <= set(sig) else None
 
     def function(self, name: str) -> ca.Function:
         """The Function ``name``; raises :class:`CacheMiss` (and removes the entry) if its file is
@@ -187,7 +195,7 @@ def store(kind: str, key: dict, functions: dict, meta: dict | None = None, direc
         for name, f in functions.items():
             data = f.serialize().encode("ascii")
             (tmp / f"{name}.casadi").write_bytes(data)
-            files[name] = {"size": len(data), "sha256": hashlib.sha256(data).hexdigest()}
+            files[name] = {"size": len(data), "sha256": hashlib.sha256(data).hexdigest(), "signature": signature(f)}
         manifest = {"key": json.loads(_canonical(key)), "files": files, "meta": meta or {},
                     "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=1))
@@ -219,10 +227,15 @@ def _prune(root: Path, kind: str, keep: Path) -> None:
             entries.append(((d / "manifest.json").stat().st_mtime, d))
         except OSError:
             continue
-    entries.sort(reverse=True)
-    for _, d in entries[MAX_ENTRIES:]:
-        if d != keep:
-            _remove(d)
+    remove_oldest(entries, MAX_ENTRIES, keep, _remove)
+
+
+def remove_oldest(entries: list, n_kept: int, keep: Path, remove) -> None:
+    """Keep the ``n_kept`` newest of ``entries`` (``(mtime, path)`` pairs) and pass the others to
+    ``remove`` (the cache's policy, also the data store's); ``keep``, the entry just written, stays."""
+    for _, path in sorted(entries, reverse=True)[n_kept:]:
+        if path != keep:
+            remove(path)
 
 
 def clear(directory=None) -> int:

@@ -163,10 +163,7 @@ class RK4Grid:
     @functools.cached_property
     def segment(self) -> ca.Function:
         """(x, Dseg, p) -> (x_end, X, q): one segment of n steps (``step.mapaccum``)."""
-        nx, nd, np_ = self.ode.nx, self.ode.nd, self.ode.np
-        x = ca.MX.sym("x", nx)
-        Dn = ca.MX.sym("D", nd, 3 * self.n)
-        p = ca.MX.sym("p", np_)
+        x, Dn, p = self._symbols(1, 3 * self.n)
         X, Q = accumulate(self.step, self.n, x, Dn, p, self.h)
         q = ca.sum2(Q) if self.nq else ca.MX(0, 1)
         return ca.Function("segment", [x, Dn, p], [X[:, -1], X, q], ["x", "D", "p"], ["x_end", "X", "q"])
@@ -174,21 +171,14 @@ class RK4Grid:
     @functools.cached_property
     def segments(self) -> ca.Function:
         """(X[nx x S], D, p) -> (X_end, Xtraj, Q): the S segments, mapped."""
-        nx, nd, np_ = self.ode.nx, self.ode.nd, self.ode.np
-        segs = self.segment.map(self.S)
-        Xs = ca.MX.sym("X", nx, self.S)
-        D = ca.MX.sym("D", nd, 3 * self.N)
-        p = ca.MX.sym("p", np_)
-        Xe, Xt, Q = segs(Xs, D, p)
+        Xs, D, p = self._symbols(self.S, 3 * self.N)
+        Xe, Xt, Q = self.segment.map(self.S)(Xs, D, p)
         return ca.Function("segments", [Xs, D, p], [Xe, Xt, Q], ["X", "D", "p"], ["X_end", "Xtraj", "Q"])
 
     @functools.cached_property
     def period_map(self) -> ca.Function:
         """(x0, D, p) -> (x_T, X[nx x N], q): the one-period map (the segments one after the other)."""
-        nx, nd, np_ = self.ode.nx, self.ode.nd, self.ode.np
-        x = ca.MX.sym("x", nx)
-        D = ca.MX.sym("D", nd, 3 * self.N)
-        p = ca.MX.sym("p", np_)
+        x, D, p = self._symbols(1, 3 * self.N)
         if self.S == 1:
             return ca.Function("period_map", [x, D, p], self.segment(x, D, p), ["x", "D", "p"],
                                ["x_end", "X", "q"])

@@ -23,6 +23,7 @@ import numpy as np
 
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.ode import ODE
+from birdocp.engine.results import result_dict, serial
 from birdocp.engine.steppers import make_step
 
 __all__ = ["LyapunovResult", "lyapunov_exponents", "largest_lyapunov_exponent"]
@@ -36,16 +37,16 @@ class LyapunovResult:
     (k columns). kaplan_yorke_dimension: when the full spectrum is computed (nan otherwise).
     """
 
-    exponents: np.ndarray
+    exponents: np.ndarray = field(metadata=serial(key="lyapunov_exponents"))
     standard_error: np.ndarray
     averaging_time: float
     dt: float
     renorm_time: float
     n_blocks: int
-    block_exponents: np.ndarray
-    history_t: np.ndarray
-    history: np.ndarray
-    x_end: np.ndarray
+    block_exponents: np.ndarray = field(metadata=serial(skip=True))
+    history_t: np.ndarray = field(metadata=serial(skip=True))
+    history: np.ndarray = field(metadata=serial(skip=True))
+    x_end: np.ndarray = field(metadata=serial(skip=True))
     kaplan_yorke_dimension: float = float("nan")
     wall_s: float = 0.0
     method: dict = field(default_factory=dict)
@@ -55,11 +56,8 @@ class LyapunovResult:
         return float(np.sum(self.exponents))
 
     def to_dict(self) -> dict:
-        return {"lyapunov_exponents": self.exponents.tolist(), "standard_error": self.standard_error.tolist(),
-                "sum": self.sum, "averaging_time": self.averaging_time, "dt": self.dt,
-                "renorm_time": self.renorm_time, "n_blocks": self.n_blocks,
-                "kaplan_yorke_dimension": self.kaplan_yorke_dimension, "wall_s": {"total": self.wall_s},
-                "method": self.method}
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; the histories are left out)."""
+        return result_dict(self, derived=("sum",), extra={"wall_s": {"total": self.wall_s}})
 
 
 _CHUNKS = bounded_cache("engine.lyapunov.tangent_chunks", 16)

@@ -47,9 +47,11 @@ import numpy as np
 
 from birdocp.engine import interrupts
 from birdocp.engine.cache import bounded_cache
-from birdocp.engine.floquet import complex_pairs, monodromy_of, sort_multipliers
+from birdocp.engine.floquet import monodromy_of, sort_multipliers
 from birdocp.engine.ode import ODE
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
+from birdocp.engine.results import result_dict, serial
+from birdocp.engine.shooting import ShootingGrid
 from birdocp.engine.steppers import METHOD_ORDER, make_step
 
 __all__ = ["OrbitMethod", "OrbitProblem", "PeriodicOrbit", "solve_orbit", "solve_orbit_system",
@@ -57,17 +59,15 @@ __all__ = ["OrbitMethod", "OrbitProblem", "PeriodicOrbit", "solve_orbit", "solve
 
 
 @dataclass(frozen=True)
-class OrbitMethod:
+class OrbitMethod(ShootingGrid):
     """How to compute a periodic orbit.
 
     Attributes
     ----------
-    points
-        M, shooting points including the closing one (M-1 segments), M >= 2.
-    steps_per_period
-        N (a multiple of points-1), or None (default): chosen by doubling from
-        ``min_steps`` until the error estimate is below ``accuracy`` (no fixed default
-        that ignores the period and the stiffness of the system).
+    points, steps_per_period
+        M and N of the grid (:class:`~birdocp.engine.shooting.ShootingGrid`). N None (default):
+        chosen by doubling from ``min_steps`` until the error estimate is below ``accuracy``
+        (no fixed default that ignores the period and the stiffness of the system).
     integrator
         "rk4" | "radau" (stiff systems) | "gauss".
     solver
@@ -87,8 +87,6 @@ class OrbitMethod:
         (lo, hi) as factors of the period guess (autonomous).
     """
 
-    points: int = 5
-    steps_per_period: int | None = None
     integrator: str = "rk4"
     solver: str = "lm"
     tol: float = 1e-10
@@ -102,14 +100,8 @@ class OrbitMethod:
     ipopt_options: dict = field(default_factory=dict)
 
     def validate(self) -> None:
-        if not isinstance(self.points, (int, np.integer)) or self.points < 2:
-            raise ValueError(f"OrbitMethod.points must be an integer >= 2, got {self.points!r}")
-        if self.steps_per_period is not None:
-            if not isinstance(self.steps_per_period, (int, np.integer)) or self.steps_per_period < 1:
-                raise ValueError(f"OrbitMethod.steps_per_period must be a positive integer, got {self.steps_per_period!r}")
-            if self.steps_per_period % (self.points - 1):
-                raise ValueError(f"OrbitMethod.steps_per_period={self.steps_per_period} must be a multiple of "
-                                 f"points-1={self.points - 1}")
+        """Raise ValueError on the first invalid field (named)."""
+        self.validate_grid()
         if self.integrator not in METHOD_ORDER:
             raise ValueError(f"OrbitMethod.integrator must be one of {sorted(METHOD_ORDER)}, got {self.integrator!r}")
         if self.solver not in ("ipopt", "lm"):
@@ -205,10 +197,10 @@ class PeriodicOrbit:
     arc_length: float
     autonomous: bool
     monodromy: np.ndarray | None = None
-    multipliers: np.ndarray | None = None
-    trivial_multiplier: complex | None = None
+    multipliers: np.ndarray | None = field(default=None, metadata=serial(complex=True))
+    trivial_multiplier: complex | None = field(default=None, metadata=serial(complex=True))
     trivial_multiplier_error: float = float("nan")
-    nontrivial_multipliers: np.ndarray | None = None
+    nontrivial_multipliers: np.ndarray | None = field(default=None, metadata=serial(complex=True))
     stable: bool | None = None
     error_estimate: dict = field(default_factory=dict)
     accurate: bool | None = None
@@ -218,20 +210,9 @@ class PeriodicOrbit:
     free_params: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        """JSON-ready dict: complex numbers as [re, im] pairs, largest modulus first."""
-        out = {}
-        for k, v in self.__dict__.items():
-            if k in ("multipliers", "nontrivial_multipliers") and v is not None:
-                out[k] = complex_pairs(v)
-            elif k == "trivial_multiplier" and v is not None:
-                out[k] = [float(np.real(v)), float(np.imag(v))]
-            elif isinstance(v, np.ndarray):
-                out[k] = v.tolist()
-            elif isinstance(v, (np.floating, np.integer, np.bool_)):
-                out[k] = v.item()
-            else:
-                out[k] = v
-        return out
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): complex numbers as [re, im]
+        pairs, multipliers largest modulus first, NaN as null."""
+        return result_dict(self)
 
 
 # ----------------------------------------------------------------------------------------------

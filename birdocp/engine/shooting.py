@@ -30,8 +30,9 @@ from birdocp.engine.floquet import FloquetResult, floquet_from_jacobians
 from birdocp.engine.integrate import RK4Grid
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
+from birdocp.engine.results import result_dict, serial
 
-__all__ = ["MultipleShooting", "LimitCycleResult", "solve", "clear_cache", "floquet", "ShootingGraphs",
+__all__ = ["ShootingGrid", "MultipleShooting", "LimitCycleResult", "solve", "clear_cache", "floquet", "ShootingGraphs",
            "shooting_graphs", "initial_points", "rk4_grid"]
 
 _IPOPT_DEFAULTS = {
@@ -46,15 +47,43 @@ _IPOPT_DEFAULTS = {
 
 
 @dataclass(frozen=True)
-class MultipleShooting:
-    """How to solve a LimitCycleProblem.
+class ShootingGrid:
+    """The grid of a multiple-shooting method (the base of :class:`MultipleShooting` and
+    :class:`birdocp.engine.orbits.OrbitMethod`).
 
     Attributes
     ----------
     points
         M, shooting points INCLUDING the closing one (M-1 segments), M >= 2.
     steps_per_period
-        N, RK4 steps over the period; a multiple of points-1.
+        N, integrator steps over the period; a multiple of points-1 (None: chosen by the method).
+    """
+
+    points: int = 5
+    steps_per_period: int | None = None
+
+    def validate_grid(self) -> None:
+        """Raise ValueError (naming the class and the field) unless M >= 2 and N is a positive
+        multiple of M-1 (or None)."""
+        name, n = type(self).__name__, self.steps_per_period
+        if not isinstance(self.points, (int, np.integer)) or self.points < 2:
+            raise ValueError(f"{name}.points must be an integer >= 2, got {self.points!r}")
+        if n is None:
+            return
+        if not isinstance(n, (int, np.integer)) or n < 1:
+            raise ValueError(f"{name}.steps_per_period must be a positive integer, got {n!r}")
+        if n % (self.points - 1):
+            raise ValueError(f"{name}.steps_per_period={n} must be a multiple of points-1={self.points - 1}")
+
+
+@dataclass(frozen=True)
+class MultipleShooting(ShootingGrid):
+    """How to solve a LimitCycleProblem.
+
+    Attributes
+    ----------
+    points, steps_per_period
+        M and N of the grid (:class:`ShootingGrid`); N is required (RK4 steps over the period).
     solver
         "ipopt" | "lm" (the paper's Levenberg-Marquardt).
     derivatives
@@ -79,8 +108,7 @@ class MultipleShooting:
         with IPOPT's filter line search; iterations and histories are concatenated.
     """
 
-    points: int = 5
-    steps_per_period: int = 148
+    steps_per_period: int = 148  # the paper's grid (M = 5: 37 steps per segment)
     solver: str = "ipopt"
     derivatives: str = "exact"
     tol: float | None = None
@@ -91,14 +119,10 @@ class MultipleShooting:
     ipopt_fallback: bool = True
 
     def validate(self) -> None:
-        if not isinstance(self.points, (int, np.integer)) or self.points < 2:
-            raise ValueError(f"MultipleShooting.points must be an integer >= 2, got {self.points!r}")
-        if not isinstance(self.steps_per_period, (int, np.integer)) or self.steps_per_period < 1:
-            raise ValueError(f"MultipleShooting.steps_per_period must be a positive integer, got {self.steps_per_period!r}")
-        if self.steps_per_period % (self.points - 1):
-            raise ValueError(
-                f"MultipleShooting.steps_per_period={self.steps_per_period} must be a multiple of "
-                f"points-1={self.points - 1}")
+        """Raise ValueError on the first invalid field (named)."""
+        if self.steps_per_period is None:
+            raise ValueError("MultipleShooting.steps_per_period must be a positive integer, got None")
+        self.validate_grid()
         if self.solver not in ("ipopt", "lm"):
             raise ValueError(f"MultipleShooting.solver must be 'ipopt' or 'lm', got {self.solver!r}")
         if self.derivatives not in ("exact", "fd"):
@@ -115,26 +139,6 @@ class MultipleShooting:
         if self.tol is not None:
             return float(self.tol)
         return 1e-10 if self.solver == "ipopt" else 1e-5
-
-
-def _jsonable(v):
-    if isinstance(v, dict):
-        return {str(k): _jsonable(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_jsonable(x) for x in v]
-    if isinstance(v, np.ndarray):
-        if np.iscomplexobj(v):
-            return {"real": v.real.tolist(), "imag": v.imag.tolist()}
-        return v.tolist()
-    if isinstance(v, (np.bool_, bool)):
-        return bool(v)
-    if isinstance(v, (np.integer,)):
-        return int(v)
-    if isinstance(v, (np.floating, float)):
-        return float(v)
-    if isinstance(v, complex):
-        return {"real": v.real, "imag": v.imag}
-    return v
 
 
 @dataclass
@@ -163,8 +167,9 @@ class LimitCycleResult:
     doubling_times_s
         ln 2 / Re(exponent), signed (negative = minus the halving time); see floquet.
 
-    ``to_dict()`` gives lists/dicts/floats for JSON; complex arrays as {"real": [...], "imag": [...]};
-    non-finite floats stay floats (json.dumps writes Infinity/NaN).
+    ``to_dict()`` is the JSON of every result (:func:`birdocp.engine.results.result_dict`): complex
+    numbers as ``[re, im]`` pairs (``eigenvectors``: one list of pairs per mode, in the order of the
+    multipliers), NaN and inf as null.
     """
 
     success: bool
@@ -183,16 +188,17 @@ class LimitCycleResult:
     max_residual: float
     means: dict
     monodromy: np.ndarray | None = None
-    multipliers: np.ndarray | None = None
-    eigenvectors: np.ndarray | None = None
-    floquet_exponents: np.ndarray | None = None
+    multipliers: np.ndarray | None = field(default=None, metadata=serial(complex=True))
+    eigenvectors: np.ndarray | None = field(default=None, metadata=serial(complex=True, columns=True))
+    floquet_exponents: np.ndarray | None = field(default=None, metadata=serial(complex=True))
     doubling_times_s: np.ndarray | None = None
     stable: bool | None = None
     monodromy_vs_full_period_jacobian: float = float("nan")
     method: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        return {k: _jsonable(v) for k, v in self.__dict__.items()}
+        """JSON-ready dict (see the class docstring)."""
+        return result_dict(self)
 
 
 # ----------------------------------------------------------------------------------------------

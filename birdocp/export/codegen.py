@@ -36,6 +36,7 @@ import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config
 from birdocp.engine.integrate import rk4_update, stage_time_grid
+from birdocp.engine.results import result_dict
 
 __all__ = ["export_c", "ExportInfo", "runtime_parameters"]
 
@@ -54,10 +55,8 @@ class ExportInfo:
     wall_s: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        return {"out_dir": str(self.out_dir), "files": list(self.files),
-                "steps_per_period": self.steps_per_period, "period_s": self.period_s,
-                "step_s": self.step_s, "n_data": self.n_data, "runtime_params": self.runtime_params,
-                "runtime_p0": self.runtime_p0, "baked_params": self.baked_params, "wall_s": self.wall_s}
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; the folder as a string)."""
+        return result_dict(self)
 
 
 def runtime_parameters(model) -> tuple[list[int], list[int]]:

@@ -94,6 +94,36 @@ def _library(directory: Path, name: str, parts, cmd) -> Path:
     return directory / f"{name}-{h.hexdigest()[:20]}.so"
 
 
+def _digest_file(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _seal(built: Path, lib: Path) -> None:
+    # the library's SHA-256 beside it (written first: a library without a matching seal is rebuilt)
+    tmp = lib.with_name(f".{lib.name}.{os.getpid()}.sha256")
+    tmp.write_text(_digest_file(built) + "\n")
+    os.replace(tmp, lib.with_name(lib.name + ".sha256"))
+
+
+def _trusted(lib: Path) -> bool:
+    """True when ``lib`` exists and matches the SHA-256 written when it was built; a library that does
+    not (truncated, garbled, replaced, or left without its seal) is removed, to be rebuilt."""
+    if not lib.exists():
+        return False
+    seal = lib.with_name(lib.name + ".sha256")
+    try:
+        ok = seal.read_text().strip() == _digest_file(lib)
+    except OSError:
+        ok = False
+    if not ok:
+        for f in (lib, seal):
+            try:
+                f.unlink()
+            except OSError:
+                pass
+    return ok
+
+
 def compile_functions(name: str, functions, key_extra: str = "", directory: Path | None = None,
                       graph_key: str = "") -> str:
     """Generate one C file holding ``functions`` (CasADi Functions, by their names), compile it as a
@@ -105,6 +135,9 @@ def compile_functions(name: str, functions, key_extra: str = "", directory: Path
     that built them and of every structural setting) it replaces the source, and a library already
     in the cache is found without generating any code.
 
+    Each library carries its SHA-256 in ``<lib>.sha256``, written when it was built; a library that
+    does not match it (truncated, garbled, replaced) is removed and rebuilt, never loaded.
+
     Raises ``RuntimeError`` if no compiler is found or the compiler fails."""
     t = time.perf_counter()
     directory = Path(directory) if directory is not None else cache_dir()
@@ -115,7 +148,7 @@ def compile_functions(name: str, functions, key_extra: str = "", directory: Path
     cmd = cc + list(OPT_FLAGS) + ["-shared", "-fPIC"]
     if graph_key:
         lib = _library(directory, name, ("graph", graph_key, key_extra), cmd)
-        if lib.exists():
+        if _trusted(lib):
             last_compile_s[name] = {"generate": 0.0, "compile": 0.0, "cached": True, "path": str(lib)}
             return str(lib)
     with tempfile.TemporaryDirectory(dir=directory, prefix=".gen-") as tmp:
@@ -127,7 +160,7 @@ def compile_functions(name: str, functions, key_extra: str = "", directory: Path
         gen_s = time.perf_counter() - t
         if not graph_key:
             lib = _library(directory, name, (src, key_extra), cmd)
-        if lib.exists():
+        if _trusted(lib):
             last_compile_s[name] = {"generate": gen_s, "compile": 0.0, "cached": True, "path": str(lib)}
             return str(lib)
         c_file = Path(tmp, f"{name}.c")
@@ -138,6 +171,7 @@ def compile_functions(name: str, functions, key_extra: str = "", directory: Path
             err = (proc.stderr or proc.stdout).strip().splitlines()
             raise RuntimeError(f"{' '.join(cmd)} failed (exit {proc.returncode}): "
                                f"{err[0] if err else 'no output'}")
+        _seal(out, lib)
         os.replace(out, lib)  # atomic within the cache folder
         last_compile_s[name] = {"generate": gen_s, "compile": time.perf_counter() - tc, "cached": False,
                                 "path": str(lib)}

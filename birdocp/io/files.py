@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import contextlib
 import json
-import math
 import os
-import sys
 import tempfile
 from dataclasses import fields, is_dataclass
 from pathlib import Path
 from typing import Any
+
+# The one JSON convention of every result (complex as [re, im], NaN/inf as null): a standard-library
+# module of the engine, the only import of io from another layer (declared in pyproject.toml).
+from birdocp.engine.results import to_jsonable
 
 
 def umask_mode() -> int:
@@ -62,33 +64,6 @@ def dataclass_to_dict(obj: Any) -> dict:
         v = getattr(obj, f.name)
         out[f.name] = dataclass_to_dict(v) if is_dataclass(v) else (list(v) if isinstance(v, tuple) else v)
     return out
-
-
-def to_jsonable(obj: Any) -> Any:
-    """Plain JSON types: numpy arrays to lists, complex to [re, im], non-finite floats to None."""
-    if isinstance(obj, dict):
-        return {str(k): to_jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [to_jsonable(v) for v in obj]
-    np = sys.modules.get("numpy")  # no numpy object exists unless numpy was imported (kept off --help)
-    if np is None:
-        if isinstance(obj, complex):
-            return [to_jsonable(obj.real), to_jsonable(obj.imag)]
-        if isinstance(obj, float):
-            return obj if math.isfinite(obj) else None
-        return obj
-    if isinstance(obj, np.ndarray):
-        return to_jsonable(obj.tolist())
-    if isinstance(obj, (complex, np.complexfloating)):
-        return [to_jsonable(float(obj.real)), to_jsonable(float(obj.imag))]
-    if isinstance(obj, (np.floating, float)):
-        v = float(obj)
-        return v if np.isfinite(v) else None
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    return obj
 
 
 def atomic_write_json(path: str | Path, obj: Any) -> None:

@@ -90,7 +90,7 @@ def plot_convergence(results_by_label: dict, path, tol: float | None = None,
                      title: str = "Convergence of the shooting solve", tol_label: str | None = None) -> Path:
     """Max residual per iteration (log scale) for each labelled result/history. Open markers of
     decreasing size and varying line styles keep coinciding histories distinguishable."""
-    fig, ax = plt.subplots(figsize=(8, 5))
+    fig, ax = plt.subplots(figsize=(8, 6))
     styles = ("-", "--", "-.", ":")
     n = len(results_by_label)
     for k, (label, res) in enumerate(results_by_label.items()):
@@ -104,7 +104,9 @@ def plot_convergence(results_by_label: dict, path, tol: float | None = None,
     ax.set_title(title)
     ax.xaxis.get_major_locator().set_params(integer=True)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8, loc="best")
+    # below the axes: the curves fill the plot from the upper left to the lower right
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, frameon=False)
+    fig.tight_layout()
     return save_figure(fig, path)
 
 

@@ -42,6 +42,7 @@ from birdocp.bird.model import get_model
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.floquet import complex_pairs, multiplier_order
 from birdocp.engine.integrate import RK4Grid
+from birdocp.engine.results import result_dict, serial
 
 __all__ = ["DEFAULT_CONTROLS", "ACCEPTABLE_STATE", "ACCEPTABLE_CONTROL_DEG", "DEFAULT_LIMIT_DEG",
            "WingbeatMap", "Controller", "wingbeat_map", "periodic_lqr", "design_controller",
@@ -382,11 +383,11 @@ class Controller:
     state unit), saturated at ``limits`` (absolute, (m, 2)) by the simulation.
     """
 
-    map: WingbeatMap
+    map: WingbeatMap = field(metadata=serial(skip=True))  # written through the keys of to_dict
     Q: np.ndarray
     R: np.ndarray
-    P: np.ndarray
-    K: np.ndarray
+    P: np.ndarray = field(metadata=serial(key="riccati_P"))
+    K: np.ndarray = field(metadata=serial(key="gains"))
     limits: np.ndarray
     per_control: list = field(default_factory=list)
 
@@ -415,33 +416,30 @@ class Controller:
         return float(np.max(np.abs(self.closed_loop_multipliers)))
 
     def to_dict(self) -> dict:
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): the design, its verdict and
+        the linearised map it was designed on."""
         wm = self.map
         ol = wm.multipliers
-        cl = self.closed_loop_multipliers
         rho = self.spectral_radius
         stable = bool(rho < 1.0)
-        return {
+        return result_dict(self, extra={
             "success": stable, "status": "stabilised" if stable else "not_stabilised",
             "message": (f"closed-loop spectral radius {rho:.4g} < 1" if stable else
                         f"closed-loop spectral radius {rho:.4g} >= 1: the cycle is not stabilisable through "
                         + ", ".join(r["control"] for r in self.per_control if not r["stabilisable"])
                         if any(not r["stabilisable"] for r in self.per_control) else
                         f"closed-loop spectral radius {rho:.4g} >= 1"),
-            "controls": list(wm.controls), "updates_per_beat": wm.updates_per_beat,
+            "controls": wm.controls, "updates_per_beat": wm.updates_per_beat,
             "steps_per_period": wm.steps_per_period,
-            "open_loop_multipliers": complex_pairs(ol), "closed_loop_multipliers": complex_pairs(cl),
-            "open_loop_spectral_radius": float(np.max(np.abs(ol))), "closed_loop_spectral_radius": rho,
+            "open_loop_multipliers": complex_pairs(ol),
+            "closed_loop_multipliers": complex_pairs(self.closed_loop_multipliers),
+            "open_loop_spectral_radius": np.max(np.abs(ol)), "closed_loop_spectral_radius": rho,
             "beats_to_reduce_100x": (math.log(100.0) / -math.log(rho)) if 0 < rho < 1 else None,
-            "gain": self.K[0].tolist(), "gains": self.K.tolist(),
+            "gain": self.K[0],
             "gain_units": "control unit (deg) per state unit (u, w: m/s; q: rad/s; theta: rad)",
             "controllable": {r["control"]: r["stabilisable"] for r in self.per_control},
-            "per_control": self.per_control,
-            "Q": self.Q.tolist(), "R": self.R.tolist(), "riccati_P": self.P.tolist(),
-            "limits": self.limits.tolist(),
-            "cycle_x0": wm.x0.tolist(), "cycle_controls": [float(wm.p[PARAM_NAMES.index(k)]) for k in wm.controls],
-            "x_starts": wm.x_starts.tolist(), "A": wm.A.tolist(), "B": wm.B.tolist(),
-            "monodromy": wm.M.tolist(), "B_lifted": wm.B_lifted.tolist(),
-        }
+            "cycle_x0": wm.x0, "cycle_controls": [wm.p[PARAM_NAMES.index(k)] for k in wm.controls],
+            "x_starts": wm.x_starts, "A": wm.A, "B": wm.B, "monodromy": wm.M, "B_lifted": wm.B_lifted})
 
 
 def design_controller(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int = 1, *,

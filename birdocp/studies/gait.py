@@ -27,11 +27,13 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, with_values
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest, with_values
 from birdocp.engine.floquet import sort_multipliers
+from birdocp.engine.results import result_dict, serial
 
 __all__ = ["ReducedLevelCycle", "GaitOptimum", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
-           "level_at_speed", "power_curve", "SPEED_KEY", "stability_pareto"]
+           "level_at_speed", "power_curve", "SPEED_KEY", "stability_pareto", "jury_conditions",
+           "check_free_keys"]
 
 AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
 SPEED_KEY = "gait.shoulder_incidence.offset_deg"
@@ -57,9 +59,45 @@ _OUT = ("vertical_speed_mps", "forward_speed_mps", "flapping_power_W", "aerodyna
         "positive_power_smooth_W")
 
 
-def _jury_function():
-    from birdocp.studies.optimize import jury_conditions
+def jury_conditions(A):
+    """The five Jury quantities (each >= 0 <=> all eigenvalues of the 4 x 4 A in the closed unit
+    disc, strict > 0 for the open disc)."""
+    t1 = ca.trace(A)
+    A2 = A @ A
+    t2 = ca.trace(A2)
+    t3 = ca.trace(A2 @ A)
+    a3 = -t1
+    a2 = 0.5 * (t1 ** 2 - t2)
+    a1 = -(t1 ** 3 - 3 * t1 * t2 + 2 * t3) / 6
+    a0 = ca.det(A)
+    a = [a0, a1, a2, a3, 1.0]
+    p1 = sum(a)
+    pm1 = a0 - a1 + a2 - a3 + 1.0
+    b = [a[0] * a[k] - a[4] * a[4 - k] for k in range(4)]
+    c = [b[0] * b[k] - b[3] * b[3 - k] for k in range(3)]
+    return ca.vertcat(p1, pm1, 1 - a0 ** 2, b[0] ** 2 - b[3] ** 2, c[0] ** 2 - c[2] ** 2)
 
+
+def check_free_keys(m, cfg, free: dict) -> None:
+    """ConfigError unless every free key can be a reduced variable (known, not the amplitude, not
+    reshaping the wing in the arm frame, finite bounds around the configured value)."""
+    for k, (lo, hi) in free.items():
+        if k not in PARAM_NAMES:
+            raise ConfigError(k, "unknown parameter for --free" + suggest(k, PARAM_NAMES))
+        if k == AMPLITUDE_KEY:
+            raise ConfigError(k, "the flapping amplitude is solved for level flight; free other keys")
+        if PARAM_NAMES.index(k) in m.pre_params:
+            raise ConfigError(k, "changes the wing's shape in the arm frame (elbow, wrist, morphology): "
+                                 "free shoulder joints, wing.root_ahead_m or body/aero/drag keys")
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+            raise ConfigError(k, f"bounds must be finite with lower < upper, got ({lo}, {hi})")
+        v = float(get_value(cfg, k))
+        if not lo <= v <= hi:
+            raise ConfigError(k, f"configured value {v:g} lies outside its bounds ({lo:g}, {hi:g}); "
+                                 f"widen --bounds {k}=LO:HI")
+
+
+def _jury_function():
     M, r = ca.SX.sym("M", 4, 4), ca.SX.sym("r")
     j = jury_conditions(M / r)
     return ca.Function("jury", [M, r], [j, ca.jacobian(j, ca.vertcat(ca.vec(M), r))])
@@ -330,8 +368,8 @@ class GaitOptimum:
     start_free: dict
     amplitude_deg: float
     x0: np.ndarray
-    multipliers: np.ndarray
-    start_multipliers: np.ndarray
+    multipliers: np.ndarray = field(metadata=serial(complex=True))
+    start_multipliers: np.ndarray = field(metadata=serial(complex=True))
     mean_forward_speed_mps: float
     speed_mps: float | None
     max_multiplier: float | None
@@ -349,28 +387,14 @@ class GaitOptimum:
         return float(np.max(np.abs(self.multipliers)))
 
     def to_dict(self) -> dict:
-        pair = lambda z: [[float(v.real), float(v.imag)] for v in np.asarray(z)]
-        fin = lambda v: float(v) if v is not None and math.isfinite(v) else None
-        return {
-            "success": self.success, "status": self.status, "message": self.message,
-            "objective": self.objective, "iterations": self.iterations,
-            "objective_value": fin(self.objective_value), "start_objective_value": fin(self.start_objective_value),
-            "free": dict(self.free), "start_free": dict(self.start_free),
-            "bounds": {k: list(v) for k, v in self.bounds.items()},
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): the documented keys."""
+        return result_dict(self, exclude=("cfg", "start_x0", "means"), derived=("largest_modulus",), extra={
             "active_bounds": [k for k, v in self.free.items()
                               if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6],
-            "amplitude_deg": self.amplitude_deg, "x0": np.asarray(self.x0).tolist(),
-            "multipliers": pair(self.multipliers), "moduli": np.abs(self.multipliers).tolist(),
-            "largest_modulus": self.largest_modulus, "stable": bool(self.largest_modulus < 1),
-            "start_multipliers": pair(self.start_multipliers),
-            "mean_forward_speed_mps": self.mean_forward_speed_mps, "speed_mps": self.speed_mps,
-            "max_multiplier": self.max_multiplier,
+            "moduli": np.abs(self.multipliers), "stable": bool(self.largest_modulus < 1),
             "mean_shoulder_power_W": self.means.get("flapping_power_W"),
             "mean_aerodynamic_power_W": self.means.get("aerodynamic_power_W"),
-            "mean_vertical_speed_mps": self.means.get("vertical_speed_mps"),
-            "kkt_residual": self.kkt_residual, "constraint_violation": self.constraint_violation,
-            "verification": self.verification, "wall_s": self.wall_s, "evaluations": self.evaluations,
-        }
+            "mean_vertical_speed_mps": self.means.get("vertical_speed_mps")})
 
 
 class _Problem:
@@ -517,8 +541,6 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     if start:  # a previous optimum may sit on a bound to within IPOPT's tolerance
         start = {k: float(np.clip(v, *free[k])) if k in free else v for k, v in start.items()}
     cfg_start = with_values(cfg, start) if start else cfg
-    from birdocp.studies.optimize import check_free_keys
-
     check_free_keys(m, cfg_start, free)
     t_all, cpu_all = time.perf_counter(), time.process_time()
     wall = {}

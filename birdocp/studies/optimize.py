@@ -10,11 +10,16 @@ expressions of the cycle and the gait):
 
 with the Jury rows ``b_k = a0 a_k - a_{4-k}`` and ``c_k = b0 b_k - b3 b_{3-k}`` (each bounded below by a
 small margin, :data:`JURY_MARGIN`, so that only strictly Jury-stable points are feasible). At the
-optimum one of them is active and ``r`` equals the spectral radius up to the margin. The NLP (IPOPT, exact first derivatives, the
-monodromy's derivatives by forward-over-forward AD) has the state at t = 0, the free gait
-parameters, the flapping amplitude (level flight: mean vertical speed = climb rate) and ``r`` as
-unknowns, single shooting over one period. The answer is verified independently: numpy
-eigenvalues of the monodromy, and a trim from scratch at the optimal gait.
+optimum one of them is active and ``r`` equals the spectral radius up to the margin.
+
+Two formulations. By default (``method="reduced"``) the NLP is the reduced-space one of
+:mod:`birdocp.studies.gait` (the same code as ``optimize-gait``): IPOPT's unknowns are the free gait
+parameters and ``r``; the level cycle is solved by Newton at every iterate and the Jury conditions'
+gradients are exact (implicit function theorem, second-order variational equations). With
+``method="full"`` the state at t = 0, the free gait parameters, the flapping amplitude (level
+flight: mean vertical speed = climb rate) and ``r`` are all unknowns, single shooting over one period
+(exact first derivatives, the monodromy's derivatives by forward-over-forward AD). The answer is
+verified independently: numpy eigenvalues of the monodromy, and trims at the optimal gait.
 
 Free keys must leave the wing's arm-frame shape unchanged (shoulder joints, wing root position,
 shoulder separation, body and aerodynamic numbers, tail), so the expensive geometry stays numeric.
@@ -28,11 +33,13 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest, with_values
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, with_values
 from birdocp.bird.validity import invalid, periodic_validity
 from birdocp.engine import interrupts
 from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.engine.oracle import ConstraintOracle, ipopt_options
+from birdocp.engine.results import result_dict, serial
+from birdocp.studies.gait import check_free_keys, jury_conditions  # noqa: F401 (public here too)
 
 __all__ = ["DEFAULT_FREE", "METHODS", "check_free_keys", "optimize_stability", "StabilityOptimum", "jury_conditions"]
 
@@ -56,25 +63,6 @@ DEFAULT_FREE = {
 level flight within 20-70 deg. Phases and other shoulder keys can be freed with their own bounds."""
 
 
-def jury_conditions(A):
-    """The five Jury quantities (each >= 0 <=> all eigenvalues of the 4 x 4 A in the closed unit
-    disc, strict > 0 for the open disc)."""
-    t1 = ca.trace(A)
-    A2 = A @ A
-    t2 = ca.trace(A2)
-    t3 = ca.trace(A2 @ A)
-    a3 = -t1
-    a2 = 0.5 * (t1 ** 2 - t2)
-    a1 = -(t1 ** 3 - 3 * t1 * t2 + 2 * t3) / 6
-    a0 = ca.det(A)
-    a = [a0, a1, a2, a3, 1.0]
-    p1 = sum(a)
-    pm1 = a0 - a1 + a2 - a3 + 1.0
-    b = [a[0] * a[k] - a[4] * a[4 - k] for k in range(4)]
-    c = [b[0] * b[k] - b[3] * b[3 - k] for k in range(3)]
-    return ca.vertcat(p1, pm1, 1 - a0 ** 2, b[0] ** 2 - b[3] ** 2, c[0] ** 2 - c[2] ** 2)
-
-
 @dataclass
 class StabilityOptimum:
     success: bool
@@ -85,8 +73,8 @@ class StabilityOptimum:
     bounds: dict
     amplitude_deg: float
     radius: float                  # optimal r
-    multipliers: np.ndarray        # numpy eigenvalues of the optimal monodromy
-    start_multipliers: np.ndarray  # at the level-flight start
+    multipliers: np.ndarray = field(metadata=serial(complex=True))  # eigenvalues of the optimal monodromy
+    start_multipliers: np.ndarray = field(metadata=serial(complex=True))  # at the level-flight start
     x0: np.ndarray
     verification: dict = field(default_factory=dict)
     wall_s: dict = field(default_factory=dict)
@@ -105,19 +93,12 @@ class StabilityOptimum:
         return bool(np.max(np.abs(self.multipliers)) < 1.0)
 
     def to_dict(self) -> dict:
-        pair = lambda z: [[float(v.real), float(v.imag)] for v in np.asarray(z)]
-        return {"success": self.success, "status": self.status, "message": self.message,
-                "iterations": self.iterations, "free": self.free,
-                "bounds": {k: list(v) for k, v in self.bounds.items()},
-                "amplitude_deg": self.amplitude_deg, "radius": self.radius,
-                "multipliers": pair(self.multipliers), "moduli": np.abs(self.multipliers).tolist(),
-                "start_multipliers": pair(self.start_multipliers), "x0": self.x0.tolist(),
-                "stable": self.stable, "verification": self.verification, "wall_s": self.wall_s,
-                "method": self.method, "kkt_residual": self.kkt_residual,
-                "constraint_violation": self.constraint_violation, "evaluations": self.evaluations,
-                "validity": self.validity or invalid(self.cfg, "not checked (no optimal cycle)").to_dict(),
-                "active_bounds": [k for k, v in self.free.items()
-                                  if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6]}
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`)."""
+        return result_dict(self, exclude=("cfg",), derived=("stable",), extra={
+            "moduli": np.abs(self.multipliers),
+            "validity": self.validity or invalid(self.cfg, "not checked (no optimal cycle)"),
+            "active_bounds": [k for k, v in self.free.items()
+                              if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6]})
 
 
 class _Evaluator:
@@ -221,31 +202,6 @@ class _Evaluator:
                 import sys
                 print(f"optimize-stability: {text}", file=sys.stderr, flush=True)
         return J
-
-
-def check_free_keys(m, cfg, free: dict) -> None:
-    """ConfigError unless every free key can be a reduced variable (known, not the amplitude, not
-    reshaping the wing in the arm frame, finite bounds around the configured value)."""
-    for k, (lo, hi) in free.items():
-        if k not in PARAM_NAMES:
-            raise ConfigError(k, "unknown parameter for --free" + suggest(k, PARAM_NAMES))
-        if k == AMPLITUDE_KEY:
-            raise ConfigError(k, "the flapping amplitude is solved for level flight; free other keys")
-        if PARAM_NAMES.index(k) in m.pre_params:
-            raise ConfigError(k, "changes the wing's shape in the arm frame (elbow, wrist, morphology): "
-                                 "free shoulder joints, wing.root_ahead_m or body/aero/drag keys")
-        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
-            raise ConfigError(k, f"bounds must be finite with lower < upper, got ({lo}, {hi})")
-        v = float(get_value(cfg, k))
-        if not lo <= v <= hi:
-            raise ConfigError(k, f"configured value {v:g} lies outside its bounds ({lo:g}, {hi:g}); "
-                                 f"widen --bounds {k}=LO:HI")
-
-
-def _suggest(k):
-    from birdocp.bird.config import suggest
-
-    return suggest(k, PARAM_NAMES)
 
 
 METHODS = ("reduced", "full")

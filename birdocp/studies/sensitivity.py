@@ -19,7 +19,7 @@ All derivatives are exact (to round-off) for the discretised problem the trim so
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
@@ -28,6 +28,7 @@ from birdocp.bird.config import PARAM_NAMES, Config
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.floquet import multiplier_order
 from birdocp.engine.integrate import RK4Grid
+from birdocp.engine.results import result_dict, serial
 from birdocp.engine.sensitivity import orbit_state_derivative, total_derivative
 from birdocp.bird.model import get_model
 
@@ -61,13 +62,16 @@ def unit_of(key: str) -> tuple[str, float]:
 @dataclass
 class SensitivityResult:
     parameters: list          # parameter keys
-    multipliers: np.ndarray   # at the cycle, largest modulus first
-    d_multipliers: np.ndarray  # (n_params, 4) complex, per unit of the parameter's own unit
+    multipliers: np.ndarray = field(metadata=serial(complex=True))  # at the cycle, largest modulus first
+    # (n_params, 4) complex, per unit of the parameter's own unit
+    d_multipliers: np.ndarray = field(metadata=serial(complex=True))
     d_moduli: np.ndarray      # (n_params, 4)
     d_x0: np.ndarray          # (n_params, 4)
-    d_mean_vertical_speed: np.ndarray  # (n_params,) m/s per unit
+    # (n_params,) m/s per unit
+    d_mean_vertical_speed: np.ndarray = field(metadata=serial(key="d_mean_vertical_speed_mps"))
     hold_level: bool
-    d_amplitude: np.ndarray | None  # (n_params,) deg per unit (hold_level only)
+    # (n_params,) deg per unit (hold_level only)
+    d_amplitude: np.ndarray | None = field(metadata=serial(key="d_amplitude_deg"))
 
     def ranked(self, mode: int = 0) -> list[dict]:
         """Rows sorted by |d modulus of multiplier `mode`| per display unit (deg or cm)."""
@@ -85,14 +89,9 @@ class SensitivityResult:
         return rows
 
     def to_dict(self) -> dict:
-        return {"parameters": list(self.parameters), "hold_level": self.hold_level,
-                "multipliers": [[float(z.real), float(z.imag)] for z in self.multipliers],
-                "ranked_expanding": self.ranked(0),
-                "d_moduli": self.d_moduli.tolist(),
-                "d_multipliers": [[[float(z.real), float(z.imag)] for z in row] for row in self.d_multipliers],
-                "d_x0": self.d_x0.tolist(),
-                "d_mean_vertical_speed_mps": self.d_mean_vertical_speed.tolist(),
-                "d_amplitude_deg": None if self.d_amplitude is None else self.d_amplitude.tolist()}
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`, with the ranking of the
+        expanding multiplier's sensitivities)."""
+        return result_dict(self, extra={"ranked_expanding": self.ranked(0)})
 
 
 _SECOND_ORDER = bounded_cache("studies.second_order_maps", 8)

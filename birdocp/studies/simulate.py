@@ -35,6 +35,7 @@ from birdocp.bird.config import PARAM_NAMES, ConfigError
 from birdocp.bird.model import STATE_NAMES, air_state, get_model
 from birdocp.bird.validity import effective_angles
 from birdocp.engine.integrate import RK4Grid, rk4_update, stage_block_index
+from birdocp.engine.results import result_dict, serial
 from birdocp.studies.control import PerModel
 
 __all__ = ["Gust", "SimulationResult", "simulate", "gust_envelope", "nonlinear_beat_map", "STATE_ALIASES",
@@ -176,21 +177,26 @@ class SimulationResult:
     message: str
     closed_loop: bool
     beats: int
-    t_s: np.ndarray              # (n,) times of the RK4 steps
-    states: np.ndarray           # (n, 4) u [m/s], w [m/s], q [rad/s], theta [rad]
-    X_m: np.ndarray              # (n,) inertial forward position of G
-    Z_m: np.ndarray              # (n,) inertial position of G, positive down
-    control_t_s: np.ndarray      # (k,) times of the control updates
-    controls: np.ndarray         # (k, m) applied control values (absolute, own units)
-    control_keys: list
+    # the time histories go to arrays.npz (:meth:`arrays`), not to the JSON
+    t_s: np.ndarray = field(metadata=serial(skip=True))  # (n,) times of the RK4 steps
+    states: np.ndarray = field(metadata=serial(skip=True))  # (n, 4) u [m/s], w [m/s], q [rad/s], theta [rad]
+    X_m: np.ndarray = field(metadata=serial(skip=True))  # (n,) inertial forward position of G
+    Z_m: np.ndarray = field(metadata=serial(skip=True))  # (n,) inertial position of G, positive down
+    control_t_s: np.ndarray = field(metadata=serial(skip=True))  # (k,) times of the control updates
+    controls: np.ndarray = field(metadata=serial(skip=True))  # (k, m) applied values (absolute, own units)
+    control_keys: list = field(metadata=serial(key="controls"))
     deviation_per_beat: np.ndarray  # (K+1,) 2-norm of x(kT) - x_cycle, first = the initial perturbation
     saturated: bool
-    beat_distance_m: float
+    beat_distance_m: float = field(metadata=serial(key="distance_per_beat_m"))
     gust_spans_m: list = field(default_factory=list)
-    max_inflow_deg: float = float("nan")  # largest |atan2(w_air, u_air)| along the trajectory
-    min_airspeed_mps: float = float("nan")  # smallest air-relative forward speed u_air of G
-    control_cycle: np.ndarray = field(default_factory=lambda: np.zeros(0))  # the controls' cycle values
-    max_stalled_fraction: float = 0.0  # largest stalled share of the span-time area over one beat
+    # largest |atan2(w_air, u_air)| along the trajectory
+    max_inflow_deg: float = field(default=float("nan"), metadata=serial(key="max_airflow_body_angle_deg"))
+    # smallest air-relative forward speed u_air of G
+    min_airspeed_mps: float = field(default=float("nan"), metadata=serial(key="min_air_forward_speed_mps"))
+    control_cycle: np.ndarray = field(default_factory=lambda: np.zeros(0),  # the controls' cycle values
+                                      metadata=serial(skip=True))
+    # largest stalled share of the span-time area over one beat
+    max_stalled_fraction: float = field(default=0.0, metadata=serial(key="max_stalled_fraction_per_beat"))
 
     @property
     def final_deviation(self) -> float:
@@ -209,25 +215,16 @@ class SimulationResult:
         return int(later[0]) if later.size and self.success else None
 
     def to_dict(self) -> dict:
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): the fields but the time
+        histories, and the per-beat summary derived from them."""
         peak, k = self.peak_deviation
-        dev = [float(v) for v in self.deviation_per_beat]
-        return {
-            "success": bool(self.success), "status": self.status, "message": self.message,
-            "closed_loop": self.closed_loop, "beats": self.beats, "beats_simulated": len(dev) - 1,
-            "deviation_per_beat": dev, "final_deviation": dev[-1] if math.isfinite(dev[-1]) else None,
-            "peak_deviation": peak if math.isfinite(peak) else None, "peak_beat": k,
-            "beats_to_recover": self.beats_to_recover,
-            "saturated": bool(self.saturated), "controls": list(self.control_keys),
-            "control_range": ([[float(np.min(c)), float(np.max(c))] for c in self.controls.T]
-                              if self.controls.size else []),
-            "min_forward_speed_mps": float(np.min(self.states[:, 0])) if len(self.states) else None,
-            "max_abs_pitch_deg": float(np.degrees(np.max(np.abs(self.states[:, 3])))) if len(self.states) else None,
-            "max_airflow_body_angle_deg": self.max_inflow_deg,
-            "min_air_forward_speed_mps": self.min_airspeed_mps if math.isfinite(self.min_airspeed_mps) else None,
-            "max_stalled_fraction_per_beat": self.max_stalled_fraction,
-            "distance_per_beat_m": self.beat_distance_m, "gust_spans_m": self.gust_spans_m,
-            "final_position_m": [float(self.X_m[-1]), float(self.Z_m[-1])] if len(self.X_m) else None,
-        }
+        some = len(self.states) > 0
+        return result_dict(self, derived=("final_deviation", "beats_to_recover"), extra={
+            "beats_simulated": len(self.deviation_per_beat) - 1, "peak_deviation": peak, "peak_beat": k,
+            "control_range": [[np.min(c), np.max(c)] for c in self.controls.T] if self.controls.size else [],
+            "min_forward_speed_mps": np.min(self.states[:, 0]) if some else None,
+            "max_abs_pitch_deg": np.degrees(np.max(np.abs(self.states[:, 3]))) if some else None,
+            "final_position_m": [self.X_m[-1], self.Z_m[-1]] if len(self.X_m) else None})
 
     def arrays(self) -> dict:
         return {"t_s": self.t_s, "states": self.states, "X_m": self.X_m, "Z_m": self.Z_m,

@@ -19,8 +19,8 @@ from birdocp.bird.config import PARAM_NAMES, Config
 from birdocp.bird.flight import flight_outputs, flight_path_angle_deg
 from birdocp.bird.model import get_model
 from birdocp.bird.validity import CycleValidity, cycle_validity, grid_validity
-from birdocp.engine.floquet import complex_pairs
 from birdocp.engine.problem import LimitCycleProblem
+from birdocp.engine.results import finite_or_none, result_dict
 from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
 
 __all__ = ["TrimResult", "trim", "method_of", "solver_ode", "compiled_default"]
@@ -57,10 +57,6 @@ def method_of(cfg: Config, **over) -> MultipleShooting:
               derivatives=s.derivatives)
     kw.update(over)
     return MultipleShooting(**kw)
-
-
-def _f(v):
-    return float(v) if np.isfinite(v) else None
 
 
 @dataclass
@@ -130,7 +126,7 @@ class TrimResult:
             return out
         for k in WING_POWER_NAMES:
             for pre in ("mean_", "mean_positive_", "peak_"):
-                out[pre + k] = _f(wp[pre + k])
+                out[pre + k] = finite_or_none(wp[pre + k])
         out["wing_power_history"] = {k: [float(v) for v in wp[k]] for k in ("t_s",) + WING_POWER_NAMES}
         return out
 
@@ -173,7 +169,7 @@ class TrimResult:
         e = self.energetics
         if e is None:
             return {}
-        out = {k: _f(e[k]) for k in ENERGETICS_KEYS}
+        out = {k: finite_or_none(e[k]) for k in ENERGETICS_KEYS}
         out["energetics_definitions"] = dict(e["definitions"])
         return out
 
@@ -181,38 +177,19 @@ class TrimResult:
         """Plain JSON-able dict; complex numbers as [re, im] pairs, multipliers largest first. The
         power outputs are included when they were computed (:attr:`energetics`)."""
         c = self.cycle
-        has_floquet = c.multipliers is not None
-        out = {
-            "success": bool(c.success), "status": c.status, "message": c.message,
-            "iterations": int(c.iterations),
-            "residual_history": [_f(v) for v in np.asarray(c.residual_history).ravel()],
-            "max_residual": _f(c.max_residual),
-            "x0": [float(v) for v in c.x0],
-            "amplitude_deg": self.amplitude_deg,
-            "root_ahead_m": float(c.p[PARAM_NAMES.index("wing.root_ahead_m")]),
-            "multipliers": complex_pairs(c.multipliers) if has_floquet else None,
-            "moduli": [float(v) for v in np.abs(c.multipliers)] if has_floquet else None,
-            "floquet_exponents_per_s": complex_pairs(c.floquet_exponents) if has_floquet else None,
-            "doubling_times_s": [_f(v) for v in c.doubling_times_s] if has_floquet else None,
-            "stable": c.stable,
-            "eigenvectors": [complex_pairs(col) for col in np.asarray(c.eigenvectors).T] if has_floquet else None,
-            "monodromy": np.asarray(c.monodromy).tolist() if has_floquet else None,
-            "monodromy_vs_full_period_jacobian": _f(c.monodromy_vs_full_period_jacobian),
-            "mean_vertical_speed_mps": _f(self.mean_vertical_speed_mps),
-            "mean_forward_speed_mps": _f(self.mean_forward_speed_mps),
-            "flight_path_angle_deg": _f(self.flight_path_angle_deg),
-            "validity": self.validity.to_dict(),
-            **self.wing_power_summary(),
-            "free_values": dict(c.free_values),
-            "means": {k: _f(v) for k, v in c.means.items()},
-            "shooting_times_s": np.asarray(c.shooting_times).tolist(),
-            "shooting_points": np.asarray(c.shooting_points).tolist(),
-            "method": dict(c.method),
-            "wall_s": {k: float(v) for k, v in c.wall_s.items()},
-        }
+        flight = {"amplitude_deg": self.amplitude_deg,
+                  "root_ahead_m": float(c.p[PARAM_NAMES.index("wing.root_ahead_m")]),
+                  "moduli": None if c.multipliers is None else np.abs(c.multipliers),
+                  "mean_vertical_speed_mps": self.mean_vertical_speed_mps,
+                  "mean_forward_speed_mps": self.mean_forward_speed_mps,
+                  "flight_path_angle_deg": self.flight_path_angle_deg,
+                  "validity": self.validity, **self.wing_power_summary()}
         if self.__dict__.get("_energetics") is not None:
-            out.update(self.energetics_dict())
-        return out
+            flight.update(self.energetics_dict())
+        # the engine cycle's fields (the trajectory and p go to arrays.npz), then the flight's
+        return result_dict(c, exclude=("p", "trajectory_t", "trajectory_x"), extra=flight,
+                           rename={"floquet_exponents": "floquet_exponents_per_s",
+                                   "shooting_times": "shooting_times_s"})
 
     def arrays(self) -> dict:
         c = self.cycle

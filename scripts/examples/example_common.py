@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from birdocp.engine.orbits import complex_pairs
+from birdocp.engine.results import complex_pairs
 from birdocp.io.files import atomic_write_json
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -21,6 +21,21 @@ def out_dir(system: str, doc: str) -> Path:
     out = Path(ap.parse_args().out)
     out.mkdir(parents=True, exist_ok=True)
     return out
+
+
+def begin(system: str, doc: str, make_ode, params: dict):
+    """The start of an example: its output folder (:func:`out_dir`), its ODE (``make_ode()``) and the
+    parameter values in the order of ``params``."""
+    return out_dir(system, doc), make_ode(), list(params.values())
+
+
+def accurate_orbit(ode, p, x_guess, period_guess: float, points: int = 5, integrator: str = "rk4"):
+    """The example's orbit from a guess: steps per period chosen by doubling until the error estimate of
+    the period, x0 and the multipliers is below 1e-8 (relative)."""
+    from birdocp.engine.orbits import OrbitMethod, OrbitProblem, solve_orbit
+
+    return solve_orbit(OrbitProblem(ode, p, x_guess, period_guess=period_guess),
+                       OrbitMethod(points=points, steps_per_period=None, integrator=integrator, accuracy=1e-8))
 
 
 def write_result(out: Path, system: str, source: str, params: dict, orbit, lyapunov=None, extra=None) -> dict:

@@ -12,8 +12,7 @@ import numpy as np
 
 from birdocp.engine.lyapunov import lyapunov_exponents
 from birdocp.engine.ode import ODE
-from birdocp.engine.orbits import OrbitMethod, OrbitProblem, solve_orbit
-from example_common import out_dir, plot_orbit, write_result
+from example_common import accurate_orbit, begin, plot_orbit, write_result
 
 PARAMS = {"delta": 4.0, "gamma": 0.5, "omega": 1.8}
 
@@ -29,12 +28,9 @@ def make_ode():
 
 
 def main():
-    out = out_dir("forced_van_der_pol", __doc__)
-    ode = make_ode()
-    p = list(PARAMS.values())
+    out, ode, p = begin("forced_van_der_pol", __doc__, make_ode, PARAMS)
     T = 3 * ode.forcing_period
-    orbit = solve_orbit(OrbitProblem(ode, p, [1.5, -0.2], period_guess=T),
-                        OrbitMethod(points=7, steps_per_period=None, integrator="radau", accuracy=1e-8))
+    orbit = accurate_orbit(ode, p, [1.5, -0.2], T, points=7, integrator="radau")
     ly = lyapunov_exponents(ode, orbit.x0, p, t_total=100 * T, dt=T / 1200, t_transient=0.0, renorm_time=T / 6)
     res = write_result(out, "forced_van_der_pol", __doc__.split("\n\n")[1], PARAMS, orbit, ly)
     plot_orbit(out, "Forced van der Pol (delta = 4, gamma = 0.5, omega = 1.8): 1:3 orbit", orbit, ("y1", "y2"))

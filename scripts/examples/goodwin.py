@@ -11,8 +11,7 @@ Start: a point on the attractor after a transient (rounded), period guess 24 h.
 import casadi as ca
 
 from birdocp.engine.ode import ODE
-from birdocp.engine.orbits import OrbitMethod, OrbitProblem, solve_orbit
-from example_common import out_dir, plot_orbit, write_result
+from example_common import accurate_orbit, begin, plot_orbit, write_result
 
 PARAMS = {"k1": 0.7, "k2": 0.45, "k3": 0.7, "k4": 0.35, "k5": 0.7, "k6": 0.35,
           "K1": 1.0, "K2": 1.0, "K4": 1.0, "K6": 1.0, "n": 7.0}
@@ -31,10 +30,8 @@ def make_ode():
 
 
 def main():
-    out = out_dir("goodwin", __doc__)
-    ode = make_ode()
-    orbit = solve_orbit(OrbitProblem(ode, list(PARAMS.values()), [0.11, 0.74, 2.6], period_guess=24.0),
-                        OrbitMethod(points=5, steps_per_period=None, accuracy=1e-8))
+    out, ode, p = begin("goodwin", __doc__, make_ode, PARAMS)
+    orbit = accurate_orbit(ode, p, [0.11, 0.74, 2.6], 24.0)
     res = write_result(out, "goodwin", __doc__.split("\n\n")[1], PARAMS, orbit)
     plot_orbit(out, "Goodwin oscillator (Gonze et al. 2005)", orbit, ("X", "Y", "Z"), phase=(0, 2),
                time_unit="h")

@@ -14,8 +14,7 @@ import casadi as ca
 
 from birdocp.engine.lyapunov import lyapunov_exponents
 from birdocp.engine.ode import ODE
-from birdocp.engine.orbits import OrbitMethod, OrbitProblem, solve_orbit
-from example_common import out_dir, plot_orbit, write_result
+from example_common import accurate_orbit, begin, plot_orbit, write_result
 
 PARAMS = {"sigma": 10.0, "rho": 28.0, "beta": 8.0 / 3.0}
 
@@ -30,11 +29,8 @@ def make_ode():
 
 
 def main():
-    out = out_dir("lorenz", __doc__)
-    ode = make_ode()
-    p = list(PARAMS.values())
-    orbit = solve_orbit(OrbitProblem(ode, p, [-13.7636, -19.5788, 27.0], period_guess=1.5587),
-                        OrbitMethod(points=9, steps_per_period=None, accuracy=1e-8))
+    out, ode, p = begin("lorenz", __doc__, make_ode, PARAMS)
+    orbit = accurate_orbit(ode, p, [-13.7636, -19.5788, 27.0], 1.5587, points=9)
     ly = lyapunov_exponents(ode, [1.0, 1.0, 1.0], p, t_total=2000.0, dt=0.005, t_transient=50.0)
     div = -(PARAMS["sigma"] + 1 + PARAMS["beta"])
 

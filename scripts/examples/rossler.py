@@ -14,7 +14,7 @@ from birdocp.engine.continuation.autonomous import continue_orbits
 from birdocp.engine.lyapunov import lyapunov_exponents
 from birdocp.engine.ode import ODE
 from birdocp.engine.orbits import OrbitMethod, OrbitProblem, solve_orbit
-from example_common import out_dir, plot_orbit, write_result
+from example_common import accurate_orbit, begin, plot_orbit, write_result
 
 PARAMS = {"a": 0.2, "b": 0.2, "c": 5.7}
 
@@ -29,11 +29,8 @@ def make_ode():
 
 
 def main():
-    out = out_dir("rossler", __doc__)
-    ode = make_ode()
-    p = list(PARAMS.values())
-    orbit = solve_orbit(OrbitProblem(ode, p, [0.1, 5.0, 3.6], period_guess=5.0),
-                        OrbitMethod(points=5, steps_per_period=None, accuracy=1e-8))
+    out, ode, p = begin("rossler", __doc__, make_ode, PARAMS)
+    orbit = accurate_orbit(ode, p, [0.1, 5.0, 3.6], 5.0)
     ly = lyapunov_exponents(ode, orbit.x0, p, t_total=2000.0, dt=0.02, t_transient=100.0, renorm_time=2.0)
     start = solve_orbit(OrbitProblem(ode, [0.2, 0.2, 2.5], [3.0, 0.0, 0.1], period_guess=6.0),
                         OrbitMethod(points=5, steps_per_period=400))

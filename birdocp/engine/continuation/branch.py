@@ -1,11 +1,11 @@
 """What a continuation returns: the branch, its points and its special points (typed, serialisable)."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from birdocp.engine.results import finite_or_none, result_dict
 
 __all__ = ["BranchPoint", "SpecialPoint", "Branch", "finite_or_none"]
 
@@ -14,12 +14,6 @@ def _total_s(wall) -> float:
     """The total of a ``wall_s`` entry: a dict with ``total`` (every result's convention) or, in
     branch files written before it, a number."""
     return float(wall.get("total", 0.0)) if isinstance(wall, dict) else float(wall)
-
-
-def finite_or_none(v) -> float | None:
-    """``float(v)``, or ``None`` where it is not finite (JSON has no NaN)."""
-    v = float(v)
-    return v if math.isfinite(v) else None
 
 
 @dataclass
@@ -53,10 +47,8 @@ class BranchPoint:
     period: float | None = None   # the orbit's period (varies along a branch of autonomous orbits)
 
     def to_dict(self) -> dict:
-        d = dict(self.__dict__)
-        d["tests"] = {k: finite_or_none(v) for k, v in self.tests.items()}
-        d["max_residual"] = finite_or_none(self.max_residual)
-        return d
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; NaN test values as null)."""
+        return result_dict(self)
 
 
 @dataclass
@@ -81,10 +73,8 @@ class SpecialPoint:
     message: str = ""
 
     def to_dict(self) -> dict:
-        d = dict(self.__dict__)
-        d["between"] = list(self.between)
-        d["test_value"] = finite_or_none(self.test_value)
-        return d
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`)."""
+        return result_dict(self)
 
 
 @dataclass
@@ -113,11 +103,7 @@ class Branch:
 
     def to_dict(self) -> dict:
         """JSON-ready dict (``from_dict`` reads it back)."""
-        return {"parameter_name": self.parameter_name, "free_names": list(self.free_names),
-                "end_reason": self.end_reason, "end_message": self.end_message,
-                "settings": self.settings, "wall_s": {"total": self.wall_s},
-                "special_points": [s.to_dict() for s in self.special_points],
-                "points": [p.to_dict() for p in self.points]}
+        return result_dict(self, extra={"wall_s": {"total": self.wall_s}})
 
     @staticmethod
     def from_dict(d: dict) -> "Branch":
