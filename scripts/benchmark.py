@@ -564,6 +564,8 @@ def main(argv=None) -> int:
     ap.add_argument("--readme", action="store_true", help="rewrite README.md's benchmark table from the result")
     ap.add_argument("--out", default=str(ROOT / "results" / "benchmark.json"))
     ap.add_argument("--skip-scripts", action="store_true", help="skip the reproduction-scripts row")
+    ap.add_argument("--reproduction-repeats", type=int, default=1,
+                    help="runs of the reproduction (each side in turn, medians; default 1)")
     ap.add_argument("--skip-studies", action="store_true", help="skip the level / sweep / in-process rows")
     args = ap.parse_args(argv)
     py = sys.executable
@@ -602,7 +604,7 @@ def main(argv=None) -> int:
             res["grid"] = grid_throughput(args.grid, warm)
         if not args.skip_scripts:
             print("paper reproduction ...", flush=True)
-            res["reproduction"] = reproduction(tmp, args.baseline, warm)
+            res["reproduction"] = reproduction(tmp, args.baseline, warm, args.reproduction_repeats)
             if args.baseline:
                 rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=args.baseline, capture_output=True,
                                      text=True)

@@ -85,6 +85,60 @@ def main(argv=None):
     res["rhs_mapped_per_eval_s"] = {"interpreted": median_time(lambda: mi(X, Dall, pd), R, 20) / (3 * N),
                                     "compiled": median_time(lambda: mc(X, Dall, pd), R, 20) / (3 * N)}
 
+    # --- the data on the 2N+1 stage times: pre (read from disk or evaluated), post and post with its
+    # amplitude derivative (interpreted and compiled through the ODE's numeric hook), pre's graph read
+    from birdocp.bird.config import PARAM_NAMES
+    from birdocp.engine import datastore
+
+    K = 2 * N + 1
+    times = ca.DM(grid_i.times(0.0))
+    L = grid_i.pre_numeric(0.0, m.p0)
+    pre_map = m.ode.pre.map(K)
+    disk_key = {"pre": m.ode.graph_key, "bench": True}
+    datastore.store("bench", disk_key, np.asarray(L))
+    res["data_pre_s"] = {"evaluated": median_time(lambda: pre_map(times, pd), R),
+                         "read_from_disk": median_time(lambda: datastore.load("bench", disk_key), R)}
+    text = m.ode.pre.serialize()
+    res["data_pre_s"]["graph_read"] = median_time(lambda: ca.Function.deserialize(text), 3)
+    nl = m.ode.pre.size1_out(0)
+    ts_, ls_, ps_ = ca.SX.sym("t"), ca.SX.sym("local", nl), ca.SX.sym("p", m.ode.np)
+    d_ = m.ode.post(ls_, ts_, ps_)
+    seed = ca.DM.zeros(m.ode.np, 1)
+    seed[PARAM_NAMES.index("gait.shoulder_flap.amplitude_deg")] = 1.0
+    dfw = ca.Function("post_dpf", [ts_, ls_, ps_], [d_, ca.jtimes(d_, ps_, seed)])
+    t = time.perf_counter()
+    post_c = ode_c.fast(m.ode.post, "post")
+    dfw_c = ode_c.fast(dfw, "post_dpf benchmark")
+    res["compile_data_s"] = time.perf_counter() - t
+    res["data_post_s"] = {"interpreted": median_time(lambda: m.ode.post.map(K)(L, times, pd), R),
+                          "compiled": median_time(lambda: post_c.map(K)(L, times, pd), R)}
+    res["data_post_amplitude_derivative_s"] = {
+        "interpreted": median_time(lambda: dfw.map(K)(times, L, pd), R),
+        "compiled": median_time(lambda: dfw_c.map(K)(times, L, pd), R)}
+    res["data_instructions"] = {"post": int(m.ode.post.n_instructions()), "post_dpf": int(dfw.n_instructions()),
+                                "pre": int(m.ode.pre.n_instructions())}
+
+    # --- validity and power outputs of a trim: from the solve's stage data vs the wing evaluated again
+    from birdocp.bird.energetics import cycle_energetics
+    from birdocp.bird.validity import cycle_validity, grid_validity
+    from birdocp.engine.integrate import clear_stage_data
+
+    tr = studies.trim(cfg)
+    c = tr.cycle
+    grid_validity(cfg, c.trajectory_x, c.p, 0.0, N)
+    cycle_validity(cfg, c.trajectory_t, c.trajectory_x, c.p)
+    res["validity_s"] = {"stage_data": median_time(lambda: grid_validity(cfg, c.trajectory_x, c.p, 0.0, N), R),
+                         "wing_evaluated_again": median_time(
+                             lambda: cycle_validity(cfg, c.trajectory_t, c.trajectory_x, c.p), R)}
+
+    def energetics_fresh():
+        clear_stage_data()
+        cycle_energetics(m, c.p, c.x0, N, 0.0)
+
+    cycle_energetics(m, c.p, c.x0, N, 0.0)
+    res["power_outputs_s"] = {"stage_data": median_time(lambda: cycle_energetics(m, c.p, c.x0, N, 0.0), R),
+                              "data_evaluated_again": median_time(energetics_fresh, R)}
+
     # --- one period with its monodromy
     res["period_map_s"] = {"interpreted": median_time(lambda: grid_i.period_map(x0, D, pd), R, 5),
                            "compiled": median_time(lambda: grid_c.period_map(x0, D, pd), R, 5)}
@@ -166,6 +220,10 @@ def main(argv=None):
           f"export {res['export_c_s']['export']:.1f} s, make -j1 {res['export_c_s'].get('make_j1', float('nan')):.1f} s, "
           f"-j2 {res['export_c_s'].get('make_j2', float('nan')):.1f} s")
     print("speed-ups:", json.dumps(res["speedup"]))
+    ms = {k: {kk: round(vv * 1e3, 2) for kk, vv in res[k].items()} for k in
+          ("data_pre_s", "data_post_s", "data_post_amplitude_derivative_s", "validity_s", "power_outputs_s")}
+    print("data and outputs [ms]:", json.dumps(ms), f"compile post + post_dpf {res['compile_data_s']:.1f} s",
+          json.dumps(res["data_instructions"]))
     print(f"wrote {args.out}")
 
 
