@@ -248,20 +248,16 @@ def periodic_validity(cfg: Config, x0, p=None, t0_s: float = 0.0, steps_per_peri
 
 
 def _grid_and_p(cfg: Config, n: int, p, ode=None):
+    # the engine's cached one-segment grid of the ODE (one cache of grids for every user)
     import numpy as np
 
     from birdocp.bird.model import get_model
-    from birdocp.engine.integrate import RK4Grid
+    from birdocp.engine.shooting import MultipleShooting, rk4_grid
 
     m = get_model(cfg)
     ode = m.ode if ode is None else ode
     p = m.p0 if p is None else np.asarray(p, float).ravel()
-    key = (id(ode), n)
-    hit = _GRIDS.get(key)
-    if hit is None or hit[0] is not ode:
-        hit = (ode, RK4Grid(ode, n, 1))  # holding the ode keeps its id unique
-        _GRIDS.put(key, hit)
-    return hit[1], p
+    return rk4_grid(ode, MultipleShooting(points=2, steps_per_period=n), ()), p
 
 
 def grid_validity(cfg: Config, x, p=None, t0_s: float = 0.0, steps_per_period: int | None = None,
@@ -299,7 +295,6 @@ def grid_validity(cfg: Config, x, p=None, t0_s: float = 0.0, steps_per_period: i
     return _verdict(cfg, t, X, np.degrees(ae), np.degrees(ag), ds)
 
 
-_GRIDS = bounded_cache("bird.validity_grids", 8)
 _ANGLE_MAPS = bounded_cache("bird.validity_angle_maps", 8)
 
 

@@ -325,7 +325,8 @@ class RK4Grid:
         L = ca.MX.sym("L", ode.pre.size1_out(0), 2 * self.N + 1)
         tt = ca.MX.sym("t", 1, 2 * self.N + 1)
         p = ca.MX.sym("p", ode.np)
-        post = ode.fast(ode.post, "post").map(2 * self.N + 1)  # numbers only: a compiled post where available
+        # numbers only: a compiled post where the ODE offers one, else the grid's own mapped post
+        post = self.post_grid if ode.numeric is None else ode.fast(ode.post, "post").map(2 * self.N + 1)
         return ca.Function("stage_blocks_post", [L, tt, p], [post(L, tt, p)[:, self.block_index]])
 
     @functools.cached_property
