@@ -20,7 +20,9 @@ amplitude reaches its bound). Writes locus.png, moduli.png, level_*.png, branch 
 from __future__ import annotations
 
 import json
+import threading
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -59,6 +61,66 @@ def merge(down: Branch, up: Branch) -> Branch:
                   down.wall_s + up.wall_s, down.free_names)
 
 
+LABELS = {"fixed": "A = 42 deg", "level": "level flight"}
+
+
+def plot_job(job: dict) -> list:
+    """One set of branch figures (run in a worker, beside the main process's trims)."""
+    from birdocp.plots.branch import plot_branches  # matplotlib: only where a figure is drawn
+
+    branches = {label: Branch.from_dict(d) for label, d in job["branches"].items()}
+    return [str(p) for p in plot_branches(branches, Path(job["out"]), prefix=job["prefix"], span=tuple(job["span"]))]
+
+
+def trim_checks(halves: dict, fixed: Branch) -> list:
+    """Independent trims at three root positions of the fixed-amplitude branch."""
+    from birdocp.studies.trim import trim
+
+    checks = []
+    n_up = len(halves["fixed_up"].points)
+    for idx in (n_up - 3, n_up - 1, n_up + 2):
+        pt = fixed.points[idx]
+        t = time.perf_counter()
+        cfg_i = with_values(Config(), {"wing.root_ahead_m": pt.parameter})
+        tr = trim(cfg_i)  # cold, from the configured guess
+        start = "configured guess"
+        if not tr.success:  # from the branch's x0 rounded to 1 decimal (a perturbed guess)
+            tr = trim(cfg_i, x_guess=np.round(np.array(pt.x0), 1))
+            start = "branch x0 rounded to 0.1"
+        L = np.sort_complex(np.array([complex(*m) for m in pt.multipliers]))
+        Lt = np.sort_complex(np.asarray(tr.multipliers))
+        checks.append({"root_ahead_m": pt.parameter, "sm_percent": sm_percent(pt.parameter, CHORD),
+                       "trim_success": bool(tr.success), "trim_start": start, "trim_wall_s": time.perf_counter() - t,
+                       "max_abs_multiplier_difference": float(np.max(np.abs(L - Lt))),
+                       "max_abs_x0_difference": float(np.max(np.abs(np.array(pt.x0) - tr.x0)))})
+    return checks
+
+
+def figures_and_checks(ex, jobs: int, res: list, out: Path):
+    """The branch figures (drawn by the executor's workers, in a thread of this process, while this
+    process runs the independent trims) and the trim checks."""
+    halves = {r["name"]: Branch.from_dict(r["branch"]) for r in res}
+    fams = {"fixed": merge(halves["fixed_down"], halves["fixed_up"]),
+            "level": merge(halves["level_down"], halves["level_up"])}
+    span = [-32.5, -17.5, "the paper's range, SM -32.5 .. -17.5 %"]
+    plots = [{"branches": {LABELS[k]: v.to_dict() for k, v in fams.items()}, "prefix": "", "span": span,
+              "out": str(out)},
+             {"branches": {LABELS["level"]: fams["level"].to_dict()}, "prefix": "level_", "span": span,
+              "out": str(out)}]
+    drawn: list = []
+    if jobs > 1:
+        th = threading.Thread(target=lambda: drawn.extend(ex.map(plot_job, plots)))
+        th.start()
+        checks = trim_checks(halves, fams["fixed"])
+        th.join()
+    else:
+        drawn = [plot_job(job) for job in plots]
+        checks = trim_checks(halves, fams["fixed"])
+    if len(drawn) != len(plots):
+        raise RuntimeError("drawing the branch figures failed")
+    return halves, fams, [Path(p) for ps in drawn for p in ps], checks
+
+
 def main():
     ap = script_parser(__doc__, "results/experiment3")
     ap.add_argument("--jobs", type=int, default=2)
@@ -82,46 +144,15 @@ def main():
             wall_branches = json.loads((out / "result.json").read_text())["wall_s"]["branches_total"]
         except (OSError, ValueError, KeyError):
             pass
-    else:
-        with get_executor(jobs=a.jobs) as ex:
+    ex = get_executor(jobs=a.jobs)
+    with ex:
+        if not a.reuse:
             res = ex.map(run_half, jobs)
-        wall_branches = time.perf_counter() - t0
-    halves = {r["name"]: Branch.from_dict(r["branch"]) for r in res}
+            wall_branches = time.perf_counter() - t0
+        halves, fams, figs, checks = figures_and_checks(ex, a.jobs, res, out)
     job_wall = {r["name"]: r["branch"].get("job_wall_s", r["branch"]["wall_s"]) for r in res}
     for r in res:
         atomic_write_json(out / f"branch_{r['name']}.json", r["branch"])
-    fams = {"fixed": merge(halves["fixed_down"], halves["fixed_up"]),
-            "level": merge(halves["level_down"], halves["level_up"])}
-    labels = {"fixed": "A = 42 deg", "level": "level flight"}
-    span = (-32.5, -17.5, "the paper's range, SM -32.5 .. -17.5 %")
-    # matplotlib imported here, not at the top: the spawned workers import this module, and would
-    # each spend ~0.5 s importing it for nothing
-    from birdocp.plots.branch import plot_branches
-
-    figs = plot_branches({labels[k]: v for k, v in fams.items()}, out, span=span)
-    figs += plot_branches({labels["level"]: fams["level"]}, out, prefix="level_", span=span)
-
-    # independent trims at three root positions of the fixed-amplitude branch
-    from birdocp.studies.trim import trim
-
-    checks = []
-    fb = fams["fixed"]
-    n_up = len(halves["fixed_up"].points)
-    for idx in (n_up - 3, n_up - 1, n_up + 2):
-        pt = fb.points[idx]
-        t = time.perf_counter()
-        cfg_i = with_values(Config(), {"wing.root_ahead_m": pt.parameter})
-        tr = trim(cfg_i)  # cold, from the configured guess
-        start = "configured guess"
-        if not tr.success:  # from the branch's x0 rounded to 1 decimal (a perturbed guess)
-            tr = trim(cfg_i, x_guess=np.round(np.array(pt.x0), 1))
-            start = "branch x0 rounded to 0.1"
-        L = np.sort_complex(np.array([complex(*m) for m in pt.multipliers]))
-        Lt = np.sort_complex(np.asarray(tr.multipliers))
-        checks.append({"root_ahead_m": pt.parameter, "sm_percent": sm_percent(pt.parameter, CHORD),
-                       "trim_success": bool(tr.success), "trim_start": start, "trim_wall_s": time.perf_counter() - t,
-                       "max_abs_multiplier_difference": float(np.max(np.abs(L - Lt))),
-                       "max_abs_x0_difference": float(np.max(np.abs(np.array(pt.x0) - tr.x0)))})
 
     def summary(br: Branch, name):
         M = np.array([p.moduli for p in br.points])
@@ -162,14 +193,15 @@ def main():
               "wall_s": {"branches_total": wall_branches, "per_half_branch": job_wall,
                          "total": time.perf_counter() - t0},
               "executor": f"processes, jobs={a.jobs}",
-              "grid": {"points": fb.settings.get("points"), "steps_per_period": fb.settings.get("steps_per_period")},
+              "grid": {"points": fams["fixed"].settings.get("points"),
+                       "steps_per_period": fams["fixed"].settings.get("steps_per_period")},
               "figures": [p.name for p in figs]}
     atomic_write_json(out / "result.json", result)
 
     lines = ["# Experiment 3: wing-root position (stability margin), continued branches", "",
              "SM = -root_ahead / 0.2 m. `fixed`: amplitude 42 deg; `level`: amplitude solved for mean W = 0.", ""]
     for k, br in fams.items():
-        lines += [f"## {labels[k]}", "",
+        lines += [f"## {LABELS[k]}", "",
                   "| SM [%] | root [cm] | " + ("A [deg] | " if br.free_names else "")
                   + "Λ1 | abs Λ2 | abs Λ3 | abs Λ4 | U [m/s] | W [m/s] | stable | model valid |",
                   "|---:|---:|" + ("---:|" if br.free_names else "") + "---:|---:|---:|---:|---:|---:|:---:|:---|"]
