@@ -27,6 +27,7 @@ import importlib
 import os
 import signal
 import sys
+import warnings
 import traceback
 from typing import Sequence
 
@@ -107,6 +108,12 @@ def _json_failure(args, status: str, message: str, argv: Sequence[str] = ()) -> 
             print_json(failure_json(status, message))
 
 
+def _one_line_warning(message, category, filename, lineno, file=None, line=None):  # noqa: ARG001
+    text = one_line(message)
+    text = text[len(PROG) + 2:] if text.startswith(f"{PROG}: ") else text
+    print(f"{PROG}: warning: {text}", file=sys.stderr if file is None else file)
+
+
 @contextlib.contextmanager
 def compiled_default(on: bool):
     """``--compiled``: ``BIRDOCP_COMPILED=1`` while the command runs (every solve of the command and
@@ -135,6 +142,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     STATE.reset()
     if as_program:  # figures are files: no GUI backend for the command line (the library leaves it alone)
         os.environ.setdefault("MPLBACKEND", "Agg")
+        # warnings as one line each ("birdocp: warning: ..."), not Python's file, line and source
+        warnings.showwarning = _one_line_warning
     old_handler = signal.getsignal(signal.SIGINT)
     try:
         interrupts.install()  # a Ctrl-C that CasADi swallows is still seen
