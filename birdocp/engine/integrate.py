@@ -325,9 +325,7 @@ class RK4Grid:
         L = ca.MX.sym("L", ode.pre.size1_out(0), 2 * self.N + 1)
         tt = ca.MX.sym("t", 1, 2 * self.N + 1)
         p = ca.MX.sym("p", ode.np)
-        # numbers only: a compiled post where the ODE offers one, else the grid's own mapped post
-        post = self.post_grid if ode.numeric is None else ode.fast(ode.post, "post").map(2 * self.N + 1)
-        return ca.Function("stage_blocks_post", [L, tt, p], [post(L, tt, p)[:, self.block_index]])
+        return ca.Function("stage_blocks_post", [L, tt, p], [self.numeric_post_grid(L, tt, p)[:, self.block_index]])
 
     @functools.cached_property
     def step_start_data(self) -> ca.Function:
@@ -386,6 +384,13 @@ class RK4Grid:
                 datastore.store("pre-grid", disk_key, np.asarray(out))
         _PRE_DATA.put(key, (ode.pre, out))
         return out
+
+    @functools.cached_property
+    def numeric_post_grid(self) -> ca.Function:
+        """:attr:`post_grid` for numbers only (never differentiated): the ODE's compiled ``post``
+        mapped where it offers one (``PeriodicODE.numeric``), else :attr:`post_grid` itself."""
+        ode = self.ode
+        return self.post_grid if ode.numeric is None else ode.fast(ode.post, "post").map(2 * self.N + 1)
 
     @property
     def post_grid(self) -> ca.Function:

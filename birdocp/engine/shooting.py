@@ -293,7 +293,7 @@ class ShootingGraphs(Evaluator):
                                "post_dpf " + ",".join(str(j) for j in free_idx))
                 Dg, dDt = dfw.map(K)(dsym[0, :], dsym[1:, :], pfull)
                 dDg = ca.horzcat(*[dDt[:, list(range(k, K * nf, nf))] for k in range(nf)])
-                D_plain = ode.fast(ode.post, "post").map(K)(dsym[1:, :], dsym[0, :], pfull)[:, grid.block_index]
+                D_plain = grid.numeric_post_grid(dsym[1:, :], dsym[0, :], pfull)[:, grid.block_index]
             elif ode.data.is_a("SXFunction") or ode.pre is not None:
                 # data and its derivative along the free parameters as one SX Function (shared
                 # subexpressions; constant seeds prune the parts that do not depend on them):
