@@ -33,6 +33,9 @@ def register(sub, common) -> None:
     p.add_argument("--method", choices=("reduced", "full"), default="reduced",
                    help="reduced: IPOPT over the gait parameters and r, the level cycle eliminated (default); "
                         "full: the full-space single-shooting NLP (state, parameters, amplitude, r)")
+    p.add_argument("--threads", type=int, default=2, metavar="N",
+                   help="threads evaluating the finite-difference Hessian's points (reduced method; default 2; "
+                        "the result does not depend on it)")
 
 
 def parse_bounds(texts) -> dict:
@@ -78,13 +81,15 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
     free = free_with_bounds(args, DEFAULT_FREE)
     if not 1 <= args.max_iter <= 100000:
         raise ConfigError("--max-iter", f"must be an integer in [1, 100000], got {args.max_iter}")
+    if not 1 <= args.threads <= 64:
+        raise ConfigError("--threads", f"must be an integer in [1, 64], got {args.threads}")
     with cli.run_folder(args, "optimize-stability", command_line) as run:
         from birdocp.io.progress import progress_callback
 
         say, bar = progress_callback("optimize-stability", args.quiet)
         with run.solving(), bar:
             res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, max_iter=args.max_iter, progress=say,
-                                     method=args.method)
+                                     method=args.method, threads=args.threads)
         result = res.to_dict()
         result["run_dir"] = str(run.dir)
         run.write(res.cfg or cfg, result)

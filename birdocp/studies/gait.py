@@ -21,6 +21,7 @@ optionally all multipliers inside the circle of radius R (Jury conditions on Mon
 from __future__ import annotations
 
 import math
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -116,6 +117,13 @@ class Evaluation:
     d_monodromy: np.ndarray | None  # 16 x n_theta (column-major vec), second order only
     residual: float
     newton_iterations: int
+    dy: np.ndarray | None = None    # d(x0, A)/d theta (5 x n_theta), with the gradients
+    Ry: np.ndarray | None = None    # the level-cycle residual's Jacobian in (x0, A), with the gradients
+
+    @property
+    def y(self) -> np.ndarray:
+        """The level cycle's unknowns (x0, A)."""
+        return np.append(self.x0, self.amplitude_deg)
 
     @property
     def multipliers(self) -> np.ndarray:
@@ -191,6 +199,7 @@ class ReducedLevelCycle:
         self.amplitude_range_deg = (0.0, 90.0)
         """Newton solutions with the flapping amplitude outside this range are failures [deg]."""
         self.n_full = self.n_resid = 0
+        self._count_lock = threading.Lock()  # the counters (evaluate_near runs in threads)
 
     # -- pieces ----------------------------------------------------------------------------------
     def pfull(self, theta, A):
@@ -206,13 +215,15 @@ class ReducedLevelCycle:
         """(R, means): the level-cycle residual (x_T - x0, mean W - climb) and the period means."""
         p = self.pfull(theta, y[4])
         xT, _, q = self.grid.period_map(ca.DM(y[:4]), self._D(p), ca.DM(p))
-        self.n_resid += 1
+        with self._count_lock:
+            self.n_resid += 1
         means = np.asarray(q).ravel() / self.T
         return np.concatenate([np.asarray(xT).ravel() - y[:4], [means[0] - self.climb]]), means
 
     def _full(self, y, theta):
         """Sensitivities at (y, theta): R, R_y, R_theta, means, their partials, Mon (and dMon)."""
-        self.n_full += 1
+        with self._count_lock:
+            self.n_full += 1
         p = self.pfull(theta, y[4])
         D, cols = self._data(ca.DM(p))
         s = self.sens(y[:4], D, p, dp=self._seeds, columns=cols)
@@ -278,20 +289,41 @@ class ReducedLevelCycle:
             while len(self._cache) > 8:  # the last few points (a finite-difference Hessian's stencil)
                 self._cache.pop(next(iter(self._cache)))
         if grads and ev.grads is None:
-            y = np.append(ev.x0, ev.amplitude_deg)
-            s, R, Ry, Rt, Jq, cy, ct = self._full(y, theta)
-            try:
-                dy = -np.linalg.solve(Ry, Rt)           # 5 x nt
-            except np.linalg.LinAlgError:
-                raise RuntimeError("singular level-cycle Jacobian (a fold of cycles)") from None
-            ev.grads = {n: Jq[i, ct] + Jq[i, cy] @ dy for i, n in enumerate(_OUT)}
-            ev.grads["amplitude_deg"] = dy[4]
-            if self.second:
-                ev.d_monodromy = s["dMon"][:, ct] + s["dMon"][:, cy] @ dy
-            ev.monodromy = np.asarray(s["Mon"] if self.second else s["J"][:, :4])
-            self._theta, self._dy, self._Ry = theta.copy(), dy, Ry
-        self._y = np.append(ev.x0, ev.amplitude_deg)
+            self._gradients(ev)
+            self._theta, self._dy, self._Ry = theta.copy(), ev.dy, ev.Ry
+        self._y = ev.y
         return ev
+
+    def _gradients(self, ev: Evaluation) -> None:
+        """Fill ``ev``'s exact gradients, monodromy (and its derivatives), ``dy`` and ``Ry``."""
+        s, R, Ry, Rt, Jq, cy, ct = self._full(ev.y, ev.theta)
+        try:
+            dy = -np.linalg.solve(Ry, Rt)           # 5 x nt
+        except np.linalg.LinAlgError:
+            raise RuntimeError("singular level-cycle Jacobian (a fold of cycles)") from None
+        ev.grads = {n: Jq[i, ct] + Jq[i, cy] @ dy for i, n in enumerate(_OUT)}
+        ev.grads["amplitude_deg"] = dy[4]
+        if self.second:
+            ev.d_monodromy = s["dMon"][:, ct] + s["dMon"][:, cy] @ dy
+        ev.monodromy = np.asarray(s["Mon"] if self.second else s["J"][:, :4])
+        ev.dy, ev.Ry = dy, Ry
+
+    def evaluate_near(self, theta, base: Evaluation, tol: float = 1e-10, max_newton: int = 12) -> Evaluation:
+        """The level cycle at theta, with its gradients, from the nearby ``base`` (an evaluation with
+        gradients): Newton from base's first-order prediction with base's Jacobian as the chord.
+
+        Side-effect-free (no warm-start state read or written, nothing cached; only the evaluation
+        counters change, under a lock), so safe in threads and a pure function of (theta, base): the
+        perturbed points of a finite-difference Hessian. Raises RuntimeError if Newton fails."""
+        theta = np.asarray(theta, float).ravel()
+        y0 = base.y + base.dy @ (theta - base.theta)
+        ev = self._newton(y0, theta, tol, max_newton, Ry=base.Ry, keep=False)
+        self._gradients(ev)
+        return ev
+
+    def cached(self, theta) -> Evaluation | None:
+        """The evaluation at exactly theta if it is among the last few, else None (no computation)."""
+        return self._cache.get(np.asarray(theta, float).ravel().tobytes())
 
     def accept(self, theta) -> None:
         """Mark the (already evaluated) cycle at theta as a good restart point for Newton."""
@@ -299,12 +331,14 @@ class ReducedLevelCycle:
         if ev is not None:
             self._anchor = np.append(ev.x0, ev.amplitude_deg)
 
-    def _newton(self, y, theta, tol, max_newton) -> Evaluation:
-        """Newton (chord steps, fresh Jacobian when they stall) on the level-cycle residual from y."""
+    def _newton(self, y, theta, tol, max_newton, Ry=None, keep: bool = True) -> Evaluation:
+        """Newton (chord steps with ``Ry``, default the last Jacobian; a fresh Jacobian when they
+        stall) on the level-cycle residual from y; ``keep``: remember a fresh Jacobian as the next
+        solve's chord."""
         y = np.asarray(y, float).copy()
         lo, hi = self.amplitude_range_deg
         it = 0
-        Ry = self._Ry
+        Ry = self._Ry if keep else Ry
         R, means = self.residual(y, theta)
         last, first = np.inf, np.max(np.abs(R))
         while True:
@@ -317,7 +351,8 @@ class ReducedLevelCycle:
                 raise RuntimeError(f"residual {res:.2e} after {it} Newton steps")
             if Ry is None or res > 0.3 * last:
                 _, R, Ry, *_ = self._full(y, theta)  # fresh Jacobian (the chord stalled)
-                self._Ry = Ry
+                if keep:
+                    self._Ry = Ry
             last = res
             try:
                 y = y - np.linalg.solve(Ry, R)
@@ -381,6 +416,10 @@ class GaitOptimum:
     evaluations: dict = field(default_factory=dict)
     cfg: Config | None = None
     start_x0: np.ndarray | None = None
+    second_derivatives: np.ndarray | None = None
+    """With ``hessian="fd"``: the last finite-difference second derivatives, ``[k, i, j] =
+    d^2 G_i / dz_j dz_k`` (G = objective and constraints, z = free values and r, unscaled), the
+    ``second_derivatives`` of a warm-started ``hessian="fixed"`` solve."""
 
     @property
     def largest_modulus(self) -> float:
@@ -388,7 +427,7 @@ class GaitOptimum:
 
     def to_dict(self) -> dict:
         """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): the documented keys."""
-        return result_dict(self, exclude=("cfg", "start_x0", "means"), derived=("largest_modulus",), extra={
+        return result_dict(self, exclude=("cfg", "start_x0", "means", "second_derivatives"), derived=("largest_modulus",), extra={
             "active_bounds": [k for k, v in self.free.items()
                               if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6],
             "moduli": np.abs(self.multipliers), "stable": bool(self.largest_modulus < 1),
@@ -461,13 +500,18 @@ class _Problem:
             G = np.array([self._value(ev)] + [ev.amplitude_deg]
                          + ([ev.means["forward_speed_mps"]] if self.speed is not None else []))
             return G, None
+        return self._assemble(ev, z)
+
+    def _assemble(self, ev: Evaluation, z, report: bool = True):
+        """(G, dG/dz) from an evaluation with gradients; z unscaled (theta, r)."""
+        nt = self.rc.nt
         G = np.zeros(self.ng)
         J = np.zeros((self.ng, self.nz))
         if self.with_r:
             G[0], J[0, -1] = z[-1], 1.0
         else:
             G[0], J[0, :nt] = self._obj(ev, z)
-        if callable(self.progress):
+        if report and callable(self.progress):
             self.progress(f"{self.objective} {G[0]:.6g}, |L1| {np.max(np.abs(ev.multipliers)):.5f}, "
                           f"A {ev.amplitude_deg:.3f} deg")
         G[1], J[1, :nt] = ev.amplitude_deg, ev.grads["amplitude_deg"]
@@ -498,6 +542,23 @@ class _Problem:
             self.rc.accept(np.asarray(z, float).ravel()[:self.rc.nt] / self.sigma[:self.rc.nt])
         return J
 
+    def jacobian_near(self, zk, z):
+        """dG/dz at ``zk`` next to ``z`` (where :meth:`jacobian` was just evaluated), side-effect-free
+        and thread-safe (:meth:`ReducedLevelCycle.evaluate_near` from z's cycle): the perturbed points
+        of :class:`birdocp.engine.oracle.StencilHessian`. NaN where no level cycle is found."""
+        nt = self.rc.nt
+        zk = np.asarray(zk, float).ravel() / self.sigma
+        theta = np.asarray(z, float).ravel()[:nt] / self.sigma[:nt]
+        base = self.rc.cached(theta)
+        nan = np.full((self.ng, self.nz), np.nan)
+        if base is None or base.grads is None:
+            return nan
+        try:
+            ev = base if np.array_equal(zk[:nt], theta) else self.rc.evaluate_near(zk[:nt], base)
+        except RuntimeError:
+            return nan
+        return self._assemble(ev, zk, report=False)[1]
+
 
 def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, objective: str = "power",
                   speed_mps: float | None = None, max_multiplier: float | None = None,
@@ -505,7 +566,8 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
                   steps_per_period: int | None = None, max_iter: int = 100, tol: float = 1e-8,
                   verify: bool = True, progress=False, start: dict | None = None, x_guess=None,
                   ipopt_options: dict | None = None, hessian: str = "sr1",
-                  radius_start_factor: float = 1.05) -> GaitOptimum:
+                  radius_start_factor: float = 1.05, threads: int = 2,
+                  second_derivatives: np.ndarray | None = None) -> GaitOptimum:
     """Minimise mean power (``objective="power"``), cost of transport, smoothed positive-work power,
     or the stability radius (``"stability"``) over the gait parameters ``free`` (key -> (lo, hi);
     default :data:`DEFAULT_GAIT_FREE`), in level flight (mean W = ``climb_rate_mps``, the amplitude
@@ -520,12 +582,20 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     ``hessian``: "sr1" (limited-memory SR1 updates) or "fd" (IPOPT's exact-Hessian mode on the
     forward finite difference of the exact constraint gradients, four or five extra gradient
     evaluations per iteration; far fewer iterations with a stability constraint or objective: 21
-    instead of 120 for the most stable gait of the reference problem on 48 steps).
+    instead of 120 for the most stable gait of the reference problem on 48 steps; the perturbed
+    points are evaluated ``threads`` at a time, each by Newton from the iterate's cycle, so the
+    result does not depend on the number of threads), or "fixed" (exact-Hessian mode on the
+    ``second_derivatives`` of a nearby solve held fixed, e.g. those of a coarser grid's optimum:
+    one gradient evaluation per iteration).
     ``radius_start_factor``: with the stability objective, r starts at this factor times the start's
     spectral radius."""
     cfg = cfg or Config()
-    if hessian not in ("sr1", "fd"):
-        raise ValueError(f"hessian must be 'sr1' or 'fd', got {hessian!r}")
+    if hessian not in ("sr1", "fd", "fixed"):
+        raise ValueError(f"hessian must be 'sr1', 'fd' or 'fixed', got {hessian!r}")
+    if (hessian == "fixed") != (second_derivatives is not None):
+        raise ValueError("hessian='fixed' needs second_derivatives (and only it takes them)")
+    if int(threads) < 1:
+        raise ConfigError("--threads", f"must be a positive number of threads, got {threads!r}")
     if objective not in OBJECTIVES + ("stability",):
         raise ConfigError("--objective", f"must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
     free = dict(DEFAULT_GAIT_FREE if free is None else free)
@@ -582,16 +652,19 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     if start_note and not prob.with_r:
         start_value = float("nan")  # the configured gait does not fly level at this speed
     start_mult = ev0.multipliers
-    from birdocp.engine.oracle import ConstraintOracle
+    from birdocp.engine.oracle import ConstraintOracle, FixedHessian, StencilHessian
 
     zs = ca.MX.sym("z", prob.nz)
-    fd = {"fd_method": "forward", "fd_options": {"h": 1e-6}} if hessian == "fd" else None
+    scale2 = np.multiply.outer(prob.sigma, prob.sigma)[:, None, :]  # [k, ., j]: sigma_k sigma_j
+    fd = {"fd": lambda: StencilHessian(h=1e-6, threads=int(threads)),
+          "fixed": lambda: FixedHessian(np.asarray(second_derivatives, float) / scale2),
+          "sr1": lambda: None}[hessian]()
     oracle = ConstraintOracle(prob, "gait", fd_hessian=fd)  # keep a reference: IPOPT calls it during the solve
     G = oracle(zs)
     nlp = {"x": zs, "f": G[0], "g": G[1:]}
     # SR1 limited-memory updates (BFGS crept along the speed constraint in 0.015-deg steps, and did not
     # converge on the stability radius); r is bounded by twice its start (SR1 took wild steps in r)
-    opts = {"ipopt.hessian_approximation": "exact" if hessian == "fd" else "limited-memory",
+    opts = {"ipopt.hessian_approximation": "limited-memory" if hessian == "sr1" else "exact",
             "ipopt.limited_memory_update_type": "sr1",
             "ipopt.sb": "yes",
             "ipopt.print_level": 5 if progress is True else 0, "print_time": False, "ipopt.max_iter": int(max_iter),
@@ -629,6 +702,8 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
                       float(np.max(np.abs(kkt))), viol, cfg=cfg)
     out.evaluations = {"full": rc.n_full, "residual": rc.n_resid, "no_level_cycle": len(prob.failures)}
     out.start_x0 = ev0.x0
+    if isinstance(fd, StencilHessian) and fd.last is not None:
+        out.second_derivatives = fd.last[1] * scale2
     if verify:
         t0 = time.perf_counter()
         out.verification = verify_gait(out, cfg, rc.N)
