@@ -360,6 +360,7 @@ def test_read_only_locations_exit_2(tmp_path, monkeypatch, capfd):
     (["trim", "--points", "100000", "--steps", "99999"], "solve.points", "<= 500"),
     (["sweep", "amplitude", "--from", "42", "--to", "43", "--step", "1", "--rows", "root_ahead_m=0.04:0.05:0.005",
       "--jobs", "100000"], "--jobs", "<= 256"),
+    (["optimize-stability", "--threads", "0"], "--threads", "[1, 64]"),
 ])
 def test_absurd_values_exit_2(no_solver, capfd, argv, key, text):
     _refused(capfd, argv, key, text)

@@ -142,3 +142,36 @@ def test_committed_pareto_front_is_monotone():
     assert ok[0]["largest_modulus"] < stable["largest_modulus"] + 1e-3  # the tight end: the most stable gait
     for q in front:  # a failed step was retried until its bound was reached
         assert q["success"] or any(o["success"] and o["bound"] == q["bound"] for o in front)
+
+
+def test_threaded_fd_hessian_of_the_reduced_problem():
+    """The stability NLP's finite-difference second derivatives (StencilHessian: each perturbed level
+    cycle by Newton from the iterate's cycle, side-effect-free) are the same to the bit with 1 and 2
+    threads, leave the warm-start state as the iterate's Jacobian left it, and agree with forward
+    differences through the ordinary (stateful) evaluation path and with central differences."""
+    from birdocp.engine.oracle import StencilHessian
+    from birdocp.studies.gait import ReducedProblem
+
+    rc = ReducedLevelCycle(small(), KEYS, second_order=True)
+    prob = ReducedProblem(rc, "stability", None, None, (20.0, 70.0))
+    ev0 = rc.evaluate(np.array([14.0, -19.0]))
+    prob.set_scale(ev0)
+    z = np.append(ev0.theta * prob.sigma[:2], 1.5)
+    J0 = prob.jacobian(z)
+    state = (rc._y.copy(), rc._theta.copy(), rc._dy.copy(), rc._Ry.copy())
+    h = 1e-6
+    c1 = StencilHessian(h, threads=1).columns(prob, z)
+    c2 = StencilHessian(h, threads=2).columns(prob, z)
+    assert np.array_equal(c1, c2)
+    for a, b in zip(state, (rc._y, rc._theta, rc._dy, rc._Ry)):
+        assert np.array_equal(a, b)
+    assert np.all(c1[2][:2] == 0) and np.any(c1[2] != 0)  # r enters the Jury rows only (objective r: linear)
+    scale = np.max(np.abs(c1))
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = h
+        fwd = (prob.jacobian(z + e) - J0) / h                  # stateful path: evaluate() with warm starts
+        assert np.allclose(fwd, c1[k], rtol=0, atol=1e-4 * scale), k
+        e[k] = 1e-4
+        central = (prob.jacobian(z + e) - prob.jacobian(z - e)) / 2e-4
+        assert np.allclose(central, c1[k], rtol=0, atol=1e-5 * scale), k

@@ -90,3 +90,24 @@ def test_reduced_and_full_space_reach_the_same_optimum(optimum):
 def test_unknown_method_is_refused():
     with pytest.raises(ConfigError, match="--method"):
         optimize_stability(Config(), {KEY: BOUNDS}, method="newton")
+
+
+@pytest.mark.slow
+def test_reduced_result_is_the_same_with_1_and_2_threads():
+    """Coarse stage (finite-difference Hessian, its points in a thread pool) then the fine stage (the
+    coarse second derivatives held fixed): the answer, a KKT point, does not depend on the number of
+    threads, to the bit."""
+    runs = [optimize_stability(Config(), {KEY: BOUNDS}, steps_per_period=24, coarse_steps=16, verify=False,
+                               threads=n) for n in (1, 2)]
+    a, b = runs
+    assert a.success and b.success, (a.message, b.message)
+    assert "coarse stage (16 steps)" in a.message
+    assert a.free == b.free and a.radius == b.radius and a.iterations == b.iterations
+    assert np.array_equal(a.x0, b.x0) and np.array_equal(a.multipliers, b.multipliers)
+    assert a.kkt_residual == b.kkt_residual < 1e-6
+    assert a.evaluations == b.evaluations
+
+
+def test_threads_must_be_positive():
+    with pytest.raises(ConfigError, match="--threads"):
+        optimize_stability(Config(), {KEY: BOUNDS}, threads=0)

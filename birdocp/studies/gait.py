@@ -32,7 +32,7 @@ from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, sug
 from birdocp.engine.floquet import sort_multipliers
 from birdocp.engine.results import result_dict, serial
 
-__all__ = ["ReducedLevelCycle", "GaitOptimum", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
+__all__ = ["ReducedLevelCycle", "ReducedProblem", "GaitOptimum", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
            "level_at_speed", "power_curve", "SPEED_KEY", "stability_pareto", "jury_conditions",
            "check_free_keys"]
 
@@ -436,8 +436,10 @@ class GaitOptimum:
             "mean_vertical_speed_mps": self.means.get("vertical_speed_mps")})
 
 
-class _Problem:
-    """The reduced NLP for IPOPT: G(z) = [objective; constraints], z = theta (+ r)."""
+class ReducedProblem:
+    """The reduced NLP for IPOPT (the evaluator of :class:`birdocp.engine.oracle.ConstraintOracle`):
+    G(z) = [objective; constraints] and dG/dz, z = the scaled free values theta (and r for the
+    stability objective); :meth:`jacobian_near` gives a finite-difference Hessian's perturbed points."""
 
     def __init__(self, rc: ReducedLevelCycle, objective: str, speed, max_multiplier, amplitude_bounds):
         self.rc, self.objective, self.speed, self.R = rc, objective, speed, max_multiplier
@@ -638,7 +640,7 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     except RuntimeError as e:
         return _failed(objective, free, f"start: {e}", cfg, speed_mps, max_multiplier)
     wall["start"] = time.perf_counter() - t0
-    prob = _Problem(rc, objective, speed_mps, max_multiplier, amplitude_bounds)
+    prob = ReducedProblem(rc, objective, speed_mps, max_multiplier, amplitude_bounds)
     prob.progress = progress
     z0 = ev0.theta.copy()
     lbx, ubx = lo.copy(), hi.copy()
