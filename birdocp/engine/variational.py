@@ -9,6 +9,11 @@ integrals q of some outputs, :class:`PeriodSensitivities` returns, along ``nx`` 
 * second order (optional): the monodromy ``Mon = dx_T/dx0`` and its directional derivatives
   ``dMon`` (column-major vec, nx^2 x (nx + n_dir)) along the same directions.
 
+With ``combined=True`` the directions are only ``n_dir`` combinations of ``n_data`` given data and
+parameter directions (``W``, n_data x n_dir) with initial state tangents ``dx0`` (nx x n_dir), no state
+directions: e.g. the total derivatives along a reduced space's parameters once ``dx0/dtheta`` is
+known from a first-order pass, at a fraction of the second-order cost of all nx + n_data directions.
+
 Every RK4 step propagates the state, its tangents and (second order) the tangents of the state
 Jacobian as one SX Function (``jtimes`` with a seed matrix; structural zeros pruned), accumulated by
 ``mapaccum`` over the N steps. Measured on the bird (148 steps, 5 parameter directions, 2 cores):
@@ -36,11 +41,15 @@ class PeriodSensitivities:
     and ``dMon`` (numpy arrays).
     """
 
-    def __init__(self, ode, steps_per_period: int, outputs=(), n_dir: int = 0, second_order: bool = False):
+    def __init__(self, ode, steps_per_period: int, outputs=(), n_dir: int = 0, second_order: bool = False,
+                 combined: bool = False, n_data: int | None = None):
         self.ode, self.N, self.n_dir, self.second = ode, int(steps_per_period), int(n_dir), bool(second_order)
         nx, nd, np_ = ode.nx, ode.nd, ode.np
         self.nx, self.nd = nx, nd
-        nz = nx + self.n_dir
+        self.combined = bool(combined)
+        self.n_data = int(n_data if n_data is not None else n_dir)  # directions given per call
+        self.n_state = 0 if self.combined else nx                    # identity state directions first
+        nz = self.n_state + self.n_dir
         self.h = h = ode.period_s / self.N
         step = rk4_step(ode, outputs)
         x = ca.SX.sym("x", nx)
@@ -48,10 +57,15 @@ class PeriodSensitivities:
         p = ca.SX.sym("p", np_)
         xn, qi = step(x, D3, p, h)
         self.nq = qi.numel()
-        dD3 = ca.SX.sym("dD3", nd, 3 * max(self.n_dir, 1))
-        dP = ca.SX.sym("dP", np_, max(self.n_dir, 1))
-        seedD = ca.horzcat(ca.SX.zeros(3 * nd, nx), *[ca.vec(dD3[:, 3 * k:3 * k + 3]) for k in range(self.n_dir)])
-        seedP = ca.horzcat(ca.SX.zeros(np_, nx), dP[:, :self.n_dir])
+        dD3 = ca.SX.sym("dD3", nd, 3 * max(self.n_data, 1))
+        dP = ca.SX.sym("dP", np_, max(self.n_data, 1))
+        W = ca.SX.sym("W", max(self.n_data, 1), max(self.n_dir, 1))
+        if self.combined:
+            Bd = ca.horzcat(*[ca.vec(dD3[:, 3 * k:3 * k + 3]) for k in range(self.n_data)])
+            seedD, seedP = Bd @ W[:self.n_data, :self.n_dir], dP[:, :self.n_data] @ W[:self.n_data, :self.n_dir]
+        else:
+            seedD = ca.horzcat(ca.SX.zeros(3 * nd, nx), *[ca.vec(dD3[:, 3 * k:3 * k + 3]) for k in range(self.n_dir)])
+            seedP = ca.horzcat(ca.SX.zeros(np_, nx), dP[:, :self.n_dir])
         if self.second:
             S = ca.SX.sym("S", nx, nx)                     # dx/dx0 so far
             Jx = ca.jacobian(ca.vertcat(xn, qi), x)
@@ -68,7 +82,7 @@ class PeriodSensitivities:
         dQn = ca.jtimes(Qn, arg, seeds)
         carry = ca.vertcat(Y, ca.vec(dY))
         acc_q = ca.vertcat(Qn, ca.vec(dQn))
-        f = ca.Function("variational_step", [carry, D3, p, ca.vec(dD3), dP],
+        f = ca.Function("variational_step", [carry, D3, p, ca.vec(dD3), dP, ca.vec(W)],
                         [ca.vertcat(Yn, ca.vec(dYn)), acc_q])
         # q accumulates: carry it too (mapaccum accumulates only fed-back outputs)
         c = ca.MX.sym("c", carry.numel())
@@ -76,36 +90,43 @@ class PeriodSensitivities:
         Dm = ca.MX.sym("D3", nd, 3)
         pm = ca.MX.sym("p", np_)
         dDm = ca.MX.sym("dD3", dD3.numel())
-        dPm = ca.MX.sym("dP", np_, max(self.n_dir, 1))
-        cn, an = f(c, Dm, pm, dDm, dPm)
-        g = ca.Function("variational_step_acc", [c, a, Dm, pm, dDm, dPm], [cn, a + an])
+        dPm = ca.MX.sym("dP", np_, max(self.n_data, 1))
+        Wm = ca.MX.sym("W", W.numel())
+        cn, an = f(c, Dm, pm, dDm, dPm, Wm)
+        g = ca.Function("variational_step_acc", [c, a, Dm, pm, dDm, dPm, Wm], [cn, a + an])
         self._acc = g.mapaccum("variational_period", self.N, [0, 1], [0, 1])
         self.nY, self.nz, self.nQ = nY, nz, Qn.numel()
         self._index = None
 
     def _direction_columns(self):
-        """Column order turning hstacked directions (nd x 3N n_dir) into per-step blocks."""
+        """Column order turning hstacked directions (nd x 3N n_data) into per-step blocks."""
         if self._index is None:
-            N, nv = self.N, self.n_dir
+            N, nv = self.N, self.n_data
             self._index = [v * 3 * N + 3 * k + s for k in range(N) for v in range(nv) for s in range(3)]
         return self._index
 
     def direction_columns(self, dD):
-        """The per-step layout (3 nd n_dir x N) of ``n_dir`` stage-block directions (each nd x 3N;
+        """The per-step layout (3 nd n_data x N) of ``n_data`` stage-block directions (each nd x 3N;
         DM, numpy or MX: build it symbolically once to keep the reordering out of Python)."""
         if isinstance(dD[0], ca.MX):
-            return ca.reshape(ca.horzcat(*dD)[:, self._direction_columns()], self.nd * 3 * self.n_dir, self.N)
+            return ca.reshape(ca.horzcat(*dD)[:, self._direction_columns()], self.nd * 3 * self.n_data, self.N)
         dDall = np.hstack([np.asarray(d, float) for d in dD])[:, self._direction_columns()]
-        return ca.DM(dDall.reshape(self.nd * 3 * self.n_dir, self.N, order="F"))
+        return ca.DM(dDall.reshape(self.nd * 3 * self.n_data, self.N, order="F"))
 
-    def __call__(self, x0, D, p, dD=(), dp=None, columns=None) -> dict:
-        """Sensitivities at x0; ``dD`` the directions (list), or ``columns`` their per-step layout
-        from :meth:`direction_columns`."""
-        nx, nd, N, nv = self.nx, self.nd, self.N, self.n_dir
+    def __call__(self, x0, D, p, dD=(), dp=None, columns=None, W=None, dx0=None) -> dict:
+        """Sensitivities at x0; ``dD`` the data directions (list), or ``columns`` their per-step
+        layout from :meth:`direction_columns`; ``dp`` (np x n_data) the parameter directions.
+        Combined (``combined=True``): direction c is ``sum_v W[v, c]`` (data and parameter direction v)
+        with initial state tangent ``dx0[:, c]``."""
+        nx, nd, N, nv = self.nx, self.nd, self.N, self.n_data
         x0 = np.asarray(x0, float).ravel()
         Y0 = np.concatenate([x0, np.eye(nx).ravel(order="F")]) if self.second else x0
         dY0 = np.zeros((self.nY, self.nz))
-        dY0[:nx, :nx] = np.eye(nx)
+        dY0[:nx, :self.n_state] = np.eye(nx)[:, :self.n_state]
+        Wv = np.zeros(max(nv, 1) * max(self.n_dir, 1))
+        if self.combined:
+            dY0[:nx, :] = np.asarray(dx0, float).reshape(nx, self.n_dir)
+            Wv = np.asarray(W, float).reshape(nv, self.n_dir).ravel(order="F")
         if nv:
             dDcols = columns if columns is not None else self.direction_columns(list(dD))
             dpm = ca.DM(np.asarray(dp, float).reshape(-1, nv))
@@ -114,7 +135,8 @@ class PeriodSensitivities:
             dpm = ca.DM.zeros(self.ode.np, 1)
         c0 = np.concatenate([Y0, dY0.ravel(order="F")])
         nY, nz, nq, nQ = self.nY, self.nz, self.nq, self.nQ
-        cT, aT = self._acc(c0, ca.DM.zeros(nQ * (1 + nz)), D, ca.DM(np.asarray(p, float)), dDcols, dpm)
+        cT, aT = self._acc(c0, ca.DM.zeros(nQ * (1 + nz)), D, ca.DM(np.asarray(p, float)), dDcols, dpm,
+                           ca.DM(Wv))
         cT = np.asarray(cT)[:, -1]
         aT = np.asarray(aT)[:, -1]
         YT, dYT = cT[:nY], cT[nY:].reshape(nY, nz, order="F")
