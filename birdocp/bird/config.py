@@ -468,10 +468,12 @@ def _coerce(key: str, default: Any, value: Any) -> Any:
     raise ConfigError(key, f"unsupported value {value!r}")
 
 
-def _build(cls: type, data: Any, prefix: str) -> Any:
+def _build(cls: type, data: Any, prefix: str, base: Any = None) -> Any:
+    """``cls`` from a table; missing keys keep ``base``'s values (default ``cls()``), so a partial
+    ``[gait.shoulder_flap]`` table keeps the reference joint's other values, not ``Joint()``'s zeros."""
     if not isinstance(data, dict):
         raise ConfigError(prefix.rstrip("."), f"expected a table, got {data!r}")
-    default = cls() if cls is not Config else None
+    default = (cls() if base is None else base) if cls is not Config else None
     names = {f.name: f for f in fields(cls)}
     kwargs = {}
     for k, v in data.items():
@@ -482,11 +484,11 @@ def _build(cls: type, data: Any, prefix: str) -> Any:
         f = names[k]
         sub = f.default if f.default is not dataclasses.MISSING else f.default_factory()
         if is_dataclass(sub):
-            kwargs[k] = _build(type(sub), v, key + ".")
+            kwargs[k] = _build(type(sub), v, key + ".", sub)
         else:
             kwargs[k] = _coerce(key, getattr(default, k) if default is not None else sub, v)
     try:
-        return replace(cls(), **kwargs) if cls is not Config else cls(**kwargs)
+        return replace(default, **kwargs) if cls is not Config else cls(**kwargs)
     except ConfigError:
         raise
     except TypeError as exc:  # pragma: no cover - defensive
