@@ -36,6 +36,7 @@ CASES = [
     ("malformed-toml", ["trim", "bad.toml"], "bad.toml", "not valid TOML"),
     ("unknown-key-in-file", ["trim", "unknown.toml"], "aero.circulaton", "did you mean 'aero.circulation'"),
     ("points-below-2", ["trim", "--points", "1"], "solve.points", ">= 2"),
+    ("unknown-key-no-suggestion", ["trim", "--set", "zzz=1"], "zzz", "'birdocp config' prints every key"),
     ("circulation-typo", ["trim", "--set", "aero.circulation=exat"], "aero.circulation", "exact, relaxed"),
     ("set-without-equals", ["config", "--set", "body.mass_kg"], "--set", "KEY=VALUE"),
     ("nan-state", ["forces", "--state", "18", "nan", "0", "0", "--time", "0"], "--state", "finite"),

@@ -220,6 +220,15 @@ def test_a_partial_table_in_a_config_file_keeps_the_other_defaults(tmp_path, cap
     assert from_file["gait"]["shoulder_incidence"]["offset_deg"] == ref.shoulder_incidence.offset_deg != 0
 
 
+def test_a_config_file_with_a_byte_order_mark_is_read(tmp_path, capfd):
+    """Windows editors start UTF-8 files with a BOM; TOML parsers refused it ('Invalid statement')."""
+    f = tmp_path / "bom.toml"
+    f.write_bytes("\ufeff[body]\nmass_kg = 1.3\n".encode("utf-8"))
+    assert cli.main(["config", str(f), "--json"]) == 0
+    assert json.loads(capfd.readouterr().out)["body"]["mass_kg"] == 1.3
+    assert C.load(f).body.mass_kg == 1.3
+
+
 def test_forces_with_the_real_model(tmp_path):
     """Smoke test of the real model through ``python -m birdocp`` (catches drift of the model API)."""
     import subprocess

@@ -443,6 +443,12 @@ def suggest(key: str, candidates) -> str:
     return f"; did you mean '{match[0]}'?" if match else ""
 
 
+def unknown_key(key: str, candidates=None) -> str:
+    """The message of an unknown configuration key: a did-you-mean suggestion, else where the keys are."""
+    return "unknown key" + (suggest(key, _ALL_KEYS if candidates is None else candidates)
+                            or "; 'birdocp config' prints every key")
+
+
 def _coerce(key: str, default: Any, value: Any) -> Any:
     """Check ``value`` against the type of ``default``; return the converted value."""
     if isinstance(default, bool):
@@ -479,8 +485,7 @@ def _build(cls: type, data: Any, prefix: str, base: Any = None) -> Any:
     for k, v in data.items():
         key = f"{prefix}{k}"
         if k not in names:
-            raise ConfigError(key, "unknown key" + suggest(key, [f"{prefix}{n}" for n in names]
-                                                           + list(_ALL_KEYS)))
+            raise ConfigError(key, unknown_key(key, [f"{prefix}{n}" for n in names] + list(_ALL_KEYS)))
         f = names[k]
         sub = f.default if f.default is not dataclasses.MISSING else f.default_factory()
         if is_dataclass(sub):
@@ -514,7 +519,7 @@ def load(path: str | Path) -> Config:
     path = Path(path)
     if not path.is_file():
         raise ConfigError("", f"config file '{path}' does not exist; give the path of a TOML file")
-    return loads(path.read_text())
+    return loads(path.read_text(encoding="utf-8-sig"))
 
 
 def dumps(cfg: Config) -> str:
@@ -547,9 +552,9 @@ def with_values(cfg: Config, values: dict[str, Any]) -> Config:
         node = data
         for i, part in enumerate(parts[:-1]):
             if isinstance(node, list):
-                raise ConfigError(key, "unknown key" + suggest(key, _ALL_KEYS))
+                raise ConfigError(key, unknown_key(key))
             if part not in node or not isinstance(node[part], (dict, list)):
-                raise ConfigError(key, "unknown key" + suggest(key, _ALL_KEYS))
+                raise ConfigError(key, unknown_key(key))
             node = node[part]
         last = parts[-1]
         if isinstance(node, list):
@@ -560,7 +565,7 @@ def with_values(cfg: Config, values: dict[str, Any]) -> Config:
                 raise ConfigError(key, f"index must be 0..{len(node) - 1}") from None
         else:
             if last not in node:
-                raise ConfigError(key, "unknown key" + suggest(key, _ALL_KEYS))
+                raise ConfigError(key, unknown_key(key))
             if isinstance(node[last], dict):
                 raise ConfigError(key, "is a table; set one of its keys, e.g. " + f"{key}.{next(iter(node[last]))}")
             node[last] = value

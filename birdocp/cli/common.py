@@ -107,7 +107,7 @@ def load_config_file(path_text: str) -> C.Config:
     if path.is_dir():
         raise ConfigError("CONFIG", f"'{path}' is a folder; give the path of a TOML file")
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark (Windows editors) is not TOML
     except UnicodeDecodeError:
         raise ConfigError(str(path), "is not UTF-8 text; give a TOML file") from None
     except OSError as exc:
