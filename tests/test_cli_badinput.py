@@ -37,6 +37,11 @@ CASES = [
     ("unknown-key-in-file", ["trim", "unknown.toml"], "aero.circulaton", "did you mean 'aero.circulation'"),
     ("points-below-2", ["trim", "--points", "1"], "solve.points", ">= 2"),
     ("unknown-key-no-suggestion", ["trim", "--set", "zzz=1"], "zzz", "'birdocp config' prints every key"),
+    ("sweep-level-option-without-level", ["sweep", "amplitude", "--from", "40", "--to", "41", "--step", "1",
+                                          "--bounds", "20", "70"], "--bounds", "add --level"),
+    ("level-climb-rate-with-forward-speed", ["level", "--constrain", "forward_speed_mps", "--target", "18",
+                                             "--climb-rate", "1"], "--climb-rate", "drop --climb-rate"),
+    ("level-target-and-climb-rate", ["level", "--climb-rate", "1", "--target", "2"], "--target", "one of them"),
     ("circulation-typo", ["trim", "--set", "aero.circulation=exat"], "aero.circulation", "exact, relaxed"),
     ("set-without-equals", ["config", "--set", "body.mass_kg"], "--set", "KEY=VALUE"),
     ("nan-state", ["forces", "--state", "18", "nan", "0", "0", "--time", "0"], "--state", "finite"),
@@ -46,6 +51,12 @@ CASES = [
     ("argparse-bad-choice", ["trim", "--solver", "newton"], "--solver", "invalid choice"),
     ("config-cmd-bad-set", ["config", "--set", "gait.shoulder_flap.amplitude_deg=200"],
      "gait.shoulder_flap.amplitude_deg", "[-180, 180]"),
+]
+
+# Rejected before any computation, but after casadi is imported (the command's key resolution uses it).
+LATE_IMPORT_CASES = [
+    ("continue-climb-rate-without-level", ["continue", "root_ahead_m", "--from", "0.05", "--to", "0.04",
+                                           "--climb-rate", "1"], "--climb-rate", "add --level"),
 ]
 
 BLOCK = (
@@ -82,7 +93,8 @@ def _check(proc, key: str, text: str) -> None:
     assert text in line, line
 
 
-@pytest.mark.parametrize("argv,key,text", [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+@pytest.mark.parametrize("argv,key,text", [c[1:] for c in CASES + LATE_IMPORT_CASES],
+                         ids=[c[0] for c in CASES + LATE_IMPORT_CASES])
 def test_bad_input_exits_2_with_one_line(workdir, argv, key, text):
     proc = subprocess.run([sys.executable, "-m", "birdocp", *argv], cwd=workdir, env=_env(),
                           capture_output=True, text=True, timeout=60)

@@ -10,7 +10,7 @@ from birdocp.bird import config as C
 from birdocp.bird.config import ConfigError
 from birdocp.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, PROG, config_message, fmt_num, noise_summary,
                                 resolve_config, run_folder, validity_notes, validity_word)
-from birdocp.cli.level import level_kwargs, level_options
+from birdocp.cli.level import LEVEL_FLAGS, level_kwargs, level_options
 from birdocp.cli.trim import solve_shortcuts
 
 
@@ -120,6 +120,10 @@ def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
             C.with_values(cfg, {key: v})
         except ConfigError as exc:
             raise ConfigError(exc.key, f"{config_message(exc)} (sweep value {v:g})") from None
+    if not args.level:  # the level options mean nothing without --level: refused, not ignored
+        for flag, attr in LEVEL_FLAGS:
+            if getattr(args, attr) is not None:
+                raise ConfigError(flag, "is an option of level flight: add --level (or drop it)")
     level_kw = level_kwargs(args, cfg) if args.level else None
     if level_kw is not None and level_kw["free"] == key:
         raise ConfigError("KEY", f"'{key}' is the free parameter of --level; sweep another parameter or pick --free")
