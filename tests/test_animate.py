@@ -99,6 +99,8 @@ def test_animate_gif(trim_run, tmp_path):
     (["animate", "{run}", "--out", "no/such/dir/x.gif"], "--out"),
     (["animate", "{run}", "--frames", "3"], "--frames"),
     (["animate", "{run}", "--fps", "nan"], "--fps"),
+    (["animate", "{run}", "--frames", "100000"], "--frames"),   # was accepted: hours of drawing
+    (["animate", "{run}", "--out", ""], "--out"),               # was taken for no --out
 ])
 def test_animate_bad_input(trim_run, tmp_path, argv, key):
     argv = [a.replace("{run}", str(trim_run)) for a in argv]
@@ -107,6 +109,22 @@ def test_animate_bad_input(trim_run, tmp_path, argv, key):
     lines = p.stderr.strip().splitlines()
     assert len(lines) == 1 and key in lines[0], p.stderr
     assert not list(tmp_path.iterdir())
+
+
+def test_animate_says_when_the_run_did_not_converge(trim_run, tmp_path):
+    """A failed run's last iterate is no periodic flight: drawn, but with one warning line."""
+    import shutil
+
+    run = tmp_path / "failed"
+    shutil.copytree(trim_run, run)
+    res = json.loads((run / "result.json").read_text())
+    res.update(success=False, status="Maximum_Iterations_Exceeded")
+    (run / "result.json").write_text(json.dumps(res))
+    p = run_cli("animate", run, "--out", tmp_path / "a.gif", "--frames", "8", "--dpi", "20", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and "did not converge" in lines[0] and "Maximum_Iterations_Exceeded" in lines[0], p.stderr
+    assert run_cli("animate", trim_run, "--out", tmp_path / "b.gif", "--frames", "8", "--dpi", "20").stderr == ""
 
 
 def test_animate_mp4_without_ffmpeg(trim_run, tmp_path, monkeypatch):

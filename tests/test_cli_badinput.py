@@ -44,6 +44,8 @@ CASES = [
     ("level-target-and-climb-rate", ["level", "--climb-rate", "1", "--target", "2"], "--target", "one of them"),
     ("sensitivity-level-amplitude", ["sensitivity", "--level", "--param", "amplitude"], "--param", "drop it"),
     ("sensitivity-unknown-param", ["sensitivity", "--param", "zzz"], "--param", "a model parameter"),
+    ("out-empty", ["trim", "--out", ""], "--out", "not a usable path"),   # was taken for no --out: runs/...
+    ("export-out-empty", ["export-c", "--out", ""], "--out", "not a usable path"),
     ("circulation-typo", ["trim", "--set", "aero.circulation=exat"], "aero.circulation", "exact, relaxed"),
     ("set-without-equals", ["config", "--set", "body.mass_kg"], "--set", "KEY=VALUE"),
     ("nan-state", ["forces", "--state", "18", "nan", "0", "0", "--time", "0"], "--state", "finite"),

@@ -519,7 +519,7 @@ def run_folder(args: argparse.Namespace, command: str, command_line: list[str], 
     from birdocp.io.runs import claim_out_dir, folder_entries, held_lock, new_run_dir, release_out_dir
 
     out = getattr(args, "out", None) if out is None else out
-    if out:
+    if out is not None:  # --out '' is refused by claim_out_dir, not taken for no --out
         run_dir = claim_out_dir(out, command, resume_file=resume_file)
         lock = held_lock(run_dir)
         created = bool(lock and lock.created)
