@@ -16,6 +16,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 
 FILES = {
+    "sens/result.json": '{"success": true, "status": "ok", "provenance": {"command": "sensitivity"}}',
     "bad.toml": "[body]\nmass_kg = \n",
     "unknown.toml": '[aero]\ncirculaton = "exact"\n',
     "a_file": "not a folder\n",
@@ -46,6 +47,7 @@ CASES = [
     ("sensitivity-unknown-param", ["sensitivity", "--param", "zzz"], "--param", "a model parameter"),
     ("out-empty", ["trim", "--out", ""], "--out", "not a usable path"),   # was taken for no --out: runs/...
     ("export-out-empty", ["export-c", "--out", ""], "--out", "not a usable path"),
+    ("plot-a-run-it-cannot-draw", ["plot", "sens"], "RUN_DIR", "plot draws trim, level"),
     ("circulation-typo", ["trim", "--set", "aero.circulation=exat"], "aero.circulation", "exact, relaxed"),
     ("set-without-equals", ["config", "--set", "body.mass_kg"], "--set", "KEY=VALUE"),
     ("nan-state", ["forces", "--state", "18", "nan", "0", "0", "--time", "0"], "--state", "finite"),
@@ -62,6 +64,8 @@ LATE_IMPORT_CASES = [
     ("continue-climb-rate-without-level", ["continue", "root_ahead_m", "--from", "0.05", "--to", "0.04",
                                            "--climb-rate", "1"], "--climb-rate", "add --level"),
     ("optimize-free-amplitude", ["optimize-stability", "--free", "amplitude"], "--free", "free other keys"),
+    ("simulate-gust-start-without-gust", ["simulate", "--beats", "2", "--gust-start", "3"], "--gust-start",
+     "add --gust"),
     # checked on the model (get_model) before the run folder is claimed (runs/ was created, then emptied)
     ("optimize-value-outside-bounds", ["optimize-stability", "--bounds", "gait.shoulder_sweep.offset_deg=1:2"],
      "gait.shoulder_sweep.offset_deg", "widen --bounds"),
@@ -87,6 +91,7 @@ def _env() -> dict:
 @pytest.fixture
 def workdir(tmp_path):
     for name, text in FILES.items():
+        (tmp_path / name).parent.mkdir(exist_ok=True)
         (tmp_path / name).write_text(text)
     return tmp_path
 

@@ -96,7 +96,10 @@ def _figures(run: Path, res: dict, command) -> list:
 
                 figs.append(plot_power(cyc, run / "power.png"))
     else:
-        raise ConfigError("RUN_DIR", f"do not know how to plot a '{command}' run")
+        what = f"a '{command}' run" if command else "a result that names no birdocp command"
+        raise ConfigError("RUN_DIR", f"do not know how to plot {what}; plot draws trim, level, sweep (and grid), "
+                                     "continue, optimize-stability and optimize-gait run folders (control and "
+                                     "simulate draw their figures as they run)")
     return figs
 
 
