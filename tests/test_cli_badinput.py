@@ -48,6 +48,7 @@ CASES = [
     ("out-empty", ["trim", "--out", ""], "--out", "not a usable path"),   # was taken for no --out: runs/...
     ("export-out-empty", ["export-c", "--out", ""], "--out", "not a usable path"),
     ("plot-a-run-it-cannot-draw", ["plot", "sens"], "RUN_DIR", "plot draws trim, level"),
+    ("unrecognized-option", ["sensitivity", "--steps", "60"], "--steps", "see 'birdocp sensitivity --help'"),
     ("circulation-typo", ["trim", "--set", "aero.circulation=exat"], "aero.circulation", "exact, relaxed"),
     ("set-without-equals", ["config", "--set", "body.mass_kg"], "--set", "KEY=VALUE"),
     ("nan-state", ["forces", "--state", "18", "nan", "0", "0", "--time", "0"], "--state", "finite"),
