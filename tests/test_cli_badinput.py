@@ -49,6 +49,7 @@ CASES = [
     ("export-out-empty", ["export-c", "--out", ""], "--out", "not a usable path"),
     ("plot-a-run-it-cannot-draw", ["plot", "sens"], "RUN_DIR", "plot draws trim, level"),
     ("unrecognized-option", ["sensitivity", "--steps", "60"], "--steps", "see 'birdocp sensitivity --help'"),
+    ("fd-needs-lm", ["trim", "--derivatives", "fd"], "solve.derivatives", "--solver lm"),  # was an internal error
     ("circulation-typo", ["trim", "--set", "aero.circulation=exat"], "aero.circulation", "exact, relaxed"),
     ("set-without-equals", ["config", "--set", "body.mass_kg"], "--set", "KEY=VALUE"),
     ("nan-state", ["forces", "--state", "18", "nan", "0", "0", "--time", "0"], "--state", "finite"),

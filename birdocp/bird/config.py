@@ -385,6 +385,9 @@ def validate(cfg: Config) -> None:
         raise ConfigError("solve.solver", f"must be 'ipopt' or 'lm', got {s.solver!r}")
     if s.derivatives not in ("exact", "fd"):
         raise ConfigError("solve.derivatives", f"must be 'exact' or 'fd', got {s.derivatives!r}")
+    if s.derivatives == "fd" and s.solver != "lm":
+        raise ConfigError("solve.derivatives", "'fd' (finite-difference Jacobians) needs solve.solver = 'lm' "
+                                               "(--solver lm); IPOPT runs on exact derivatives")
     if len(s.initial_guess) != 4:
         raise ConfigError("solve.initial_guess", f"needs 4 numbers (u, w, q, theta), got {len(s.initial_guess)}")
     for i, v in enumerate(s.initial_guess):
