@@ -50,6 +50,8 @@ CASES = [
     ("plot-a-run-it-cannot-draw", ["plot", "sens"], "RUN_DIR", "plot draws trim, level"),
     ("unrecognized-option", ["sensitivity", "--steps", "60"], "--steps", "see 'birdocp sensitivity --help'"),
     ("fd-needs-lm", ["trim", "--derivatives", "fd"], "solve.derivatives", "--solver lm"),  # was an internal error
+    ("level-negative-forward-speed", ["level", "--constrain", "forward_speed_mps", "--target", "-5"], "--target",
+     "> 0 m/s"),  # was a failed solve (exit 1) after ~20 s
     ("circulation-typo", ["trim", "--set", "aero.circulation=exat"], "aero.circulation", "exact, relaxed"),
     ("set-without-equals", ["config", "--set", "body.mass_kg"], "--set", "KEY=VALUE"),
     ("nan-state", ["forces", "--state", "18", "nan", "0", "0", "--time", "0"], "--state", "finite"),

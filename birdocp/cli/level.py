@@ -71,6 +71,8 @@ def level_kwargs(args: argparse.Namespace, cfg) -> dict:
         if args.target is None:
             raise ConfigError("--target", f"--constrain {constrain} needs --target VALUE")
         (kw["target"],) = finite_values("--target", [args.target])
+        if constrain == "forward_speed_mps" and not kw["target"] > 0:
+            raise ConfigError("--target", f"the mean forward speed must be > 0 m/s, got {kw['target']!r}")
         if constrain == "flight_path_angle_deg" and not -89 < kw["target"] < 89:
             raise ConfigError("--target", f"flight path angle must lie in (-89, 89) deg, got {kw['target']!r}")
     elif args.target is not None:
