@@ -124,7 +124,25 @@ def test_animate_says_when_the_run_did_not_converge(trim_run, tmp_path):
     assert p.returncode == 0, p.stderr
     lines = p.stderr.strip().splitlines()
     assert len(lines) == 1 and "did not converge" in lines[0] and "Maximum_Iterations_Exceeded" in lines[0], p.stderr
-    assert run_cli("animate", trim_run, "--out", tmp_path / "b.gif", "--frames", "8", "--dpi", "20").stderr == ""
+
+
+@pytest.mark.slow
+def test_two_animations_of_one_file_at_once(trim_run, tmp_path):
+    """Both runs write a whole file (they shared one temporary file: one could rename or delete the
+    other's half-written frames)."""
+    from PIL import Image
+
+    out = tmp_path / "same.gif"
+    argv = [sys.executable, "-m", "birdocp", "animate", str(trim_run), "--out", str(out), "--frames", "8",
+            "--dpi", "20"]
+    procs = [subprocess.Popen(argv, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for _ in range(2)]
+    for p in procs:
+        _, err = p.communicate(timeout=300)
+        assert p.returncode == 0, err
+    with Image.open(out) as im:
+        assert im.n_frames == 8
+    assert [f.name for f in tmp_path.iterdir()] == ["same.gif"]  # no temporary file left
 
 
 def test_animate_mp4_without_ffmpeg(trim_run, tmp_path, monkeypatch):
