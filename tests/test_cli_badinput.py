@@ -52,6 +52,8 @@ CASES = [
     ("fd-needs-lm", ["trim", "--derivatives", "fd"], "solve.derivatives", "--solver lm"),  # was an internal error
     ("level-negative-forward-speed", ["level", "--constrain", "forward_speed_mps", "--target", "-5"], "--target",
      "> 0 m/s"),  # was a failed solve (exit 1) after ~20 s
+    ("negative-list-index", ["config", "--set", "wing.feather_lengths_m.-1=0.3"], "wing.feather_lengths_m.-1",
+     "index must be 0..6"),  # set the last feather
     ("circulation-typo", ["trim", "--set", "aero.circulation=exat"], "aero.circulation", "exact, relaxed"),
     ("set-without-equals", ["config", "--set", "body.mass_kg"], "--set", "KEY=VALUE"),
     ("nan-state", ["forces", "--state", "18", "nan", "0", "0", "--time", "0"], "--state", "finite"),

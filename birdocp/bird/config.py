@@ -563,6 +563,8 @@ def with_values(cfg: Config, values: dict[str, Any]) -> Config:
         if isinstance(node, list):
             try:
                 idx = int(last)
+                if idx < 0:  # not Python's count from the end: wing.feather_lengths_m.-1 is no feather
+                    raise IndexError(idx)
                 node[idx] = value
             except (ValueError, IndexError):
                 raise ConfigError(key, f"index must be 0..{len(node) - 1}") from None
