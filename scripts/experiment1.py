@@ -21,10 +21,12 @@ from __future__ import annotations
 
 import itertools
 import math
+import threading
 import time
 
 import numpy as np
 
+from birdocp.engine.executors import ProcessExecutor, SerialExecutor
 from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.plots import figures as plots
 from birdocp.bird.config import Config, with_values
@@ -111,30 +113,56 @@ def fmt_mults(pairs) -> str:
     return ", ".join(parts)
 
 
+def reference_data() -> tuple:
+    """(reference file, RK4 period-map multipliers, paper's multipliers, reference implementation's
+    shooting points, the reference implementation's record)."""
+    ref = load_reference("reference_cycle")
+    ref_rk4 = reference_multipliers(ref["rk4_period_map_monodromy_central_differences"])
+    paper = np.array([complex(a, b) for a, b in ref["paper_table"]["multipliers"]])
+    impl = ref["reference_implementation"]
+    return ref, ref_rk4, paper, np.asarray(impl["x_points"], float), impl
+
+
+def variant_jobs(keys) -> list:
+    """Trim the variants ``keys`` one after the other (in a worker process with ``--jobs 2``):
+    [(key, result, summary)]."""
+    ref, ref_rk4, paper, ref_x, _ = reference_data()
+    out = []
+    for key in keys:
+        label, values, over = VARIANTS[key]
+        cfg = with_values(Config(), values) if values else Config()
+        r = trim(cfg, **over)
+        print(f"--- variant {label}\n{r.table()}", flush=True)
+        out.append((key, r, {"label": label, "config_values": values, "method_overrides": over,
+                             **summary(r, ref_rk4, paper, ref_x, ref["paper_table"]["expanding_eigenvector"])}))
+    return out
+
+
 def main(argv=None) -> int:
     ap = script_parser(__doc__, "results/experiment1")
     ap.add_argument("--skip-studies", action="store_true",
                     help="skip the M-invariance and RK4 step studies (quick run)")
+    ap.add_argument("--jobs", type=int, default=2,
+                    help="processes (default 2: variants (b) and (c), the reference implementation's model, "
+                         "in a worker while this process trims (a), runs the studies and draws its figures; "
+                         "1: all in this process)")
     args, out = parse_with_out(ap, argv)
+    if args.jobs < 1:
+        ap.error(f"--jobs must be >= 1, got {args.jobs}")
     t_start = time.perf_counter()
 
-    ref = load_reference("reference_cycle")
-    rk4 = ref["rk4_period_map_monodromy_central_differences"]
-    ref_rk4 = reference_multipliers(rk4)
-    paper = np.array([complex(a, b) for a, b in ref["paper_table"]["multipliers"]])
-    impl = ref["reference_implementation"]
-    ref_x = np.asarray(impl["x_points"], float)
+    ref, ref_rk4, paper, ref_x, impl = reference_data()
     ref_impl_mults = reference_multipliers(impl)
 
     base = Config()
-    results, objs = {}, {}
-    for key, (label, values, over) in VARIANTS.items():
-        cfg = with_values(base, values) if values else base
-        r = trim(cfg, **over)
-        print(f"--- variant {label}\n{r.table()}", flush=True)
-        objs[key] = (r, cfg)
-        results[key] = {"label": label, "config_values": values, "method_overrides": over,
-                        **summary(r, ref_rk4, paper, ref_x, ref["paper_table"]["expanding_eigenvector"])}
+    ex = ProcessExecutor(1) if args.jobs > 1 else SerialExecutor()
+    others: list = []
+    worker = threading.Thread(target=lambda: others.extend(ex.map(variant_jobs, [["b", "c"]])))
+    if args.jobs > 1:
+        ex.start()  # the worker process started from this thread (it is tied to the thread that starts it)
+        worker.start()
+    [(_, r_a, s_a)] = variant_jobs(["a"])
+    results, objs = {"a": s_a}, {"a": (r_a, base)}
 
     # --- M-invariance on variant (a): one RK4 grid (144 steps), 1/2/4/8 segments
     studies = {}
@@ -189,8 +217,25 @@ def main(argv=None) -> int:
                     "asymptotic RK4 order need not be observed",
         }
 
-    # --- figures
+    # --- figures of variant (a), then the other variants (from the worker)
     r_a, cfg_a = objs["a"]
+    plots.plot_states(r_a, out / "states.png",
+                      title="Experiment 1, variant (a): states over one wingbeat (A = 42°, d = 0.05 m)")
+    plots.plot_phase_portrait(r_a, out / "phase_portrait.png",
+                              title="Experiment 1, variant (a): limit cycle in (u, w, q), coloured by θ")
+    plots.plot_forces(r_a, get_model(cfg_a), out / "forces.png",
+                      title="Experiment 1, variant (a): loads along the trimmed cycle, body frame")
+    plots.plot_forces(r_a, get_model(cfg_a), out / "forces_inertial.png", frame="inertial",
+                      title="Experiment 1, variant (a): loads along the trimmed cycle, fixed frame")
+    if args.jobs > 1:
+        worker.join()
+    else:
+        others = [variant_jobs(["b", "c"])]
+    ex.close()
+    if len(others) != 1:
+        raise RuntimeError("variants (b) and (c) failed in the worker")
+    for key, r, s_k in others[0]:
+        results[key], objs[key] = s_k, (r, with_values(base, VARIANTS[key][1]))
     hist = {VARIANTS[k][0]: objs[k][0] for k in VARIANTS}
     hist["reference implementation (LM, paper's code)"] = impl["error_history"]
     plots.plot_convergence(hist, out / "convergence.png", tol=1e-5,
@@ -200,14 +245,6 @@ def main(argv=None) -> int:
                            reference={"paper (table)": paper,
                                       "reference RK4 period-map monodromy": ref_rk4},
                            title="Experiment 1: Floquet multipliers")
-    plots.plot_states(r_a, out / "states.png",
-                      title="Experiment 1, variant (a): states over one wingbeat (A = 42°, d = 0.05 m)")
-    plots.plot_phase_portrait(r_a, out / "phase_portrait.png",
-                              title="Experiment 1, variant (a): limit cycle in (u, w, q), coloured by θ")
-    plots.plot_forces(r_a, get_model(cfg_a), out / "forces.png",
-                      title="Experiment 1, variant (a): loads along the trimmed cycle, body frame")
-    plots.plot_forces(r_a, get_model(cfg_a), out / "forces_inertial.png", frame="inertial",
-                      title="Experiment 1, variant (a): loads along the trimmed cycle, fixed frame")
 
     doc = {
         "experiment": "paper Experiment 1: reference case A = 42 deg, wing root 0.05 m ahead of G, "

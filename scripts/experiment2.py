@@ -16,19 +16,17 @@ from __future__ import annotations
 
 import math
 import shutil
+import threading
 import time
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from birdocp.bird.config import Config, with_values  # noqa: E402
-from birdocp.io.files import atomic_write_json, atomic_write_text  # noqa: E402
-from birdocp.studies.level import level  # noqa: E402
-from birdocp.studies.trim import trim  # noqa: E402
-from birdocp.studies.sweep import sweep, sweep_values  # noqa: E402
+from birdocp.bird.config import Config, with_values
+from birdocp.engine.executors import ProcessExecutor, SerialExecutor
+from birdocp.io.files import atomic_write_json, atomic_write_text
+from birdocp.studies.level import level
+from birdocp.studies.trim import trim
+from birdocp.studies.sweep import sweep, sweep_values
 from script_common import parse_with_out, script_parser
 
 AMP = "gait.shoulder_flap.amplitude_deg"
@@ -64,34 +62,51 @@ def flight_path(r):
     return t - t[0], x, z
 
 
+def level_job(name: str) -> dict:
+    """Level flight of one model variant, solved twice (the repeat: the cost without the one-off graph
+    build); the summary dict (runs in a worker process with ``--jobs 2``)."""
+    over = RELAXED if name == "relaxed_backward_difference" else {}
+    c = with_values(Config(), over) if over else Config()
+    t = time.perf_counter()
+    r = level(c)
+    wall = time.perf_counter() - t
+    t = time.perf_counter()
+    r2 = level(c)
+    wall2 = time.perf_counter() - t
+    s = level_summary(r, wall)
+    s["repeat_wall_s"] = wall2
+    s["repeat_iterations"] = r2.iterations
+    s["repeat_amplitude_deg"] = r2.amplitude_deg
+    print(f"level ({name}): A = {r.amplitude_deg:.6f} deg, {r.iterations} it, {wall:.1f} s "
+          f"(repeat {wall2:.1f} s), mean W {r.mean_vertical_speed_mps:.2e}", flush=True)
+    return {"result": r if name == "default" else None, "summary": s}
+
+
 def main() -> None:
-    args, out = parse_with_out(script_parser(__doc__, "results/experiment2"))
+    ap = script_parser(__doc__, "results/experiment2")
+    ap.add_argument("--jobs", type=int, default=2,
+                    help="processes (default 2: the relaxed model's level flight runs in a worker while "
+                         "this process solves the default model and the sweep; 1: all in this process)")
+    args, out = parse_with_out(ap)
+    if args.jobs < 1:
+        ap.error(f"--jobs must be >= 1, got {args.jobs}")
     cfg = Config()
     res: dict = {"paper": {"level_amplitude_deg": PAPER_LEVEL_DEG,
                            "statements": ["level flight at A = 43.47 deg",
                                           "mean vertical speed nearly linear in A over 40-46 deg",
                                           "the multipliers change only slightly with A"]}}
 
-    # --- level flight, two model variants
-    levels = {}
-    for name, over in (("default", {}), ("relaxed_backward_difference", RELAXED)):
-        c = with_values(cfg, over) if over else cfg
-        t = time.perf_counter()
-        r = level(c)
-        wall = time.perf_counter() - t
-        # a second solve of the same NLP from the same start: the cost without the one-off graph build
-        t = time.perf_counter()
-        r2 = level(c)
-        wall2 = time.perf_counter() - t
-        s = level_summary(r, wall)
-        s["repeat_wall_s"] = wall2
-        s["repeat_iterations"] = r2.iterations
-        s["repeat_amplitude_deg"] = r2.amplitude_deg
-        levels[name] = (r, s)
-        print(f"level ({name}): A = {r.amplitude_deg:.6f} deg, {r.iterations} it, {wall:.1f} s "
-              f"(repeat {wall2:.1f} s), mean W {r.mean_vertical_speed_mps:.2e}", flush=True)
-    res["level"] = {k: v[1] for k, v in levels.items()}
-    r_level = levels["default"][0]
+    # --- level flight, two model variants (the relaxed one in a worker process when jobs > 1: it
+    # depends on nothing below, and its model's graphs are its own)
+    ex = ProcessExecutor(1) if args.jobs > 1 else SerialExecutor()
+    relaxed: list = []
+    worker = threading.Thread(target=lambda: relaxed.extend(ex.map(level_job, ["relaxed_backward_difference"])))
+    if args.jobs > 1:
+        ex.start()  # the worker processes started from this thread (they are tied to the thread that starts them)
+        worker.start()
+    default = level_job("default")
+    res["level"] = None  # filled below, when the worker is done (keeps the key order of result.json)
+    r_level = default["result"]
     a_level = r_level.amplitude_deg
 
     # --- the sweep (default model)
@@ -141,7 +156,24 @@ def main() -> None:
                                  "height_range_m": float(v[2].max() - v[2].min()),
                                  "success": bool(v[3].success)} for lab, v in paths.items()}
 
-    # --- figures
+    # --- the relaxed model's level flight (from the worker)
+    if args.jobs > 1:
+        worker.join()
+    else:
+        relaxed = [level_job("relaxed_backward_difference")]
+    ex.close()
+    if len(relaxed) != 1:
+        raise RuntimeError("the relaxed model's level flight failed in the worker")
+    levels = {"default": (r_level, default["summary"]),
+              "relaxed_backward_difference": (None, relaxed[0]["summary"])}
+    res["level"] = {k: v[1] for k, v in levels.items()}
+
+    # --- figures (matplotlib imported here only: the worker process never draws)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
     colors = {"descending": "tab:red", "level": "tab:green", "climbing": "tab:blue"}
 
     fig, ax = plt.subplots(2, 2, figsize=(10, 7), sharex=True)

@@ -69,3 +69,17 @@ def test_cli_grid_bad_input(capsys):
     assert "--rows" in capsys.readouterr().err
     assert main(base + ["--rows", "root_ahead_m=0.05"]) == 2
     assert main(base + ["--rows", "amplitude=40:41:1", "--jobs", "2"]) == 2
+
+
+def test_process_workers_started_in_main_thread_serve_a_helper_thread():
+    """Workers started by ``start()`` in this thread serve a map from a helper thread and keep serving
+    after that thread has ended (they are tied to the thread that started them)."""
+    import threading
+
+    with ProcessExecutor(1).start() as ex:
+        out: list = []
+        th = threading.Thread(target=lambda: out.extend(ex.map(_square, [2, 3])))
+        th.start()
+        th.join(timeout=120)
+        assert out == [4, 9]
+        assert ex.map(_square, [5]) == [25]

@@ -34,6 +34,12 @@ class Executor:
         each job finishes (in any order), e.g. to write it to disk before the others are done."""
         raise NotImplementedError
 
+    def start(self) -> "Executor":
+        """Make the workers ready now, in the calling thread (nothing to do for most executors). Call it
+        from the main thread before calling :meth:`map` from another thread: local worker processes
+        are tied to the thread that started them (they are stopped when it ends)."""
+        return self
+
     def close(self) -> None:
         pass
 
@@ -96,7 +102,9 @@ def _worker_init() -> None:
 
 
 class ProcessExecutor(Executor):
-    """Runs the items in ``jobs`` spawned worker processes (each builds its model once)."""
+    """Runs the items in ``jobs`` spawned worker processes (each builds its model once). The workers are
+    started by the first :meth:`map` (or :meth:`start`) and stop when the thread that started them ends
+    (Linux parent-death signal): to map from a helper thread, call :meth:`start` first."""
 
     name = "processes"
 
@@ -112,6 +120,10 @@ class ProcessExecutor(Executor):
 
             self._pool = mp.get_context("spawn").Pool(self.jobs, initializer=_worker_init)
         return self._pool
+
+    def start(self):
+        self._get()
+        return self
 
     def map(self, fn, items, on_result=None):
         items = list(items)
