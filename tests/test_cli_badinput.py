@@ -54,6 +54,9 @@ CASES = [
      "> 0 m/s"),  # was a failed solve (exit 1) after ~20 s
     ("negative-list-index", ["config", "--set", "wing.feather_lengths_m.-1=0.3"], "wing.feather_lengths_m.-1",
      "index must be 0..6"),  # set the last feather
+    ("jobs-and-scheduler", ["sweep", "amplitude", "--from", "41", "--to", "42", "--step", "1", "--rows",
+                            "root_ahead_m=0.04:0.05:0.01", "--jobs", "2", "--scheduler", "tcp://127.0.0.1:1"],
+     "--scheduler", "give one of them"),  # --jobs was silently ignored
     ("circulation-typo", ["trim", "--set", "aero.circulation=exat"], "aero.circulation", "exact, relaxed"),
     ("set-without-equals", ["config", "--set", "body.mass_kg"], "--set", "KEY=VALUE"),
     ("nan-state", ["forces", "--state", "18", "nan", "0", "0", "--time", "0"], "--state", "finite"),
@@ -128,6 +131,17 @@ def test_bad_input_rejected_before_the_model_is_imported(workdir, argv, key, tex
     proc = subprocess.run([sys.executable, "-c", BLOCK, *argv], cwd=workdir, env=_env(),
                           capture_output=True, text=True, timeout=60)
     _check(proc, key, text)
+
+
+def test_an_unreachable_scheduler_is_bad_input(workdir):
+    """It was 'internal error: OSError: Timed out ...' (exit 1) after claiming the run folder."""
+    pytest.importorskip("distributed")
+    env = dict(_env(), DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT="1s")
+    proc = subprocess.run([sys.executable, "-m", "birdocp", "sweep", "amplitude", "--from", "41", "--to", "42",
+                           "--step", "1", "--rows", "root_ahead_m=0.04:0.05:0.01", "--scheduler", "tcp://127.0.0.1:1"],
+                          cwd=workdir, env=env, capture_output=True, text=True, timeout=120)
+    _check(proc, "--scheduler", "cannot reach 'tcp://127.0.0.1:1'")
+    assert not (workdir / "runs").exists()
 
 
 def test_debug_shows_the_traceback(workdir):
