@@ -78,7 +78,8 @@ def test_animate_gif(trim_run, tmp_path):
     from PIL import Image
 
     out = tmp_path / "bird.gif"
-    p = run_cli("animate", trim_run, "--out", out, "--frames", "8", "--dpi", "30", "--json")
+    p = run_cli("animate", trim_run, "--out", out, "--frames", "8", "--dpi", "30", "--json",
+                "--verbose")  # README: every command takes --verbose and --debug
     assert p.returncode == 0, p.stderr
     info = json.loads(p.stdout)
     assert info["success"] and info["frames"] == 8 and Path(info["out"]) == out

@@ -41,6 +41,8 @@ def register(sub, common) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress bar on stderr")
     p.add_argument("--debug", action="store_true", help="show Python tracebacks on errors")
+    p.add_argument("--verbose", action="store_true",
+                   help="accepted as by every command (animate runs no solver: its warnings always show)")
     p.set_defaults(func=cmd_animate)
 
 

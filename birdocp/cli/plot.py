@@ -19,6 +19,7 @@ def register(sub, common) -> None:
     p.add_argument("--debug", action="store_true", help="show Python tracebacks on errors")
     p.add_argument("--json", action="store_true", help="print the list of figures as JSON")
     p.add_argument("--verbose", action="store_true", help="show library warnings on the terminal")
+    p.add_argument("--quiet", action="store_true", help="accepted as by every command (plot draws no progress bar)")
     p.set_defaults(func=cmd_plot)
 
 
