@@ -38,7 +38,7 @@ def register(sub, common) -> None:
 
 
 def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
-    from birdocp.cli.optimize_stability import checked_free
+    from birdocp.cli.optimize_stability import checked_free, residuals
     from birdocp.studies.gait import DEFAULT_GAIT_FREE, optimize_gait
 
     cfg = cli.resolve_config(args)
@@ -81,7 +81,7 @@ def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
                          f"{v['max_multiplier_difference']:.2e}" if ok else ""))
             print(f"  written to {run_dir}")
         if not res.success:
-            print(f"{cli.PROG}: optimisation did not converge (status {res.status}: {cli.one_line(res.message)}); "
-                  f"result written to {run_dir}", file=sys.stderr)
+            print(f"{cli.PROG}: optimisation did not converge (status {res.status}, {residuals(res)}: "
+                  f"{cli.one_line(res.message)}); result written to {run_dir}", file=sys.stderr)
             return cli.EXIT_NOT_CONVERGED
     return cli.EXIT_OK

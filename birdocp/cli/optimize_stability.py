@@ -111,10 +111,17 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
             _print_table(res, result, run.dir)
         if not res.success:
             warn = cli.noise_summary(run.noise)
-            print(f"{cli.PROG}: optimisation did not converge (status {res.status}); result written to {run.dir}"
-                  f"{warn}", file=sys.stderr)
+            print(f"{cli.PROG}: optimisation did not converge (status {res.status}, {residuals(res)}); result "
+                  f"written to {run.dir}{warn}", file=sys.stderr)
             return cli.EXIT_NOT_CONVERGED
     return cli.EXIT_OK
+
+
+def residuals(res) -> str:
+    """'KKT residual 2.16e+00, constraint violation 0.00e+00' of an optimisation result (what the
+    failure line reports as its residual)."""
+    return (f"KKT residual {cli.fmt_num(getattr(res, 'kkt_residual', None), '.2e')}, "
+            f"constraint violation {cli.fmt_num(getattr(res, 'constraint_violation', None), '.2e')}")
 
 
 def _print_table(res, result: dict, run_dir) -> None:
