@@ -58,8 +58,8 @@ def level_kwargs(args: argparse.Namespace, cfg) -> dict:
     """Checked keyword arguments of birdocp.studies.level.level from the level options (no model import)."""
     from birdocp.studies.level import default_bounds, resolve_constraint, resolve_key
 
-    free = resolve_key(args.free or "amplitude", "--free")
-    constrain = resolve_constraint(args.constrain or "vertical_speed_mps", "--constrain")
+    free = resolve_key("amplitude" if args.free is None else args.free, "--free")
+    constrain = resolve_constraint("vertical_speed_mps" if args.constrain is None else args.constrain, "--constrain")
     (climb,) = finite_values("--climb-rate", [0.0 if args.climb_rate is None else args.climb_rate])
     kw: dict = {"free": free, "constrain": constrain, "climb_rate_mps": climb}
     if constrain != "vertical_speed_mps" and args.climb_rate is not None:
