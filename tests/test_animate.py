@@ -78,7 +78,8 @@ def test_animate_gif(trim_run, tmp_path):
     from PIL import Image
 
     out = tmp_path / "bird.gif"
-    p = run_cli("animate", trim_run, "--out", out, "--frames", "8", "--dpi", "30", "--json")
+    p = run_cli("animate", trim_run, "--out", out, "--frames", "8", "--dpi", "30", "--json",
+                "--verbose")  # README: every command takes --verbose and --debug
     assert p.returncode == 0, p.stderr
     info = json.loads(p.stdout)
     assert info["success"] and info["frames"] == 8 and Path(info["out"]) == out
@@ -99,6 +100,8 @@ def test_animate_gif(trim_run, tmp_path):
     (["animate", "{run}", "--out", "no/such/dir/x.gif"], "--out"),
     (["animate", "{run}", "--frames", "3"], "--frames"),
     (["animate", "{run}", "--fps", "nan"], "--fps"),
+    (["animate", "{run}", "--frames", "100000"], "--frames"),   # was accepted: hours of drawing
+    (["animate", "{run}", "--out", ""], "--out"),               # was taken for no --out
 ])
 def test_animate_bad_input(trim_run, tmp_path, argv, key):
     argv = [a.replace("{run}", str(trim_run)) for a in argv]
@@ -107,6 +110,40 @@ def test_animate_bad_input(trim_run, tmp_path, argv, key):
     lines = p.stderr.strip().splitlines()
     assert len(lines) == 1 and key in lines[0], p.stderr
     assert not list(tmp_path.iterdir())
+
+
+def test_animate_says_when_the_run_did_not_converge(trim_run, tmp_path):
+    """A failed run's last iterate is no periodic flight: drawn, but with one warning line."""
+    import shutil
+
+    run = tmp_path / "failed"
+    shutil.copytree(trim_run, run)
+    res = json.loads((run / "result.json").read_text())
+    res.update(success=False, status="Maximum_Iterations_Exceeded")
+    (run / "result.json").write_text(json.dumps(res))
+    p = run_cli("animate", run, "--out", tmp_path / "a.gif", "--frames", "8", "--dpi", "20", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and "did not converge" in lines[0] and "Maximum_Iterations_Exceeded" in lines[0], p.stderr
+
+
+@pytest.mark.slow
+def test_two_animations_of_one_file_at_once(trim_run, tmp_path):
+    """Both runs write a whole file (they shared one temporary file: one could rename or delete the
+    other's half-written frames)."""
+    from PIL import Image
+
+    out = tmp_path / "same.gif"
+    argv = [sys.executable, "-m", "birdocp", "animate", str(trim_run), "--out", str(out), "--frames", "8",
+            "--dpi", "20"]
+    procs = [subprocess.Popen(argv, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for _ in range(2)]
+    for p in procs:
+        _, err = p.communicate(timeout=300)
+        assert p.returncode == 0, err
+    with Image.open(out) as im:
+        assert im.n_frames == 8
+    assert [f.name for f in tmp_path.iterdir()] == ["same.gif"]  # no temporary file left
 
 
 def test_animate_mp4_without_ffmpeg(trim_run, tmp_path, monkeypatch):

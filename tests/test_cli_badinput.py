@@ -16,6 +16,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 
 FILES = {
+    "sens/result.json": '{"success": true, "status": "ok", "provenance": {"command": "sensitivity"}}',
     "bad.toml": "[body]\nmass_kg = \n",
     "unknown.toml": '[aero]\ncirculaton = "exact"\n',
     "a_file": "not a folder\n",
@@ -36,6 +37,26 @@ CASES = [
     ("malformed-toml", ["trim", "bad.toml"], "bad.toml", "not valid TOML"),
     ("unknown-key-in-file", ["trim", "unknown.toml"], "aero.circulaton", "did you mean 'aero.circulation'"),
     ("points-below-2", ["trim", "--points", "1"], "solve.points", ">= 2"),
+    ("unknown-key-no-suggestion", ["trim", "--set", "zzz=1"], "zzz", "'birdocp config' prints every key"),
+    ("sweep-level-option-without-level", ["sweep", "amplitude", "--from", "40", "--to", "41", "--step", "1",
+                                          "--bounds", "20", "70"], "--bounds", "add --level"),
+    ("level-climb-rate-with-forward-speed", ["level", "--constrain", "forward_speed_mps", "--target", "18",
+                                             "--climb-rate", "1"], "--climb-rate", "drop --climb-rate"),
+    ("level-target-and-climb-rate", ["level", "--climb-rate", "1", "--target", "2"], "--target", "one of them"),
+    ("sensitivity-level-amplitude", ["sensitivity", "--level", "--param", "amplitude"], "--param", "drop it"),
+    ("sensitivity-unknown-param", ["sensitivity", "--param", "zzz"], "--param", "a model parameter"),
+    ("out-empty", ["trim", "--out", ""], "--out", "not a usable path"),   # was taken for no --out: runs/...
+    ("export-out-empty", ["export-c", "--out", ""], "--out", "not a usable path"),
+    ("plot-a-run-it-cannot-draw", ["plot", "sens"], "RUN_DIR", "plot draws trim, level"),
+    ("unrecognized-option", ["sensitivity", "--steps", "60"], "--steps", "see 'birdocp sensitivity --help'"),
+    ("fd-needs-lm", ["trim", "--derivatives", "fd"], "solve.derivatives", "--solver lm"),  # was an internal error
+    ("level-negative-forward-speed", ["level", "--constrain", "forward_speed_mps", "--target", "-5"], "--target",
+     "> 0 m/s"),  # was a failed solve (exit 1) after ~20 s
+    ("negative-list-index", ["config", "--set", "wing.feather_lengths_m.-1=0.3"], "wing.feather_lengths_m.-1",
+     "index must be 0..6"),  # set the last feather
+    ("jobs-and-scheduler", ["sweep", "amplitude", "--from", "41", "--to", "42", "--step", "1", "--rows",
+                            "root_ahead_m=0.04:0.05:0.01", "--jobs", "2", "--scheduler", "tcp://127.0.0.1:1"],
+     "--scheduler", "give one of them"),  # --jobs was silently ignored
     ("circulation-typo", ["trim", "--set", "aero.circulation=exat"], "aero.circulation", "exact, relaxed"),
     ("set-without-equals", ["config", "--set", "body.mass_kg"], "--set", "KEY=VALUE"),
     ("nan-state", ["forces", "--state", "18", "nan", "0", "0", "--time", "0"], "--state", "finite"),
@@ -45,6 +66,20 @@ CASES = [
     ("argparse-bad-choice", ["trim", "--solver", "newton"], "--solver", "invalid choice"),
     ("config-cmd-bad-set", ["config", "--set", "gait.shoulder_flap.amplitude_deg=200"],
      "gait.shoulder_flap.amplitude_deg", "[-180, 180]"),
+]
+
+# Rejected before any computation, but after casadi is imported (the command's key resolution uses it).
+LATE_IMPORT_CASES = [
+    ("continue-climb-rate-without-level", ["continue", "root_ahead_m", "--from", "0.05", "--to", "0.04",
+                                           "--climb-rate", "1"], "--climb-rate", "add --level"),
+    ("optimize-free-amplitude", ["optimize-stability", "--free", "amplitude"], "--free", "free other keys"),
+    ("simulate-gust-start-without-gust", ["simulate", "--beats", "2", "--gust-start", "3"], "--gust-start",
+     "add --gust"),
+    # checked on the model (get_model) before the run folder is claimed (runs/ was created, then emptied)
+    ("optimize-value-outside-bounds", ["optimize-stability", "--bounds", "gait.shoulder_sweep.offset_deg=1:2"],
+     "gait.shoulder_sweep.offset_deg", "widen --bounds"),
+    ("optimize-free-reshapes-the-wing", ["optimize-stability", "--free", "gait.elbow_flex.offset_deg", "--bounds",
+                                         "gait.elbow_flex.offset_deg=0:40"], "gait.elbow_flex.offset_deg", "free shoulder"),
 ]
 
 BLOCK = (
@@ -65,6 +100,7 @@ def _env() -> dict:
 @pytest.fixture
 def workdir(tmp_path):
     for name, text in FILES.items():
+        (tmp_path / name).parent.mkdir(exist_ok=True)
         (tmp_path / name).write_text(text)
     return tmp_path
 
@@ -81,12 +117,13 @@ def _check(proc, key: str, text: str) -> None:
     assert text in line, line
 
 
-@pytest.mark.parametrize("argv,key,text", [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+@pytest.mark.parametrize("argv,key,text", [c[1:] for c in CASES + LATE_IMPORT_CASES],
+                         ids=[c[0] for c in CASES + LATE_IMPORT_CASES])
 def test_bad_input_exits_2_with_one_line(workdir, argv, key, text):
     proc = subprocess.run([sys.executable, "-m", "birdocp", *argv], cwd=workdir, env=_env(),
                           capture_output=True, text=True, timeout=60)
     _check(proc, key, text)
-    assert not (workdir / "runs").exists() or not any((workdir / "runs").iterdir())
+    assert not (workdir / "runs").exists()  # nothing written, not even an empty runs/
 
 
 @pytest.mark.parametrize("argv,key,text", [c[1:] for c in CASES], ids=[c[0] for c in CASES])
@@ -94,6 +131,17 @@ def test_bad_input_rejected_before_the_model_is_imported(workdir, argv, key, tex
     proc = subprocess.run([sys.executable, "-c", BLOCK, *argv], cwd=workdir, env=_env(),
                           capture_output=True, text=True, timeout=60)
     _check(proc, key, text)
+
+
+def test_an_unreachable_scheduler_is_bad_input(workdir):
+    """It was 'internal error: OSError: Timed out ...' (exit 1) after claiming the run folder."""
+    pytest.importorskip("distributed")
+    env = dict(_env(), DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT="1s")
+    proc = subprocess.run([sys.executable, "-m", "birdocp", "sweep", "amplitude", "--from", "41", "--to", "42",
+                           "--step", "1", "--rows", "root_ahead_m=0.04:0.05:0.01", "--scheduler", "tcp://127.0.0.1:1"],
+                          cwd=workdir, env=env, capture_output=True, text=True, timeout=120)
+    _check(proc, "--scheduler", "cannot reach 'tcp://127.0.0.1:1'")
+    assert not (workdir / "runs").exists()
 
 
 def test_debug_shows_the_traceback(workdir):

@@ -59,6 +59,17 @@ def test_every_command_is_in_the_matrix(trim_run):
     assert set(sub.choices) == names, set(sub.choices) ^ names
 
 
+def test_every_command_takes_the_common_output_options():
+    """README: every command takes --verbose and --debug; --json and --quiet too (animate lacked
+    --verbose, plot --quiet: exit 2 for a flag the README promises)."""
+    import argparse
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    for name, parser in sub.choices.items():
+        flags = {o for a in parser._actions for o in a.option_strings}
+        assert {"--json", "--debug", "--verbose", "--quiet"} <= flags, (name, sorted(flags))
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["forces", "trim", "level", "sweep", "continue", "plot", "sensitivity",
                                   "optimize-stability", "optimize-gait", "control", "simulate", "animate",

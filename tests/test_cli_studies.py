@@ -50,3 +50,4 @@ def test_optimize_stability_json_and_table_on_a_small_problem(tmp_path, capsys, 
     cap = capsys.readouterr()
     assert "check: trim at the optimum converged" in cap.out
     assert "did not converge" in cap.err and "internal error" not in cap.err
+    assert f"KKT residual {doc['kkt_residual']:.2e}" in cap.err  # the failure line names the residual

@@ -203,6 +203,32 @@ def test_config_resolution_order(tmp_path, capfd):
     assert C.loads(text) == C.load(f)
 
 
+def test_a_partial_table_in_a_config_file_keeps_the_other_defaults(tmp_path, capfd):
+    """A file that sets one key of a joint means the same as --set of that key: the joint's other
+    values stay the reference gait's (they were reset to Joint()'s zeros: phase 180 -> 0)."""
+    f = tmp_path / "c.toml"
+    f.write_text("[gait.shoulder_flap]\namplitude_deg = 45.0\n[gait.shoulder_incidence]\nphase_deg = -80.0\n")
+    assert cli.main(["config", str(f), "--json"]) == 0
+    from_file = json.loads(capfd.readouterr().out)
+    assert cli.main(["config", "--json", "--set", "gait.shoulder_flap.amplitude_deg=45",
+                     "--set", "gait.shoulder_incidence.phase_deg=-80"]) == 0
+    from_set = json.loads(capfd.readouterr().out)
+    assert from_file == from_set
+    ref = C.Config().gait
+    assert from_file["gait"]["shoulder_flap"] == {"offset_deg": ref.shoulder_flap.offset_deg, "amplitude_deg": 45.0,
+                                                  "phase_deg": ref.shoulder_flap.phase_deg}
+    assert from_file["gait"]["shoulder_incidence"]["offset_deg"] == ref.shoulder_incidence.offset_deg != 0
+
+
+def test_a_config_file_with_a_byte_order_mark_is_read(tmp_path, capfd):
+    """Windows editors start UTF-8 files with a BOM; TOML parsers refused it ('Invalid statement')."""
+    f = tmp_path / "bom.toml"
+    f.write_bytes("\ufeff[body]\nmass_kg = 1.3\n".encode("utf-8"))
+    assert cli.main(["config", str(f), "--json"]) == 0
+    assert json.loads(capfd.readouterr().out)["body"]["mass_kg"] == 1.3
+    assert C.load(f).body.mass_kg == 1.3
+
+
 def test_forces_with_the_real_model(tmp_path):
     """Smoke test of the real model through ``python -m birdocp`` (catches drift of the model API)."""
     import subprocess

@@ -385,6 +385,9 @@ def validate(cfg: Config) -> None:
         raise ConfigError("solve.solver", f"must be 'ipopt' or 'lm', got {s.solver!r}")
     if s.derivatives not in ("exact", "fd"):
         raise ConfigError("solve.derivatives", f"must be 'exact' or 'fd', got {s.derivatives!r}")
+    if s.derivatives == "fd" and s.solver != "lm":
+        raise ConfigError("solve.derivatives", "'fd' (finite-difference Jacobians) needs solve.solver = 'lm' "
+                                               "(--solver lm); IPOPT runs on exact derivatives")
     if len(s.initial_guess) != 4:
         raise ConfigError("solve.initial_guess", f"needs 4 numbers (u, w, q, theta), got {len(s.initial_guess)}")
     for i, v in enumerate(s.initial_guess):
@@ -443,6 +446,12 @@ def suggest(key: str, candidates) -> str:
     return f"; did you mean '{match[0]}'?" if match else ""
 
 
+def unknown_key(key: str, candidates=None) -> str:
+    """The message of an unknown configuration key: a did-you-mean suggestion, else where the keys are."""
+    return "unknown key" + (suggest(key, _ALL_KEYS if candidates is None else candidates)
+                            or "; 'birdocp config' prints every key")
+
+
 def _coerce(key: str, default: Any, value: Any) -> Any:
     """Check ``value`` against the type of ``default``; return the converted value."""
     if isinstance(default, bool):
@@ -468,25 +477,26 @@ def _coerce(key: str, default: Any, value: Any) -> Any:
     raise ConfigError(key, f"unsupported value {value!r}")
 
 
-def _build(cls: type, data: Any, prefix: str) -> Any:
+def _build(cls: type, data: Any, prefix: str, base: Any = None) -> Any:
+    """``cls`` from a table; missing keys keep ``base``'s values (default ``cls()``), so a partial
+    ``[gait.shoulder_flap]`` table keeps the reference joint's other values, not ``Joint()``'s zeros."""
     if not isinstance(data, dict):
         raise ConfigError(prefix.rstrip("."), f"expected a table, got {data!r}")
-    default = cls() if cls is not Config else None
+    default = (cls() if base is None else base) if cls is not Config else None
     names = {f.name: f for f in fields(cls)}
     kwargs = {}
     for k, v in data.items():
         key = f"{prefix}{k}"
         if k not in names:
-            raise ConfigError(key, "unknown key" + suggest(key, [f"{prefix}{n}" for n in names]
-                                                           + list(_ALL_KEYS)))
+            raise ConfigError(key, unknown_key(key, [f"{prefix}{n}" for n in names] + list(_ALL_KEYS)))
         f = names[k]
         sub = f.default if f.default is not dataclasses.MISSING else f.default_factory()
         if is_dataclass(sub):
-            kwargs[k] = _build(type(sub), v, key + ".")
+            kwargs[k] = _build(type(sub), v, key + ".", sub)
         else:
             kwargs[k] = _coerce(key, getattr(default, k) if default is not None else sub, v)
     try:
-        return replace(cls(), **kwargs) if cls is not Config else cls(**kwargs)
+        return replace(default, **kwargs) if cls is not Config else cls(**kwargs)
     except ConfigError:
         raise
     except TypeError as exc:  # pragma: no cover - defensive
@@ -512,7 +522,7 @@ def load(path: str | Path) -> Config:
     path = Path(path)
     if not path.is_file():
         raise ConfigError("", f"config file '{path}' does not exist; give the path of a TOML file")
-    return loads(path.read_text())
+    return loads(path.read_text(encoding="utf-8-sig"))
 
 
 def dumps(cfg: Config) -> str:
@@ -545,20 +555,22 @@ def with_values(cfg: Config, values: dict[str, Any]) -> Config:
         node = data
         for i, part in enumerate(parts[:-1]):
             if isinstance(node, list):
-                raise ConfigError(key, "unknown key" + suggest(key, _ALL_KEYS))
+                raise ConfigError(key, unknown_key(key))
             if part not in node or not isinstance(node[part], (dict, list)):
-                raise ConfigError(key, "unknown key" + suggest(key, _ALL_KEYS))
+                raise ConfigError(key, unknown_key(key))
             node = node[part]
         last = parts[-1]
         if isinstance(node, list):
             try:
                 idx = int(last)
+                if idx < 0:  # not Python's count from the end: wing.feather_lengths_m.-1 is no feather
+                    raise IndexError(idx)
                 node[idx] = value
             except (ValueError, IndexError):
                 raise ConfigError(key, f"index must be 0..{len(node) - 1}") from None
         else:
             if last not in node:
-                raise ConfigError(key, "unknown key" + suggest(key, _ALL_KEYS))
+                raise ConfigError(key, unknown_key(key))
             if isinstance(node[last], dict):
                 raise ConfigError(key, "is a table; set one of its keys, e.g. " + f"{key}.{next(iter(node[last]))}")
             node[last] = value

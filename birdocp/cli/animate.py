@@ -10,6 +10,7 @@ an MP4 without ffmpeg is one line on stderr and exit 2.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
@@ -18,6 +19,8 @@ from birdocp.cli import common as cli
 
 DEFAULT_FRAMES = 48
 """Frames per cycle by default (one per T/48; the issue asks for at least one per T/40)."""
+MAX_FRAMES = 1000
+"""Most frames per cycle (20 times the default; each frame is drawn and stored in the file)."""
 
 
 def register(sub, common) -> None:
@@ -31,13 +34,15 @@ def register(sub, common) -> None:
     p.add_argument("run_dir", metavar="RUN_DIR", help="a trim or level run folder (with arrays.npz)")
     p.add_argument("--out", metavar="FILE", help="output file, .gif or .mp4 (default RUN_DIR/animation.gif)")
     p.add_argument("--frames", type=int, default=DEFAULT_FRAMES, metavar="N",
-                   help=f"frames per cycle (default {DEFAULT_FRAMES}; at least 8)")
+                   help=f"frames per cycle (default {DEFAULT_FRAMES}; at least 8, at most {MAX_FRAMES})")
     p.add_argument("--fps", type=float, default=12.0, metavar="F",
                    help="frames per second of the file (default 12: one wingbeat in 4 s, 16x slower than life)")
     p.add_argument("--dpi", type=int, default=80, metavar="D", help="resolution (default 80: 800 x 448 pixels)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress bar on stderr")
     p.add_argument("--debug", action="store_true", help="show Python tracebacks on errors")
+    p.add_argument("--verbose", action="store_true",
+                   help="accepted as by every command (animate runs no solver: its warnings always show)")
     p.set_defaults(func=cmd_animate)
 
 
@@ -79,18 +84,21 @@ def cmd_animate(args: argparse.Namespace, command_line: list[str]) -> int:
     t_start = time.perf_counter()
     run = Path(args.run_dir)
     cfg, arrays, result = load_cycle(run)
-    out = Path(args.out) if args.out else run / "animation.gif"
+    out = Path(args.out) if args.out is not None else run / "animation.gif"
     if out.suffix.lower() not in (".gif", ".mp4"):
         raise ConfigError("--out", f"'{out.name}': the file must end in .gif or .mp4")
     if not out.parent.is_dir():
         raise ConfigError("--out", f"folder '{out.parent}' does not exist")
-    if args.frames < 8:
-        raise ConfigError("--frames", f"must be >= 8, got {args.frames}")
+    if not 8 <= args.frames <= MAX_FRAMES:
+        raise ConfigError("--frames", f"must lie in 8..{MAX_FRAMES}, got {args.frames}")
     (fps,) = cli.finite_values("--fps", [args.fps])
     if fps <= 0:
         raise ConfigError("--fps", f"must be positive, got {args.fps}")
     if not 20 <= args.dpi <= 600:
         raise ConfigError("--dpi", f"must lie in 20..600, got {args.dpi}")
+    if result.get("success") is False:  # drawn all the same (it may be what the user wants to see), but said
+        print(f"{cli.PROG}: warning: the run in '{run}' did not converge (status: {result.get('status')}): the "
+              "animation shows its last iterate, not a periodic flight", file=sys.stderr)
     from birdocp.plots.animation import animation_writer
 
     try:

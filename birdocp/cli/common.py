@@ -107,7 +107,7 @@ def load_config_file(path_text: str) -> C.Config:
     if path.is_dir():
         raise ConfigError("CONFIG", f"'{path}' is a folder; give the path of a TOML file")
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark (Windows editors) is not TOML
     except UnicodeDecodeError:
         raise ConfigError(str(path), "is not UTF-8 text; give a TOML file") from None
     except OSError as exc:
@@ -519,7 +519,7 @@ def run_folder(args: argparse.Namespace, command: str, command_line: list[str], 
     from birdocp.io.runs import claim_out_dir, folder_entries, held_lock, new_run_dir, release_out_dir
 
     out = getattr(args, "out", None) if out is None else out
-    if out:
+    if out is not None:  # --out '' is refused by claim_out_dir, not taken for no --out
         run_dir = claim_out_dir(out, command, resume_file=resume_file)
         lock = held_lock(run_dir)
         created = bool(lock and lock.created)

@@ -34,7 +34,7 @@ def register(sub, common) -> None:
                    "at most 100000)")
     p.add_argument("--level", action="store_true",
                    help="hold level flight: the flapping amplitude is solved at every point (mean W = --climb-rate)")
-    p.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS", help="held mean vertical speed with --level")
+    p.add_argument("--climb-rate", type=float, metavar="MPS", help="held mean vertical speed with --level (default 0)")
     p.add_argument("--bounds", type=float, nargs=2, metavar=("LO", "HI"),
                    help="amplitude bounds with --level (default 20 70 deg; LO < HI); leaving them ends the branch")
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-continue-<id>/")
@@ -60,7 +60,10 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
         raise ConfigError("--step", f"must be positive, got {args.step!r}")
     if not 2 <= args.max_points <= 100000:
         raise ConfigError("--max-points", f"must be in [2, 100000], got {args.max_points}")
-    (climb,) = finite_values("--climb-rate", [args.climb_rate])
+    for flag, value in (("--climb-rate", args.climb_rate), ("--bounds", args.bounds)):
+        if value is not None and not args.level:  # refused, not ignored
+            raise ConfigError(flag, "is an option of level flight: add --level (or drop it)")
+    (climb,) = finite_values("--climb-rate", [0.0 if args.climb_rate is None else args.climb_rate])
     bounds = checked_bounds("--bounds", args.bounds) if args.bounds is not None else None
     with run_folder(args, "continue", command_line) as run:
         from birdocp.plots.branch import plot_branches

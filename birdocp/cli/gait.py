@@ -38,9 +38,8 @@ def register(sub, common) -> None:
 
 
 def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
-    from birdocp.cli.optimize_stability import free_with_bounds
+    from birdocp.cli.optimize_stability import checked_free, residuals
     from birdocp.studies.gait import DEFAULT_GAIT_FREE, optimize_gait
-    from birdocp.studies.optimize import check_free_keys
 
     cfg = cli.resolve_config(args)
     if not (math.isfinite(args.speed) and args.speed > 0):
@@ -49,11 +48,7 @@ def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
         raise ConfigError("--max-multiplier", f"must be a positive number, got {args.max_multiplier}")
     if not math.isfinite(args.climb_rate):
         raise ConfigError("--climb-rate", f"must be finite, got {args.climb_rate}")
-    free = free_with_bounds(args, DEFAULT_GAIT_FREE)
-    with cli.stdout_to_stderr():
-        from birdocp.bird.model import get_model
-
-        check_free_keys(get_model(cfg), cfg, free)
+    free = checked_free(args, cfg, DEFAULT_GAIT_FREE)
     with cli.run_folder(args, "optimize-gait", command_line) as run:
         run_dir = run.dir
         with run.solving():
@@ -86,7 +81,7 @@ def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
                          f"{v['max_multiplier_difference']:.2e}" if ok else ""))
             print(f"  written to {run_dir}")
         if not res.success:
-            print(f"{cli.PROG}: optimisation did not converge (status {res.status}: {cli.one_line(res.message)}); "
-                  f"result written to {run_dir}", file=sys.stderr)
+            print(f"{cli.PROG}: optimisation did not converge (status {res.status}, {residuals(res)}: "
+                  f"{cli.one_line(res.message)}); result written to {run_dir}", file=sys.stderr)
             return cli.EXIT_NOT_CONVERGED
     return cli.EXIT_OK

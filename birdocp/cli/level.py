@@ -14,12 +14,12 @@ from birdocp.cli.trim import solve_shortcuts
 def level_options(p: argparse.ArgumentParser, in_sweep: bool) -> None:
     """--free, --climb-rate, --constrain, --target, --bounds."""
     g = p.add_argument_group("level flight" + (" (with --level)" if in_sweep else ""))
-    g.add_argument("--free", metavar="KEY", default="amplitude",
+    g.add_argument("--free", metavar="KEY",
                    help="parameter solved for: a dotted model parameter key or an alias (amplitude, "
                         "root_ahead_m); default amplitude (gait.shoulder_flap.amplitude_deg)")
-    g.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS",
+    g.add_argument("--climb-rate", type=float, metavar="MPS",
                    help="target mean vertical speed in m/s, positive climbing (default 0: level flight)")
-    g.add_argument("--constrain", default="vertical_speed_mps", metavar="MEAN",
+    g.add_argument("--constrain", metavar="MEAN",
                    help="condition: vertical_speed_mps (default; target --climb-rate), forward_speed_mps or "
                         "flight_path_angle_deg (target --target)")
     g.add_argument("--target", type=float, metavar="VALUE",
@@ -49,18 +49,30 @@ def checked_bounds(flag: str, bounds) -> tuple[float, float]:
     return lo, hi
 
 
+LEVEL_FLAGS = (("--free", "free"), ("--climb-rate", "climb_rate"), ("--constrain", "constrain"),
+               ("--target", "target"), ("--bounds", "bounds"))
+"""The options of :func:`level_options` (flag, attribute): None when not given."""
+
+
 def level_kwargs(args: argparse.Namespace, cfg) -> dict:
     """Checked keyword arguments of birdocp.studies.level.level from the level options (no model import)."""
     from birdocp.studies.level import default_bounds, resolve_constraint, resolve_key
 
-    free = resolve_key(args.free, "--free")
-    constrain = resolve_constraint(args.constrain, "--constrain")
-    (climb,) = finite_values("--climb-rate", [args.climb_rate])
+    free = resolve_key("amplitude" if args.free is None else args.free, "--free")
+    constrain = resolve_constraint("vertical_speed_mps" if args.constrain is None else args.constrain, "--constrain")
+    (climb,) = finite_values("--climb-rate", [0.0 if args.climb_rate is None else args.climb_rate])
     kw: dict = {"free": free, "constrain": constrain, "climb_rate_mps": climb}
+    if constrain != "vertical_speed_mps" and args.climb_rate is not None:
+        raise ConfigError("--climb-rate", f"is the target of --constrain vertical_speed_mps (the default); "
+                                          f"--constrain {constrain} holds --target instead: drop --climb-rate")
+    if constrain == "vertical_speed_mps" and args.climb_rate is not None and args.target is not None:
+        raise ConfigError("--target", "and --climb-rate both set the mean vertical speed; give one of them")
     if constrain != "vertical_speed_mps":
         if args.target is None:
             raise ConfigError("--target", f"--constrain {constrain} needs --target VALUE")
         (kw["target"],) = finite_values("--target", [args.target])
+        if constrain == "forward_speed_mps" and not kw["target"] > 0:
+            raise ConfigError("--target", f"the mean forward speed must be > 0 m/s, got {kw['target']!r}")
         if constrain == "flight_path_angle_deg" and not -89 < kw["target"] < 89:
             raise ConfigError("--target", f"flight path angle must lie in (-89, 89) deg, got {kw['target']!r}")
     elif args.target is not None:

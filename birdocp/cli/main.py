@@ -149,7 +149,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         interrupts.install()  # a Ctrl-C that CasADi swallows is still seen
         parser = build_parser()
         try:
-            args = parser.parse_args(argv)
+            args, extra = parser.parse_known_args(argv)
+            if extra:  # reported by the command's parser: the hint names its --help, not birdocp's
+                sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+                sub.choices[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
         except SystemExit as exc:  # --help, --version, or a usage error (already printed)
             return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
         debug = args.debug

@@ -7,6 +7,7 @@ import math
 import sys
 
 from birdocp.bird.config import ConfigError
+from birdocp.bird.keys import AMPLITUDE_KEY
 from birdocp.bird.validity import validity_text
 from birdocp.cli import common as cli
 from birdocp.cli.sensitivity import check_key
@@ -60,6 +61,8 @@ def free_with_bounds(args: argparse.Namespace, defaults: dict) -> dict:
     bounds = parse_bounds(args.bounds)
     free = {}
     for k in keys:
+        if k == AMPLITUDE_KEY:
+            raise ConfigError("--free", f"{k} is solved for level flight at every iterate; free other keys")
         if k in bounds:
             free[k] = bounds[k]
         elif k in defaults:
@@ -72,17 +75,31 @@ def free_with_bounds(args: argparse.Namespace, defaults: dict) -> dict:
     return free
 
 
+def checked_free(args: argparse.Namespace, cfg, defaults: dict) -> dict:
+    """:func:`free_with_bounds`, then every free key checked against the model before any run folder
+    exists (:func:`birdocp.studies.optimize.check_free_keys`: not the amplitude, not reshaping the
+    wing in the arm frame, the configured value inside its bounds); ConfigError (exit 2) otherwise."""
+    from birdocp.studies.optimize import check_free_keys
+
+    free = free_with_bounds(args, defaults)
+    with cli.stdout_to_stderr():
+        from birdocp.bird.model import get_model
+
+        check_free_keys(get_model(cfg), cfg, free)
+    return free
+
+
 def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
     from birdocp.studies.optimize import DEFAULT_FREE, optimize_stability
 
     cfg = cli.resolve_config(args)
     if not math.isfinite(args.climb_rate):
         raise ConfigError("--climb-rate", f"must be finite, got {args.climb_rate}")
-    free = free_with_bounds(args, DEFAULT_FREE)
     if not 1 <= args.max_iter <= 100000:
         raise ConfigError("--max-iter", f"must be an integer in [1, 100000], got {args.max_iter}")
     if not 1 <= args.threads <= 64:
         raise ConfigError("--threads", f"must be an integer in [1, 64], got {args.threads}")
+    free = checked_free(args, cfg, DEFAULT_FREE)
     with cli.run_folder(args, "optimize-stability", command_line) as run:
         from birdocp.io.progress import progress_callback
 
@@ -99,10 +116,17 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
             _print_table(res, result, run.dir)
         if not res.success:
             warn = cli.noise_summary(run.noise)
-            print(f"{cli.PROG}: optimisation did not converge (status {res.status}); result written to {run.dir}"
-                  f"{warn}", file=sys.stderr)
+            print(f"{cli.PROG}: optimisation did not converge (status {res.status}, {residuals(res)}); result "
+                  f"written to {run.dir}{warn}", file=sys.stderr)
             return cli.EXIT_NOT_CONVERGED
     return cli.EXIT_OK
+
+
+def residuals(res) -> str:
+    """'KKT residual 2.16e+00, constraint violation 0.00e+00' of an optimisation result (what the
+    failure line reports as its residual)."""
+    return (f"KKT residual {cli.fmt_num(getattr(res, 'kkt_residual', None), '.2e')}, "
+            f"constraint violation {cli.fmt_num(getattr(res, 'constraint_violation', None), '.2e')}")
 
 
 def _print_table(res, result: dict, run_dir) -> None:

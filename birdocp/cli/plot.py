@@ -19,6 +19,7 @@ def register(sub, common) -> None:
     p.add_argument("--debug", action="store_true", help="show Python tracebacks on errors")
     p.add_argument("--json", action="store_true", help="print the list of figures as JSON")
     p.add_argument("--verbose", action="store_true", help="show library warnings on the terminal")
+    p.add_argument("--quiet", action="store_true", help="accepted as by every command (plot draws no progress bar)")
     p.set_defaults(func=cmd_plot)
 
 
@@ -96,7 +97,10 @@ def _figures(run: Path, res: dict, command) -> list:
 
                 figs.append(plot_power(cyc, run / "power.png"))
     else:
-        raise ConfigError("RUN_DIR", f"do not know how to plot a '{command}' run")
+        what = f"a '{command}' run" if command else "a result that names no birdocp command"
+        raise ConfigError("RUN_DIR", f"do not know how to plot {what}; plot draws trim, level, sweep (and grid), "
+                                     "continue, optimize-stability and optimize-gait run folders (control and "
+                                     "simulate draw their figures as they run)")
     return figs
 
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import time
 
-from birdocp.bird.config import PARAM_NAMES, ConfigError, suggest
+from birdocp.bird.config import ConfigError
+from birdocp.bird.keys import AMPLITUDE_KEY, resolve_key
 from birdocp.bird.validity import validity_text
 from birdocp.cli import common as cli
 
@@ -29,16 +30,18 @@ def register(sub, common) -> None:
 
 
 def check_key(key: str, flag: str) -> str:
-    """``key`` if it is a model parameter, else a ConfigError on ``flag`` with a suggestion."""
-    if key not in PARAM_NAMES:
-        raise ConfigError(flag, f"unknown parameter '{key}'" + suggest(key, PARAM_NAMES))
-    return key
+    """The model parameter ``key`` names (a dotted key or an alias: amplitude, root_ahead_m), else a
+    ConfigError on ``flag`` with a suggestion and the kinds of keys there are."""
+    return resolve_key(key, flag)
 
 
 def cmd_sensitivity(args: argparse.Namespace, command_line: list[str]) -> int:
     t0 = time.perf_counter()
     cfg = cli.resolve_config(args)
-    params = [check_key(k, "--param") for k in (args.param or [])] or None
+    params = list(dict.fromkeys(check_key(k, "--param") for k in (args.param or []))) or None
+    if args.level and AMPLITUDE_KEY in (params or []):  # it would be dropped: the result had no row for it
+        raise ConfigError("--param", f"{AMPLITUDE_KEY} is re-solved for level flight with --level, not a "
+                                     "parameter: drop it from --param (or drop --level)")
     if args.top < 1:
         raise ConfigError("--top", f"must be >= 1, got {args.top}")
     with cli.run_folder(args, "sensitivity", command_line) as run:

@@ -34,7 +34,7 @@ def register(sub, common) -> None:
     p.add_argument("--gust", action="append", default=[], metavar="DIR=MPS:BEATS",
                    help="1 - cos gust: vertical (positive up) or horizontal (positive along the flight, i.e. "
                         "tailwind) peak in m/s and length in beats (or metres with a trailing m: 3:10m)")
-    p.add_argument("--gust-start", type=float, default=1.0, metavar="BEATS",
+    p.add_argument("--gust-start", type=float, metavar="BEATS",
                    help="distance to the gust's start, in beats of the cycle's flight distance (default 1)")
     p.add_argument("--wind", action="append", default=[], metavar="DIR=MPS",
                    help="constant wind: vertical (positive up) or horizontal (positive along the flight)")
@@ -95,9 +95,12 @@ def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
     gusts = [parse_gust(g) for g in args.gust]
     if len({g.direction for g in gusts}) < len(gusts):
         raise ConfigError("--gust", "at most one vertical and one horizontal gust")
-    if not math.isfinite(args.gust_start) or args.gust_start < 0:
-        raise ConfigError("--gust-start", f"must be >= 0 beats, got {args.gust_start}")
-    gusts = [type(g)(g.direction, g.amplitude_mps, g.length_beats, g.length_m, args.gust_start) for g in gusts]
+    if args.gust_start is not None and not gusts:  # refused, not ignored
+        raise ConfigError("--gust-start", "places a gust: add --gust DIR=MPS:BEATS (or drop --gust-start)")
+    gust_start = 1.0 if args.gust_start is None else args.gust_start
+    if not math.isfinite(gust_start) or gust_start < 0:
+        raise ConfigError("--gust-start", f"must be >= 0 beats, got {gust_start}")
+    gusts = [type(g)(g.direction, g.amplitude_mps, g.length_beats, g.length_m, gust_start) for g in gusts]
     wind = [0.0, 0.0]
     for text in args.wind:
         try:

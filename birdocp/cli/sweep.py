@@ -8,9 +8,9 @@ import time
 
 from birdocp.bird import config as C
 from birdocp.bird.config import ConfigError
-from birdocp.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, PROG, config_message, fmt_num, noise_summary,
+from birdocp.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, PROG, config_message, fmt_num, noise_summary, one_line,
                                 resolve_config, run_folder, validity_notes, validity_word)
-from birdocp.cli.level import level_kwargs, level_options
+from birdocp.cli.level import LEVEL_FLAGS, level_kwargs, level_options
 from birdocp.cli.trim import solve_shortcuts
 
 
@@ -120,6 +120,10 @@ def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
             C.with_values(cfg, {key: v})
         except ConfigError as exc:
             raise ConfigError(exc.key, f"{config_message(exc)} (sweep value {v:g})") from None
+    if not args.level:  # the level options mean nothing without --level: refused, not ignored
+        for flag, attr in LEVEL_FLAGS:
+            if getattr(args, attr) is not None:
+                raise ConfigError(flag, "is an option of level flight: add --level (or drop it)")
     level_kw = level_kwargs(args, cfg) if args.level else None
     if level_kw is not None and level_kw["free"] == key:
         raise ConfigError("KEY", f"'{key}' is the free parameter of --level; sweep another parameter or pick --free")
@@ -144,10 +148,28 @@ def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
         return _report(run, rows, ok)
 
 
-def _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start) -> int:
+def grid_executor(args):
+    """The executor of ``--jobs`` / ``--scheduler``, checked before any run folder exists: both at once,
+    a missing 'distributed' or a scheduler that cannot be reached is a ConfigError (exit 2)."""
     from birdocp.engine.executors import get_executor
-    from birdocp.studies.sweep import grid_sweep
 
+    if args.jobs is not None and args.scheduler:
+        raise ConfigError("--scheduler", "runs the rows on a cluster and --jobs in local processes: give one of them")
+    try:
+        ex = get_executor(args.jobs, args.scheduler)
+    except ImportError as exc:
+        raise ConfigError("--scheduler", str(exc)) from None
+    if args.scheduler:
+        try:
+            ex.start()
+        except (OSError, ValueError) as exc:  # distributed: OSError on a timeout, ValueError on a bad address
+            ex.close()
+            raise ConfigError("--scheduler", f"cannot reach '{args.scheduler}' ({one_line(exc)[:200]}); start "
+                                             "the scheduler or fix the address") from None
+    return ex
+
+
+def _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start) -> int:
     row_key, row_values = parse_rows(args.rows)
     if row_key == key:
         raise ConfigError("--rows", "the row parameter must differ from KEY")
@@ -158,11 +180,17 @@ def _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start) -> int:
     if args.jobs is not None and args.jobs > 256:
         raise ConfigError("--jobs", f"must be <= 256, got {args.jobs}")
     resume_file = "grid.json" if args.resume else None
+    ex = grid_executor(args)
+    try:
+        return _run_grid(args, command_line, cfg, key, values, level_kw, t_start, row_key, row_values, resume_file, ex)
+    finally:
+        ex.close()  # also when the run folder cannot be claimed
+
+
+def _run_grid(args, command_line, cfg, key, values, level_kw, t_start, row_key, row_values, resume_file, ex) -> int:
+    from birdocp.studies.sweep import grid_sweep
+
     with run_folder(args, "sweep", command_line, resume_file=resume_file, scaffold=("grid.json",)) as run:
-        try:
-            ex = get_executor(args.jobs, args.scheduler)
-        except ImportError as exc:
-            raise ConfigError("--scheduler", str(exc)) from None
         with run.solving(), ex:
             rows = grid_sweep(cfg, key, values, row_key, row_values, executor=ex, level=args.level,
                               warm=not args.cold, out_dir=run.dir, resume=args.resume, level_options=level_kw)

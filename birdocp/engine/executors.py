@@ -173,6 +173,11 @@ class DaskExecutor(Executor):
         self._client = client
         self._own = client is None
 
+    def start(self):
+        """Connect to the scheduler now (an unreachable address raises here, before any job)."""
+        self._get()
+        return self
+
     def _get(self):
         if self._client is None:
             from distributed import Client

@@ -27,7 +27,7 @@ import numpy as np
 from birdocp.engine import interrupts
 from birdocp.engine.cache import bounded_cache, clear_caches
 from birdocp.engine.floquet import FloquetResult, floquet_from_jacobians
-from birdocp.engine.integrate import RK4Grid
+from birdocp.engine.integrate import RK4Grid, column_blocks
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
 from birdocp.engine.results import result_dict, serial
@@ -313,7 +313,7 @@ class ShootingGraphs(Evaluator):
                 D = Dg[:, grid.block_index]
                 if D_plain is None:
                     D_plain = D
-                dD = ca.horzcat(*[dDg[:, k * K:(k + 1) * K][:, grid.block_index] for k in range(nf)])
+                dD = ca.horzcat(*[dk[:, grid.block_index] for dk in column_blocks(dDg, nf)])
         else:
             pfull = pp
             dsym = ca.MX.sym("D", nd, 3 * N)
@@ -334,9 +334,8 @@ class ShootingGraphs(Evaluator):
             Xe2, Xt2, Q2 = grid.segments(X[:, :S], D, pfull)
             fwd1 = grid.segments.forward(1)
             cols = []
-            for k in range(nf):
-                dXe, _, dQ = fwd1(X[:, :S], D, pfull, Xe2, Xt2, Q2, ca.DM.zeros(nx, S),
-                                  dD[:, k * 3 * N:(k + 1) * 3 * N], seed_p[:, k])
+            for k, dDk in enumerate(column_blocks(dD, nf)):
+                dXe, _, dQ = fwd1(X[:, :S], D, pfull, Xe2, Xt2, Q2, ca.DM.zeros(nx, S), dDk, seed_p[:, k])
                 dQk = ca.sum2(dQ)[list(range(nm))] / T if nm else ca.MX(0, 1)
                 cols.append(ca.vertcat(ca.vec(dXe), dQk))
             outs.append(ca.horzcat(*cols))

@@ -79,11 +79,8 @@ def find_compiler() -> list[str] | None:
 
 def _version() -> str:
     from birdocp import __version__
-    try:
-        from importlib.metadata import version
-        return version("birdocp")
-    except Exception:  # pragma: no cover - not installed
-        return __version__
+
+    return __version__
 
 
 def _library(directory: Path, name: str, parts, cmd) -> Path:

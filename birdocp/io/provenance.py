@@ -27,13 +27,8 @@ IPOPT_LINEAR_SOLVER = "mumps"
 
 
 def birdocp_version() -> str | None:
-    """Installed distribution version, else the package's ``__version__``."""
-    try:
-        from importlib.metadata import version
-
-        return version("birdocp")
-    except Exception:  # PackageNotFoundError, or broken metadata
-        pass
+    """The version of the running package (``birdocp.__version__``: recorded by setuptools-scm when it
+    was built or installed, else the installed metadata)."""
     try:
         from birdocp import __version__
 

@@ -71,10 +71,10 @@ def check_out_path(path: str | Path, flag: str = "--out") -> Path:
     cannot write into. The final word is the atomic create of :func:`claim_out_dir`, which maps any
     remaining ``OSError`` to a ``ConfigError`` too.
     """
+    text = os.fspath(path)
+    if not text.strip() or "\x00" in text:  # Path("") would be the current folder
+        raise ConfigError(flag, f"{text!r} is not a usable path; give a folder name")
     path = Path(path)
-    text = str(path)
-    if not text or "\x00" in text:
-        raise ConfigError(flag, f"{text!r} is not a usable path")
     if os.path.islink(path) and not os.path.exists(path):
         raise ConfigError(flag, f"'{path}' is a dangling symbolic link (to '{os.readlink(path)}'); remove it or "
                             "give another folder")

@@ -16,6 +16,7 @@ matplotlib is imported inside the functions (never at import time).
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -302,7 +303,8 @@ def save_animation(mo: dict, path_fwd_m, path_up_m, path, fps: float = 12.0, tit
     out = Path(path)
     writer = animation_writer(out, fps)
     sc = _Scene(mo, path_fwd_m, path_up_m, title, figsize)
-    tmp = out.with_name(f".{out.stem}.partial{out.suffix}")
+    # one temporary file per process: two animations of one file at once each write a whole file
+    tmp = out.with_name(f".{out.stem}.{os.getpid()}.partial{out.suffix}")
     try:
         with writer.saving(sc.fig, str(tmp), dpi):
             for k in range(len(mo["t_s"])):
