@@ -8,7 +8,7 @@ optimisation (the monodromy's derivatives by forward-over-forward AD).
 For IPOPT's exact-Hessian mode the Jacobian oracle can itself be differentiated by forward
 differences of the exact Jacobian: CasADi's own finite differences (sequential), or a
 :class:`StencilHessian`, which evaluates the ``nz`` perturbed Jacobians itself, in a small thread pool
-(CasADi releases the GIL while a Function runs) through the evaluator's side-effect-free
+(CasADi evaluates its Functions without the GIL: a run's CPU time exceeds its wall time) through the evaluator's side-effect-free
 ``jacobian_near(z_perturbed, z)``, so the Hessian does not depend on thread timing or on the number of
 threads.
 """
@@ -106,16 +106,16 @@ class StencilHessian:
 
 @dataclass
 class FixedHessian:
-    """Second derivatives held fixed for IPOPT's exact-Hessian mode: ``columns`` (nz, ng, nz),
+    """Second derivatives held fixed for IPOPT's exact-Hessian mode: ``values`` (nz, ng, nz),
     ``[k] = d(dg/dz)/dz_k``, e.g. a :class:`StencilHessian`'s ``last`` from a solve of a nearby
     (coarser) problem; IPOPT combines them with its current multipliers (a Newton-like method whose
     rate is the error of the frozen second derivatives)."""
 
-    columns_: np.ndarray
+    values: np.ndarray
 
     def columns(self, ev, z) -> np.ndarray:
         """The fixed ``(nz, ng, nz)`` array (``ev`` and ``z`` unused)."""
-        return self.columns_
+        return self.values
 
 
 class ConstraintOracle(ca.Callback):
@@ -123,12 +123,13 @@ class ConstraintOracle(ca.Callback):
 
     ``fd_hessian``: None (the default; a quasi-Newton Hessian is then needed), a
     :class:`StencilHessian` (the Jacobian oracle gets a Jacobian of its own: forward differences of
-    the exact Jacobian, the perturbed points evaluated in a thread pool), or CasADi's
+    the exact Jacobian, the perturbed points evaluated in a thread pool), a :class:`FixedHessian`
+    (second derivatives held fixed), or CasADi's
     finite-difference options (e.g. ``{"fd_method": "central", "fd_options": {"h": 1e-5}}``, CasADi
     differentiating the Jacobian oracle itself, one point after another); either way IPOPT can use
     the exact-Hessian mode (one Jacobian per direction and difference point)."""
 
-    def __init__(self, ev, name: str, jac: bool = False, fd_hessian: "dict | StencilHessian | None" = None):
+    def __init__(self, ev, name: str, jac: bool = False, fd_hessian: "dict | StencilHessian | FixedHessian | None" = None):
         ca.Callback.__init__(self)
         self.ev, self.is_jac, self.base_name = ev, jac, name
         self.fd_hessian = fd_hessian

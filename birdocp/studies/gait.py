@@ -339,9 +339,9 @@ class ReducedLevelCycle:
             self._anchor = np.append(ev.x0, ev.amplitude_deg)
 
     def _newton(self, y, theta, tol, max_newton, Ry=None, keep: bool = True) -> Evaluation:
-        """Newton (chord steps with ``Ry``, default the last Jacobian; a fresh Jacobian when they
-        stall) on the level-cycle residual from y; ``keep``: remember a fresh Jacobian as the next
-        solve's chord."""
+        """Newton on the level-cycle residual from y: chord steps with the last Jacobian (``keep``,
+        which also remembers a fresh one for the next solve) or with ``Ry`` (``keep=False``: no
+        state read or written), a fresh Jacobian when they stall."""
         y = np.asarray(y, float).copy()
         lo, hi = self.amplitude_range_deg
         it = 0
@@ -425,8 +425,8 @@ class GaitOptimum:
     start_x0: np.ndarray | None = None
     second_derivatives: np.ndarray | None = None
     """With ``hessian="fd"``: the last finite-difference second derivatives, ``[k, i, j] =
-    d^2 G_i / dz_j dz_k`` (G = objective and constraints, z = free values and r, unscaled), the
-    ``second_derivatives`` of a warm-started ``hessian="fixed"`` solve."""
+    d^2 G_i / dz_j dz_k`` (G = objective and constraints, z = free values and r, unscaled); what a
+    warm-started ``hessian="fixed"`` solve (e.g. on a finer grid) takes as ``second_derivatives``."""
 
     @property
     def largest_modulus(self) -> float:
