@@ -209,8 +209,9 @@ COARSE_TOL = 1e-5
 """IPOPT's tolerance in the coarse stage of the reduced method (the fine stage refines anyway)."""
 COARSE_STEPS = {"reduced": 32, "full": 48}
 """RK4 steps per period of the coarse stage, per method (``coarse_steps="auto"``). Reduced method on the
-reference problem: 32 steps, then 6 fine iterations; 24 and 48 coarse steps reach the same optimum (7
-and 6 fine iterations), 16 steps needs 10."""
+reference problem: 32 steps, then 6 fine iterations (in development runs 24 and 48 coarse steps reached
+the same optimum with 7 and 6 fine iterations, 16 steps needed 10: a coarser grid's optimum lies
+farther from the fine one)."""
 
 
 def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, climb_rate_mps: float = 0.0,
