@@ -26,7 +26,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from birdocp.engine.integrate import rk4_step
+from birdocp.engine.integrate import MAPACCUM_CHUNK, column_blocks, rk4_step
 
 __all__ = ["PeriodSensitivities"]
 
@@ -94,9 +94,27 @@ class PeriodSensitivities:
         Wm = ca.MX.sym("W", W.numel())
         cn, an = f(c, Dm, pm, dDm, dPm, Wm)
         g = ca.Function("variational_step_acc", [c, a, Dm, pm, dDm, dPm, Wm], [cn, a + an])
-        self._acc = g.mapaccum("variational_period", self.N, [0, 1], [0, 1])
+        self._acc = self._chained(g, [c, a, Dm, pm, dDm, dPm, Wm])
         self.nY, self.nz, self.nQ = nY, nz, Qn.numel()
         self._index = None
+
+    def _chained(self, g, syms):
+        """N steps of ``g`` as one Function (carry and accumulator fed back; the last column of
+        each): ``mapaccum`` over chunks of at most :data:`MAPACCUM_CHUNK` steps, chained (a mapaccum
+        of 148 steps took about a second to build, two of 74 a fraction; the same steps in the same
+        order)."""
+        N = self.N
+        k = max(d for d in range(1, min(N, MAPACCUM_CHUNK) + 1) if N % d == 0)
+        if k < 8:  # no useful divisor (e.g. a prime count of steps): one piece
+            k = N
+        acc = g.mapaccum("variational_chunk", k, [0, 1], [0, 1])
+        per_step = (2, 4)  # D (3 columns per step) and the directions (1 column per step)
+        ins = [ca.MX.sym(f"in{i}", v.size1(), v.size2() * (N if i in per_step else 1)) for i, v in enumerate(syms)]
+        c, a, D, p, dD, dP, W = ins
+        for Dj, dDj in zip(column_blocks(D, N // k), column_blocks(dD, N // k)):
+            cj, aj = acc(c, a, Dj, p, dDj, dP, W)
+            c, a = cj[:, -1], aj[:, -1]
+        return ca.Function("variational_period", ins, [c, a])
 
     def _direction_columns(self):
         """Column order turning hstacked directions (nd x 3N n_data) into per-step blocks."""
