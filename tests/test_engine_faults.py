@@ -50,7 +50,12 @@ def test_loose_ipopt_success_with_a_large_residual_is_not_converged():
 
 
 def test_non_finite_problem_is_never_success():
-    r = solve(LimitCycleProblem(ODE, np.array([np.inf]), np.array([0.3])), MultipleShooting(points=3, steps_per_period=60))
+    # a non-finite parameter is bad input, refused before any solve ...
+    with pytest.raises(ValueError, match=r"LimitCycleProblem\.p must be finite"):
+        LimitCycleProblem(ODE, np.array([np.inf]), np.array([0.3]))
+    # ... and a problem whose flow blows up within the period (x' = 50 x^3 - ..., from x = 3) is a
+    # failure, never a success
+    r = solve(LimitCycleProblem(ODE, np.array([-50.0]), np.array([3.0])), MultipleShooting(points=3, steps_per_period=60))
     assert r.success is False and r.status != "Solve_Succeeded"
 
 

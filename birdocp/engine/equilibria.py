@@ -26,6 +26,7 @@ import numpy as np
 
 from birdocp.engine.ode import ODE
 from birdocp.engine.orbits import OrbitMethod, OrbitProblem, PeriodicOrbit, solve_orbit_system
+from birdocp.engine.problem import finite_vector
 from birdocp.engine.results import result_dict, serial
 
 __all__ = ["Equilibrium", "EquilibriumBranch", "HopfPoint", "find_equilibrium", "continue_equilibria",
@@ -105,8 +106,8 @@ def _eig(J):
 
 def find_equilibrium(ode: ODE, p, x_guess, *, tol: float = 1e-12, max_iter: int = 50, t: float = 0.0) -> Equilibrium:
     """Damped Newton on f(x, p) = 0 (exact Jacobian); eigenvalues of df/dx at the result."""
-    p = np.asarray(p, float).ravel()
-    x = np.asarray(x_guess, float).ravel().copy()
+    p = finite_vector(p, "find_equilibrium p", ode.np, f"the ODE has np={ode.np}")
+    x = finite_vector(x_guess, "find_equilibrium x_guess", ode.nx, f"the ODE has nx={ode.nx}").copy()
     f = ode.evaluate(x, t, p)
     it, status = 0, "max_iter"
     while it < max_iter:

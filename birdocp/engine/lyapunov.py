@@ -23,6 +23,7 @@ import numpy as np
 
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.ode import ODE
+from birdocp.engine.problem import finite_vector
 from birdocp.engine.results import result_dict, serial
 from birdocp.engine.steppers import make_step
 
@@ -120,6 +121,10 @@ def lyapunov_exponents(ode: ODE, x0, p, *, t_total: float = 1000.0, dt: float = 
         raise ValueError(f"n_exponents must be in 1..{nx}, got {n_exponents!r}")
     if not (dt > 0 and t_total > 0 and renorm_time >= dt):
         raise ValueError("dt, t_total must be positive and renorm_time >= dt")
+    if not (isinstance(n_blocks, (int, np.integer)) and n_blocks >= 1):
+        raise ValueError(f"n_blocks must be a positive integer, got {n_blocks!r}")
+    x0 = finite_vector(x0, "lyapunov_exponents x0", nx, f"the ODE has nx={nx}")
+    p = finite_vector(p, "lyapunov_exponents p", ode.np, f"the ODE has np={ode.np}")
     n_sub = max(1, int(round(renorm_time / dt)))
     tau = n_sub * dt
     n_chunks = max(n_blocks, int(round(t_total / tau)))

@@ -78,6 +78,8 @@ class ODE(RhsDimensions):
         """
         if isinstance(params, (int, np.integer)):
             n_p, pnames = int(params), ()
+            if n_p < 0:
+                raise ValueError(f"ODE.from_function: params must be a number >= 0 or names, got {params!r}")
         else:
             pnames = tuple(str(s) for s in params)
             n_p = len(pnames)
@@ -136,7 +138,11 @@ class ODE(RhsDimensions):
 
     def evaluate(self, x, t, p) -> np.ndarray:
         """f(x, t, p) as a numpy vector."""
-        return np.asarray(self.rhs(ca.DM(np.asarray(x, float)), float(t), ca.DM(np.asarray(p, float)))).ravel()
+        x, p = np.asarray(x, float).ravel(), np.asarray(p, float).ravel()
+        if x.size != self.nx or p.size != self.np:  # CasADi would broadcast a scalar silently
+            raise ValueError(f"ODE.evaluate: x has {x.size} entries and p {p.size}; the ODE has nx={self.nx}, "
+                             f"np={self.np}")
+        return np.asarray(self.rhs(ca.DM(x), float(t), ca.DM(p))).ravel()
 
     def to_periodic_ode(self, period_s: float):
         """The same forced system as a :class:`~birdocp.engine.problem.PeriodicODE` (for the bird-style

@@ -49,6 +49,7 @@ from birdocp.engine import interrupts
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.floquet import monodromy_of, sort_multipliers
 from birdocp.engine.ode import ODE
+from birdocp.engine.problem import finite_vector
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.results import result_dict, serial
 from birdocp.engine.shooting import ShootingGrid
@@ -108,6 +109,14 @@ class OrbitMethod(ShootingGrid):
             raise ValueError(f"OrbitMethod.solver must be 'ipopt' or 'lm', got {self.solver!r}")
         if not self.tol > 0 or not self.accuracy > 0:
             raise ValueError("OrbitMethod.tol and accuracy must be positive")
+        if not isinstance(self.max_iter, (int, np.integer)) or self.max_iter < 0:
+            raise ValueError(f"OrbitMethod.max_iter must be a non-negative integer, got {self.max_iter!r}")
+        if not isinstance(self.min_steps, (int, np.integer)) or self.min_steps < 1:
+            raise ValueError(f"OrbitMethod.min_steps must be a positive integer, got {self.min_steps!r}")
+        lo, hi = (float(v) for v in self.period_bounds)
+        if not 0 < lo <= 1 <= hi:
+            raise ValueError(f"OrbitMethod.period_bounds must be factors (lo, hi) with 0 < lo <= 1 <= hi, "
+                             f"got {self.period_bounds!r}")
 
 
 @dataclass(eq=False)
@@ -136,12 +145,15 @@ class OrbitProblem:
     phase_point: np.ndarray | None = None
 
     def __post_init__(self):
-        self.p = np.atleast_1d(np.asarray(self.p, float)).ravel()
-        if self.p.size != self.ode.np:
-            raise ValueError(f"OrbitProblem.p: size {self.p.size}, the ODE has np={self.ode.np}")
+        self.p = finite_vector(self.p, "OrbitProblem.p", self.ode.np, f"the ODE has np={self.ode.np}")
         self.x_guess = np.asarray(self.x_guess, float)
-        if self.x_guess.shape[-1] != self.ode.nx or self.x_guess.ndim > 2:
+        if self.x_guess.shape[-1:] != (self.ode.nx,) or self.x_guess.ndim > 2:
             raise ValueError(f"OrbitProblem.x_guess: shape {self.x_guess.shape}, expected ({self.ode.nx},) or (M, {self.ode.nx})")
+        finite_vector(self.x_guess, "OrbitProblem.x_guess")
+        if self.phase_point is not None:
+            self.phase_point = finite_vector(self.phase_point, "OrbitProblem.phase_point", self.ode.nx,
+                                             f"the ODE has nx={self.ode.nx}")
+        self.t0 = float(finite_vector(self.t0, "OrbitProblem.t0", 1)[0])
         if self.period_guess is None:
             if self.ode.autonomous or self.ode.forcing_period is None:
                 raise ValueError("OrbitProblem.period_guess is required (autonomous system or no forcing_period)")

@@ -17,7 +17,22 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-__all__ = ["RhsDimensions", "PeriodicODE", "MeanCondition", "LimitCycleProblem"]
+__all__ = ["RhsDimensions", "PeriodicODE", "MeanCondition", "LimitCycleProblem", "finite_vector"]
+
+
+def finite_vector(value, name: str, size: int | None = None, what: str = "") -> np.ndarray:
+    """``value`` as a flat float array; ValueError naming ``name`` unless every entry is a finite
+    number and (``size`` given) there are ``size`` of them (``what`` says where the size comes from,
+    e.g. ``"the ODE has nx=2"``)."""
+    try:
+        v = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected numbers, got {value!r}") from None
+    if size is not None and v.size != size:
+        raise ValueError(f"{name}: size {v.size}, {what or f'expected {size}'}")
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"{name} must be finite (no NaN or inf), got {v}")
+    return v
 
 
 def _check_function(f, name: str, n_in: int) -> None:
@@ -185,12 +200,10 @@ class LimitCycleProblem:
     outputs: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        self.p = np.atleast_1d(np.asarray(self.p, dtype=float)).ravel()
-        self.x_guess = np.atleast_1d(np.asarray(self.x_guess, dtype=float)).ravel()
-        if self.p.size != self.ode.np:
-            raise ValueError(f"LimitCycleProblem.p: size {self.p.size}, the ODE has np={self.ode.np}")
-        if self.x_guess.size != self.ode.nx:
-            raise ValueError(f"LimitCycleProblem.x_guess: size {self.x_guess.size}, the ODE has nx={self.ode.nx}")
+        self.p = finite_vector(self.p, "LimitCycleProblem.p", self.ode.np, f"the ODE has np={self.ode.np}")
+        self.x_guess = finite_vector(self.x_guess, "LimitCycleProblem.x_guess", self.ode.nx,
+                                     f"the ODE has nx={self.ode.nx}")
+        self.t0 = float(finite_vector(self.t0, "LimitCycleProblem.t0", 1)[0])
         for m in self.means:
             if not isinstance(m, MeanCondition):
                 raise ValueError("LimitCycleProblem.means: items must be MeanCondition")
@@ -199,6 +212,13 @@ class LimitCycleProblem:
             if g.numel_out(0) != 1:
                 raise ValueError(f"LimitCycleProblem.outputs[{k!r}] must return a scalar")
         self.free_indices()  # validates
+        for key, b in self.free.items():
+            try:
+                lo, hi = (float(v) for v in b)
+            except (TypeError, ValueError):
+                raise ValueError(f"LimitCycleProblem.free[{key!r}]: expected (lower, upper) bounds, got {b!r}") from None
+            if not lo <= hi:  # also False for NaN
+                raise ValueError(f"LimitCycleProblem.free[{key!r}]: lower bound {lo} above upper bound {hi} (or NaN)")
 
     def free_indices(self) -> tuple[int, ...]:
         """Indices of the free parameters, in the order of ``free``."""

@@ -121,6 +121,8 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
     nx, S = sysm.nx, sysm.S
     nX = nx * (S + 1)
     nf = len(sysm.free_idx)
+    if not (np.isfinite(start_value) and np.isfinite(stop_value)):
+        raise ValueError(f"start_value and stop_value must be finite, got {start_value!r}, {stop_value!r}")
     span = abs(stop_value - start_value)
     if not span > 0:
         raise ValueError("start_value and stop_value must differ")
