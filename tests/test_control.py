@@ -157,3 +157,13 @@ def test_closed_loop_converges_at_its_spectral_radius_open_loop_diverges(cycle):
     assert rate(ol.deviation_per_beat) == pytest.approx(lam1, rel=0.01)
     assert rate(cl.deviation_per_beat) == pytest.approx(ctl.spectral_radius, rel=0.02)
     assert cl.final_deviation < 1e-5 < ol.final_deviation
+
+
+@pytest.mark.parametrize("x0, perturbation, match", [
+    ([18.0, 0.0, 0.0], None, r"simulate x0_cycle: size 3"),  # was a CasADi call error
+    ([np.nan, 0.0, 0.0, 0.0], None, r"simulate x0_cycle must be finite"),  # was a 'non_finite' run
+    ([18.0, 0.0, 0.0, 0.0], [1e-3], r"simulate perturbation: size 1"),  # was broadcast to every state
+])
+def test_simulate_refuses_a_bad_start_state_before_integrating(x0, perturbation, match):
+    with pytest.raises(ValueError, match=match):
+        simulate(Config(), x0, 1, steps_per_period=STEPS, perturbation=perturbation)

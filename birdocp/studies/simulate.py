@@ -35,6 +35,7 @@ from birdocp.bird.config import PARAM_NAMES, ConfigError
 from birdocp.bird.model import STATE_NAMES, air_state, get_model
 from birdocp.bird.validity import effective_angles
 from birdocp.engine.integrate import RK4Grid, rk4_update, stage_block_index
+from birdocp.engine.problem import finite_vector
 from birdocp.engine.results import result_dict, serial
 from birdocp.studies.control import PerModel
 
@@ -288,6 +289,9 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
     if int(beats) < 1:
         raise ConfigError("--beats", f"must be >= 1, got {beats}")
     beats = int(beats)
+    x0_cycle = finite_vector(x0_cycle, "simulate x0_cycle", 4, "the state is (u, w, q, theta)")
+    if perturbation is not None:
+        perturbation = finite_vector(perturbation, "simulate perturbation", 4, "the state is (u, w, q, theta)")
     m = get_model(cfg)
     steps = int(steps_per_period or cfg.solve.steps_per_period)
     N = int(getattr(controller, "updates_per_beat", 1)) if controller is not None else 1
