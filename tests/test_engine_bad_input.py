@@ -10,7 +10,7 @@ from birdocp.engine.equilibria import find_equilibrium
 from birdocp.engine.lyapunov import lyapunov_exponents
 from birdocp.engine.ode import ODE
 from birdocp.engine.orbits import OrbitMethod, OrbitProblem, solve_orbit
-from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
+from birdocp.engine.problem import LimitCycleProblem, MeanCondition, PeriodicODE
 
 x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 1)
 FORCED = PeriodicODE.from_rhs(ca.Function("f", [x, t, p], [ca.vertcat(x[1], -0.3 * x[1] - x[0] + p * ca.cos(t))]),
@@ -91,3 +91,16 @@ def test_continuation_refuses_a_nan_end():
     problem = LimitCycleProblem(FORCED, [0.5], [0.0, 0.0])
     with pytest.raises(ValueError, match="start_value and stop_value must be finite"):
         continuation(problem, "F", 0.5, float("nan"), points=3, steps_per_period=60)
+
+
+def test_free_parameters_need_one_mean_condition_each():
+    # a free parameter without a condition was 'converged' at whatever value the solver stopped at
+    # (F = 0.195 with IPOPT, 0.150 with LM from 0.3); a condition without a free parameter ran into
+    # IPOPT's Not_Enough_Degrees_Of_Freedom or the LM's max_iter
+    xs, ds, ps = ca.SX.sym("x", 2), ca.SX.sym("d", 1), ca.SX.sym("p", 1)
+    cond = MeanCondition(ca.Function("x2", [xs, ds, ps], [xs[0] ** 2]), 0.5, "x2")
+    with pytest.raises(ValueError, match=r"LimitCycleProblem\.means: 0 mean condition\(s\) for 1 free"):
+        LimitCycleProblem(FORCED, [0.5], [0.0, 0.0], free={"F": (0.0, 5.0)})
+    with pytest.raises(ValueError, match=r"LimitCycleProblem\.means: 1 mean condition\(s\) for 0 free"):
+        LimitCycleProblem(FORCED, [0.5], [0.0, 0.0], means=[cond])
+    LimitCycleProblem(FORCED, [0.5], [0.0, 0.0], free={"F": (0.0, 5.0)}, means=[cond])  # square: accepted

@@ -183,7 +183,9 @@ class LimitCycleProblem:
     free
         free parameters, by index or name -> (lower, upper) bounds.
     means
-        period-mean conditions, typically one per free parameter.
+        period-mean conditions, one per free parameter (the shooting system is square: with fewer
+        conditions the free values would be whatever the solver stops at, with more there is
+        generically no solution; both are refused).
     outputs
         extra scalar outputs ``(x, d, p) -> scalar`` whose period means are reported in
         ``result.means`` (no condition imposed).
@@ -219,6 +221,9 @@ class LimitCycleProblem:
                 raise ValueError(f"LimitCycleProblem.free[{key!r}]: expected (lower, upper) bounds, got {b!r}") from None
             if not lo <= hi:  # also False for NaN
                 raise ValueError(f"LimitCycleProblem.free[{key!r}]: lower bound {lo} above upper bound {hi} (or NaN)")
+        if len(self.means) != len(self.free):
+            raise ValueError(f"LimitCycleProblem.means: {len(self.means)} mean condition(s) for {len(self.free)} free "
+                             "parameter(s); give one condition per free parameter (report other means as outputs)")
 
     def free_indices(self) -> tuple[int, ...]:
         """Indices of the free parameters, in the order of ``free``."""
