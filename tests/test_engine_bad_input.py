@@ -104,3 +104,29 @@ def test_free_parameters_need_one_mean_condition_each():
     with pytest.raises(ValueError, match=r"LimitCycleProblem\.means: 1 mean condition\(s\) for 0 free"):
         LimitCycleProblem(FORCED, [0.5], [0.0, 0.0], means=[cond])
     LimitCycleProblem(FORCED, [0.5], [0.0, 0.0], free={"F": (0.0, 5.0)}, means=[cond])  # square: accepted
+
+
+def test_floquet_hopf_and_branch_starts_refuse_bad_input():
+    from birdocp.engine.continuation.autonomous import continue_orbits
+    from birdocp.engine.equilibria import continue_equilibria, orbit_from_hopf
+    from birdocp.engine.shooting import MultipleShooting, floquet
+
+    m = MultipleShooting(points=3, steps_per_period=60)
+    with pytest.raises(ValueError, match=r"floquet x0: size 1, the ODE has nx=2"):  # was a numpy concat error
+        floquet(FORCED, [0.0], [0.5], m)
+    with pytest.raises(ValueError, match=r"floquet p: size 2, the ODE has np=1"):  # was a CasADi call error
+        floquet(FORCED, [0.0, 0.0], [0.5, 1.0], m)
+    with pytest.raises(ValueError, match=r"period_s must be a positive number, got 'abc'"):
+        PeriodicODE.from_rhs(FORCED.rhs, "abc")
+    sl = ODE.from_function(lambda x, t, p: ca.vertcat(p[0] * x[0] - x[1] - x[0] * (x[0] ** 2 + x[1] ** 2),
+                                                      x[0] + p[0] * x[1] - x[1] * (x[0] ** 2 + x[1] ** 2)),
+                           nx=2, params=("mu",))
+    hopf = continue_equilibria(sl, [-0.5], "mu", [0.0, 0.0], 0.5).hopf[0]
+    with pytest.raises(ValueError, match="amplitude must be a non-zero finite number"):  # was 'bad_phase_point'
+        orbit_from_hopf(sl, hopf, 0.0)
+    with pytest.raises(ValueError, match="stop must be a finite"):  # was a 'corrector_failed' branch
+        continue_equilibria(sl, [-0.5], "mu", [0.0, 0.0], float("nan"))
+    failed = solve_orbit(OrbitProblem(sl, [0.5], [0.0, 0.0], period_guess=6.0), OrbitMethod(points=5, steps_per_period=100))
+    assert not failed.success
+    with pytest.raises(ValueError, match="the start orbit did not converge"):  # was KeyError: 'points'
+        continue_orbits(failed, sl, "mu", 1.0)

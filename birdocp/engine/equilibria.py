@@ -205,6 +205,8 @@ def continue_equilibria(ode: ODE, p, param, x_start, stop, *, ds: float = 0.05, 
     ``stop`` (a parameter value), with eigenvalues; Hopf points located to ``tol``."""
     j = ode.param_index(param)
     p = np.asarray(p, float).ravel().copy()
+    if not np.isfinite(stop):
+        raise ValueError(f"continue_equilibria: stop must be a finite parameter value, got {stop!r}")
     e0 = find_equilibrium(ode, p, x_start)
     if not e0.success:
         return EquilibriumBranch(j, np.zeros(0), np.zeros((0, ode.nx)), np.zeros((0, ode.nx)), np.zeros(0, bool),
@@ -291,6 +293,8 @@ def orbit_from_hopf(ode: ODE, hopf: HopfPoint, amplitude: float, method: OrbitMe
     whether that is enough."""
     if not ode.autonomous:
         raise ValueError("orbit_from_hopf: the ODE must be autonomous")
+    if not (np.isfinite(amplitude) and amplitude != 0):
+        raise ValueError(f"orbit_from_hopf: amplitude must be a non-zero finite number, got {amplitude!r}")
     method.validate()
     nx, S = ode.nx, method.points - 1
     if method.steps_per_period is None:  # a fixed grid here; its error estimate is in the result

@@ -146,6 +146,10 @@ class PeriodicODE(RhsDimensions):
     def from_rhs(f: ca.Function, period_s: float, state_names=(), param_names=()) -> "PeriodicODE":
         """Wrap a plain ``f(x, t, p)``: the data vector is the time itself (``d = t``, nd = 1)."""
         _check_function(f, "from_rhs f", 3)
+        try:
+            period_s = float(period_s)
+        except (TypeError, ValueError):
+            raise ValueError(f"PeriodicODE.from_rhs: period_s must be a positive number, got {period_s!r}") from None
         nx, np_ = f.size1_in(0), f.size1_in(2)
         x = ca.SX.sym("x", nx)
         d = ca.SX.sym("d", 1)

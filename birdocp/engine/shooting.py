@@ -29,7 +29,7 @@ from birdocp.engine.cache import bounded_cache, clear_caches
 from birdocp.engine.floquet import FloquetResult, floquet_from_jacobians
 from birdocp.engine.integrate import RK4Grid, column_blocks
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
-from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
+from birdocp.engine.problem import LimitCycleProblem, PeriodicODE, finite_vector
 from birdocp.engine.results import result_dict, serial
 
 __all__ = ["ShootingGrid", "MultipleShooting", "LimitCycleResult", "solve", "clear_cache", "floquet", "ShootingGraphs",
@@ -788,9 +788,10 @@ def floquet(ode: PeriodicODE, x0, p, method=None, *, t0: float = 0.0, points=Non
     method = method or MultipleShooting()
     method.validate()
     grid = grid or rk4_grid(ode, method, ())
+    x0 = finite_vector(x0, "floquet x0", ode.nx, f"the ODE has nx={ode.nx}")
+    p = finite_vector(p, "floquet p", ode.np, f"the ODE has np={ode.np}")
     D = blocks if blocks is not None else grid.blocks_numeric(t0, p)
-    pd = ca.DM(np.asarray(p, float))
-    x0 = np.asarray(x0, float).ravel()
+    pd = ca.DM(p)
     S, nx = grid.S, ode.nx
     if points is None:
         Xt = np.asarray(grid.period_map(ca.DM(x0), D, pd)[1])

@@ -138,6 +138,8 @@ def continue_orbits(orbit: PeriodicOrbit, ode: ODE, param, stop_value: float, *,
     points with ``period`` and the non-trivial multipliers, special points (fold, branch point,
     period doubling, Neimark-Sacker) located on the arclength.
     """
+    if not orbit.success:
+        raise ValueError(f"continue_orbits: the start orbit did not converge (status {orbit.status!r})")
     if method is None:
         m = orbit.method
         method = OrbitMethod(points=int(m["points"]), steps_per_period=int(m["steps_per_period"]),
