@@ -158,3 +158,16 @@ def test_help_works_without_the_model(workdir):
                               capture_output=True, text=True, timeout=60)
         assert proc.returncode == 0, proc.stderr
         assert "usage: birdocp" in proc.stdout
+
+
+def test_negative_numbers_in_scientific_notation_are_values():
+    """``--time -1e-3`` and ``--to -3.25e1`` are numbers, not unknown options (argparse's own pattern
+    knows only -1 and -0.5); a word after a dash is still an option."""
+    from birdocp.cli.main import build_parser
+
+    p = build_parser()
+    assert p.parse_args(["forces", "--state", "18", "-5e-1", "0", "0", "--time", "-1e-3"]).time == -1e-3
+    a = p.parse_args(["continue", "stability_margin", "--from", "-2.5e1", "--to", "-3.25E1"])
+    assert (a.start, a.stop) == (-25.0, -32.5)
+    with pytest.raises(SystemExit):
+        p.parse_args(["forces", "--state", "18", "0", "0", "0", "--time", "-x"])

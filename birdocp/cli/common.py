@@ -12,6 +12,7 @@ import contextlib
 import json
 import math
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -36,7 +37,15 @@ ROOT_AHEAD_KEY = "wing.root_ahead_m"
 # Parser
 
 class Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (still exit code 2)."""
+    """argparse with one-line errors (still exit code 2) that reads negative numbers in scientific
+    notation (``--time -1e-3``, ``--to -3.25e1``) as values: argparse's own pattern knows only ``-1``
+    and ``-0.5`` and took them for unknown options."""
+
+    NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = self.NEGATIVE_NUMBER  # the attribute argparse consults
 
     def error(self, message: str):  # noqa: D401 - argparse API
         hint = f"see '{self.prog} --help'"
