@@ -21,12 +21,10 @@ from __future__ import annotations
 
 import itertools
 import math
-import threading
 import time
 
 import numpy as np
 
-from birdocp.engine.executors import ProcessExecutor, SerialExecutor
 from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.plots import figures as plots
 from birdocp.bird.config import Config, with_values
@@ -36,7 +34,7 @@ from birdocp.studies.trim import trim
 from birdocp.io.reference import load as load_reference
 from birdocp.io.reference import multipliers as reference_multipliers
 from birdocp.io.reference import reference_dir
-from script_common import parse_with_out, script_parser
+from script_common import Beside, parse_with_out, script_parser
 
 REFERENCE = reference_dir() / "reference_cycle.json"
 RELAXED = {"aero.circulation": "relaxed", "aero.kinematic_velocity": "backward-difference"}
@@ -155,12 +153,7 @@ def main(argv=None) -> int:
     ref_impl_mults = reference_multipliers(impl)
 
     base = Config()
-    ex = ProcessExecutor(1) if args.jobs > 1 else SerialExecutor()
-    others: list = []
-    worker = threading.Thread(target=lambda: others.extend(ex.map(variant_jobs, [["b", "c"]])))
-    if args.jobs > 1:
-        ex.start()  # the worker process started from this thread (it is tied to the thread that starts it)
-        worker.start()
+    others = Beside(variant_jobs, ["b", "c"], args.jobs)
     [(_, r_a, s_a)] = variant_jobs(["a"])
     results, objs = {"a": s_a}, {"a": (r_a, base)}
 
@@ -227,14 +220,7 @@ def main(argv=None) -> int:
                       title="Experiment 1, variant (a): loads along the trimmed cycle, body frame")
     plots.plot_forces(r_a, get_model(cfg_a), out / "forces_inertial.png", frame="inertial",
                       title="Experiment 1, variant (a): loads along the trimmed cycle, fixed frame")
-    if args.jobs > 1:
-        worker.join()
-    else:
-        others = [variant_jobs(["b", "c"])]
-    ex.close()
-    if len(others) != 1:
-        raise RuntimeError("variants (b) and (c) failed in the worker")
-    for key, r, s_k in others[0]:
+    for key, r, s_k in others.result():
         results[key], objs[key] = s_k, (r, with_values(base, VARIANTS[key][1]))
     hist = {VARIANTS[k][0]: objs[k][0] for k in VARIANTS}
     hist["reference implementation (LM, paper's code)"] = impl["error_history"]

@@ -16,18 +16,16 @@ from __future__ import annotations
 
 import math
 import shutil
-import threading
 import time
 
 import numpy as np
 
 from birdocp.bird.config import Config, with_values
-from birdocp.engine.executors import ProcessExecutor, SerialExecutor
 from birdocp.io.files import atomic_write_json, atomic_write_text
 from birdocp.studies.level import level
 from birdocp.studies.trim import trim
 from birdocp.studies.sweep import sweep, sweep_values
-from script_common import parse_with_out, script_parser
+from script_common import Beside, parse_with_out, script_parser
 
 AMP = "gait.shoulder_flap.amplitude_deg"
 RELAXED = {"aero.circulation": "relaxed", "aero.kinematic_velocity": "backward-difference"}
@@ -98,12 +96,7 @@ def main() -> None:
 
     # --- level flight, two model variants (the relaxed one in a worker process when jobs > 1: it
     # depends on nothing below, and its model's graphs are its own)
-    ex = ProcessExecutor(1) if args.jobs > 1 else SerialExecutor()
-    relaxed: list = []
-    worker = threading.Thread(target=lambda: relaxed.extend(ex.map(level_job, ["relaxed_backward_difference"])))
-    if args.jobs > 1:
-        ex.start()  # the worker processes started from this thread (they are tied to the thread that starts them)
-        worker.start()
+    relaxed = Beside(level_job, "relaxed_backward_difference", args.jobs)
     default = level_job("default")
     res["level"] = None  # filled below, when the worker is done (keeps the key order of result.json)
     r_level = default["result"]
@@ -157,15 +150,8 @@ def main() -> None:
                                  "success": bool(v[3].success)} for lab, v in paths.items()}
 
     # --- the relaxed model's level flight (from the worker)
-    if args.jobs > 1:
-        worker.join()
-    else:
-        relaxed = [level_job("relaxed_backward_difference")]
-    ex.close()
-    if len(relaxed) != 1:
-        raise RuntimeError("the relaxed model's level flight failed in the worker")
     levels = {"default": (r_level, default["summary"]),
-              "relaxed_backward_difference": (None, relaxed[0]["summary"])}
+              "relaxed_backward_difference": (None, relaxed.result()["summary"])}
     res["level"] = {k: v[1] for k, v in levels.items()}
 
     # --- figures (matplotlib imported here only: the worker process never draws)

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import threading
 from pathlib import Path
 
 
@@ -18,3 +19,38 @@ def parse_with_out(ap: argparse.ArgumentParser, argv=None) -> tuple[argparse.Nam
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     return args, out
+
+
+class Beside:
+    """``fn(arg)`` in one worker process while this process goes on (``jobs > 1``), or in this process
+    when :meth:`result` asks for it (``jobs == 1``). The worker is started from the calling (main)
+    thread, as local workers are tied to the thread that starts them; an error in the job is raised
+    again by :meth:`result`."""
+
+    def __init__(self, fn, arg, jobs: int):
+        self.fn, self.arg = fn, arg
+        self._out: list = []
+        self._error: BaseException | None = None
+        self._ex = self._thread = None
+        if jobs > 1:
+            from birdocp.engine.executors import ProcessExecutor
+
+            self._ex = ProcessExecutor(1).start()
+            self._thread = threading.Thread(target=self._run, daemon=True)
+            self._thread.start()
+
+    def _run(self) -> None:
+        try:
+            self._out.extend(self._ex.map(self.fn, [self.arg]))
+        except BaseException as e:  # noqa: BLE001 - handed to the main thread by result()
+            self._error = e
+
+    def result(self):
+        """The job's return value (waits for the worker; runs the job here with ``jobs == 1``)."""
+        if self._thread is None:
+            return self.fn(self.arg)
+        self._thread.join()
+        self._ex.close()
+        if self._error is not None:
+            raise self._error
+        return self._out[0]
