@@ -110,6 +110,7 @@ def _tiny_instances() -> dict:
     from birdocp.bird.validity import CycleValidity
     from birdocp.engine.continuation.branch import Branch, BranchPoint, SpecialPoint
     from birdocp.engine.equilibria import Equilibrium, EquilibriumBranch, HopfPoint
+    from birdocp.engine.floquet import FloquetResult
     from birdocp.engine.lyapunov import LyapunovResult
     from birdocp.engine.orbits import PeriodicOrbit
     from birdocp.engine.shooting import LimitCycleResult
@@ -143,6 +144,9 @@ def _tiny_instances() -> dict:
         "birdocp.engine.continuation.branch.SpecialPoint": special,
         "birdocp.engine.continuation.branch.Branch": Branch("mu", [point], [special], "reached_to", "", {}, 1.5),
         "birdocp.bird.validity.CycleValidity": validity,
+        "birdocp.engine.floquet.FloquetResult": FloquetResult(
+            np.diag([2.0, 1.0]), np.array([2.0 + 0j, 1.0 + 0j]), np.eye(2, dtype=complex),
+            np.array([0.69 + 0j, 0j]), np.array([1.0, np.inf]), False, 1e-15, [np.diag([2.0, 1.0])]),
         "birdocp.engine.lyapunov.LyapunovResult": LyapunovResult(
             np.array([0.9]), np.array([0.1]), 20.0, 0.01, 1.0, 10, np.ones((10, 1)), np.arange(3.0),
             np.ones((3, 1)), np.ones(3)),
@@ -212,6 +216,9 @@ def test_every_result_type_serialises_through_the_one_function(monkeypatch):
     branch = tiny["birdocp.engine.continuation.branch.Branch"].to_dict()
     assert branch["wall_s"] == {"total": 1.5} and branch["points"][0]["tests"] == {"fold": None}
     assert branch["special_points"][0]["between"] == [0, 1] and branch["special_points"][0]["test_value"] is None
+    fl = tiny["birdocp.engine.floquet.FloquetResult"].to_dict()
+    assert fl["multipliers"] == [[2.0, 0.0], [1.0, 0.0]] and fl["doubling_times_s"] == [1.0, None]
+    assert fl["monodromy"] == [[2.0, 0.0], [0.0, 1.0]] and fl["stable"] is False
     ly = tiny["birdocp.engine.lyapunov.LyapunovResult"].to_dict()
     assert ly["lyapunov_exponents"] == [0.9] and ly["kaplan_yorke_dimension"] is None and "history" not in ly
     assert math.isclose(ly["sum"], 0.9)

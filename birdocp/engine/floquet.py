@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from birdocp.engine.results import complex_pairs  # noqa: F401  (re-exported: the [re, im] convention)
+from birdocp.engine.results import result_dict
 
 __all__ = ["FloquetResult", "floquet_from_jacobians", "multipliers_info", "monodromy_of", "complex_pairs",
            "multiplier_order", "sort_multipliers", "matched_distances"]
@@ -27,6 +28,11 @@ __all__ = ["FloquetResult", "floquet_from_jacobians", "multipliers_info", "monod
 
 @dataclass
 class FloquetResult:
+    """The Floquet analysis of one periodic orbit (the conventions of this module): the monodromy
+    matrix, its multipliers, eigenvectors (columns), exponents [1/s] and signed doubling times [s],
+    ``stable`` (every |multiplier| < 1), the largest difference between the monodromy and the
+    one-period map's Jacobian computed in one go, and the segment Jacobians it is the product of."""
+
     monodromy: np.ndarray
     multipliers: np.ndarray
     eigenvectors: np.ndarray
@@ -35,6 +41,11 @@ class FloquetResult:
     stable: bool
     monodromy_vs_full_period_jacobian: float
     segment_jacobians: list
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`: complex numbers as [re, im]
+        pairs, non-finite numbers as null)."""
+        return result_dict(self)
 
 
 def multiplier_order(lam) -> np.ndarray:
