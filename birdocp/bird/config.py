@@ -318,9 +318,14 @@ reference case uses 148)."""
 def _check_number(key: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ConfigError(key, f"expected a number, got {value!r}")
-    if not math.isfinite(value):
+    try:
+        number = float(value)
+    except OverflowError:  # an integer of hundreds of digits
+        raise ConfigError(key, f"an integer of {len(str(abs(value)))} digits is too large for a number; "
+                               "give a value in the key's physical range") from None
+    if not math.isfinite(number):
         raise ConfigError(key, f"must be finite, got {value!r}")
-    return float(value)
+    return number
 
 
 def validate(cfg: Config) -> None:
@@ -510,19 +515,16 @@ def from_dict(data: dict) -> Config:
 
 def loads(text: str) -> Config:
     """The configuration in TOML text (defaults for missing keys; ConfigError for a bad key or value)."""
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError("", f"config is not valid TOML: {exc}") from None
-    return from_dict(data)
+    from birdocp.io.inputs import parse_toml
+
+    return from_dict(parse_toml(text, "", "config"))
 
 
 def load(path: str | Path) -> Config:
     """The configuration in a TOML file (see :func:`loads`)."""
-    path = Path(path)
-    if not path.is_file():
-        raise ConfigError("", f"config file '{path}' does not exist; give the path of a TOML file")
-    return loads(path.read_text(encoding="utf-8-sig"))
+    from birdocp.io.inputs import read_input_text
+
+    return loads(read_input_text(path, "", what=f"config file '{path}'"))
 
 
 def dumps(cfg: Config) -> str:
@@ -545,6 +547,10 @@ def parse_scalar(text: str) -> Any:
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         return text
+    except RecursionError:
+        raise ConfigError("--set", f"the value '{text[:40]}...' is nested too deeply") from None
+    except ValueError as exc:  # an integer of more than 4300 digits
+        raise ConfigError("--set", f"the value '{text[:40]}...' cannot be read: {exc}") from None
 
 
 def with_values(cfg: Config, values: dict[str, Any]) -> Config:

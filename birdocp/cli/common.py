@@ -109,18 +109,16 @@ def config_message(exc: ConfigError) -> str:
 
 
 def load_config_file(path_text: str) -> C.Config:
+    """The configuration in the CONFIG file: a regular file (a FIFO, device or folder is refused
+    without opening it), at most :data:`birdocp.io.inputs.MAX_TEXT_BYTES`, UTF-8 TOML (a byte-order
+    mark is dropped); each problem is a ConfigError naming the file."""
+    from birdocp.io.inputs import file_problem, read_input_text
+
     path = Path(path_text)
-    if not path.exists():
+    if file_problem(path) == "does not exist":
         raise ConfigError("CONFIG", f"file '{path}' does not exist; give the path of a TOML file "
                                     "(write one with 'birdocp config > bird.toml')")
-    if path.is_dir():
-        raise ConfigError("CONFIG", f"'{path}' is a folder; give the path of a TOML file")
-    try:
-        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark (Windows editors) is not TOML
-    except UnicodeDecodeError:
-        raise ConfigError(str(path), "is not UTF-8 text; give a TOML file") from None
-    except OSError as exc:
-        raise ConfigError(str(path), f"cannot be read: {exc.strerror or exc}") from None
+    text = read_input_text(path, "CONFIG", what=f"'{path}'")
     try:
         return C.loads(text)
     except ConfigError as exc:
