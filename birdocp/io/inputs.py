@@ -189,7 +189,7 @@ class RunFolder:
                 continue
             ok = a.ndim == len(shape) and all(n is None or n == m for n, m in zip(shape, a.shape))
             if not ok:
-                want = "(" + ", ".join("any" if n is None else str(n) for n in shape) + ")"
+                want = "(" + ", ".join("any" if n is None else str(n) for n in shape) + ("," if len(shape) == 1 else "") + ")"
                 raise self.error("arrays.npz", f"'{name}' has shape {tuple(a.shape)}, the stored configuration "
                                                f"needs {want}; the arrays do not belong to this configuration")
 
