@@ -17,12 +17,12 @@ N_STATES = 4
 
 
 def read_run_folder(path: str | Path, key: str = "RUN_DIR", *, commands: Sequence[str] | None = None,
-                    kind: str = "a run folder", arrays: str | None = "optional"):
+                    kind: str = "a run folder", arrays: str | None = "optional", hint: str | None = None):
     """``(run, cfg)``: the checked :class:`~birdocp.io.inputs.RunFolder` and its configuration (a
     :class:`~birdocp.bird.config.Config`); its warnings are printed on stderr, one line each."""
     from birdocp.io.inputs import read_run
 
-    run = read_run(path, key, commands=commands, arrays=arrays, kind=kind)
+    run = read_run(path, key, commands=commands, arrays=arrays, kind=kind, hint=hint)
     try:
         cfg = C.from_dict(run.config_data)
     except ConfigError as exc:

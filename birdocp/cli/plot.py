@@ -11,6 +11,12 @@ from birdocp.bird.config import ConfigError
 from birdocp.cli.common import EXIT_OK, print_json, solver_noise
 
 
+PLOTTED = ("trim", "level", "sweep", "continue", "optimize-stability", "optimize-gait")
+"""The commands whose run folders ``plot`` draws."""
+PLOTTED_HINT = ("plot draws trim, level, sweep (and grid), continue, optimize-stability and optimize-gait run "
+                "folders (control and simulate draw their figures as they run)")
+
+
 def register(sub, common) -> None:
     p = sub.add_parser("plot", help="redraw the figures of a run folder (trim, level, sweep, continue)",
                        description="Read RUN_DIR/result.json (and arrays.npz, sweep.json, branch.json) and write "
@@ -32,7 +38,7 @@ def _read_json(path: Path, what: str):
 def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
     from birdocp.cli.inputs import read_run_folder
 
-    folder, _ = read_run_folder(args.run_dir, "RUN_DIR", kind="a birdocp run folder")
+    folder, _ = read_run_folder(args.run_dir, "RUN_DIR", commands=PLOTTED, hint=PLOTTED_HINT)
     run, res = folder.path, folder.result
     command = (res.get("provenance") or {}).get("command")
     try:
@@ -87,9 +93,7 @@ def _figures(run: Path, res: dict, command, arrays: dict | None) -> list:
                 figs.append(plot_power(cyc, run / "power.png"))
     else:
         what = f"a '{command}' run" if command else "a result that names no birdocp command"
-        raise ConfigError("RUN_DIR", f"do not know how to plot {what}; plot draws trim, level, sweep (and grid), "
-                                     "continue, optimize-stability and optimize-gait run folders (control and "
-                                     "simulate draw their figures as they run)")
+        raise ConfigError("RUN_DIR", f"do not know how to plot {what}; {PLOTTED_HINT}")
     return figs
 
 

@@ -242,7 +242,8 @@ def _check_config(run: RunFolder) -> None:
 
 
 def read_run(path: str | Path, key: str = "RUN_DIR", *, commands: Sequence[str] | None = None,
-             config: bool = True, arrays: str | None = "optional", kind: str = "run folder") -> RunFolder:
+             config: bool = True, arrays: str | None = "optional", kind: str = "a run folder",
+             hint: str | None = None) -> RunFolder:
     """Read and check the run folder ``path`` (see the module's text).
 
     Parameters
@@ -257,6 +258,8 @@ def read_run(path: str | Path, key: str = "RUN_DIR", *, commands: Sequence[str] 
         Read arrays.npz: it must exist; read it when it exists; do not read it.
     kind : str
         What the caller wants, for the messages (e.g. "a trim or level run folder").
+    hint : str, optional
+        The fix named when the command is not one of ``commands`` (default: give ``kind``).
     """
     path = Path(path)
     _folder(path, key)
@@ -267,7 +270,7 @@ def read_run(path: str | Path, key: str = "RUN_DIR", *, commands: Sequence[str] 
     if commands is not None and command not in commands:
         names = " or ".join(f"'{c}'" for c in commands)
         what = f"a '{command}' run" if command else "a result that names no birdocp command"
-        raise ConfigError(key, f"'{path}': result.json: is {what}; give {kind} (of {names})")
+        raise ConfigError(key, f"'{path}': result.json: is {what}; " + (hint or f"give {kind} (of {names})"))
     run = RunFolder(path, key, result, command if isinstance(command, str) else None)
     if config:
         _check_config(run)
