@@ -20,7 +20,8 @@ Run folder (``out_dir``), written as the sweep goes (every file atomically)::
 from the points on disk, so the table is the one of an uninterrupted run (up to wall times). A resume
 with another definition than sweep.json's is refused; every point kept must carry the configuration
 hash of its own point (also when sweep.json is truncated or damaged): a point of another
-configuration is refused, never reported (see :func:`_kept_points`).
+configuration is refused, never reported (:mod:`birdocp.io.resume`, the mechanism ``continue`` resumes
+with too).
 A failed point is recorded (``success`` false) and the sweep goes on.
 """
 
@@ -29,11 +30,8 @@ from __future__ import annotations
 import contextlib
 import csv
 import io
-import json
 import math
-import os
 import time
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
@@ -43,7 +41,8 @@ import numpy as np
 from birdocp.bird.config import Config, ConfigError, to_dict, with_values
 from birdocp.bird.validity import VALIDITY_COLUMNS, validity_columns
 from birdocp.io.files import atomic_write_json, atomic_write_text, to_jsonable
-from birdocp.io.inputs import file_problem, read_json_file
+from birdocp.io import resume as resume_io
+from birdocp.io.inputs import read_json_file
 from birdocp.io.provenance import config_hash
 from birdocp.io.progress import progress_bar
 from birdocp.studies.level import AMPLITUDE_KEY, resolve_key
@@ -159,74 +158,15 @@ def _csv_text(rows: list[dict], columns=None) -> str:
     return buf.getvalue()
 
 
-def _point_path(out: Path, index: int) -> Path:
-    return out / "points" / f"point-{index:04d}.json"
-
-
 def read_points(out_dir: str | Path) -> dict[int, dict]:
-    """Point files of a sweep folder by index, read by :func:`birdocp.io.inputs.read_json_file` (a
-    special file is not opened); unreadable or damaged files are ignored: they will be re-solved."""
-    out = {}
-    folder = Path(out_dir) / "points"
-    if not folder.is_dir():
-        return out
-    for f in sorted(folder.glob("point-*.json")):
-        try:
-            pt = read_json_file(f, "--resume")
-            out[int(pt["row"]["index"])] = pt
-        except (ConfigError, KeyError, TypeError, ValueError):
-            continue
-    return out
+    """Point files of a sweep folder by index (:func:`birdocp.io.resume.read_points`: unreadable files
+    are ignored: they will be re-solved)."""
+    return resume_io.read_points(out_dir)
 
 
 def _point_settings(spec: dict) -> dict:
     """What besides its configuration decides a point's result (stored in every point file)."""
-    return json.loads(json.dumps(to_jsonable({k: spec[k] for k in ("level", "level_options", "method_over")})))
-
-
-def _kept_points(out: Path, values: list, cfgs: list, spec: dict, index_ok: bool) -> dict[int, dict]:
-    """The point files of ``out`` a resume may keep: at its index, for its value, and computed for
-    its configuration (``config_sha256``, :func:`birdocp.io.provenance.config_hash` of the point's
-    configuration) and settings. A point computed for another configuration is refused
-    (:class:`ConfigError` on ``--resume``); a point written before the hash existed is kept only when
-    the index file ``sweep.json`` is intact (its definition was compared), else solved again."""
-    kept, unverified = {}, []
-    settings = _point_settings(spec)
-    for i, p in read_points(out).items():
-        if not (0 <= i < len(values)) or p["row"].get("value") != values[i]:
-            continue
-        stored = p.get("config_sha256")
-        if stored is None:
-            if index_ok:
-                kept[i] = p
-            else:
-                unverified.append(i)
-            continue
-        if stored != config_hash(cfgs[i]) or p.get("settings") != settings:
-            what = "configuration" if stored != config_hash(cfgs[i]) else "solve settings (level, method)"
-            raise ConfigError("--resume", f"'{out}': points/{_point_path(out, i).name} was computed for another "
-                                          f"{what} (its config_sha256 or settings differ); resume with the same "
-                                          "arguments or use a new folder")
-        kept[i] = p
-    if unverified:
-        warnings.warn(f"{len(unverified)} point(s) in '{out}' carry no configuration hash and sweep.json is "
-                      "damaged: they are solved again", stacklevel=2)
-    return kept
-
-
-def _read_index(path: Path) -> tuple[dict | None, bool]:
-    """(definition, damaged) of the index file sweep.json/grid.json: (None, False) when absent,
-    (None, True) when it does not parse (truncated); a special file is a ConfigError."""
-    if not os.path.lexists(path):
-        return None, False
-    problem = file_problem(path)
-    if problem:
-        raise ConfigError("--resume", f"'{path}' {problem}")
-    try:
-        old = read_json_file(path, "--resume")
-    except ConfigError:
-        return None, True
-    return (old, False) if isinstance(old, dict) else (None, True)
+    return {k: spec[k] for k in ("level", "level_options", "method_over")}
 
 
 class _Progress:
@@ -289,15 +229,12 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
     done: dict[int, dict] = {}
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        old, damaged = _read_index(out / "sweep.json")
+        old, damaged = resume_io.read_index(out / "sweep.json")
         if resume:
             if old is not None:
-                old_spec = {k: old.get(k) for k in spec}
-                if json.loads(json.dumps(old_spec)) != json.loads(json.dumps(to_jsonable(spec))):
-                    diff = [k for k in spec if json.dumps(old_spec[k]) != json.dumps(to_jsonable(spec[k]))]
-                    raise ConfigError("--resume", f"the sweep in '{out}' differs in {', '.join(diff)}; "
-                                                  "resume with the same arguments or use a new folder")
-            done = _kept_points(out, values, cfgs, spec, old is not None)
+                resume_io.check_index(old, spec, out, "sweep")
+            done = resume_io.kept_points(out, lambda i: config_hash(cfgs[i]), _point_settings(spec), old is not None,
+                                         match=lambda i, p: i < len(values) and p["row"].get("value") == values[i])
         elif old is not None or damaged or read_points(out):
             raise ConfigError("--out", f"'{out}' already holds a sweep; pass resume=True (--resume) or a new folder")
         from birdocp.bird.config import dumps
@@ -339,9 +276,8 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
         if res.success:
             last_ok = (i, res.cycle)
         if out is not None:
-            point = {"row": row, "p": [float(x) for x in np.asarray(res.cycle.p)], "result": d,
-                     "config_sha256": config_hash(cfg_i), "settings": _point_settings(spec)}
-            atomic_write_json(_point_path(out, i), point)
+            point = {"row": row, "p": [float(x) for x in np.asarray(res.cycle.p)], "result": d}
+            resume_io.write_point(out, i, point, config_hash(cfg_i), _point_settings(spec))
         flush()
         bar.show(i + 1, f"{v:g} {'ok' if res.success else 'FAILED'} {row['iterations']} it "
                         f"{row['wall_s']:.1f} s", solved_now=True)
@@ -408,14 +344,11 @@ def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: s
     done: dict[int, dict] = {}
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        old, _ = _read_index(out / "grid.json")  # a damaged grid.json: every row solved again
+        old, _ = resume_io.read_index(out / "grid.json")  # a damaged grid.json: every row solved again
         if old is not None and not resume:
             raise ConfigError("--out", f"'{out}' already holds a grid; pass resume=True (--resume) or a new folder")
         if old is not None:
-            diff = [k for k in spec if json.dumps(old.get(k)) != json.dumps(spec[k])]
-            if diff:
-                raise ConfigError("--resume", f"the grid in '{out}' differs in {', '.join(diff)}; "
-                                              "resume with the same arguments or use a new folder")
+            resume_io.check_index(old, spec, out, "grid")
             for f in sorted((out / "rows").glob("row-*.json")) if (out / "rows").is_dir() else []:
                 with contextlib.suppress(ConfigError, ValueError, KeyError, TypeError):
                     r = read_json_file(f, "--resume")
