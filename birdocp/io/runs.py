@@ -17,7 +17,6 @@ from __future__ import annotations
 import atexit
 import contextlib
 import errno
-import json
 import os
 import re
 import secrets
@@ -259,10 +258,14 @@ def new_run_dir(base: str | Path | None, command: str) -> Path:
 
 
 def read_result(run_dir: str | Path) -> dict | None:
-    """The result.json of a run folder, or None if absent or unreadable."""
+    """The result.json of a run folder, or None if absent, unreadable or not a regular file (read by
+    :func:`birdocp.io.inputs.read_json_file`: a FIFO is never opened). Commands that use a run
+    folder read it with :func:`birdocp.io.inputs.read_run`, which says what is wrong."""
+    from birdocp.io.inputs import read_json_file
+
     try:
-        return json.loads((Path(run_dir) / "result.json").read_text())
-    except (OSError, ValueError):
+        return read_json_file(Path(run_dir) / "result.json", "RUN_DIR")
+    except ConfigError:
         return None
 
 
