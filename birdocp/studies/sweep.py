@@ -18,10 +18,10 @@ Run folder (``out_dir``), written as the sweep goes (every file atomically)::
 
 ``resume=True`` reads the point files of ``out_dir`` and solves only the missing points, warm-starting
 from the points on disk, so the table is the one of an uninterrupted run (up to wall times). A resume
-with another definition than sweep.json's is refused; every point kept must carry the configuration
-hash of its own point (also when sweep.json is truncated or damaged): a point of another
-configuration is refused, never reported (:mod:`birdocp.io.resume`, the mechanism ``continue`` resumes
-with too).
+with another definition than sweep.json's is refused, and every point's own configuration hash is
+compared with its configuration in the resumed sweep (also when sweep.json is truncated or damaged):
+a point of another configuration is refused, never reported (:mod:`birdocp.io.resume`, the mechanism
+``continue`` resumes with too).
 A failed point is recorded (``success`` false) and the sweep goes on.
 """
 
