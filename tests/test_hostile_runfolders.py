@@ -261,3 +261,26 @@ def test_continue_resumes_from_the_points_on_disk(capsys, tmp_path):
     # a finished continuation is not resumed
     code, _, err = _inproc(capsys, [*argv, "--out", cut, "--resume"])
     _bad_input(code, err, "--resume", "finished")
+
+
+def test_oversized_inputs_are_refused_before_reading(capsys, folders, tmp_path):
+    from birdocp.io.inputs import MAX_JSON_BYTES, MAX_TEXT_BYTES
+
+    big = tmp_path / "big.toml"
+    with open(big, "wb") as fh:  # sparse: nothing is written, the size is what counts
+        fh.truncate(MAX_TEXT_BYTES + 1)
+    code, _, err = _inproc(capsys, ["trim", big, "--out", tmp_path / "run"])
+    _bad_input(code, err, "CONFIG", str(big), "more than the 16 MiB accepted")
+    d = _copy(folders, "trim", tmp_path)
+    with open(d / "result.json", "r+b") as fh:
+        fh.truncate(MAX_JSON_BYTES + 1)
+    _bad_input(*_inproc(capsys, ["plot", d])[::2], "RUN_DIR", "result.json", "accepted")
+
+
+def test_a_foreign_member_in_arrays_npz(capsys, folders, tmp_path):
+    import zipfile
+
+    d = _copy(folders, "trim", tmp_path)
+    with zipfile.ZipFile(d / "arrays.npz", "a") as z:
+        z.writestr("notes.txt", "not an array")
+    _bad_input(*_inproc(capsys, ["plot", d])[::2], "RUN_DIR", "arrays.npz", "'notes.txt' is not a numeric array")

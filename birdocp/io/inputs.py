@@ -218,7 +218,11 @@ def _read_npz(run: RunFolder) -> dict:
             raise run.error("arrays.npz", f"unpacks to {_mib(unpacked)}, more than the "
                                           f"{_mib(MAX_NPZ_UNPACKED_BYTES)} accepted")
         with np.load(io.BytesIO(data), allow_pickle=False) as z:
-            return {k: z[k] for k in z.files}
+            arrays = {k: z[k] for k in z.files}
+        for k, a in arrays.items():
+            if not isinstance(a, np.ndarray) or a.dtype.hasobject:
+                raise run.error("arrays.npz", f"'{k}' is not a numeric array (not an arrays.npz birdocp wrote)")
+        return arrays
     except ConfigError:
         raise
     except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, KeyError, NotImplementedError) as exc:
