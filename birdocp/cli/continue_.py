@@ -80,7 +80,6 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
                     scaffold=(INDEX,)) as run:
         from birdocp.io.files import atomic_write_json
         from birdocp.io.resume import plain
-        from birdocp.plots.branch import plot_branches
 
         kept, kept_specials = _resumable(run.dir, spec, cfg, args.resume)
         atomic_write_json(run.dir / INDEX, plain(spec))
@@ -91,27 +90,36 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
             if rec.points:
                 _keep_partial(run, cfg, model_key, display, a, b, args.level, rec.points, rec.specials, t_start)
             raise
-        d = br.to_dict()
-        atomic_write_json(run.dir / "branch.json", d)
-        figs = plot_branches({"level flight" if args.level else "branch": br}, run.dir) if br.points else []
-        ok = br.end_reason in ("reached_to", "reached_from") and bool(br.points)
-        summary = {"success": ok, "status": br.end_reason, "parameter": br.parameter_name, "display": display,
-                   "from": a, "to": b, "level": bool(args.level), "end_reason": br.end_reason,
-                   "end_message": br.end_message, "n_points": len(br.points), "special_points": d["special_points"],
-                   "stable_anywhere": any(p.stable for p in br.points), "figures": [f.name for f in figs],
-                   "valid_points": sum(bool(p.validity and p.validity["valid"]) for p in br.points),
-                   "resumed_points": len(kept), "wall_s": {"total": time.perf_counter() - t_start},
-                   "run_dir": str(run.dir)}
-        run.write(cfg, summary)
-        if args.json:
-            run.output(dict(summary, branch=d), None)
-        else:
-            print(_table(br, cfg, display, args.level, figs, run.dir))
-        if not ok:
-            warn = noise_summary(run.noise)
-            print(f"{PROG}: the branch ended before --to ({br.end_reason}: {br.end_message}); "
-                  f"{len(br.points)} points written to {run.dir}{warn}", file=sys.stderr)
-            return EXIT_NOT_CONVERGED
+        return _finish(run, args, br, cfg, display, a, b, len(kept), t_start)
+
+
+def _finish(run, args, br, cfg, display: str, a: float, b: float, resumed: int, t_start: float) -> int:
+    """branch.json, the figures and result.json of a finished branch; the table or the JSON object;
+    the exit code (1 when the branch ended before --to)."""
+    from birdocp.io.files import atomic_write_json
+    from birdocp.plots.branch import plot_branches
+
+    d = br.to_dict()
+    atomic_write_json(run.dir / "branch.json", d)
+    figs = plot_branches({"level flight" if args.level else "branch": br}, run.dir) if br.points else []
+    ok = br.end_reason in ("reached_to", "reached_from") and bool(br.points)
+    summary = {"success": ok, "status": br.end_reason, "parameter": br.parameter_name, "display": display,
+               "from": a, "to": b, "level": bool(args.level), "end_reason": br.end_reason,
+               "end_message": br.end_message, "n_points": len(br.points), "special_points": d["special_points"],
+               "stable_anywhere": any(p.stable for p in br.points), "figures": [f.name for f in figs],
+               "valid_points": sum(bool(p.validity and p.validity["valid"]) for p in br.points),
+               "resumed_points": resumed, "wall_s": {"total": time.perf_counter() - t_start},
+               "run_dir": str(run.dir)}
+    run.write(cfg, summary)
+    if args.json:
+        run.output(dict(summary, branch=d), None)
+    else:
+        print(_table(br, cfg, display, args.level, figs, run.dir))
+    if not ok:
+        warn = noise_summary(run.noise)
+        print(f"{PROG}: the branch ended before --to ({br.end_reason}: {br.end_message}); "
+              f"{len(br.points)} points written to {run.dir}{warn}", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
     return EXIT_OK
 
 
