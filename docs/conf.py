@@ -6,9 +6,9 @@ documents itself with it: numpydoc reads the docstrings as they are written in b
 generates one page per module recursively (a new module appears without editing the docs),
 sphinx-gallery executes the tutorials at every build, and MyST lets pages be Markdown.
 
-Adding to the docs: a study page is a new file docs/studies/NAME.md (the Studies toctree globs the
-folder); a tutorial is a new script docs/tutorials_src/plot_NN_name.py (executed at every build: keep
-it to seconds); a new module appears in the API reference by itself (recursive autosummary) and a new
+Adding to the docs: a study page is a new file docs/studies/NAME.md, listed in the Studies toctree
+of index.md (in the paper's order; -W turns a page outside every toctree into an error); a tutorial is a new script docs/tutorials_src/plot_NN_name.py (executed at every build: keep
+it to seconds); a new module appears in the API reference by itself (recursive autosummary) and in the layout page and a new
 command in the CLI reference (generated from the parser). Any other new page must be added to a
 toctree in index.md (-W turns "not in any toctree" into an error).
 """
@@ -42,6 +42,7 @@ extensions = [
     "myst_parser",
     "sphinx_gallery.gen_gallery",
     "cli_reference",
+    "layout_tree",
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
@@ -54,7 +55,9 @@ myst_heading_anchors = 3
 
 autosummary_generate = True
 autosummary_imported_members = False
-autodoc_default_options = {"members": True, "show-inheritance": False}
+# Members are documented where they are defined: a module's __all__ may re-export names (the package
+# faces birdocp and birdocp.engine re-export dozens), which would otherwise be documented twice.
+autodoc_default_options = {"members": True, "show-inheritance": False, "ignore-module-all": True}
 autodoc_typehints = "none"
 numpydoc_show_class_members = False
 numpydoc_validation_checks: set = set()

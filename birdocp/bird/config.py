@@ -2,7 +2,7 @@
 
 Every number carries its unit in its name. Angles are in degrees in the configuration and are
 converted to radians inside the model graphs. The defaults are the reference implementation's values
-(``../shared/spec/model.md``), with the paper's reference flapping amplitude of 42 deg.
+(``docs/model.md``), with the paper's reference flapping amplitude of 42 deg.
 
 A configuration is read from / written to TOML with sections ``[body]``, ``[wing]``, ``[gait]`` (with
 one sub-table per joint), ``[aero]`` and ``[solve]``. Any bad key or value raises :class:`ConfigError`
@@ -95,7 +95,7 @@ class Wing:
     to continue from massless wings; at mass 0 they change nothing (bit for bit)."""
 
 
-# Joint names in the order of the model's slots (spec 2.1). Docstrings carry the paper's names.
+# Joint names in the order of the model's slots (docs/model.md §2.1). Docstrings carry the paper's names.
 JOINT_NAMES = (
     "shoulder_incidence", "shoulder_flap", "shoulder_sweep",
     "elbow_flex", "hand_twist", "wrist_flex", "wrist_spread",
@@ -149,7 +149,7 @@ class Aero:
 
 @dataclass(frozen=True)
 class Tail:
-    """Optional slender delta-wing tail behind G (spec 7); off (zero loads) at opening angle 0."""
+    """Optional slender delta-wing tail behind G (docs/model.md §7); off (zero loads) at opening angle 0."""
 
     enabled: bool = False
     """Put the tail terms in the model graphs. Implied by an opening angle > 0; set it to study the

@@ -101,7 +101,7 @@ class PowerFunctions:
         rows = [P_aero, P_flap, P_body, P_ind, P_pro, P_par, P_tail, U, W]
         self.names = POWER_NAMES + ("forward_speed_mps", "vertical_speed_mps")
         if getattr(model, "wing_power_d", None) is not None:
-            # wings with mass: the power the shoulders spend on the wings' masses (inertia.md 6)
+            # wings with mass: the power the shoulders spend on the wings' masses (docs/studies/inertia.md, powers)
             from birdocp.bird.model import WING_POWER_NAMES
 
             wp = model.wing_power_d(x, d, p)

@@ -1,4 +1,4 @@
-"""Optional tail: a slender delta wing behind the centre of mass (spec 7), off by default.
+"""Optional tail: a slender delta wing behind the centre of mass (docs/model.md §7), off by default.
 
 The tail is a flat delta of length ``l_t`` whose span ``b_t = 2 l_t tan(beta/2)`` follows its opening
 angle beta; with beta = 0 (the default) every tail term is exactly zero, as in the reference

@@ -1,6 +1,6 @@
 """Export the bird model as a self-contained C folder (``birdocp export-c``).
 
-The split (``design.md`` 2 and 5): the whole geometry ``data(t, p)`` (214k-480k SX nodes) does not
+The split (``docs/performance.md``): the whole geometry ``data(t, p)`` (214k-480k SX nodes) does not
 compile in reasonable time, so it is evaluated here, in Python, on the RK4 stage-time grid of the
 configured gait and written as a **table in a generated C file** (``bird_data.c``, a ``static const``
 array of ``(2N+1) x N_DATA`` doubles in shortest round-trip decimal, so the values are bit-exact). A
@@ -195,8 +195,8 @@ def _header(info: ExportInfo, cfg: Config) -> str:
         from birdocp.bird.inertia import MASS_BLOCK
 
         blocks += [f" *   d[{k + i}]  {name} (wing masses, body frame)" for i, name in enumerate(MASS_BLOCK)]
-        blocks.append(" * With wing masses the RHS adds their inertial forces and moments (birdocp spec"
-                      " inertia.md 4): m is then the whole bird's mass and I the body's own pitch inertia.")
+        blocks.append(" * With wing masses the RHS adds their inertial forces and moments (docs/studies/inertia.md,"
+                      " equations): m is then the whole bird's mass and I the body's own pitch inertia.")
     return HEADER_TEMPLATE.format(
         version=__version__, casadi=ca.__version__, N=info.steps_per_period, T=repr(info.period_s),
         h=repr(info.step_s), nd=info.n_data, ncol=2 * info.steps_per_period + 1,

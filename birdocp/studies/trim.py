@@ -91,7 +91,7 @@ class TrimResult:
 
     @property
     def wing_power(self) -> dict:
-        """Powers of the wing masses over the cycle (spec inertia.md 6), computed once.
+        """Powers of the wing masses over the cycle (docs/studies/inertia.md, powers), computed once.
 
         Keys: ``t_s`` (the trajectory times, one period), the time histories of
         :data:`birdocp.bird.model.WING_POWER_NAMES` and their period means ``mean_<name>``, the
