@@ -78,3 +78,19 @@ def test_examples_run(module):
         runner.run(t)
     result = runner.summarize(verbose=False)
     assert result.failed == 0, f"{module}: {result.failed} of {result.attempted} examples failed (output above)"
+
+
+def test_api_page_lists_the_faces():
+    """docs/api.rst's topic tables list exactly the faces' names (no name missing, none stale)."""
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "api.rst").read_text(encoding="utf-8")
+    listed = set(re.findall(r"^   ~(birdocp[\w.]+)$", text, flags=re.M))
+    expected = set()
+    for face in FACES:
+        mod = importlib.import_module(face)
+        for name, target in mod._TARGETS.items():
+            module, _, attr = target.partition(":")
+            expected.add(f"{module}.{attr or name}")
+    assert listed == expected, f"missing: {sorted(expected - listed)}; stale: {sorted(listed - expected)}"

@@ -518,7 +518,18 @@ def loads(text: str) -> Config:
 
 
 def load(path: str | Path) -> Config:
-    """The configuration in a TOML file (see :func:`loads`)."""
+    """The configuration in a TOML file (see :func:`loads`).
+
+    Parameters
+    ----------
+    path : str or Path
+        A TOML file as ``birdocp config`` prints it (missing keys take the defaults).
+
+    Returns
+    -------
+    Config
+        The validated configuration.
+    """
     path = Path(path)
     if not path.is_file():
         raise ConfigError("", f"config file '{path}' does not exist; give the path of a TOML file")
@@ -533,7 +544,15 @@ def dumps(cfg: Config) -> str:
 
 
 def dump(cfg: Config, path: str | Path) -> None:
-    """Write the configuration as a TOML file, atomically."""
+    """Write the configuration as a TOML file, atomically.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration (every key is written, units in the key names).
+    path : str or Path
+        The file to write.
+    """
     from birdocp.io.files import atomic_write_text
 
     atomic_write_text(path, dumps(cfg))
@@ -548,7 +567,31 @@ def parse_scalar(text: str) -> Any:
 
 
 def with_values(cfg: Config, values: dict[str, Any]) -> Config:
-    """A copy of ``cfg`` with dotted keys replaced (values already typed)."""
+    """A copy of ``cfg`` with dotted keys replaced (values already typed).
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration to start from (not modified: configurations are frozen).
+    values : dict of str to object
+        Dotted key (``"gait.shoulder_flap.amplitude_deg"``) to its new value.
+
+    Returns
+    -------
+    Config
+        The new, validated configuration.
+
+    Raises
+    ------
+    ConfigError
+        An unknown key or a bad value (the message names the key and the fix).
+
+    Examples
+    --------
+    >>> from birdocp.bird.config import Config, with_values
+    >>> with_values(Config(), {"wing.root_ahead_m": 0.04}).wing.root_ahead_m
+    0.04
+    """
     data = to_dict(cfg)
     for key, value in values.items():
         parts = key.split(".")
@@ -578,7 +621,26 @@ def with_values(cfg: Config, values: dict[str, Any]) -> Config:
 
 
 def set_value(cfg: Config, assignment: str) -> Config:
-    """Apply one ``KEY=VALUE`` string (the CLI's ``--set``); the value is parsed as TOML."""
+    """Apply one ``KEY=VALUE`` string (the CLI's ``--set``); the value is parsed as TOML.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration to start from.
+    assignment : str
+        ``"KEY=VALUE"``, e.g. ``"aero.circulation=relaxed"``.
+
+    Returns
+    -------
+    Config
+        The new, validated configuration.
+
+    Examples
+    --------
+    >>> from birdocp.bird.config import Config, set_value
+    >>> set_value(Config(), "aero.circulation=relaxed").aero.circulation
+    'relaxed'
+    """
     if "=" not in assignment:
         raise ConfigError(assignment, "expected KEY=VALUE, e.g. aero.circulation=relaxed")
     key, text = assignment.split("=", 1)

@@ -598,7 +598,18 @@ class ConfiguredModel:
 
 
 def get_model(cfg: Config) -> ConfiguredModel:
-    """The model for cfg: graphs cached per :class:`Structure`, numbers from cfg in ``p0``."""
+    """The model for ``cfg``: graphs cached per :class:`Structure`, numbers from ``cfg`` in ``p0``.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration.
+
+    Returns
+    -------
+    ConfiguredModel
+        The shared :class:`BirdModel` (``.model``) with this configuration's parameter vector.
+    """
     return ConfiguredModel(_model_for(Structure.of(cfg)), cfg)
 
 

@@ -483,6 +483,22 @@ def solve_orbit(problem: OrbitProblem, method: OrbitMethod = OrbitMethod(),
     orbit is not an equilibrium. With ``method.steps_per_period=None`` the steps are doubled from
     ``method.min_steps`` until the error estimate is below ``method.accuracy`` (a failed solve on a
     grid too coarse for the dynamics is retried on the finer grid too).
+
+    Parameters
+    ----------
+    problem : OrbitProblem
+        The ODE, its parameters, the guess of a state on the orbit and of the period.
+    method : OrbitMethod
+        Shooting points, steps per period (None: refined to ``accuracy``), integrator, solver,
+        tolerances.
+    warm_start : PeriodicOrbit, optional
+        A previous orbit that starts the solve.
+
+    Returns
+    -------
+    PeriodicOrbit
+        ``success``, ``status``, ``period``, ``x0``, ``multipliers`` (the trivial one reported apart),
+        ``stable``, ``error_estimate`` and ``accurate``.
     """
     method.validate()
     if method.steps_per_period is None:

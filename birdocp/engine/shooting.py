@@ -627,6 +627,38 @@ def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShootin
     a ``Solve_Succeeded`` with a larger residual becomes status ``residual_above_tol``). A Ctrl-C
     during the solve raises ``KeyboardInterrupt`` (never a status, never a retry), also when CasADi
     caught it inside IPOPT.
+
+    Parameters
+    ----------
+    problem : LimitCycleProblem
+        The ODE, its parameters, the guess, free parameters and mean conditions.
+    method : MultipleShooting
+        Shooting points, RK4 steps per period, solver (``ipopt`` or ``lm``), derivatives, tolerances.
+    warm_start : LimitCycleResult, optional
+        A previous result on the same grid whose shooting points (and free values) start the solve.
+
+    Returns
+    -------
+    LimitCycleResult
+        ``success``, ``status``, ``x0``, ``shooting_points``, the trajectory, ``monodromy``,
+        ``multipliers`` (largest modulus first), ``floquet_exponents``, ``stable``, ``means`` and
+        ``free_values``.
+
+    Examples
+    --------
+    A forced linear oscillator ``x'' + 0.5 x' + x = cos t``: the orbit is ``x = 2 sin t``, and the
+    multipliers are ``exp(2 pi eig(A))``, of modulus ``exp(-0.5 pi)`` (Liouville).
+
+    >>> import casadi as ca, numpy as np
+    >>> from birdocp.engine import LimitCycleProblem, MultipleShooting, PeriodicODE, solve
+    >>> x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 1)
+    >>> f = ca.Function("f", [x, t, p], [ca.vertcat(x[1], -p[0] * x[1] - x[0] + ca.cos(t))])
+    >>> res = solve(LimitCycleProblem(PeriodicODE.from_rhs(f, 2 * np.pi), p=[0.5], x_guess=[0, 0]),
+    ...             MultipleShooting(points=3, steps_per_period=200))
+    >>> res.success, bool(np.allclose(res.x0, [0.0, 2.0], atol=1e-4))
+    (True, True)
+    >>> bool(np.allclose(np.abs(res.multipliers), np.exp(-0.5 * np.pi), rtol=1e-6))
+    True
     """
     with interrupts.interruptible():
         return _solve(problem, method, warm_start)

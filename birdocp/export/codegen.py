@@ -104,7 +104,22 @@ def export_c(cfg: Config | None = None, out_dir: str | os.PathLike = "bird_c", *
     """Write the C folder for ``cfg`` (gait, wing and aero numbers baked into the table) to ``out_dir``.
 
     ``steps_per_period``: RK4 steps N per period (default ``cfg.solve.steps_per_period``). The period
-    map starts at t = 0 (phase zero of the gait), like :func:`birdocp.studies.trim.trim`."""
+    map starts at t = 0 (phase zero of the gait), like :func:`birdocp.studies.trim.trim`.
+
+    Parameters
+    ----------
+    cfg : Config, optional
+        The configuration (default: the paper's reference case).
+    out_dir : str or PathLike
+        The folder to write (created).
+    steps_per_period : int, optional
+        See above.
+
+    Returns
+    -------
+    ExportInfo
+        What was written (files, sizes, the parameter table).
+    """
     from birdocp.bird.model import get_model
 
     t_all = time.perf_counter()

@@ -222,7 +222,22 @@ def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None =
     :class:`CompiledFallbackWarning` when compiling or loading the RHS fails.
 
     The result is memoised per ``ode`` object, so the engine's graph caches (keyed by ODE identity)
-    are reused across solves."""
+    are reused across solves.
+
+    Parameters
+    ----------
+    ode : PeriodicODE
+        The ODE to compile.
+    key_extra : str
+        Extra text for the cache key (e.g. the configuration's structure).
+    directory : Path, optional
+        The cache folder (default :func:`cache_dir`).
+
+    Returns
+    -------
+    PeriodicODE or None
+        The compiled ODE, or None when compiling failed (see above).
+    """
     hit = _ODES.get(id(ode))
     if hit is not None and hit[0] is ode:
         return hit[1]
