@@ -124,7 +124,7 @@ def moment_about_G(r, dF):
 
 
 def profile_drag(Vp, Vp_norm, chord, ds, rho, cd_profile):
-    """Wing profile drag per element (energetics.md 5), 3 x 16 in N, code frame (``chord``, ``ds`` 16 x 1):
+    """Wing profile drag per element (docs/studies/energetics.md, the optional drag), 3 x 16 in N, code frame (``chord``, ``ds`` 16 x 1):
     ``dD_j = 1/2 rho C_Dpro c_j ds_j |Vp_j| Vp_j`` along the section's relative wind."""
     return 0.5 * rho * cd_profile * Vp * ca.repmat(Vp_norm * (chord * ds).T, 3, 1)
 

@@ -166,7 +166,7 @@ class Tail:
 
 @dataclass(frozen=True)
 class Drag:
-    """Optional drag terms of Pennycuick's flight model (``energetics.md`` 5), off by default: with
+    """Optional drag terms of Pennycuick's flight model (docs/studies/energetics.md, the optional drag), off by default: with
     both coefficients 0 the terms are not built and the model is the paper's, bit for bit.
 
     Both act after the lifting-line solve (they do not change the circulation)."""

@@ -51,7 +51,7 @@ def local_mass_points(q: dict, arm_m, forearm_m, hand_m, feather_lengths_m):
     """The 20 mass points of the right wing in the arm's frame (shoulder rotation R1 = I, wing frame
     at the shoulder, code-frame axes), with the index of the segment each belongs to.
 
-    Segments: 0 arm, 1 forearm, 2 hand, 3+i feather i (i = 0..6). Feathers as in model.md 3 (all seven,
+    Segments: 0 arm, 1 forearm, 2 hand, 3+i feather i (i = 0..6). Feathers as in docs/model.md §3 (all seven,
     with their pre-rotations); bases: f_0 at E4, f_1 mid-hand, f_2 at E2, f_3 mid-forearm, f_4 at E1,
     f_5 mid-arm, f_6 at the shoulder. The world position is R1 times each point.
     """
@@ -179,6 +179,6 @@ def wing_powers(x, nudot, sums, gravity_mps2):
 
 def total_shoulder_power_W(shoulder_inertial_power_W, flapping_aerodynamic_power_W):
     """Shoulder power of both wings [W] = inertial part (:func:`wing_powers`, key
-    ``shoulder_inertial_power_W``) + aerodynamic flapping part -sum F_j . r'_j (energetics.md);
+    ``shoulder_inertial_power_W``) + aerodynamic flapping part -sum F_j . r'_j (docs/studies/energetics.md);
     works on numbers, arrays and CasADi expressions alike (time histories or period means)."""
     return shoulder_inertial_power_W + flapping_aerodynamic_power_W

@@ -1,10 +1,11 @@
 """Sphinx directive ``birdocp-layout``: the repository's layout, generated from the tree at build time.
 
 For each folder given as an argument (default: ``birdocp scripts docs/_ext docs/tutorials_src``) it
-lists the packages and modules with the first line of their docstring, read with :mod:`ast` (no
-import), so the page can never name a file that no longer exists, and a new module appears without
-editing the docs. A module without a docstring is listed as such. Files whose name starts with ``_``
-other than ``__init__.py``, and ``build_info.py`` (written at install time), are left out.
+lists the sub-packages (with the first line of their ``__init__.py`` docstring) and the modules (with
+the first line of theirs), read with :mod:`ast` (no import), so the page can never name a file that
+no longer exists, and a new module appears without editing the docs. A module without a docstring is
+listed as such. Files whose name starts with ``_`` and ``build_info.py`` (written at install time)
+are left out.
 """
 
 from __future__ import annotations
@@ -38,7 +39,8 @@ def first_line(path: Path) -> str:
 
 
 def entries(folder: Path) -> list[tuple[Path, str, list]]:
-    """The modules of ``folder`` (``__init__.py`` first) and its sub-packages, recursively.
+    """The modules of ``folder`` and its sub-packages, recursively (a package's ``__init__.py``
+    docstring is the line of its folder).
 
     Parameters
     ----------
@@ -51,9 +53,7 @@ def entries(folder: Path) -> list[tuple[Path, str, list]]:
         ``(path, first docstring line, children)``; children only for sub-folders.
     """
     out = []
-    files = sorted(p for p in folder.glob("*.py") if p.name not in SKIP
-                   and (not p.name.startswith("_") or p.name == "__init__.py"))
-    files.sort(key=lambda p: p.name != "__init__.py")
+    files = sorted(p for p in folder.glob("*.py") if p.name not in SKIP and not p.name.startswith("_"))
     for p in files:
         out.append((p, first_line(p), []))
     for sub in sorted(d for d in folder.iterdir() if d.is_dir() and not d.name.startswith((".", "_"))):
