@@ -57,6 +57,38 @@ def test_parameters_documented(func):
     assert has_returns or returns_none, f"{func.__module__}.{func.__qualname__}: no Returns section"
 
 
+# The classes of the faces that a user constructs (the result types are returned, not constructed):
+# each of their constructor's parameters is documented (numpydoc Parameters or Attributes, or an
+# attribute docstring under a dataclass field, as birdocp.bird.config does).
+INPUT_CLASSES = {"birdocp": ["Config", "Gust", "BirdModel"],
+                 "birdocp.engine": ["PeriodicODE", "LimitCycleProblem", "MeanCondition", "ODE", "MultipleShooting",
+                                    "OrbitProblem", "OrbitMethod", "ContinuationOptions"]}
+
+
+def _attribute_docstrings(cls) -> set[str]:
+    import ast
+    import textwrap
+
+    tree = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0]
+    out = set()
+    for a, b in zip(tree.body, tree.body[1:]):
+        if (isinstance(a, ast.AnnAssign) and isinstance(a.target, ast.Name) and isinstance(b, ast.Expr)
+                and isinstance(b.value, ast.Constant) and isinstance(b.value.value, str)):
+            out.add(a.target.id)
+    return out
+
+
+@pytest.mark.parametrize("face,name", [(f, n) for f, names in INPUT_CLASSES.items() for n in names])
+def test_constructor_parameters_documented(face, name):
+    cls = getattr(importlib.import_module(face), name)
+    doc = numpydoc_docscrape.ClassDoc(cls, config={"show_class_members": False})
+    documented = {n.strip() for prm in doc["Parameters"] + doc["Attributes"] for n in prm.name.split(",")}
+    documented |= _attribute_docstrings(cls)
+    params = [p for p in _signature_names(cls) if p != "self"]
+    missing = [p for p in params if p.lstrip("*") not in documented and p not in documented]
+    assert not missing, f"{face}.{name}: constructor parameters not documented: {missing}"
+
+
 def test_face_is_not_empty():
     """Each face exports functions, so the test above checks something."""
     assert len(_face_functions()) >= 20

@@ -237,6 +237,36 @@ class Validity:
 
 @dataclass(frozen=True)
 class Config:
+    """The whole configuration, one frozen section per concern; the defaults are the paper's
+    reference case (``birdocp config`` prints it as TOML, every key with its unit in the name).
+
+    Attributes
+    ----------
+    body
+        mass, pitch inertia, gravity, reference chord (:class:`Body`).
+    wing
+        bones, feathers, wing-root position, wing mass (:class:`Wing`).
+    gait
+        flapping frequency and the seven joint laws (:class:`Gait`).
+    aero
+        air density, lift slope, circulation solve, kinematic velocity (:class:`Aero`).
+    tail
+        the optional tail, off by default (:class:`Tail`).
+    drag
+        the optional body and profile drag, off by default (:class:`Drag`).
+    solve
+        shooting points, RK4 steps, solver, initial guess (:class:`Solve`).
+    validity
+        the thresholds of where the model holds (:class:`Validity`).
+
+    Examples
+    --------
+    >>> from birdocp.bird.config import Config
+    >>> cfg = Config()
+    >>> cfg.gait.shoulder_flap.amplitude_deg, cfg.wing.root_ahead_m
+    (42.0, 0.05)
+    """
+
     body: Body = field(default_factory=Body)
     wing: Wing = field(default_factory=Wing)
     gait: Gait = field(default_factory=Gait)

@@ -447,7 +447,16 @@ class BirdModel:
     MX composition of ``pre`` and ``post`` (the same numbers as ``data``).
 
     ``graph_source`` says where the graphs came from: ``"built"``, ``"cache"`` (read) or
-    ``"built+stored"``; ``graph_s`` the seconds it took.
+    ``"built+stored"``; ``graph_s`` the seconds it took. Most users call :func:`get_model`, which
+    shares one model per structure.
+
+    Parameters
+    ----------
+    structure : Structure
+        What changes the graphs (not the numbers): the frequency, circulation and kinematic-velocity variants,
+        tail, drag and wing-mass switches (``Structure.of(cfg)``).
+    use_cache : bool
+        Read and store the graphs in the on-disk graph cache (when it is enabled).
     """
 
     def __init__(self, structure: Structure, use_cache: bool = True):

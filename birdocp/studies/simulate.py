@@ -48,10 +48,21 @@ DIRECTIONS = ("vertical", "horizontal")
 
 @dataclass(frozen=True)
 class Gust:
-    """A 1 - cos gust: ``direction`` 'vertical' (positive up) or 'horizontal' (positive along the
-    flight direction, i.e. a tailwind; negative = headwind), peak ``amplitude_mps``, length in
-    wingbeats (``length_beats``) or metres (``length_m``), start ``start_beats`` ahead (in beats of
-    the cycle's flight distance) or ``start_m``."""
+    """A 1 - cos gust, frozen in the air.
+
+    Attributes
+    ----------
+    direction
+        'vertical' (positive up) or 'horizontal' (positive along the flight direction, i.e. a
+        tailwind; negative = headwind).
+    amplitude_mps
+        peak wind speed of the gust [m/s].
+    length_beats, length_m
+        its length in wingbeats (of the cycle's flight distance) or in metres (``length_m`` wins
+        when given).
+    start_beats, start_m
+        how far ahead of the bird it starts, in beats or in metres (``start_m`` wins when given).
+    """
 
     direction: str
     amplitude_mps: float
