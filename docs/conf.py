@@ -6,11 +6,15 @@ documents itself with it: numpydoc reads the docstrings as they are written in b
 generates one page per module recursively (a new module appears without editing the docs),
 sphinx-gallery executes the tutorials at every build, and MyST lets pages be Markdown.
 
-Adding to the docs: a study page is a new file docs/studies/NAME.md, listed in the Studies toctree
-of index.md (in the paper's order; -W turns a page outside every toctree into an error); a tutorial is a new script docs/tutorials_src/plot_NN_name.py (executed at every build: keep
-it to seconds); a new module appears in the API reference by itself (recursive autosummary) and in the layout page and a new
-command in the CLI reference (generated from the parser). Any other new page must be added to a
-toctree in index.md (-W turns "not in any toctree" into an error).
+Adding to the docs: a study page is a new file docs/studies/NAME.md, listed in the Studies
+toctree of index.md (in the paper's order); any other new page goes into a toctree of index.md too
+(-W turns a page outside every toctree into an error, so a forgotten entry fails the build). A
+tutorial is a new script docs/tutorials_src/plot_NN_name.py (executed at every build: keep it to
+seconds). A new module appears by itself in the API reference (recursive autosummary) and on the
+layout page (docs/_ext/layout_tree.py); a new command in the CLI reference (generated from the
+parser); a new name of the package faces must be added to the topic tables of docs/api.rst
+(tests/test_docstrings.py checks that they list exactly the faces' names). Every Python block of a
+page runs in the tests (tests/test_docs_examples.py) unless marked as a sketch.
 """
 
 from __future__ import annotations
