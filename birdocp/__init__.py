@@ -28,7 +28,7 @@ except ImportError:  # a source tree that was never built: the installed metadat
 # every target exists and that no target is in the command-line layer.
 API = {
     "configuration": {
-        "Config": "birdocp.bird.config", "ConfigError": "birdocp.bird.config",
+        "Config": "birdocp.bird.config", "ConfigError": "birdocp.io.errors",
         "with_values": "birdocp.bird.config", "set_value": "birdocp.bird.config",
         "load_config": "birdocp.bird.config:load", "dump_config": "birdocp.bird.config:dump",
     },

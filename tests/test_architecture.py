@@ -136,7 +136,10 @@ def test_public_faces():
             assert target.startswith(allowed), f"{face.__name__}.{name} -> {target}: outside the face's layers"
             assert importlib.util.find_spec(f"{face.__name__}.{name}") is None, \
                 f"{face.__name__}.{name} is also a submodule: the import system would shadow the name"
-            assert getattr(face, name) is not None
+            obj = getattr(face, name)
+            module = face._TARGETS[name].partition(":")[0]
+            assert getattr(obj, "__module__", module) == module, \
+                f"{face.__name__}.{name}: name its defining module {obj.__module__}, not {module} (the docs link there)"
     code = ("import sys, birdocp, birdocp.engine; "
             "print(sorted(m for m in sys.modules if m.startswith('birdocp.') and m != 'birdocp.build_info'))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
