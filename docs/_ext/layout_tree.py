@@ -11,6 +11,7 @@ are left out.
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 from docutils import nodes
@@ -64,13 +65,30 @@ def entries(folder: Path) -> list[tuple[Path, str, list]]:
     return out
 
 
+_CODE = re.compile(r"(?::[a-z]+:)?`{1,2}~?([^`]+?)`{1,2}")
+
+
+def _inline(text: str) -> list:
+    """Text with its ``code`` and :role:`target` parts as literals (docstrings are reStructuredText)."""
+    out, pos = [], 0
+    for m in _CODE.finditer(text):
+        if m.start() > pos:
+            out.append(nodes.Text(text[pos:m.start()]))
+        out.append(nodes.literal(text=m.group(1)))
+        pos = m.end()
+    if pos < len(text):
+        out.append(nodes.Text(text[pos:]))
+    return out
+
+
 def _list(items) -> nodes.bullet_list:
     bl = nodes.bullet_list()
     for path, line, kids in items:
         name = path.relative_to(ROOT).as_posix() + ("/" if path.is_dir() else "")
         para = nodes.paragraph()
         para += nodes.literal(text=name)
-        para += nodes.Text(": " + line if line else ": (no docstring)")
+        para += nodes.Text(": ")
+        para += _inline(line) if line else [nodes.Text("(no docstring)")]
         li = nodes.list_item()
         li += para
         if kids:
