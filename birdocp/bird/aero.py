@@ -1,6 +1,6 @@
-"""Quasi-steady lifting-line aerodynamics (spec 5).
+"""Quasi-steady lifting-line aerodynamics (docs/model.md §5).
 
-Two halves, following the split of ``design.md`` 5:
+Two halves, following the data/right-hand-side split of ``docs/model.md``:
 
 * :func:`circulation_matrices` depends on the geometry only (time and gait parameters): the wake
   influence matrix of the straight semi-infinite vortex tubes and the solve of the lifting-line
@@ -25,7 +25,7 @@ def induced_matrices(centres, nodes):
     """Induced velocity per unit circulation at the element centres.
 
     Returns (Vx, Vy, K) (16 x 16 SX): e1 and e2 components of the induced velocity at centre j per
-    unit Gamma_m, and the downwash per unit circulation K = v . d_j (spec 5.6). Only the (e1, e2)
+    unit Gamma_m, and the downwash per unit circulation K = v . d_j (docs/model.md §5.6). Only the (e1, e2)
     coordinates are used: the wake filaments are straight and parallel to e3.
     """
     n_c, n_n = len(centres), len(nodes)
@@ -124,7 +124,7 @@ def moment_about_G(r, dF):
 
 
 def profile_drag(Vp, Vp_norm, chord, ds, rho, cd_profile):
-    """Wing profile drag per element (energetics.md 5), 3 x 16 in N, code frame (``chord``, ``ds`` 16 x 1):
+    """Wing profile drag per element (docs/studies/energetics.md, the optional drag), 3 x 16 in N, code frame (``chord``, ``ds`` 16 x 1):
     ``dD_j = 1/2 rho C_Dpro c_j ds_j |Vp_j| Vp_j`` along the section's relative wind."""
     return 0.5 * rho * cd_profile * Vp * ca.repmat(Vp_norm * (chord * ds).T, 3, 1)
 

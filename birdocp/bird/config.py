@@ -2,7 +2,7 @@
 
 Every number carries its unit in its name. Angles are in degrees in the configuration and are
 converted to radians inside the model graphs. The defaults are the reference implementation's values
-(``../shared/spec/model.md``), with the paper's reference flapping amplitude of 42 deg.
+(``docs/model.md``), with the paper's reference flapping amplitude of 42 deg.
 
 A configuration is read from / written to TOML with sections ``[body]``, ``[wing]``, ``[gait]`` (with
 one sub-table per joint), ``[aero]`` and ``[solve]``. Any bad key or value raises :class:`ConfigError`
@@ -95,7 +95,7 @@ class Wing:
     to continue from massless wings; at mass 0 they change nothing (bit for bit)."""
 
 
-# Joint names in the order of the model's slots (spec 2.1). Docstrings carry the paper's names.
+# Joint names in the order of the model's slots (docs/model.md §2.1). Docstrings carry the paper's names.
 JOINT_NAMES = (
     "shoulder_incidence", "shoulder_flap", "shoulder_sweep",
     "elbow_flex", "hand_twist", "wrist_flex", "wrist_spread",
@@ -149,7 +149,7 @@ class Aero:
 
 @dataclass(frozen=True)
 class Tail:
-    """Optional slender delta-wing tail behind G (spec 7); off (zero loads) at opening angle 0."""
+    """Optional slender delta-wing tail behind G (docs/model.md §7); off (zero loads) at opening angle 0."""
 
     enabled: bool = False
     """Put the tail terms in the model graphs. Implied by an opening angle > 0; set it to study the
@@ -166,7 +166,7 @@ class Tail:
 
 @dataclass(frozen=True)
 class Drag:
-    """Optional drag terms of Pennycuick's flight model (``energetics.md`` 5), off by default: with
+    """Optional drag terms of Pennycuick's flight model (docs/studies/energetics.md, the optional drag), off by default: with
     both coefficients 0 the terms are not built and the model is the paper's, bit for bit.
 
     Both act after the lifting-line solve (they do not change the circulation)."""
@@ -237,6 +237,36 @@ class Validity:
 
 @dataclass(frozen=True)
 class Config:
+    """The whole configuration, one frozen section per concern; the defaults are the paper's
+    reference case (``birdocp config`` prints it as TOML, every key with its unit in the name).
+
+    Attributes
+    ----------
+    body
+        mass, pitch inertia, gravity, reference chord (:class:`Body`).
+    wing
+        bones, feathers, wing-root position, wing mass (:class:`Wing`).
+    gait
+        flapping frequency and the seven joint laws (:class:`Gait`).
+    aero
+        air density, lift slope, circulation solve, kinematic velocity (:class:`Aero`).
+    tail
+        the optional tail, off by default (:class:`Tail`).
+    drag
+        the optional body and profile drag, off by default (:class:`Drag`).
+    solve
+        shooting points, RK4 steps, solver, initial guess (:class:`Solve`).
+    validity
+        the thresholds of where the model holds (:class:`Validity`).
+
+    Examples
+    --------
+    >>> from birdocp.bird.config import Config
+    >>> cfg = Config()
+    >>> cfg.gait.shoulder_flap.amplitude_deg, cfg.wing.root_ahead_m
+    (42.0, 0.05)
+    """
+
     body: Body = field(default_factory=Body)
     wing: Wing = field(default_factory=Wing)
     gait: Gait = field(default_factory=Gait)
@@ -521,7 +551,19 @@ def loads(text: str) -> Config:
 
 
 def load(path: str | Path) -> Config:
-    """The configuration in a TOML file (see :func:`loads`)."""
+    """The configuration in a TOML file (see :func:`loads`).
+
+    Parameters
+    ----------
+    path : str or Path
+        A TOML file as ``birdocp config`` prints it (missing keys take the defaults); read through
+        :func:`birdocp.io.inputs.read_input_text` (a regular file of bounded size, never a FIFO).
+
+    Returns
+    -------
+    Config
+        The validated configuration.
+    """
     from birdocp.io.inputs import read_input_text
 
     return loads(read_input_text(path, "", what=f"config file '{path}'"))
@@ -535,7 +577,15 @@ def dumps(cfg: Config) -> str:
 
 
 def dump(cfg: Config, path: str | Path) -> None:
-    """Write the configuration as a TOML file, atomically."""
+    """Write the configuration as a TOML file, atomically.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration (every key is written, units in the key names).
+    path : str or Path
+        The file to write.
+    """
     from birdocp.io.files import atomic_write_text
 
     atomic_write_text(path, dumps(cfg))
@@ -554,7 +604,31 @@ def parse_scalar(text: str) -> Any:
 
 
 def with_values(cfg: Config, values: dict[str, Any]) -> Config:
-    """A copy of ``cfg`` with dotted keys replaced (values already typed)."""
+    """A copy of ``cfg`` with dotted keys replaced (values already typed).
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration to start from (not modified: configurations are frozen).
+    values : dict of str to object
+        Dotted key (``"gait.shoulder_flap.amplitude_deg"``) to its new value.
+
+    Returns
+    -------
+    Config
+        The new, validated configuration.
+
+    Raises
+    ------
+    ConfigError
+        An unknown key or a bad value (the message names the key and the fix).
+
+    Examples
+    --------
+    >>> from birdocp.bird.config import Config, with_values
+    >>> with_values(Config(), {"wing.root_ahead_m": 0.04}).wing.root_ahead_m
+    0.04
+    """
     data = to_dict(cfg)
     for key, value in values.items():
         parts = key.split(".")
@@ -584,7 +658,26 @@ def with_values(cfg: Config, values: dict[str, Any]) -> Config:
 
 
 def set_value(cfg: Config, assignment: str) -> Config:
-    """Apply one ``KEY=VALUE`` string (the CLI's ``--set``); the value is parsed as TOML."""
+    """Apply one ``KEY=VALUE`` string (the CLI's ``--set``); the value is parsed as TOML.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration to start from.
+    assignment : str
+        ``"KEY=VALUE"``, e.g. ``"aero.circulation=relaxed"``.
+
+    Returns
+    -------
+    Config
+        The new, validated configuration.
+
+    Examples
+    --------
+    >>> from birdocp.bird.config import Config, set_value
+    >>> set_value(Config(), "aero.circulation=relaxed").aero.circulation
+    'relaxed'
+    """
     if "=" not in assignment:
         raise ConfigError(assignment, "expected KEY=VALUE, e.g. aero.circulation=relaxed")
     key, text = assignment.split("=", 1)

@@ -136,9 +136,23 @@ class SecondOrderMaps:
 
 
 def multiplier_sensitivities(cycle_result, parameters=None, *, hold_level: bool = False) -> SensitivityResult:
-    """Exact derivatives of the multipliers of a converged trim (``TrimResult``) with respect to
-    ``parameters`` (keys of PARAM_NAMES; default :data:`DEFAULT_PARAMETERS`), the change of the cycle
-    included; with ``hold_level`` the amplitude is re-solved to keep the mean vertical speed."""
+    """Exact derivatives of the multipliers of a converged trim, the change of the cycle included.
+
+    Parameters
+    ----------
+    cycle_result : TrimResult
+        A converged trim (or level) result.
+    parameters : sequence of str, optional
+        Keys of :data:`PARAM_NAMES` (default :data:`DEFAULT_PARAMETERS`).
+    hold_level : bool
+        Re-solve the amplitude along each direction to keep the mean vertical speed.
+
+    Returns
+    -------
+    SensitivityResult
+        d(multiplier)/d(parameter) and d|multiplier|/d(parameter) per parameter, in the parameter's
+        units; ``ranked()`` orders them by their effect on the largest modulus.
+    """
     cfg: Config = cycle_result.cfg
     c = cycle_result.cycle
     if not c.success:

@@ -192,17 +192,33 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
 
     Parameters
     ----------
-    level
-        each point a :func:`birdocp.studies.level.level` solve (``level_options`` passed on:
-        ``free``, ``bounds``, ``climb_rate_mps``, ``constrain``, ``target``).
-    warm
-        warm-start each point from the last successful one (else from the config's guess).
-    out_dir
-        run folder to write as the sweep goes (None: nothing written).
-    resume
-        reuse the points found in ``out_dir`` (same key, values and configuration).
-    method_over
-        overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
+    cfg : Config or None
+        The configuration (None: the paper's reference case).
+    key : str
+        The swept parameter: a dotted key of :data:`PARAM_NAMES` or an alias (``amplitude``,
+        ``root_ahead_m``).
+    values : sequence of float
+        The values of ``key``, solved in this order (:func:`sweep_values` makes an evenly spaced list).
+    level : bool
+        Each point a :func:`birdocp.studies.level.level` solve (``level_options`` passed on: ``free``,
+        ``bounds``, ``climb_rate_mps``, ``constrain``, ``target``).
+    warm : bool
+        Warm-start each point from the last successful one (else from the config's guess).
+    out_dir : str or Path, optional
+        Run folder to write as the sweep goes (None: nothing written).
+    resume : bool
+        Reuse the points found in ``out_dir`` (same key, values and configuration).
+    progress : bool
+        Draw a progress bar on stderr when it is a terminal.
+    level_options : dict, optional
+        Keyword arguments of :func:`~birdocp.studies.level.level` for ``level=True``.
+    **method_over
+        Overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
+
+    Returns
+    -------
+    list of dict
+        One row per value (the columns of :data:`CSV_COLUMNS`, with the point's validity).
     """
     cfg = cfg or Config()
     key = resolve_key(key, "key")
@@ -310,14 +326,46 @@ def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: s
                executor=None, level: bool = False, warm: bool = True, out_dir: str | Path | None = None,
                resume: bool = False, level_options: dict | None = None, **method_over) -> list[dict]:
     """A grid ``row_key x key``: one warm-started line over ``values`` of ``key`` per value of
-    ``row_key``, the rows independent jobs run by ``executor`` (:mod:`birdocp.engine.executors`; default
-    serial). Returns the table rows (``GRID_COLUMNS``), row after row.
+    ``row_key``, the rows independent jobs run by ``executor``.
 
     Written to ``out_dir``: ``grid.json`` (the definition) at the start; ``rows/row-0003.json`` as each
     row finishes (so an interrupted grid keeps its finished rows: ``resume=True`` solves only the
     missing ones); when all rows are done ``grid.json`` (definition + rows, ``complete: true``),
     ``grid.csv``, and ``timing.json`` (executor and wall times). ``grid.json`` and ``grid.csv`` hold no
-    wall times, so they do not depend on the executor."""
+    wall times, so they do not depend on the executor.
+
+    Parameters
+    ----------
+    cfg : Config or None
+        The configuration (None: the paper's reference case).
+    key : str
+        The parameter along each line (as in :func:`sweep`).
+    values : sequence of float
+        Its values.
+    row_key : str
+        The parameter that changes from row to row.
+    row_values : sequence of float
+        Its values, one line each.
+    executor : Executor, optional
+        Runs the rows (:func:`birdocp.engine.executors.get_executor`; default serial).
+    level : bool
+        Each point a level-flight solve.
+    warm : bool
+        Warm-start each point from its neighbour on the line.
+    out_dir : str or Path, optional
+        The run folder (None: nothing written).
+    resume : bool
+        Keep the finished rows found in ``out_dir``.
+    level_options : dict, optional
+        Keyword arguments of :func:`~birdocp.studies.level.level` for ``level=True``.
+    **method_over
+        Overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
+
+    Returns
+    -------
+    list of dict
+        The table rows (``GRID_COLUMNS``), row after row.
+    """
     from birdocp.engine.executors import SerialExecutor
 
     cfg = cfg or Config()
