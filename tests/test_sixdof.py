@@ -136,3 +136,27 @@ def test_trim_cli_with_six_degrees_of_freedom(tmp_path):
     assert r["state_names"][1] == "v_mps" and r["validity"]["valid"] in (True, False)
     assert {m["label"] for m in r["lateral_modes"]} <= {"spiral", "dutch_roll_like", "roll_subsidence", "lateral_real"}
     assert json.loads((tmp_path / "run" / "result.json").read_text())["heading_multiplier"] == r["heading_multiplier"]
+
+
+@pytest.mark.slow
+def test_lateral_sensitivity_against_central_differences(default_config, coarse):
+    """The exact derivative of the spiral multiplier's modulus along the shoulder elevation (dihedral)
+    against central differences of re-solved cycles."""
+    from birdocp.bird.config import with_values
+    from birdocp.studies.lateral import lateral_sensitivities
+
+    method = MultipleShooting(**coarse)
+    key = "gait.shoulder_flap.offset_deg"
+    res = lateral_trim(default_config, method=method)
+    (row,) = lateral_sensitivities(res, default_config, [key])
+    spiral = [i for i, lab in enumerate(row["labels"]) if lab == "spiral"]
+    assert len(spiral) == 1 and row["labels"].count("heading") == 1
+
+    def modulus(v):
+        r = lateral_trim(with_values(default_config, {key: v}), method=method)
+        return abs(next(m["multiplier"] for m in r.lateral_modes if m["label"] == "spiral"))
+
+    h = 0.01
+    fd = (modulus(h) - modulus(-h)) / (2 * h)
+    assert abs(row["d_moduli"][spiral[0]] - fd) < 1e-6 * max(1.0, abs(fd)), (row["d_moduli"][spiral[0]], fd)
+    assert row["d_moduli"][row["labels"].index("heading")] == pytest.approx(0.0, abs=1e-12)

@@ -56,7 +56,7 @@ LATERAL = (1, 3, 5, 6)
 HEADING = 8
 """Index of psi: nothing depends on it, so it adds a Floquet multiplier 1 (reported apart)."""
 
-LATERAL_PARAM_NAMES = ("body.roll_inertia_kgm2", "body.yaw_inertia_kgm2", "body.product_inertia_xz_kgm2")
+LATERAL_PARAM_NAMES = ("model.roll_inertia_kgm2", "model.yaw_inertia_kgm2", "model.product_inertia_xz_kgm2")
 """Parameters appended to :data:`birdocp.bird.config.PARAM_NAMES` in the six-degree-of-freedom ODE."""
 
 
@@ -149,7 +149,8 @@ class SixDofModel:
     ``ode`` is the :class:`~birdocp.engine.problem.PeriodicODE` the engine solves: state
     :data:`STATE_NAMES`, parameters :data:`~birdocp.bird.config.PARAM_NAMES` +
     :data:`LATERAL_PARAM_NAMES`, the planar model's data (its ``pre``/``post`` split kept);
-    ``rhs(x, d, p)`` and ``loads_d(x, d, p) -> (X, Y, Z, L, M, N)`` are SX Functions built once.
+    ``rhs(x, d, p)`` and ``loads_d(x, d, p) -> (X, Y, Z, L, M, N)`` are SX Functions built once;
+    ``data(t, p)`` is the planar model's data with the 6-DOF parameter vector.
     """
 
     def __init__(self, planar: BirdModel):
@@ -172,9 +173,17 @@ class SixDofModel:
         loc = ca.MX.sym("local", planar.pre.size1_out(0))
         post = ca.Function("post6", [loc, tm, pm], [planar.post(loc, tm, pb)], ["local", "t", "p"], ["d"])
         data = ca.Function("data6", [tm, pm], [post(pre(tm, pm), tm, pm)], ["t", "p"], ["d"])
+        self.data = data
+        self.period_s = planar.period_s
         self.ode = PeriodicODE(rhs=self.rhs, data=data, period_s=planar.period_s, state_names=STATE_NAMES,
                                param_names=tuple(PARAM_NAMES) + LATERAL_PARAM_NAMES, pre=pre, post=post,
                                pre_params=planar.pre_params)
+
+    @property
+    def model(self) -> "SixDofModel":
+        """The model itself (the identity the sensitivity maps are cached by, as a configured planar
+        model's ``model``)."""
+        return self
 
     def params(self, p_planar, inertia: LateralInertia = LateralInertia()) -> list[float]:
         """The 6-DOF parameter vector: the planar ``p_planar`` followed by ``inertia``'s values."""

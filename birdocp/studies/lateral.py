@@ -33,7 +33,8 @@ from birdocp.engine.results import result_dict, serial
 from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
 from birdocp.studies.level import default_bounds
 
-__all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "beats_to_double"]
+__all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "beats_to_double", "lateral_sensitivities",
+           "LATERAL_SENSITIVITY_KEYS"]
 
 
 def beats_to_double(multiplier: complex) -> float:
@@ -201,3 +202,62 @@ def _split(cfg, cyc, T, method, inertia, amplitude) -> LateralTrimResult:
 def _inertia_dict(inertia: LateralInertia) -> dict:
     return {"roll_inertia_kgm2": inertia.roll_inertia_kgm2, "yaw_inertia_kgm2": inertia.yaw_inertia_kgm2,
             "product_inertia_xz_kgm2": inertia.product_inertia_xz_kgm2}
+
+
+LATERAL_SENSITIVITY_KEYS = ("gait.shoulder_flap.offset_deg", "gait.shoulder_sweep.offset_deg",
+                            "gait.elbow_flex.offset_deg", "gait.wrist_flex.offset_deg",
+                            "gait.shoulder_incidence.offset_deg", "model.roll_inertia_kgm2",
+                            "model.yaw_inertia_kgm2")
+"""Default parameters of :func:`lateral_sensitivities`: the shoulder elevation (dihedral: the flap
+joint's offset), sweep, elbow and wrist offsets, the wing incidence and the lateral inertias."""
+
+
+def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, parameters=LATERAL_SENSITIVITY_KEYS):
+    """Exact derivatives of every multiplier of a converged 6-DOF cycle (fixed amplitude) with respect
+    to ``parameters`` (keys of :data:`birdocp.bird.config.PARAM_NAMES` or
+    :data:`birdocp.bird.sixdof.LATERAL_PARAM_NAMES`), the change of the cycle included (second-order
+    AD through the RK4 period map, :func:`birdocp.studies.sensitivity.cycle_derivatives`; the heading
+    is left out of the periodicity condition, its multiplier 1 being structural).
+
+    Returns
+    -------
+    list of dict
+        One row per parameter: ``parameter``, ``d_moduli`` (per multiplier, in the order of
+        ``res.multipliers``' labels: ``labels``), ``d_multipliers`` ([re, im] pairs), per unit of the
+        parameter (deg, kg m^2).
+    """
+    from birdocp.bird.sixdof import LATERAL_PARAM_NAMES
+    from birdocp.studies.sensitivity import SecondOrderMaps, cycle_derivatives
+
+    cfg = cfg or Config()
+    c = res.cycle
+    if not c.success:
+        raise ValueError("the 6-DOF trim did not converge: sensitivities need a converged cycle")
+    if c.free_values:
+        raise ValueError("lateral_sensitivities needs a fixed-amplitude cycle (solve level flight, then trim at "
+                         "its amplitude)")
+    six = sixdof_model(cfg)
+    names = list(PARAM_NAMES) + list(LATERAL_PARAM_NAMES)
+    for k in parameters:
+        if k not in names:
+            raise ValueError(f"unknown parameter {k!r}")
+    so = SecondOrderMaps.get(six, int(c.method["steps_per_period"]), six.flight_outputs()["vertical_speed_mps"])
+    states = [i for i in range(9) if i != HEADING]
+    lam, dL, dmod, _, _ = cycle_derivatives(so, six.period_s, c.x0, c.p, [names.index(k) for k in parameters], states)
+    labels = _labels(lam, res)
+    return [{"parameter": k, "labels": labels, "multipliers": lam, "d_moduli": dmod[i], "d_multipliers": dL[i]}
+            for i, k in enumerate(parameters)]
+
+
+def _labels(lam, res: LateralTrimResult) -> list[str]:
+    """A label per multiplier: the lateral modes' labels, 'heading', or 'longitudinal'."""
+    out = []
+    for z in lam:
+        lab = "longitudinal"
+        if abs(z - res.heading_multiplier) < 1e-9 and abs(z.imag) < 1e-12:
+            lab = "heading"
+        for m in res.lateral_modes:
+            if abs(z - m["multiplier"]) < 1e-9 * max(1.0, abs(z)):
+                lab = m["label"]
+        out.append(lab)
+    return out
