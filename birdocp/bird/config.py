@@ -236,6 +236,38 @@ class Validity:
 
 
 @dataclass(frozen=True)
+class Model:
+    """Degrees of freedom of the rigid body (:mod:`birdocp.bird.sixdof`) and the inertia the lateral
+    motion needs.
+
+    With 4 (the default) the bird moves in its plane of symmetry, state (u, w, q, theta), exactly as
+    the paper; with 6 it has the state (u, v, w, p, q, r, phi, theta, psi) in body axes and the lifting
+    line sees sideslip and roll and yaw rates. The inertias below are used only with 6.
+    """
+
+    degrees_of_freedom: int = 4
+    """4 (longitudinal plane, the paper's model) or 6 (rigid body in space)."""
+    roll_inertia_kgm2: float = 0.011
+    """I_xx about the body axis x' through G [kg m^2]. An estimate: the body as a solid prolate
+    spheroid of 1.2 kg and half-width 0.055 m (2/5 m b^2 = 0.0015) plus each wing as 0.12 kg (10 % of
+    the bird's mass, the order of published wing-mass fractions) at 0.2 m from the plane of symmetry
+    (2 x 0.12 x 0.2^2 = 0.0096). The lifting line's wings are massless in the dynamics; this number
+    stands for them in roll."""
+    yaw_inertia_kgm2: float = 0.11
+    """I_zz about z' through G [kg m^2]: the pitch inertia body.pitch_inertia_kgm2 (0.1) plus the same
+    wing estimate (0.0096), the body being axisymmetric about x'."""
+    product_inertia_xz_kgm2: float = 0.0
+    """I_xz [kg m^2] (0: x' and z' principal axes); the inertia tensor is
+    [[I_xx, 0, -I_xz], [0, I_yy, 0], [-I_xz, 0, I_zz]]."""
+
+
+SIX_DOF_UNSUPPORTED = (("tail.opening_angle_deg", "tail"), ("wing.mass_kg", "wing masses"),
+                       ("drag.body_drag_coefficient", "drag terms"), ("drag.profile_drag_coefficient", "drag terms"))
+"""Planar terms not yet written in three dimensions: with model.degrees_of_freedom = 6 each of these
+keys must be 0 (and tail.enabled, drag.enabled false)."""
+
+
+@dataclass(frozen=True)
 class Config:
     """The whole configuration, one frozen section per concern; the defaults are the paper's
     reference case (``birdocp config`` prints it as TOML, every key with its unit in the name).
@@ -275,6 +307,7 @@ class Config:
     drag: Drag = field(default_factory=Drag)
     solve: Solve = field(default_factory=Solve)
     validity: Validity = field(default_factory=Validity)
+    model: Model = field(default_factory=Model)
 
     def __post_init__(self):
         validate(self)
@@ -364,7 +397,8 @@ def validate(cfg: Config) -> None:
         value = get_value(cfg, key)
         if isinstance(value, (str, tuple, bool)):
             continue
-        if isinstance(value, int) and not isinstance(value, bool) and key.startswith(("solve.", "aero.relaxed")):
+        if isinstance(value, int) and not isinstance(value, bool) and key.startswith(
+                ("solve.", "aero.relaxed", "model.degrees")):
             continue
         _check_number(key, value)
         if key in _POSITIVE and value <= 0:
@@ -427,6 +461,30 @@ def validate(cfg: Config) -> None:
         raise ConfigError("solve.initial_guess", f"needs 4 numbers (u, w, q, theta), got {len(s.initial_guess)}")
     for i, v in enumerate(s.initial_guess):
         _check_number(f"solve.initial_guess.{i}", v)
+    _validate_model(cfg)
+
+
+def _validate_model(cfg: Config) -> None:
+    m = cfg.model
+    if isinstance(m.degrees_of_freedom, bool) or m.degrees_of_freedom not in (4, 6):
+        raise ConfigError("model.degrees_of_freedom", f"must be 4 or 6, got {m.degrees_of_freedom!r}")
+    ixx, izz, ixz = m.roll_inertia_kgm2, m.yaw_inertia_kgm2, m.product_inertia_xz_kgm2
+    for key, val in (("model.roll_inertia_kgm2", ixx), ("model.yaw_inertia_kgm2", izz)):
+        if val <= 0:
+            raise ConfigError(key, f"must be > 0 kg m^2, got {val!r}")
+    if ixx * izz <= ixz ** 2:
+        raise ConfigError("model.product_inertia_xz_kgm2", f"|I_xz| must be below sqrt(I_xx I_zz) = "
+                                                           f"{math.sqrt(ixx * izz):.4g} kg m^2, got {ixz!r}")
+    if m.degrees_of_freedom != 6:
+        return
+    for key, what in SIX_DOF_UNSUPPORTED:
+        if get_value(cfg, key) != 0:
+            raise ConfigError(key, f"{what}: not yet written in six degrees of freedom; set {key} = 0 "
+                                   "or model.degrees_of_freedom = 4")
+    for key, what in (("tail.enabled", "the tail"), ("drag.enabled", "drag terms")):
+        if get_value(cfg, key):
+            raise ConfigError(key, f"{what}: not yet written in six degrees of freedom; set {key} = false "
+                                   "or model.degrees_of_freedom = 4")
 
 
 WING_MASS_SHARES = ("mass_share_arm", "mass_share_forearm", "mass_share_hand", "mass_share_primaries",
