@@ -46,6 +46,8 @@ API = {
                 "wingbeat_map": "birdocp.studies.control"},
     "simulation": {"simulate": "birdocp.studies.simulate", "SimulationResult": "birdocp.studies.simulate",
                    "Gust": "birdocp.studies.simulate", "gust_envelope": "birdocp.studies.simulate"},
+    "six degrees of freedom": {"lateral_trim": "birdocp.studies.lateral", "LateralTrimResult": "birdocp.studies.lateral",
+                               "lateral_sensitivities": "birdocp.studies.lateral"},
     "validity": {"cycle_validity": "birdocp.bird.validity", "periodic_validity": "birdocp.bird.validity",
                  "CycleValidity": "birdocp.bird.validity"},
     "export": {"export_c": "birdocp.export.codegen", "compiled_ode": "birdocp.export.compiled"},

@@ -290,6 +290,8 @@ class Config:
         shooting points, RK4 steps, solver, initial guess (:class:`Solve`).
     validity
         the thresholds of where the model holds (:class:`Validity`).
+    model
+        4 or 6 degrees of freedom and the lateral inertias used with 6 (:class:`Model`).
 
     Examples
     --------

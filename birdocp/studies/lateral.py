@@ -219,6 +219,15 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
     AD through the RK4 period map, :func:`birdocp.studies.sensitivity.cycle_derivatives`; the heading
     is left out of the periodicity condition, its multiplier 1 being structural).
 
+    Parameters
+    ----------
+    res : LateralTrimResult
+        A converged fixed-amplitude 6-DOF cycle (:func:`lateral_trim` without ``level``).
+    cfg : Config, optional
+        Its configuration (default: the reference case).
+    parameters : sequence of str
+        Parameter keys (default :data:`LATERAL_SENSITIVITY_KEYS`).
+
     Returns
     -------
     list of dict
