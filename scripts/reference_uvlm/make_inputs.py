@@ -15,7 +15,8 @@ environment, which has no birdocp) reads. It holds:
   incidence and the hand twist set to 0 so that it is planar; its smoothed leading and trailing edges
   (16 points each) in the shoulder frame (``span_m`` along e1 from the shoulder, ``aft_m`` along e3,
   backwards). The incidence (the gait's mean shoulder incidence) goes into the UVLM's angle of attack.
-* ``rigid_gait``: the joint laws (``gait.*`` keys) that give birdocp the same rigid flapping wing;
+* ``rigid_gait``: the joint laws (``gait.*`` keys) that give birdocp the same rigid flapping wing
+  (incidence held at its mean);
 * ``cases``: the flapping frequencies at the target reduced frequencies k = pi f c / U (c =
   ``body.reference_chord_m``, U = the held airspeed): the speed is held at the trim state and the
   frequency varies; the first case is the reference gait's own 4 Hz.
@@ -45,30 +46,35 @@ def rigid_gait(cfg: Config) -> dict:
     """``gait.*`` keys of a rigid, planar wing flapping with the shoulder law of ``cfg``.
 
     Every joint but the flap is frozen at its value at t = 0 of the reference gait (mid-downstroke,
-    wing spread), except the hand twist and the shoulder incidence, set to 0 (a planar wing; the
-    incidence goes into the angle of attack)."""
+    wing spread), except the hand twist, set to 0 (a planar wing), and the shoulder incidence, held
+    at its mean (the offset)."""
     g = cfg.gait
     out = {}
     for name in ("shoulder_incidence", "shoulder_sweep", "elbow_flex", "hand_twist", "wrist_flex", "wrist_spread"):
         j = getattr(g, name)
         at_t0 = j.offset_deg + j.amplitude_deg * math.sin(math.radians(j.phase_deg))
-        frozen = 0.0 if name in ("shoulder_incidence", "hand_twist") else at_t0
+        frozen = {"shoulder_incidence": j.offset_deg, "hand_twist": 0.0}.get(name, at_t0)
         out.update({f"gait.{name}.offset_deg": round(frozen, 12), f"gait.{name}.amplitude_deg": 0.0,
                     f"gait.{name}.phase_deg": 0.0})
     return out
 
 
 def planform(cfg: Config) -> dict:
-    """Smoothed leading and trailing edges of the rigid planar wing (shoulder frame, metres)."""
-    rigid = with_values(cfg, rigid_gait(cfg))
+    """Smoothed leading and trailing edges of the rigid planar wing at zero incidence (shoulder frame,
+    metres)."""
+    rigid = with_values(cfg, {**rigid_gait(cfg), "gait.shoulder_incidence.offset_deg": 0.0})
     m = get_model(rigid)
     g = dict(zip(GEOMETRY_OUTPUTS, m.geometry(0.0, param_vector(rigid))))
     le, te = np.array(g["leading_edge"]), np.array(g["trailing_edge"])
     out_of_plane = float(max(np.max(np.abs(le[1])), np.max(np.abs(te[1]))))
     if out_of_plane > 1e-9:
         raise RuntimeError(f"the rigid wing is not planar ({out_of_plane:.3g} m out of its plane)")
+    line, chord = np.array(g["line"]), np.array(g["chord_m"]).ravel()
+    ds = np.linalg.norm(line[:, 2::2] - line[:, 0:-2:2], axis=0)
     return {"leading_edge": {"span_m": le[0].tolist(), "aft_m": le[2].tolist()},
-            "trailing_edge": {"span_m": te[0].tolist(), "aft_m": te[2].tolist()}}
+            "trailing_edge": {"span_m": te[0].tolist(), "aft_m": te[2].tolist()},
+            "lifting_line_area_m2": float(np.sum(chord[1::2] * ds)),
+            "lifting_line_span_m": float(line[0, -1] - line[0, 0])}
 
 
 def held_state(cfg: Config) -> dict:
