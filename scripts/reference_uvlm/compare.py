@@ -143,9 +143,23 @@ def birdocp_case(inputs: dict, case: dict, kinematics: str, unsteady: str, lag_c
                         "thrust_N": thrust.tolist()}}
 
 
-def uvlm_runs(out: Path) -> list[dict]:
+def birdocp_steady(inputs: dict, unsteady: str) -> dict:
+    """The rigid wing held at flap angle 0 (no flapping), body held: lift and thrust [N]."""
+    case = {"name": "steady", "frequency_hz": float(inputs["config"]["gait"]["frequency_hz"])}
+    cfg = with_values(case_config(inputs, case, "rigid", unsteady), {"gait.shoulder_flap.amplitude_deg": 0.0})
+    tr = inputs["trim"]
+    r = held_loads(cfg, np.array([tr["mean_u_mps"], tr["mean_w_mps"], 0.0, tr["mean_theta_rad"]]), 8, 2)
+    u, w = tr["mean_u_mps"], tr["mean_w_mps"]
+    V = math.hypot(u, w)
+    return {"lift_N": float(np.mean((r["Fx_N"] * w - r["Fz_N"] * u) / V)),
+            "thrust_N": float(np.mean((r["Fx_N"] * u + r["Fz_N"] * w) / V))}
+
+
+def uvlm_runs(out: Path) -> tuple[list[dict], list[dict]]:
+    """The UVLM runs and the steady VLM runs of ``OUT/uvlm.json``."""
     path = out / "uvlm.json"
-    return json.loads(path.read_text())["runs"] if path.is_file() else []
+    doc = json.loads(path.read_text()) if path.is_file() else {}
+    return doc.get("runs", []), doc.get("steady", [])
 
 
 def main(argv=None) -> int:
@@ -167,11 +181,12 @@ def main(argv=None) -> int:
     result_path = out / "result.json"
     result = json.loads(result_path.read_text()) if result_path.is_file() else {}
     result["inputs"] = {k: inputs[k] for k in ("trim", "cases", "rigid_gait", "air_density_kgm3", "reference_chord_m")}
-    result["uvlm"] = uvlm_runs(out)
+    result["uvlm"], result["uvlm_steady"] = uvlm_runs(out)
     birdocp = result.setdefault("birdocp", {})
     model = MODEL_KEYS[args.unsteady]
     birdocp[model] = {case["name"]: {kin: birdocp_case(inputs, case, kin, args.unsteady, args.lag_cycles)
                                      for kin in ("rigid", "gait")} for case in inputs["cases"]}
+    result.setdefault("birdocp_steady", {})[model] = birdocp_steady(inputs, args.unsteady)
     atomic_write_json(result_path, result)
     from report import plot_lift, table_markdown  # noqa: E402 (this folder)
 

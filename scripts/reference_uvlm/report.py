@@ -4,6 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -27,16 +28,24 @@ def uvlm_for(result: dict, name: str) -> list[dict]:
     return sorted(runs, key=lambda r: (key(r), r["panels"], r["wake"]))
 
 
+def first_harmonic_N(values) -> float:
+    """Amplitude [N] of the first harmonic of one periodic cycle sampled at uniform steps."""
+    v = np.asarray(values, float)
+    return float(2.0 * abs(np.fft.rfft(v)[1]) / len(v))
+
+
 def rows(result: dict):
-    """(case, label, mean lift, mean thrust, lift-peak phase, CPU s per cycle) of every run."""
+    """(case, label, mean lift, mean thrust, lift-peak phase, lift first harmonic, CPU s per cycle)."""
     for case in result["inputs"]["cases"]:
         name = case["name"]
         for r in uvlm_for(result, name):
-            yield case, _run_label(r), r["mean_lift_N"], r["mean_thrust_N"], r["lift_peak_phase_deg"], r["cpu_s_per_cycle"]
+            yield (case, _run_label(r), r["mean_lift_N"], r["mean_thrust_N"], r["lift_peak_phase_deg"],
+                   first_harmonic_N(r["last_cycle"]["lift_N"]), r["cpu_s_per_cycle"])
         for model, cases in result.get("birdocp", {}).items():
             for kin, b in cases.get(name, {}).items():
                 label = f"{MODEL_LABEL[model]}, {'same rigid wing' if kin == 'rigid' else 'folding reference gait'}"
-                yield case, label, b["mean_lift_N"], b["mean_thrust_N"], b["lift_peak_phase_deg"], b["cpu_s_per_cycle"]
+                yield (case, label, b["mean_lift_N"], b["mean_thrust_N"], b["lift_peak_phase_deg"],
+                       first_harmonic_N(b["history"]["lift_N"]), b["cpu_s_per_cycle"])
 
 
 def table_markdown(result: dict) -> str:
@@ -52,12 +61,23 @@ def table_markdown(result: dict) -> str:
         "flight direction; weight 11.77 N. Lift-peak phase in the wingbeat: 0 deg = mid-downstroke "
         "(flap angle 0, going down), upstroke 90-270 deg.",
         "",
-        "| k | f [Hz] | model | mean lift [N] | mean thrust [N] | lift peak [deg] | CPU per cycle [s] |",
-        "|---|---|---|---|---|---|---|",
+        "| k | f [Hz] | model | mean lift [N] | mean thrust [N] | lift peak [deg] | lift 1st harmonic [N] | "
+        "CPU per cycle [s] |",
+        "|---|---|---|---|---|---|---|---|",
     ]
-    for case, label, lift, thrust, phase, cpu in rows(result):
+    for case, label, lift, thrust, phase, harmonic, cpu in rows(result):
         lines.append(f"| {case['k']:.3f} | {case['frequency_hz']:.3f} | {label} | {lift:.2f} | {thrust:.2f} | "
-                     f"{phase:.1f} | {cpu:.3g} |")
+                     f"{phase:.1f} | {harmonic:.1f} | {cpu:.3g} |")
+    steady = result.get("uvlm_steady", [])
+    if steady:
+        lines += ["", "The same rigid wing held at flap angle 0 in the same flight (no flapping): the steady part", "",
+                  "| model | panels per half wing | lift [N] | thrust [N] |", "|---|---|---|---|"]
+        for r in sorted(steady, key=lambda r: r["chordwise_panels"]):
+            lines.append(f"| PteraSoftware steady ring VLM | {r['chordwise_panels']} x {r['spanwise_panels_per_half_wing']} | "
+                         f"{r['lift_N']:.3f} | {r['thrust_N']:.3f} |")
+        for model, b in result.get("birdocp_steady", {}).items():
+            lines.append(f"| {MODEL_LABEL[model]} (lifting line) | 16 elements (both wings) | {b['lift_N']:.3f} | "
+                         f"{b['thrust_N']:.3f} |")
     lines += ["", "UVLM runs: resolution and convergence (change of the cycle means between the last two cycles)", "",
               "| k | wake | panels (both wings) | steps per cycle | cycles | lift change [N] | thrust change [N] | "
               "wall [s] |", "|---|---|---|---|---|---|---|---|"]
@@ -94,11 +114,12 @@ def plot_lift(result: dict, path: Path) -> Path:
             ax.set_xticks([0, 90, 180, 270, 360])
             if row == 0:
                 ax.set_title(f"k = {case['k']:.3f} (f = {case['frequency_hz']:.2f} Hz)")
-            else:
-                ax.set_xlabel("phase in the wingbeat [deg] (0 = mid-downstroke; grey: upstroke)")
+
             if j == 0:
                 ax.set_ylabel("lift [N]" if row == 0 else "thrust [N]")
     axes[0, 0].legend(fontsize=7, loc="upper right")
+    fig.supxlabel("phase in the wingbeat [deg] (0 = mid-downstroke: flap angle 0, going down; grey: upstroke)",
+                  fontsize=10)
     fig.suptitle("Flapping ibis wing, body held at the trim state: PteraSoftware UVLM vs birdocp", fontsize=11)
     fig.tight_layout()
     return save_figure(fig, path)

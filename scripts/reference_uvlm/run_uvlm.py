@@ -19,7 +19,9 @@ It reads ``inputs.json`` (written by ``make_inputs.py`` from birdocp) and, per c
   gait's mean shoulder incidence (birdocp's incidence rotation is the outermost of the shoulder's, so
   its flapping axis turns with it: the same as flapping about the wing's own chordwise axis);
 * the wake: PteraSoftware's prescribed wake (shed rows convected with the free stream) by default,
-  ``--free-wake`` for the free wake; truncated after ``--wake-cycles`` cycles (default 2).
+  ``--free-wake`` for the free wake; truncated after ``--wake-cycles`` cycles (default 2);
+* ``--steady``: only the wing held at flap angle 0 in the same flight (the steady ring-vortex VLM),
+  written to ``OUT/steady/``: the steady part of the comparison.
 
 Per case it writes ``OUT/runs/<case>_c<nc>_s<ns>_<wake>_n<cycles>_w<wake cycles>.json`` (skipped when present, so an interrupted
 sweep resumes) with the lift (perpendicular to the free stream, up) and thrust (along the flight
@@ -73,9 +75,8 @@ def stations(inputs: dict, n_span: int) -> dict:
             "chord_m": np.concatenate([[chord[0]], chord])}
 
 
-def build_problem(ps, inputs: dict, case: dict, n_chord: int, n_span: int, cycles: int,
-                  wake_cycles: int = WAKE_CYCLES):
-    """The PteraSoftware UnsteadyProblem of one case; also the run's settings (a dict)."""
+def build_airplane(ps, inputs: dict, n_chord: int, n_span: int):
+    """The wing at flap angle ``flap_offset_deg``: (Airplane, its WingCrossSections, the stations)."""
     st = stations(inputs, n_span)
     w = inputs["wing"]
     wcs = []
@@ -90,19 +91,32 @@ def build_problem(ps, inputs: dict, case: dict, n_chord: int, n_span: int, cycle
     wing = ps.geometry.wing.Wing(wing_cross_sections=wcs, name="ibis wing", Ler_Gs_Cgs=(st["x_le_m"][0], 0.0, 0.0),
                                  symmetric=True, symmetryNormal_G=(0.0, 1.0, 0.0), symmetryPoint_G_Cg=(0.0, 0.0, 0.0),
                                  num_chordwise_panels=n_chord, chordwise_spacing="uniform")
-    airplane = ps.geometry.airplane.Airplane(wings=[wing], name="ibis")
+    return ps.geometry.airplane.Airplane(wings=[wing], name="ibis"), wcs, st
+
+
+def operating_point(ps, inputs: dict):
+    """The held flight: free stream at the held airspeed, angle of attack = body's + mean incidence."""
+    trim = inputs["trim"]
+    alpha = trim["body_alpha_deg"] + inputs["wing"]["incidence_deg"]
+    return ps.operating_point.OperatingPoint(rho=inputs["air_density_kgm3"], vCg__E=trim["airspeed_mps"],
+                                             alpha=alpha, beta=0.0)
+
+
+def build_problem(ps, inputs: dict, case: dict, n_chord: int, n_span: int, cycles: int,
+                  wake_cycles: int = WAKE_CYCLES):
+    """The PteraSoftware UnsteadyProblem of one case; also the run's settings (a dict)."""
+    airplane, wcs, st = build_airplane(ps, inputs, n_chord, n_span)
+    w = inputs["wing"]
     period = 1.0 / case["frequency_hz"]
     moves = [ps.movements.wing_cross_section_movement.WingCrossSectionMovement(base_wing_cross_section=c) for c in wcs]
     moves[1] = ps.movements.wing_cross_section_movement.WingCrossSectionMovement(
         base_wing_cross_section=wcs[1], ampAngles_Wcsp_to_Wcs_ixyz=(w["flap_amplitude_deg"], 0.0, 0.0),
         periodAngles_Wcsp_to_Wcs_ixyz=(period, 0.0, 0.0), phaseAngles_Wcsp_to_Wcs_ixyz=(w["flap_phase_deg"], 0.0, 0.0))
-    wing_move = ps.movements.wing_movement.WingMovement(base_wing=wing, wing_cross_section_movements=moves)
+    wing_move = ps.movements.wing_movement.WingMovement(base_wing=airplane.wings[0], wing_cross_section_movements=moves)
     plane_move = ps.movements.airplane_movement.AirplaneMovement(base_airplane=airplane, wing_movements=[wing_move])
-    trim = inputs["trim"]
-    speed = trim["airspeed_mps"]
-    alpha = trim["body_alpha_deg"] + w["incidence_deg"]
-    op = ps.operating_point.OperatingPoint(rho=inputs["air_density_kgm3"], vCg__E=speed, alpha=alpha, beta=0.0)
+    op = operating_point(ps, inputs)
     op_move = ps.movements.operating_point_movement.OperatingPointMovement(base_operating_point=op)
+    speed = inputs["trim"]["airspeed_mps"]
     # time step: wake rows about as long as the bound trailing-edge panels (mean chord / n_chord)
     half_area = float(np.sum(np.diff(st["y_m"]) * 0.5 * (st["chord_m"][1:] + st["chord_m"][:-1])))
     mean_chord = half_area / st["y_m"][-1]
@@ -112,10 +126,24 @@ def build_problem(ps, inputs: dict, case: dict, n_chord: int, n_span: int, cycle
         num_steps=cycles * steps_per_cycle, max_wake_cycles=wake_cycles)
     problem = ps.problems.UnsteadyProblem(movement=movement, only_final_results=False)
     settings = {"steps_per_cycle": steps_per_cycle, "delta_time_s": period / steps_per_cycle,
-                "alpha_deg": alpha, "airspeed_mps": speed, "mean_chord_m": mean_chord,
+                "alpha_deg": op.alpha, "airspeed_mps": speed, "mean_chord_m": mean_chord,
                 "planform_area_m2": 2.0 * half_area, "span_m": 2.0 * float(st["y_m"][-1]),
                 "stations": {k: v.tolist() for k, v in st.items()}}
     return problem, settings
+
+
+def run_steady(ps, inputs: dict, n_chord: int, n_span: int) -> dict:
+    """The wing held at flap angle 0 (no flapping): PteraSoftware's steady ring-vortex VLM."""
+    airplane, _, _ = build_airplane(ps, inputs, n_chord, n_span)
+    problem = ps.problems.SteadyProblem(airplanes=[airplane], operating_point=operating_point(ps, inputs))
+    solver = ps.steady_ring_vortex_lattice_method.SteadyRingVortexLatticeMethodSolver(steady_problem=problem)
+    t0 = time.process_time()
+    solver.run(calculate_streamlines=False)
+    forces = np.asarray(problem.airplanes[0].forces_W, float)
+    return {"case": {"name": "steady", "frequency_hz": 0.0, "k": 0.0}, "chordwise_panels": n_chord,
+            "spanwise_panels_per_half_wing": n_span + 1, "lift_N": float(-forces[2]), "thrust_N": float(forces[0]),
+            "cpu_s": time.process_time() - t0, "solver": "steady ring vortex lattice",
+            "pterasoftware_version": ps_version()}
 
 
 def peak_phase_deg(values: np.ndarray) -> float:
@@ -182,7 +210,8 @@ def warm_up(ps, inputs: dict) -> None:
 def collect(out: Path) -> None:
     """``OUT/uvlm.json``: every run of ``OUT/runs`` without its histories, plus the histories."""
     runs = [json.loads(p.read_text()) for p in sorted((out / "runs").glob("*.json"))]
-    write_json(out / "uvlm.json", {"runs": runs})
+    steady = [json.loads(p.read_text()) for p in sorted((out / "steady").glob("*.json"))]
+    write_json(out / "uvlm.json", {"runs": runs, "steady": steady})
 
 
 def main(argv=None) -> int:
@@ -195,6 +224,7 @@ def main(argv=None) -> int:
     ap.add_argument("--cases", default=None, help="comma-separated case names (default: all of inputs.json)")
     ap.add_argument("--free-wake", action="store_true")
     ap.add_argument("--wake-cycles", type=int, default=WAKE_CYCLES, help="wake kept, in cycles")
+    ap.add_argument("--steady", action="store_true", help="only the wing held at flap angle 0 (steady VLM)")
     args = ap.parse_args(argv)
     if args.cycles < 2 or args.chordwise < 1 or args.spanwise < 2 or args.wake_cycles < 1:
         print("run_uvlm: --cycles must be >= 2, --chordwise >= 1, --spanwise >= 2, --wake-cycles >= 1", file=sys.stderr)
@@ -215,6 +245,12 @@ def main(argv=None) -> int:
     import pterasoftware as ps
 
     out = Path(args.out)
+    if args.steady:
+        res = run_steady(ps, inputs, args.chordwise, args.spanwise)
+        write_json(out / "steady" / f"steady_c{args.chordwise}_s{args.spanwise}.json", res)
+        print(f"steady: lift {res['lift_N']:.3f} N, thrust {res['thrust_N']:.4f} N")
+        collect(out)
+        return 0
     warmed = False
     for case in cases:
         wake = "free" if args.free_wake else "prescribed"
