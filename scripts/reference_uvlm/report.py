@@ -16,16 +16,19 @@ BASE = (4, 12, "prescribed")
 MODEL_LABEL = {"quasi_steady": "birdocp quasi-steady", "wagner": "birdocp wagner"}
 
 
-def _run_label(r: dict) -> str:
-    return (f"UVLM {r['wake']} wake, {r['chordwise_panels']} x {r['spanwise_panels_per_half_wing']} "
-            f"panels per half wing")
+def _run_label(r: dict, beats: bool = True) -> str:
+    label = f"UVLM {r['wake']} wake, {r['chordwise_panels']} x {r['spanwise_panels_per_half_wing']} panels per half wing"
+    return label + (f", {r['cycles']} beats (wake kept {r['wake_cycles_kept']})" if beats else "")
+
+
+def _is_base(r: dict) -> bool:
+    return (r["chordwise_panels"], r["spanwise_panels_per_half_wing"] - 1, r["wake"]) == BASE
 
 
 def uvlm_for(result: dict, name: str) -> list[dict]:
     """The UVLM runs of case ``name``, the base resolution first."""
     runs = [r for r in result.get("uvlm", []) if r["case"]["name"] == name]
-    key = lambda r: (r["chordwise_panels"], r["spanwise_panels_per_half_wing"] - 1, r["wake"]) != BASE  # noqa: E731
-    return sorted(runs, key=lambda r: (key(r), r["panels"], r["wake"]))
+    return sorted(runs, key=lambda r: (not _is_base(r), r["wake"], r["panels"], -r["cycles"]))
 
 
 def first_harmonic_N(values) -> float:
@@ -78,13 +81,14 @@ def table_markdown(result: dict) -> str:
         for model, b in result.get("birdocp_steady", {}).items():
             lines.append(f"| {MODEL_LABEL[model]} (lifting line) | 16 elements (both wings) | {b['lift_N']:.3f} | "
                          f"{b['thrust_N']:.3f} |")
-    lines += ["", "UVLM runs: resolution and convergence (change of the cycle means between the last two cycles)", "",
-              "| k | wake | panels (both wings) | steps per cycle | cycles | lift change [N] | thrust change [N] | "
-              "wall [s] |", "|---|---|---|---|---|---|---|---|"]
+    lines += ["", "UVLM runs: resolution and convergence (change of the cycle means between the last two wingbeats; "
+              "with 2 wingbeats that is the start-up transient of the first)", "",
+              "| k | wake | panels (both wings) | steps per cycle | wingbeats (wake kept) | lift change [N] | "
+              "thrust change [N] | wall [s] |", "|---|---|---|---|---|---|---|---|"]
     for case in result["inputs"]["cases"]:
         for r in uvlm_for(result, case["name"]):
             lines.append(f"| {case['k']:.3f} | {r['wake']} | {r['panels']} ({r['chordwise_panels']} x "
-                         f"{2 * r['spanwise_panels_per_half_wing']}) | {r['steps_per_cycle']} | {r['cycles']} | "
+                         f"{2 * r['spanwise_panels_per_half_wing']}) | {r['steps_per_cycle']} | {r['cycles']} ({r['wake_cycles_kept']}) | "
                          f"{r['mean_lift_change_last_two_cycles_N']:+.3f} | {r['mean_thrust_change_last_two_cycles_N']:+.3f} | "
                          f"{r['wall_s']:.0f} |")
     return "\n".join(lines) + "\n"
@@ -100,10 +104,12 @@ def plot_lift(result: dict, path: Path) -> Path:
         for row, key in enumerate(("lift_N", "thrust_N")):
             ax = axes[row, j]
             ax.axvspan(90, 270, color="0.93", zorder=0)
-            for i, r in enumerate(uvlm_for(result, case["name"])):
+            runs = uvlm_for(result, case["name"])
+            runs = runs[:1] + [r for r in runs[1:] if not _is_base(r)]  # one line per resolution and wake
+            for i, r in enumerate(runs):
                 h = r["last_cycle"]
-                ax.plot(h["phase_deg"], h[key], color="k" if i == 0 else "0.5", ls=("-", "--", ":")[min(i, 2)],
-                        lw=2.0 if i == 0 else 1.2, label=_run_label(r))
+                ax.plot(h["phase_deg"], h[key], color="k" if i == 0 else "0.45", ls=("-", "--", ":")[min(i, 2)],
+                        lw=2.0 if i == 0 else 1.3, label=_run_label(r, beats=False))
             for model, by_case in result.get("birdocp", {}).items():
                 for kin, b in by_case.get(case["name"], {}).items():
                     color, ls = styles[(model, kin)]
