@@ -143,12 +143,13 @@ def birdocp_case(inputs: dict, case: dict, kinematics: str, unsteady: str, lag_c
                         "thrust_N": thrust.tolist()}}
 
 
-def birdocp_steady(inputs: dict, unsteady: str) -> dict:
+def birdocp_steady(inputs: dict, unsteady: str, lag_cycles: int) -> dict:
     """The rigid wing held at flap angle 0 (no flapping), body held: lift and thrust [N]."""
     case = {"name": "steady", "frequency_hz": float(inputs["config"]["gait"]["frequency_hz"])}
     cfg = with_values(case_config(inputs, case, "rigid", unsteady), {"gait.shoulder_flap.amplitude_deg": 0.0})
     tr = inputs["trim"]
-    r = held_loads(cfg, np.array([tr["mean_u_mps"], tr["mean_w_mps"], 0.0, tr["mean_theta_rad"]]), 8, 2)
+    x_body = np.array([tr["mean_u_mps"], tr["mean_w_mps"], 0.0, tr["mean_theta_rad"]])
+    r = held_loads(cfg, x_body, cfg.solve.steps_per_period, lag_cycles)  # the trim's step: lag states stable
     u, w = tr["mean_u_mps"], tr["mean_w_mps"]
     V = math.hypot(u, w)
     return {"lift_N": float(np.mean((r["Fx_N"] * w - r["Fz_N"] * u) / V)),
@@ -186,7 +187,7 @@ def main(argv=None) -> int:
     model = MODEL_KEYS[args.unsteady]
     birdocp[model] = {case["name"]: {kin: birdocp_case(inputs, case, kin, args.unsteady, args.lag_cycles)
                                      for kin in ("rigid", "gait")} for case in inputs["cases"]}
-    result.setdefault("birdocp_steady", {})[model] = birdocp_steady(inputs, args.unsteady)
+    result.setdefault("birdocp_steady", {})[model] = birdocp_steady(inputs, args.unsteady, args.lag_cycles)
     atomic_write_json(result_path, result)
     from report import plot_lift, table_markdown  # noqa: E402 (this folder)
 
