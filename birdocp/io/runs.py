@@ -8,8 +8,10 @@ Layout of a run folder::
         result.json   the result dict plus ``provenance``; written last, so its presence means the
                       run folder is complete
 
-Every file is written to a temporary file in the same folder and renamed over its target, so a
-reader (or a crash) never sees a half-written file.
+The three files are written completely into a hidden staging folder inside the run folder and then
+moved into place together, result.json last, with Ctrl-C held back meanwhile
+(:func:`birdocp.io.files.staged_files`): an interrupt, a full disk or a file-size limit leaves
+either the earlier files or the new complete set, never a mix or a truncated file.
 """
 
 from __future__ import annotations
@@ -22,7 +24,6 @@ import os
 import re
 import secrets
 import socket
-import tempfile
 import time
 from pathlib import Path
 from typing import IO, Any, Iterator
@@ -324,31 +325,18 @@ def claim_out_dir(out: str | Path, command: str, *, resume_file: str | None = No
 
 @contextlib.contextmanager
 def atomic_file(path: str | Path) -> Iterator[IO[bytes]]:
-    """Binary file handle on a temporary file next to ``path``, renamed over ``path`` on success.
+    """Binary file handle on a temporary file next to ``path``, renamed over ``path`` on success
+    (:func:`birdocp.io.files.atomic_target`). If the body raises, ``path`` is left untouched."""
+    from birdocp.io.files import atomic_target
 
-    If the body raises, the temporary file is removed and ``path`` is left untouched.
-    """
-    from birdocp.io.files import umask_mode
-
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            yield fh
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, umask_mode())  # mkstemp creates 0600; the file follows the umask like the others
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-        raise
+    with atomic_target(path) as tmp, open(tmp, "wb") as fh:
+        yield fh
 
 
 def _write_npz(path: Path, arrays: dict[str, Any]) -> None:
     import numpy as np
 
-    with atomic_file(path) as fh:
+    with open(path, "wb") as fh:
         np.savez(fh, **{str(k): np.asarray(v) for k, v in arrays.items()})
 
 
@@ -362,19 +350,21 @@ def write_run(run_dir: str | Path, cfg, result_dict: dict, arrays: dict | None,
     """
     import tomli_w
 
-    from birdocp.io.files import atomic_write_json, atomic_write_text, dataclass_to_dict
+    from birdocp.io.files import dataclass_to_dict, staged_files, to_jsonable
     from birdocp.io.provenance import provenance
 
     run_dir = Path(run_dir)
-    run_dir.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(run_dir / "config.toml", tomli_w.dumps(dataclass_to_dict(cfg)))
-    if arrays:
-        _write_npz(run_dir / "arrays.npz", arrays)
     if wall_s is None:
         wall_s = result_dict.get("wall_s")
     prov = provenance(cfg, command_line, wall_s)
     prov["command"] = command
     out = dict(result_dict)
     out["provenance"] = prov
-    atomic_write_json(run_dir / "result.json", out)
+    # all files complete in a staging folder first, then moved in with result.json last: a full disk
+    # or an interrupt leaves the earlier files (or none), never config.toml without result.json
+    with staged_files(run_dir, last=("result.json",)) as stage:
+        (stage / "config.toml").write_text(tomli_w.dumps(dataclass_to_dict(cfg)), encoding="utf-8")
+        if arrays:
+            _write_npz(stage / "arrays.npz", arrays)
+        (stage / "result.json").write_text(json.dumps(to_jsonable(out), indent=1) + "\n", encoding="utf-8")
     return run_dir / "result.json"
