@@ -25,9 +25,15 @@ from birdocp.engine.solver_log import LOG_ENV, NoiseFilter
 PROG = "birdocp"
 EXIT_OK = 0
 EXIT_NOT_CONVERGED = 1
-EXIT_INTERNAL = 1
+"""The computation failed (did not converge, diverged; result written) or its output could not be
+written (full disk, file-size limit)."""
 EXIT_BAD_INPUT = 2
+EXIT_INTERNAL = 3
+"""An unexpected error (a bug): one line naming the log file that holds the traceback."""
 EXIT_INTERRUPTED = 130
+
+LOG_DIR_ENV = "BIRDOCP_LOG_DIR"
+"""Environment variable: the folder of the internal-error logs (see :func:`error_log_dir`)."""
 
 AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
 ROOT_AHEAD_KEY = "wing.root_ahead_m"
@@ -187,6 +193,130 @@ def finite_values(name: str, values: Sequence[float]) -> list[float]:
 
 # ---------------------------------------------------------------------------------------------
 # Output helpers
+
+class SafeStdout:
+    """``sys.stdout`` while a command runs: when the reader goes away (a closed stdout ``>&-``, a
+    pipe whose reader exited: ``EPIPE``, a full disk under ``> file``) the printing ends and the
+    command goes on, so its exit code is the computation's own and its result is still written to
+    the run folder. File descriptor 1 then points at ``os.devnull`` (so that neither C code nor
+    the interpreter's exit flush fails on it), and one warning goes to stderr (none for a pipe whose
+    reader exited: ``birdocp config | head -1`` is ordinary use)."""
+
+    def __init__(self, stream):
+        self._stream = stream
+        self.lost = stream is None
+
+    def _lose(self, exc: BaseException | None) -> None:
+        if not self.lost and exc is not None and not isinstance(exc, BrokenPipeError):  # EPIPE: as `| head`
+            why = getattr(exc, "strerror", None) or type(exc).__name__
+            with contextlib.suppress(Exception):
+                print(f"{PROG}: warning: stdout is gone ({why}); the command goes on, its result is in "
+                      "its run folder", file=sys.stderr)
+        self.lost = True
+        with contextlib.suppress(OSError):
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, 1)
+            os.close(devnull)
+
+    def write(self, text: str) -> int:
+        if not self.lost:
+            try:
+                return self._stream.write(text)
+            except (OSError, ValueError, AttributeError) as exc:
+                self._lose(exc)
+        return len(text)
+
+    def flush(self) -> None:
+        if not self.lost:
+            try:
+                self._stream.flush()
+            except (OSError, ValueError, AttributeError) as exc:
+                self._lose(exc)
+
+    def isatty(self) -> bool:
+        return False if self.lost else bool(self._stream.isatty())
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+@contextlib.contextmanager
+def guarded_stdout() -> Iterator[SafeStdout]:
+    """``sys.stdout`` replaced by a :class:`SafeStdout` while the body runs (restored after)."""
+    saved = sys.stdout
+    guard = SafeStdout(saved)
+    sys.stdout = guard
+    try:
+        yield guard
+    finally:
+        if sys.stdout is guard:
+            sys.stdout = saved
+        if guard.lost and saved is not None:
+            with contextlib.suppress(Exception):
+                saved.flush()  # fd 1 is os.devnull now: the buffered rest goes nowhere, quietly
+
+
+def open_std_streams() -> None:
+    """A closed stdin, stdout or stderr (``>&-``) becomes ``os.devnull``, so that no file the
+    command opens takes its descriptor (a lock file receiving the output) and every print works."""
+    for fd, name, mode in ((0, "stdin", os.O_RDONLY), (1, "stdout", os.O_WRONLY), (2, "stderr", os.O_WRONLY)):
+        try:
+            os.fstat(fd)
+            continue
+        except OSError:
+            pass
+        with contextlib.suppress(OSError):
+            new = os.open(os.devnull, mode)
+            if new != fd:
+                os.dup2(new, fd)
+                os.close(new)
+            if getattr(sys, name) is None:
+                setattr(sys, name, open(fd, "r" if fd == 0 else "w", closefd=False))
+
+
+def tolerant_encodings() -> None:
+    """stdout and stderr keep their encoding (``PYTHONIOENCODING``, the locale) but write characters
+    it cannot encode as escapes (``\\u00e9``) instead of failing: a path or a name in a message
+    never ends a command."""
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(AttributeError, ValueError, OSError):
+            stream.reconfigure(errors="backslashreplace")
+
+
+def error_log_dir() -> Path:
+    """Folder of the internal-error logs: ``$BIRDOCP_LOG_DIR``, else ``$XDG_STATE_HOME/birdocp/logs``
+    (default ``~/.local/state/birdocp/logs``)."""
+    env = os.environ.get(LOG_DIR_ENV)
+    if env:
+        return Path(env).expanduser()
+    base = os.environ.get("XDG_STATE_HOME") or os.path.join(os.path.expanduser("~"), ".local", "state")
+    return Path(base) / "birdocp" / "logs"
+
+
+def write_error_log(exc: BaseException, command_line: Sequence[str]) -> Path | None:
+    """Write the traceback of ``exc`` (with the command line and versions) to a new file in
+    :func:`error_log_dir` (the system's temporary folder if that cannot be written); returns its
+    path, or None when nothing could be written."""
+    import platform
+    import tempfile
+    import traceback
+
+    from birdocp import __version__
+
+    text = (f"command: {' '.join(command_line)}\nbirdocp {__version__}, Python {platform.python_version()}, "
+            f"{platform.platform()}\ntime: {time.strftime('%Y-%m-%dT%H:%M:%S%z')}\n\n"
+            + "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)))
+    name = f"error-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}.log"
+    for folder in (error_log_dir(), Path(tempfile.gettempdir())):
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            path = folder / name
+            with open(path, "x", encoding="utf-8", errors="backslashreplace") as fh:
+                fh.write(text)
+            return path
+        except OSError:
+            continue
+    return None
 
 @contextlib.contextmanager
 def stdout_to_stderr() -> Iterator[None]:
@@ -541,7 +671,9 @@ def run_folder(args: argparse.Namespace, command: str, command_line: list[str], 
     try:
         yield run
     except BaseException:
-        with contextlib.suppress(OSError):
+        from birdocp.io.files import signals_deferred
+
+        with signals_deferred(), contextlib.suppress(OSError):  # a second Ctrl-C waits for the clean-up
             _remove_if_empty(run_dir, before, {SOLVER_LOG, *scaffold}, created)
         raise
     finally:
