@@ -229,7 +229,8 @@ WRITE_FAILURES = {errno.ENOSPC: "no space left on the device", errno.EFBIG: "the
 def _write_failed(exc: OSError, args, debug: bool) -> int:
     if debug:
         traceback.print_exc()
-    where = f" {exc.filename}" if exc.filename else ""
+    out = getattr(args, "out", None)
+    where = f" {exc.filename}" if exc.filename else (f" the output (--out {out})" if out else " the output")
     kept = f"; finished results kept in {STATE.run_dir}" if STATE.run_dir is not None else ""
     msg = f"cannot write{where}: {WRITE_FAILURES[exc.errno]}; nothing partial was kept{kept}"
     print(f"{PROG}: error: {one_line(msg)}", file=sys.stderr)
