@@ -40,6 +40,9 @@ def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
         raise ConfigError("RUN_DIR", f"'{res_path}' is not a birdocp result (expected a JSON object with "
                                      "provenance)")
     command = (res.get("provenance") or {}).get("command")
+    from birdocp.io.runs import check_writable
+
+    check_writable(run, "RUN_DIR")  # the figures go into the run folder: refused now if it is read-only
     try:
         with solver_noise(None, getattr(args, "verbose", False)):
             figs = _figures(run, res, command)

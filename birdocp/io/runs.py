@@ -24,6 +24,7 @@ import os
 import re
 import secrets
 import socket
+import tempfile
 import time
 from pathlib import Path
 from typing import IO, Any, Iterator
@@ -32,7 +33,7 @@ from birdocp.io.errors import ConfigError
 
 __all__ = [
     "DEFAULT_BASE", "RUN_FILES", "LOCK_NAME", "new_run_dir", "claim_out_dir", "release_out_dir", "held_lock",
-    "check_out_path", "lock_folder", "folder_entries", "RunLock", "is_run_dir", "write_run", "atomic_file",
+    "check_out_path", "check_out_file", "check_writable", "lock_folder", "folder_entries", "RunLock", "is_run_dir", "write_run", "atomic_file",
     "read_result",
 ]
 
@@ -107,6 +108,41 @@ def check_out_path(path: str | Path, flag: str = "--out") -> Path:
         raise ConfigError(flag, f"cannot create '{path}': '{anc}' is read-only; give another folder")
     if not missing and not os.access(path, os.W_OK | os.X_OK):
         raise ConfigError(flag, f"'{path}' is read-only; give a writable folder")
+    return path
+
+
+def check_writable(folder: str | Path, flag: str) -> None:
+    """Refuse (:class:`ConfigError` on ``flag``) a folder this process cannot create files in, by
+    creating and removing an empty probe file: only a real write tells a read-only file system or a
+    full inode table (permission bits do not stop root)."""
+    try:
+        fd, probe = tempfile.mkstemp(dir=folder, prefix=".birdocp-probe-")
+    except OSError as exc:
+        raise ConfigError(flag, f"cannot write into '{folder}': {_os_reason(exc)}; give another location") from None
+    os.close(fd)
+    with contextlib.suppress(OSError):
+        os.unlink(probe)
+
+
+def check_out_file(path: str | Path, flag: str = "--out", suffixes: tuple[str, ...] = ()) -> Path:
+    """Refuse (:class:`ConfigError` on ``flag``) an output *file* that cannot be written, before any
+    computation: a name with a suffix not in ``suffixes``, an existing folder or special file (FIFO,
+    device, socket), a missing or non-folder parent, a parent that cannot be written into
+    (:func:`check_writable`). The file itself is then written atomically."""
+    text = os.fspath(path)
+    if not text.strip() or "\x00" in text:
+        raise ConfigError(flag, f"{text!r} is not a usable file name")
+    path = Path(path)
+    if suffixes and path.suffix.lower() not in suffixes:
+        raise ConfigError(flag, f"'{path.name}': the file must end in {' or '.join(suffixes)}")
+    if path.is_dir():
+        raise ConfigError(flag, f"'{path}' is a folder; give a file name")
+    if os.path.lexists(path) and not (path.is_file() or os.path.islink(path)):
+        raise ConfigError(flag, f"'{path}' exists and is not a regular file (a FIFO, device or socket); "
+                                "give another name")
+    if not path.parent.is_dir():
+        raise ConfigError(flag, f"folder '{path.parent}' does not exist")
+    check_writable(path.parent, flag)
     return path
 
 
