@@ -8,7 +8,6 @@ import math
 import sys
 import time
 from pathlib import Path
-from types import SimpleNamespace
 
 from birdocp.bird.config import ConfigError
 from birdocp.cli import common as cli
@@ -58,7 +57,6 @@ def _first_difference(a: dict, b: dict, prefix: str = "") -> str | None:
 def load_controller(path_text: str, cfg):
     """(controller namespace, cycle cfg, result dict) from a control run folder; ConfigError if it is
     not one or was designed for another configuration than ``cfg``."""
-    import numpy as np
 
     from birdocp.bird import config as C
     from birdocp.io.runs import read_result
@@ -78,9 +76,10 @@ def load_controller(path_text: str, cfg):
         key = _first_difference(C.to_dict(cfg), C.to_dict(requested))
         raise ConfigError("--controller", f"'{path}' was designed for another configuration (differs in {key}); "
                           "simulate with the same CONFIG/--set, or design a controller for this one")
-    ctl = SimpleNamespace(controls=list(r["controls"]), K=np.array(r["gains"], float),
-                          x_starts=np.array(r["x_starts"], float), limits=np.array(r["limits"], float),
-                          updates_per_beat=int(r["updates_per_beat"]))
+    from birdocp.studies.control import controller_from_dict
+
+    ctl = controller_from_dict(r, "--controller")  # every stored value checked (exit 2 naming it)
+    r = dict(r, cycle_x0=ctl.cycle_x0.tolist(), steps_per_period=ctl.steps_per_period)
     return ctl, cycle_cfg, r
 
 
