@@ -202,9 +202,10 @@ class SafeStdout:
     the interpreter's exit flush fails on it), and one warning goes to stderr (none for a pipe whose
     reader exited: ``birdocp config | head -1`` is ordinary use)."""
 
-    def __init__(self, stream):
+    def __init__(self, stream, redirect_fd: bool = True):
         self._stream = stream
         self.lost = stream is None
+        self._redirect_fd = redirect_fd  # False when called from Python (a test's capture owns fd 1)
 
     def _lose(self, exc: BaseException | None) -> None:
         if not self.lost and exc is not None and not isinstance(exc, BrokenPipeError):  # EPIPE: as `| head`
@@ -213,6 +214,8 @@ class SafeStdout:
                 print(f"{PROG}: warning: stdout is gone ({why}); the command goes on, its result is in "
                       "its run folder", file=sys.stderr)
         self.lost = True
+        if not self._redirect_fd:
+            return
         with contextlib.suppress(OSError):
             devnull = os.open(os.devnull, os.O_WRONLY)
             os.dup2(devnull, 1)
@@ -241,10 +244,12 @@ class SafeStdout:
 
 
 @contextlib.contextmanager
-def guarded_stdout() -> Iterator[SafeStdout]:
-    """``sys.stdout`` replaced by a :class:`SafeStdout` while the body runs (restored after)."""
+def guarded_stdout(redirect_fd: bool = True) -> Iterator[SafeStdout]:
+    """``sys.stdout`` replaced by a :class:`SafeStdout` while the body runs (restored after);
+    ``redirect_fd``: point descriptor 1 at ``os.devnull`` once stdout is gone (the program does,
+    a call from Python does not)."""
     saved = sys.stdout
-    guard = SafeStdout(saved)
+    guard = SafeStdout(saved, redirect_fd)
     sys.stdout = guard
     try:
         yield guard

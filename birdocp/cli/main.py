@@ -157,7 +157,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         warnings.showwarning = _one_line_warning
     old_handler = signal.getsignal(signal.SIGINT)
     try:
-        with guarded_stdout():
+        with guarded_stdout(redirect_fd=as_program):
             return _main(argv, as_program)
     except KeyboardInterrupt:  # a second Ctrl-C while the first one was being reported
         return EXIT_INTERRUPTED

@@ -15,6 +15,9 @@ temporary copy. Three shapes of output, one mechanism:
   hidden staging folder inside it, then moved into place one after the other with SIGINT and
   SIGTERM held back (:func:`signals_deferred`), the file named last (``result.json``) last.
 
+Temporary names start with a dot and end in ``.tmp`` (``.old`` for an earlier folder on its way
+out); only SIGKILL or a power cut can leave one behind.
+
 The :mod:`birdocp.io.files` module re-exports these for the layers above the engine; the engine's
 own disk caches (:mod:`birdocp.engine.graphcache`, :mod:`birdocp.engine.datastore`) use them
 directly. Standard library only.
@@ -29,6 +32,7 @@ import shutil
 import signal
 import sys
 import tempfile
+import threading
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
@@ -46,19 +50,38 @@ def umask_mode(directory: bool = False) -> int:
 
 @contextlib.contextmanager
 def signals_deferred() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM back while the body runs (a short sequence of renames that must not
-    be cut in the middle); a signal that arrived meanwhile is delivered when the body ends. Where
-    the platform cannot block signals (no ``pthread_sigmask``) the body simply runs."""
-    mask = getattr(signal, "pthread_sigmask", None)
-    old = None
-    if mask is not None:
-        with contextlib.suppress(OSError, ValueError):
-            old = mask(signal.SIG_BLOCK, _DEFERRED)
+    """Hold SIGINT and SIGTERM back while the body runs (a short sequence of renames, a clean-up,
+    that must not be cut in the middle); a signal that arrived meanwhile is acted on, once, when the
+    body ends (its handler called: ``KeyboardInterrupt`` for Ctrl-C).
+
+    The Python-level handlers are swapped for a recorder (blocking the signal with
+    ``pthread_sigmask`` would not do: the kernel hands a process-wide signal to any thread that does
+    not block it, CasADi's and the progress bar's included). Outside the main thread, where Python
+    allows no handler change and delivers no signal, the body simply runs."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    saved = {}
+    for signum in _DEFERRED:
+        with contextlib.suppress(ValueError, OSError, TypeError):
+            handler = signal.getsignal(signum)
+            if handler in (signal.SIG_IGN, None):
+                continue  # ignored (or not set from Python) stays so
+            saved[signum] = handler
+            signal.signal(signum, lambda n, frame: caught.append(n))
     try:
         yield
     finally:
-        if old is not None:
-            mask(signal.SIG_SETMASK, old)
+        for signum, handler in saved.items():
+            with contextlib.suppress(ValueError, OSError, TypeError):
+                signal.signal(signum, handler)
+        if caught:
+            handler = saved[caught[0]]
+            if callable(handler):
+                handler(caught[0], None)
+            elif handler == signal.SIG_DFL:
+                os.kill(os.getpid(), caught[0])  # the default action (terminate)
 
 
 def fsync_file(path: str | Path) -> None:
