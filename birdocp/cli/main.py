@@ -17,10 +17,11 @@ configuration is fully validated before the model is imported or built.
 Exit codes: 0 success; 1 the computation failed (did not converge, diverged; the result is still
 written) or its output could not be written (a full disk, a file-size limit: one line, nothing
 partial kept); 2 bad input (one line on stderr naming the key at fault, nothing written); 3 internal
-error (one line naming a log file that holds the traceback, see :func:`error_log_dir`); 130
+error (one line naming a log file that holds the traceback, see
+:func:`birdocp.cli.streams.error_log_dir`); 130
 interrupted. With ``--json`` exactly one JSON object is printed on every exit except bad input. The
 exit code never depends on stdout: a closed stdout or a reader that went away (EPIPE) ends the
-printing, not the command (:class:`birdocp.cli.common.SafeStdout`).
+printing, not the command (:class:`birdocp.cli.streams.SafeStdout`).
 """
 
 from __future__ import annotations
@@ -51,14 +52,11 @@ try:
         common_options,
         config_message,
         failure_json,
-        guarded_stdout,
         one_line,
-        open_std_streams,
         print_json,
         resolve_config,
-        tolerant_encodings,
-        write_error_log,
     )
+    from birdocp.cli.streams import guarded_stdout, open_std_streams, tolerant_encodings, write_error_log
 except KeyboardInterrupt:  # Ctrl-C while the command starts up: the same exit as later on
     if "--json" in sys.argv[1:]:
         sys.stdout.write('{"success": false, "status": "interrupted", "message": "interrupted (Ctrl-C)", '
@@ -239,7 +237,7 @@ def _write_failed(exc: OSError, args, debug: bool) -> int:
 
 
 def _internal_error(exc: BaseException, args, debug: bool, command_line: list[str]) -> int:
-    """One line naming the log file with the traceback (:func:`birdocp.cli.common.write_error_log`)."""
+    """One line naming the log file with the traceback (:func:`birdocp.cli.streams.write_error_log`)."""
     if debug:
         traceback.print_exc()
     log = write_error_log(exc, command_line)
