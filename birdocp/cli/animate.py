@@ -51,38 +51,27 @@ def register(sub, common) -> None:
     p.set_defaults(func=cmd_animate)
 
 
+CYCLE_COMMANDS = ("trim", "level")
+"""The commands whose run folders hold a cycle that animate draws."""
+
+
 def load_cycle(run_dir: str | Path):
-    """``(cfg, arrays, result)`` of a run folder holding a cycle, or :class:`ConfigError` on RUN_DIR."""
+    """``(cfg, arrays, result)`` of a run folder holding a cycle, read and checked by
+    :func:`birdocp.cli.inputs.read_run_folder`; a :class:`ConfigError` on RUN_DIR otherwise."""
     import numpy as np
 
-    from birdocp.bird import config as C
-    from birdocp.io.runs import read_result
+    from birdocp.cli.inputs import read_run_folder
 
-    run = Path(run_dir)
-    if not run.is_dir():
-        raise ConfigError("RUN_DIR", f"'{run}' is not a folder; give a trim or level run folder")
-    result = read_result(run)
-    if result is None:
-        raise ConfigError("RUN_DIR", f"'{run}' holds no readable result.json (not a birdocp run folder)")
-    if not (run / "arrays.npz").is_file() or not (run / "config.toml").is_file():
-        raise ConfigError("RUN_DIR", f"'{run}' holds no cycle (arrays.npz and config.toml); "
-                                     "animate a trim or level run folder")
-    try:
-        with np.load(run / "arrays.npz") as z:
-            arrays = {k: z[k] for k in z.files}
-    except (OSError, ValueError) as exc:
-        raise ConfigError("RUN_DIR", f"unreadable arrays.npz: {cli.one_line(exc)}") from None
+    folder, cfg = read_run_folder(run_dir, "RUN_DIR", commands=CYCLE_COMMANDS, kind="a trim or level run folder",
+                                  arrays="required")
+    arrays, run = folder.arrays, folder.path
     t, x = arrays.get("trajectory_t_s"), arrays.get("trajectory_x")
-    if t is None or x is None or x.ndim != 2 or x.shape[1] != 4 or len(t) != len(x) or len(t) < 3:
-        raise ConfigError("RUN_DIR", f"'{run}' holds no cycle trajectory (trajectory_t_s, trajectory_x in "
-                                     "arrays.npz); animate a trim or level run folder")
+    if t is None or x is None or len(t) < 3:
+        raise folder.error("arrays.npz", "holds no cycle trajectory (trajectory_t_s, trajectory_x); animate a "
+                                         "trim or level run folder")
     if not (np.all(np.isfinite(x)) and np.all(np.isfinite(t))):
         raise ConfigError("RUN_DIR", f"the trajectory in '{run}' is not finite (a failed solve); nothing to draw")
-    try:
-        cfg = C.load(run / "config.toml")
-    except ConfigError as exc:
-        raise ConfigError("RUN_DIR", f"config.toml: {cli.config_message(exc)}") from None
-    return cfg, arrays, result
+    return cfg, arrays, folder.result
 
 
 def cmd_animate(args: argparse.Namespace, command_line: list[str]) -> int:

@@ -7,7 +7,7 @@ import argparse
 import math
 import sys
 import time
-from pathlib import Path
+from types import SimpleNamespace
 
 from birdocp.bird.config import ConfigError
 from birdocp.cli import common as cli
@@ -55,32 +55,76 @@ def _first_difference(a: dict, b: dict, prefix: str = "") -> str | None:
 
 
 def load_controller(path_text: str, cfg):
-    """(controller namespace, cycle cfg, result dict) from a control run folder; ConfigError if it is
-    not one or was designed for another configuration than ``cfg``."""
-
+    """(controller namespace, cycle cfg, result dict) from a control run folder, read and checked by
+    :func:`birdocp.cli.inputs.read_run_folder` (its config.toml the one the controller was designed on)
+    and :func:`controller_fields`; ConfigError on --controller if it is not one, is damaged, or was
+    designed for another configuration than ``cfg``."""
     from birdocp.bird import config as C
-    from birdocp.io.runs import read_result
+    from birdocp.cli.inputs import read_run_folder
 
-    path = Path(path_text)
-    r = read_result(path)
-    if not isinstance(r, dict) or (r.get("provenance") or {}).get("command") != "control":
-        raise ConfigError("--controller", f"'{path}' is not a 'birdocp control' run folder (no control result.json)")
+    folder, cycle_cfg = read_run_folder(path_text, "--controller", commands=("control",),
+                                        kind="a 'birdocp control' run folder", arrays=None)
+    r, path = folder.result, folder.path
     if not r.get("success") or "gains" not in r:
         raise ConfigError("--controller", f"'{path}' holds no stabilising controller (status {r.get('status')})")
+    if not isinstance(r.get("requested_config"), str):
+        raise folder.error("result.json", "has no requested_config (the configuration the controller was asked for)")
     try:
-        cycle_cfg = C.load(path / "config.toml")
         requested = C.loads(r["requested_config"])
-    except (OSError, KeyError, ConfigError) as exc:
-        raise ConfigError("--controller", f"cannot read the configuration of '{path}': {cli.one_line(exc)}") from None
+    except ConfigError as exc:
+        raise folder.error("result.json", f"requested_config: {cli.one_line(exc)}") from None
+    ctl = controller_fields(folder, cycle_cfg)
     if C.dumps(cfg) not in (C.dumps(requested), C.dumps(cycle_cfg)):
         key = _first_difference(C.to_dict(cfg), C.to_dict(requested))
         raise ConfigError("--controller", f"'{path}' was designed for another configuration (differs in {key}); "
                           "simulate with the same CONFIG/--set, or design a controller for this one")
-    from birdocp.studies.control import controller_from_dict
-
-    ctl = controller_from_dict(r, "--controller")  # every stored value checked (exit 2 naming it)
-    r = dict(r, cycle_x0=ctl.cycle_x0.tolist(), steps_per_period=ctl.steps_per_period)
     return ctl, cycle_cfg, r
+
+
+def _array(folder, name: str, shape: tuple, value):
+    import numpy as np
+
+    try:
+        a = np.array(value, float)
+    except (TypeError, ValueError):
+        raise folder.error("result.json", f"'{name}' is not an array of numbers") from None
+    if a.shape != shape:
+        raise folder.error("result.json", f"'{name}' has shape {a.shape}, the controller needs {shape}")
+    if not np.all(np.isfinite(a)):
+        raise folder.error("result.json", f"'{name}' holds values that are not finite numbers")
+    return a
+
+
+def controller_fields(folder, cycle_cfg) -> SimpleNamespace:
+    """The controller in a control run's result.json, every field checked against the stored
+    configuration: known gait controls (no repeats), ``updates_per_beat`` dividing the RK4 steps, gains
+    ``(N, m, 4)``, cycle states ``(N, 4)`` and ``cycle_x0`` finite, limits ``(m, 2)`` with LO < HI."""
+    from birdocp.studies.control import resolve_controls
+
+    r = folder.result
+    controls = r.get("controls")
+    if not isinstance(controls, list) or not controls or not all(isinstance(c, str) for c in controls):
+        raise folder.error("result.json", "'controls' is not a list of configuration keys")
+    try:
+        if list(resolve_controls(controls)) != controls:
+            raise ConfigError("controls", f"{controls} are not in the resolved form")
+    except ConfigError as exc:
+        raise folder.error("result.json", f"'controls': {cli.config_message(exc)}") from None
+    steps, n = r.get("steps_per_period"), r.get("updates_per_beat")
+    if steps != cycle_cfg.solve.steps_per_period or isinstance(steps, bool):
+        raise folder.error("result.json", f"'steps_per_period' is {steps!r}, config.toml says "
+                                          f"{cycle_cfg.solve.steps_per_period}")
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1 or steps % n:
+        raise folder.error("result.json", f"'updates_per_beat' is {n!r}; it must be an integer >= 1 dividing the "
+                                          f"{steps} RK4 steps per period")
+    m = len(controls)
+    limits = _array(folder, "limits", (m, 2), r.get("limits"))
+    if not all(limits[:, 0] < limits[:, 1]):
+        raise folder.error("result.json", "'limits' are not LO < HI for every control")
+    _array(folder, "cycle_x0", (4,), r.get("cycle_x0"))
+    return SimpleNamespace(controls=list(controls), K=_array(folder, "gains", (n, m, 4), r.get("gains")),
+                           x_starts=_array(folder, "x_starts", (n, 4), r.get("x_starts")), limits=limits,
+                           updates_per_beat=n)
 
 
 def _run_simulation(args, sim_cfg, x0, steps, dx0, gusts, wind, ctl):

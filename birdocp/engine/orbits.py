@@ -86,6 +86,12 @@ class OrbitMethod(ShootingGrid):
         relative amplitude below which a solution is an equilibrium (failure).
     period_bounds
         (lo, hi) as factors of the period guess (autonomous).
+    max_iter
+        iterations of the solver per grid.
+    min_steps, max_steps_per_period
+        the first and the largest N when N is chosen by doubling.
+    ipopt_options
+        extra IPOPT options (``solver="ipopt"``).
     """
 
     integrator: str = "rk4"
@@ -125,6 +131,10 @@ class OrbitProblem:
 
     Attributes
     ----------
+    ode
+        the system (:class:`~birdocp.engine.ode.ODE`).
+    p
+        its parameters (np,).
     x_guess
         a point near the orbit (nx,), or guesses of the shooting points (M or M-1, nx).
     period_guess
@@ -483,6 +493,22 @@ def solve_orbit(problem: OrbitProblem, method: OrbitMethod = OrbitMethod(),
     orbit is not an equilibrium. With ``method.steps_per_period=None`` the steps are doubled from
     ``method.min_steps`` until the error estimate is below ``method.accuracy`` (a failed solve on a
     grid too coarse for the dynamics is retried on the finer grid too).
+
+    Parameters
+    ----------
+    problem : OrbitProblem
+        The ODE, its parameters, the guess of a state on the orbit and of the period.
+    method : OrbitMethod
+        Shooting points, steps per period (None: refined to ``accuracy``), integrator, solver,
+        tolerances.
+    warm_start : PeriodicOrbit, optional
+        A previous orbit that starts the solve.
+
+    Returns
+    -------
+    PeriodicOrbit
+        ``success``, ``status``, ``period``, ``x0``, ``multipliers`` (the trivial one reported apart),
+        ``stable``, ``error_estimate`` and ``accurate``.
     """
     method.validate()
     if method.steps_per_period is None:

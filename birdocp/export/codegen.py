@@ -1,6 +1,6 @@
 """Export the bird model as a self-contained C folder (``birdocp export-c``).
 
-The split (``design.md`` 2 and 5): the whole geometry ``data(t, p)`` (214k-480k SX nodes) does not
+The split (``docs/performance.md``): the whole geometry ``data(t, p)`` (214k-480k SX nodes) does not
 compile in reasonable time, so it is evaluated here, in Python, on the RK4 stage-time grid of the
 configured gait and written as a **table in a generated C file** (``bird_data.c``, a ``static const``
 array of ``(2N+1) x N_DATA`` doubles in shortest round-trip decimal, so the values are bit-exact). A
@@ -109,7 +109,22 @@ def export_c(cfg: Config | None = None, out_dir: str | os.PathLike = "bird_c", *
     """Write the C folder for ``cfg`` (gait, wing and aero numbers baked into the table) to ``out_dir``.
 
     ``steps_per_period``: RK4 steps N per period (default ``cfg.solve.steps_per_period``). The period
-    map starts at t = 0 (phase zero of the gait), like :func:`birdocp.studies.trim.trim`."""
+    map starts at t = 0 (phase zero of the gait), like :func:`birdocp.studies.trim.trim`.
+
+    Parameters
+    ----------
+    cfg : Config, optional
+        The configuration (default: the paper's reference case).
+    out_dir : str or PathLike
+        The folder to write (created).
+    steps_per_period : int, optional
+        See above.
+
+    Returns
+    -------
+    ExportInfo
+        What was written (files, sizes, the parameter table).
+    """
     from birdocp.bird.model import get_model
 
     t_all = time.perf_counter()
@@ -207,8 +222,8 @@ def _header(info: ExportInfo, cfg: Config) -> str:
         from birdocp.bird.inertia import MASS_BLOCK
 
         blocks += [f" *   d[{k + i}]  {name} (wing masses, body frame)" for i, name in enumerate(MASS_BLOCK)]
-        blocks.append(" * With wing masses the RHS adds their inertial forces and moments (birdocp spec"
-                      " inertia.md 4): m is then the whole bird's mass and I the body's own pitch inertia.")
+        blocks.append(" * With wing masses the RHS adds their inertial forces and moments (docs/studies/inertia.md,"
+                      " equations): m is then the whole bird's mass and I the body's own pitch inertia.")
     return HEADER_TEMPLATE.format(
         version=__version__, casadi=ca.__version__, N=info.steps_per_period, T=repr(info.period_s),
         h=repr(info.step_s), nd=info.n_data, ncol=2 * info.steps_per_period + 1,

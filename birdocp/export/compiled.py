@@ -10,7 +10,7 @@ the external with SX arguments makes a *call node* in the SX RK4 step, so
 evaluates only for numbers (``post`` on the stage grid, 35k instructions per time; ``post`` with its
 derivatives along the free parameters, 104k for two; gcc 7-9 s each, once) are compiled on first use
 through the ODE's ``numeric`` hook (:class:`NumericCompiler`). The arm-frame geometry ``pre`` (183k
-nodes) is never compiled (``design.md`` 2, 5): its values are kept on disk instead
+nodes) is never compiled (``docs/performance.md``): its values are kept on disk instead
 (:mod:`birdocp.engine.datastore`).
 
 Cache: ``$BIRDOCP_CACHE`` or ``$XDG_CACHE_HOME/birdocp`` (default ``~/.cache/birdocp``), one shared
@@ -47,7 +47,7 @@ __all__ = ["CompiledFallbackWarning", "cache_dir", "find_compiler", "compile_fun
            "OPT_FLAGS", "last_compile_s"]
 
 OPT_FLAGS = ("-O1",)
-"""-O1: measured best trade-off here (design.md 2: -O0 is slower than the interpreter; -O2/-O3 only
+"""-O1: measured best trade-off here (docs/performance.md: -O0 is slower than the interpreter; -O2/-O3 only
 lengthen the build of generated straight-line code)."""
 
 last_compile_s: dict = {}
@@ -221,7 +221,22 @@ def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None =
     :class:`CompiledFallbackWarning` when compiling or loading the RHS fails.
 
     The result is memoised per ``ode`` object, so the engine's graph caches (keyed by ODE identity)
-    are reused across solves."""
+    are reused across solves.
+
+    Parameters
+    ----------
+    ode : PeriodicODE
+        The ODE to compile.
+    key_extra : str
+        Extra text for the cache key (e.g. the configuration's structure).
+    directory : Path, optional
+        The cache folder (default :func:`cache_dir`).
+
+    Returns
+    -------
+    PeriodicODE or None
+        The compiled ODE, or None when compiling failed (see above).
+    """
     hit = _ODES.get(id(ode))
     if hit is not None and hit[0] is ode:
         return hit[1]

@@ -19,7 +19,6 @@ from __future__ import annotations
 import atexit
 import contextlib
 import errno
-import json
 import os
 import re
 import secrets
@@ -296,10 +295,14 @@ def new_run_dir(base: str | Path | None, command: str) -> Path:
 
 
 def read_result(run_dir: str | Path) -> dict | None:
-    """The result.json of a run folder, or None if absent or unreadable."""
+    """The result.json of a run folder, or None if absent, unreadable or not a regular file (read by
+    :func:`birdocp.io.inputs.read_json_file`: a FIFO is never opened). Commands that use a run
+    folder read it with :func:`birdocp.io.inputs.read_run`, which says what is wrong."""
+    from birdocp.io.inputs import read_json_file
+
     try:
-        return json.loads((Path(run_dir) / "result.json").read_text())
-    except (OSError, ValueError):
+        return read_json_file(Path(run_dir) / "result.json", "RUN_DIR")
+    except ConfigError:
         return None
 
 
@@ -384,6 +387,8 @@ def write_run(run_dir: str | Path, cfg, result_dict: dict, arrays: dict | None,
     ``result.json`` holds ``result_dict`` plus ``provenance`` (see :mod:`birdocp.io.provenance`) and is
     written last. ``wall_s`` defaults to ``result_dict["wall_s"]``. Returns the result.json path.
     """
+    import json
+
     import tomli_w
 
     from birdocp.io.files import dataclass_to_dict, staged_files, to_jsonable

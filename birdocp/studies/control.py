@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from types import SimpleNamespace
 
 import casadi as ca
 import numpy as np
@@ -48,7 +47,7 @@ from birdocp.engine.results import result_dict, serial
 __all__ = ["DEFAULT_CONTROLS", "ACCEPTABLE_STATE", "ACCEPTABLE_CONTROL_DEG", "DEFAULT_LIMIT_DEG",
            "WingbeatMap", "Controller", "wingbeat_map", "periodic_lqr", "design_controller",
            "resolve_controls", "bryson_weights", "default_limits", "sorted_eigs", "reference_cycle",
-           "closed_loop_monodromy", "CONTROL_ALIASES", "PerModel", "controller_from_dict"]
+           "closed_loop_monodromy", "CONTROL_ALIASES", "PerModel"]
 
 DEFAULT_CONTROLS = ("gait.shoulder_incidence.offset_deg", "gait.shoulder_flap.amplitude_deg",
                     "gait.shoulder_sweep.offset_deg")
@@ -441,56 +440,6 @@ class Controller:
             "controllable": {r["control"]: r["stabilisable"] for r in self.per_control},
             "cycle_x0": wm.x0, "cycle_controls": [wm.p[PARAM_NAMES.index(k)] for k in wm.controls],
             "x_starts": wm.x_starts, "A": wm.A, "B": wm.B, "monodromy": wm.M, "B_lifted": wm.B_lifted})
-
-
-def controller_from_dict(r: dict, flag: str = "--controller") -> SimpleNamespace:
-    """The controller stored in a control result (``result.json`` of ``birdocp control``), every
-    value checked: ``controls`` known gait keys; ``updates_per_beat`` N an integer >= 1 dividing
-    ``steps_per_period``; ``gains`` finite of shape (N, m, 4); ``x_starts`` finite (N, 4); ``limits``
-    finite (m, 2) with lower <= upper; ``cycle_x0`` four finite numbers. Raises ConfigError on
-    ``flag`` naming the field and what is wrong; returns a namespace with ``controls``, ``K``,
-    ``x_starts``, ``limits``, ``updates_per_beat``, ``cycle_x0`` and ``steps_per_period`` (what
-    :func:`birdocp.studies.simulate.simulate` takes as its controller)."""
-    def bad(field_name: str, problem: str):
-        return ConfigError(flag, f"the stored controller's '{field_name}' {problem}; design it again with "
-                                 "'birdocp control'")
-
-    def integer(name: str, lo: int, hi: int) -> int:
-        v = r.get(name)
-        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-            raise bad(name, f"must be an integer in [{lo}, {hi}], got {v!r}")
-        return v
-
-    def array(name: str, shape: tuple) -> np.ndarray:
-        try:
-            a = np.array(r.get(name), dtype=float)
-        except (TypeError, ValueError, OverflowError):
-            raise bad(name, "is not an array of numbers") from None
-        if a.shape != shape:
-            raise bad(name, f"has shape {a.shape}, expected {shape}")
-        if not np.all(np.isfinite(a)):
-            raise bad(name, "holds non-finite values (NaN or inf)")
-        return a
-
-    keys = r.get("controls")
-    if not isinstance(keys, list) or not all(isinstance(k, str) for k in keys):
-        raise bad("controls", f"must be a list of gait keys, got {keys!r}")
-    try:
-        controls = resolve_controls(keys)
-    except ConfigError as exc:
-        raise bad("controls", f"is not usable: {str(exc).split(': ', 1)[-1]}") from None
-    steps = integer("steps_per_period", 1, 10000)
-    n = integer("updates_per_beat", 1, steps)
-    if steps % n:
-        raise bad("updates_per_beat", f"{n} does not divide the {steps} RK4 steps per period")
-    m = len(controls)
-    limits = array("limits", (m, 2))
-    if np.any(limits[:, 0] > limits[:, 1]):
-        i = int(np.argmax(limits[:, 0] > limits[:, 1]))
-        raise bad("limits", f"of {controls[i]} are inverted (lower {limits[i, 0]:g} > upper {limits[i, 1]:g})")
-    return SimpleNamespace(controls=controls, K=array("gains", (n, m, 4)), x_starts=array("x_starts", (n, 4)),
-                           limits=limits, updates_per_beat=n, cycle_x0=array("cycle_x0", (4,)),
-                           steps_per_period=steps)
 
 
 def design_controller(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int = 1, *,

@@ -82,10 +82,21 @@ def check_speed(flag: str, what: str, value: float) -> float:
 
 @dataclass(frozen=True)
 class Gust:
-    """A 1 - cos gust: ``direction`` 'vertical' (positive up) or 'horizontal' (positive along the
-    flight direction, i.e. a tailwind; negative = headwind), peak ``amplitude_mps``, length in
-    wingbeats (``length_beats``) or metres (``length_m``), start ``start_beats`` ahead (in beats of
-    the cycle's flight distance) or ``start_m``."""
+    """A 1 - cos gust, frozen in the air.
+
+    Attributes
+    ----------
+    direction
+        'vertical' (positive up) or 'horizontal' (positive along the flight direction, i.e. a
+        tailwind; negative = headwind).
+    amplitude_mps
+        peak wind speed of the gust [m/s].
+    length_beats, length_m
+        its length in wingbeats (of the cycle's flight distance) or in metres (``length_m`` wins
+        when given).
+    start_beats, start_m
+        how far ahead of the bird it starts, in beats or in metres (``start_m`` wins when given).
+    """
 
     direction: str
     amplitude_mps: float
@@ -441,7 +452,36 @@ def gust_envelope(cfg, x0_cycle, controller, direction: str = "vertical", *, sig
     """The largest 1 - cos gust (peak amplitude, m/s, of sign ``sign``) the closed loop recovers from
     within ``beats`` beats (deviation back to 1/100 of its peak) without saturating a joint and
     without leaving the model's validity; found by doubling from ``start_mps`` then bisection to
-    ``tol_mps``. Returns the envelope amplitude, the beats to recover there and every trial."""
+    ``tol_mps``. Returns the envelope amplitude, the beats to recover there and every trial.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration of the cycle.
+    x0_cycle : array_like (4,)
+        The cycle's state at the beat start.
+    controller : Controller or None
+        The feedback (None: open loop).
+    direction : {"vertical", "horizontal"}
+        The gust's direction.
+    sign : float
+        +1 or -1: up/tailwind or down/headwind.
+    length_beats : float
+        Gust length in wingbeats.
+    beats : int
+        Beats allowed to recover.
+    steps_per_period : int, optional
+        RK4 steps per beat (default ``cfg.solve.steps_per_period``).
+    p : array_like, optional
+        Parameter vector of the cycle (default that of ``cfg``).
+    start_mps, max_mps, tol_mps : float
+        First trial, largest trial and bisection tolerance of the peak amplitude [m/s].
+
+    Returns
+    -------
+    dict
+        The envelope amplitude [m/s], the beats to recover there and every trial.
+    """
     trials = []
 
     def ok(a):
