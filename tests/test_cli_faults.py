@@ -473,7 +473,8 @@ def test_json_on_failed_sensitivity_internal_error_and_bad_input(tmp_path, monke
         raise RuntimeError("disk on fire")
 
     fake.trim = boom
-    assert cli.main(["trim", "--json"]) == 1
+    monkeypatch.setenv("BIRDOCP_LOG_DIR", str(tmp_path / "logs"))
+    assert cli.main(["trim", "--json"]) == 3
     out, err = capfd.readouterr()
     res = _one_json(out)
     assert res == {"success": False, "status": "internal_error", "message": "RuntimeError: disk on fire",

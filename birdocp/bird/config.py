@@ -369,7 +369,7 @@ _POSITIVE = {
     "wing.shoulder_half_separation_m", "wing.section_half_thickness_m", "wing.smoothing_radius_m",
     "gait.frequency_hz", "aero.air_density_kgm3", "aero.lift_slope_per_rad", "aero.backward_step_s",
     "tail.root_behind_m", "tail.length_m", "tail.kinematic_viscosity_m2ps", "tail.reynolds_speed_mps",
-    "drag.body_frontal_area_m2",
+    "drag.body_frontal_area_m2", "body.gravity_mps2",
 }
 ANGLE_LIMIT_DEG = 180.0
 MAX_POINTS = 500
@@ -378,6 +378,27 @@ MAX_STEPS_PER_PERIOD = 10000
 """Upper bound of solve.steps_per_period: the RK4 graphs and the data grid grow with it (the
 reference case uses 148)."""
 """Joint offsets and amplitudes must lie in [-180, 180] deg, phases in [-360, 360] deg."""
+
+
+_UPPER = {
+    "body.mass_kg": (1.0e4, "kg"), "body.pitch_inertia_kgm2": (1.0e4, "kg m^2"),
+    "body.gravity_mps2": (100.0, "m/s^2 (10 g)"), "body.reference_chord_m": (100.0, "m"),
+    "wing.arm_length_m": (100.0, "m"), "wing.forearm_length_m": (100.0, "m"), "wing.hand_length_m": (100.0, "m"),
+    "wing.shoulder_half_separation_m": (100.0, "m"), "wing.section_half_thickness_m": (100.0, "m"),
+    "wing.smoothing_radius_m": (100.0, "m"), "wing.mass_kg": (1.0e4, "kg"),
+    "gait.frequency_hz": (1000.0, "Hz"), "aero.air_density_kgm3": (100.0, "kg/m^3 (the air at the surface of "
+                                                                          "Venus is 65)"),
+    "aero.lift_slope_per_rad": (100.0, "per rad (thin-airfoil theory gives 2 pi)"),
+    "aero.backward_step_s": (1.0, "s"), "tail.root_behind_m": (100.0, "m"), "tail.length_m": (100.0, "m"),
+    "tail.kinematic_viscosity_m2ps": (1.0, "m^2/s (air 1.5e-5)"),
+    "tail.reynolds_speed_mps": (340.0, "m/s (the speed of sound: the air of the model is incompressible)"),
+    "drag.body_frontal_area_m2": (100.0, "m^2"), "drag.body_drag_coefficient": (100.0, ""),
+    "drag.profile_drag_coefficient": (100.0, ""),
+}
+"""Largest physical value of a configuration number (with its unit and, where useful, why): beyond
+it the model's numbers overflow or stop meaning anything, so it is bad input before any work."""
+MAX_GUESS_SPEED_MPS = 340.0
+"""Largest |u|, |w| of ``solve.initial_guess`` (the speed of sound)."""
 
 
 def _check_number(key: str, value: Any) -> float:
@@ -393,6 +414,17 @@ def _check_number(key: str, value: Any) -> float:
     return number
 
 
+def _check_range(key: str, value: float) -> None:
+    """The physical range of a positive quantity (:data:`_POSITIVE`) or one with an upper bound (:data:`_UPPER`)."""
+    if key in _POSITIVE and value <= 0:
+        why = " (without weight there is no flight to trim: lift, power and cost of transport are per weight)" \
+            if key == "body.gravity_mps2" else ""
+        raise ConfigError(key, f"must be > 0, got {value!r}{why}")
+    if key in _UPPER and value > _UPPER[key][0]:
+        hi, unit = _UPPER[key]
+        raise ConfigError(key, f"must be at most {hi:g} {unit}".rstrip() + f", got {value!r}")
+
+
 def validate(cfg: Config) -> None:
     """Raise :class:`ConfigError` on the first non-physical value."""
     for key in _flat_keys(cfg):
@@ -402,15 +434,11 @@ def validate(cfg: Config) -> None:
         if isinstance(value, int) and not isinstance(value, bool) and key.startswith(
                 ("solve.", "aero.relaxed", "model.degrees")):
             continue
-        _check_number(key, value)
-        if key in _POSITIVE and value <= 0:
-            raise ConfigError(key, f"must be > 0, got {value!r}")
-    if cfg.body.gravity_mps2 < 0:
-        raise ConfigError("body.gravity_mps2", f"must be >= 0, got {cfg.body.gravity_mps2!r}")
+        _check_range(key, _check_number(key, value))
     for i, L in enumerate(cfg.wing.feather_lengths_m):
         _check_number(f"wing.feather_lengths_m.{i}", L)
-        if L <= 0:
-            raise ConfigError(f"wing.feather_lengths_m.{i}", f"must be > 0, got {L!r}")
+        if not 0 < L <= 100.0:
+            raise ConfigError(f"wing.feather_lengths_m.{i}", f"must lie in (0, 100] m, got {L!r}")
     if len(cfg.wing.feather_lengths_m) != 7:
         raise ConfigError("wing.feather_lengths_m", f"needs 7 lengths, got {len(cfg.wing.feather_lengths_m)}")
     _validate_wing_mass(cfg)
@@ -462,7 +490,10 @@ def validate(cfg: Config) -> None:
     if len(s.initial_guess) != 4:
         raise ConfigError("solve.initial_guess", f"needs 4 numbers (u, w, q, theta), got {len(s.initial_guess)}")
     for i, v in enumerate(s.initial_guess):
-        _check_number(f"solve.initial_guess.{i}", v)
+        v = _check_number(f"solve.initial_guess.{i}", v)
+        if i < 2 and abs(v) > MAX_GUESS_SPEED_MPS:
+            raise ConfigError(f"solve.initial_guess.{i}", f"must lie within +-{MAX_GUESS_SPEED_MPS:g} m/s (the speed "
+                                                          f"of sound: the model's air is incompressible), got {v!r}")
     _validate_model(cfg)
 
 

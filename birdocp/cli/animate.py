@@ -10,6 +10,7 @@ an MP4 without ffmpeg is one line on stderr and exit 2.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -21,6 +22,9 @@ DEFAULT_FRAMES = 48
 """Frames per cycle by default (one per T/48; the issue asks for at least one per T/40)."""
 MAX_FRAMES = 1000
 """Most frames per cycle (20 times the default; each frame is drawn and stored in the file)."""
+FPS_RANGE = (0.1, 100.0)
+"""Frames per second a file can hold: a GIF frame lasts a whole number of hundredths of a second
+(at most 100 fps; at 0.1 fps a frame lasts 10 s)."""
 
 
 def register(sub, common) -> None:
@@ -36,7 +40,8 @@ def register(sub, common) -> None:
     p.add_argument("--frames", type=int, default=DEFAULT_FRAMES, metavar="N",
                    help=f"frames per cycle (default {DEFAULT_FRAMES}; at least 8, at most {MAX_FRAMES})")
     p.add_argument("--fps", type=float, default=12.0, metavar="F",
-                   help="frames per second of the file (default 12: one wingbeat in 4 s, 16x slower than life)")
+                   help="frames per second of the file, 0.1..100 (default 12: one wingbeat in 4 s, 16x slower "
+                        "than life)")
     p.add_argument("--dpi", type=int, default=80, metavar="D", help="resolution (default 80: 800 x 448 pixels)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress bar on stderr")
@@ -73,16 +78,17 @@ def cmd_animate(args: argparse.Namespace, command_line: list[str]) -> int:
     t_start = time.perf_counter()
     run = Path(args.run_dir)
     cfg, arrays, result = load_cycle(run)
-    out = Path(args.out) if args.out is not None else run / "animation.gif"
-    if out.suffix.lower() not in (".gif", ".mp4"):
-        raise ConfigError("--out", f"'{out.name}': the file must end in .gif or .mp4")
-    if not out.parent.is_dir():
-        raise ConfigError("--out", f"folder '{out.parent}' does not exist")
+    from birdocp.io.runs import check_out_file
+
+    # a read-only or special target is refused now, not after drawing every frame
+    out = check_out_file(args.out if args.out is not None else run / "animation.gif",
+                         "--out" if args.out is not None else "RUN_DIR", (".gif", ".mp4"))
     if not 8 <= args.frames <= MAX_FRAMES:
         raise ConfigError("--frames", f"must lie in 8..{MAX_FRAMES}, got {args.frames}")
-    (fps,) = cli.finite_values("--fps", [args.fps])
-    if fps <= 0:
-        raise ConfigError("--fps", f"must be positive, got {args.fps}")
+    fps = args.fps
+    if not (math.isfinite(fps) and FPS_RANGE[0] <= fps <= FPS_RANGE[1]):
+        raise ConfigError("--fps", f"must lie in {FPS_RANGE[0]:g}..{FPS_RANGE[1]:g} (a GIF stores each frame's "
+                                   f"duration in hundredths of a second), got {args.fps}")
     if not 20 <= args.dpi <= 600:
         raise ConfigError("--dpi", f"must lie in 20..600, got {args.dpi}")
     if result.get("success") is False:  # drawn all the same (it may be what the user wants to see), but said

@@ -25,8 +25,11 @@ from birdocp.engine.solver_log import LOG_ENV, NoiseFilter
 PROG = "birdocp"
 EXIT_OK = 0
 EXIT_NOT_CONVERGED = 1
-EXIT_INTERNAL = 1
+"""The computation failed (did not converge, diverged; result written) or its output could not be
+written (full disk, file-size limit)."""
 EXIT_BAD_INPUT = 2
+EXIT_INTERNAL = 3
+"""An unexpected error (a bug): one line naming the log file that holds the traceback."""
 EXIT_INTERRUPTED = 130
 
 AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
@@ -553,7 +556,9 @@ def run_folder(args: argparse.Namespace, command: str, command_line: list[str], 
     try:
         yield run
     except BaseException:
-        with contextlib.suppress(OSError):
+        from birdocp.io.files import signals_deferred
+
+        with signals_deferred(), contextlib.suppress(OSError):  # a second Ctrl-C waits for the clean-up
             _remove_if_empty(run_dir, before, {SOLVER_LOG, *scaffold}, created)
         raise
     finally:

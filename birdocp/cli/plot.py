@@ -41,6 +41,9 @@ def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
     folder, _ = read_run_folder(args.run_dir, "RUN_DIR", commands=PLOTTED, hint=PLOTTED_HINT)
     run, res = folder.path, folder.result
     command = (res.get("provenance") or {}).get("command")
+    from birdocp.io.runs import check_writable
+
+    check_writable(run, "RUN_DIR")  # the figures go into the run folder: refused now if it is read-only
     try:
         with solver_noise(None, getattr(args, "verbose", False)):
             figs = _figures(run, res, command, folder.arrays)

@@ -127,8 +127,21 @@ def controller_fields(folder, cycle_cfg) -> SimpleNamespace:
                            updates_per_beat=n)
 
 
+def _run_simulation(args, sim_cfg, x0, steps, dx0, gusts, wind, ctl):
+    """The simulation of ``cmd_simulate`` with its progress bar."""
+    from birdocp.io.progress import progress_callback
+    from birdocp.studies.simulate import simulate
+
+    say, bar = progress_callback("simulate", getattr(args, "quiet", False), total=args.beats)
+    try:
+        return simulate(sim_cfg, x0, args.beats, steps_per_period=steps, perturbation=dx0, gusts=gusts,
+                        wind_mps=wind, controller=ctl, progress=say)
+    finally:
+        bar.close()
+
+
 def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
-    from birdocp.studies.simulate import DIRECTIONS, parse_gust, parse_perturbation
+    from birdocp.studies.simulate import DIRECTIONS, check_speed, parse_gust, parse_perturbation
 
     t0 = time.perf_counter()
     cfg = cli.resolve_config(args)
@@ -141,8 +154,9 @@ def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
     if args.gust_start is not None and not gusts:  # refused, not ignored
         raise ConfigError("--gust-start", "places a gust: add --gust DIR=MPS:BEATS (or drop --gust-start)")
     gust_start = 1.0 if args.gust_start is None else args.gust_start
-    if not math.isfinite(gust_start) or gust_start < 0:
-        raise ConfigError("--gust-start", f"must be >= 0 beats, got {gust_start}")
+    if not math.isfinite(gust_start) or not 0 <= gust_start <= MAX_BEATS:
+        raise ConfigError("--gust-start", f"must lie in 0..{MAX_BEATS} beats (no simulation flies farther), "
+                                          f"got {gust_start}")
     gusts = [type(g)(g.direction, g.amplitude_mps, g.length_beats, g.length_m, gust_start) for g in gusts]
     wind = [0.0, 0.0]
     for text in args.wind:
@@ -153,7 +167,7 @@ def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
             raise ConfigError("--wind", f"expected vertical|horizontal=MPS, got '{text}'") from None
         if d.strip() not in DIRECTIONS or not math.isfinite(val):
             raise ConfigError("--wind", f"expected vertical|horizontal=MPS with a finite value, got '{text}'")
-        wind[0 if d.strip() == "horizontal" else 1] = val
+        wind[0 if d.strip() == "horizontal" else 1] = check_speed("--wind", "the wind", val)
     ctl = None
     if args.controller:
         if args.level:
@@ -164,29 +178,23 @@ def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
         head = {"controller": str(args.controller) if args.controller else None, "run_dir": str(run_dir),
                 "perturbation": dx0.tolist(), "wind_mps": {"horizontal": wind[0], "vertical": wind[1]}}
         with run.solving():
-            from birdocp.studies.simulate import simulate
-
             if ctl is not None:
                 x0, steps = ctl_result["cycle_x0"], int(ctl_result["steps_per_period"])
             else:
                 from birdocp.studies.control import reference_cycle
 
                 base = reference_cycle(cfg, args.level)
-                if not base.success:
-                    result = {"success": False, "status": base.status,
-                              "message": f"the cycle did not converge: {base.message}", **head}
-                    run.write(cfg, result)
-                    run.output(result, None)
-                    return run.fail("the cycle did not converge", base.status, base.max_residual, base.message)
-                sim_cfg, x0, steps = base.cfg, base.x0, int(base.cycle.method["steps_per_period"])
-            from birdocp.io.progress import progress_callback
-
-            say, bar = progress_callback("simulate", getattr(args, "quiet", False), total=args.beats)
-            try:
-                sim = simulate(sim_cfg, x0, args.beats, steps_per_period=steps, perturbation=dx0, gusts=gusts,
-                               wind_mps=wind, controller=ctl, progress=say)
-            finally:
-                bar.close()
+                if base.success:
+                    sim_cfg, x0, steps = base.cfg, base.x0, int(base.cycle.method["steps_per_period"])
+            if ctl is None and not base.success:
+                result = {"success": False, "status": base.status,
+                          "message": f"the cycle did not converge: {base.message}", **head}
+            else:
+                sim = _run_simulation(args, sim_cfg, x0, steps, dx0, gusts, wind, ctl)
+        if ctl is None and not base.success:  # stdout is the terminal's again: the JSON goes there
+            run.write(cfg, result)
+            run.output(result, None)
+            return run.fail("the cycle did not converge", base.status, base.max_residual, base.message)
         result = {**sim.to_dict(), **head, "cycle_x0": [float(v) for v in x0],
                   "wall_s": {"total": time.perf_counter() - t0}}
         arrays = sim.arrays()
@@ -202,7 +210,8 @@ def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
         else:
             dev = result["deviation_per_beat"]
             print(f"simulate: {sim.status} ({'closed' if ctl is not None else 'open'} loop): {sim.message}")
-            print("  deviation per beat: " + ", ".join(f"{v:.3g}" for v in dev[:12]) + (" ..." if len(dev) > 12 else ""))
+            print("  deviation per beat: " + ", ".join(cli.fmt_num(v, ".3g") for v in dev[:12])
+                  + (" ..." if len(dev) > 12 else ""))
             print(f"  final deviation {cli.fmt_num(result['final_deviation'], '.3g')}, peak "
                   f"{cli.fmt_num(result['peak_deviation'], '.3g')} at beat {result['peak_beat']}, beats to recover "
                   f"{result['beats_to_recover']}, saturated {result['saturated']}")

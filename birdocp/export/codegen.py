@@ -37,8 +37,13 @@ import numpy as np
 from birdocp.bird.config import PARAM_NAMES, Config
 from birdocp.engine.integrate import rk4_update, stage_time_grid
 from birdocp.engine.results import result_dict
+from birdocp.io.files import atomic_folder
+from birdocp.io.runs import LOCK_NAME
 
-__all__ = ["export_c", "ExportInfo", "runtime_parameters"]
+__all__ = ["export_c", "ExportInfo", "runtime_parameters", "EXPORT_FILES"]
+
+EXPORT_FILES = frozenset({"bird_casadi.c", "bird_casadi.h", "bird_data.c", "bird.h", "bird.c", "main.c", "Makefile"})
+"""The files of an export (an earlier export's other files, e.g. build products, are kept)."""
 
 
 @dataclass
@@ -143,34 +148,41 @@ def export_c(cfg: Config | None = None, out_dir: str | os.PathLike = "bird_c", *
     wall["data_table"] = time.perf_counter() - t
 
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     t = time.perf_counter()
     fns = _functions(m.model, p0, runtime_idx, h)
-    gen = ca.CodeGenerator("bird_casadi.c", {"with_header": True})
-    for f in fns:
-        gen.add(f)
-    gen.generate(str(out) + os.sep)
-    wall["generate_casadi"] = time.perf_counter() - t
-    sz_w = max(int(f.sz_w()) for f in fns)
-    sz_iw = max(int(f.sz_iw()) for f in fns)
-    sz_arg = max(int(f.sz_arg()) for f in fns)
-    sz_res = max(int(f.sz_res()) for f in fns)
-
     rnames = [PARAM_NAMES[i] for i in runtime_idx]
     baked = {PARAM_NAMES[i]: float(p0[i]) for i in data_idx}
     info = ExportInfo(out, [], N, T, h, nd, rnames, [float(p0[i]) for i in runtime_idx], baked, wall)
-
-    t = time.perf_counter()
-    _write_data(out / "bird_data.c", table, p0, runtime_idx, N, T, cfg)
-    (out / "bird.h").write_text(_header(info, cfg))
-    (out / "bird.c").write_text(_BIRD_C.replace("@SZ_W@", str(sz_w)).replace("@SZ_IW@", str(max(sz_iw, 1)))
-                                .replace("@SZ_ARG@", str(sz_arg)).replace("@SZ_RES@", str(sz_res)))
-    (out / "main.c").write_text(_MAIN_C)
-    (out / "Makefile").write_text(_MAKEFILE)
-    wall["write"] = time.perf_counter() - t
+    # the whole folder at once: written beside ``out`` and put in its place in one step, so an
+    # interrupt, a full disk or a size limit leaves the earlier export complete (never a mix of two);
+    # files of the earlier folder that are not part of an export (the user's own) are kept
+    with atomic_folder(out, carry=lambda name: name not in EXPORT_FILES and name != LOCK_NAME) as tmp:
+        gen = ca.CodeGenerator("bird_casadi.c", {"with_header": True})
+        for f in fns:
+            gen.add(f)
+        gen.generate(str(tmp) + os.sep)
+        wall["generate_casadi"] = time.perf_counter() - t
+        t = time.perf_counter()
+        _write_sources(tmp, fns, info, table, p0, runtime_idx, cfg)
+        info.files = sorted(p.name for p in tmp.iterdir() if p.is_file())
+        wall["write"] = time.perf_counter() - t
     wall["total"] = time.perf_counter() - t_all
-    info.files = sorted(p.name for p in out.iterdir() if p.is_file())
     return info
+
+
+def _write_sources(folder: Path, fns, info: ExportInfo, table, p0, runtime_idx, cfg) -> None:
+    """bird_data.c, bird.h, bird.c, main.c and the Makefile into ``folder``."""
+    sizes = {key: max(int(getattr(f, attr)()) for f in fns)
+             for key, attr in (("@SZ_W@", "sz_w"), ("@SZ_IW@", "sz_iw"), ("@SZ_ARG@", "sz_arg"), ("@SZ_RES@", "sz_res"))}
+    sizes["@SZ_IW@"] = max(sizes["@SZ_IW@"], 1)
+    bird_c = _BIRD_C
+    for key, value in sizes.items():
+        bird_c = bird_c.replace(key, str(value))
+    _write_data(folder / "bird_data.c", table, p0, runtime_idx, info.steps_per_period, info.period_s, cfg)
+    (folder / "bird.h").write_text(_header(info, cfg))
+    (folder / "bird.c").write_text(bird_c)
+    (folder / "main.c").write_text(_MAIN_C)
+    (folder / "Makefile").write_text(_MAKEFILE)
 
 
 def _write_data(path: Path, table: np.ndarray, p0, runtime_idx, N, T, cfg) -> None:

@@ -38,6 +38,7 @@ from pathlib import Path
 import casadi as ca
 
 from birdocp.engine import graphcache
+from birdocp.io.files import atomic_target
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.problem import PeriodicODE
 
@@ -97,9 +98,8 @@ def _digest_file(path: Path) -> str:
 
 def _seal(built: Path, lib: Path) -> None:
     # the library's SHA-256 beside it (written first: a library without a matching seal is rebuilt)
-    tmp = lib.with_name(f".{lib.name}.{os.getpid()}.sha256")
-    tmp.write_text(_digest_file(built) + "\n")
-    os.replace(tmp, lib.with_name(lib.name + ".sha256"))
+    with atomic_target(lib.with_name(lib.name + ".sha256")) as tmp:
+        Path(tmp).write_text(_digest_file(built) + "\n")
 
 
 def _trusted(lib: Path) -> bool:
@@ -161,15 +161,14 @@ def compile_functions(name: str, functions, key_extra: str = "", directory: Path
             last_compile_s[name] = {"generate": gen_s, "compile": 0.0, "cached": True, "path": str(lib)}
             return str(lib)
         c_file = Path(tmp, f"{name}.c")
-        out = Path(tmp, f"{name}.so")
         tc = time.perf_counter()
-        proc = subprocess.run(cmd + [str(c_file), "-o", str(out)], capture_output=True, text=True)
-        if proc.returncode != 0:
-            err = (proc.stderr or proc.stdout).strip().splitlines()
-            raise RuntimeError(f"{' '.join(cmd)} failed (exit {proc.returncode}): "
-                               f"{err[0] if err else 'no output'}")
-        _seal(out, lib)
-        os.replace(out, lib)  # atomic within the cache folder
+        with atomic_target(lib, suffix=".so") as out:  # the one atomic write: renamed into place when sealed
+            proc = subprocess.run(cmd + [str(c_file), "-o", out], capture_output=True, text=True)
+            if proc.returncode != 0:
+                err = (proc.stderr or proc.stdout).strip().splitlines()
+                raise RuntimeError(f"{' '.join(cmd)} failed (exit {proc.returncode}): "
+                                   f"{err[0] if err else 'no output'}")
+            _seal(Path(out), lib)
         last_compile_s[name] = {"generate": gen_s, "compile": time.perf_counter() - tc, "cached": False,
                                 "path": str(lib)}
     return str(lib)

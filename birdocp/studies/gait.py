@@ -79,23 +79,37 @@ def jury_conditions(A):
     return ca.vertcat(p1, pm1, 1 - a0 ** 2, b[0] ** 2 - b[3] ** 2, c[0] ** 2 - c[2] ** 2)
 
 
-def check_free_keys(m, cfg, free: dict) -> None:
-    """ConfigError unless every free key can be a reduced variable (known, not the amplitude, not
-    reshaping the wing in the arm frame, finite bounds around the configured value)."""
+def check_free_bounds(cfg, free: dict) -> None:
+    """ConfigError unless every free key is a known parameter other than the amplitude, with finite
+    bounds lower < upper that hold the configured value and lie in the key's physical range (each
+    bound is a valid configuration value). Needs no model: callers check this before building one."""
     for k, (lo, hi) in free.items():
         if k not in PARAM_NAMES:
             raise ConfigError(k, "unknown parameter for --free" + suggest(k, PARAM_NAMES))
         if k == AMPLITUDE_KEY:
             raise ConfigError(k, "the flapping amplitude is solved for level flight; free other keys")
-        if PARAM_NAMES.index(k) in m.pre_params:
-            raise ConfigError(k, "changes the wing's shape in the arm frame (elbow, wrist, morphology): "
-                                 "free shoulder joints, wing.root_ahead_m or body/aero/drag keys")
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
             raise ConfigError(k, f"bounds must be finite with lower < upper, got ({lo}, {hi})")
         v = float(get_value(cfg, k))
         if not lo <= v <= hi:
             raise ConfigError(k, f"configured value {v:g} lies outside its bounds ({lo:g}, {hi:g}); "
                                  f"widen --bounds {k}=LO:HI")
+        for end, value in (("lower", lo), ("upper", hi)):
+            try:
+                with_values(cfg, {k: float(value)})
+            except ConfigError as exc:
+                raise ConfigError(k, f"the {end} bound {value:g} is not a valid value ({exc}); "
+                                     f"narrow --bounds {k}=LO:HI") from None
+
+
+def check_free_keys(m, cfg, free: dict) -> None:
+    """ConfigError unless every free key can be a reduced variable (:func:`check_free_bounds`, and
+    not reshaping the wing in the arm frame, which the model ``m`` tells)."""
+    check_free_bounds(cfg, free)
+    for k in free:
+        if PARAM_NAMES.index(k) in m.pre_params:
+            raise ConfigError(k, "changes the wing's shape in the arm frame (elbow, wrist, morphology): "
+                                 "free shoulder joints, wing.root_ahead_m or body/aero/drag keys")
 
 
 def _jury_function():
