@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config, with_values
+from birdocp.engine.floquet import multiplier_doubling_time_s
 from birdocp.io.files import atomic_write_json, atomic_write_text
 from birdocp.studies.branch import bird_branch, sm_percent
 from birdocp.studies.inertia import (config_with_wing_mass, cycle_summary, hold_mean_com_root, mean_com_offset_m,
@@ -40,6 +41,7 @@ REALISTIC_WING_KG = 0.086
 AMP = "gait.shoulder_flap.amplitude_deg"
 ROOT = "wing.root_ahead_m"
 MAX_FRACTION = 0.15
+PERIOD_S = 1.0 / Config().gait.frequency_hz  # the wingbeat period (the doubling time is T ln 2 / ln|Λ1|)
 
 
 def _moduli(mults):
@@ -52,7 +54,7 @@ def _row(cfg, fraction, x0, p, mults, means, root, amplitude, extra=None):
     out = {"wing_mass_fraction_percent": 100.0 * fraction, "wing_mass_kg": wing_mass_of_fraction(fraction, M_TOTAL),
            "root_ahead_m": float(root), "amplitude_deg": float(amplitude),
            "multipliers": [[v.real, v.imag] for v in lam], "moduli": _moduli(mults),
-           "largest_modulus": float(abs(lam[0])), "doubling_time_s": float(0.25 / np.log(abs(lam[0]))),
+           "largest_modulus": float(abs(lam[0])), "doubling_time_s": multiplier_doubling_time_s(lam[0], PERIOD_S),
            "mean_forward_speed_mps": float(means.get("forward_speed_mps", np.nan)),
            "mean_vertical_speed_mps": float(means.get("vertical_speed_mps", np.nan)),
            "x0": [float(v) for v in x0], **s}
