@@ -1,12 +1,12 @@
 """Beyond the paper: the most stable level-flight gait within bounds, the tail, and the ranked
-sensitivities. Writes results/stability_optimum/ and results/tail/ (JSON, table.md, figures).
+sensitivities. Writes OUT/stability_optimum/ and OUT/tail/ (JSON, table.md, figures; ``--out OUT``,
+default ``results``).
 
     python scripts/stability_study.py            # everything (~8 min on 2 cores: the optimum ~6.5 min)
     python scripts/stability_study.py --skip-tail
     python scripts/stability_study.py --reuse --reuse-optimum   # stored results: validity, tables, figures
 """
 
-import argparse
 import json
 import time
 from pathlib import Path
@@ -23,6 +23,7 @@ from birdocp.studies.branch import bird_branch
 from birdocp.io.files import atomic_write_json, atomic_write_text
 from birdocp.bird.kinematics import joint_angles
 from birdocp.studies.optimize import optimize_stability
+from script_common import parse_with_out, script_parser
 
 
 def save(fig, path):
@@ -306,22 +307,22 @@ def tail_study(out: Path, max_angle: float, reuse: bool = False):
     return results
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__)
+def main(argv=None):
+    ap = script_parser(__doc__, "results")
     ap.add_argument("--skip-tail", action="store_true")
     ap.add_argument("--skip-optimum", action="store_true")
     ap.add_argument("--tail-max-deg", type=float, default=60.0)
     ap.add_argument("--reuse", action="store_true", help="redraw the tail study from its branch files")
     ap.add_argument("--reuse-optimum", action="store_true",
-                    help="take the optimum from results/stability_optimum/result.json (validity re-evaluated, "
+                    help="take the optimum from OUT/stability_optimum/result.json (validity re-evaluated, "
                          "table and figure redrawn) instead of optimising again (~6 min)")
-    args = ap.parse_args()
+    args, out = parse_with_out(ap, argv)
     if not args.skip_optimum:
-        stability_optimum(Path("results/stability_optimum"), reuse=args.reuse_optimum)
-        print(open("results/stability_optimum/table.md").read())
+        stability_optimum(out / "stability_optimum", reuse=args.reuse_optimum)
+        print((out / "stability_optimum" / "table.md").read_text())
     if not args.skip_tail:
-        tail_study(Path("results/tail"), args.tail_max_deg, reuse=args.reuse)
-        print(open("results/tail/table.md").read())
+        tail_study(out / "tail", args.tail_max_deg, reuse=args.reuse)
+        print((out / "tail" / "table.md").read_text())
 
 
 if __name__ == "__main__":
