@@ -19,6 +19,11 @@ def _x_of(branch: Branch, pts=None):
     return vals, branch.parameter_name
 
 
+def _sp_label(sp) -> str:
+    """Legend text of a special point: its kind, and the event it locates (e.g. the validity limit)."""
+    return sp.kind.replace("_", " ") + (f" ({sp.event})" if getattr(sp, "event", None) else "")
+
+
 def valid_mask(branch: Branch) -> np.ndarray:
     """Per point: True where the model holds (``validity.valid``), also where it was not checked."""
     return np.array([(p.validity or {}).get("valid", True) is not False for p in branch.points], bool)
@@ -35,7 +40,7 @@ def runs(mask: np.ndarray) -> list:
     return out
 
 
-STOPPED = ("reached_to", "reached_from", "max_points")
+STOPPED = ("reached_to", "reached_from", "max_points", "stopped_at_event")
 """End reasons that are where the continuation was stopped, not where the branch ends."""
 
 
@@ -50,8 +55,9 @@ def branch_ends(branch: Branch) -> list:
 def end_label(reason: str) -> str:
     """Legend text of a branch end by its ``end_reason``: stopped at the requested range, or a real end."""
     if reason in STOPPED:
-        return "continuation stopped here (end of the requested range)" if reason != "max_points" else \
-            "continuation stopped here (point budget)"
+        return {"max_points": "continuation stopped here (point budget)",
+                "stopped_at_event": "continuation stopped here (at the located event, e.g. the validity boundary)"}.get(
+            reason, "continuation stopped here (end of the requested range)")
     return {"free_parameter_bound": "branch end: the free parameter reaches its bound",
             "corrector_failed": "branch end: the corrector fails", "rejected": "branch end: cycles rejected"}.get(
         reason, f"branch end: {reason}")
@@ -75,7 +81,7 @@ def plot_branches(branches: dict, out_dir, prefix: str = "", span=None) -> list:
     if not labels:
         return paths
     marks = {"fold": ("s", "tab:red"), "branch_point": ("D", "tab:orange"), "period_doubling": ("v", "tab:purple"),
-             "neimark_sacker": ("*", "tab:green")}
+             "neimark_sacker": ("*", "tab:green"), "validity_boundary": ("P", "0.25")}
     # locus
     fig, axes = plt.subplots(1, len(labels), figsize=(6.2 * len(labels), 5.8), squeeze=False)
     for ax, lab in zip(axes[0], labels):
@@ -95,7 +101,7 @@ def plot_branches(branches: dict, out_dir, prefix: str = "", span=None) -> list:
         for sp in b.special_points:
             m, c = marks.get(sp.kind, ("o", "k"))
             Ls = np.array([complex(*v) for v in sp.multipliers])
-            ax.plot(Ls.real, Ls.imag, m, color=c, ms=9, mfc="none", mew=2, label=f"{sp.kind}", zorder=4)
+            ax.plot(Ls.real, Ls.imag, m, color=c, ms=9, mfc="none", mew=2, label=_sp_label(sp), zorder=4)
         ax.axhline(0, color="0.85", lw=0.5, zorder=0)
         ax.axvline(0, color="0.85", lw=0.5, zorder=0)
         ax.set_aspect("equal")
@@ -151,7 +157,7 @@ def plot_branches(branches: dict, out_dir, prefix: str = "", span=None) -> list:
         for sp in b.special_points:
             m, c = marks.get(sp.kind, ("o", "k"))
             xs, _ = _x_of(b, [sp])
-            ax.plot(xs, [max(sp.moduli)], m, color=c, ms=9, mfc="none", mew=2, label=sp.kind)
+            ax.plot(xs, [max(sp.moduli)], m, color=c, ms=9, mfc="none", mew=2, label=_sp_label(sp))
     ax.axhline(1.0, color="k", lw=0.8)
     ax.set_ylabel("|Λ|")
     ax.set_title("Floquet multipliers' moduli along the branch (|Λ| > 1: unstable)")
