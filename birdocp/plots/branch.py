@@ -8,7 +8,7 @@ import numpy as np
 from birdocp.engine.continuation import Branch
 from birdocp.plots.figures import save_figure
 
-__all__ = ["plot_branches", "valid_mask", "runs", "branch_ends", "end_label", "STOPPED"]
+__all__ = ["plot_branches", "valid_mask", "runs", "branch_ends", "end_label", "STOPPED", "plot_by_validity"]
 
 def _x_of(branch: Branch, pts=None):
     """(x values, axis label) of branch points: SM in percent for the root position, else the parameter."""
@@ -38,6 +38,21 @@ def runs(mask: np.ndarray) -> list:
             out.append((start, min(i + 1, len(mask)), bool(mask[start])))
             start = i
     return out
+
+
+def plot_by_validity(ax, x, y, valid, label: str | None = None, invalid_label: str | None = "model not valid",
+                     **style) -> None:
+    """``ax.plot(x, y, **style)`` with the runs where the model does not hold (``valid`` False per
+    point) drawn grey, dashed and without markers, as in the branch figures; ``label`` goes to the
+    first valid run, ``invalid_label`` to the first invalid one."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    ok = np.asarray([v is not False for v in valid], bool)
+    seen = set()
+    for a, z, good in runs(ok):
+        st = dict(style) if good else dict(style, color="0.6", ls="--", marker=None, lw=1.0)
+        lab = (label if good else invalid_label) if good not in seen else None
+        seen.add(good)
+        ax.plot(x[a:z], y[a:z], label=lab, **st)
 
 
 STOPPED = ("reached_to", "reached_from", "max_points", "stopped_at_event")
