@@ -144,6 +144,13 @@ def validity_note(rows) -> str:
     return f"{len(bad)} of {len(rows)} cycles NOT valid (grey dashed): " + "; ".join(bad[0]["validity"]["reasons"])
 
 
+def legend(ax, **kw) -> None:
+    """The axis legend with each label once (every family's invalid runs share 'model not valid')."""
+    h, lab = ax.get_legend_handles_labels()
+    uniq = dict(zip(lab, h))
+    ax.legend(uniq.values(), uniq.keys(), **kw)
+
+
 def figures(res, out: Path):
     import matplotlib
     matplotlib.use("Agg")
@@ -177,7 +184,7 @@ def figures(res, out: Path):
     ax[1, 0].set_title("mean pitch attitude")
     ax[1, 1].set_ylabel("pitch oscillation amplitude (max-min)/2 [deg]")
     ax[1, 1].set_title("pitch oscillation over the wingbeat")
-    ax[0, 0].legend(fontsize=8)
+    legend(ax[0, 0], fontsize=8)
     fig.suptitle("Northern bald ibis with wing mass (dotted line: 0.086 kg per wing, van den Berg & Rayner 1995)\n"
                  + validity_note([r for v in fam.values() for r in v["points"]]))
     fig.savefig(out / "fraction.png", dpi=110)
@@ -197,7 +204,7 @@ def figures(res, out: Path):
         a.set_title(style[k][2])
         a.grid(alpha=0.3)
     ax[0].set_ylabel("Floquet multiplier modulus")
-    ax[0].legend(loc="center", bbox_to_anchor=(0.5, 0.35), ncol=4)
+    legend(ax[0], loc="center", bbox_to_anchor=(0.5, 0.35), ncol=4)
     fig.savefig(out / "moduli.png", dpi=110)
     plt.close(fig)
 
@@ -219,7 +226,7 @@ def figures(res, out: Path):
               title="level flight: amplitude against SM")
     for a in ax:
         a.grid(alpha=0.3)
-        a.legend(fontsize=8)
+        legend(a, fontsize=8)
     fig.suptitle(validity_note([r for v in res["margin"].values() for r in v["points"]]), fontsize=10)
     fig.savefig(out / "margin.png", dpi=110)
     plt.close(fig)
