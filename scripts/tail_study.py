@@ -37,7 +37,7 @@ from birdocp.engine.continuation import Branch
 from script_common import parse_with_out, script_parser
 
 AMP = "gait.shoulder_flap.amplitude_deg"
-INCIDENCES_DEG = (-15.0, -10.0, -5.0, 0.0, 5.0)
+INCIDENCES_DEG = (-15.0, -10.0, -5.0, 0.0, 5.0, 10.0, 15.0)
 STYLE = {"flight": dict(ls="-", lw=2.0), "dive": dict(ls=":", lw=2.0), "invalid": dict(ls="--", lw=1.0, color="0.6")}
 
 
