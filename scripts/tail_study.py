@@ -78,6 +78,13 @@ def draw_classes(ax, x, y, classes, color, label):
             start = i
 
 
+def violated(p: dict) -> list:
+    """The validity limits a point violates (their [validity] keys: negative margins)."""
+    from birdocp.bird.validity import validity_margins
+
+    return sorted(k for k, v in validity_margins(p["validity"]).items() if v < 0)
+
+
 def summarise(d: dict) -> dict:
     """The family's numbers: ranges, classes, the best flight point, the validity boundaries, stable points."""
     pts = d["points"]
@@ -99,7 +106,9 @@ def summarise(d: dict) -> dict:
                                "validity": pts[k]["validity"]} if k is not None else None),
         "stable_anywhere": bool(stable), "stable_in_flight": bool(k is not None and m1[k] < 1),
         "stable_points": [{"beta_deg": float(beta[i]), "largest_modulus": float(m1[i]), "valid": pts[i]["validity"]["valid"],
-                           "reasons": pts[i]["validity"]["reasons"], "class": cls[i]} for i in stable],
+                           "limits_violated": violated(pts[i]), "reasons": pts[i]["validity"]["reasons"],
+                           "class": cls[i], "x0": pts[i]["x0"], "free_values": pts[i]["free_values"],
+                           "mean_vertical_speed_mps": pts[i]["means"].get("vertical_speed_mps")} for i in stable],
         "validity_boundaries": [{"beta_deg": s["parameter"], "limit": s["event"], "direction": s["direction"],
                                  "largest_modulus": max(s["moduli"]), "message": s["message"]}
                                 for s in d.get("special_points", []) if s["kind"] == "validity_boundary"],
@@ -110,7 +119,7 @@ def summarise(d: dict) -> dict:
 
 def figure(results: dict, out: Path) -> None:
     fig, axes = plt.subplots(1, 3, figsize=(19, 5.6))
-    cmap = plt.get_cmap("coolwarm")
+    cmap = plt.get_cmap("viridis")  # no grey in it: grey is for points where the model does not hold
     inc = sorted({d.get("tail_incidence_deg", 0.0) for d in results.values()})
     span = max(1e-9, max(inc) - min(inc))
     for name, d in results.items():
@@ -120,7 +129,7 @@ def figure(results: dict, out: Path) -> None:
         cls = [point_class(p) for p in pts]
         i = d.get("tail_incidence_deg", 0.0)
         level = d["settings"].get("level")
-        color = cmap((i - min(inc)) / span) if level else "k"
+        color = cmap(0.9 * (i - min(inc)) / span) if level else "k"
         label = f"i = {i:+g} deg" if level else "A = 42 deg, i = 0 (no level flight held)"
         draw_classes(axes[0], beta, m1, cls, color, label)
         for s in d.get("special_points", []):
@@ -194,9 +203,11 @@ def answer_of(summary: dict) -> list:
         out.append("No point with |Λ1| < 1 is valid: within these incidences and opening angles the tail does not "
                    "stabilise the flight where the model holds.")
     if stable_invalid:
-        lim = sorted({r.split(":")[0] for _, p in stable_invalid for r in p["reasons"]})
-        out.append(f"{len(stable_invalid)} points with |Λ1| < 1 lie where the model does NOT hold (violated: "
-                   f"{', '.join(lim)}); they are not flights.")
+        lim = sorted({k for _, p in stable_invalid for k in p["limits_violated"]})
+        fams_ = sorted({n for n, _ in stable_invalid})
+        th = max(abs(p["largest_modulus"]) for _, p in stable_invalid)
+        out.append(f"{len(stable_invalid)} points with |Λ1| < 1 (up to {th:.4f}) lie where the model does NOT hold "
+                   f"(on {', '.join(fams_)}; limits violated: {', '.join(lim)}); they are not flights.")
     return out
 
 
