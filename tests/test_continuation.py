@@ -181,6 +181,7 @@ def test_user_event_located_exactly_and_branch_goes_on_or_stops():
     assert st0.end_reason == "stopped_at_event" and len(st0.points) == 1
 
 
+@pytest.mark.slow
 def test_bird_branch_locates_the_validity_boundary_and_can_stop_there(tmp_path):
     """A short bird branch (root 4.8 -> 5 cm, coarse grid) with the airflow-to-body-angle limit set
     halfway between its ends' angles: one ``validity_boundary`` naming that limit, where a re-solve

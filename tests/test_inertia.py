@@ -360,6 +360,7 @@ def test_hold_mean_com_root_places_the_shoulder_ahead_of_the_mean_com():
     assert hold_mean_com_root(config_with_wing_mass(Config(), 0.0), 0.05) == 0.05
 
 
+@pytest.mark.slow
 def test_cycle_summary_carries_the_cycle_validity():
     """The inertia study's row summary re-integrates one period from x0: its validity is the trim's
     (measured on the solver's own trajectory)."""
