@@ -8,20 +8,19 @@ condition (Poincare section through the start point orthogonal to f) and the sam
 (max |residual| <= 1e-10), so the ratio measures the method (exact CasADi derivatives and graph
 evaluation against finite differences and a Python step loop), not the problem.
 
-    python scripts/benchmark_engine.py      writes results/engine/benchmark.json
+    python scripts/benchmark_engine.py      writes results/engine/benchmark.json (``--out DIR``: DIR/benchmark.json)
 """
-import json
 import sys
 import time
-from pathlib import Path
 
 import casadi as ca
 import numpy as np
 
 from birdocp.engine.ode import ODE
 from birdocp.engine.orbits import OrbitMethod, OrbitProblem, solve_orbit
+from birdocp.io.files import atomic_write_json
+from script_common import parse_with_out, script_parser
 
-ROOT = Path(__file__).resolve().parents[1]
 P = (0.2, 0.2, 5.7)
 X_START = np.array([0.1, 5.0, 3.6])
 T_GUESS = 5.0
@@ -78,7 +77,8 @@ def baseline():
     return z[-1], z[:3], it, float(np.max(np.abs(r)))
 
 
-def main():
+def main(argv=None):
+    _, out_dir = parse_with_out(script_parser(__doc__, "results/engine"), argv)
     ode = ODE.from_function(lambda x, t, p: ca.vertcat(-x[1] - x[2], x[0] + p[0] * x[1], p[1] + x[2] * (x[0] - p[2])),
                             3, ("a", "b", "c"))
     prob = OrbitProblem(ode, P, X_START, period_guess=T_GUESS)
@@ -110,8 +110,7 @@ def main():
         "speedup_repeat_call": t_fd / t_warm,
         "python": sys.version.split()[0], "casadi": ca.__version__,
     }
-    (ROOT / "results" / "engine").mkdir(parents=True, exist_ok=True)
-    (ROOT / "results" / "engine" / "benchmark.json").write_text(json.dumps(out, indent=2) + "\n")
+    atomic_write_json(out_dir / "benchmark.json", out)
     print(f"birdocp: {t_cold:.3f} s first call (graph build included), {t_warm:.3f} s repeat, "
           f"{cold.iterations} iterations, T = {cold.period:.10f}")
     print(f"finite-difference multiple shooting: {t_fd:.3f} s, {it_fd} iterations, T = {T_fd:.10f}")

@@ -12,11 +12,11 @@ Writes results/energetics/ (JSON, summary.md, figures):
   the largest multiplier, from the unconstrained optimum down to the most stable gait.
 
     python scripts/energetics_study.py            # ~15-25 min on 2 shared cores
+    python scripts/energetics_study.py --out /tmp/energetics   # elsewhere (default results/energetics)
     python scripts/energetics_study.py --only optimize-stability   # that part alone (~40 s), into the
                                                   # committed result.json and summary.md
 """
 
-import argparse
 import json
 import os
 import re
@@ -30,6 +30,7 @@ from birdocp.io.files import atomic_write_json, atomic_write_text
 from birdocp.plots.energetics import plot_pareto, plot_power, plot_power_curve
 from birdocp.studies.gait import optimize_gait, power_curve, stability_pareto
 from birdocp.studies.level import level
+from script_common import parse_with_out, script_parser
 
 OUT = Path(__file__).resolve().parents[1] / "results" / "energetics"
 
@@ -51,7 +52,8 @@ def summary_row(opt):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    global OUT
+    ap = script_parser(__doc__, "results/energetics")
     ap.add_argument("--pareto-points", type=int, default=12,
                     help="bounds R evenly spaced from the energy optimum's largest modulus to the most stable one")
     ap.add_argument("--pareto-bounds", type=float, nargs="*", default=None, metavar="R",
@@ -62,8 +64,7 @@ def main():
                     help="run only this part and update its entry of the committed result.json and summary.md")
     ap.add_argument("--threads", type=int, default=2,
                     help="optimize-stability's threads for the finite-difference Hessian (default 2)")
-    args = ap.parse_args()
-    OUT.mkdir(parents=True, exist_ok=True)
+    args, OUT = parse_with_out(ap)  # --out: every writer below uses OUT
     cfg = Config()
     if args.only == "optimize-stability":
         out = json.loads((OUT / "result.json").read_text())

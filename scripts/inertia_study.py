@@ -25,6 +25,9 @@ from pathlib import Path
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config, with_values
+from birdocp.bird.validity import periodic_validity
+from birdocp.plots.branch import plot_by_validity
+from birdocp.engine.floquet import multiplier_doubling_time_s
 from birdocp.io.files import atomic_write_json, atomic_write_text
 from birdocp.studies.branch import bird_branch, sm_percent
 from birdocp.studies.inertia import (config_with_wing_mass, cycle_summary, hold_mean_com_root, mean_com_offset_m,
@@ -40,6 +43,7 @@ REALISTIC_WING_KG = 0.086
 AMP = "gait.shoulder_flap.amplitude_deg"
 ROOT = "wing.root_ahead_m"
 MAX_FRACTION = 0.15
+PERIOD_S = 1.0 / Config().gait.frequency_hz  # the wingbeat period (the doubling time is T ln 2 / ln|Λ1|)
 
 
 def _moduli(mults):
@@ -52,7 +56,7 @@ def _row(cfg, fraction, x0, p, mults, means, root, amplitude, extra=None):
     out = {"wing_mass_fraction_percent": 100.0 * fraction, "wing_mass_kg": wing_mass_of_fraction(fraction, M_TOTAL),
            "root_ahead_m": float(root), "amplitude_deg": float(amplitude),
            "multipliers": [[v.real, v.imag] for v in lam], "moduli": _moduli(mults),
-           "largest_modulus": float(abs(lam[0])), "doubling_time_s": float(0.25 / np.log(abs(lam[0]))),
+           "largest_modulus": float(abs(lam[0])), "doubling_time_s": multiplier_doubling_time_s(lam[0], PERIOD_S),
            "mean_forward_speed_mps": float(means.get("forward_speed_mps", np.nan)),
            "mean_vertical_speed_mps": float(means.get("vertical_speed_mps", np.nan)),
            "x0": [float(v) for v in x0], **s}
@@ -118,15 +122,33 @@ def margin_family(wing_kg: float) -> tuple[list, float]:
         for pt in pts:
             p = np.asarray(pt.p, float)
             xc, zc = mean_com_offset_m(cfg, p)
+            v = pt.validity or periodic_validity(cfg, pt.x0, p).to_dict()
             half.append({"stability_margin_percent": sm_percent(pt.parameter, CHORD),
                          "stability_margin_mean_com_percent": stability_margin_mean_com_percent(pt.parameter, xc, CHORD),
                          "root_ahead_m": pt.parameter, "amplitude_deg": float(p[PARAM_NAMES.index(AMP)]),
                          "moduli": pt.moduli, "largest_modulus": pt.moduli[0], "stable": bool(pt.stable),
                          "mean_forward_speed_mps": pt.means.get("forward_speed_mps"),
-                         "mean_com_ahead_of_G_m": xc, "mean_com_below_G_m": zc, "end_reason": br.end_reason})
+                         "mean_com_ahead_of_G_m": xc, "mean_com_below_G_m": zc, "end_reason": br.end_reason,
+                         "x0": [float(a) for a in pt.x0], "wing_mass_kg": wing_kg, "valid": bool(v["valid"]),
+                         "validity": v})
         rows = half + rows if to_sm < -25 else rows + half
     rows.sort(key=lambda r: r["stability_margin_percent"])
     return rows, time.perf_counter() - t0
+
+
+def validity_note(rows) -> str:
+    """One line for a figure: how many of its cycles are valid (grey dashed: the others)."""
+    bad = [r for r in rows if not r["valid"]]
+    if not bad:
+        return f"the model is valid on all {len(rows)} cycles (birdocp.bird.validity)"
+    return f"{len(bad)} of {len(rows)} cycles NOT valid (grey dashed): " + "; ".join(bad[0]["validity"]["reasons"])
+
+
+def legend(ax, **kw) -> None:
+    """The axis legend with each label once (every family's invalid runs share 'model not valid')."""
+    h, lab = ax.get_legend_handles_labels()
+    uniq = dict(zip(lab, h))
+    ax.legend(uniq.values(), uniq.keys(), **kw)
 
 
 def figures(res, out: Path):
@@ -143,11 +165,13 @@ def figures(res, out: Path):
     for k, (col, ls, lab) in style.items():
         rows = fam[k]["points"]
         f = [r["wing_mass_fraction_percent"] for r in rows]
-        ax[0, 0].plot(f, [r["largest_modulus"] for r in rows], ls, color=col, marker=".", label=lab)
+        ok = [r["valid"] for r in rows]
+        sty = dict(ls=ls, color=col, marker=".")
+        plot_by_validity(ax[0, 0], f, [r["largest_modulus"] for r in rows], ok, lab, **sty)
         if k.startswith("level"):
-            ax[0, 1].plot(f, [r["amplitude_deg"] for r in rows], ls, color=col, marker=".", label=lab)
-        ax[1, 0].plot(f, [r["mean_pitch_deg"] for r in rows], ls, color=col, marker=".", label=lab)
-        ax[1, 1].plot(f, [r["pitch_oscillation_amplitude_deg"] for r in rows], ls, color=col, marker=".", label=lab)
+            plot_by_validity(ax[0, 1], f, [r["amplitude_deg"] for r in rows], ok, lab, **sty)
+        plot_by_validity(ax[1, 0], f, [r["mean_pitch_deg"] for r in rows], ok, lab, **sty)
+        plot_by_validity(ax[1, 1], f, [r["pitch_oscillation_amplitude_deg"] for r in rows], ok, lab, **sty)
     for a in ax.ravel():
         a.axvline(100 * 2 * REALISTIC_WING_KG / M_TOTAL, color="0.6", lw=0.8, ls=":")
         a.set_xlabel("wing-mass fraction, both wings / whole bird [%]")
@@ -160,8 +184,9 @@ def figures(res, out: Path):
     ax[1, 0].set_title("mean pitch attitude")
     ax[1, 1].set_ylabel("pitch oscillation amplitude (max-min)/2 [deg]")
     ax[1, 1].set_title("pitch oscillation over the wingbeat")
-    ax[0, 0].legend(fontsize=8)
-    fig.suptitle("Northern bald ibis with wing mass (dotted line: 0.086 kg per wing, van den Berg & Rayner 1995)")
+    legend(ax[0, 0], fontsize=8)
+    fig.suptitle("Northern bald ibis with wing mass (dotted line: 0.086 kg per wing, van den Berg & Rayner 1995)\n"
+                 + validity_note([r for v in fam.values() for r in v["points"]]))
     fig.savefig(out / "fraction.png", dpi=110)
     plt.close(fig)
 
@@ -170,27 +195,30 @@ def figures(res, out: Path):
         rows = fam[k]["points"]
         f = [r["wing_mass_fraction_percent"] for r in rows]
         Mo = np.array([r["moduli"] for r in rows])
+        ok = [r["valid"] for r in rows]
         for j, lab in enumerate(("|Λ1|", "|Λ2|", "|Λ3|", "|Λ4|")):
-            a.plot(f, Mo[:, j], marker=".", ls="-" if j != 2 else "--", label=lab)
+            plot_by_validity(a, f, Mo[:, j], ok, lab, "model not valid" if j == 0 else None, marker=".",
+                             ls="-" if j != 2 else "--", color=f"C{j}")
         a.axhline(1.0, color="k", lw=0.8)
         a.set_xlabel("wing-mass fraction [%]")
         a.set_title(style[k][2])
         a.grid(alpha=0.3)
     ax[0].set_ylabel("Floquet multiplier modulus")
-    ax[0].legend(loc="center", bbox_to_anchor=(0.5, 0.35), ncol=4)
+    legend(ax[0], loc="center", bbox_to_anchor=(0.5, 0.35), ncol=4)
     fig.savefig(out / "moduli.png", dpi=110)
     plt.close(fig)
 
     fig, ax = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
     for k, col, lab in (("massless", "k", "massless wings"), ("realistic", "C3", "wings 0.086 kg each")):
         rows = res["margin"][k]["points"]
-        ax[0].plot([r["stability_margin_percent"] for r in rows], [r["largest_modulus"] for r in rows], "-", color=col,
-                   marker=".", label=lab + " (SM from G_b)")
+        ok = [r["valid"] for r in rows]
+        plot_by_validity(ax[0], [r["stability_margin_percent"] for r in rows], [r["largest_modulus"] for r in rows], ok,
+                         lab + " (SM from G_b)", ls="-", color=col, marker=".")
         if k == "realistic":
-            ax[0].plot([r["stability_margin_mean_com_percent"] for r in rows], [r["largest_modulus"] for r in rows],
-                       "--", color=col, label=lab + " (SM from mean C)")
-        ax[1].plot([r["stability_margin_percent"] for r in rows], [r["amplitude_deg"] for r in rows], "-", color=col,
-                   marker=".", label=lab)
+            plot_by_validity(ax[0], [r["stability_margin_mean_com_percent"] for r in rows],
+                             [r["largest_modulus"] for r in rows], ok, lab + " (SM from mean C)", ls="--", color=col)
+        plot_by_validity(ax[1], [r["stability_margin_percent"] for r in rows], [r["amplitude_deg"] for r in rows], ok,
+                         lab, ls="-", color=col, marker=".")
     ax[0].axhline(1.0, color="0.5", lw=0.8)
     ax[0].set(xlabel="stability margin SM [%]", ylabel="largest multiplier modulus |Λ1|",
               title="level flight: instability against SM")
@@ -198,7 +226,8 @@ def figures(res, out: Path):
               title="level flight: amplitude against SM")
     for a in ax:
         a.grid(alpha=0.3)
-        a.legend(fontsize=8)
+        legend(a, fontsize=8)
+    fig.suptitle(validity_note([r for v in res["margin"].values() for r in v["points"]]), fontsize=10)
     fig.savefig(out / "margin.png", dpi=110)
     plt.close(fig)
 
@@ -212,7 +241,8 @@ def figures(res, out: Path):
     ax.set_xlabel("time in the wingbeat [s]")
     ax.set_ylabel("power [W]")
     ax2.set_ylabel("wings' kinetic energy relative to the body T_rel [J]")
-    ax.set_title("Level flight, wings 0.086 kg each: powers of the wing masses over one beat")
+    ax.set_title("Level flight, wings 0.086 kg each: powers of the wing masses over one beat\n"
+                 f"(model {'valid' if res['level_realistic']['validity']['valid'] else 'NOT valid'} on this cycle)")
     lines = ax.get_legend_handles_labels()
     l2 = ax2.get_legend_handles_labels()
     ax.legend(lines[0] + l2[0], lines[1] + l2[1], fontsize=8, loc="upper left")
@@ -222,29 +252,39 @@ def figures(res, out: Path):
     return ["fraction.png", "moduli.png", "margin.png", "power.png"]
 
 
+def valid_cell(r) -> str:
+    """'yes', or 'NO: <reasons>' (the model's validity of the row's cycle)."""
+    return "yes" if r["valid"] else "NO: " + "; ".join(r["validity"]["reasons"])
+
+
 def table(res) -> str:
     lines = ["# Wings with mass: continuation in the wing-mass fraction", "",
              "M = 1.2 kg held; fraction = both wings / whole bird. Λ1 is the largest multiplier (unstable > 1);",
              "θ̄ the period-mean pitch, Δθ half the peak-to-peak pitch oscillation; P̄_sh,in the period mean of",
-             "the shoulder power on the wing masses; P⁺ the mean positive part of dT_rel/dt.", ""]
+             "the shoulder power on the wing masses; P⁺ the mean positive part of dT_rel/dt; doubling = T ln 2 / ln|Λ1|,",
+             "the time a disturbance along the expanding mode takes to double; model valid: birdocp.bird.validity",
+             "on the cycle (each row keeps x0, the wing mass, root and amplitude in result.json to re-solve it).", ""]
     for k, fam in res["families"].items():
         lines += [f"## {k}: {fam['label']}", "",
                   "| fraction [%] | wing [kg] | root [cm] | A [deg] | abs Λ1 | abs Λ2 | abs Λ4 | θ̄ [deg] | Δθ [deg] "
-                  "| U [m/s] | SM from mean C [%] | P̄_sh,in [W] | P⁺ [W] |",
-                  "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+                  "| U [m/s] | SM from mean C [%] | P̄_sh,in [W] | P⁺ [W] | doubling [s] | model valid |",
+                  "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
         for r in fam["points"]:
             lines.append(f"| {r['wing_mass_fraction_percent']:.2f} | {r['wing_mass_kg']:.4f} | {100 * r['root_ahead_m']:.3f} "
                          f"| {r['amplitude_deg']:.3f} | {r['moduli'][0]:.4f} | {r['moduli'][1]:.4f} | {r['moduli'][3]:.4f} "
                          f"| {r['mean_pitch_deg']:.3f} | {r['pitch_oscillation_amplitude_deg']:.4f} "
                          f"| {r['mean_forward_speed_mps']:.3f} | {r['stability_margin_mean_com_percent']:.2f} "
-                         f"| {r['mean_shoulder_inertial_power_W']:+.3f} | {r['mean_positive_inertial_power_W']:.3f} |")
+                         f"| {r['mean_shoulder_inertial_power_W']:+.3f} | {r['mean_positive_inertial_power_W']:.3f} "
+                         f"| {r['doubling_time_s']:.3f} | {valid_cell(r)} |")
         lines.append("")
     lines += ["## Level flight against the stability margin", "",
-              "| wings | SM from G_b [%] | SM from mean C [%] | A [deg] | abs Λ1 | U [m/s] |", "|---|---:|---:|---:|---:|---:|"]
+              "| wings | SM from G_b [%] | SM from mean C [%] | A [deg] | abs Λ1 | U [m/s] | model valid |",
+              "|---|---:|---:|---:|---:|---:|---|"]
     for k, fam in res["margin"].items():
         for r in fam["points"]:
             lines.append(f"| {k} | {r['stability_margin_percent']:.2f} | {r['stability_margin_mean_com_percent']:.2f} "
-                         f"| {r['amplitude_deg']:.3f} | {r['largest_modulus']:.4f} | {r['mean_forward_speed_mps']:.3f} |")
+                         f"| {r['amplitude_deg']:.3f} | {r['largest_modulus']:.4f} | {r['mean_forward_speed_mps']:.3f} "
+                         f"| {valid_cell(r)} |")
     lines += ["", "## Answer", ""] + [f"- {s}" for s in res["answer"]]
     return "\n".join(lines) + "\n"
 
@@ -323,12 +363,17 @@ def main():
         f"Inertial power at 0.086 kg (level): dT_rel/dt peaks at {wp['peak_inertial_power_W']:.2f} W, its positive part "
         f"averages {wp['mean_positive_inertial_power_W']:.2f} W; the shoulder's power on the wing masses averages "
         f"{wp['mean_shoulder_inertial_power_W']:+.3f} W.",
+        "Model validity (birdocp.bird.validity) of every row: " + "; ".join(
+            f"{k} {sum(r['valid'] for r in v['points'])}/{len(v['points'])} valid"
+            for k, v in list(fams.items()) + [(f"margin {k}", v) for k, v in margin.items()]) + ".",
     ]
     res = {"families": fams, "margin": margin, "summary": summary, "answer": answer, "power_history": hist,
            "level_realistic": {"amplitude_deg": lv.amplitude_deg, "multipliers": [[v.real, v.imag] for v in lv.multipliers],
+                               "x0": [float(a) for a in lv.x0], "validity": lv.validity.to_dict(),
                                **{k: v for k, v in lv.wing_power_summary().items() if k != "wing_power_history"}},
            "level_massless": {"amplitude_deg": lv0.amplitude_deg,
-                              "multipliers": [[v.real, v.imag] for v in lv0.multipliers]},
+                              "multipliers": [[v.real, v.imag] for v in lv0.multipliers],
+                              "x0": [float(a) for a in lv0.x0], "validity": lv0.validity.to_dict()},
            "settings": {"total_mass_kg": M_TOTAL, "root_ref_m": ROOT_REF, "chord_m": CHORD, "points": 5,
                         "steps_per_period": 148, "realistic_wing_mass_kg": REALISTIC_WING_KG},
            "wall_s": dict(walls, total=time.perf_counter() - t0)}

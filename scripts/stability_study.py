@@ -1,12 +1,10 @@
-"""Beyond the paper: the most stable level-flight gait within bounds, the tail, and the ranked
-sensitivities. Writes results/stability_optimum/ and results/tail/ (JSON, table.md, figures).
+"""Beyond the paper: the most stable level-flight gait within bounds. Writes OUT/stability_optimum/
+(JSON, table.md, figure; ``--out OUT``, default ``results``). The tail: scripts/tail_study.py.
 
-    python scripts/stability_study.py            # everything (~8 min on 2 cores: the optimum ~6.5 min)
-    python scripts/stability_study.py --skip-tail
-    python scripts/stability_study.py --reuse --reuse-optimum   # stored results: validity, tables, figures
+    python scripts/stability_study.py            # ~6.5 min on 2 cores
+    python scripts/stability_study.py --reuse-optimum   # the stored result: validity, table, figure
 """
 
-import argparse
 import json
 import time
 from pathlib import Path
@@ -19,10 +17,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from birdocp.bird.config import JOINT_NAMES, Config, get_value, with_values
-from birdocp.studies.branch import bird_branch
 from birdocp.io.files import atomic_write_json, atomic_write_text
 from birdocp.bird.kinematics import joint_angles
 from birdocp.studies.optimize import optimize_stability
+from script_common import parse_with_out, script_parser
 
 
 def save(fig, path):
@@ -164,164 +162,14 @@ def stability_optimum(out: Path, reuse: bool = False):
     return d
 
 
-def branch_validity(cfg, d: dict) -> None:
-    """Adds ``validity`` to every point of a branch dict (one RK4 period from its x0 with its parameters)."""
-    from birdocp.bird.validity import periodic_validity
-
-    n = int(d["settings"].get("steps_per_period", 148))
-    for p in d["points"]:
-        if "validity" not in p:
-            p["validity"] = periodic_validity(cfg, p["x0"], np.asarray(p["p"], float), steps_per_period=n).to_dict()
-
-
-def point_class(p) -> str:
-    """flight (valid, |mean W| < 1 m/s), dive (valid, mean W <= -1 m/s) or invalid."""
-    if not p["validity"]["valid"]:
-        return "invalid"
-    return "flight" if abs(p["means"].get("vertical_speed_mps", 0.0)) < 1.0 else "dive"
-
-
-STYLE = {"flight": dict(ls="-", lw=2.0), "dive": dict(ls=":", lw=2.0), "invalid": dict(ls="--", lw=1.2, color="0.6")}
-
-
-def draw_classes(ax, x, y, classes, color, label):
-    """One line per run of equal class (solid: flight, dotted: dive, grey dashed: model invalid)."""
-    start = 0
-    seen = set()
-    for i in range(1, len(x) + 1):
-        if i == len(x) or classes[i] != classes[start]:
-            c = classes[start]
-            st = dict(STYLE[c])
-            st.setdefault("color", color)
-            lab = f"{label}: {c}" if (c not in seen) else None
-            seen.add(c)
-            j = min(i + 1, len(x))  # overlap one point so the runs join
-            ax.plot(x[start:j], y[start:j], label=lab, **st)
-            start = i
-
-
-def tail_study(out: Path, max_angle: float, reuse: bool = False):
-    out.mkdir(parents=True, exist_ok=True)
-    cfg = with_values(Config(), {"tail.enabled": True})
-    results = {}
-    for name, level in (("level", True), ("fixed_42deg", False)):
-        if reuse and (out / f"branch_{name}.json").exists():
-            results[name] = json.loads((out / f"branch_{name}.json").read_text())
-        else:
-            
-            t0 = time.perf_counter()
-            br = bird_branch(cfg, "tail.opening_angle_deg", 0.0, max_angle, level=level,
-                             bounds=(20.0, 90.0) if level else None)
-            results[name] = br.to_dict()
-            results[name]["script_wall_s"] = time.perf_counter() - t0
-        branch_validity(cfg, results[name])
-        atomic_write_json(out / f"branch_{name}.json", results[name])
-
-    fig, axes = plt.subplots(1, 3, figsize=(18, 5.2))
-    summary = {}
-    for k, (name, d) in enumerate(results.items()):
-        pts = d["points"]
-        beta = np.array([p["parameter"] for p in pts])
-        m1 = np.array([abs(complex(*p["multipliers"][0])) for p in pts])
-        W = np.array([p["means"].get("vertical_speed_mps", np.nan) for p in pts])
-        cls = [point_class(p) for p in pts]
-        draw_classes(axes[0], beta, m1, cls, f"C{k}", name)
-        draw_classes(axes[1], beta, W, cls, f"C{k}", name)
-        for sp in d.get("special_points", []):
-            i = sp["between"][0]
-            mk = {"fold": "*", "neimark_sacker": "D", "period_doubling": "s"}.get(sp["kind"], "o")
-            axes[0].plot(sp["parameter"], m1[i], mk, ms=12, color="k", mfc="none" if sp["kind"] != "fold" else "gold",
-                         zorder=5, label=f"{name}: {sp['kind'].replace('_', '-')} β = {sp['parameter']:.2f}, "
-                                         f"θ(0) = {np.degrees(sp['x0'][3]):.0f} deg")
-            axes[1].plot(sp["parameter"], W[i], mk, ms=12, color="k", mfc="none" if sp["kind"] != "fold" else "gold",
-                         zorder=5)
-        axes[0].plot(beta[-1], m1[-1], "|", ms=16, mew=2.5, color=f"C{k}")
-        axes[1].plot(beta[-1], W[-1], "|", ms=16, mew=2.5, color=f"C{k}")
-        if name == "level":
-            amp = np.array([p["free_values"][AMP] for p in pts])
-            draw_classes(axes[2], beta, amp, cls, "C0", "level flight")
-            axes[2].axhline(90.0, color="k", lw=0.8, ls="-.", label="amplitude bound 90 deg (branch end)")
-            axes[2].plot(beta[-1], amp[-1], "|", ms=16, mew=2.5, color="C0")
-        flight = [i for i, c in enumerate(cls) if c == "flight"]
-        kmin = min(flight, key=lambda i: m1[i]) if flight else None
-        summary[name] = {
-            "beta_range_deg": [float(beta.min()), float(beta.max())], "end_reason": d["end_reason"],
-            "end_message": d["end_message"], "m1_at_0": float(m1[0]),
-            "min_m1_in_flight": float(m1[kmin]) if kmin is not None else None,
-            "beta_at_min_m1_in_flight": float(beta[kmin]) if kmin is not None else None,
-            "stable_anywhere": bool(m1.min() < 1), "stable_in_flight": bool(kmin is not None and m1[kmin] < 1),
-            "points": len(pts), "flight_points": len(flight), "dive_points": cls.count("dive"),
-            "invalid_points": cls.count("invalid"),
-            "valid_beta_range_deg": ([float(beta[[i for i, c in enumerate(cls) if c != "invalid"]].min()),
-                                      float(beta[[i for i, c in enumerate(cls) if c != "invalid"]].max())]
-                                     if cls.count("invalid") < len(cls) else None),
-            "first_invalid": (dict(beta_deg=float(beta[cls.index("invalid")]),
-                                   reasons=pts[cls.index("invalid")]["validity"]["reasons"])
-                              if "invalid" in cls else None),
-        }
-    axes[0].axhline(1, color="k", lw=0.8)
-    axes[0].set(xlabel="tail opening angle β [deg]", ylabel="largest multiplier modulus |Λ1|",
-                title="expanding multiplier against the tail opening angle")
-    axes[0].legend(fontsize=7, loc="lower left")
-    axes[1].axhline(0, color="k", lw=0.8)
-    axes[1].axhline(-1, color="0.5", lw=0.8, ls=":")
-    axes[1].axhspan(-1e3, -1, color="tab:red", alpha=0.06)
-    axes[1].set_ylim(min(-2, np.nanmin([p["means"].get("vertical_speed_mps", 0) for d in results.values()
-                                        for p in d["points"]]) * 1.05), 2)
-    axes[1].text(0.5, -1.5, "dive region: mean W < -1 m/s", fontsize=8, color="tab:red", va="top")
-    axes[1].set(xlabel="tail opening angle β [deg]", ylabel="mean vertical speed W [m/s] (+ climbing)",
-                title="mean vertical speed: the fixed-amplitude branch dives")
-    axes[2].set(xlabel="tail opening angle β [deg]", ylabel="level-flight flapping amplitude [deg]",
-                title="amplitude needed for level flight")
-    axes[2].legend(fontsize=8, loc="upper left")
-    fig.suptitle("The tail (continuation in its opening angle). Solid: flight (model valid, |mean W| < 1 m/s); "
-                 "dotted: dive (mean W < -1 m/s); grey dashed: model not valid (birdocp.bird.validity); | : branch end",
-                 fontsize=10.5)
-    save(fig, out / "tail.png")
-
-    lines = ["# The tail: continuation in its opening angle\n",
-             "Flight = the model is valid on the cycle (birdocp.bird.validity, default thresholds) and it is not a "
-             "dive (|mean W| < 1 m/s).\n",
-             "| family | β range [deg] | end | \\|Λ1\\| at β = 0 | min \\|Λ1\\| in flight | points: flight / dive / "
-             "model invalid | first invalid point | special points | stable anywhere | stable in flight |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
-    for name, d in results.items():
-        s = summary[name]
-        pts = d["points"]
-        sp = "; ".join(f"{q['kind']} at β = {q['parameter']:.3f} (mean W "
-                       f"{pts[q['between'][0]]['means'].get('vertical_speed_mps', float('nan')):.1f} m/s, θ(0) "
-                       f"{np.degrees(q['x0'][3]):.0f} deg, model "
-                       f"{'valid' if pts[q['between'][0]]['validity']['valid'] else 'not valid'})"
-                       for q in d.get("special_points", [])) or "none"
-        fi = s["first_invalid"]
-        lines.append(f"| {name} | {s['beta_range_deg'][0]:.2f} - {s['beta_range_deg'][1]:.2f} | {d['end_reason']} | "
-                     f"{s['m1_at_0']:.4f} | "
-                     + (f"{s['min_m1_in_flight']:.4f} (β = {s['beta_at_min_m1_in_flight']:.2f})" if s["min_m1_in_flight"]
-                        is not None else "-")
-                     + f" | {s['flight_points']} / {s['dive_points']} / {s['invalid_points']} | "
-                     + (f"β = {fi['beta_deg']:.2f}: {'; '.join(fi['reasons'])}" if fi else "none")
-                     + f" | {sp} | {'yes' if s['stable_anywhere'] else 'no'} | {'yes' if s['stable_in_flight'] else 'no'} |")
-    atomic_write_text(out / "table.md", "\n".join(lines) + "\n")
-    atomic_write_json(out / "summary.json", summary)
-    return results
-
-
-def main():
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--skip-tail", action="store_true")
-    ap.add_argument("--skip-optimum", action="store_true")
-    ap.add_argument("--tail-max-deg", type=float, default=60.0)
-    ap.add_argument("--reuse", action="store_true", help="redraw the tail study from its branch files")
+def main(argv=None):
+    ap = script_parser(__doc__, "results")
     ap.add_argument("--reuse-optimum", action="store_true",
-                    help="take the optimum from results/stability_optimum/result.json (validity re-evaluated, "
+                    help="take the optimum from OUT/stability_optimum/result.json (validity re-evaluated, "
                          "table and figure redrawn) instead of optimising again (~6 min)")
-    args = ap.parse_args()
-    if not args.skip_optimum:
-        stability_optimum(Path("results/stability_optimum"), reuse=args.reuse_optimum)
-        print(open("results/stability_optimum/table.md").read())
-    if not args.skip_tail:
-        tail_study(Path("results/tail"), args.tail_max_deg, reuse=args.reuse)
-        print(open("results/tail/table.md").read())
+    args, out = parse_with_out(ap, argv)
+    stability_optimum(out / "stability_optimum", reuse=args.reuse_optimum)
+    print((out / "stability_optimum" / "table.md").read_text())
 
 
 if __name__ == "__main__":

@@ -144,3 +144,81 @@ def test_branch_leaves_a_start_where_the_parameter_derivative_vanishes():
     assert br.end_reason == "max_points", br.end_message
     assert not br.special_points
     assert lam[0] == 0.0 and np.all(np.diff(lam) > 0.1)
+
+
+def _x_margin(level):
+    """A user test function of a point: x0[0] - level (exact zero at lam = level^2 on x = sqrt(lam))."""
+    from birdocp.engine.continuation import BranchEvents
+
+    return lambda stop: BranchEvents(lambda pt: {"x_above": pt.x0[0] - level}, kind="threshold", stop=stop)
+
+
+def test_user_event_located_exactly_and_branch_goes_on_or_stops():
+    """On x = +sqrt(lam) (exact for RK4 too) the test x0 - 0.5 crosses zero at lam = 0.25 exactly: the
+    event is located there (falling, direction -1); the branch goes on through it (and the fold at 0),
+    and with ``stop`` it ends at the located point."""
+    prob = LimitCycleProblem(fold_ode(), [1.0], [1.0, 0.0])
+    make = _x_margin(0.5)
+    br = continuation(prob, "lam", 1.0, -1.0, points=3, steps_per_period=40, events=make(False))
+    ev = [s for s in br.special_points if s.kind == "threshold"]
+    # down the upper family (x falls through 0.5) and back up the lower one (x < 0 stays below)
+    assert len(ev) == 1 and ev[0].located and ev[0].event == "x_above" and ev[0].direction == -1
+    assert abs(ev[0].parameter - 0.25) < 1e-9 and abs(ev[0].x0[0] - 0.5) < 1e-9
+    assert br.end_reason == "reached_from" and any(s.kind == "fold" for s in br.special_points)
+    assert all(pt.event_values["x_above"] == pytest.approx(pt.x0[0] - 0.5, abs=0) for pt in br.points)
+    i, j = ev[0].between
+    assert br.points[i].event_values["x_above"] >= 0 > br.points[j].event_values["x_above"]
+    d = json.loads(json.dumps(br.to_dict()))
+    assert Branch.from_dict(d).to_dict() == d and d["special_points"][0]["event"] == "x_above"
+
+    st = continuation(prob, "lam", 1.0, -1.0, points=3, steps_per_period=40, events=make(True))
+    assert st.end_reason == "stopped_at_event"
+    assert abs(st.points[-1].parameter - 0.25) < 1e-9
+    assert [s.kind for s in st.special_points] == ["threshold"]
+    assert all(pt.parameter >= 0.25 - 1e-9 for pt in st.points)
+    # a start already below zero stops at once
+    st0 = continuation(prob, "lam", 1.0, -1.0, points=3, steps_per_period=40, events=_x_margin(1.5)(True))
+    assert st0.end_reason == "stopped_at_event" and len(st0.points) == 1
+
+
+@pytest.mark.slow
+def test_bird_branch_locates_the_validity_boundary_and_can_stop_there(tmp_path):
+    """A short bird branch (root 4.8 -> 5 cm, coarse grid) with the airflow-to-body-angle limit set
+    halfway between its ends' angles: one ``validity_boundary`` naming that limit, where a re-solve
+    of the cycle at the located root (trim) measures the angle at the limit; with stop_at_invalid
+    the branch ends there, its last point at the boundary; the CLI's --stop-at-invalid the same."""
+    from birdocp.bird.config import Config, with_values
+    from birdocp.cli.main import main
+    from birdocp.studies.branch import bird_branch
+    from birdocp.studies.trim import trim
+
+    coarse = dict(points=3, steps_per_period=48)
+    ends = [trim(with_values(Config(), {"wing.root_ahead_m": r}), **coarse) for r in (0.048, 0.05)]
+    angles = [e.validity.measures["max_airflow_body_angle_deg"] for e in ends]
+    assert angles[1] > angles[0] + 0.1 and all(e.validity.valid for e in ends)
+    limit = 0.5 * sum(angles)
+    cfg = with_values(Config(), {"validity.max_airflow_body_angle_deg": limit})
+    br = bird_branch(cfg, "root_ahead_m", 0.048, 0.05, **coarse)
+    assert br.end_reason == "reached_to"
+    (sp,) = br.special_points
+    assert (sp.kind, sp.event, sp.direction, sp.located) == ("validity_boundary", "max_airflow_body_angle_deg", -1,
+                                                             True)
+    assert 0.048 < sp.parameter < 0.05
+    at = trim(with_values(cfg, {"wing.root_ahead_m": sp.parameter}), **coarse)
+    assert abs(at.validity.measures["max_airflow_body_angle_deg"] - limit) < 1e-6
+    valid = [p.validity["valid"] for p in br.points]
+    assert valid[0] and not valid[-1] and valid == sorted(valid, reverse=True)
+    assert all(p.event_values["max_airflow_body_angle_deg"] == pytest.approx(
+        limit - p.validity["max_airflow_body_angle_deg"], abs=1e-12) for p in br.points)
+
+    st = bird_branch(cfg, "root_ahead_m", 0.048, 0.05, stop_at_invalid=True, **coarse)
+    assert st.end_reason == "stopped_at_event" and abs(st.points[-1].parameter - sp.parameter) < 1e-9
+    assert all(p.validity["valid"] for p in st.points[:-1])
+    out = tmp_path / "run"
+    code = main(["continue", "root_ahead_m", "--from", "0.048", "--to", "0.05", "--points", "3", "--steps", "48",
+                 "--set", f"validity.max_airflow_body_angle_deg={limit!r}", "--stop-at-invalid", "--out", str(out),
+                 "--quiet", "--json"])
+    d = json.loads((out / "branch.json").read_text())
+    assert code == 0 and d["end_reason"] == "stopped_at_event"
+    assert [(s["kind"], s["event"]) for s in d["special_points"]] == [("validity_boundary",
+                                                                      "max_airflow_body_angle_deg")]

@@ -67,6 +67,9 @@ def test_closed_loop_multipliers_are_the_eigenvalues_of_M_minus_BK(cycle):
     assert np.allclose(K, np.linalg.solve(R + B.T @ P @ B, B.T @ P @ M), rtol=1e-10, atol=1e-12)
     d = ctl.to_dict()
     assert d["controllable"] == {k: True for k in DEFAULT_CONTROLS}
+    # the controller says whether the model holds on the cycle it is designed around, and what re-solves it
+    assert d["cycle_validity"] == cycle.validity.to_dict() and d["cycle_valid"] is cycle.validity.valid
+    assert d["cycle_amplitude_deg"] == cycle.amplitude_deg and np.array_equal(d["cycle_x0"], cycle.x0)
     for row in d["per_control"]:  # the minimal-energy gain reflects the expanding multiplier to 1/lambda
         stable_rest = np.abs(wm.multipliers[1])
         assert row["min_gain_spectral_radius"] == pytest.approx(max(1 / np.abs(wm.multipliers[0]), stable_rest), rel=1e-7)

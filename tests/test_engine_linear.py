@@ -197,3 +197,19 @@ def test_invalid_fields_raise_valueerror():
         LimitCycleProblem(ODES[False], P, np.zeros(4), free={"nope": (0, 1)})
     with pytest.raises(ValueError, match="x_guess"):
         LimitCycleProblem(ODES[False], P, np.zeros(3))
+
+
+def test_doubling_time_is_ln2_over_rate_not_e_folding():
+    """The one doubling-time function: a mode growing as exp(a t) doubles in ln2/a (not 1/a, the
+    e-folding time); from a multiplier Λ over period T, in T ln2 / ln|Λ|; halving times negative."""
+    from birdocp.engine.floquet import doubling_time_s, multiplier_doubling_time_s
+
+    a, T = 0.7, 0.25
+    lam = np.exp(a * T)
+    assert doubling_time_s(a) == pytest.approx(np.log(2) / a, rel=1e-15)
+    assert multiplier_doubling_time_s(lam, T) == pytest.approx(np.log(2) / a, rel=1e-12)
+    # x(t) = exp(a t) reaches 2 at the doubling time
+    assert np.exp(a * multiplier_doubling_time_s(lam, T)) == pytest.approx(2.0, rel=1e-12)
+    assert multiplier_doubling_time_s(1 / lam, T) == pytest.approx(-np.log(2) / a, rel=1e-12)
+    assert doubling_time_s(0.0) == np.inf
+    assert np.array_equal(doubling_time_s(np.array([np.log(2), -np.log(2)])), [1.0, -1.0])

@@ -358,3 +358,19 @@ def test_hold_mean_com_root_places_the_shoulder_ahead_of_the_mean_com():
     # the mean by the trapezoidal rule has converged (smooth periodic motion)
     assert abs(mean_com_offset_m(moved, n=32)[0] - xc) < 1e-12
     assert hold_mean_com_root(config_with_wing_mass(Config(), 0.0), 0.05) == 0.05
+
+
+@pytest.mark.slow
+def test_cycle_summary_carries_the_cycle_validity():
+    """The inertia study's row summary re-integrates one period from x0: its validity is the trim's
+    (measured on the solver's own trajectory)."""
+    from birdocp.studies.inertia import config_with_wing_mass, cycle_summary
+    from birdocp.studies.trim import trim
+
+    cfg = config_with_wing_mass(Config(), 0.143)
+    r = trim(cfg, points=3, steps_per_period=48)
+    s = cycle_summary(cfg, r.x0, r.cycle.p, steps_per_period=48)
+    v, ref = s["validity"], r.validity.to_dict()
+    assert s["valid"] is ref["valid"] is v["valid"] and v["reasons"] == ref["reasons"]
+    for k in ("stalled_fraction", "min_forward_speed_mps", "max_abs_pitch_deg", "max_airflow_body_angle_deg"):
+        assert v[k] == pytest.approx(ref[k], abs=1e-8), k

@@ -55,6 +55,9 @@ def test_multiplier_and_mean_speed_derivatives_match_finite_differences(base):
     ranked = s.ranked()
     assert [r["parameter"] for r in ranked][0] == "wing.root_ahead_m"
     assert ranked[0]["unit"] == "cm"
+    # every row says whether the model holds on the cycle differentiated; the cycle can be re-solved
+    assert s.validity == base.validity.to_dict() and all(r["valid"] is base.validity.valid for r in ranked)
+    assert np.array_equal(s.x0, base.x0) and s.amplitude_deg == base.amplitude_deg
 
 
 def test_level_held_sensitivity_matches_two_level_solves(base, coarse):

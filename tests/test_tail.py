@@ -89,3 +89,49 @@ def test_wing_vortex_system_against_midpoint_quadrature():
         for a, b, n in ((0.0, 2.0, 40000), (2.0, 2000.0, 40000)):
             v += line(A + [0, 0, a], A + [0, 0, b], strength, n)
     assert np.allclose(exact, v, atol=2e-4 * np.max(np.abs(exact)))
+
+
+def test_tail_incidence_zero_is_today_bit_for_bit():
+    """``tail.incidence_deg = 0`` is the model without the incidence term, to the last bit: the
+    right-hand side with the tail at 20 deg equals, bit for bit, the graph in which the incidence is
+    the constant 0 (CasADi then drops the term: today's expression); and the trim with the tail's
+    terms built (incidence 0, opening angle 0) is the default trim to the last bit."""
+    from birdocp.bird.config import PARAM_NAMES
+    from birdocp.studies.trim import trim
+
+    cfg = with_values(Config(), {"tail.opening_angle_deg": 20.0, "tail.incidence_deg": 0.0})
+    m = get_model(cfg)
+    rhs = m.rhs   # the model's SX right-hand side (x, d, p) -> xdot
+    x = ca.SX.sym("x", 4)
+    d = ca.SX.sym("d", rhs.size1_in(1))
+    p = ca.SX.sym("p", len(PARAM_NAMES))
+    full = rhs(x, d, p)
+    k = PARAM_NAMES.index("tail.incidence_deg")
+    without = ca.substitute(full, p[k], ca.SX(0.0))
+    f_full = ca.Function("f", [x, d, p], [full])
+    f_without = ca.Function("g", [x, d, p], [without])
+    assert f_without.n_instructions() < f_full.n_instructions()   # the term is gone
+    for state, t in STATES:
+        D = m.model.ode.data(t, m.p0)
+        assert np.array_equal(np.array(f_full(state, D, m.p0)), np.array(f_without(state, D, m.p0)))
+    a = trim(Config(), points=3, steps_per_period=48)
+    b = trim(with_values(Config(), {"tail.enabled": True, "tail.incidence_deg": 0.0}), points=3, steps_per_period=48)
+    assert a.success and b.success
+    assert np.array_equal(a.x0, b.x0) and np.array_equal(a.multipliers, b.multipliers)
+
+
+def test_tail_incidence_is_a_shift_of_the_flow_angle():
+    """Without induced velocity and pitch rate, the loads at incidence i and flow angle a equal those
+    at incidence 0 and flow angle a + i (same speed); a positive incidence lifts the tail and pitches
+    the nose down."""
+    nodes = ca.DM(np.vstack([np.linspace(-0.8, 0.8, 17), np.full(17, 0.05), np.zeros(17)]))  # no circulation:
+    gamma = ca.DM.zeros(16)                                                                    # no induced velocity
+    args = (1.2, 30.0, 0.3, 0.25, 1.5e-5, 15.0)
+    V, a, i = 16.0, math.radians(3.0), 5.0
+    shifted = tail.tail_loads(ca.DM([V * math.cos(a), V * math.sin(a), 0, 0]), nodes, gamma, *args, incidence_deg=i)
+    a2 = a + math.radians(i)
+    direct = tail.tail_loads(ca.DM([V * math.cos(a2), V * math.sin(a2), 0, 0]), nodes, gamma, *args)
+    assert np.allclose([float(v) for v in shifted], [float(v) for v in direct], rtol=1e-12, atol=0)
+    level = [float(v) for v in tail.tail_loads(ca.DM([V, 0, 0, 0]), nodes, gamma, *args, incidence_deg=0.0)]
+    up = [float(v) for v in tail.tail_loads(ca.DM([V, 0, 0, 0]), nodes, gamma, *args, incidence_deg=i)]
+    assert level[0] == 0 and up[0] > 0 and up[2] < 0   # lift up behind G: nose-down moment

@@ -156,6 +156,10 @@ class Tail:
     tail from an opening angle of 0 (which gives exactly zero loads)."""
     opening_angle_deg: float = 0.0
     """Opening angle beta of the delta; span = 2 length tan(beta / 2). 0 = no tail."""
+    incidence_deg: float = 0.0
+    """The tail's own incidence: the angle of the delta's plane to the body axis, positive with the
+    leading edge (the root) up; added to the flow angle at the tail (its angle of attack). 0 = the
+    tail in the body axis, as in the reference model (bit for bit)."""
     root_behind_m: float = 0.30
     """Distance of the tail root behind the centre of mass, along the body axis."""
     length_m: float = 0.25
@@ -456,6 +460,8 @@ def validate(cfg: Config) -> None:
             raise ConfigError(key, f"must be >= 0 (0 = off), got {get_value(cfg, key)!r}")
     if not 0.0 <= cfg.tail.opening_angle_deg < 180.0:
         raise ConfigError("tail.opening_angle_deg", f"must lie in [0, 180) deg, got {cfg.tail.opening_angle_deg!r}")
+    if not -90.0 < cfg.tail.incidence_deg < 90.0:
+        raise ConfigError("tail.incidence_deg", f"must lie in (-90, 90) deg, got {cfg.tail.incidence_deg!r}")
     if cfg.aero.circulation not in CIRCULATION_MODES:
         raise ConfigError("aero.circulation", f"must be one of {', '.join(CIRCULATION_MODES)}; got {cfg.aero.circulation!r}")
     if cfg.aero.kinematic_velocity not in KINEMATIC_VELOCITY_MODES:

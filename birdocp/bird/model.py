@@ -232,7 +232,7 @@ def load_terms(structure: Structure, x, d, p) -> dict:
         Lt, Dt, Mt = tail.tail_loads(x, b["nodes_m"], e["Gamma"], rho,
                                      *[_p(p, f"tail.{k}") for k in (
                                          "opening_angle_deg", "root_behind_m", "length_m",
-                                         "kinematic_viscosity_m2ps", "reynolds_speed_mps")])
+                                         "kinematic_viscosity_m2ps", "reynolds_speed_mps", "incidence_deg")])
         Fx, Fz, My = Fx - Dt, Fz - Lt, My + Mt
         out["tail"] = (Lt, Dt, Mt)
     out.update(F_code=F, Fx_N=Fx, Fz_N=Fz, My_Nm=My)

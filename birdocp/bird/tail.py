@@ -8,7 +8,8 @@ implementation. Loads, after the reference's slender-wing model:
   where ``V_ind`` is the velocity the wing's horseshoe vortices (bound segments between the element
   nodes and semi-infinite trailing legs along e3) induce at the tail's neutral point
   ``NP = root + (0, 0, 2/3 l_t)`` (3-D Biot-Savart);
-* ``alpha_t = atan2(U_t,2, U_t,3)``, normal force ``N_t = (pi/4) rho |U_t|^2 alpha_t b_t^2``, lift
+* ``alpha_t = atan2(U_t,2, U_t,3) + i_t`` with the tail's own incidence ``i_t`` (``tail.incidence_deg``,
+  leading edge up positive; 0 in the reference model, where the delta lies in the body axis), normal force ``N_t = (pi/4) rho |U_t|^2 alpha_t b_t^2``, lift
   ``L_t = N_t cos(alpha_t)`` (up, e2), drag ``D_t = 1/2 L_t alpha_t + D_f + N_t sin(alpha_t)`` with the
   flat-plate friction ``D_f = 1/2 rho |U_t|^2 (b_t l_t / 2) 1.328 / sqrt(Re)``, ``Re = V_ref l_t / nu``;
 * body loads: ``Fz' -= L_t``, ``Fx' -= D_t`` and the moment of the lift at the neutral point about G,
@@ -71,8 +72,11 @@ def induced_velocity(P, nodes, gamma):
 
 
 def tail_loads(state, nodes, gamma, rho, opening_angle_deg, root_behind_m, length_m,
-               kinematic_viscosity_m2ps, reynolds_speed_mps):
-    """(lift L_t [N, up], drag D_t [N, backwards], pitching moment about G [N m, nose-up positive])."""
+               kinematic_viscosity_m2ps, reynolds_speed_mps, incidence_deg=0.0):
+    """(lift L_t [N, up], drag D_t [N, backwards], pitching moment about G [N m, nose-up positive]).
+
+    ``incidence_deg``: the tail's own incidence, added to the flow angle (at 0 the sum is the flow
+    angle exactly: the reference model bit for bit)."""
     u, w, q = state[0], state[1], state[2]
     beta = opening_angle_deg * math.pi / 180
     span = 2 * length_m * ca.tan(beta / 2)
@@ -82,7 +86,7 @@ def tail_loads(state, nodes, gamma, rho, opening_angle_deg, root_behind_m, lengt
     # U_inf - Omega x r_root, Omega = (q, 0, 0), r_root = (0, 0, root_behind)
     U = ca.vertcat(0, w + q * root_behind_m, u) + v_ind
     U2 = ca.dot(U, U)
-    alpha = ca.atan2(U[1], U[2])
+    alpha = ca.atan2(U[1], U[2]) + incidence_deg * (math.pi / 180)
     N = math.pi / 4 * rho * U2 * alpha * span ** 2
     L = N * ca.cos(alpha)
     reynolds = reynolds_speed_mps * length_m / kinematic_viscosity_m2ps

@@ -40,7 +40,8 @@ if TYPE_CHECKING:
 # tables (validity_text, validity_columns) stay light to import.
 
 __all__ = ["CycleValidity", "cycle_validity", "grid_validity", "periodic_validity", "element_angles_function",
-           "effective_angles", "invalid", "validity_text", "VALIDITY_COLUMNS", "validity_columns"]
+           "effective_angles", "invalid", "validity_text", "VALIDITY_COLUMNS", "validity_columns",
+           "validity_margins", "LIMIT_NAMES"]
 
 
 def effective_angles(n_data: int | None = None) -> "ca.Function":
@@ -142,6 +143,39 @@ def _thresholds(cfg: Config) -> dict:
     return {"stall_angle_deg": v.stall_angle_deg, "max_stalled_fraction": v.max_stalled_fraction,
             "min_forward_speed_mps": v.min_forward_speed_mps, "max_abs_pitch_deg": v.max_abs_pitch_deg,
             "max_airflow_body_angle_deg": v.max_airflow_body_angle_deg}
+
+
+LIMIT_NAMES = {"max_stalled_fraction": "stalled share of the span-time area",
+               "min_forward_speed_mps": "minimum forward speed u",
+               "max_abs_pitch_deg": "largest |theta|",
+               "max_airflow_body_angle_deg": "largest airflow-to-body angle"}
+"""The validity limits (their ``[validity]`` keys) and what each bounds, for messages."""
+
+
+def validity_margins(v: "CycleValidity | dict") -> dict:
+    """The margin of each validity limit on a cycle, positive (or 0) where it is respected:
+    ``{limit key: margin}`` with ``max_stalled_fraction - stalled_fraction``, ``min_forward_speed_mps
+    (measured) - limit`` [m/s], ``max_abs_pitch_deg - |theta|max`` [deg] and
+    ``max_airflow_body_angle_deg - angle`` [deg] (keys: :data:`LIMIT_NAMES`, the ``[validity]`` keys).
+
+    The cycle is valid exactly when every margin is >= 0 (the verdict of :func:`cycle_validity`);
+    NaN when the cycle was not measured. The stall margin is piecewise constant (a share of the
+    grid's element-times), the others are continuous in the cycle."""
+    d = v.to_dict() if isinstance(v, CycleValidity) else dict(v or {})
+    th = d.get("thresholds") or {}
+
+    def get(key):
+        x = d.get(key)
+        return float("nan") if x is None else float(x)
+
+    def lim(key):
+        x = th.get(key)
+        return float("nan") if x is None else float(x)
+
+    return {"max_stalled_fraction": lim("max_stalled_fraction") - get("stalled_fraction"),
+            "min_forward_speed_mps": get("min_forward_speed_mps") - lim("min_forward_speed_mps"),
+            "max_abs_pitch_deg": lim("max_abs_pitch_deg") - get("max_abs_pitch_deg"),
+            "max_airflow_body_angle_deg": lim("max_airflow_body_angle_deg") - get("max_airflow_body_angle_deg")}
 
 
 def invalid(cfg: Config | None, reason: str) -> CycleValidity:

@@ -262,7 +262,9 @@ def growth_text(exponent: Any, doubling: Any) -> str:
         sign = 1 if (rate is None and t > 0) or (rate is not None and rate > 0) else -1
         return f"{'doubles' if sign > 0 else 'halves'} in {abs(t):.4g} s"
     if rate is not None and rate != 0 and math.isfinite(rate):
-        return f"{'doubles' if rate > 0 else 'halves'} in {math.log(2) / abs(rate):.4g} s"
+        from birdocp.engine.floquet import doubling_time_s
+
+        return f"{'doubles' if rate > 0 else 'halves'} in {abs(doubling_time_s(rate)):.4g} s"
     return "neutral"
 
 

@@ -24,7 +24,8 @@ def register(sub, common) -> None:
                                                           "(pseudo-arclength continuation)",
                        description="Pseudo-arclength continuation of the trimmed flight from --from to --to, "
                                    "through folds, with fold / branch point / period doubling / Neimark-Sacker "
-                                   "detection (located on the branch). PARAM: root_ahead_m (metres ahead of G), "
+                                   "detection (located on the branch), and every crossing of a validity limit "
+                                   "located as a validity_boundary special point naming the limit. PARAM: root_ahead_m (metres ahead of G), "
                                    "stability_margin (SM = -root_ahead_m / body.reference_chord_m, given in "
                                    "PERCENT: --from -32.5 --to -17.5), amplitude_deg, or a dotted model key. "
                                    "Writes branch.json, locus.png and moduli.png to the run folder.")
@@ -39,6 +40,10 @@ def register(sub, common) -> None:
     p.add_argument("--climb-rate", type=float, metavar="MPS", help="held mean vertical speed with --level (default 0)")
     p.add_argument("--bounds", type=float, nargs=2, metavar=("LO", "HI"),
                    help="amplitude bounds with --level (default 20 70 deg; LO < HI); leaving them ends the branch")
+    p.add_argument("--stop-at-invalid", action="store_true",
+                   help="end the branch where it leaves the model's validity ([validity] limits): at the located "
+                        "validity boundary, or at the start if the start is not valid (default: go on, the points "
+                        "marked invalid; the boundary is a special point either way)")
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty; with --resume an interrupted "
                                                 "continuation's folder); default runs/<time>-continue-<id>/")
     p.add_argument("--resume", action="store_true",
@@ -75,6 +80,7 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
         raise ConfigError("--resume", "needs --out DIR, the folder of the continuation to continue")
     spec = {"param": args.param, "parameter": model_key, "from": a, "to": b, "level": bool(args.level),
             "climb_rate_mps": climb, "bounds": bounds, "step": args.step, "max_points": args.max_points,
+            "stop_at_invalid": bool(args.stop_at_invalid),
             "config": C.to_dict(cfg)}
     with run_folder(args, "continue", command_line, resume_file=INDEX if args.resume else None,
                     scaffold=(INDEX,)) as run:
@@ -102,12 +108,15 @@ def _finish(run, args, br, cfg, display: str, a: float, b: float, resumed: int, 
     d = br.to_dict()
     atomic_write_json(run.dir / "branch.json", d)
     figs = plot_branches({"level flight" if args.level else "branch": br}, run.dir) if br.points else []
-    ok = br.end_reason in ("reached_to", "reached_from") and bool(br.points)
+    # a stop at the validity boundary is what --stop-at-invalid asked for, not a failure
+    ok = br.end_reason in ("reached_to", "reached_from", "stopped_at_event") and bool(br.points)
     summary = {"success": ok, "status": br.end_reason, "parameter": br.parameter_name, "display": display,
                "from": a, "to": b, "level": bool(args.level), "end_reason": br.end_reason,
                "end_message": br.end_message, "n_points": len(br.points), "special_points": d["special_points"],
                "stable_anywhere": any(p.stable for p in br.points), "figures": [f.name for f in figs],
                "valid_points": sum(bool(p.validity and p.validity["valid"]) for p in br.points),
+               "stop_at_invalid": bool(args.stop_at_invalid),
+               "validity_boundaries": [s for s in d["special_points"] if s["kind"] == "validity_boundary"],
                "resumed_points": resumed, "wall_s": {"total": time.perf_counter() - t_start},
                "run_dir": str(run.dir)}
     run.write(cfg, summary)
@@ -225,7 +234,8 @@ def _follow(args, cfg, model_key: str, display: str, a: float, b: float, climb: 
         with run.solving(), bar:
             new = bird_branch(cfg, args.param, start_value, b, level=args.level, climb_rate_mps=climb, bounds=bounds,
                               step=args.step, max_points=max_points, progress=say, on_point=rec.point,
-                              on_special=rec.special, start=start, orient=orient)
+                              on_special=rec.special, start=start, orient=orient,
+                              stop_at_invalid=args.stop_at_invalid)
     if not rec.resumed:
         return new
     settings = dict(new.settings, resumed_at_point=rec.offset_points)

@@ -126,4 +126,7 @@ def _print_table(r: dict) -> None:
         rho = row["lqr_spectral_radius"]
         print(f"    {row['control']:42s} {str(row['stabilisable']):>12s} {row['modal_input_per_unit']:11.4g} "
               f"{cli.fmt_num(eff, '.4g'):>11s} {cli.fmt_num(rho, '.4f'):>8s}")
+    from birdocp.bird.validity import validity_text
+
+    print(f"  model validity of the cycle controlled: {validity_text(r.get('cycle_validity'))}")
     print(f"  written to {r['run_dir']}")

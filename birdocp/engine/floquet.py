@@ -23,7 +23,8 @@ from birdocp.engine.results import complex_pairs  # noqa: F401  (re-exported: th
 from birdocp.engine.results import result_dict
 
 __all__ = ["FloquetResult", "floquet_from_jacobians", "multipliers_info", "monodromy_of", "complex_pairs",
-           "multiplier_order", "sort_multipliers", "matched_distances"]
+           "multiplier_order", "sort_multipliers", "matched_distances", "doubling_time_s",
+           "multiplier_doubling_time_s"]
 
 
 @dataclass
@@ -73,6 +74,27 @@ def matched_distances(lam, ref) -> np.ndarray:
     return np.abs(lam[list(best)] - ref)
 
 
+def doubling_time_s(rate_per_s):
+    """Signed doubling time [s] of a growth rate ``rate_per_s`` = Re μ [1/s]: ``ln 2 / rate``
+    (positive: the time to double; negative: minus the time to halve; inf for a zero rate).
+
+    The one place a doubling or halving time is computed (the Floquet results, the CLI's text, the
+    study tables): ``1 / rate`` would be the e-folding time, ``ln 2`` times shorter. Works on scalars
+    and arrays (a float for a scalar)."""
+    rate = np.asarray(rate_per_s, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(rate == 0, np.inf, np.log(2.0) / np.where(rate == 0, 1.0, rate))
+    return float(t) if t.ndim == 0 else t
+
+
+def multiplier_doubling_time_s(multiplier, period_s: float):
+    """Signed doubling time [s] of a Floquet multiplier Λ of a cycle of period ``period_s``:
+    ``T ln 2 / ln|Λ|`` (:func:`doubling_time_s` of the rate ``ln|Λ| / T``; 0 for Λ = 0)."""
+    with np.errstate(divide="ignore"):
+        rate = np.log(np.abs(np.asarray(multiplier, complex))) / float(period_s)
+    return doubling_time_s(rate)
+
+
 def multipliers_info(monodromy: np.ndarray, period_s: float):
     """(multipliers, eigenvectors, exponents, doubling times, stable) from a monodromy matrix."""
     lam, vec = np.linalg.eig(monodromy)
@@ -81,8 +103,7 @@ def multipliers_info(monodromy: np.ndarray, period_s: float):
     vec = vec[:, order].astype(complex)
     with np.errstate(divide="ignore", invalid="ignore"):
         mu = np.log(lam) / period_s
-        re = mu.real
-        dbl = np.where(re == 0, np.inf, np.log(2.0) / re)
+    dbl = doubling_time_s(mu.real)
     stable = bool(np.all(np.abs(lam) < 1.0))
     return lam, vec, mu, dbl, stable
 

@@ -8,7 +8,7 @@ import numpy as np
 from birdocp.engine.continuation import Branch
 from birdocp.plots.figures import save_figure
 
-__all__ = ["plot_branches", "valid_mask", "runs", "branch_ends", "end_label", "STOPPED"]
+__all__ = ["plot_branches", "valid_mask", "runs", "branch_ends", "end_label", "STOPPED", "plot_by_validity"]
 
 def _x_of(branch: Branch, pts=None):
     """(x values, axis label) of branch points: SM in percent for the root position, else the parameter."""
@@ -17,6 +17,11 @@ def _x_of(branch: Branch, pts=None):
     if branch.parameter_name == "wing.root_ahead_m" and s.get("display", "stability_margin") == "stability_margin":
         return -100.0 * vals / float(s.get("reference_chord_m", 0.2)), "stability margin SM [%]"
     return vals, branch.parameter_name
+
+
+def _sp_label(sp) -> str:
+    """Legend text of a special point: its kind, and the event it locates (e.g. the validity limit)."""
+    return sp.kind.replace("_", " ") + (f" ({sp.event})" if getattr(sp, "event", None) else "")
 
 
 def valid_mask(branch: Branch) -> np.ndarray:
@@ -35,7 +40,22 @@ def runs(mask: np.ndarray) -> list:
     return out
 
 
-STOPPED = ("reached_to", "reached_from", "max_points")
+def plot_by_validity(ax, x, y, valid, label: str | None = None, invalid_label: str | None = "model not valid",
+                     **style) -> None:
+    """``ax.plot(x, y, **style)`` with the runs where the model does not hold (``valid`` False per
+    point) drawn grey, dashed and without markers, as in the branch figures; ``label`` goes to the
+    first valid run, ``invalid_label`` to the first invalid one."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    ok = np.asarray([v is not False for v in valid], bool)
+    seen = set()
+    for a, z, good in runs(ok):
+        st = dict(style) if good else dict(style, color="0.6", ls="--", marker=None, lw=1.0)
+        lab = (label if good else invalid_label) if good not in seen else None
+        seen.add(good)
+        ax.plot(x[a:z], y[a:z], label=lab, **st)
+
+
+STOPPED = ("reached_to", "reached_from", "max_points", "stopped_at_event")
 """End reasons that are where the continuation was stopped, not where the branch ends."""
 
 
@@ -50,8 +70,9 @@ def branch_ends(branch: Branch) -> list:
 def end_label(reason: str) -> str:
     """Legend text of a branch end by its ``end_reason``: stopped at the requested range, or a real end."""
     if reason in STOPPED:
-        return "continuation stopped here (end of the requested range)" if reason != "max_points" else \
-            "continuation stopped here (point budget)"
+        return {"max_points": "continuation stopped here (point budget)",
+                "stopped_at_event": "continuation stopped here (at the located event, e.g. the validity boundary)"}.get(
+            reason, "continuation stopped here (end of the requested range)")
     return {"free_parameter_bound": "branch end: the free parameter reaches its bound",
             "corrector_failed": "branch end: the corrector fails", "rejected": "branch end: cycles rejected"}.get(
         reason, f"branch end: {reason}")
@@ -75,7 +96,7 @@ def plot_branches(branches: dict, out_dir, prefix: str = "", span=None) -> list:
     if not labels:
         return paths
     marks = {"fold": ("s", "tab:red"), "branch_point": ("D", "tab:orange"), "period_doubling": ("v", "tab:purple"),
-             "neimark_sacker": ("*", "tab:green")}
+             "neimark_sacker": ("*", "tab:green"), "validity_boundary": ("P", "0.25")}
     # locus
     fig, axes = plt.subplots(1, len(labels), figsize=(6.2 * len(labels), 5.8), squeeze=False)
     for ax, lab in zip(axes[0], labels):
@@ -95,7 +116,7 @@ def plot_branches(branches: dict, out_dir, prefix: str = "", span=None) -> list:
         for sp in b.special_points:
             m, c = marks.get(sp.kind, ("o", "k"))
             Ls = np.array([complex(*v) for v in sp.multipliers])
-            ax.plot(Ls.real, Ls.imag, m, color=c, ms=9, mfc="none", mew=2, label=f"{sp.kind}", zorder=4)
+            ax.plot(Ls.real, Ls.imag, m, color=c, ms=9, mfc="none", mew=2, label=_sp_label(sp), zorder=4)
         ax.axhline(0, color="0.85", lw=0.5, zorder=0)
         ax.axvline(0, color="0.85", lw=0.5, zorder=0)
         ax.set_aspect("equal")
@@ -151,7 +172,7 @@ def plot_branches(branches: dict, out_dir, prefix: str = "", span=None) -> list:
         for sp in b.special_points:
             m, c = marks.get(sp.kind, ("o", "k"))
             xs, _ = _x_of(b, [sp])
-            ax.plot(xs, [max(sp.moduli)], m, color=c, ms=9, mfc="none", mew=2, label=sp.kind)
+            ax.plot(xs, [max(sp.moduli)], m, color=c, ms=9, mfc="none", mew=2, label=_sp_label(sp))
     ax.axhline(1.0, color="k", lw=0.8)
     ax.set_ylabel("|Λ|")
     ax.set_title("Floquet multipliers' moduli along the branch (|Λ| > 1: unstable)")

@@ -17,7 +17,8 @@ from birdocp.engine.problem import LimitCycleProblem, MeanCondition
 from birdocp.studies.level import default_bounds
 from birdocp.studies.trim import TrimResult, solver_ode
 
-__all__ = ["STABILITY_MARGIN", "PARAM_ALIASES", "resolve_parameter", "sm_percent", "root_of_sm", "bird_branch"]
+__all__ = ["STABILITY_MARGIN", "PARAM_ALIASES", "resolve_parameter", "sm_percent", "root_of_sm", "bird_branch",
+           "validity_events", "add_validity"]
 
 STABILITY_MARGIN = "stability_margin"
 PARAM_ALIASES = ("root_ahead_m", "stability_margin", "amplitude_deg")
@@ -46,12 +47,18 @@ def root_of_sm(sm_pct: float, chord_m: float) -> float:
 def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, stop_value: float = 0.035, *,
                 level: bool = False, climb_rate_mps: float = 0.0, bounds=None, points: int | None = None,
                 steps_per_period: int | None = None, start=None, progress=None, validity: bool = True,
-                compiled: bool | None = None, **options) -> Branch:
+                stop_at_invalid: bool = False, compiled: bool | None = None, **options) -> Branch:
     """Continue the bird's periodic flight in one parameter by pseudo-arclength continuation.
 
     The branch's ``parameter`` is the model parameter (``wing.root_ahead_m`` for SM); the SM of every
     point is added to ``settings['stability_margin_percent']`` when ``key`` is ``stability_margin``.
-    A point whose shooting points have u <= 0 is rejected (not a forward flight).
+    A point whose shooting points have u <= 0 is rejected (not a forward flight). With ``validity``
+    every point also gets the margins of the validity limits as ``event_values``
+    (:func:`birdocp.bird.validity.validity_margins`); where a margin changes sign between two points a
+    ``validity_boundary`` special point is located on the branch (its ``event``: the limit's
+    ``[validity]`` key, ``direction`` -1 where the branch leaves the model's validity, +1 where it comes
+    back). The branch goes on through it, its points marked invalid, or, with ``stop_at_invalid``, ends
+    there (``end_reason`` ``stopped_at_event``; at the start if the start is not valid).
 
     Parameters
     ----------
@@ -79,7 +86,9 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
         ``progress(text)``, one line per point.
     validity : bool
         Give every point its ``validity`` (:func:`birdocp.bird.validity.periodic_validity`: one RK4
-        period from its x0 with its parameters).
+        period from its x0 with its parameters) and its validity margins.
+    stop_at_invalid : bool
+        End the branch where it leaves the model's validity.
     compiled : bool, optional
         The RHS and data compiled to C (:func:`birdocp.studies.trim.solver_ode`; None:
         ``$BIRDOCP_COMPILED``).
@@ -124,15 +133,46 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
         u = np.asarray(pt.shooting_points)[:, 0]
         return None if np.all(u > 0) else f"u <= 0 at a shooting point (min {u.min():.3g} m/s)"
 
+    if stop_at_invalid and not validity:
+        raise ValueError("stop_at_invalid needs validity=True (the validity of every point)")
+    events = validity_events(cfg, steps, ode, stop_at_invalid) if validity else None
     br = continuation(prob, model_key, a, b, points=points, steps_per_period=steps, start=ws, accept=accept,
-                      progress=progress, **options)
+                      progress=progress, events=events, **options)
     br.settings.update({"key": key, "display": display, "level": bool(level), "climb_rate_mps": climb_rate_mps,
+                        "stop_at_invalid": bool(stop_at_invalid),
                         "reference_chord_m": chord, "config_amplitude_deg": cfg.gait.shoulder_flap.amplitude_deg})
     if display == STABILITY_MARGIN:
         br.settings["stability_margin_percent"] = [sm_percent(p.parameter, chord) for p in br.points]
     if validity:
         add_validity(cfg, br, steps, ode)
     return br
+
+
+VALIDITY_LOCATE_TOL = 1e-7
+"""Validity boundaries are located to this scaled arclength (the parameter interval is one unit)."""
+
+
+def validity_events(cfg, steps_per_period: int, ode=None, stop: bool = False):
+    """The validity limits of ``cfg`` as continuation test functions
+    (:class:`birdocp.engine.continuation.BranchEvents`, kind ``validity_boundary``): at each point the
+    exact validity (:func:`birdocp.bird.validity.periodic_validity`, stored in the point's
+    ``validity``) and its margins (:func:`birdocp.bird.validity.validity_margins`) as the values."""
+    from birdocp.bird.validity import LIMIT_NAMES, periodic_validity, validity_margins
+    from birdocp.engine.continuation import BranchEvents
+
+    def evaluate(pt):
+        v = periodic_validity(cfg, pt.x0, np.asarray(pt.p, float) if len(pt.p) else None,
+                              steps_per_period=steps_per_period, ode=ode)
+        pt.validity = v.to_dict()
+        return validity_margins(v)
+
+    def describe(limit: str, direction: int, pt) -> str:
+        margin = (pt.event_values or {}).get(limit, float("nan"))
+        th = (pt.validity or {}).get("thresholds", {}).get(limit)
+        return (f"{'leaves' if direction < 0 else 'comes back into'} the model's validity: {LIMIT_NAMES[limit]} "
+                f"at its limit {limit} = {th:g} (margin {margin:.3g} at the located point)")
+
+    return BranchEvents(evaluate, kind="validity_boundary", stop=stop, tol=VALIDITY_LOCATE_TOL, describe=describe)
 
 
 def add_validity(cfg, br: Branch, steps_per_period: int | None = None, ode=None) -> Branch:

@@ -176,7 +176,9 @@ class WingbeatMap:
     p: the cycle's parameters; x_starts (N, 4): the cycle's state at each interval start;
     A (N, 4, 4), B (N, 4, m): interval maps (B per unit of each control's own unit, e.g. per deg);
     M (4, 4): the monodromy A_{N-1}..A_0; B_lifted (4, N m): the response of the state one beat later
-    to each interval's control (columns interval-major).
+    to each interval's control (columns interval-major); cycle_validity: the exact validity of the
+    cycle (:meth:`birdocp.bird.validity.CycleValidity.to_dict`; whether the model holds on the
+    cycle the controller is designed around).
     """
 
     controls: list
@@ -187,6 +189,7 @@ class WingbeatMap:
     x_starts: np.ndarray
     A: np.ndarray
     B: np.ndarray
+    cycle_validity: dict | None = None
 
     @property
     def M(self) -> np.ndarray:
@@ -266,7 +269,9 @@ def wingbeat_map(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int 
             B[i, :, j] = np.asarray(Ju).ravel()
         A[i] = np.asarray(Jx)
         x = xe
-    return WingbeatMap(list(controls), N, steps, np.asarray(c.x0, float), p, np.array(xs), A, B)
+    v = getattr(cycle_result, "validity", None)
+    return WingbeatMap(list(controls), N, steps, np.asarray(c.x0, float), p, np.array(xs), A, B,
+                       v.to_dict() if v is not None else None)
 
 
 def periodic_lqr(A, B, Q, R):
@@ -439,6 +444,9 @@ class Controller:
             "gain_units": "control unit (deg) per state unit (u, w: m/s; q: rad/s; theta: rad)",
             "controllable": {r["control"]: r["stabilisable"] for r in self.per_control},
             "cycle_x0": wm.x0, "cycle_controls": [wm.p[PARAM_NAMES.index(k)] for k in wm.controls],
+            "cycle_amplitude_deg": wm.p[PARAM_NAMES.index("gait.shoulder_flap.amplitude_deg")],
+            "cycle_validity": wm.cycle_validity,
+            "cycle_valid": None if wm.cycle_validity is None else bool(wm.cycle_validity.get("valid")),
             "x_starts": wm.x_starts, "A": wm.A, "B": wm.B, "monodromy": wm.M, "B_lifted": wm.B_lifted})
 
 

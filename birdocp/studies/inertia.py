@@ -80,7 +80,11 @@ def stability_margin_mean_com_percent(root_ahead_m: float, mean_com_x_m: float, 
 def cycle_summary(cfg: Config, x0, p, steps_per_period: int = 148) -> dict:
     """Pitch and wing-power figures of the periodic cycle through ``x0`` (state at t = 0) for the
     parameters ``p``: period-mean pitch and half peak-to-peak pitch oscillation [deg], mean and peak
-    forward speed, mean centre-of-mass offset [m] and the period means of the wing powers [W]."""
+    forward speed, mean centre-of-mass offset [m], the period means of the wing powers [W] and the
+    exact ``validity`` of the cycle (:func:`birdocp.bird.validity.grid_validity` on the same RK4
+    states; a dict, with ``valid``)."""
+    from birdocp.bird.validity import grid_validity
+
     m = get_model(cfg)
     p = np.asarray(p, float)
     grid = _GRIDS.get((id(m.ode), steps_per_period))
@@ -97,6 +101,8 @@ def cycle_summary(cfg: Config, x0, p, steps_per_period: int = 148) -> dict:
            "pitch_rate_amplitude_degps": float(0.5 * np.degrees(X[:-1, 2].max() - X[:-1, 2].min())),
            "mean_com_ahead_of_G_m": xc, "mean_com_below_G_m": zc,
            "closure_error": float(np.max(np.abs(X[-1] - X[0])))}
+    v = grid_validity(cfg, X[:-1], p, 0.0, steps_per_period, m.ode).to_dict()
+    out.update(validity=v, valid=bool(v["valid"]))
     for k, v in wp.items():
         per = v[:-1]
         out[f"mean_{k}"] = float(np.mean(per))

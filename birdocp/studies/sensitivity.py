@@ -72,6 +72,16 @@ class SensitivityResult:
     hold_level: bool
     # (n_params,) deg per unit (hold_level only)
     d_amplitude: np.ndarray | None = field(metadata=serial(key="d_amplitude_deg"))
+    # the cycle differentiated: its state at t = 0, flapping amplitude [deg] and exact validity
+    # (CycleValidity.to_dict(); every row is a derivative at this one cycle)
+    x0: np.ndarray | None = None
+    amplitude_deg: float | None = None
+    validity: dict | None = None
+
+    @property
+    def valid(self) -> bool | None:
+        """Whether the model holds on the cycle differentiated (None: not checked)."""
+        return None if self.validity is None else bool(self.validity.get("valid"))
 
     def ranked(self, mode: int = 0) -> list[dict]:
         """Rows sorted by |d modulus of multiplier `mode`| per display unit (deg or cm)."""
@@ -84,14 +94,15 @@ class SensitivityResult:
                                                    float(self.d_multipliers[k, mode].imag * f)],
                          "d_mean_vertical_speed_mps_per_unit": float(self.d_mean_vertical_speed[k] * f),
                          "d_amplitude_deg_per_unit": (None if self.d_amplitude is None
-                                                      else float(self.d_amplitude[k] * f))})
+                                                      else float(self.d_amplitude[k] * f)),
+                         "valid": self.valid})
         rows.sort(key=lambda r: -abs(r["d_modulus_per_unit"]))
         return rows
 
     def to_dict(self) -> dict:
         """JSON-ready dict (:func:`birdocp.engine.results.result_dict`, with the ranking of the
-        expanding multiplier's sensitivities)."""
-        return result_dict(self, extra={"ranked_expanding": self.ranked(0)})
+        expanding multiplier's sensitivities, each row with ``valid``: the model holds on the cycle)."""
+        return result_dict(self, extra={"ranked_expanding": self.ranked(0), "valid": self.valid})
 
 
 _SECOND_ORDER = bounded_cache("studies.second_order_maps", 8)
@@ -245,4 +256,7 @@ def multiplier_sensitivities(cycle_result, parameters=None, *, hold_level: bool 
         keep = [k for k in range(n) if k != a]  # the amplitude is the re-solved variable, not a parameter
         params = [params[k] for k in keep]
         dL, dmod, dx0s, dW, dA = dL[keep], dmod[keep], dx0s[keep], dW[keep], dA[keep]
-    return SensitivityResult(params, lam, dL, dmod, dx0s, dW, hold_level, dA)
+    v = getattr(cycle_result, "validity", None)
+    return SensitivityResult(params, lam, dL, dmod, dx0s, dW, hold_level, dA, np.asarray(c.x0, float),
+                             float(getattr(cycle_result, "amplitude_deg", np.nan)),
+                             v.to_dict() if v is not None else None)

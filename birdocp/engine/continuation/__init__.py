@@ -40,11 +40,17 @@ unknowns; the branch is the curve ``G(z) = 0``.
   evaluation a corrector solve) to ``locate_tol`` in scaled arclength and reported with the parameter
   value, the multipliers and the free parameters there.
 
+  User test functions of a point (:class:`BranchEvents`, e.g. the margins of a model's validity
+  limits) are evaluated at every point and located the same way where one changes side (``>= 0`` /
+  ``< 0``): a special point of ``events.kind`` whose ``event`` names the function.
+
 The continuation stops (``Branch.end_reason``) when the parameter leaves ``[min(from,to),
 max(from,to)]`` (the last point is then re-solved exactly on the boundary: ``reached_to`` or, after a
 fold, ``reached_from``), when the corrector fails at the minimum step (``corrector_failed``), when a
 free parameter leaves its bounds (``free_parameter_bound``), when ``accept`` rejects a point
-(``rejected``: e.g. a bird cycle with u <= 0) or after ``max_points`` (``max_points``).
+(``rejected``: e.g. a bird cycle with u <= 0), after ``max_points`` (``max_points``), or, with
+``events.stop``, at the first located crossing of a user test function from ``>= 0`` to ``< 0`` (or at
+the start when one is negative there: ``stopped_at_event``).
 
 The pieces, one module each: ``options`` (:class:`ContinuationOptions`), ``system`` (the augmented
 system, tangent, test functions), ``corrector`` (quasi-Newton), ``steps`` (step control), ``events``
@@ -60,7 +66,7 @@ import numpy as np
 
 from birdocp.engine.continuation.branch import Branch, BranchPoint, SpecialPoint
 from birdocp.engine.continuation.corrector import Corrector
-from birdocp.engine.continuation.events import locate, sign_changes
+from birdocp.engine.continuation.events import BranchEvents, event_crossings, locate, locate_event, sign_changes
 from birdocp.engine.continuation.options import SPECIAL_POINT_KINDS, ContinuationOptions
 from birdocp.engine.continuation.steps import StepController
 from birdocp.engine.continuation.system import Continuation, ContinuationState
@@ -69,14 +75,14 @@ from birdocp.engine.problem import LimitCycleProblem
 from birdocp.engine.shooting import MultipleShooting, initial_points, solve
 
 __all__ = ["Branch", "BranchPoint", "SpecialPoint", "Continuation", "ContinuationOptions", "SPECIAL_POINT_KINDS",
-           "continuation"]
+           "BranchEvents", "continuation"]
 
 
 def continuation(problem: LimitCycleProblem, param, start_value: float, stop_value: float, *,
                  options: ContinuationOptions | None = None, start=None, accept: Callable | None = None,
                  progress: Callable | None = None, system: Continuation | None = None,
                  on_point: Callable | None = None, on_special: Callable | None = None, orient: float | None = None,
-                 **settings) -> Branch:
+                 events: BranchEvents | None = None, **settings) -> Branch:
     """Follow the periodic orbits of ``problem`` as ``param`` goes from ``start_value`` to ``stop_value``.
 
     Parameters
@@ -111,6 +117,11 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
         The sign of d(parameter)/ds at the first point: the direction of travel (a branch resumed from
         a point after a fold: the sign of that point's ``tangent_parameter``); default: towards
         ``stop_value``.
+    events : BranchEvents, optional
+        User test functions of a point (e.g. the margins of a model's validity limits), evaluated at
+        every point (``event_values``) and located where one crosses zero, as special points of
+        ``events.kind`` naming the function (``event``); with ``events.stop`` the branch ends at the
+        first crossing from ``>= 0`` to ``< 0`` (``end_reason`` ``stopped_at_event``).
 
     Returns
     -------
@@ -209,12 +220,18 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
 
     pts = [make_point(cur, 0.0, 0.0)]
     keep = on_point or (lambda point: None)
+    ev_tol = (events.tol or opts.locate_tol) if events is not None else None
+    cur_ev = events.values(pts[0]) if events is not None else {}
     keep(pts[0])
     specials: list[SpecialPoint] = []
     arclen = 0.0
     end_reason, end_message = "max_points", f"max_points={opts.max_points} reached"
     say(f"{name} = {pts[0].parameter:.6g}: start, |L|max {max(pts[0].moduli):.4f}")
-    while len(pts) < opts.max_points:
+    below = [k for k, v in cur_ev.items() if v < 0]
+    if events is not None and events.stop and below:
+        end_reason = "stopped_at_event"
+        end_message = f"{events.kind} at the start ({name} = {pts[0].parameter:.8g}): {', '.join(below)} < 0"
+    while len(pts) < opts.max_points and end_reason != "stopped_at_event":
         ds = steps.capped(cur)
         nxt = corr.along(cur, ds)
         if nxt is None:
@@ -237,6 +254,28 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
             if sp is not None and rlo - 1e-12 <= sp.parameter <= rhi + 1e-12:
                 found.append(sp)
                 say(f"  {kind} at {name} = {sp.parameter:.9g} ({sp.message})")
+        pt = make_point(nxt, arclen + ds, ds)
+        nxt_ev = events.values(pt) if events is not None else {}
+        stop_at = None
+        for ev_name in event_crossings(cur_ev, nxt_ev):
+            hit = locate_event(events, ev_name, corr, cur, ds, cur_ev[ev_name], nxt_ev[ev_name], len(pts) - 1,
+                               arclen, make_point, ev_tol)
+            if hit is not None and rlo - 1e-12 <= hit[0].parameter <= rhi + 1e-12:
+                found.append(hit[0])
+                say(f"  {hit[0].kind} at {name} = {hit[0].parameter:.9g} ({hit[0].message})")
+                if events.stop and hit[0].direction < 0 and (stop_at is None
+                                                             or hit[0].arclength < stop_at[0].arclength):
+                    stop_at = hit
+        if stop_at is not None:
+            found = sorted((q for q in found if q.arclength <= stop_at[0].arclength), key=lambda q: q.arclength)
+            specials.extend(found)
+            for sp in found:
+                (on_special or (lambda q: None))(sp)
+            pts.append(stop_at[1])
+            keep(stop_at[1])
+            end_reason = "stopped_at_event"
+            end_message = f"stopped at the {stop_at[0].kind} at {name} = {stop_at[0].parameter:.8g}: {stop_at[0].message}"
+            break
         found.sort(key=lambda q: q.arclength)
         specials.extend(found)
         for sp in found:
@@ -246,6 +285,8 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
             if last is not None:
                 arclen += float(np.linalg.norm(last.u - cur.u))
                 pt = make_point(last, arclen, ds)
+                if events is not None:
+                    events.values(pt)
                 if rejection(pt) is None:
                     pts.append(pt)
                     keep(pt)
@@ -255,7 +296,6 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
                                                               and end_reason == "reached_from" else ""))
             break
         arclen += ds
-        pt = make_point(nxt, arclen, ds)
         why = rejection(pt)
         if why is not None:
             end_reason = why.split(":")[0]
@@ -267,7 +307,7 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
         keep(pt)
         say(f"{name} = {pt.parameter:.6g}: {nxt.iterations} it, ds {ds:.3g}, |L|max {max(pt.moduli):.4f}"
             + (f", free {pt.free_values}" if nf else ""))
-        cur = nxt
+        cur, cur_ev = nxt, nxt_ev
         steps.converged(nxt.iterations)
     run_settings["evaluations"] = sysm.evaluations
     run_settings["residual_evaluations"] = sysm.residual_evaluations

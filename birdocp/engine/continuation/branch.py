@@ -25,7 +25,9 @@ class BranchPoint:
     sign is the direction of travel along the parameter); ``tests`` holds the values of the
     special-point test functions (fold, branch_point, period_doubling, neimark_sacker);
     ``validity`` is filled by the application (for the bird: where the model holds on the cycle,
-    :func:`birdocp.bird.validity.periodic_validity`; ``None`` when not checked)."""
+    :func:`birdocp.bird.validity.periodic_validity`; ``None`` when not checked); ``event_values``
+    holds the user test functions at the point (:class:`~birdocp.engine.continuation.events.BranchEvents`;
+    ``None`` without them)."""
 
     parameter: float
     x0: list
@@ -45,6 +47,7 @@ class BranchPoint:
     p: list = field(default_factory=list)
     validity: dict | None = None
     period: float | None = None   # the orbit's period (varies along a branch of autonomous orbits)
+    event_values: dict | None = None  # the user test functions at the point (BranchEvents), else None
 
     def to_dict(self) -> dict:
         """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; NaN test values as null)."""
@@ -55,9 +58,12 @@ class BranchPoint:
 class SpecialPoint:
     """A located bifurcation between the branch points ``between`` (indices).
 
-    ``kind`` is one of ``fold``, ``branch_point``, ``period_doubling``, ``neimark_sacker``;
-    ``located`` says whether the location converged to the requested tolerance (else the best
-    bracket point is reported)."""
+    ``kind`` is one of ``fold``, ``branch_point``, ``period_doubling``, ``neimark_sacker``, or the
+    ``kind`` of user test functions (:class:`~birdocp.engine.continuation.events.BranchEvents`, e.g.
+    ``validity_boundary``), whose ``event`` is then the name of the function that crosses zero and
+    ``direction`` -1 (it falls below 0 along the branch) or +1 (it rises to 0); ``located`` says
+    whether the location converged to the requested tolerance (else the best bracket point is
+    reported)."""
 
     kind: str
     parameter: float
@@ -71,6 +77,8 @@ class SpecialPoint:
     evaluations: int
     test_value: float
     message: str = ""
+    event: str | None = None
+    direction: int | None = None
 
     def to_dict(self) -> dict:
         """JSON-ready dict (:func:`birdocp.engine.results.result_dict`)."""
@@ -81,7 +89,7 @@ class SpecialPoint:
 class Branch:
     """A branch of periodic orbits: its points in order of arclength, the special points found
     between them, why it ended (``end_reason``: reached_to, reached_from, corrector_failed,
-    free_parameter_bound, rejected, max_points, start_failed) and the settings used."""
+    free_parameter_bound, rejected, max_points, start_failed, stopped_at_event) and the settings used."""
 
     parameter_name: str
     points: list
