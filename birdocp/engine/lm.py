@@ -60,7 +60,7 @@ def _step(J, g, lam, scale_zero_to_one: bool):
 
 def levenberg_marquardt(system, z, *, tol: float, max_iter: int, lo=None, hi=None, accept: str = "decrease",
                         lam0: float = 1.0, prepare=None, deadline: float | None = None,
-                        stall_window: int = 30, stall_factor: float = 10.0, jacobian=None) -> LMOutcome:
+                        stall_window: int = 30, stall_factor: float = 10.0, jacobian=None, symbol: str = "g") -> LMOutcome:
     """Solve ``g(z) = 0`` in the least-squares sense (see the module docstring).
 
     Parameters
@@ -91,6 +91,8 @@ def levenberg_marquardt(system, z, *, tol: float, max_iter: int, lo=None, hi=Non
     jacobian : callable, optional
         ``jacobian(z, g) -> J`` replacing ``system.evaluate``'s Jacobian (e.g. finite differences);
         the residual then comes from ``system.resid(z)``.
+    symbol : str
+        The residual's name in the messages (``max|g| = ...``).
 
     Returns
     -------
@@ -113,9 +115,9 @@ def levenberg_marquardt(system, z, *, tol: float, max_iter: int, lo=None, hi=Non
         done = hist[-1] < tol if accept == "always" else hist[-1] <= tol
         if done:
             rel = "<" if accept == "always" else "<="
-            return LMOutcome(z, "converged", f"max|g| = {hist[-1]:.3e} {rel} tol = {tol:.1e}", it, hist)
+            return LMOutcome(z, "converged", f"max|{symbol}| = {hist[-1]:.3e} {rel} tol = {tol:.1e}", it, hist)
         if it >= max_iter:
-            return LMOutcome(z, "max_iter", f"max_iter={max_iter} reached, max|g| = {hist[-1]:.3e}", it, hist)
+            return LMOutcome(z, "max_iter", f"max_iter={max_iter} reached, max|{symbol}| = {hist[-1]:.3e}", it, hist)
         if deadline is not None and time.perf_counter() > deadline:
             return LMOutcome(z, "time_limit", f"time limit reached after {it} iterations, max|g| = {hist[-1]:.3e}",
                              it, hist)

@@ -59,9 +59,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from birdocp.engine import interrupts
 from birdocp.engine.floquet import monodromy_of, sort_multipliers
 from birdocp.engine.lm import levenberg_marquardt
+from birdocp.engine.nlp import run_ipopt
 from birdocp.engine.orbit_checks import attach_error, cover_multiple, failure_reason, solver_error
 from birdocp.engine.orbit_system import (OrbitGraphs, OrbitSystem, first_return_period, forward_points,
                                          initial_points, orbit_graphs, orbit_residual_system, orbit_system,
@@ -326,17 +326,9 @@ def _polish(ev, z, hist, prepare, steps: int = 3):
 
 
 def _run_ipopt(ev: OrbitSystem, z0, method, lo, hi):
-    with interrupts.interruptible():  # Ctrl-C inside IPOPT: KeyboardInterrupt, not a status
-        try:
-            s = ev.ipopt(method)
-            sol = s(x0=z0, lbx=lo, ubx=hi, lbg=0, ubg=0)
-            st = s.stats()
-            z = np.asarray(sol["x"]).ravel()
-            return (z, str(st.get("return_status", "unknown")), int(st.get("iter_count", 0)),
-                    list(np.asarray(st.get("iterations", {}).get("inf_pr", []), float)))
-        except Exception as e:  # evaluation errors inside IPOPT
-            interrupts.check_from(e)
-            return z0, f"error: {e}", 0, []
+    """(z, status, iterations, history) of IPOPT through the engine's one front."""
+    out = run_ipopt(ev.ipopt(method), z0, lbx=lo, ubx=hi)
+    return out.z, out.status, out.iterations, list(out.history)
 
 
 def _explain(res, method, ev, z, lo, hi, moving):

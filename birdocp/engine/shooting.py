@@ -28,6 +28,8 @@ from birdocp.engine import interrupts
 from birdocp.engine.cache import bounded_cache, clear_caches
 from birdocp.engine.floquet import FloquetResult, floquet_from_jacobians
 from birdocp.engine.integrate import RK4Grid, column_blocks
+from birdocp.engine.lm import levenberg_marquardt
+from birdocp.engine.nlp import run_ipopt
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.problem import LimitCycleProblem, PeriodicODE, finite_vector
 from birdocp.engine.results import result_dict, serial
@@ -521,46 +523,20 @@ def initial_points(b: ShootingGraphs, x_start, D, p):
 
 
 def _lm(b: ShootingGraphs, method, problem, z, lo, hi, fd):
-    """The paper's Algorithm 1. Returns (z, status, message, iterations, history).
+    """The paper's Algorithm 1: :func:`birdocp.engine.lm.levenberg_marquardt` with every step accepted
+    (``accept="always"``, lam from 1). Returns (z, status, message, iterations, history).
 
     Exact derivatives: the shooting matrix from :meth:`ShootingGraphs.evaluate` (segment blocks by forward
-    AD, assembled in numpy; residual and Jacobian in one evaluation per iterate)."""
-    tol = method.resolved_tol
+    AD, assembled in numpy; residual and Jacobian in one evaluation per iterate); ``fd``: forward
+    differences (:func:`_fd_jacobian`)."""
     nf = b.nf
-    r = b.evaluate(z)[0] if not fd else b.resid(z)
-    hist = [float(np.max(np.abs(r))) if r.size else 0.0]
-    lam = 1.0
-    it = 0
-    while True:
-        interrupts.check()  # a Ctrl-C swallowed by a CasADi call in the last step
-        if not np.all(np.isfinite(r)) or not np.all(np.isfinite(z)):
-            return z, "nan", "non-finite residual or iterate", it, hist
-        if hist[-1] < tol:
-            return z, "converged", f"max|E| = {hist[-1]:.3e} < tol = {tol:.1e}", it, hist
-        if it >= method.max_iter:
-            return z, "max_iter", f"max_iter={method.max_iter} reached, max|E| = {hist[-1]:.3e}", it, hist
-        if fd:
-            J = _fd_jacobian(b, problem, z, r, method.fd_floor)
-        else:
-            J = b.evaluate(z)[1]
-        if not np.all(np.isfinite(J)):
-            return z, "nan", "non-finite Jacobian", it, hist
-        A = J.T @ J
-        rhs = -J.T @ r
-        try:
-            delta = np.linalg.solve(A + lam * np.diag(np.diag(A)), rhs)
-        except np.linalg.LinAlgError as e:
-            return z, "singular", f"singular shooting matrix: {e}", it, hist
-        if not np.all(np.isfinite(delta)):
-            return z, "singular", "singular shooting matrix (non-finite step)", it, hist
-        z = z + delta
-        if nf:
-            z[-nf:] = np.clip(z[-nf:], lo, hi)
-        r = b.evaluate(z)[0] if not fd else b.resid(z)
-        err = float(np.max(np.abs(r))) if np.all(np.isfinite(r)) else float("inf")
-        lam = lam / 10 if err < hist[-1] else lam * 10
-        hist.append(err if np.isfinite(err) else float("nan"))
-        it += 1
+    nzx = b.nz - nf
+    lo_z = np.concatenate([np.full(nzx, -np.inf), lo]) if nf else None
+    hi_z = np.concatenate([np.full(nzx, np.inf), hi]) if nf else None
+    jac = (lambda zz, r: _fd_jacobian(b, problem, zz, r, method.fd_floor)) if fd else None
+    out = levenberg_marquardt(b, z, tol=method.resolved_tol, max_iter=method.max_iter, lo=lo_z, hi=hi_z,
+                              accept="always", lam0=1.0, stall_window=0, jacobian=jac, symbol="E")
+    return out.z, out.status, out.message, out.iterations, out.history
 
 
 def _fd_jacobian(b: ShootingGraphs, problem, z, r0, floor):
@@ -596,25 +572,9 @@ def _fd_jacobian(b: ShootingGraphs, problem, z, r0, floor):
 
 
 def _run_ipopt(solver, z0, method, lbx, ubx):
-    try:
-        sol = solver(x0=z0, p=np.concatenate([z0, [method.regularization]]),
-                     lbx=lbx, ubx=ubx, lbg=0, ubg=0)
-        z = np.asarray(sol["x"]).ravel()
-        st = solver.stats()
-        status = str(st.get("return_status", "unknown"))
-        success = bool(st.get("success", False))
-        iters = int(st.get("iter_count", 0))
-        hist = np.asarray(st.get("iterations", {}).get("inf_pr", []), float)
-        message = f"IPOPT: {status}"
-    except Exception as e:  # CasADi may raise on evaluation errors
-        interrupts.check_from(e)  # ... or on an interrupt inside a callback
-        z, status, success, iters, hist = z0, "error", False, 0, np.zeros(0)
-        message = f"IPOPT raised: {e}"
-    interrupts.check()  # CasADi turns Ctrl-C into a status (NonIpopt_Exception_Thrown): never retry it
-    if not np.all(np.isfinite(z)):
-        success, status = False, "nan"
-        message += " (non-finite iterate)"
-    return z, status, success, iters, hist, message
+    """One IPOPT attempt through the engine's one front (:func:`birdocp.engine.nlp.run_ipopt`)."""
+    out = run_ipopt(solver, z0, lbx=lbx, ubx=ubx, p=np.concatenate([z0, [method.regularization]]))
+    return out.z, out.status, out.success, out.iterations, out.history, out.message
 
 
 def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShooting(),
