@@ -1,4 +1,14 @@
-"""Benchmark: birdocp's autonomous-orbit shooting against a straightforward finite-difference
+"""Benchmarks of the orbit engine, in one run on one machine.
+
+1. The reference toolbox's small examples from its own starting guesses
+   (scripts/examples/reference_toolbox.py), each solved in a fresh process: the first solve's wall
+   time (graph build included, Python and CasADi import excluded) side by side with the reference
+   toolbox's times quoted in issue 27, at the default accuracy (1e-6) and at 1e-8; the period's error
+   against scipy's DOP853 (rtol 1e-12): from the orbit's x0, the first-order period correction that
+   closes scipy's trajectory, ``-(x(T) - x0) . f(x0) / |f(x0)|^2``. Writes
+   results/engine/reference_examples.json and .md.
+
+2. birdocp's autonomous-orbit shooting against a straightforward finite-difference
 multiple shooting (written here, in the style of the reference toolbox: numpy RK4, segment Jacobians
 by forward differences, the period's column too, Levenberg-Marquardt), on the Rossler orbit
 (a = b = 0.2, c = 5.7) from x = (0.1, 5, 3.6), period guess 5, in one run on the same machine.
@@ -8,9 +18,13 @@ condition (Poincare section through the start point orthogonal to f) and the sam
 (max |residual| <= 1e-10), so the ratio measures the method (exact CasADi derivatives and graph
 evaluation against finite differences and a Python step loop), not the problem.
 
-    python scripts/benchmark_engine.py      writes results/engine/benchmark.json
+    python scripts/benchmark_engine.py [--only reference|rossler]
+        writes results/engine/reference_examples.{json,md} and results/engine/benchmark.json
 """
+import argparse
 import json
+import os
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -78,7 +92,82 @@ def baseline():
     return z[-1], z[:3], it, float(np.max(np.abs(r)))
 
 
+def one_example(name: str, accuracy: float) -> dict:
+    """Solve one reference example (in this process) and check it with scipy."""
+    from scipy.integrate import solve_ivp
+
+    sys.path.insert(0, str(ROOT / "scripts" / "examples"))
+    from reference_toolbox import make
+
+    ex = make(name)
+    t, c = time.perf_counter(), time.process_time()
+    r = solve_orbit(OrbitProblem(ex.ode, ex.p, ex.x, period_guess=ex.period),
+                    OrbitMethod(accuracy=accuracy, **ex.method))
+    wall, cpu = time.perf_counter() - t, time.process_time() - c
+    out = {"example": name, "accuracy": accuracy, "status": r.status, "success": r.success, "accurate": r.accurate,
+           "period": r.period, "covers": r.covers, "steps_per_period": r.method.get("steps_per_period"),
+           "first_solve_wall_s": wall, "first_solve_cpu_s": cpu, "error_estimate_period": r.error_estimate.get("period"),
+           "error_estimate_relative": r.error_estimate.get("relative"), "message": r.message}
+    if r.success:
+        f = lambda tt, x: ex.ode.evaluate(x, tt, r.p)  # noqa: E731
+        sol = solve_ivp(f, (0.0, r.period), r.x0, method="DOP853", rtol=1e-12, atol=1e-12)
+        d, f0 = sol.y[:, -1] - r.x0, f(0.0, r.x0)
+        out["period_error_vs_scipy"] = float(abs(d @ f0) / (f0 @ f0))
+        out["multipliers_abs"] = [float(abs(v)) for v in r.multipliers]
+    return out
+
+
+def reference_examples() -> list:
+    """Each example in a fresh process (a first solve), at accuracy 1e-6 and 1e-8."""
+    sys.path.insert(0, str(ROOT / "scripts" / "examples"))
+    from reference_toolbox import NAMES, REFERENCE_WALL_S
+
+    rows = []
+    for acc in (1e-6, 1e-8):
+        for name in NAMES:
+            cmd = [sys.executable, __file__, "--one", name, "--accuracy", str(acc)]
+            row = json.loads(subprocess.run(cmd, capture_output=True, text=True, check=True).stdout.splitlines()[-1])
+            row["reference_wall_s"] = REFERENCE_WALL_S.get(name.split("_")[0])
+            rows.append(row)
+            print(f"{name:14s} acc {acc:.0e}: {row['status']:13s} T = {row['period']:.10f} covers {row['covers']} "
+                  f"{row['first_solve_wall_s']:.2f} s wall ({row['first_solve_cpu_s']:.2f} s CPU), period error vs "
+                  f"scipy {row.get('period_error_vs_scipy', float('nan')):.1e}", flush=True)
+    return rows
+
+
+def write_reference(rows: list) -> None:
+    out = {"load_average_at_start": os.getloadavg()[0], "python": sys.version.split()[0], "casadi": ca.__version__,
+           "rows": rows}
+    (ROOT / "results" / "engine" / "reference_examples.json").write_text(json.dumps(out, indent=2) + "\n")
+    lines = ["# Reference toolbox examples from their own guesses (scripts/benchmark_engine.py)", "",
+             f"Load average at the start: {out['load_average_at_start']:.1f} (2 cores, shared).", "",
+             "| example | accuracy | status | covers | period | steps | wall s | CPU s | reference s | "
+             "period error vs scipy | estimate |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        ref = "" if r["reference_wall_s"] is None else f"{r['reference_wall_s']:g}"
+        lines.append(f"| {r['example']} | {r['accuracy']:.0e} | {r['status']} | {r['covers']} | {r['period']:.10f} | "
+                     f"{r['steps_per_period']} | {r['first_solve_wall_s']:.2f} | {r['first_solve_cpu_s']:.2f} | {ref} | "
+                     f"{r.get('period_error_vs_scipy', float('nan')):.1e} | {r['error_estimate_period'] or 0:.1e} |")
+    lines += ["", "Lorenz: the reference's ~4 s is for its Lorenz runs; compare the sum of the four rows."]
+    (ROOT / "results" / "engine" / "reference_examples.md").write_text("\n".join(lines) + "\n")
+
+
 def main():
+    ap = argparse.ArgumentParser(description="orbit engine benchmarks")
+    ap.add_argument("--only", choices=("reference", "rossler"))
+    ap.add_argument("--one", help=argparse.SUPPRESS)
+    ap.add_argument("--accuracy", type=float, default=1e-6, help=argparse.SUPPRESS)
+    a = ap.parse_args()
+    if a.one:
+        print(json.dumps(one_example(a.one, a.accuracy)))
+        return
+    if a.only in (None, "reference"):
+        write_reference(reference_examples())
+    if a.only in (None, "rossler"):
+        rossler()
+
+
+def rossler():
     ode = ODE.from_function(lambda x, t, p: ca.vertcat(-x[1] - x[2], x[0] + p[0] * x[1], p[1] + x[2] * (x[0] - p[2])),
                             3, ("a", "b", "c"))
     prob = OrbitProblem(ode, P, X_START, period_guess=T_GUESS)

@@ -9,7 +9,7 @@ import numpy as np
 from birdocp.engine.ode import ODE
 from birdocp.engine.problem import finite_vector
 from birdocp.engine.results import result_dict, serial
-from birdocp.engine.shooting import ShootingGrid
+from birdocp.engine.shooting_types import ShootingGrid
 from birdocp.engine.steppers import METHOD_ORDER
 
 __all__ = ["OrbitMethod", "OrbitProblem", "PeriodicOrbit", "PHASE_CONDITIONS"]
