@@ -110,20 +110,9 @@ def levenberg_marquardt(system, z, *, tol: float, max_iter: int, lo=None, hi=Non
     lam, it = lam0, 0
     while True:
         interrupts.check()  # a Ctrl-C swallowed by a CasADi call in the last step
-        if not np.all(np.isfinite(g)) or not np.all(np.isfinite(z)):
-            return LMOutcome(z, "nan", "non-finite residual or iterate", it, hist)
-        done = hist[-1] < tol if accept == "always" else hist[-1] <= tol
-        if done:
-            rel = "<" if accept == "always" else "<="
-            return LMOutcome(z, "converged", f"max|{symbol}| = {hist[-1]:.3e} {rel} tol = {tol:.1e}", it, hist)
-        if it >= max_iter:
-            return LMOutcome(z, "max_iter", f"max_iter={max_iter} reached, max|{symbol}| = {hist[-1]:.3e}", it, hist)
-        if deadline is not None and time.perf_counter() > deadline:
-            return LMOutcome(z, "time_limit", f"time limit reached after {it} iterations, max|g| = {hist[-1]:.3e}",
-                             it, hist)
-        if stall_window and it >= stall_window and hist[-1] * stall_factor > hist[-1 - stall_window]:
-            return LMOutcome(z, "stalled", f"max|g| fell by less than {stall_factor:g}x in {stall_window} "
-                                           f"iterations (now {hist[-1]:.3e})", it, hist)
+        stop = _verdict(z, g, hist, it, tol, max_iter, accept, deadline, stall_window, stall_factor, symbol)
+        if stop is not None:
+            return stop
         J = jacobian(z, g) if jacobian is not None else system.evaluate(z)[1]
         if not np.all(np.isfinite(J)):
             return LMOutcome(z, "nan", "non-finite Jacobian", it, hist)
@@ -141,6 +130,24 @@ def levenberg_marquardt(system, z, *, tol: float, max_iter: int, lo=None, hi=Non
                 prepare(z)
                 g = resid(z)
         hist.append(_maxabs(g) if np.all(np.isfinite(g)) else float("nan"))
+
+
+def _verdict(z, g, hist, it, tol, max_iter, accept, deadline, stall_window, stall_factor, symbol):
+    """The LMOutcome that ends the iteration at this iterate, or None to go on."""
+    if not np.all(np.isfinite(g)) or not np.all(np.isfinite(z)):
+        return LMOutcome(z, "nan", "non-finite residual or iterate", it, hist)
+    if (hist[-1] < tol) if accept == "always" else (hist[-1] <= tol):
+        rel = "<" if accept == "always" else "<="
+        return LMOutcome(z, "converged", f"max|{symbol}| = {hist[-1]:.3e} {rel} tol = {tol:.1e}", it, hist)
+    if it >= max_iter:
+        return LMOutcome(z, "max_iter", f"max_iter={max_iter} reached, max|{symbol}| = {hist[-1]:.3e}", it, hist)
+    if deadline is not None and time.perf_counter() > deadline:
+        return LMOutcome(z, "time_limit", f"time limit reached after {it} iterations, max|{symbol}| = {hist[-1]:.3e}",
+                         it, hist)
+    if stall_window and it >= stall_window and hist[-1] * stall_factor > hist[-1 - stall_window]:
+        return LMOutcome(z, "stalled", f"max|{symbol}| fell by less than {stall_factor:g}x in {stall_window} "
+                                       f"iterations (now {hist[-1]:.3e})", it, hist)
+    return None
 
 
 def _always_step(resid, J, g, z, lam, lo, hi, hist):

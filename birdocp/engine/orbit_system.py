@@ -59,6 +59,7 @@ def _cached(cache, key, make):
 
 
 def orbit_graphs(ode: ODE, N: int, S: int, integrator: str) -> OrbitGraphs:
+    """The cached :class:`OrbitGraphs` of (ode, N steps, S segments, integrator)."""
     return _cached(_GRAPHS, (id(ode), N, S, integrator), lambda: OrbitGraphs(ode, N, S, integrator))
 
 
@@ -97,6 +98,11 @@ class OrbitSystem(Evaluator):
         self._ctx = (np.asarray(p, float).copy(), float(T), float(t0),
                      np.array(lin_A, float).reshape(self.n_lin, self.nz), np.array(lin_b, float).ravel())
         self._last = None
+
+    @property
+    def context(self):
+        """(p, T, t0, A, b) of the current solve (the linear rows ``A z = b`` live, as anchored)."""
+        return self._ctx
 
     def q_of(self, z) -> np.ndarray:
         """(p, T, t0) at z."""
@@ -185,6 +191,7 @@ class OrbitSystem(Evaluator):
 
 
 def orbit_system(graphs, period_free, free_idx, n_lin) -> OrbitSystem:
+    """The cached :class:`OrbitSystem` over ``graphs`` for one layout of unknowns and linear rows."""
     return _cached(_EVALS, (id(graphs), bool(period_free), tuple(free_idx), int(n_lin)),
                    lambda: OrbitSystem(graphs, period_free, free_idx, n_lin))
 

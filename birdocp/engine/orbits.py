@@ -335,7 +335,7 @@ def _explain(res, method, ev, z, lo, hi, moving):
     """Append to a failure's message why it failed, when that is known."""
     if res.status not in ("not_converged", "nan") or not np.all(np.isfinite(z)):
         return
-    A = ev._ctx[3] if ev.n_lin else None
+    A = ev.context[3] if ev.n_lin else None
     normal = None if (moving or A is None or not res.autonomous) else A[0, :ev.nx]
     traj = res.trajectory_x if np.all(np.isfinite(res.trajectory_x)) else None
     X = ev.points(z)
@@ -380,7 +380,8 @@ def _estimate_error(res, problem, method, ev, z, lo, hi, free_idx):
     fine_m = replace(method, steps_per_period=2 * N, solver="lm", max_iter=20)
     Gf = orbit_graphs(ode, 2 * N, S, method.integrator)
     evf = orbit_system(Gf, ode.autonomous, free_idx, ev.n_lin)
-    evf.set_context(ev._ctx[0], ev._ctx[1], problem.t0, ev._ctx[3], ev._ctx[4])  # the section through x0
+    p, T, _, A, b = ev.context
+    evf.set_context(p, T, problem.t0, A, b)  # the section through x0
     out = levenberg_marquardt(evf, z, tol=method.tol, max_iter=20, lo=lo, hi=hi)
     zf, its = out.z, out.iterations
     if its == 0:  # at least one Newton step: a coarse orbit inside the tolerance is no zero error
