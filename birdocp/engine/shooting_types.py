@@ -80,6 +80,10 @@ class MultipleShooting(ShootingGrid):
     ipopt_fallback
         if the first IPOPT attempt (full steps) fails, retry once from the same guess
         with IPOPT's filter line search; iterations and histories are concatenated.
+    error_estimate
+        after a converged solve, re-solve with 2N steps (LM from the result) and estimate the
+        error of the multipliers, x0 and the means (:func:`birdocp.engine.shooting.estimate_error`;
+        ``LimitCycleResult.error_estimate``). Off by default: it costs a second graph and solve.
     """
 
     steps_per_period: int = 148  # the paper's grid (M = 5: 37 steps per segment)
@@ -91,6 +95,7 @@ class MultipleShooting(ShootingGrid):
     fd_floor: float = 1e-3
     regularization: float = 0.0
     ipopt_fallback: bool = True
+    error_estimate: bool = False
 
     def validate(self) -> None:
         """Raise ValueError on the first invalid field (named)."""
@@ -140,6 +145,10 @@ class LimitCycleResult:
         and the Jacobian of the one-period map from x0 (accuracy indicator).
     doubling_times_s
         ln 2 / Re(exponent), signed (negative = minus the halving time); see floquet.
+    error_estimate
+        None, or (``MultipleShooting(error_estimate=True)``) the estimated errors of the result
+        (:func:`birdocp.engine.shooting.estimate_error`); not in ``to_dict()`` (callers that compute
+        it add it: ``birdocp trim``'s JSON key ``error_estimate``).
 
     ``to_dict()`` is the JSON of every result (:func:`birdocp.engine.results.result_dict`): complex
     numbers as ``[re, im]`` pairs (``eigenvectors``: one list of pairs per mode, in the order of the
@@ -169,6 +178,7 @@ class LimitCycleResult:
     stable: bool | None = None
     monodromy_vs_full_period_jacobian: float = float("nan")
     method: dict = field(default_factory=dict)
+    error_estimate: dict | None = field(default=None, metadata=serial(skip=True))
 
     def to_dict(self) -> dict:
         """JSON-ready dict (see the class docstring)."""
