@@ -101,8 +101,8 @@ def solve_orbit(problem: OrbitProblem, method: OrbitMethod = OrbitMethod(),
     >>> ode = ODE.from_function(lambda x, t, p: ca.vertcat(x[0] - x[1] - x[0] * (x[0]**2 + x[1]**2),
     ...                                                    x[0] + x[1] - x[1] * (x[0]**2 + x[1]**2)), 2)
     >>> orbit = solve_orbit(OrbitProblem(ode, [], [1.0, 0.0], period_guess=8.0))
-    >>> orbit.status, round(orbit.period, 8)
-    ('converged', 6.28318531)
+    >>> orbit.status, round(orbit.period, 5), orbit.covers
+    ('converged', 6.28319, 1)
     """
     method.validate()
     deadline = None if method.time_limit_s is None else time.perf_counter() + method.time_limit_s

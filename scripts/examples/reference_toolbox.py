@@ -14,7 +14,7 @@ unstable orbits around C+ (sigma = 10, beta = 8/3) at r = 21, 22, 23 and 24.73.
   is a point of the orbit rounded to 0.1 with the period rounded to 0.01 (and, separately, the exact
   orbit point with the period 30 % off).
 
-    from reference_toolbox import EXAMPLES     # name -> Example(ode, p, x, period, method kwargs)
+    from reference_toolbox import NAMES, make   # make(name) -> Example(ode, p, x, period, method kwargs)
 """
 from __future__ import annotations
 
@@ -83,5 +83,8 @@ def make(name: str) -> Example:
 LORENZ_GUESSES = {"21": ([11.2, 8.5, 27.6], 0.82), "22": ([11.0, 8.6, 27.8], 0.76),
                   "23": ([10.6, 8.7, 27.6], 0.72), "24.73": ([8.2, 8.0, 24.1], 0.65)}
 NAMES = ["redox", "isothermal", "torus", "goodwin"] + [f"lorenz_{r}" for r in LORENZ_GUESSES]
+# no periodic orbit near the guess (both non-trivial equilibria are stable foci at r = 10): a failure
+LORENZ_GUESSES["10"] = ([5.0, 5.0, 10.0], 0.8)
+FAILURES = ["lorenz_10"]
 # the reference toolbox's first-solve wall times quoted in issue 27 (s); Lorenz: about 4 s
 REFERENCE_WALL_S = {"redox": 0.31, "isothermal": 0.26, "torus": 3.1, "lorenz": 4.0}
