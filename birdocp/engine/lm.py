@@ -60,7 +60,8 @@ def _step(J, g, lam, scale_zero_to_one: bool):
 
 def levenberg_marquardt(system, z, *, tol: float, max_iter: int, lo=None, hi=None, accept: str = "decrease",
                         lam0: float = 1.0, prepare=None, deadline: float | None = None,
-                        stall_window: int = 30, stall_factor: float = 10.0, jacobian=None, symbol: str = "g") -> LMOutcome:
+                        stall_window: int = 30, stall_factor: float = 10.0, jacobian=None, symbol: str = "g",
+                        residual=None) -> LMOutcome:
     """Solve ``g(z) = 0`` in the least-squares sense (see the module docstring).
 
     Parameters
@@ -93,6 +94,9 @@ def levenberg_marquardt(system, z, *, tol: float, max_iter: int, lo=None, hi=Non
         the residual then comes from ``system.resid(z)``.
     symbol : str
         The residual's name in the messages (``max|g| = ...``).
+    residual : callable, optional
+        ``residual(z) -> g`` without the Jacobian, for the trial steps of the ``"decrease"`` rule
+        (a rejected step then costs no Jacobian).
 
     Returns
     -------
@@ -122,7 +126,7 @@ def levenberg_marquardt(system, z, *, tol: float, max_iter: int, lo=None, hi=Non
             if bad:
                 return LMOutcome(z, "singular", bad, it - 1, hist)
         else:
-            out = _decreasing_step(resid, J, g, z, lam, lo, hi)
+            out = _decreasing_step(residual or resid, J, g, z, lam, lo, hi)
             if out is None:
                 return LMOutcome(z, "stalled", f"no decreasing step, max|g| = {hist[-1]:.2e}", it, hist)
             z, g, lam = out

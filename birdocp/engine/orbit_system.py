@@ -132,6 +132,21 @@ class OrbitSystem(Evaluator):
         self._last = (key, core)
         return core
 
+    def residual(self, z):
+        """The residual g alone (no Jacobian: about nx+1 times cheaper than :meth:`evaluate` when z is
+        not the point of the last evaluation)."""
+        z = np.asarray(z, float).ravel()
+        if self._last is not None and self._last[0] == z.tobytes():
+            return self.evaluate(z)[0]
+        nx, S = self.nx, self.S
+        X = self.points(z)
+        try:
+            Xe = np.asarray(self.G.segments(ca.DM(X[:, :S]), ca.DM(self.q_of(z)))[0])
+        except RuntimeError:
+            Xe = np.full((nx, S), np.nan)
+        A, b = self._ctx[3], self._ctx[4]
+        return np.concatenate([(Xe - X[:, 1:]).T.ravel(), X[:, S] - X[:, 0], A @ z - b])
+
     def evaluate(self, z):
         """Residual g (continuity, periodicity, linear rows) and its exact Jacobian at z."""
         z = np.asarray(z, float).ravel()

@@ -313,7 +313,7 @@ def _run_solver(ev, z0, method, lo, hi, moving, deadline):
         if moving:
             ev.anchor_phase(z0)
     out = levenberg_marquardt(ev, z0, tol=method.tol, max_iter=method.max_iter, lo=lo, hi=hi, prepare=prepare,
-                              deadline=deadline)
+                              deadline=deadline, residual=ev.residual)
     z, hist = out.z, list(out.history)
     if out.status == "converged":
         z, hist = _polish(ev, z, hist, prepare)
@@ -395,7 +395,7 @@ def _estimate_error(res, problem, method, ev, z, lo, hi, free_idx):
     evf = orbit_system(Gf, ode.autonomous, free_idx, ev.n_lin)
     p, T, _, A, b = ev.context
     evf.set_context(p, T, problem.t0, A, b)  # the section through x0
-    out = levenberg_marquardt(evf, z, tol=method.tol, max_iter=20, lo=lo, hi=hi)
+    out = levenberg_marquardt(evf, z, tol=method.tol, max_iter=20, lo=lo, hi=hi, residual=evf.residual)
     zf, its = out.z, out.iterations
     if its == 0:  # at least one Newton step: a coarse orbit inside the tolerance is no zero error
         g, J = evf.evaluate(zf)
