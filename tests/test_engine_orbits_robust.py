@@ -147,3 +147,11 @@ def test_one_levenberg_marquardt_with_two_rules():
         assert out.status == "converged" and np.allclose(out.z, 1.0, atol=1e-10), (rule, out)
     with pytest.raises(ValueError, match="accept"):
         levenberg_marquardt(Rosenbrock(), [0.0, 0.0], tol=1e-9, max_iter=5, accept="sometimes")
+
+
+def test_free_values_is_the_one_name_and_free_params_a_deprecated_alias():
+    r = solve_orbit(OrbitProblem(HOPF, [], [1.0, 0.0], period_guess=2 * np.pi),
+                    OrbitMethod(points=3, steps_per_period=60, error_estimate=False))
+    assert "free_values" in r.to_dict() and "free_params" not in r.to_dict()
+    with pytest.warns(DeprecationWarning, match="free_values"):
+        assert r.free_params is r.free_values
