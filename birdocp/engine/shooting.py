@@ -141,8 +141,9 @@ def estimate_error(problem: LimitCycleProblem, method: MultipleShooting, result:
                    z=None) -> dict:
     """Error estimate of a converged forced orbit: discretisation (Richardson) plus solver tolerance.
 
-    The orbit is re-solved with 2N RK4 steps (the paper's LM from the result's shooting points, tol
-    as the method's); the differences of the matched multipliers, of x0 and of the period means are
+    The orbit is re-solved with 2N RK4 steps (the paper's LM from the result's shooting points, to
+    max |residual| 1e-10 or the method's tolerance if smaller, so that the fine orbit is converged
+    well past the difference it measures); the differences of the matched multipliers, of x0 and of the period means are
     scaled by ``2^4 / (2^4 - 1)``. The solver's part is ``|g|_2 / sigma_min(J)`` at the result (the
     distance to the exact solution of the N-step equations), added to the x0 estimate and, relative
     to the state's size, to the multipliers'. Every estimate is at least the round-off of its value.
@@ -174,7 +175,7 @@ def estimate_error(problem: LimitCycleProblem, method: MultipleShooting, result:
     g, J = b.evaluate(z)
     e_solver = solver_error(J, g)
     fine_m = replace(method, steps_per_period=2 * int(method.steps_per_period), solver="lm", error_estimate=False,
-                     tol=method.resolved_tol, max_iter=20)
+                     tol=min(method.resolved_tol, 1e-10), max_iter=20)
     fine = solve(problem, fine_m, warm_start=result)
     lam, xs = np.asarray(result.multipliers), 1.0 + float(np.max(np.abs(result.x0)))
     out = {"solver": e_solver, "steps_per_period_fine": fine_m.steps_per_period, "fine_status": fine.status}
