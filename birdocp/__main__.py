@@ -9,4 +9,8 @@ except KeyboardInterrupt:  # Ctrl-C while starting up
     raise SystemExit(130) from None
 
 if __name__ == "__main__":
-    sys.exit(main())
+    try:
+        code = main()
+    except KeyboardInterrupt:  # a Ctrl-C in the last instructions of main (its report is printed)
+        code = 130
+    sys.exit(code)

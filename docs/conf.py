@@ -6,11 +6,15 @@ documents itself with it: numpydoc reads the docstrings as they are written in b
 generates one page per module recursively (a new module appears without editing the docs),
 sphinx-gallery executes the tutorials at every build, and MyST lets pages be Markdown.
 
-Adding to the docs: a study page is a new file docs/studies/NAME.md (the Studies toctree globs the
-folder); a tutorial is a new script docs/tutorials_src/plot_NN_name.py (executed at every build: keep
-it to seconds); a new module appears in the API reference by itself (recursive autosummary) and a new
-command in the CLI reference (generated from the parser). Any other new page must be added to a
-toctree in index.md (-W turns "not in any toctree" into an error).
+Adding to the docs: a study page is a new file docs/studies/NAME.md, listed in the Studies
+toctree of index.md (in the paper's order); any other new page goes into a toctree of index.md too
+(-W turns a page outside every toctree into an error, so a forgotten entry fails the build). A
+tutorial is a new script docs/tutorials_src/plot_NN_name.py (executed at every build: keep it to
+seconds). A new module appears by itself in the API reference (recursive autosummary) and on the
+layout page (docs/_ext/layout_tree.py); a new command in the CLI reference (generated from the
+parser); a new name of the package faces must be added to the topic tables of docs/api.rst
+(tests/test_docstrings.py checks that they list exactly the faces' names). Every Python block of a
+page runs in the tests (tests/test_docs_examples.py) unless marked as a sketch.
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ extensions = [
     "myst_parser",
     "sphinx_gallery.gen_gallery",
     "cli_reference",
+    "layout_tree",
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
@@ -54,7 +59,9 @@ myst_heading_anchors = 3
 
 autosummary_generate = True
 autosummary_imported_members = False
-autodoc_default_options = {"members": True, "show-inheritance": False}
+# Members are documented where they are defined: a module's __all__ may re-export names (the package
+# faces birdocp and birdocp.engine re-export dozens), which would otherwise be documented twice.
+autodoc_default_options = {"members": True, "show-inheritance": False, "ignore-module-all": True}
 autodoc_typehints = "none"
 numpydoc_show_class_members = False
 numpydoc_validation_checks: set = set()

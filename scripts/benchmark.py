@@ -31,13 +31,13 @@ Issue 20 rows (ratios measured in the same run, interleaved repeat by repeat):
   same scripts of another checkout (``PYTHONPATH=DIR``; the issue's "today" is the tree before issue
   20's work, ``git worktree add /tmp/base af27cc1``) in the same run: target <= half its time.
 
-``--readme`` rewrites the table between the ``benchmark-table`` markers of README.md from the JSON.
+``--docs`` rewrites the table between the ``benchmark-table`` markers of docs/performance.md from the JSON.
 
 Also reported: per-iteration cost against the paper's quoted 40 s per LM iteration and the reference
 implementation's ~200 s per iteration (quoted, not re-measured), and the machine load (other work on
 the machine inflates every number).
 
-    python scripts/benchmark.py [--repeats 3] [--grid 20] [--baseline /work/main] [--readme]
+    python scripts/benchmark.py [--repeats 3] [--grid 20] [--baseline /work/main] [--docs]
                                 [--out results/benchmark.json]
 """
 from __future__ import annotations
@@ -540,8 +540,8 @@ def floor_text(res: dict) -> str:
                "so they are not cached on disk." if "shooting_graphs" in ip else "") + "\n")
 
 
-def update_readme(res: dict, readme: Path = ROOT / "README.md") -> bool:
-    text = readme.read_text()
+def update_docs_table(res: dict, page: Path = ROOT / "docs" / "performance.md") -> bool:
+    text = page.read_text()
     start, end = "<!-- benchmark-table:start -->", "<!-- benchmark-table:end -->"
     if start not in text or end not in text:
         return False
@@ -551,7 +551,7 @@ def update_readme(res: dict, readme: Path = ROOT / "README.md") -> bool:
              f"casadi {res['casadi']}):\n\n" + readme_table(res) + "\n\n" + breakdown_table(res) + "\n"
              + floor_text(res) + f"\n{end}")
     i, j = text.index(start), text.index(end) + len(end)
-    readme.write_text(text[:i] + block + text[j:])
+    page.write_text(text[:i] + block + text[j:])
     return True
 
 
@@ -561,7 +561,7 @@ def main(argv=None) -> int:
     ap.add_argument("--grid", type=int, default=20, help="grid size n (n x n trims); 0: skip the grid")
     ap.add_argument("--baseline", default=None, metavar="DIR",
                     help="another checkout whose reproduction scripts run in the same benchmark (PYTHONPATH=DIR)")
-    ap.add_argument("--readme", action="store_true", help="rewrite README.md's benchmark table from the result")
+    ap.add_argument("--docs", action="store_true", help="rewrite docs/performance.md's benchmark table from the result")
     ap.add_argument("--out", default=str(ROOT / "results" / "benchmark.json"))
     ap.add_argument("--skip-scripts", action="store_true", help="skip the reproduction-scripts row")
     ap.add_argument("--reproduction-repeats", type=int, default=1,
@@ -657,8 +657,8 @@ def main(argv=None) -> int:
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(res, indent=1) + "\n")
     print(f"wrote {args.out}")
-    if args.readme:
-        print("README table " + ("updated" if update_readme(res) else "markers not found: not updated"))
+    if args.docs:
+        print("docs table " + ("updated" if update_docs_table(res) else "markers not found: not updated"))
     return 0
 
 

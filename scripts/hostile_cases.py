@@ -1,6 +1,6 @@
 """Hostile cases through the real CLI: how each one ends (exit code, stderr line, JSON status).
 
-Run:  python scripts/hostile_cases.py   (about two minutes; writes results/reliability/hostile_cases.{json,md})
+Run:  python scripts/hostile_cases.py   (a few minutes; writes results/reliability/hostile_cases.{json,md})
 
 Each case runs ``python -m birdocp ...`` (or the CLI with a SIGINT sent from inside a chosen
 function, see HOOK) in a fresh temporary folder; the table records what a user would see.
@@ -45,11 +45,49 @@ HOOK = (
 ENV = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
 
 
-def run(argv, cwd, hook=None):
+def run(argv, cwd, hook=None, preexec=None, stdout=None, env=None):
+    """``stdout``: None (captured), "closed" (``>&-``) or "broken pipe" (a reader that exited)."""
     cmd = [sys.executable, "-c", HOOK, *hook] if hook else [sys.executable, "-m", "birdocp"]
     t = time.perf_counter()
-    p = subprocess.run([*cmd, *argv], cwd=cwd, env=ENV, capture_output=True, text=True, timeout=600)
+    kw = dict(cwd=cwd, env=dict(ENV, **(env or {})), text=True, timeout=600, preexec_fn=preexec)
+    if stdout is None:
+        p = subprocess.run([*cmd, *argv], capture_output=True, **kw)
+    elif stdout == "closed":
+        kw["preexec_fn"] = lambda: os.close(1)
+        p = subprocess.run([*cmd, *argv], stdout=None, stderr=subprocess.PIPE, **kw)
+        p.stdout = ""
+    else:
+        r, w = os.pipe()
+        os.close(r)
+        p = subprocess.run([*cmd, *argv], stdout=w, stderr=subprocess.PIPE, **kw)
+        os.close(w)
+        p.stdout = ""
     return p, time.perf_counter() - t
+
+
+def size_limit(limit_bytes: int):
+    """preexec_fn: a file-size limit (what a full disk does to a write: EFBIG, SIGXFSZ ignored)."""
+    import resource
+
+    def preexec():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
+    return preexec
+
+
+EXPORT_FILES = ("bird.h", "bird.c", "bird_data.c", "bird_casadi.c", "bird_casadi.h", "main.c", "Makefile")
+
+
+def earlier_export(d: Path) -> None:
+    (d / "e").mkdir()
+    for name in EXPORT_FILES:
+        (d / "e" / name).write_text(f"/* {name} of an earlier export */\n")
+
+
+def export_intact(d: Path) -> str:
+    same = all((d / "e" / n).read_text() == f"/* {n} of an earlier export */\n" for n in EXPORT_FILES)
+    left = [p.name for p in d.iterdir() if p.name.startswith(".")]
+    return f"earlier export {'intact' if same else 'CHANGED'}; temporary names left: {len(left)}"
 
 
 def summary(case, p, wall, note=""):
@@ -68,12 +106,12 @@ def main() -> None:
     rows = []
     root = Path(tempfile.mkdtemp(prefix="birdocp-hostile-"))
 
-    def case(name, argv, hook=None, setup=None, note=""):
+    def case(name, argv, hook=None, setup=None, note="", **how):
         d = root / f"c{len(rows):02d}"
         d.mkdir()
         if setup:
             setup(d)
-        p, wall = run(argv, d, hook)
+        p, wall = run(argv, d, hook, **how)
         rows.append(summary(name, p, wall, note))
         print(f"{rows[-1]['exit']:>4}  {name}: {rows[-1]['last_line'][:110]}", flush=True)
         return d, p
@@ -133,6 +171,39 @@ def main() -> None:
     case("sensitivity --json, the cycle fails", ["sensitivity", "--set", "solve.points=3", "--set",
                                                  "solve.steps_per_period=60", "--set",
                                                  "solve.initial_guess=[200.0, 0.0, 0.0, 0.0]", "--json"])
+
+    # outputs and faults: written whole, exit codes independent of stdout, overflow, physical ranges
+    d, _ = case("export-c into an earlier export under an 8 kB file-size limit",
+                ["export-c", "--steps", "60", "--out", "e", "--json"], setup=earlier_export, preexec=size_limit(8000))
+    rows[-1]["note"] = export_intact(d)
+    d, _ = case("Ctrl-C while export-c replaces an earlier export", ["export-c", "--steps", "60", "--out", "e", "--json"],
+                setup=earlier_export, hook=("birdocp.export.codegen:_write_sources", "1"))
+    rows[-1]["note"] = export_intact(d)
+    d, _ = case("trim under an 8 kB file-size limit", ["trim", *COARSE, "--out", "run", "--json"],
+                preexec=size_limit(8000))
+    rows[-1]["note"] = f"run folder left: {(d / 'run').exists()}"
+    failing = ["--set", "solve.solver=lm", "--set", "solve.initial_guess=[200.0, 0.0, 0.0, 0.0]", "--out", "run", "--json"]
+    for command in (["trim", *COARSE], ["sweep", "amplitude", "--from", "42", "--to", "42", "--step", "1", *COARSE],
+                    ["control", "--set", "solve.points=3", "--set", "solve.steps_per_period=60"]):
+        for mode in ("broken pipe", "closed"):
+            d, _ = case(f"{command[0]} fails, stdout {mode}", [*command, *failing], stdout=mode)
+            rows[-1]["note"] = f"result.json written: {(d / 'run' / 'result.json').is_file()}"
+    for mode in ("broken pipe", "closed"):
+        case(f"forces with non-finite loads, stdout {mode}",
+             ["forces", "--state", "1e300", "1e300", "0", "0", "--time", "0", "--json"], stdout=mode)
+    sim = ["simulate", "--set", "solve.points=3", "--set", "solve.steps_per_period=60", "--beats", "3", "--json"]
+    d, p = case("simulate --gust vertical=60:1 (diverges)", [*sim, "--gust", "vertical=60:1", "--out", "sim"])
+    rows[-1]["note"] = f"diverged_beat: {json.loads((d / 'sim' / 'result.json').read_text()).get('diverged_beat')}"
+    case("simulate --perturb u=1e308", [*sim, "--perturb", "u=1e308"])
+    case("simulate --gust vertical=3:1e-300", [*sim, "--gust", "vertical=3:1e-300"])
+    case("simulate --wind vertical=1e300", [*sim, "--wind", "vertical=1e300"])
+    case("trim --set body.gravity_mps2=0", ["trim", "--set", "body.gravity_mps2=0", "--json"])
+    case("trim --set body.mass_kg=<400 digits>", ["trim", "--set", "body.mass_kg=1" + "0" * 400, "--json"])
+    case("optimize-stability --bounds body.mass_kg=-1:2", ["optimize-stability", "--free", "body.mass_kg", "--bounds",
+                                                           "body.mass_kg=-1:2"])
+    case("control with MPLBACKEND misspelt and PYTHONIOENCODING=ascii, --out k-\u00e9",
+         ["control", "--set", "solve.points=3", "--set", "solve.steps_per_period=48", "--out", "k-\u00e9"],
+         env={"MPLBACKEND": "no-such-backend", "PYTHONIOENCODING": "ascii"})
 
     # interrupts
     case("Ctrl-C during the model build", ["trim", *COARSE, "--json", "--out", "run"],

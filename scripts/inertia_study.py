@@ -1,7 +1,7 @@
 """Wings with mass (issue 18): does wing inertia stabilise or destabilise the ibis, and by how much?
 
 Families, each from massless wings to a wing-mass fraction (both wings / whole bird, M = 1.2 kg held)
-of 15 %, the mass distributed as in spec inertia.md 8:
+of 15 %, the mass distributed as in docs/studies/inertia.md, mass distribution:
 
 * ``fixed``: the paper's reference cycle (amplitude 42 deg), pseudo-arclength continuation in
   ``wing.mass_kg`` with the wing root 5 cm ahead of G_b (the body's own centre of mass);

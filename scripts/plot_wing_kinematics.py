@@ -11,7 +11,7 @@ Writes ``results/wing_kinematics.png`` (or ``--out PATH``). Panels:
     the tip path is coloured by whether the tip is ahead of or behind G;
 (c) front view of the whole merged lifting line (both wings) at the 8 instants.
 
-Coordinates: the code frame of spec/model.md 1.1 (e1 span to the right, e2 up, e3 backwards), shown
+Coordinates: the code frame of docs/model.md §1 (e1 span to the right, e2 up, e3 backwards), shown
 with the forward body axis x' = -e3 where a fore-aft axis is needed; origin at G unless stated. The
 wing root (shoulder) is ``cfg.wing.root_ahead_m`` ahead of G.
 """

@@ -1,6 +1,6 @@
 """Measure the model against the reference fixtures; writes results/model_validation.json.
 
-The README's deviations table quotes these numbers. Run: python scripts/validate_model.py
+The deviations table of docs/deviations.md quotes these numbers. Run: python scripts/validate_model.py
 """
 
 import argparse

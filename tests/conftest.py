@@ -2,7 +2,13 @@
 reference trim (solved once per test session). Tests over ~5 s carry the ``slow`` marker."""
 from __future__ import annotations
 
+import os
+import tempfile
+
 import pytest
+
+# internal-error logs of the tests (exit 3) go to a temporary folder, not the user's ~/.local/state
+os.environ.setdefault("BIRDOCP_LOG_DIR", os.path.join(tempfile.gettempdir(), "birdocp-test-logs"))
 
 COARSE_METHOD = {"points": 3, "steps_per_period": 48}
 """Shooting points and RK4 steps of the quick bird tests (converges on the reference case; the

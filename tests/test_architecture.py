@@ -143,3 +143,34 @@ def test_engine_modules_are_small():
     long = [f"{p.relative_to(ROOT)}: {n}" for p in (PKG / "engine").rglob("*.py")
             if (n := len(p.read_text(encoding="utf-8").splitlines())) > 600]
     assert not long, long
+
+
+def test_public_faces():
+    """The package faces (birdocp, birdocp.engine) are non-empty, every name imports, the lazy tables
+    keep the layers (the engine's face names only engine modules; birdocp's none of the command line),
+    no face name is shadowed by a submodule of the same name, and ``import birdocp`` imports no layer
+    (the command line's start-up does not grow)."""
+    import importlib
+    import importlib.util
+
+    import birdocp
+    import birdocp.engine
+
+    for face, allowed in ((birdocp, ("birdocp.bird", "birdocp.studies", "birdocp.export", "birdocp.engine",
+                                     "birdocp.io", "birdocp.plots")),
+                          (birdocp.engine, ("birdocp.engine",))):
+        names = [n for n in face.__all__ if n != "__version__"]
+        assert len(names) >= 10, f"{face.__name__}: the public API is (nearly) empty"
+        for name in names:
+            target = face._TARGETS[name].partition(":")[0]
+            assert target.startswith(allowed), f"{face.__name__}.{name} -> {target}: outside the face's layers"
+            assert importlib.util.find_spec(f"{face.__name__}.{name}") is None, \
+                f"{face.__name__}.{name} is also a submodule: the import system would shadow the name"
+            obj = getattr(face, name)
+            module = face._TARGETS[name].partition(":")[0]
+            assert getattr(obj, "__module__", module) == module, \
+                f"{face.__name__}.{name}: name its defining module {obj.__module__}, not {module} (the docs link there)"
+    code = ("import sys, birdocp, birdocp.engine; "
+            "print(sorted(m for m in sys.modules if m.startswith('birdocp.') and m != 'birdocp.build_info'))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "['birdocp.engine']", out.stdout

@@ -66,6 +66,15 @@ CASES = [
     ("argparse-bad-choice", ["trim", "--solver", "newton"], "--solver", "invalid choice"),
     ("config-cmd-bad-set", ["config", "--set", "gait.shoulder_flap.amplitude_deg=200"],
      "gait.shoulder_flap.amplitude_deg", "[-180, 180]"),
+    ("six-dof-value", ["trim", "--set", "model.degrees_of_freedom=5"], "model.degrees_of_freedom", "4 or 6"),
+    ("six-dof-unsupported-command", ["sweep", "amplitude", "--from", "41", "--to", "42", "--step", "1",
+                                     "--set", "model.degrees_of_freedom=6"], "model.degrees_of_freedom", "trim and level"),
+    ("six-dof-tail", ["trim", "--set", "model.degrees_of_freedom=6", "--set", "tail.opening_angle_deg=30"],
+     "tail.opening_angle_deg", "six degrees of freedom"),
+    ("six-dof-level-free", ["level", "--set", "model.degrees_of_freedom=6", "--free", "root_ahead_m"], "--free",
+     "amplitude only"),
+    ("six-dof-inertia", ["trim", "--set", "model.product_inertia_xz_kgm2=0.5"], "model.product_inertia_xz_kgm2",
+     "sqrt(I_xx I_zz)"),
 ]
 
 # Rejected before any computation, but after casadi is imported (the command's key resolution uses it).

@@ -53,12 +53,13 @@ def test_control_and_simulate_json(capsys, controller_dir, tmp_path):
     assert not (tmp_path / "other").exists()
 
 
-def test_gust_making_the_simulation_non_finite_is_a_failed_result(capsys, tmp_path):
-    code, out, err = _run(capsys, ["simulate", *FAST, "--beats", "3", "--gust", "vertical=1e6:1", "--json",
+def test_gust_making_the_simulation_diverge_is_a_failed_result(capsys, tmp_path):
+    code, out, err = _run(capsys, ["simulate", *FAST, "--beats", "3", "--gust", "vertical=60:1", "--json",
                                    "--out", str(tmp_path / "g")])
     assert code == 1
     s = json.loads(out)
-    assert s["success"] is False and s["status"] in ("non_finite", "left_validity")
+    assert s["success"] is False and s["status"] in ("diverged", "left_validity")
+    assert s["status"] != "diverged" or s["diverged_beat"] in (1, 2, 3)
     assert json.loads((tmp_path / "g" / "result.json").read_text())["status"] == s["status"]
 
 

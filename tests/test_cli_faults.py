@@ -119,6 +119,14 @@ def test_sigint_in_a_continuation_keeps_the_points_so_far(tmp_path):
     result = json.loads((out / "result.json").read_text())
     assert result["success"] is False and result["status"] == "interrupted"
     assert result["n_points"] == len(params) and _leftovers(out) == []
+    # continue --resume goes on from the points kept (points/, written as each was accepted)
+    p = _cli("continue", "root_ahead_m", "--from", "0.05", "--to", "0.046", "--points", "3", "--steps", "48",
+             "--out", str(out), "--quiet", "--json", "--resume", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    res = _one_json(p.stdout)
+    assert res["status"] == "reached_to" and res["resumed_points"] == len(params)
+    resumed = [pt["parameter"] for pt in res["branch"]["points"]]
+    assert resumed[:len(params)] == params and resumed[-1] == pytest.approx(0.046) and len(resumed) > len(params)
 
 
 def _workers_of(pid: int) -> list[int]:
@@ -465,7 +473,8 @@ def test_json_on_failed_sensitivity_internal_error_and_bad_input(tmp_path, monke
         raise RuntimeError("disk on fire")
 
     fake.trim = boom
-    assert cli.main(["trim", "--json"]) == 1
+    monkeypatch.setenv("BIRDOCP_LOG_DIR", str(tmp_path / "logs"))
+    assert cli.main(["trim", "--json"]) == 3
     out, err = capfd.readouterr()
     res = _one_json(out)
     assert res == {"success": False, "status": "internal_error", "message": "RuntimeError: disk on fire",

@@ -8,6 +8,7 @@ run folder is complete, exit codes 0/1/2/130, and no empty run folder is left be
 from __future__ import annotations
 
 import json
+from pathlib import Path
 import os
 import sys
 import types
@@ -157,12 +158,19 @@ def test_out_refuses_a_non_empty_folder_and_a_previous_run(fake_studies, tmp_pat
     assert len(fake_studies.calls) == 2  # the refused runs never reached the solver
 
 
-def test_unexpected_error_one_line_exit_1_and_no_empty_run_folder(fake_studies, tmp_path, capfd):
+def test_unexpected_error_one_line_exit_3_naming_the_log_and_no_empty_run_folder(fake_studies, tmp_path, capfd,
+                                                                                 monkeypatch):
+    monkeypatch.setenv("BIRDOCP_LOG_DIR", str(tmp_path / "logs"))
     fake_studies.behaviour["raise"] = RuntimeError("boom\nsecond line")
-    assert cli.main(["trim"]) == 1
+    assert cli.main(["trim"]) == 3
     err = capfd.readouterr().err
     last = err.strip().splitlines()[-1]
-    assert last == "birdocp: internal error: RuntimeError: boom second line; rerun with --debug for the traceback"
+    prefix = "birdocp: internal error: RuntimeError: boom second line; the traceback is in "
+    assert last.startswith(prefix), last
+    log = Path(last[len(prefix):])
+    assert log.parent == tmp_path / "logs"
+    text = log.read_text()
+    assert "Traceback (most recent call last)" in text and "RuntimeError: boom" in text and "birdocp trim" in text
     assert "Traceback" not in err
     assert _run_dirs(tmp_path) == []
 

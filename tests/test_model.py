@@ -1,5 +1,5 @@
-"""The bird model against the reference implementation's numbers (../shared/reference) and
-against independent checks (finite differences, symmetry)."""
+"""The bird model against the reference implementation's numbers (tests/reference, found by
+birdocp.io.reference) and against independent checks (finite differences, symmetry)."""
 
 import json
 

@@ -129,7 +129,7 @@ def test_write_run_midway_failure_leaves_no_partial_file(tmp_path, monkeypatch):
     with pytest.raises(OSError):
         runs.write_run(tmp_path, C.Config(), {"success": True}, {"x": np.ones(3)}, ["birdocp"], command="trim")
     names = sorted(p.name for p in tmp_path.iterdir())
-    assert names == ["config.toml"]  # complete; no arrays.npz, no result.json, no temp files
+    assert names == []  # the files appear together or not at all: no config.toml alone, no temp files
     assert not runs.is_run_dir(tmp_path)
 
 
@@ -140,7 +140,9 @@ def test_json_write_failure_keeps_the_old_file(tmp_path, monkeypatch):
     def fsync_fails(fd):
         raise OSError("I/O error")
 
-    monkeypatch.setattr(bio.os, "fsync", fsync_fails)
+    from birdocp.engine import atomic
+
+    monkeypatch.setattr(atomic.os, "fsync", fsync_fails)
     with pytest.raises(OSError):
         bio.atomic_write_json(target, {"new": True})
     assert json.loads(target.read_text()) == {"old": True}

@@ -1,0 +1,1 @@
+"""The bird: configuration, kinematics, wing, lifting line, tail, wing masses, the CasADi model, flight outputs, powers and validity."""

@@ -1,6 +1,6 @@
-"""Quasi-steady lifting-line aerodynamics (spec 5).
+"""Quasi-steady lifting-line aerodynamics (docs/model.md §5).
 
-Two halves, following the split of ``design.md`` 5:
+Two halves, following the data/right-hand-side split of ``docs/model.md``:
 
 * :func:`circulation_matrices` depends on the geometry only (time and gait parameters): the wake
   influence matrix of the straight semi-infinite vortex tubes and the solve of the lifting-line
@@ -25,7 +25,7 @@ def induced_matrices(centres, nodes):
     """Induced velocity per unit circulation at the element centres.
 
     Returns (Vx, Vy, K) (16 x 16 SX): e1 and e2 components of the induced velocity at centre j per
-    unit Gamma_m, and the downwash per unit circulation K = v . d_j (spec 5.6). Only the (e1, e2)
+    unit Gamma_m, and the downwash per unit circulation K = v . d_j (docs/model.md §5.6). Only the (e1, e2)
     coordinates are used: the wake filaments are straight and parallel to e3.
     """
     n_c, n_n = len(centres), len(nodes)
@@ -106,7 +106,14 @@ def element_forces(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho) -> dict:
     velocity used in the force, m/s), ``dF`` (force of the air on each element, N), and the 1 x 16 rows
     ``Vp_norm`` (m/s), ``alpha`` (rad) and the 16 x 1 column ``Gamma`` (m^2/s).
     """
-    V, Vp_norm, alpha, vind = inflow(state, r, v_kin, c_hat, up, tau, Wx, Wy)
+    return forces_from_velocity(body_velocity(state, r, v_kin), c_hat, up, tau, ds, G, Wx, Wy, rho)
+
+
+def forces_from_velocity(V, c_hat, up, tau, ds, G, Wx, Wy, rho) -> dict:
+    """:func:`element_forces` from the relative air velocity ``V`` (3 x n, code frame, m/s, without
+    the induced part) of every element centre, whatever motion of the body made it (the planar
+    state of :func:`body_velocity` or the six-degree-of-freedom one of :mod:`birdocp.bird.sixdof`)."""
+    Vp_norm, alpha, vind = inflow_from_velocity(V, c_hat, up, tau, Wx, Wy)
     Gamma = G @ (Vp_norm * alpha).T
     W = V + vind
     # (V + v) x tau
@@ -124,7 +131,7 @@ def moment_about_G(r, dF):
 
 
 def profile_drag(Vp, Vp_norm, chord, ds, rho, cd_profile):
-    """Wing profile drag per element (energetics.md 5), 3 x 16 in N, code frame (``chord``, ``ds`` 16 x 1):
+    """Wing profile drag per element (docs/studies/energetics.md, the optional drag), 3 x 16 in N, code frame (``chord``, ``ds`` 16 x 1):
     ``dD_j = 1/2 rho C_Dpro c_j ds_j |Vp_j| Vp_j`` along the section's relative wind."""
     return 0.5 * rho * cd_profile * Vp * ca.repmat(Vp_norm * (chord * ds).T, 3, 1)
 
@@ -149,21 +156,35 @@ def section_angle(V, c_hat, up, tau):
     return ca.atan2(ca.sum1(Vp * up), ca.sum1(Vp * c_hat)), ca.sqrt(ca.sum1(Vp * Vp))
 
 
+def body_velocity(state, r, v_kin):
+    """Relative air velocity ``V = U_inf - Omega x r - v_kin`` (3 x n, code frame, m/s) of the element
+    centres ``r`` (3 x n, from G) for the planar state (u, w, q, ...): ``U_inf = (0, w, u)``,
+    ``Omega = (q, 0, 0)``."""
+    u, w, q = state[0], state[1], state[2]
+    ones = ca.DM.ones(1, r.shape[1])
+    return ca.vertcat(-v_kin[0, :],
+                      w * ones + q * r[2, :] - v_kin[1, :],
+                      u * ones - q * r[1, :] - v_kin[2, :])
+
+
+def inflow_from_velocity(V, c_hat, up, tau, Wx, Wy):
+    """``(|Vp| 1xn, alpha 1xn [rad], vind 3xn)`` of the relative air velocity ``V`` (3 x n): the
+    section speed, the geometric angle of attack and the induced velocity ``(Wx q, Wy q, 0)`` of the
+    lifting line with ``q = |Vp| alpha``."""
+    alpha, Vp_norm = section_angle(V, c_hat, up, tau)
+    qv = (Vp_norm * alpha).T
+    vind = ca.vertcat((Wx @ qv).T, (Wy @ qv).T, ca.DM.zeros(1, V.shape[1]))
+    return Vp_norm, alpha, vind
+
+
 def inflow(state, r, v_kin, c_hat, up, tau, Wx, Wy):
     """Relative air velocity at the element centres (code frame) and its angles.
 
     Returns ``(V 3xn, |Vp| 1xn, alpha 1xn [rad], vind 3xn)``: ``V = U_inf - Omega x r - v_kin`` without
-    the induced velocity, ``alpha`` its (geometric) angle of attack, ``vind = (Wx q, Wy q, 0)`` the
-    induced velocity of the lifting line with ``q = |Vp| alpha``. The *effective* angle of attack of
-    a section is :func:`section_angle` of ``V + vind``.
+    the induced velocity (:func:`body_velocity`), ``alpha`` its (geometric) angle of attack,
+    ``vind = (Wx q, Wy q, 0)`` the induced velocity of the lifting line with ``q = |Vp| alpha``. The
+    *effective* angle of attack of a section is :func:`section_angle` of ``V + vind``.
     """
-    u, w, q = state[0], state[1], state[2]
-    ones = ca.DM.ones(1, r.shape[1])
-    # V = U_inf - Omega x r - v_kin, with U_inf = (0, w, u), Omega = (q, 0, 0)
-    V = ca.vertcat(-v_kin[0, :],
-                   w * ones + q * r[2, :] - v_kin[1, :],
-                   u * ones - q * r[1, :] - v_kin[2, :])
-    alpha, Vp_norm = section_angle(V, c_hat, up, tau)
-    qv = (Vp_norm * alpha).T
-    vind = ca.vertcat((Wx @ qv).T, (Wy @ qv).T, ca.DM.zeros(1, r.shape[1]))
+    V = body_velocity(state, r, v_kin)
+    Vp_norm, alpha, vind = inflow_from_velocity(V, c_hat, up, tau, Wx, Wy)
     return V, Vp_norm, alpha, vind

@@ -2,7 +2,7 @@
 
 Every number carries its unit in its name. Angles are in degrees in the configuration and are
 converted to radians inside the model graphs. The defaults are the reference implementation's values
-(``../shared/spec/model.md``), with the paper's reference flapping amplitude of 42 deg.
+(``docs/model.md``), with the paper's reference flapping amplitude of 42 deg.
 
 A configuration is read from / written to TOML with sections ``[body]``, ``[wing]``, ``[gait]`` (with
 one sub-table per joint), ``[aero]`` and ``[solve]``. Any bad key or value raises :class:`ConfigError`
@@ -95,7 +95,7 @@ class Wing:
     to continue from massless wings; at mass 0 they change nothing (bit for bit)."""
 
 
-# Joint names in the order of the model's slots (spec 2.1). Docstrings carry the paper's names.
+# Joint names in the order of the model's slots (docs/model.md §2.1). Docstrings carry the paper's names.
 JOINT_NAMES = (
     "shoulder_incidence", "shoulder_flap", "shoulder_sweep",
     "elbow_flex", "hand_twist", "wrist_flex", "wrist_spread",
@@ -149,7 +149,7 @@ class Aero:
 
 @dataclass(frozen=True)
 class Tail:
-    """Optional slender delta-wing tail behind G (spec 7); off (zero loads) at opening angle 0."""
+    """Optional slender delta-wing tail behind G (docs/model.md §7); off (zero loads) at opening angle 0."""
 
     enabled: bool = False
     """Put the tail terms in the model graphs. Implied by an opening angle > 0; set it to study the
@@ -166,7 +166,7 @@ class Tail:
 
 @dataclass(frozen=True)
 class Drag:
-    """Optional drag terms of Pennycuick's flight model (``energetics.md`` 5), off by default: with
+    """Optional drag terms of Pennycuick's flight model (docs/studies/energetics.md, the optional drag), off by default: with
     both coefficients 0 the terms are not built and the model is the paper's, bit for bit.
 
     Both act after the lifting-line solve (they do not change the circulation)."""
@@ -236,7 +236,71 @@ class Validity:
 
 
 @dataclass(frozen=True)
+class Model:
+    """Degrees of freedom of the rigid body (:mod:`birdocp.bird.sixdof`) and the inertia the lateral
+    motion needs.
+
+    With 4 (the default) the bird moves in its plane of symmetry, state (u, w, q, theta), exactly as
+    the paper; with 6 it has the state (u, v, w, p, q, r, phi, theta, psi) in body axes and the lifting
+    line sees sideslip and roll and yaw rates. The inertias below are used only with 6.
+    """
+
+    degrees_of_freedom: int = 4
+    """4 (longitudinal plane, the paper's model) or 6 (rigid body in space)."""
+    roll_inertia_kgm2: float = 0.011
+    """I_xx about the body axis x' through G [kg m^2]. An estimate: the body as a solid prolate
+    spheroid of 1.2 kg and half-width 0.055 m (2/5 m b^2 = 0.0015) plus each wing as 0.12 kg (10 % of
+    the bird's mass, the order of published wing-mass fractions) at 0.2 m from the plane of symmetry
+    (2 x 0.12 x 0.2^2 = 0.0096). The lifting line's wings are massless in the dynamics; this number
+    stands for them in roll."""
+    yaw_inertia_kgm2: float = 0.11
+    """I_zz about z' through G [kg m^2]: the pitch inertia body.pitch_inertia_kgm2 (0.1) plus the same
+    wing estimate (0.0096), the body being axisymmetric about x'."""
+    product_inertia_xz_kgm2: float = 0.0
+    """I_xz [kg m^2] (0: x' and z' principal axes); the inertia tensor is
+    [[I_xx, 0, -I_xz], [0, I_yy, 0], [-I_xz, 0, I_zz]]."""
+
+
+SIX_DOF_UNSUPPORTED = (("tail.opening_angle_deg", "tail"), ("wing.mass_kg", "wing masses"),
+                       ("drag.body_drag_coefficient", "drag terms"), ("drag.profile_drag_coefficient", "drag terms"))
+"""Planar terms not yet written in three dimensions: with model.degrees_of_freedom = 6 each of these
+keys must be 0 (and tail.enabled, drag.enabled false)."""
+
+
+@dataclass(frozen=True)
 class Config:
+    """The whole configuration, one frozen section per concern; the defaults are the paper's
+    reference case (``birdocp config`` prints it as TOML, every key with its unit in the name).
+
+    Attributes
+    ----------
+    body
+        mass, pitch inertia, gravity, reference chord (:class:`Body`).
+    wing
+        bones, feathers, wing-root position, wing mass (:class:`Wing`).
+    gait
+        flapping frequency and the seven joint laws (:class:`Gait`).
+    aero
+        air density, lift slope, circulation solve, kinematic velocity (:class:`Aero`).
+    tail
+        the optional tail, off by default (:class:`Tail`).
+    drag
+        the optional body and profile drag, off by default (:class:`Drag`).
+    solve
+        shooting points, RK4 steps, solver, initial guess (:class:`Solve`).
+    validity
+        the thresholds of where the model holds (:class:`Validity`).
+    model
+        4 or 6 degrees of freedom and the lateral inertias used with 6 (:class:`Model`).
+
+    Examples
+    --------
+    >>> from birdocp.bird.config import Config
+    >>> cfg = Config()
+    >>> cfg.gait.shoulder_flap.amplitude_deg, cfg.wing.root_ahead_m
+    (42.0, 0.05)
+    """
+
     body: Body = field(default_factory=Body)
     wing: Wing = field(default_factory=Wing)
     gait: Gait = field(default_factory=Gait)
@@ -245,6 +309,7 @@ class Config:
     drag: Drag = field(default_factory=Drag)
     solve: Solve = field(default_factory=Solve)
     validity: Validity = field(default_factory=Validity)
+    model: Model = field(default_factory=Model)
 
     def __post_init__(self):
         validate(self)
@@ -304,7 +369,7 @@ _POSITIVE = {
     "wing.shoulder_half_separation_m", "wing.section_half_thickness_m", "wing.smoothing_radius_m",
     "gait.frequency_hz", "aero.air_density_kgm3", "aero.lift_slope_per_rad", "aero.backward_step_s",
     "tail.root_behind_m", "tail.length_m", "tail.kinematic_viscosity_m2ps", "tail.reynolds_speed_mps",
-    "drag.body_frontal_area_m2",
+    "drag.body_frontal_area_m2", "body.gravity_mps2",
 }
 ANGLE_LIMIT_DEG = 180.0
 MAX_POINTS = 500
@@ -315,12 +380,49 @@ reference case uses 148)."""
 """Joint offsets and amplitudes must lie in [-180, 180] deg, phases in [-360, 360] deg."""
 
 
+_UPPER = {
+    "body.mass_kg": (1.0e4, "kg"), "body.pitch_inertia_kgm2": (1.0e4, "kg m^2"),
+    "body.gravity_mps2": (100.0, "m/s^2 (10 g)"), "body.reference_chord_m": (100.0, "m"),
+    "wing.arm_length_m": (100.0, "m"), "wing.forearm_length_m": (100.0, "m"), "wing.hand_length_m": (100.0, "m"),
+    "wing.shoulder_half_separation_m": (100.0, "m"), "wing.section_half_thickness_m": (100.0, "m"),
+    "wing.smoothing_radius_m": (100.0, "m"), "wing.mass_kg": (1.0e4, "kg"),
+    "gait.frequency_hz": (1000.0, "Hz"), "aero.air_density_kgm3": (100.0, "kg/m^3 (the air at the surface of "
+                                                                          "Venus is 65)"),
+    "aero.lift_slope_per_rad": (100.0, "per rad (thin-airfoil theory gives 2 pi)"),
+    "aero.backward_step_s": (1.0, "s"), "tail.root_behind_m": (100.0, "m"), "tail.length_m": (100.0, "m"),
+    "tail.kinematic_viscosity_m2ps": (1.0, "m^2/s (air 1.5e-5)"),
+    "tail.reynolds_speed_mps": (340.0, "m/s (the speed of sound: the air of the model is incompressible)"),
+    "drag.body_frontal_area_m2": (100.0, "m^2"), "drag.body_drag_coefficient": (100.0, ""),
+    "drag.profile_drag_coefficient": (100.0, ""),
+}
+"""Largest physical value of a configuration number (with its unit and, where useful, why): beyond
+it the model's numbers overflow or stop meaning anything, so it is bad input before any work."""
+MAX_GUESS_SPEED_MPS = 340.0
+"""Largest |u|, |w| of ``solve.initial_guess`` (the speed of sound)."""
+
+
 def _check_number(key: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ConfigError(key, f"expected a number, got {value!r}")
-    if not math.isfinite(value):
+    try:
+        number = float(value)
+    except OverflowError:  # an integer of hundreds of digits
+        raise ConfigError(key, f"an integer of {len(str(abs(value)))} digits is too large for a number; "
+                               "give a value in the key's physical range") from None
+    if not math.isfinite(number):
         raise ConfigError(key, f"must be finite, got {value!r}")
-    return float(value)
+    return number
+
+
+def _check_range(key: str, value: float) -> None:
+    """The physical range of a positive quantity (:data:`_POSITIVE`) or one with an upper bound (:data:`_UPPER`)."""
+    if key in _POSITIVE and value <= 0:
+        why = " (without weight there is no flight to trim: lift, power and cost of transport are per weight)" \
+            if key == "body.gravity_mps2" else ""
+        raise ConfigError(key, f"must be > 0, got {value!r}{why}")
+    if key in _UPPER and value > _UPPER[key][0]:
+        hi, unit = _UPPER[key]
+        raise ConfigError(key, f"must be at most {hi:g} {unit}".rstrip() + f", got {value!r}")
 
 
 def validate(cfg: Config) -> None:
@@ -329,17 +431,14 @@ def validate(cfg: Config) -> None:
         value = get_value(cfg, key)
         if isinstance(value, (str, tuple, bool)):
             continue
-        if isinstance(value, int) and not isinstance(value, bool) and key.startswith(("solve.", "aero.relaxed")):
+        if isinstance(value, int) and not isinstance(value, bool) and key.startswith(
+                ("solve.", "aero.relaxed", "model.degrees")):
             continue
-        _check_number(key, value)
-        if key in _POSITIVE and value <= 0:
-            raise ConfigError(key, f"must be > 0, got {value!r}")
-    if cfg.body.gravity_mps2 < 0:
-        raise ConfigError("body.gravity_mps2", f"must be >= 0, got {cfg.body.gravity_mps2!r}")
+        _check_range(key, _check_number(key, value))
     for i, L in enumerate(cfg.wing.feather_lengths_m):
         _check_number(f"wing.feather_lengths_m.{i}", L)
-        if L <= 0:
-            raise ConfigError(f"wing.feather_lengths_m.{i}", f"must be > 0, got {L!r}")
+        if not 0 < L <= 100.0:
+            raise ConfigError(f"wing.feather_lengths_m.{i}", f"must lie in (0, 100] m, got {L!r}")
     if len(cfg.wing.feather_lengths_m) != 7:
         raise ConfigError("wing.feather_lengths_m", f"needs 7 lengths, got {len(cfg.wing.feather_lengths_m)}")
     _validate_wing_mass(cfg)
@@ -391,7 +490,34 @@ def validate(cfg: Config) -> None:
     if len(s.initial_guess) != 4:
         raise ConfigError("solve.initial_guess", f"needs 4 numbers (u, w, q, theta), got {len(s.initial_guess)}")
     for i, v in enumerate(s.initial_guess):
-        _check_number(f"solve.initial_guess.{i}", v)
+        v = _check_number(f"solve.initial_guess.{i}", v)
+        if i < 2 and abs(v) > MAX_GUESS_SPEED_MPS:
+            raise ConfigError(f"solve.initial_guess.{i}", f"must lie within +-{MAX_GUESS_SPEED_MPS:g} m/s (the speed "
+                                                          f"of sound: the model's air is incompressible), got {v!r}")
+    _validate_model(cfg)
+
+
+def _validate_model(cfg: Config) -> None:
+    m = cfg.model
+    if isinstance(m.degrees_of_freedom, bool) or m.degrees_of_freedom not in (4, 6):
+        raise ConfigError("model.degrees_of_freedom", f"must be 4 or 6, got {m.degrees_of_freedom!r}")
+    ixx, izz, ixz = m.roll_inertia_kgm2, m.yaw_inertia_kgm2, m.product_inertia_xz_kgm2
+    for key, val in (("model.roll_inertia_kgm2", ixx), ("model.yaw_inertia_kgm2", izz)):
+        if val <= 0:
+            raise ConfigError(key, f"must be > 0 kg m^2, got {val!r}")
+    if ixx * izz <= ixz ** 2:
+        raise ConfigError("model.product_inertia_xz_kgm2", f"|I_xz| must be below sqrt(I_xx I_zz) = "
+                                                           f"{math.sqrt(ixx * izz):.4g} kg m^2, got {ixz!r}")
+    if m.degrees_of_freedom != 6:
+        return
+    for key, what in SIX_DOF_UNSUPPORTED:
+        if get_value(cfg, key) != 0:
+            raise ConfigError(key, f"{what}: not yet written in six degrees of freedom; set {key} = 0 "
+                                   "or model.degrees_of_freedom = 4")
+    for key, what in (("tail.enabled", "the tail"), ("drag.enabled", "drag terms")):
+        if get_value(cfg, key):
+            raise ConfigError(key, f"{what}: not yet written in six degrees of freedom; set {key} = false "
+                                   "or model.degrees_of_freedom = 4")
 
 
 WING_MASS_SHARES = ("mass_share_arm", "mass_share_forearm", "mass_share_hand", "mass_share_primaries",
@@ -510,19 +636,28 @@ def from_dict(data: dict) -> Config:
 
 def loads(text: str) -> Config:
     """The configuration in TOML text (defaults for missing keys; ConfigError for a bad key or value)."""
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError("", f"config is not valid TOML: {exc}") from None
-    return from_dict(data)
+    from birdocp.io.inputs import parse_toml
+
+    return from_dict(parse_toml(text, "", "config"))
 
 
 def load(path: str | Path) -> Config:
-    """The configuration in a TOML file (see :func:`loads`)."""
-    path = Path(path)
-    if not path.is_file():
-        raise ConfigError("", f"config file '{path}' does not exist; give the path of a TOML file")
-    return loads(path.read_text(encoding="utf-8-sig"))
+    """The configuration in a TOML file (see :func:`loads`).
+
+    Parameters
+    ----------
+    path : str or Path
+        A TOML file as ``birdocp config`` prints it (missing keys take the defaults); read through
+        :func:`birdocp.io.inputs.read_input_text` (a regular file of bounded size, never a FIFO).
+
+    Returns
+    -------
+    Config
+        The validated configuration.
+    """
+    from birdocp.io.inputs import read_input_text
+
+    return loads(read_input_text(path, "", what=f"config file '{path}'"))
 
 
 def dumps(cfg: Config) -> str:
@@ -533,7 +668,15 @@ def dumps(cfg: Config) -> str:
 
 
 def dump(cfg: Config, path: str | Path) -> None:
-    """Write the configuration as a TOML file, atomically."""
+    """Write the configuration as a TOML file, atomically.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration (every key is written, units in the key names).
+    path : str or Path
+        The file to write.
+    """
     from birdocp.io.files import atomic_write_text
 
     atomic_write_text(path, dumps(cfg))
@@ -545,10 +688,38 @@ def parse_scalar(text: str) -> Any:
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         return text
+    except RecursionError:
+        raise ConfigError("--set", f"the value '{text[:40]}...' is nested too deeply") from None
+    except ValueError as exc:  # an integer of more than 4300 digits
+        raise ConfigError("--set", f"the value '{text[:40]}...' cannot be read: {exc}") from None
 
 
 def with_values(cfg: Config, values: dict[str, Any]) -> Config:
-    """A copy of ``cfg`` with dotted keys replaced (values already typed)."""
+    """A copy of ``cfg`` with dotted keys replaced (values already typed).
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration to start from (not modified: configurations are frozen).
+    values : dict of str to object
+        Dotted key (``"gait.shoulder_flap.amplitude_deg"``) to its new value.
+
+    Returns
+    -------
+    Config
+        The new, validated configuration.
+
+    Raises
+    ------
+    ConfigError
+        An unknown key or a bad value (the message names the key and the fix).
+
+    Examples
+    --------
+    >>> from birdocp.bird.config import Config, with_values
+    >>> with_values(Config(), {"wing.root_ahead_m": 0.04}).wing.root_ahead_m
+    0.04
+    """
     data = to_dict(cfg)
     for key, value in values.items():
         parts = key.split(".")
@@ -578,7 +749,26 @@ def with_values(cfg: Config, values: dict[str, Any]) -> Config:
 
 
 def set_value(cfg: Config, assignment: str) -> Config:
-    """Apply one ``KEY=VALUE`` string (the CLI's ``--set``); the value is parsed as TOML."""
+    """Apply one ``KEY=VALUE`` string (the CLI's ``--set``); the value is parsed as TOML.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration to start from.
+    assignment : str
+        ``"KEY=VALUE"``, e.g. ``"aero.circulation=relaxed"``.
+
+    Returns
+    -------
+    Config
+        The new, validated configuration.
+
+    Examples
+    --------
+    >>> from birdocp.bird.config import Config, set_value
+    >>> set_value(Config(), "aero.circulation=relaxed").aero.circulation
+    'relaxed'
+    """
     if "=" not in assignment:
         raise ConfigError(assignment, "expected KEY=VALUE, e.g. aero.circulation=relaxed")
     key, text = assignment.split("=", 1)

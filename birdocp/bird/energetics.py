@@ -1,4 +1,4 @@
-"""Power, energy balance and the derived flight-energetics outputs of a cycle (``energetics.md``).
+"""Power, energy balance and the derived flight-energetics outputs of a cycle (docs/studies/energetics.md).
 
 All powers are computed from the same element forces and velocities as the dynamics
 (:func:`birdocp.bird.model.load_terms`), in the code frame (dot products are frame-invariant):
@@ -58,7 +58,7 @@ power is not among them: its keys (``mean_inertial_power_W``, ...) belong to the
 :func:`cycle_energetics` takes it as an input."""
 
 TIP_NODE = -1
-"""The wingtip is the last node of the merged line (right wing, tip of feather 0; model.md 4.1)."""
+"""The wingtip is the last node of the merged line (right wing, tip of feather 0; docs/model.md §4.1)."""
 
 
 def _p(p, name):
@@ -101,7 +101,7 @@ class PowerFunctions:
         rows = [P_aero, P_flap, P_body, P_ind, P_pro, P_par, P_tail, U, W]
         self.names = POWER_NAMES + ("forward_speed_mps", "vertical_speed_mps")
         if getattr(model, "wing_power_d", None) is not None:
-            # wings with mass: the power the shoulders spend on the wings' masses (inertia.md 6)
+            # wings with mass: the power the shoulders spend on the wings' masses (docs/studies/inertia.md, powers)
             from birdocp.bird.model import WING_POWER_NAMES
 
             wp = model.wing_power_d(x, d, p)
@@ -136,7 +136,7 @@ def power_functions(model) -> PowerFunctions:
 
 
 def shoulder_power_W(flapping_power_W, inertial_power_W=0.0):
-    """The power the shoulder joints supply, P_sh = P_flap + inertial part (``energetics.md`` 2).
+    """The power the shoulder joints supply, P_sh = P_flap + inertial part (docs/studies/energetics.md).
 
     The one place where power terms are combined: with massless wings (the paper's model) the inertial
     part is 0 and P_sh = P_flap. Works on floats and numpy arrays (W)."""

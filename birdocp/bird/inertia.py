@@ -1,12 +1,12 @@
 """Wings with mass: mass points on the skeleton, their sums, the equations of motion and the powers.
 
-Spec: ``../shared/spec/inertia.md``. Longitudinal plane, **body frame** x' forward, y' right, z' down,
+Specification: ``docs/studies/inertia.md``. Longitudinal plane, **body frame** x' forward, y' right, z' down,
 origin **G_b, the centre of mass of the body alone** (the G of the massless model, about which the
 aerodynamic moment is taken). The code frame of the wing geometry maps to it as x' = -e3, y' = e1,
 z' = -e2. The bird is the rigid body (mass m_b, pitch inertia I_b about G_b) plus point masses m_i
 moving on the prescribed wing paths r_i(t); M = m_b + sum m_i is ``body.mass_kg``.
 
-Distribution (spec 8): one wing of mass ``wing.mass_kg`` is split over uniform rods along the arm
+Distribution (docs/studies/inertia.md, mass distribution): one wing of mass ``wing.mass_kg`` is split over uniform rods along the arm
 (shoulder -> elbow), forearm (elbow -> wrist) and hand (wrist -> hand tip E4), and rods along the seven
 master feathers whose mass per length falls linearly to zero at the tip (primaries 0-2, secondaries
 3-6). Every sum the equations need is at most quadratic in the coordinate along a rigid segment, so
@@ -30,7 +30,7 @@ __all__ = [
 ]
 
 PRIMARY_SPLIT = (0.45, 0.30, 0.25)
-"""Shares of the primaries' mass on feathers 0, 1, 2 (spec inertia.md 8)."""
+"""Shares of the primaries' mass on feathers 0, 1, 2 (docs/studies/inertia.md, mass distribution)."""
 SECONDARY_SPLIT = (0.30, 0.30, 0.25, 0.15)
 """Shares of the secondaries' mass on feathers 3, 4, 5, 6."""
 
@@ -41,7 +41,7 @@ N_POINTS_PER_WING = 20
 
 MASS_BLOCK = ("m_w_kg", "S_x_kgm", "S_z_kgm", "dS_x_kgmps", "dS_z_kgmps", "ddS_x_kgmps2", "ddS_z_kgmps2",
               "I_w_kgm2", "J_w_kgm2ps", "h_kgm2ps", "k_kgm2ps2", "T_rel_J", "P_rel_W")
-"""The per-time sums (both wings) appended to the data vector of a model with wing masses (spec 1):
+"""The per-time sums (both wings) appended to the data vector of a model with wing masses (docs/studies/inertia.md, frames):
 m_w = sum m_i; S = sum m_i r_i (x', z'); S', S'' its body-frame time derivatives; I_w = sum m (x^2+z^2);
 J_w = sum m (x x' + z z'); h = sum m (z x' - x z') (pitch angular momentum of the relative motion,
 nose-up); k = h'; T_rel = 1/2 sum m |r'|^2 (relative kinetic energy, y' included); P_rel = T_rel'."""
@@ -51,7 +51,7 @@ def local_mass_points(q: dict, arm_m, forearm_m, hand_m, feather_lengths_m):
     """The 20 mass points of the right wing in the arm's frame (shoulder rotation R1 = I, wing frame
     at the shoulder, code-frame axes), with the index of the segment each belongs to.
 
-    Segments: 0 arm, 1 forearm, 2 hand, 3+i feather i (i = 0..6). Feathers as in model.md 3 (all seven,
+    Segments: 0 arm, 1 forearm, 2 hand, 3+i feather i (i = 0..6). Feathers as in docs/model.md §3 (all seven,
     with their pre-rotations); bases: f_0 at E4, f_1 mid-hand, f_2 at E2, f_3 mid-forearm, f_4 at E1,
     f_5 mid-arm, f_6 at the shoulder. The world position is R1 times each point.
     """
@@ -118,7 +118,7 @@ def mass_sums(masses, r, v, a):
 
 def accelerations(x, f_today, sums, total_mass_kg, body_inertia_kgm2, gravity_mps2):
     """(u', w', q') of the body with moving wing masses, as the massless right-hand side plus a
-    correction (spec inertia.md 4.3).
+    correction (docs/studies/inertia.md, equations: the massless limit).
 
     ``f_today`` = (u', w', q') of the massless model with m = M (total mass) and I = I_b (body's
     own pitch inertia about G_b), i.e. diag(M, M, I_b) f_today = (F_x' - M g sin th - M q w,
@@ -153,7 +153,7 @@ def accelerations(x, f_today, sums, total_mass_kg, body_inertia_kgm2, gravity_mp
 
 
 def wing_powers(x, nudot, sums, gravity_mps2):
-    """Powers of the wing masses [W] at one instant (spec inertia.md 6), as a dict of scalars.
+    """Powers of the wing masses [W] at one instant (docs/studies/inertia.md, powers), as a dict of scalars.
 
     * ``inertial_power_W`` = P_rel = d/dt (1/2 sum m |r'|^2): the rate of change of the
       wings' kinetic energy relative to the body (inertial power of van den Berg & Rayner 1995); its
@@ -179,6 +179,6 @@ def wing_powers(x, nudot, sums, gravity_mps2):
 
 def total_shoulder_power_W(shoulder_inertial_power_W, flapping_aerodynamic_power_W):
     """Shoulder power of both wings [W] = inertial part (:func:`wing_powers`, key
-    ``shoulder_inertial_power_W``) + aerodynamic flapping part -sum F_j . r'_j (energetics.md);
+    ``shoulder_inertial_power_W``) + aerodynamic flapping part -sum F_j . r'_j (docs/studies/energetics.md);
     works on numbers, arrays and CasADi expressions alike (time histories or period means)."""
     return shoulder_inertial_power_W + flapping_aerodynamic_power_W

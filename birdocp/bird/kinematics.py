@@ -1,6 +1,6 @@
 """Wing kinematics: harmonic joint laws, the rotation chain, bone end points and master feathers.
 
-All vectors are in the wing frame: the code frame of ``spec/model.md`` 1.1 (e1 spanwise to the right
+All vectors are in the wing frame: the code frame of ``docs/model.md`` §1 (e1 spanwise to the right
 wing tip, e2 up, e3 backwards, towards the tail) translated to the right shoulder. Lengths in m,
 angles in rad inside this module (the configuration gives degrees). Every function works on CasADi
 SX expressions and returns SX, so the same code serves numbers and symbols.
@@ -65,12 +65,12 @@ class Skeleton:
 
 
 def shoulder_rotation(q: dict):
-    """R1 = R_x(incidence) R_z(flap) R_y(sweep): the arm's rotation (spec 2.2)."""
+    """R1 = R_x(incidence) R_z(flap) R_y(sweep): the arm's rotation (docs/model.md §2.2)."""
     return rot_x(q["shoulder_incidence"]) @ rot_z(q["shoulder_flap"]) @ rot_y(q["shoulder_sweep"])
 
 
 def skeleton(q: dict, arm_m, forearm_m, hand_m, feather_lengths_m, with_shoulder: bool = True) -> Skeleton:
-    """Bones and the four trailing-edge feathers for joint angles ``q`` (spec 2.2 and 3).
+    """Bones and the four trailing-edge feathers for joint angles ``q`` (docs/model.md §2.2 and 3).
 
     Every bone, feather and skin point is the shoulder rotation R1 applied to a shape in the arm's
     frame; ``with_shoulder=False`` returns that shape (R1 = I), which depends on the elbow and wrist
@@ -106,7 +106,7 @@ def skeleton(q: dict, arm_m, forearm_m, hand_m, feather_lengths_m, with_shoulder
 
 
 def raw_edges(sk: Skeleton, arm_m, forearm_m, hand_m, half_thickness_m):
-    """Raw leading edge (5 points) and trailing edge (4 points) of the right wing (spec 4.1)."""
+    """Raw leading edge (5 points) and trailing edge (4 points) of the right wing (docs/model.md §4.1)."""
     h = half_thickness_m
     l1, l2, l4 = arm_m, forearm_m, hand_m
     LE = [

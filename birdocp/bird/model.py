@@ -1,6 +1,6 @@
 """The bird model as CasADi Functions, built once per structural configuration.
 
-Split (``design.md`` 5): everything that depends only on time and parameters (wing geometry,
+Split (the data/right-hand-side split of ``docs/model.md``): everything that depends only on time and parameters (wing geometry,
 kinematic velocity, lifting-line matrices) is the per-time data ``d = data(t, p)``; the state right-hand
 side ``rhs(x, d, p)`` is small. ``f(x, t, p) = rhs(x, data(t, p), p)`` is offered for users and tests.
 
@@ -123,7 +123,7 @@ def _joint_angles(t, p, frequency_hz):
 def _local_expr(t, p, frequency_hz):
     """The wing in the arm's frame (shoulder rotation R1 = I): every non-smooth step of the
     reference (resampling, corner smoothing, nearest points) happens here, and it depends on the
-    elbow and wrist joints and the morphology only (spec 2-4; lengths and angles are invariant under
+    elbow and wrist joints and the morphology only (docs/model.md §2-4; lengths and angles are invariant under
     the shoulder rotation, so the wing in the wing frame is R1 times this shape)."""
     q = _joint_angles(t, p, frequency_hz)
     l1, l2, l4 = (_p(p, f"wing.{k}") for k in ("arm_length_m", "forearm_length_m", "hand_length_m"))
@@ -155,7 +155,7 @@ def _columns(M):
 
 
 def _merged(R1, P, c_hat, up, chord, x_ep):
-    """Both wings on one line (33 points, spec 4.5-4.6) from the arm-frame line and R1."""
+    """Both wings on one line (33 points, docs/model.md §4.5-4.6) from the arm-frame line and R1."""
     return wing.merge(_columns(R1 @ P), [chord[j] for j in range(chord.shape[1])],
                       _columns(R1 @ c_hat), _columns(R1 @ up), x_ep)
 
@@ -398,7 +398,7 @@ def _build(s: Structure) -> tuple[dict, tuple]:
     powers = None
     if s.wing_mass:
         # body.mass_kg is the whole bird M, body.pitch_inertia_kgm2 the body alone about G_b
-        # (spec inertia.md 4.3: the massless right-hand side with m = M, I = I_b, plus a
+        # (docs/studies/inertia.md, equations: the massless limit: the massless right-hand side with m = M, I = I_b, plus a
         # correction that is exactly zero when the wings have no mass)
         sums = unpack_mass(dsym)
         nudot = inertia.accelerations(x, xdot[:3], sums, m, I, grav)
@@ -447,7 +447,16 @@ class BirdModel:
     MX composition of ``pre`` and ``post`` (the same numbers as ``data``).
 
     ``graph_source`` says where the graphs came from: ``"built"``, ``"cache"`` (read) or
-    ``"built+stored"``; ``graph_s`` the seconds it took.
+    ``"built+stored"``; ``graph_s`` the seconds it took. Most users call :func:`get_model`, which
+    shares one model per structure.
+
+    Parameters
+    ----------
+    structure : Structure
+        What changes the graphs (not the numbers): the frequency, circulation and kinematic-velocity variants,
+        tail, drag and wing-mass switches (``Structure.of(cfg)``).
+    use_cache : bool
+        Read and store the graphs in the on-disk graph cache (when it is enabled).
     """
 
     def __init__(self, structure: Structure, use_cache: bool = True):
@@ -598,7 +607,18 @@ class ConfiguredModel:
 
 
 def get_model(cfg: Config) -> ConfiguredModel:
-    """The model for cfg: graphs cached per :class:`Structure`, numbers from cfg in ``p0``."""
+    """The model for ``cfg``: graphs cached per :class:`Structure`, numbers from ``cfg`` in ``p0``.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration.
+
+    Returns
+    -------
+    ConfiguredModel
+        The shared :class:`BirdModel` (``.model``) with this configuration's parameter vector.
+    """
     return ConfiguredModel(_model_for(Structure.of(cfg)), cfg)
 
 

@@ -35,7 +35,7 @@ FEATHER_ORDER = (6, 4, 2, 0)  # the master feathers, shoulder to hand tip (trail
 def _bones_function(frequency_hz: float) -> ca.Function:
     """``(t, p) -> (chain 3x4, feather bases 3x4, feather tips 3x4, minor bases 3x3, minor tips 3x3)``
     of the right wing, origin at the right shoulder: shoulder, elbow, wrist and hand tip; the four
-    master feathers 6, 4, 2, 0; the feathers 1, 3, 5 (spec/model.md 3: computed like the others but
+    master feathers 6, 4, 2, 0; the feathers 1, 3, 5 (docs/model.md §3: computed like the others but
     with weight 0 in the trailing edge), drawn from the middle of the hand, forearm and arm."""
     t = ca.SX.sym("t")
     p = ca.SX.sym("p", len(PARAM_NAMES))

@@ -1,4 +1,4 @@
-"""Optional tail: a slender delta wing behind the centre of mass (spec 7), off by default.
+"""Optional tail: a slender delta wing behind the centre of mass (docs/model.md §7), off by default.
 
 The tail is a flat delta of length ``l_t`` whose span ``b_t = 2 l_t tan(beta/2)`` follows its opening
 angle beta; with beta = 0 (the default) every tail term is exactly zero, as in the reference
@@ -14,7 +14,7 @@ implementation. Loads, after the reference's slender-wing model:
 * body loads: ``Fz' -= L_t``, ``Fx' -= D_t`` and the moment of the lift at the neutral point about G,
   ``My' -= x_NP L_t`` (the drag acts along the body axis through G: no moment).
 
-Deviations from the reference implementation (documented in the README): the pitch-rate term uses
+Deviations from the reference implementation (documented in docs/studies/sensitivity.md, the tail): the pitch-rate term uses
 the same sign as the wing (``- Omega x r``: a nose-up rotation moves the tail down, so the air meets
 it from below); the reference adds ``+ Omega x r``, which would make the tail destabilise pitch. The
 induced velocity is the plain 3-D Biot-Savart sum (the reference's semi-infinite-leg loop has an

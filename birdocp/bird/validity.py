@@ -154,6 +154,22 @@ def cycle_validity(cfg: Config, t_s, x, p=None) -> CycleValidity:
 
     The states should cover one period on a uniform grid without repeating the closing point (a
     closing point equal to the first is dropped). ``p``: the parameter vector (default: ``cfg``'s).
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration (its ``[validity]`` thresholds and model).
+    t_s : array_like (n,)
+        Times [s].
+    x : array_like (n, 4)
+        States (u, w [m/s], q [rad/s], theta [rad]) at those times.
+    p : array_like, optional
+        The parameter vector (default: ``cfg``'s).
+
+    Returns
+    -------
+    CycleValidity
+        ``valid``, ``reasons`` (one sentence per crossed limit) and the measured numbers.
     """
     import casadi as ca
     import numpy as np
@@ -231,7 +247,35 @@ def periodic_validity(cfg: Config, x0, p=None, t0_s: float = 0.0, steps_per_peri
     """Validity of the periodic orbit through ``x0`` at ``t0_s``: one RK4 period from it (the same
     grid as the solver, ``cfg.solve.steps_per_period`` by default), then :func:`grid_validity`.
     For cycles stored without their trajectory (branch points, results on disk). ``ode``: the
-    model's ODE (default) or an equivalent one (e.g. with compiled Functions) to integrate with."""
+    model's ODE (default) or an equivalent one (e.g. with compiled Functions) to integrate with.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration.
+    x0 : array_like (4,)
+        The state on the orbit at ``t0_s``.
+    p : array_like, optional
+        The parameter vector (default: ``cfg``'s).
+    t0_s : float
+        The time of ``x0`` [s].
+    steps_per_period : int, optional
+        RK4 steps of the period integrated.
+    ode : PeriodicODE, optional
+        The ODE to integrate with (default the model's).
+
+    Returns
+    -------
+    CycleValidity
+        As :func:`cycle_validity`.
+
+    Examples
+    --------
+    >>> from birdocp import Config, periodic_validity
+    >>> v = periodic_validity(Config(), [18.04, -2.0, -0.113, -0.117], steps_per_period=60)
+    >>> v.valid, v.reasons
+    (True, [])
+    """
     import casadi as ca
     import numpy as np
 

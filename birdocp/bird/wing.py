@@ -1,4 +1,4 @@
-"""Wing outline and lifting line as CasADi SX graphs (spec 4.2-4.6).
+"""Wing outline and lifting line as CasADi SX graphs (docs/model.md §4.2-4.6).
 
 The reference implementation makes several discrete, data-dependent choices (segment search in the
 arc-length resampling, the corner-smoothing ``while`` loops and passes, nearest-point selection, the
@@ -118,7 +118,7 @@ def resample_aliased(B, n_out=N_POINTS, steps=ALIASED_WALK_STEPS):
 
 
 def corner_sweep(B, radius_m, halvings=CORNER_HALVINGS):
-    """Sequential corner smoothing (spec 4.2 step 2): while the turning angle at B_i exceeds
+    """Sequential corner smoothing (docs/model.md §4.2 step 2): while the turning angle at B_i exceeds
     |B_i - B_{i-1}| / R_s, move B_i halfway towards the midpoint of its neighbours.
 
     Returns (points, halvings done, points still above the threshold after ``halvings``).
@@ -145,7 +145,7 @@ def corner_sweep(B, radius_m, halvings=CORNER_HALVINGS):
 
 
 def smooth_line(P, radius_m):
-    """Resampling with corner smoothing ("smooth_line", spec 4.2): 16 points.
+    """Resampling with corner smoothing ("smooth_line", docs/model.md §4.2): 16 points.
 
     Pass 1 resamples the raw polyline and sweeps the corners; if anything moved, pass 2 resamples the
     buffer in place (aliased) and sweeps again. Returns (points, diagnostics dict).
@@ -202,7 +202,7 @@ def _closest_on_edge(edge, L, c_hat):
 
 
 def lifting_line(LEs, TEs):
-    """Quarter-chord line with one improvement step and the final resampling (spec 4.3-4.4).
+    """Quarter-chord line with one improvement step and the final resampling (docs/model.md §4.3-4.4).
 
     Returns (P, E, T, L_relaxed, change): line points, chord end points (leading, trailing), the
     relaxed line before the final resampling (used for tangents) and the change measure.
@@ -230,7 +230,7 @@ def lifting_line(LEs, TEs):
 
 
 def sections(P, E, T, L_relaxed):
-    """Chords (m), chord directions (LE -> TE) and 'up' normals of the 16 line points (spec 4.5)."""
+    """Chords (m), chord directions (LE -> TE) and 'up' normals of the 16 line points (docs/model.md §4.5)."""
     n = len(P)
     chord, c_hat, up = [], [], []
     for i in range(n):
@@ -250,7 +250,7 @@ def sections(P, E, T, L_relaxed):
 
 
 def merge(P, chord, c_hat, up, half_separation_m):
-    """Both wings on one line from the left tip to the right tip (spec 4.5-4.6).
+    """Both wings on one line from the left tip to the right tip (docs/model.md §4.5-4.6).
 
     Returns (Q, chord, c_hat, up): 33 points (wing frame shifted to the body centre line) with their
     chords, chord directions and normals. Even indices are element nodes, odd indices centres.
@@ -268,7 +268,7 @@ def merge(P, chord, c_hat, up, half_separation_m):
 
 
 def mean_spacing(P):
-    """dx of spec 4.5: mean point spacing of one wing line, used for the body-section point count."""
+    """dx of docs/model.md §4.5: mean point spacing of one wing line, used for the body-section point count."""
     n = len(P)
     total = 0
     for i in range(n - 1):

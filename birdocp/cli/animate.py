@@ -10,6 +10,7 @@ an MP4 without ffmpeg is one line on stderr and exit 2.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -21,6 +22,9 @@ DEFAULT_FRAMES = 48
 """Frames per cycle by default (one per T/48; the issue asks for at least one per T/40)."""
 MAX_FRAMES = 1000
 """Most frames per cycle (20 times the default; each frame is drawn and stored in the file)."""
+FPS_RANGE = (0.1, 100.0)
+"""Frames per second a file can hold: a GIF frame lasts a whole number of hundredths of a second
+(at most 100 fps; at 0.1 fps a frame lasts 10 s)."""
 
 
 def register(sub, common) -> None:
@@ -36,7 +40,8 @@ def register(sub, common) -> None:
     p.add_argument("--frames", type=int, default=DEFAULT_FRAMES, metavar="N",
                    help=f"frames per cycle (default {DEFAULT_FRAMES}; at least 8, at most {MAX_FRAMES})")
     p.add_argument("--fps", type=float, default=12.0, metavar="F",
-                   help="frames per second of the file (default 12: one wingbeat in 4 s, 16x slower than life)")
+                   help="frames per second of the file, 0.1..100 (default 12: one wingbeat in 4 s, 16x slower "
+                        "than life)")
     p.add_argument("--dpi", type=int, default=80, metavar="D", help="resolution (default 80: 800 x 448 pixels)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress bar on stderr")
@@ -46,54 +51,44 @@ def register(sub, common) -> None:
     p.set_defaults(func=cmd_animate)
 
 
+CYCLE_COMMANDS = ("trim", "level")
+"""The commands whose run folders hold a cycle that animate draws."""
+
+
 def load_cycle(run_dir: str | Path):
-    """``(cfg, arrays, result)`` of a run folder holding a cycle, or :class:`ConfigError` on RUN_DIR."""
+    """``(cfg, arrays, result)`` of a run folder holding a cycle, read and checked by
+    :func:`birdocp.cli.inputs.read_run_folder`; a :class:`ConfigError` on RUN_DIR otherwise."""
     import numpy as np
 
-    from birdocp.bird import config as C
-    from birdocp.io.runs import read_result
+    from birdocp.cli.inputs import read_run_folder
 
-    run = Path(run_dir)
-    if not run.is_dir():
-        raise ConfigError("RUN_DIR", f"'{run}' is not a folder; give a trim or level run folder")
-    result = read_result(run)
-    if result is None:
-        raise ConfigError("RUN_DIR", f"'{run}' holds no readable result.json (not a birdocp run folder)")
-    if not (run / "arrays.npz").is_file() or not (run / "config.toml").is_file():
-        raise ConfigError("RUN_DIR", f"'{run}' holds no cycle (arrays.npz and config.toml); "
-                                     "animate a trim or level run folder")
-    try:
-        with np.load(run / "arrays.npz") as z:
-            arrays = {k: z[k] for k in z.files}
-    except (OSError, ValueError) as exc:
-        raise ConfigError("RUN_DIR", f"unreadable arrays.npz: {cli.one_line(exc)}") from None
+    folder, cfg = read_run_folder(run_dir, "RUN_DIR", commands=CYCLE_COMMANDS, kind="a trim or level run folder",
+                                  arrays="required")
+    arrays, run = folder.arrays, folder.path
     t, x = arrays.get("trajectory_t_s"), arrays.get("trajectory_x")
-    if t is None or x is None or x.ndim != 2 or x.shape[1] != 4 or len(t) != len(x) or len(t) < 3:
-        raise ConfigError("RUN_DIR", f"'{run}' holds no cycle trajectory (trajectory_t_s, trajectory_x in "
-                                     "arrays.npz); animate a trim or level run folder")
+    if t is None or x is None or len(t) < 3:
+        raise folder.error("arrays.npz", "holds no cycle trajectory (trajectory_t_s, trajectory_x); animate a "
+                                         "trim or level run folder")
     if not (np.all(np.isfinite(x)) and np.all(np.isfinite(t))):
         raise ConfigError("RUN_DIR", f"the trajectory in '{run}' is not finite (a failed solve); nothing to draw")
-    try:
-        cfg = C.load(run / "config.toml")
-    except ConfigError as exc:
-        raise ConfigError("RUN_DIR", f"config.toml: {cli.config_message(exc)}") from None
-    return cfg, arrays, result
+    return cfg, arrays, folder.result
 
 
 def cmd_animate(args: argparse.Namespace, command_line: list[str]) -> int:
     t_start = time.perf_counter()
     run = Path(args.run_dir)
     cfg, arrays, result = load_cycle(run)
-    out = Path(args.out) if args.out is not None else run / "animation.gif"
-    if out.suffix.lower() not in (".gif", ".mp4"):
-        raise ConfigError("--out", f"'{out.name}': the file must end in .gif or .mp4")
-    if not out.parent.is_dir():
-        raise ConfigError("--out", f"folder '{out.parent}' does not exist")
+    from birdocp.io.runs import check_out_file
+
+    # a read-only or special target is refused now, not after drawing every frame
+    out = check_out_file(args.out if args.out is not None else run / "animation.gif",
+                         "--out" if args.out is not None else "RUN_DIR", (".gif", ".mp4"))
     if not 8 <= args.frames <= MAX_FRAMES:
         raise ConfigError("--frames", f"must lie in 8..{MAX_FRAMES}, got {args.frames}")
-    (fps,) = cli.finite_values("--fps", [args.fps])
-    if fps <= 0:
-        raise ConfigError("--fps", f"must be positive, got {args.fps}")
+    fps = args.fps
+    if not (math.isfinite(fps) and FPS_RANGE[0] <= fps <= FPS_RANGE[1]):
+        raise ConfigError("--fps", f"must lie in {FPS_RANGE[0]:g}..{FPS_RANGE[1]:g} (a GIF stores each frame's "
+                                   f"duration in hundredths of a second), got {args.fps}")
     if not 20 <= args.dpi <= 600:
         raise ConfigError("--dpi", f"must lie in 20..600, got {args.dpi}")
     if result.get("success") is False:  # drawn all the same (it may be what the user wants to see), but said

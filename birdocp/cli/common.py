@@ -25,8 +25,11 @@ from birdocp.engine.solver_log import LOG_ENV, NoiseFilter
 PROG = "birdocp"
 EXIT_OK = 0
 EXIT_NOT_CONVERGED = 1
-EXIT_INTERNAL = 1
+"""The computation failed (did not converge, diverged; result written) or its output could not be
+written (full disk, file-size limit)."""
 EXIT_BAD_INPUT = 2
+EXIT_INTERNAL = 3
+"""An unexpected error (a bug): one line naming the log file that holds the traceback."""
 EXIT_INTERRUPTED = 130
 
 AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
@@ -109,18 +112,16 @@ def config_message(exc: ConfigError) -> str:
 
 
 def load_config_file(path_text: str) -> C.Config:
+    """The configuration in the CONFIG file: a regular file (a FIFO, device or folder is refused
+    without opening it), at most :data:`birdocp.io.inputs.MAX_TEXT_BYTES`, UTF-8 TOML (a byte-order
+    mark is dropped); each problem is a ConfigError naming the file."""
+    from birdocp.io.inputs import file_problem, read_input_text
+
     path = Path(path_text)
-    if not path.exists():
+    if file_problem(path) == "does not exist":
         raise ConfigError("CONFIG", f"file '{path}' does not exist; give the path of a TOML file "
                                     "(write one with 'birdocp config > bird.toml')")
-    if path.is_dir():
-        raise ConfigError("CONFIG", f"'{path}' is a folder; give the path of a TOML file")
-    try:
-        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark (Windows editors) is not TOML
-    except UnicodeDecodeError:
-        raise ConfigError(str(path), "is not UTF-8 text; give a TOML file") from None
-    except OSError as exc:
-        raise ConfigError(str(path), f"cannot be read: {exc.strerror or exc}") from None
+    text = read_input_text(path, "CONFIG", what=f"'{path}'")
     try:
         return C.loads(text)
     except ConfigError as exc:
@@ -168,14 +169,28 @@ def resolve_config(args: argparse.Namespace) -> C.Config:
             raise ConfigError(key, f"must be finite, got {value!r} (from {flag})")
         values[key] = value
         by_key[key] = flag
-    if not values:
-        return cfg
-    try:
-        return C.with_values(cfg, values)
-    except ConfigError as exc:
-        if exc.key in by_key:
-            raise ConfigError(exc.key, f"{config_message(exc)} (from {by_key[exc.key]})") from None
-        raise
+    if values:
+        try:
+            cfg = C.with_values(cfg, values)
+        except ConfigError as exc:
+            if exc.key in by_key:
+                raise ConfigError(exc.key, f"{config_message(exc)} (from {by_key[exc.key]})") from None
+            raise
+    if getattr(args, "command", None):
+        check_six_dof(args.command, cfg)
+    return cfg
+
+
+SIX_DOF_COMMANDS = ("trim", "level")
+"""Commands that solve the six-degree-of-freedom model (:mod:`birdocp.cli.six_dof`); the others
+refuse model.degrees_of_freedom = 6."""
+
+
+def check_six_dof(command: str, cfg) -> None:
+    """ConfigError naming ``model.degrees_of_freedom`` when ``command`` has no 6-DOF path."""
+    if cfg.model.degrees_of_freedom == 6 and command not in SIX_DOF_COMMANDS:
+        raise ConfigError("model.degrees_of_freedom", f"6 is solved by {' and '.join(SIX_DOF_COMMANDS)} so far; "
+                                                      f"'{command}' needs 4 (--set model.degrees_of_freedom=4)")
 
 
 def finite_values(name: str, values: Sequence[float]) -> list[float]:
@@ -541,7 +556,9 @@ def run_folder(args: argparse.Namespace, command: str, command_line: list[str], 
     try:
         yield run
     except BaseException:
-        with contextlib.suppress(OSError):
+        from birdocp.io.files import signals_deferred
+
+        with signals_deferred(), contextlib.suppress(OSError):  # a second Ctrl-C waits for the clean-up
             _remove_if_empty(run_dir, before, {SOLVER_LOG, *scaffold}, created)
         raise
     finally:

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import time
+from pathlib import Path
 
 from birdocp.bird import config as C
 from birdocp.bird.config import ConfigError
@@ -37,7 +39,11 @@ def register(sub, common) -> None:
     p.add_argument("--climb-rate", type=float, metavar="MPS", help="held mean vertical speed with --level (default 0)")
     p.add_argument("--bounds", type=float, nargs=2, metavar=("LO", "HI"),
                    help="amplitude bounds with --level (default 20 70 deg; LO < HI); leaving them ends the branch")
-    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-continue-<id>/")
+    p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty; with --resume an interrupted "
+                                                "continuation's folder); default runs/<time>-continue-<id>/")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the interrupted continuation in --out DIR (same arguments): the points on disk "
+                        "(points/) are kept and the branch goes on from the last one")
     solve_shortcuts(p)
     p.set_defaults(func=cmd_continue)
 
@@ -65,60 +71,185 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
             raise ConfigError(flag, "is an option of level flight: add --level (or drop it)")
     (climb,) = finite_values("--climb-rate", [0.0 if args.climb_rate is None else args.climb_rate])
     bounds = checked_bounds("--bounds", args.bounds) if args.bounds is not None else None
-    with run_folder(args, "continue", command_line) as run:
-        from birdocp.plots.branch import plot_branches
-        from birdocp.studies.branch import bird_branch
+    if args.resume and not args.out:
+        raise ConfigError("--resume", "needs --out DIR, the folder of the continuation to continue")
+    spec = {"param": args.param, "parameter": model_key, "from": a, "to": b, "level": bool(args.level),
+            "climb_rate_mps": climb, "bounds": bounds, "step": args.step, "max_points": args.max_points,
+            "config": C.to_dict(cfg)}
+    with run_folder(args, "continue", command_line, resume_file=INDEX if args.resume else None,
+                    scaffold=(INDEX,)) as run:
         from birdocp.io.files import atomic_write_json
+        from birdocp.io.resume import plain
 
-        from birdocp.io.progress import progress_callback
-
-        say, bar = progress_callback(f"continue {args.param}", args.quiet)
-        done: list = []  # the accepted points, kept if the run is interrupted
+        kept, kept_specials = _resumable(run.dir, spec, cfg, args.resume)
+        atomic_write_json(run.dir / INDEX, plain(spec))
+        rec = _Recorder(run.dir, cfg, spec, kept, kept_specials)
         try:
-            with run.solving(), bar:
-                br = bird_branch(cfg, args.param, a, b, level=args.level, climb_rate_mps=climb, bounds=bounds,
-                                 step=args.step, max_points=args.max_points, progress=say, on_point=done.append)
+            br = _follow(args, cfg, model_key, display, a, b, climb, bounds, rec, run)
         except KeyboardInterrupt:
-            if done:
-                _keep_partial(run, cfg, model_key, display, a, b, args.level, done, t_start)
+            if rec.points:
+                _keep_partial(run, cfg, model_key, display, a, b, args.level, rec.points, rec.specials, t_start)
             raise
-        d = br.to_dict()
-        atomic_write_json(run.dir / "branch.json", d)
-        figs = plot_branches({"level flight" if args.level else "branch": br}, run.dir) if br.points else []
-        ok = br.end_reason in ("reached_to", "reached_from") and bool(br.points)
-        summary = {"success": ok, "status": br.end_reason, "parameter": br.parameter_name, "display": display,
-                   "from": a, "to": b, "level": bool(args.level), "end_reason": br.end_reason,
-                   "end_message": br.end_message, "n_points": len(br.points), "special_points": d["special_points"],
-                   "stable_anywhere": any(p.stable for p in br.points), "figures": [f.name for f in figs],
-                   "valid_points": sum(bool(p.validity and p.validity["valid"]) for p in br.points),
-                   "wall_s": {"total": time.perf_counter() - t_start}, "run_dir": str(run.dir)}
-        run.write(cfg, summary)
-        if args.json:
-            run.output(dict(summary, branch=d), None)
-        else:
-            print(_table(br, cfg, display, args.level, figs, run.dir))
-        if not ok:
-            warn = noise_summary(run.noise)
-            print(f"{PROG}: the branch ended before --to ({br.end_reason}: {br.end_message}); "
-                  f"{len(br.points)} points written to {run.dir}{warn}", file=sys.stderr)
-            return EXIT_NOT_CONVERGED
+        return _finish(run, args, br, cfg, display, a, b, len(kept), t_start)
+
+
+def _finish(run, args, br, cfg, display: str, a: float, b: float, resumed: int, t_start: float) -> int:
+    """branch.json, the figures and result.json of a finished branch; the table or the JSON object;
+    the exit code (1 when the branch ended before --to)."""
+    from birdocp.io.files import atomic_write_json
+    from birdocp.plots.branch import plot_branches
+
+    d = br.to_dict()
+    atomic_write_json(run.dir / "branch.json", d)
+    figs = plot_branches({"level flight" if args.level else "branch": br}, run.dir) if br.points else []
+    ok = br.end_reason in ("reached_to", "reached_from") and bool(br.points)
+    summary = {"success": ok, "status": br.end_reason, "parameter": br.parameter_name, "display": display,
+               "from": a, "to": b, "level": bool(args.level), "end_reason": br.end_reason,
+               "end_message": br.end_message, "n_points": len(br.points), "special_points": d["special_points"],
+               "stable_anywhere": any(p.stable for p in br.points), "figures": [f.name for f in figs],
+               "valid_points": sum(bool(p.validity and p.validity["valid"]) for p in br.points),
+               "resumed_points": resumed, "wall_s": {"total": time.perf_counter() - t_start},
+               "run_dir": str(run.dir)}
+    run.write(cfg, summary)
+    if args.json:
+        run.output(dict(summary, branch=d), None)
+    else:
+        print(_table(br, cfg, display, args.level, figs, run.dir))
+    if not ok:
+        warn = noise_summary(run.noise)
+        print(f"{PROG}: the branch ended before --to ({br.end_reason}: {br.end_message}); "
+              f"{len(br.points)} points written to {run.dir}{warn}", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
     return EXIT_OK
 
 
+INDEX = "continue.json"
+"""The index file of a continuation's run folder: its definition (:mod:`birdocp.io.resume`)."""
+
+
+def _point_settings(spec: dict) -> dict:
+    return {k: v for k, v in spec.items() if k != "config"}
+
+
+def _resumable(out: Path, spec: dict, cfg, resume: bool) -> tuple[list, list]:
+    """(points, special points) an interrupted continuation in ``out`` left, checked as every resume
+    is (:mod:`birdocp.io.resume`): the same definition, each point computed for this configuration;
+    the points kept are the unbroken run from the first."""
+    from birdocp.engine.continuation import BranchPoint, SpecialPoint
+    from birdocp.io import resume as R
+    from birdocp.io.inputs import read_json_file
+    from birdocp.io.provenance import config_hash
+
+    if not resume:
+        return [], []
+    old, _ = R.read_index(out / INDEX)
+    if old is not None:
+        R.check_index(old, spec, out, "continuation")
+    if os.path.lexists(out / "result.json"):
+        done = read_json_file(out / "result.json", "--resume", what=f"'{out}': result.json")
+        status = done.get("status") if isinstance(done, dict) else None
+        if status != "interrupted":
+            raise ConfigError("--resume", f"'{out}' holds a finished continuation (status {status}); nothing to "
+                                          "resume: plot it, or continue into a new folder")
+    found = R.kept_points(out, lambda i: config_hash(cfg), _point_settings(spec), old is not None,
+                          match=lambda i, p: isinstance(p.get("point"), dict))
+    points, specials = [], []
+    while len(points) in found:
+        entry = found[len(points)]
+        try:
+            pt = BranchPoint(**entry["point"])
+            sps = [SpecialPoint(**dict(q, between=tuple(q["between"]))) for q in entry.get("special_points", [])]
+        except (TypeError, KeyError, ValueError):
+            break
+        points.append(pt)
+        specials += sps
+    return points, specials
+
+
+class _Recorder:
+    """Writes every accepted point (and the special points located before it) to points/ as it comes
+    (:func:`birdocp.io.resume.write_point`); holds the branch so far (kept points first)."""
+
+    def __init__(self, out: Path, cfg, spec: dict, points: list, specials: list):
+        from birdocp.io.provenance import config_hash
+
+        self.out, self.hash, self.settings = out, config_hash(cfg), _point_settings(spec)
+        self.points, self.specials = list(points), list(specials)
+        self.pending: list = []
+        self.resumed = self.skip = bool(points)  # a resumed branch starts at its last kept point: not a new one
+        self.offset_points = max(len(points) - 1, 0)
+        self.offset_arclength = points[-1].arclength if points else 0.0
+
+    def special(self, sp) -> None:
+        sp.between = tuple(int(i) + self.offset_points for i in sp.between)
+        sp.arclength += self.offset_arclength
+        self.pending.append(sp)
+        self.specials.append(sp)
+
+    def point(self, pt) -> None:
+        if self.skip:
+            self.skip = False
+            return
+        from birdocp.io.resume import write_point
+
+        pt.arclength += self.offset_arclength
+        write_point(self.out, len(self.points), {"point": pt.to_dict(),
+                                                 "special_points": [q.to_dict() for q in self.pending]},
+                    self.hash, self.settings)
+        self.pending = []
+        self.points.append(pt)
+
+
+def _follow(args, cfg, model_key: str, display: str, a: float, b: float, climb: float, bounds, rec: _Recorder, run):
+    """The branch from ``a`` to ``b``, or from the last kept point of a resumed one; every point recorded
+    by ``rec`` as it comes."""
+    from types import SimpleNamespace
+
+    from birdocp.engine.continuation import Branch
+    from birdocp.io.progress import progress_callback
+    from birdocp.studies.branch import STABILITY_MARGIN, add_validity, bird_branch, sm_percent
+
+    chord = cfg.body.reference_chord_m
+    start, start_value, orient, max_points = None, a, None, args.max_points
+    if rec.points:
+        last = rec.points[-1]
+        start = SimpleNamespace(shooting_points=last.shooting_points, p=last.p)
+        start_value = sm_percent(last.parameter, chord) if display == STABILITY_MARGIN else last.parameter
+        orient, max_points = last.tangent_parameter, args.max_points - len(rec.points) + 1
+    done_at_end = rec.points and (max_points < 2 or abs(start_value - b) <= 1e-12 * max(1.0, abs(b)))
+    if done_at_end:
+        reason = "max_points" if max_points < 2 else "reached_to"
+        new = Branch(model_key, [], [], reason, f"{reason} (found on resume)", {"level": bool(args.level)})
+    else:
+        say, bar = progress_callback(f"continue {args.param}", args.quiet)
+        with run.solving(), bar:
+            new = bird_branch(cfg, args.param, start_value, b, level=args.level, climb_rate_mps=climb, bounds=bounds,
+                              step=args.step, max_points=max_points, progress=say, on_point=rec.point,
+                              on_special=rec.special, start=start, orient=orient)
+    if not rec.resumed:
+        return new
+    settings = dict(new.settings, resumed_at_point=rec.offset_points)
+    if display == STABILITY_MARGIN:
+        settings["stability_margin_percent"] = [sm_percent(p.parameter, chord) for p in rec.points]
+    merged = Branch(model_key, list(rec.points), list(rec.specials), new.end_reason, new.end_message, settings,
+                    new.wall_s, new.free_names or list(rec.points[0].free_values))
+    return add_validity(cfg, merged, cfg.solve.steps_per_period)  # the kept points were written before it
+
+
 def _keep_partial(run, cfg, model_key: str, display: str, a: float, b: float, level: bool, points: list,
-                  t_start: float) -> None:
+                  specials: list, t_start: float) -> None:
     """branch.json and result.json of an interrupted continuation: the points accepted so far."""
     from birdocp.engine.continuation import Branch
     from birdocp.io.files import atomic_write_json
 
     message = f"interrupted (Ctrl-C) after {len(points)} points"
-    br = Branch(model_key, list(points), [], "interrupted", message, {"level": bool(level), "interrupted": True},
+    br = Branch(model_key, list(points), list(specials), "interrupted", message, {"level": bool(level), "interrupted": True},
                 time.perf_counter() - t_start, list(points[0].free_values))
     d = br.to_dict()
     atomic_write_json(run.dir / "branch.json", d)
     run.write(cfg, {"success": False, "status": "interrupted", "parameter": model_key, "display": display,
                     "from": a, "to": b, "level": bool(level), "end_reason": "interrupted", "end_message": message,
-                    "n_points": len(points), "special_points": [], "figures": [],
+                    "n_points": len(points), "special_points": [sp.to_dict() for sp in specials], "figures": [],
                     "wall_s": {"total": time.perf_counter() - t_start}, "run_dir": str(run.dir)})
 
 

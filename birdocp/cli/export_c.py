@@ -1,4 +1,6 @@
-"""``birdocp export-c``: the model as a self-contained C folder."""
+"""``birdocp export-c``: the model as a self-contained C folder, written whole: into a temporary
+sibling folder that takes the place of ``--out`` in one step (:func:`birdocp.io.files.atomic_folder`),
+so an interrupt or a full disk leaves an earlier export complete."""
 
 from __future__ import annotations
 
@@ -38,12 +40,15 @@ def cmd_export_c(args: argparse.Namespace, command_line: list[str]) -> int:
 
             info = export_c(cfg, out)
     except BaseException:
-        lock.release()
-        if created:
-            import contextlib
+        import contextlib
 
-            with contextlib.suppress(OSError):
-                out.rmdir()  # only if nothing was written
+        from birdocp.io.files import signals_deferred
+
+        with signals_deferred():  # a second Ctrl-C waits for the clean-up
+            lock.release()
+            if created:
+                with contextlib.suppress(OSError):
+                    out.rmdir()  # only if nothing was written
         raise
     lock.release()
     if args.json:

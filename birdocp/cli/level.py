@@ -91,6 +91,10 @@ def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
     t_start = time.perf_counter()
     cfg = resolve_config(args)
     kw = level_kwargs(args, cfg)
+    if cfg.model.degrees_of_freedom == 6:
+        from birdocp.cli.six_dof import level_options, run_six_dof
+
+        return run_six_dof(args, "level", command_line, cfg, level_options(kw))
     with run_folder(args, "level", command_line) as run:
         with run.solving():
             from birdocp.studies.level import level

@@ -14,15 +14,21 @@ The ``--set`` assignments and the dedicated flags are applied together in one st
 given in any order and e.g. ``--set solve.points=4 --steps 150`` is checked as a whole. The
 configuration is fully validated before the model is imported or built.
 
-Exit codes: 0 success; 1 the solver did not converge (the result is still written) or an unexpected
-error; 2 bad input (one line on stderr naming the key at fault, nothing written); 130 interrupted.
-With ``--json`` exactly one JSON object is printed on every exit except bad input.
+Exit codes: 0 success; 1 the computation failed (did not converge, diverged; the result is still
+written) or its output could not be written (a full disk, a file-size limit: one line, nothing
+partial kept); 2 bad input (one line on stderr naming the key at fault, nothing written); 3 internal
+error (one line naming a log file that holds the traceback, see
+:func:`birdocp.cli.streams.error_log_dir`); 130
+interrupted. With ``--json`` exactly one JSON object is printed on every exit except bad input. The
+exit code never depends on stdout: a closed stdout or a reader that went away (EPIPE) ends the
+printing, not the command (:class:`birdocp.cli.streams.SafeStdout`).
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import importlib
 import os
 import signal
@@ -50,6 +56,7 @@ try:
         print_json,
         resolve_config,
     )
+    from birdocp.cli.streams import guarded_stdout, open_std_streams, tolerant_encodings, write_error_log
 except KeyboardInterrupt:  # Ctrl-C while the command starts up: the same exit as later on
     if "--json" in sys.argv[1:]:
         sys.stdout.write('{"success": false, "status": "interrupted", "message": "interrupted (Ctrl-C)", '
@@ -88,7 +95,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = Parser(
         prog=PROG,
         description="Trimmed periodic flapping flight of a bird and its Floquet stability.",
-        epilog="Exit codes: 0 ok, 1 solver did not converge or internal error, 2 bad input, 130 interrupted. "
+        epilog="Exit codes: 0 ok, 1 the computation failed (result written) or a full disk, 2 bad input, "
+               "3 internal error (traceback in a log file, see docs/troubleshooting.md), 130 interrupted. "
                "Run 'birdocp COMMAND --help' for the options of a command.",
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
@@ -136,15 +144,40 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (the console script passes it to ``sys.exit``)."""
     as_program = argv is None  # the console script or python -m birdocp (not a call from Python)
     argv = sys.argv[1:] if argv is None else list(argv)
-    command_line = [PROG, *argv]
-    debug = "--debug" in argv
-    args = None
     STATE.reset()
-    if as_program:  # figures are files: no GUI backend for the command line (the library leaves it alone)
-        os.environ.setdefault("MPLBACKEND", "Agg")
+    if as_program:
+        open_std_streams()  # a closed stdout (>&-) is os.devnull, not a descriptor a file may take
+        tolerant_encodings()  # PYTHONIOENCODING=ascii and a non-ASCII path: escapes, not a traceback
+        # figures are files: the command line draws with Agg whatever MPLBACKEND says (a GUI backend
+        # or a misspelt one would fail only when the first figure is drawn, after the computation)
+        os.environ["MPLBACKEND"] = "Agg"
         # warnings as one line each ("birdocp: warning: ..."), not Python's file, line and source
         warnings.showwarning = _one_line_warning
     old_handler = signal.getsignal(signal.SIGINT)
+    try:
+        with guarded_stdout(redirect_fd=as_program):
+            return _main(argv, as_program)
+    except KeyboardInterrupt:  # a second Ctrl-C while the first one was being reported
+        return EXIT_INTERRUPTED
+    finally:
+        with contextlib.suppress(ValueError, TypeError):
+            # the command is over: a Ctrl-C now would only turn a finished run into a traceback
+            signal.signal(signal.SIGINT, signal.SIG_IGN if as_program else old_handler)
+        with contextlib.suppress(KeyboardInterrupt):
+            interrupts.check()  # clear a late flag (the exit code already says it)
+
+
+def _quiet_interrupts() -> None:
+    """The command is ending with an error or an interrupt: a further Ctrl-C must not cut its report
+    (the caller restores the handler)."""
+    with contextlib.suppress(ValueError, TypeError):
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _main(argv: list[str], as_program: bool) -> int:
+    command_line = [PROG, *argv]
+    debug = "--debug" in argv
+    args = None
     try:
         interrupts.install()  # a Ctrl-C that CasADi swallows is still seen
         parser = build_parser()
@@ -161,8 +194,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         interrupts.check()
         return code
     except KeyboardInterrupt:
+        _quiet_interrupts()
         return _interrupted(args, debug, argv)
     except ConfigError as exc:
+        _quiet_interrupts()
         if interrupts.pending():
             return _interrupted(args, debug, argv)
         if debug:
@@ -170,26 +205,46 @@ def main(argv: Sequence[str] | None = None) -> int:
         msg = one_line(config_message(exc))
         print(f"{PROG}: error: {exc.key}: {msg}" if exc.key else f"{PROG}: error: {msg}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except BrokenPipeError:  # e.g. birdocp config | head -1
-        with contextlib.suppress(OSError):
-            devnull = os.open(os.devnull, os.O_WRONLY)
-            os.dup2(devnull, sys.stdout.fileno())
-        return EXIT_OK
+    except OSError as exc:
+        _quiet_interrupts()
+        if interrupts.pending():
+            return _interrupted(args, debug, argv)
+        if exc.errno not in WRITE_FAILURES:
+            return _internal_error(exc, args, debug, command_line)
+        return _write_failed(exc, args, debug)
     except Exception as exc:
+        _quiet_interrupts()
         if interrupts.pending():  # CasADi turned the Ctrl-C into an exception of its own
             return _interrupted(args, debug, argv)
-        if debug:
-            traceback.print_exc()
-        print(f"{PROG}: internal error: {type(exc).__name__}: {one_line(exc)}"
-              + ("" if debug else "; rerun with --debug for the traceback"), file=sys.stderr)
-        _json_failure(args, "internal_error", f"{type(exc).__name__}: {one_line(exc)}")
-        return EXIT_INTERNAL
-    finally:
-        with contextlib.suppress(ValueError, TypeError):
-            # the command is over: a Ctrl-C now would only turn a finished run into a traceback
-            signal.signal(signal.SIGINT, signal.SIG_IGN if as_program else old_handler)
-        with contextlib.suppress(KeyboardInterrupt):
-            interrupts.check()  # clear a late flag (the exit code already says it)
+        return _internal_error(exc, args, debug, command_line)
+
+
+WRITE_FAILURES = {errno.ENOSPC: "no space left on the device", errno.EFBIG: "the file is larger than allowed "
+                  "(file-size limit)", getattr(errno, "EDQUOT", -1): "the disk quota is exhausted"}
+"""OS errors that mean an output could not be written for lack of room: exit 1, one line."""
+
+
+def _write_failed(exc: OSError, args, debug: bool) -> int:
+    if debug:
+        traceback.print_exc()
+    out = getattr(args, "out", None)
+    where = f" {exc.filename}" if exc.filename else (f" the output (--out {out})" if out else " the output")
+    kept = f"; finished results kept in {STATE.run_dir}" if STATE.run_dir is not None else ""
+    msg = f"cannot write{where}: {WRITE_FAILURES[exc.errno]}; nothing partial was kept{kept}"
+    print(f"{PROG}: error: {one_line(msg)}", file=sys.stderr)
+    _json_failure(args, "write_failed", one_line(msg))
+    return EXIT_NOT_CONVERGED
+
+
+def _internal_error(exc: BaseException, args, debug: bool, command_line: list[str]) -> int:
+    """One line naming the log file with the traceback (:func:`birdocp.cli.streams.write_error_log`)."""
+    if debug:
+        traceback.print_exc()
+    log = write_error_log(exc, command_line)
+    where = f"; the traceback is in {log}" if log is not None else "; rerun with --debug for the traceback"
+    print(f"{PROG}: internal error: {type(exc).__name__}: {one_line(exc)}{where}", file=sys.stderr)
+    _json_failure(args, "internal_error", f"{type(exc).__name__}: {one_line(exc)}")
+    return EXIT_INTERNAL
 
 
 def _interrupted(args, debug: bool, argv: Sequence[str] = ()) -> int:

@@ -79,9 +79,11 @@ def checked_free(args: argparse.Namespace, cfg, defaults: dict) -> dict:
     """:func:`free_with_bounds`, then every free key checked against the model before any run folder
     exists (:func:`birdocp.studies.optimize.check_free_keys`: not the amplitude, not reshaping the
     wing in the arm frame, the configured value inside its bounds); ConfigError (exit 2) otherwise."""
+    from birdocp.studies.gait import check_free_bounds
     from birdocp.studies.optimize import check_free_keys
 
     free = free_with_bounds(args, defaults)
+    check_free_bounds(cfg, free)  # everything that needs no model, before building it
     with cli.stdout_to_stderr():
         from birdocp.bird.model import get_model
 

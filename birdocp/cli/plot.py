@@ -4,11 +4,17 @@ from __future__ import annotations
 
 import argparse
 import errno
-import json
+import os
 from pathlib import Path
 
 from birdocp.bird.config import ConfigError
 from birdocp.cli.common import EXIT_OK, print_json, solver_noise
+
+
+PLOTTED = ("trim", "level", "sweep", "continue", "optimize-stability", "optimize-gait")
+"""The commands whose run folders ``plot`` draws."""
+PLOTTED_HINT = ("plot draws trim, level, sweep (and grid), continue, optimize-stability and optimize-gait run "
+                "folders (control and simulate draw their figures as they run)")
 
 
 def register(sub, common) -> None:
@@ -24,25 +30,23 @@ def register(sub, common) -> None:
 
 
 def _read_json(path: Path, what: str):
-    try:
-        return json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
-        raise ConfigError("RUN_DIR", f"unreadable {what}: {exc}") from None
+    from birdocp.io.inputs import read_json_file
+
+    return read_json_file(path, "RUN_DIR", what=f"'{path.parent}': {what}")
 
 
 def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
-    run = Path(args.run_dir)
-    res_path = run / "result.json"
-    if not res_path.is_file():
-        raise ConfigError("RUN_DIR", f"'{run}' holds no result.json (not a birdocp run folder)")
-    res = _read_json(res_path, "result.json")
-    if not isinstance(res, dict) or not isinstance(res.get("provenance", {}), dict):
-        raise ConfigError("RUN_DIR", f"'{res_path}' is not a birdocp result (expected a JSON object with "
-                                     "provenance)")
+    from birdocp.cli.inputs import read_run_folder
+
+    folder, _ = read_run_folder(args.run_dir, "RUN_DIR", commands=PLOTTED, hint=PLOTTED_HINT)
+    run, res = folder.path, folder.result
     command = (res.get("provenance") or {}).get("command")
+    from birdocp.io.runs import check_writable
+
+    check_writable(run, "RUN_DIR")  # the figures go into the run folder: refused now if it is read-only
     try:
         with solver_noise(None, getattr(args, "verbose", False)):
-            figs = _figures(run, res, command)
+            figs = _figures(run, res, command, folder.arrays)
     except ConfigError:
         raise
     except OSError as exc:
@@ -60,31 +64,25 @@ def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
     return EXIT_OK
 
 
-def _figures(run: Path, res: dict, command) -> list:
+def _figures(run: Path, res: dict, command, arrays: dict | None) -> list:
     figs = []
-    if (run / "branch.json").is_file():
+    if os.path.lexists(run / "branch.json"):
         from birdocp.engine.continuation import Branch
         from birdocp.plots.branch import plot_branches
 
         br = Branch.from_dict(_read_json(run / "branch.json", "branch.json"))
         figs = plot_branches({"level flight" if br.settings.get("level") else "branch": br}, run)
-    elif (run / "grid.json").is_file():
+    elif os.path.lexists(run / "grid.json"):
         d = _read_json(run / "grid.json", "grid.json")
         figs = [plot_rows(d.get("points", []), "value", run / "grid.png",
                           f"grid: lines over {d.get('key')}, one per {d.get('row_key')}", d.get("key"))]
-    elif (run / "sweep.json").is_file():
+    elif os.path.lexists(run / "sweep.json"):
         d = _read_json(run / "sweep.json", "sweep.json")
         figs = [plot_rows(d.get("points", []), "value", run / "sweep.png", f"sweep of {d.get('key')}", d.get("key"))]
     elif command in ("trim", "level") or "x0" in res:
         from birdocp.plots import figures as plots
 
-        arrays = {}
-        if (run / "arrays.npz").is_file():
-            import numpy as np
-
-            with np.load(run / "arrays.npz") as z:
-                arrays = {k: z[k] for k in z.files}
-        cyc = dict(res, **arrays)
+        cyc = dict(res, **(arrays or {}))
         if "trajectory_x" in cyc:
             figs.append(plots.plot_states(cyc, run / "states.png"))
             figs.append(plots.plot_phase_portrait(cyc, run / "phase.png"))
@@ -98,9 +96,7 @@ def _figures(run: Path, res: dict, command) -> list:
                 figs.append(plot_power(cyc, run / "power.png"))
     else:
         what = f"a '{command}' run" if command else "a result that names no birdocp command"
-        raise ConfigError("RUN_DIR", f"do not know how to plot {what}; plot draws trim, level, sweep (and grid), "
-                                     "continue, optimize-stability and optimize-gait run folders (control and "
-                                     "simulate draw their figures as they run)")
+        raise ConfigError("RUN_DIR", f"do not know how to plot {what}; {PLOTTED_HINT}")
     return figs
 
 

@@ -7,7 +7,6 @@ import argparse
 import math
 import sys
 import time
-from pathlib import Path
 from types import SimpleNamespace
 
 from birdocp.bird.config import ConfigError
@@ -56,36 +55,93 @@ def _first_difference(a: dict, b: dict, prefix: str = "") -> str | None:
 
 
 def load_controller(path_text: str, cfg):
-    """(controller namespace, cycle cfg, result dict) from a control run folder; ConfigError if it is
-    not one or was designed for another configuration than ``cfg``."""
-    import numpy as np
-
+    """(controller namespace, cycle cfg, result dict) from a control run folder, read and checked by
+    :func:`birdocp.cli.inputs.read_run_folder` (its config.toml the one the controller was designed on)
+    and :func:`controller_fields`; ConfigError on --controller if it is not one, is damaged, or was
+    designed for another configuration than ``cfg``."""
     from birdocp.bird import config as C
-    from birdocp.io.runs import read_result
+    from birdocp.cli.inputs import read_run_folder
 
-    path = Path(path_text)
-    r = read_result(path)
-    if not isinstance(r, dict) or (r.get("provenance") or {}).get("command") != "control":
-        raise ConfigError("--controller", f"'{path}' is not a 'birdocp control' run folder (no control result.json)")
+    folder, cycle_cfg = read_run_folder(path_text, "--controller", commands=("control",),
+                                        kind="a 'birdocp control' run folder", arrays=None)
+    r, path = folder.result, folder.path
     if not r.get("success") or "gains" not in r:
         raise ConfigError("--controller", f"'{path}' holds no stabilising controller (status {r.get('status')})")
+    if not isinstance(r.get("requested_config"), str):
+        raise folder.error("result.json", "has no requested_config (the configuration the controller was asked for)")
     try:
-        cycle_cfg = C.load(path / "config.toml")
         requested = C.loads(r["requested_config"])
-    except (OSError, KeyError, ConfigError) as exc:
-        raise ConfigError("--controller", f"cannot read the configuration of '{path}': {cli.one_line(exc)}") from None
+    except ConfigError as exc:
+        raise folder.error("result.json", f"requested_config: {cli.one_line(exc)}") from None
+    ctl = controller_fields(folder, cycle_cfg)
     if C.dumps(cfg) not in (C.dumps(requested), C.dumps(cycle_cfg)):
         key = _first_difference(C.to_dict(cfg), C.to_dict(requested))
         raise ConfigError("--controller", f"'{path}' was designed for another configuration (differs in {key}); "
                           "simulate with the same CONFIG/--set, or design a controller for this one")
-    ctl = SimpleNamespace(controls=list(r["controls"]), K=np.array(r["gains"], float),
-                          x_starts=np.array(r["x_starts"], float), limits=np.array(r["limits"], float),
-                          updates_per_beat=int(r["updates_per_beat"]))
     return ctl, cycle_cfg, r
 
 
+def _array(folder, name: str, shape: tuple, value):
+    import numpy as np
+
+    try:
+        a = np.array(value, float)
+    except (TypeError, ValueError):
+        raise folder.error("result.json", f"'{name}' is not an array of numbers") from None
+    if a.shape != shape:
+        raise folder.error("result.json", f"'{name}' has shape {a.shape}, the controller needs {shape}")
+    if not np.all(np.isfinite(a)):
+        raise folder.error("result.json", f"'{name}' holds values that are not finite numbers")
+    return a
+
+
+def controller_fields(folder, cycle_cfg) -> SimpleNamespace:
+    """The controller in a control run's result.json, every field checked against the stored
+    configuration: known gait controls (no repeats), ``updates_per_beat`` dividing the RK4 steps, gains
+    ``(N, m, 4)``, cycle states ``(N, 4)`` and ``cycle_x0`` finite, limits ``(m, 2)`` with LO < HI."""
+    from birdocp.studies.control import resolve_controls
+
+    r = folder.result
+    controls = r.get("controls")
+    if not isinstance(controls, list) or not controls or not all(isinstance(c, str) for c in controls):
+        raise folder.error("result.json", "'controls' is not a list of configuration keys")
+    try:
+        if list(resolve_controls(controls)) != controls:
+            raise ConfigError("controls", f"{controls} are not in the resolved form")
+    except ConfigError as exc:
+        raise folder.error("result.json", f"'controls': {cli.config_message(exc)}") from None
+    steps, n = r.get("steps_per_period"), r.get("updates_per_beat")
+    if steps != cycle_cfg.solve.steps_per_period or isinstance(steps, bool):
+        raise folder.error("result.json", f"'steps_per_period' is {steps!r}, config.toml says "
+                                          f"{cycle_cfg.solve.steps_per_period}")
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1 or steps % n:
+        raise folder.error("result.json", f"'updates_per_beat' is {n!r}; it must be an integer >= 1 dividing the "
+                                          f"{steps} RK4 steps per period")
+    m = len(controls)
+    limits = _array(folder, "limits", (m, 2), r.get("limits"))
+    if not all(limits[:, 0] < limits[:, 1]):
+        raise folder.error("result.json", "'limits' are not LO < HI for every control")
+    _array(folder, "cycle_x0", (4,), r.get("cycle_x0"))
+    return SimpleNamespace(controls=list(controls), K=_array(folder, "gains", (n, m, 4), r.get("gains")),
+                           x_starts=_array(folder, "x_starts", (n, 4), r.get("x_starts")), limits=limits,
+                           updates_per_beat=n)
+
+
+def _run_simulation(args, sim_cfg, x0, steps, dx0, gusts, wind, ctl):
+    """The simulation of ``cmd_simulate`` with its progress bar."""
+    from birdocp.io.progress import progress_callback
+    from birdocp.studies.simulate import simulate
+
+    say, bar = progress_callback("simulate", getattr(args, "quiet", False), total=args.beats)
+    try:
+        return simulate(sim_cfg, x0, args.beats, steps_per_period=steps, perturbation=dx0, gusts=gusts,
+                        wind_mps=wind, controller=ctl, progress=say)
+    finally:
+        bar.close()
+
+
 def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
-    from birdocp.studies.simulate import DIRECTIONS, parse_gust, parse_perturbation
+    from birdocp.studies.simulate import DIRECTIONS, check_speed, parse_gust, parse_perturbation
 
     t0 = time.perf_counter()
     cfg = cli.resolve_config(args)
@@ -98,8 +154,9 @@ def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
     if args.gust_start is not None and not gusts:  # refused, not ignored
         raise ConfigError("--gust-start", "places a gust: add --gust DIR=MPS:BEATS (or drop --gust-start)")
     gust_start = 1.0 if args.gust_start is None else args.gust_start
-    if not math.isfinite(gust_start) or gust_start < 0:
-        raise ConfigError("--gust-start", f"must be >= 0 beats, got {gust_start}")
+    if not math.isfinite(gust_start) or not 0 <= gust_start <= MAX_BEATS:
+        raise ConfigError("--gust-start", f"must lie in 0..{MAX_BEATS} beats (no simulation flies farther), "
+                                          f"got {gust_start}")
     gusts = [type(g)(g.direction, g.amplitude_mps, g.length_beats, g.length_m, gust_start) for g in gusts]
     wind = [0.0, 0.0]
     for text in args.wind:
@@ -110,7 +167,7 @@ def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
             raise ConfigError("--wind", f"expected vertical|horizontal=MPS, got '{text}'") from None
         if d.strip() not in DIRECTIONS or not math.isfinite(val):
             raise ConfigError("--wind", f"expected vertical|horizontal=MPS with a finite value, got '{text}'")
-        wind[0 if d.strip() == "horizontal" else 1] = val
+        wind[0 if d.strip() == "horizontal" else 1] = check_speed("--wind", "the wind", val)
     ctl = None
     if args.controller:
         if args.level:
@@ -121,29 +178,23 @@ def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
         head = {"controller": str(args.controller) if args.controller else None, "run_dir": str(run_dir),
                 "perturbation": dx0.tolist(), "wind_mps": {"horizontal": wind[0], "vertical": wind[1]}}
         with run.solving():
-            from birdocp.studies.simulate import simulate
-
             if ctl is not None:
                 x0, steps = ctl_result["cycle_x0"], int(ctl_result["steps_per_period"])
             else:
                 from birdocp.studies.control import reference_cycle
 
                 base = reference_cycle(cfg, args.level)
-                if not base.success:
-                    result = {"success": False, "status": base.status,
-                              "message": f"the cycle did not converge: {base.message}", **head}
-                    run.write(cfg, result)
-                    run.output(result, None)
-                    return run.fail("the cycle did not converge", base.status, base.max_residual, base.message)
-                sim_cfg, x0, steps = base.cfg, base.x0, int(base.cycle.method["steps_per_period"])
-            from birdocp.io.progress import progress_callback
-
-            say, bar = progress_callback("simulate", getattr(args, "quiet", False), total=args.beats)
-            try:
-                sim = simulate(sim_cfg, x0, args.beats, steps_per_period=steps, perturbation=dx0, gusts=gusts,
-                               wind_mps=wind, controller=ctl, progress=say)
-            finally:
-                bar.close()
+                if base.success:
+                    sim_cfg, x0, steps = base.cfg, base.x0, int(base.cycle.method["steps_per_period"])
+            if ctl is None and not base.success:
+                result = {"success": False, "status": base.status,
+                          "message": f"the cycle did not converge: {base.message}", **head}
+            else:
+                sim = _run_simulation(args, sim_cfg, x0, steps, dx0, gusts, wind, ctl)
+        if ctl is None and not base.success:  # stdout is the terminal's again: the JSON goes there
+            run.write(cfg, result)
+            run.output(result, None)
+            return run.fail("the cycle did not converge", base.status, base.max_residual, base.message)
         result = {**sim.to_dict(), **head, "cycle_x0": [float(v) for v in x0],
                   "wall_s": {"total": time.perf_counter() - t0}}
         arrays = sim.arrays()
@@ -159,7 +210,8 @@ def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
         else:
             dev = result["deviation_per_beat"]
             print(f"simulate: {sim.status} ({'closed' if ctl is not None else 'open'} loop): {sim.message}")
-            print("  deviation per beat: " + ", ".join(f"{v:.3g}" for v in dev[:12]) + (" ..." if len(dev) > 12 else ""))
+            print("  deviation per beat: " + ", ".join(cli.fmt_num(v, ".3g") for v in dev[:12])
+                  + (" ..." if len(dev) > 12 else ""))
             print(f"  final deviation {cli.fmt_num(result['final_deviation'], '.3g')}, peak "
                   f"{cli.fmt_num(result['peak_deviation'], '.3g')} at beat {result['peak_beat']}, beats to recover "
                   f"{result['beats_to_recover']}, saturated {result['saturated']}")

@@ -42,6 +42,10 @@ def last_residual(result: dict):
 def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
     t_start = time.perf_counter()
     cfg = resolve_config(args)
+    if cfg.model.degrees_of_freedom == 6:
+        from birdocp.cli.six_dof import run_six_dof
+
+        return run_six_dof(args, "trim", command_line, cfg, {})
     with run_folder(args, "trim", command_line) as run:
         with run.solving():
             from birdocp.studies.trim import trim

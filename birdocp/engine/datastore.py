@@ -8,8 +8,9 @@ the same wing. A later process reads it back in about a millisecond.
 One file per array, ``<cache_dir>/data/<kind>-<digest>.npz``, holding the array, the full key it was
 computed for (as text) and the SHA-256 of the array's bytes. A file is used only if its key equals
 the requested key exactly and the checksum matches; a truncated, garbled or foreign file is removed
-and the array recomputed (never trusted). Writes go to a temporary file renamed into place (atomic,
-safe with parallel processes). At most :data:`MAX_FILES` files are kept (least recently used
+and the array recomputed (never trusted). Writes go to a temporary file renamed into place
+(:func:`birdocp.engine.atomic.atomic_target`: atomic, safe with parallel processes, removed on an
+interrupt). At most :data:`MAX_FILES` files are kept (least recently used
 removed). The folder is the graph cache's (:func:`birdocp.engine.graphcache.cache_dir`), and the
 store is off when the graph cache is off (``BIRDOCP_GRAPH_CACHE=0``). Failures to write are silent:
 the store only saves time, it never changes a number (the stored doubles are the computed ones).
@@ -19,7 +20,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 import time
 import zipfile
 from pathlib import Path
@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from birdocp.engine import graphcache
+from birdocp.engine.atomic import atomic_target
 
 __all__ = ["MAX_FILES", "load", "store", "clear", "folder"]
 
@@ -79,21 +80,15 @@ def store(kind: str, key: dict, values, directory=None) -> Path | None:
         return None
     values = np.ascontiguousarray(np.asarray(values, float))
     path = _path(kind, key, directory)
-    tmp = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".tmp-{kind}-", suffix=".npz")
-        with os.fdopen(fd, "wb") as fh:
+        with atomic_target(path, suffix=".tmp") as tmp, open(tmp, "wb") as fh:  # removed on any exception
             np.savez(fh, values=values, key=np.array(_text(key)),
                      sha256=np.array(hashlib.sha256(values.tobytes()).hexdigest()))
-        os.replace(tmp, path)
-        tmp = None
-        _prune(path.parent, keep=path)
-        return path
     except OSError:
-        if tmp is not None:
-            _remove(Path(tmp))
         return None
+    _prune(path.parent, keep=path)
+    return path
 
 
 def _remove(path: Path) -> None:
@@ -111,8 +106,8 @@ def _prune(root: Path, keep: Path) -> None:
             st = f.stat()
         except OSError:
             continue
-        if f.name.startswith(".tmp-"):
-            if now - st.st_mtime > 3600:  # left by a killed process
+        if f.name.startswith("."):
+            if now - st.st_mtime > 3600:  # a temporary file left by a killed process (SIGKILL)
                 _remove(f)
             continue
         if f.suffix == ".npz":

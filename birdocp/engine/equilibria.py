@@ -105,7 +105,28 @@ def _eig(J):
 
 
 def find_equilibrium(ode: ODE, p, x_guess, *, tol: float = 1e-12, max_iter: int = 50, t: float = 0.0) -> Equilibrium:
-    """Damped Newton on f(x, p) = 0 (exact Jacobian); eigenvalues of df/dx at the result."""
+    """Damped Newton on f(x, p) = 0 (exact Jacobian); eigenvalues of df/dx at the result.
+
+    Parameters
+    ----------
+    ode : ODE
+        The system (autonomous, or forced at the frozen time ``t``).
+    p : array_like
+        Its parameters.
+    x_guess : array_like
+        The starting state.
+    tol : float
+        Convergence: max |f| at most ``tol``.
+    max_iter : int
+        Newton iterations.
+    t : float
+        The time at which a forced system is frozen.
+
+    Returns
+    -------
+    Equilibrium
+        ``success``, ``x``, ``eigenvalues`` of df/dx, ``stable`` and the residual.
+    """
     p = finite_vector(p, "find_equilibrium p", ode.np, f"the ODE has np={ode.np}")
     x = finite_vector(x_guess, "find_equilibrium x_guess", ode.nx, f"the ODE has nx={ode.nx}").copy()
     f = ode.evaluate(x, t, p)
@@ -202,7 +223,34 @@ def locate_hopf(ode: ODE, p, param, x_guess, bracket, *, tol: float = 1e-12, max
 def continue_equilibria(ode: ODE, p, param, x_start, stop, *, ds: float = 0.05, max_points: int = 500,
                         tol: float = 1e-11, locate: bool = True) -> EquilibriumBranch:
     """Pseudo-arclength continuation of f(x, p) = 0 in ``param`` from ``(x_start, p[param])`` towards
-    ``stop`` (a parameter value), with eigenvalues; Hopf points located to ``tol``."""
+    ``stop`` (a parameter value), with eigenvalues; Hopf points located to ``tol``.
+
+    Parameters
+    ----------
+    ode : ODE
+        The system.
+    p : array_like
+        Its parameters (the continued one's value is the start).
+    param : str or int
+        The continuation parameter.
+    x_start : array_like
+        An equilibrium (or a guess of one) at the start.
+    stop : float
+        The parameter value where the branch should end.
+    ds : float
+        Arclength step.
+    max_points : int
+        Largest number of points.
+    tol : float
+        Newton tolerance of each point and of the located Hopf points.
+    locate : bool
+        Locate Hopf points and folds between points.
+
+    Returns
+    -------
+    EquilibriumBranch
+        The points with their eigenvalues, the Hopf points and folds.
+    """
     j = ode.param_index(param)
     p = np.asarray(p, float).ravel().copy()
     if not np.isfinite(stop):
@@ -290,7 +338,26 @@ def orbit_from_hopf(ode: ODE, hopf: HopfPoint, amplitude: float, method: OrbitMe
     """The periodic orbit of amplitude ``amplitude`` (along Re v) born at ``hopf``; the continued
     parameter is an unknown (``result.p[hopf.param]``, also in ``result.free_values``). A method
     without steps_per_period gets 128 (rounded to the segments); the result's error estimate says
-    whether that is enough."""
+    whether that is enough.
+
+    Parameters
+    ----------
+    ode : ODE
+        The system.
+    hopf : HopfPoint
+        A located Hopf point (from :func:`continue_equilibria` or :func:`locate_hopf`).
+    amplitude : float
+        The orbit's amplitude along Re v (small: the orbit near the Hopf point).
+    method : OrbitMethod
+        Shooting points, steps, integrator and solver.
+    warm_start : PeriodicOrbit, optional
+        A previous orbit that starts the solve.
+
+    Returns
+    -------
+    PeriodicOrbit
+        The orbit, the parameter solved (its sign tells super- from subcritical).
+    """
     if not ode.autonomous:
         raise ValueError("orbit_from_hopf: the ODE must be autonomous")
     if not (np.isfinite(amplitude) and amplitude != 0):

@@ -213,7 +213,20 @@ class DaskExecutor(Executor):
 
 
 def get_executor(jobs: int | None = None, scheduler: str | None = None) -> Executor:
-    """Serial by default; processes with ``jobs > 1``; Dask with a ``scheduler`` address."""
+    """Serial by default; processes with ``jobs > 1``; Dask with a ``scheduler`` address.
+
+    Parameters
+    ----------
+    jobs : int, optional
+        Local worker processes (None or 1: serial).
+    scheduler : str, optional
+        Address of a Dask distributed scheduler (needs the ``cluster`` extra).
+
+    Returns
+    -------
+    Executor
+        Runs independent jobs (``map``) and says how (``describe``).
+    """
     if scheduler:
         return DaskExecutor(address=scheduler)
     if jobs is not None and int(jobs) > 1:

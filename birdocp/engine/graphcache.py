@@ -14,9 +14,10 @@ Function (``<name>.casadi``, the text of ``Function.serialize()``) and ``manifes
   rebuilds (``load`` returns None, or :class:`CacheMiss` from :meth:`Entry.function`);
 * ``meta``: small JSON data the caller stores beside the graphs.
 
-Writes are atomic and safe with concurrent processes: an entry is written completely into a private
-temporary folder inside the cache folder and renamed into place in one ``os.rename``; if another
-process got there first the rename fails and the copy is discarded (both built the same graphs).
+Writes are atomic and safe with concurrent processes (:func:`birdocp.engine.atomic.atomic_folder`):
+an entry is written completely into a private temporary folder inside the cache folder and renamed
+into place in one ``os.rename``; if another process got there first the rename fails and the copy
+is discarded (both built the same graphs). An interrupt while writing removes the temporary folder.
 Readers never see a partial entry. At most :data:`MAX_ENTRIES` entries of a kind are kept (the least
 recently used are removed when a new one is stored).
 
@@ -32,12 +33,12 @@ import hashlib
 import json
 import os
 import shutil
-import tempfile
 import time
 from pathlib import Path
 
 import casadi as ca
 
+from birdocp.engine.atomic import atomic_folder
 from birdocp.engine.lazy import signature
 
 __all__ = ["FORMAT", "MAX_ENTRIES", "CacheMiss", "Entry", "cache_dir", "enabled", "key_digest",
@@ -187,35 +188,32 @@ def store(kind: str, key: dict, functions: dict, meta: dict | None = None, direc
         return None
     root = _root(directory)
     folder = _folder(kind, key, directory)
-    tmp = None
     try:
         root.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(dir=root, prefix=f".tmp-{kind}-"))
-        files = {}
-        for name, f in functions.items():
-            data = f.serialize().encode("ascii")
-            (tmp / f"{name}.casadi").write_bytes(data)
-            files[name] = {"size": len(data), "sha256": hashlib.sha256(data).hexdigest(), "signature": signature(f)}
-        manifest = {"key": json.loads(_canonical(key)), "files": files, "meta": meta or {},
-                    "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
-        (tmp / "manifest.json").write_text(json.dumps(manifest, indent=1))
-        try:
-            os.rename(tmp, folder)  # atomic; fails if another process stored the entry first
-        except OSError:
-            shutil.rmtree(tmp, ignore_errors=True)
-            return folder if (folder / "manifest.json").exists() else None
-        tmp = None
-        _prune(root, kind, keep=folder)
-        return folder
+        # the one atomic write: a temporary sibling folder renamed into place, removed on any
+        # exception (Ctrl-C during a cold build included); the first process to store an entry wins
+        with atomic_folder(folder, replace=False) as tmp:
+            files = {}
+            for name, f in functions.items():
+                data = f.serialize().encode("ascii")
+                (tmp / f"{name}.casadi").write_bytes(data)
+                files[name] = {"size": len(data), "sha256": hashlib.sha256(data).hexdigest(),
+                               "signature": signature(f)}
+            manifest = {"key": json.loads(_canonical(key)), "files": files, "meta": meta or {},
+                        "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
+            (tmp / "manifest.json").write_text(json.dumps(manifest, indent=1))
+    except FileExistsError:  # another process stored the entry first (the same graphs)
+        return folder if (folder / "manifest.json").exists() else None
     except (OSError, UnicodeError):
-        if tmp is not None:
-            shutil.rmtree(tmp, ignore_errors=True)
         return None
+    _prune(root, kind, keep=folder)
+    return folder
 
 
 def _prune(root: Path, kind: str, keep: Path) -> None:
     now = time.time()
-    for d in list(root.glob(".tmp-*")) + list(root.glob(".del-*")):  # left by killed processes
+    # left by killed processes (SIGKILL: nothing else leaves a temporary folder behind)
+    for d in list(root.glob(".*.tmp")) + list(root.glob(".*.old")) + list(root.glob(".tmp-*")) + list(root.glob(".del-*")):
         try:
             if now - d.stat().st_mtime > 3600:
                 shutil.rmtree(d, ignore_errors=True)

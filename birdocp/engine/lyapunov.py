@@ -110,9 +110,16 @@ def lyapunov_exponents(ode: ODE, x0, p, *, t_total: float = 1000.0, dt: float = 
         Time between QR re-orthonormalisations (rounded to a multiple of dt).
     n_blocks : int
         Blocks of the averaging time for the standard error.
+    t0 : float
+        Start time (for a forced system).
     integrator : {"rk4", "radau", "gauss"}
     seed : int
         Seed of the random initial tangent vectors.
+
+    Returns
+    -------
+    LyapunovResult
+        The exponents (largest first), their standard errors and the Kaplan-Yorke dimension.
     """
     tw = time.perf_counter()
     nx = ode.nx
@@ -173,6 +180,21 @@ def lyapunov_exponents(ode: ODE, x0, p, *, t_total: float = 1000.0, dt: float = 
 
 
 def largest_lyapunov_exponent(ode: ODE, x0, p, **kw) -> LyapunovResult:
-    """The largest exponent alone (one tangent vector): see :func:`lyapunov_exponents`."""
+    """The largest exponent alone (one tangent vector): see :func:`lyapunov_exponents`.
+
+    Parameters
+    ----------
+    ode : ODE
+        The system.
+    x0, p : array_like
+        Initial state and parameters.
+    **kw
+        Keyword arguments of :func:`lyapunov_exponents` (``t_total``, ``dt``, ...).
+
+    Returns
+    -------
+    LyapunovResult
+        With one exponent.
+    """
     kw["n_exponents"] = 1
     return lyapunov_exponents(ode, x0, p, **kw)

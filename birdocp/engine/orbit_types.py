@@ -44,6 +44,12 @@ class OrbitMethod(ShootingGrid):
         relative amplitude below which a solution is an equilibrium (failure).
     period_bounds
         (lo, hi) as factors of the period guess (autonomous).
+    max_iter
+        iterations of the solver per grid.
+    min_steps, max_steps_per_period
+        the first and the largest N when N is chosen by refinement.
+    ipopt_options
+        extra IPOPT options (``solver="ipopt"``).
     phase
         "moving" (default): the Poincare section is re-anchored at the current iterate's X_0,
         orthogonal to the flow there, before every Newton step (the step is orthogonal to the
@@ -110,6 +116,10 @@ class OrbitProblem:
 
     Attributes
     ----------
+    ode
+        the system (:class:`~birdocp.engine.ode.ODE`).
+    p
+        its parameters (np,).
     x_guess
         a point near the orbit (nx,), or guesses of the shooting points (M or M-1, nx).
     period_guess

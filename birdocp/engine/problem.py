@@ -69,6 +69,9 @@ class PeriodicODE(RhsDimensions):
         RK4 stage-time grid only (numerically when no parameter is free).
     period_s
         the period T of the forcing in seconds (the orbit is sought with this period).
+    state_names, param_names
+        names of the states and of the parameters (optional; parameters can then be named, e.g. as
+        free parameters or continuation parameters).
     pre, post, pre_params
         a factorisation ``data(t, p) = post(pre(t, p), t, p)`` where
         ``pre`` depends only on the parameters ``pre_params``. When no free parameter of a problem
@@ -162,7 +165,17 @@ class PeriodicODE(RhsDimensions):
 
 @dataclass(frozen=True, eq=False)
 class MeanCondition:
-    """The period mean of ``output(x, d, p)`` (a scalar) must equal ``target``."""
+    """The period mean of ``output(x, d, p)`` (a scalar) must equal ``target``.
+
+    Attributes
+    ----------
+    output
+        Function (x[nx], d[nd], p[np]) -> scalar.
+    target
+        the period mean it must have (the output's units).
+    name
+        a name for messages and for ``result.means``.
+    """
 
     output: ca.Function
     target: float = 0.0
@@ -180,6 +193,8 @@ class LimitCycleProblem:
 
     Attributes
     ----------
+    ode
+        the time-periodic ODE (:class:`PeriodicODE`).
     p
         full parameter vector (initial values for the free ones).
     x_guess

@@ -106,6 +106,38 @@ def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShootin
     a ``Solve_Succeeded`` with a larger residual becomes status ``residual_above_tol``). A Ctrl-C
     during the solve raises ``KeyboardInterrupt`` (never a status, never a retry), also when CasADi
     caught it inside IPOPT.
+
+    Parameters
+    ----------
+    problem : LimitCycleProblem
+        The ODE, its parameters, the guess, free parameters and mean conditions.
+    method : MultipleShooting
+        Shooting points, RK4 steps per period, solver (``ipopt`` or ``lm``), derivatives, tolerances.
+    warm_start : LimitCycleResult, optional
+        A previous result on the same grid whose shooting points (and free values) start the solve.
+
+    Returns
+    -------
+    LimitCycleResult
+        ``success``, ``status``, ``x0``, ``shooting_points``, the trajectory, ``monodromy``,
+        ``multipliers`` (largest modulus first), ``floquet_exponents``, ``stable``, ``means`` and
+        ``free_values``.
+
+    Examples
+    --------
+    A forced linear oscillator ``x'' + 0.5 x' + x = cos t``: the orbit is ``x = 2 sin t``, and the
+    multipliers are ``exp(2 pi eig(A))``, of modulus ``exp(-0.5 pi)`` (Liouville).
+
+    >>> import casadi as ca, numpy as np
+    >>> from birdocp.engine import LimitCycleProblem, MultipleShooting, PeriodicODE, solve
+    >>> x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 1)
+    >>> f = ca.Function("f", [x, t, p], [ca.vertcat(x[1], -p[0] * x[1] - x[0] + ca.cos(t))])
+    >>> res = solve(LimitCycleProblem(PeriodicODE.from_rhs(f, 2 * np.pi), p=[0.5], x_guess=[0, 0]),
+    ...             MultipleShooting(points=3, steps_per_period=200))
+    >>> res.success, bool(np.allclose(res.x0, [0.0, 2.0], atol=1e-4))
+    (True, True)
+    >>> bool(np.allclose(np.abs(res.multipliers), np.exp(-0.5 * np.pi), rtol=1e-6))
+    True
     """
     with interrupts.interruptible():
         return _solve(problem, method, warm_start)
@@ -327,11 +359,47 @@ def _attach_floquet(res, b, z, X, Dn, pd):
 
 
 def floquet(ode: PeriodicODE, x0, p, method=None, *, t0: float = 0.0, points=None, grid=None, blocks=None) -> FloquetResult:
-    """Floquet analysis at the periodic orbit through ``x0`` (at time t0) for parameters ``p``.
+    """Floquet analysis at the periodic orbit through ``x0`` (at time ``t0``) for parameters ``p``.
 
-    ``method`` is a :class:`~birdocp.engine.shooting.MultipleShooting` (points, steps_per_period); default
-    ``MultipleShooting()``.  ``points`` (M x nx or (M-1) x nx) are the shooting points; by default
-    they are obtained by integrating forward from x0 (identical at a converged orbit).
+    Parameters
+    ----------
+    ode : PeriodicODE
+        The ODE.
+    x0 : array_like (nx,)
+        A state on the periodic orbit at ``t0``.
+    p : array_like (np,)
+        The parameters.
+    method : MultipleShooting, optional
+        Points and RK4 steps per period (default ``MultipleShooting()``).
+    t0 : float
+        The time of ``x0``.
+    points : array_like, optional
+        The shooting points (M x nx or (M-1) x nx); by default obtained by integrating forward from
+        ``x0`` (identical at a converged orbit).
+    grid : RK4Grid, optional
+        A prebuilt grid of the same ODE and method, to reuse.
+    blocks : numpy.ndarray, optional
+        The per-time data on the grid, if already evaluated.
+
+    Returns
+    -------
+    FloquetResult
+        ``monodromy``, ``multipliers`` (largest modulus first), ``eigenvectors``, ``floquet_exponents``,
+        ``doubling_times_s``, ``stable`` and the check ``monodromy_vs_full_period_jacobian``.
+
+    Examples
+    --------
+    The forced linear oscillator ``x'' + 0.5 x' + x = cos t`` has the orbit ``x = 2 sin t``; its
+    monodromy is ``exp(2 pi A)``, whose determinant is ``exp(-0.5 * 2 pi)`` (Liouville's formula).
+
+    >>> import casadi as ca, numpy as np
+    >>> from birdocp.engine import MultipleShooting, PeriodicODE
+    >>> from birdocp.engine.shooting import floquet
+    >>> x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 1)
+    >>> f = ca.Function("f", [x, t, p], [ca.vertcat(x[1], -p[0] * x[1] - x[0] + ca.cos(t))])
+    >>> fl = floquet(PeriodicODE.from_rhs(f, 2 * np.pi), [0.0, 2.0], [0.5], MultipleShooting(points=3, steps_per_period=200))
+    >>> bool(fl.stable), bool(np.isclose(np.linalg.det(fl.monodromy), np.exp(-np.pi), rtol=1e-8))
+    (True, True)
     """
     method = method or MultipleShooting()
     method.validate()

@@ -1,0 +1,1 @@
+"""Export of the model as C code, and the compiled right-hand side that the solvers can use."""

@@ -1,6 +1,6 @@
 """Export the bird model as a self-contained C folder (``birdocp export-c``).
 
-The split (``design.md`` 2 and 5): the whole geometry ``data(t, p)`` (214k-480k SX nodes) does not
+The split (``docs/performance.md``): the whole geometry ``data(t, p)`` (214k-480k SX nodes) does not
 compile in reasonable time, so it is evaluated here, in Python, on the RK4 stage-time grid of the
 configured gait and written as a **table in a generated C file** (``bird_data.c``, a ``static const``
 array of ``(2N+1) x N_DATA`` doubles in shortest round-trip decimal, so the values are bit-exact). A
@@ -37,8 +37,13 @@ import numpy as np
 from birdocp.bird.config import PARAM_NAMES, Config
 from birdocp.engine.integrate import rk4_update, stage_time_grid
 from birdocp.engine.results import result_dict
+from birdocp.io.files import atomic_folder
+from birdocp.io.runs import LOCK_NAME
 
-__all__ = ["export_c", "ExportInfo", "runtime_parameters"]
+__all__ = ["export_c", "ExportInfo", "runtime_parameters", "EXPORT_FILES"]
+
+EXPORT_FILES = frozenset({"bird_casadi.c", "bird_casadi.h", "bird_data.c", "bird.h", "bird.c", "main.c", "Makefile"})
+"""The files of an export (an earlier export's other files, e.g. build products, are kept)."""
 
 
 @dataclass
@@ -104,7 +109,22 @@ def export_c(cfg: Config | None = None, out_dir: str | os.PathLike = "bird_c", *
     """Write the C folder for ``cfg`` (gait, wing and aero numbers baked into the table) to ``out_dir``.
 
     ``steps_per_period``: RK4 steps N per period (default ``cfg.solve.steps_per_period``). The period
-    map starts at t = 0 (phase zero of the gait), like :func:`birdocp.studies.trim.trim`."""
+    map starts at t = 0 (phase zero of the gait), like :func:`birdocp.studies.trim.trim`.
+
+    Parameters
+    ----------
+    cfg : Config, optional
+        The configuration (default: the paper's reference case).
+    out_dir : str or PathLike
+        The folder to write (created).
+    steps_per_period : int, optional
+        See above.
+
+    Returns
+    -------
+    ExportInfo
+        What was written (files, sizes, the parameter table).
+    """
     from birdocp.bird.model import get_model
 
     t_all = time.perf_counter()
@@ -128,34 +148,41 @@ def export_c(cfg: Config | None = None, out_dir: str | os.PathLike = "bird_c", *
     wall["data_table"] = time.perf_counter() - t
 
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     t = time.perf_counter()
     fns = _functions(m.model, p0, runtime_idx, h)
-    gen = ca.CodeGenerator("bird_casadi.c", {"with_header": True})
-    for f in fns:
-        gen.add(f)
-    gen.generate(str(out) + os.sep)
-    wall["generate_casadi"] = time.perf_counter() - t
-    sz_w = max(int(f.sz_w()) for f in fns)
-    sz_iw = max(int(f.sz_iw()) for f in fns)
-    sz_arg = max(int(f.sz_arg()) for f in fns)
-    sz_res = max(int(f.sz_res()) for f in fns)
-
     rnames = [PARAM_NAMES[i] for i in runtime_idx]
     baked = {PARAM_NAMES[i]: float(p0[i]) for i in data_idx}
     info = ExportInfo(out, [], N, T, h, nd, rnames, [float(p0[i]) for i in runtime_idx], baked, wall)
-
-    t = time.perf_counter()
-    _write_data(out / "bird_data.c", table, p0, runtime_idx, N, T, cfg)
-    (out / "bird.h").write_text(_header(info, cfg))
-    (out / "bird.c").write_text(_BIRD_C.replace("@SZ_W@", str(sz_w)).replace("@SZ_IW@", str(max(sz_iw, 1)))
-                                .replace("@SZ_ARG@", str(sz_arg)).replace("@SZ_RES@", str(sz_res)))
-    (out / "main.c").write_text(_MAIN_C)
-    (out / "Makefile").write_text(_MAKEFILE)
-    wall["write"] = time.perf_counter() - t
+    # the whole folder at once: written beside ``out`` and put in its place in one step, so an
+    # interrupt, a full disk or a size limit leaves the earlier export complete (never a mix of two);
+    # files of the earlier folder that are not part of an export (the user's own) are kept
+    with atomic_folder(out, carry=lambda name: name not in EXPORT_FILES and name != LOCK_NAME) as tmp:
+        gen = ca.CodeGenerator("bird_casadi.c", {"with_header": True})
+        for f in fns:
+            gen.add(f)
+        gen.generate(str(tmp) + os.sep)
+        wall["generate_casadi"] = time.perf_counter() - t
+        t = time.perf_counter()
+        _write_sources(tmp, fns, info, table, p0, runtime_idx, cfg)
+        info.files = sorted(p.name for p in tmp.iterdir() if p.is_file())
+        wall["write"] = time.perf_counter() - t
     wall["total"] = time.perf_counter() - t_all
-    info.files = sorted(p.name for p in out.iterdir() if p.is_file())
     return info
+
+
+def _write_sources(folder: Path, fns, info: ExportInfo, table, p0, runtime_idx, cfg) -> None:
+    """bird_data.c, bird.h, bird.c, main.c and the Makefile into ``folder``."""
+    sizes = {key: max(int(getattr(f, attr)()) for f in fns)
+             for key, attr in (("@SZ_W@", "sz_w"), ("@SZ_IW@", "sz_iw"), ("@SZ_ARG@", "sz_arg"), ("@SZ_RES@", "sz_res"))}
+    sizes["@SZ_IW@"] = max(sizes["@SZ_IW@"], 1)
+    bird_c = _BIRD_C
+    for key, value in sizes.items():
+        bird_c = bird_c.replace(key, str(value))
+    _write_data(folder / "bird_data.c", table, p0, runtime_idx, info.steps_per_period, info.period_s, cfg)
+    (folder / "bird.h").write_text(_header(info, cfg))
+    (folder / "bird.c").write_text(bird_c)
+    (folder / "main.c").write_text(_MAIN_C)
+    (folder / "Makefile").write_text(_MAKEFILE)
 
 
 def _write_data(path: Path, table: np.ndarray, p0, runtime_idx, N, T, cfg) -> None:
@@ -195,8 +222,8 @@ def _header(info: ExportInfo, cfg: Config) -> str:
         from birdocp.bird.inertia import MASS_BLOCK
 
         blocks += [f" *   d[{k + i}]  {name} (wing masses, body frame)" for i, name in enumerate(MASS_BLOCK)]
-        blocks.append(" * With wing masses the RHS adds their inertial forces and moments (birdocp spec"
-                      " inertia.md 4): m is then the whole bird's mass and I the body's own pitch inertia.")
+        blocks.append(" * With wing masses the RHS adds their inertial forces and moments (docs/studies/inertia.md,"
+                      " equations): m is then the whole bird's mass and I the body's own pitch inertia.")
     return HEADER_TEMPLATE.format(
         version=__version__, casadi=ca.__version__, N=info.steps_per_period, T=repr(info.period_s),
         h=repr(info.step_s), nd=info.n_data, ncol=2 * info.steps_per_period + 1,

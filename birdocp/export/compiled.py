@@ -10,7 +10,7 @@ the external with SX arguments makes a *call node* in the SX RK4 step, so
 evaluates only for numbers (``post`` on the stage grid, 35k instructions per time; ``post`` with its
 derivatives along the free parameters, 104k for two; gcc 7-9 s each, once) are compiled on first use
 through the ODE's ``numeric`` hook (:class:`NumericCompiler`). The arm-frame geometry ``pre`` (183k
-nodes) is never compiled (``design.md`` 2, 5): its values are kept on disk instead
+nodes) is never compiled (``docs/performance.md``): its values are kept on disk instead
 (:mod:`birdocp.engine.datastore`).
 
 Cache: ``$BIRDOCP_CACHE`` or ``$XDG_CACHE_HOME/birdocp`` (default ``~/.cache/birdocp``), one shared
@@ -38,6 +38,7 @@ from pathlib import Path
 import casadi as ca
 
 from birdocp.engine import graphcache
+from birdocp.io.files import atomic_target
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.problem import PeriodicODE
 
@@ -46,7 +47,7 @@ __all__ = ["CompiledFallbackWarning", "cache_dir", "find_compiler", "compile_fun
            "OPT_FLAGS", "last_compile_s"]
 
 OPT_FLAGS = ("-O1",)
-"""-O1: measured best trade-off here (design.md 2: -O0 is slower than the interpreter; -O2/-O3 only
+"""-O1: measured best trade-off here (docs/performance.md: -O0 is slower than the interpreter; -O2/-O3 only
 lengthen the build of generated straight-line code)."""
 
 last_compile_s: dict = {}
@@ -97,9 +98,8 @@ def _digest_file(path: Path) -> str:
 
 def _seal(built: Path, lib: Path) -> None:
     # the library's SHA-256 beside it (written first: a library without a matching seal is rebuilt)
-    tmp = lib.with_name(f".{lib.name}.{os.getpid()}.sha256")
-    tmp.write_text(_digest_file(built) + "\n")
-    os.replace(tmp, lib.with_name(lib.name + ".sha256"))
+    with atomic_target(lib.with_name(lib.name + ".sha256")) as tmp:
+        Path(tmp).write_text(_digest_file(built) + "\n")
 
 
 def _trusted(lib: Path) -> bool:
@@ -161,15 +161,14 @@ def compile_functions(name: str, functions, key_extra: str = "", directory: Path
             last_compile_s[name] = {"generate": gen_s, "compile": 0.0, "cached": True, "path": str(lib)}
             return str(lib)
         c_file = Path(tmp, f"{name}.c")
-        out = Path(tmp, f"{name}.so")
         tc = time.perf_counter()
-        proc = subprocess.run(cmd + [str(c_file), "-o", str(out)], capture_output=True, text=True)
-        if proc.returncode != 0:
-            err = (proc.stderr or proc.stdout).strip().splitlines()
-            raise RuntimeError(f"{' '.join(cmd)} failed (exit {proc.returncode}): "
-                               f"{err[0] if err else 'no output'}")
-        _seal(out, lib)
-        os.replace(out, lib)  # atomic within the cache folder
+        with atomic_target(lib, suffix=".so") as out:  # the one atomic write: renamed into place when sealed
+            proc = subprocess.run(cmd + [str(c_file), "-o", out], capture_output=True, text=True)
+            if proc.returncode != 0:
+                err = (proc.stderr or proc.stdout).strip().splitlines()
+                raise RuntimeError(f"{' '.join(cmd)} failed (exit {proc.returncode}): "
+                                   f"{err[0] if err else 'no output'}")
+            _seal(Path(out), lib)
         last_compile_s[name] = {"generate": gen_s, "compile": time.perf_counter() - tc, "cached": False,
                                 "path": str(lib)}
     return str(lib)
@@ -222,7 +221,22 @@ def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None =
     :class:`CompiledFallbackWarning` when compiling or loading the RHS fails.
 
     The result is memoised per ``ode`` object, so the engine's graph caches (keyed by ODE identity)
-    are reused across solves."""
+    are reused across solves.
+
+    Parameters
+    ----------
+    ode : PeriodicODE
+        The ODE to compile.
+    key_extra : str
+        Extra text for the cache key (e.g. the configuration's structure).
+    directory : Path, optional
+        The cache folder (default :func:`cache_dir`).
+
+    Returns
+    -------
+    PeriodicODE or None
+        The compiled ODE, or None when compiling failed (see above).
+    """
     hit = _ODES.get(id(ode))
     if hit is not None and hit[0] is ode:
         return hit[1]

@@ -1,0 +1,1 @@
+"""Files and run folders: bad-input errors, atomic writes, run folders, provenance, reference data, progress bars."""

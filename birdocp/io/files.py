@@ -1,56 +1,38 @@
-"""Atomic file writing: a temporary file in the same folder, flushed, then renamed over the target."""
+"""Atomic writing for the layers above the engine: files, folders and run folders appear whole.
+
+The mechanism (:mod:`birdocp.engine.atomic`, standard library only, so that the engine's disk caches
+use it too) is re-exported here: :func:`atomic_target` (one file), :func:`atomic_folder` (a folder
+as a whole, e.g. ``export-c``), :func:`staged_files` (several files into a run folder, the last
+one marking the set complete) and :func:`signals_deferred`. The helpers below write bytes, text and
+JSON through :func:`atomic_target`.
+"""
 
 from __future__ import annotations
 
-import contextlib
 import json
-import os
-import tempfile
 from dataclasses import fields, is_dataclass
 from pathlib import Path
 from typing import Any
 
 # The one JSON convention of every result (complex as [re, im], NaN/inf as null): a standard-library
-# module of the engine, the only import of io from another layer (declared in pyproject.toml).
+# module of the engine, one of io's two imports from another layer (declared in pyproject.toml).
 from birdocp.engine.results import to_jsonable
+# The one atomic write (standard library only; the engine's caches use it too), declared likewise.
+from birdocp.engine.atomic import atomic_folder, atomic_target, signals_deferred, staged_files, umask_mode
 
-
-def umask_mode() -> int:
-    """The mode a new file gets under the process umask (0o666 & ~umask), e.g. 0o644."""
-    umask = os.umask(0)
-    os.umask(umask)
-    return 0o666 & ~umask
-
-
-@contextlib.contextmanager
-def atomic_target(path: str | Path, suffix: str = ".tmp"):
-    """Yield a temporary path in the target's folder; on success it is renamed over ``path`` (with
-    ordinary permissions), on any exception it is removed."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=suffix)
-    os.close(fd)
-    try:
-        yield tmp
-        os.chmod(tmp, umask_mode())  # mkstemp creates 0600
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+__all__ = ["atomic_target", "atomic_folder", "staged_files", "signals_deferred", "umask_mode",
+           "atomic_write_bytes", "atomic_write_text", "atomic_write_json", "dataclass_to_dict", "to_jsonable"]
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically (:func:`atomic_target`)."""
     with atomic_target(path) as tmp:
         with open(tmp, "wb") as fh:
             fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
 
 
 def atomic_write_text(path: str | Path, text: str) -> None:
+    """Write ``text`` (UTF-8) to ``path`` atomically."""
     atomic_write_bytes(path, text.encode("utf-8"))
 
 
@@ -67,4 +49,5 @@ def dataclass_to_dict(obj: Any) -> dict:
 
 
 def atomic_write_json(path: str | Path, obj: Any) -> None:
+    """Write ``obj`` as indented JSON (the results' convention: complex as [re, im], NaN/inf as null)."""
     atomic_write_text(path, json.dumps(to_jsonable(obj), indent=1) + "\n")

@@ -8,8 +8,10 @@ Layout of a run folder::
         result.json   the result dict plus ``provenance``; written last, so its presence means the
                       run folder is complete
 
-Every file is written to a temporary file in the same folder and renamed over its target, so a
-reader (or a crash) never sees a half-written file.
+The three files are written completely into a hidden staging folder inside the run folder and then
+moved into place together, result.json last, with Ctrl-C held back meanwhile
+(:func:`birdocp.io.files.staged_files`): an interrupt, a full disk or a file-size limit leaves
+either the earlier files or the new complete set, never a mix or a truncated file.
 """
 
 from __future__ import annotations
@@ -17,7 +19,6 @@ from __future__ import annotations
 import atexit
 import contextlib
 import errno
-import json
 import os
 import re
 import secrets
@@ -31,7 +32,7 @@ from birdocp.io.errors import ConfigError
 
 __all__ = [
     "DEFAULT_BASE", "RUN_FILES", "LOCK_NAME", "new_run_dir", "claim_out_dir", "release_out_dir", "held_lock",
-    "check_out_path", "lock_folder", "folder_entries", "RunLock", "is_run_dir", "write_run", "atomic_file",
+    "check_out_path", "check_out_file", "check_writable", "lock_folder", "folder_entries", "RunLock", "is_run_dir", "write_run", "atomic_file",
     "read_result",
 ]
 
@@ -106,6 +107,41 @@ def check_out_path(path: str | Path, flag: str = "--out") -> Path:
         raise ConfigError(flag, f"cannot create '{path}': '{anc}' is read-only; give another folder")
     if not missing and not os.access(path, os.W_OK | os.X_OK):
         raise ConfigError(flag, f"'{path}' is read-only; give a writable folder")
+    return path
+
+
+def check_writable(folder: str | Path, flag: str) -> None:
+    """Refuse (:class:`ConfigError` on ``flag``) a folder this process cannot create files in, by
+    creating and removing an empty probe file: only a real write tells a read-only file system or a
+    full inode table (permission bits do not stop root)."""
+    try:
+        fd, probe = tempfile.mkstemp(dir=folder, prefix=".birdocp-probe-")
+    except OSError as exc:
+        raise ConfigError(flag, f"cannot write into '{folder}': {_os_reason(exc)}; give another location") from None
+    os.close(fd)
+    with contextlib.suppress(OSError):
+        os.unlink(probe)
+
+
+def check_out_file(path: str | Path, flag: str = "--out", suffixes: tuple[str, ...] = ()) -> Path:
+    """Refuse (:class:`ConfigError` on ``flag``) an output *file* that cannot be written, before any
+    computation: a name with a suffix not in ``suffixes``, an existing folder or special file (FIFO,
+    device, socket), a missing or non-folder parent, a parent that cannot be written into
+    (:func:`check_writable`). The file itself is then written atomically."""
+    text = os.fspath(path)
+    if not text.strip() or "\x00" in text:
+        raise ConfigError(flag, f"{text!r} is not a usable file name")
+    path = Path(path)
+    if suffixes and path.suffix.lower() not in suffixes:
+        raise ConfigError(flag, f"'{path.name}': the file must end in {' or '.join(suffixes)}")
+    if path.is_dir():
+        raise ConfigError(flag, f"'{path}' is a folder; give a file name")
+    if os.path.lexists(path) and not (path.is_file() or os.path.islink(path)):
+        raise ConfigError(flag, f"'{path}' exists and is not a regular file (a FIFO, device or socket); "
+                                "give another name")
+    if not path.parent.is_dir():
+        raise ConfigError(flag, f"folder '{path.parent}' does not exist")
+    check_writable(path.parent, flag)
     return path
 
 
@@ -259,10 +295,14 @@ def new_run_dir(base: str | Path | None, command: str) -> Path:
 
 
 def read_result(run_dir: str | Path) -> dict | None:
-    """The result.json of a run folder, or None if absent or unreadable."""
+    """The result.json of a run folder, or None if absent, unreadable or not a regular file (read by
+    :func:`birdocp.io.inputs.read_json_file`: a FIFO is never opened). Commands that use a run
+    folder read it with :func:`birdocp.io.inputs.read_run`, which says what is wrong."""
+    from birdocp.io.inputs import read_json_file
+
     try:
-        return json.loads((Path(run_dir) / "result.json").read_text())
-    except (OSError, ValueError):
+        return read_json_file(Path(run_dir) / "result.json", "RUN_DIR")
+    except ConfigError:
         return None
 
 
@@ -324,31 +364,18 @@ def claim_out_dir(out: str | Path, command: str, *, resume_file: str | None = No
 
 @contextlib.contextmanager
 def atomic_file(path: str | Path) -> Iterator[IO[bytes]]:
-    """Binary file handle on a temporary file next to ``path``, renamed over ``path`` on success.
+    """Binary file handle on a temporary file next to ``path``, renamed over ``path`` on success
+    (:func:`birdocp.io.files.atomic_target`). If the body raises, ``path`` is left untouched."""
+    from birdocp.io.files import atomic_target
 
-    If the body raises, the temporary file is removed and ``path`` is left untouched.
-    """
-    from birdocp.io.files import umask_mode
-
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            yield fh
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, umask_mode())  # mkstemp creates 0600; the file follows the umask like the others
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-        raise
+    with atomic_target(path) as tmp, open(tmp, "wb") as fh:
+        yield fh
 
 
 def _write_npz(path: Path, arrays: dict[str, Any]) -> None:
     import numpy as np
 
-    with atomic_file(path) as fh:
+    with open(path, "wb") as fh:
         np.savez(fh, **{str(k): np.asarray(v) for k, v in arrays.items()})
 
 
@@ -360,21 +387,25 @@ def write_run(run_dir: str | Path, cfg, result_dict: dict, arrays: dict | None,
     ``result.json`` holds ``result_dict`` plus ``provenance`` (see :mod:`birdocp.io.provenance`) and is
     written last. ``wall_s`` defaults to ``result_dict["wall_s"]``. Returns the result.json path.
     """
+    import json
+
     import tomli_w
 
-    from birdocp.io.files import atomic_write_json, atomic_write_text, dataclass_to_dict
+    from birdocp.io.files import dataclass_to_dict, staged_files, to_jsonable
     from birdocp.io.provenance import provenance
 
     run_dir = Path(run_dir)
-    run_dir.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(run_dir / "config.toml", tomli_w.dumps(dataclass_to_dict(cfg)))
-    if arrays:
-        _write_npz(run_dir / "arrays.npz", arrays)
     if wall_s is None:
         wall_s = result_dict.get("wall_s")
     prov = provenance(cfg, command_line, wall_s)
     prov["command"] = command
     out = dict(result_dict)
     out["provenance"] = prov
-    atomic_write_json(run_dir / "result.json", out)
+    # all files complete in a staging folder first, then moved in with result.json last: a full disk
+    # or an interrupt leaves the earlier files (or none), never config.toml without result.json
+    with staged_files(run_dir, last=("result.json",)) as stage:
+        (stage / "config.toml").write_text(tomli_w.dumps(dataclass_to_dict(cfg)), encoding="utf-8")
+        if arrays:
+            _write_npz(stage / "arrays.npz", arrays)
+        (stage / "result.json").write_text(json.dumps(to_jsonable(out), indent=1) + "\n", encoding="utf-8")
     return run_dir / "result.json"

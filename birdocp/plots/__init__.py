@@ -1,0 +1,1 @@
+"""Figures and the animation, drawn from results (plots never solve)."""

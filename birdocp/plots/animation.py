@@ -16,10 +16,11 @@ matplotlib is imported inside the functions (never at import time).
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
+
+from birdocp.io.files import atomic_target
 
 __all__ = ["draw_frame", "save_animation", "animation_writer", "BODY_NOTE"]
 
@@ -303,18 +304,15 @@ def save_animation(mo: dict, path_fwd_m, path_up_m, path, fps: float = 12.0, tit
     out = Path(path)
     writer = animation_writer(out, fps)
     sc = _Scene(mo, path_fwd_m, path_up_m, title, figsize)
-    # one temporary file per process: two animations of one file at once each write a whole file
-    tmp = out.with_name(f".{out.stem}.{os.getpid()}.partial{out.suffix}")
     try:
-        with writer.saving(sc.fig, str(tmp), dpi):
+        # the one atomic write (a temporary file per call, suffix kept for the writer): two animations
+        # of one file at once each write a whole file; an interrupt leaves the earlier file
+        with atomic_target(out, suffix=out.suffix) as tmp, writer.saving(sc.fig, str(tmp), dpi):
             for k in range(len(mo["t_s"])):
                 sc.draw(k)
                 writer.grab_frame()
                 if progress is not None:
                     progress()
-        tmp.replace(out)
     finally:
         plt.close(sc.fig)
-        if tmp.exists():
-            tmp.unlink()
     return out

@@ -47,18 +47,51 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
                 level: bool = False, climb_rate_mps: float = 0.0, bounds=None, points: int | None = None,
                 steps_per_period: int | None = None, start=None, progress=None, validity: bool = True,
                 compiled: bool | None = None, **options) -> Branch:
-    """Continue the bird's periodic flight in one parameter (model units; for ``stability_margin`` the
-    values are SM in percent). ``level=True`` holds level flight: the flapping amplitude is an unknown
-    too, with the mean vertical speed held at ``climb_rate_mps`` (amplitude bounds: ``bounds`` or the
-    level-flight defaults, 20..70 deg). The start is solved by Newton from ``cfg.solve.initial_guess``
-    (``start``: a converged TrimResult/LimitCycleResult at the start value instead).
+    """Continue the bird's periodic flight in one parameter by pseudo-arclength continuation.
 
     The branch's ``parameter`` is the model parameter (``wing.root_ahead_m`` for SM); the SM of every
     point is added to ``settings['stability_margin_percent']`` when ``key`` is ``stability_margin``.
-    A point whose shooting points have u <= 0 is rejected (not a forward flight). With ``validity``
-    every point gets ``validity`` (:func:`birdocp.bird.validity.periodic_validity`: one RK4 period
-    from its x0 with its parameters). ``compiled``: the RHS and data compiled to C
-    (:func:`birdocp.studies.trim.solver_ode`; None: ``$BIRDOCP_COMPILED``)."""
+    A point whose shooting points have u <= 0 is rejected (not a forward flight).
+
+    Parameters
+    ----------
+    cfg : Config, optional
+        The configuration (default: the paper's reference case).
+    key : str
+        The parameter: a dotted key, an alias (``root_ahead_m``, ``amplitude_deg``) or
+        ``stability_margin`` (values in percent).
+    start_value, stop_value : float
+        The interval (model units; percent for ``stability_margin``).
+    level : bool
+        Hold level flight: the flapping amplitude is an unknown too, with the mean vertical speed held
+        at ``climb_rate_mps``.
+    climb_rate_mps : float
+        The mean vertical speed held with ``level`` [m/s].
+    bounds : (float, float), optional
+        Amplitude bounds with ``level`` [deg] (default the level-flight defaults, 20..70 deg).
+    points : int, optional
+        Shooting points (default ``cfg.solve.points``).
+    steps_per_period : int, optional
+        RK4 steps per period (default ``cfg.solve.steps_per_period``).
+    start : TrimResult or LimitCycleResult, optional
+        A converged cycle at the start value (default: Newton from ``cfg.solve.initial_guess``).
+    progress : callable, optional
+        ``progress(text)``, one line per point.
+    validity : bool
+        Give every point its ``validity`` (:func:`birdocp.bird.validity.periodic_validity`: one RK4
+        period from its x0 with its parameters).
+    compiled : bool, optional
+        The RHS and data compiled to C (:func:`birdocp.studies.trim.solver_ode`; None:
+        ``$BIRDOCP_COMPILED``).
+    **options
+        Settings of :class:`~birdocp.engine.continuation.options.ContinuationOptions` (``step``,
+        ``max_points``, ``max_dparam``, ...).
+
+    Returns
+    -------
+    Branch
+        The points, the special points located on the branch and why it ended.
+    """
     cfg = cfg or Config()
     model_key, display = resolve_parameter(key)
     chord = cfg.body.reference_chord_m

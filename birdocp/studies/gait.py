@@ -79,23 +79,37 @@ def jury_conditions(A):
     return ca.vertcat(p1, pm1, 1 - a0 ** 2, b[0] ** 2 - b[3] ** 2, c[0] ** 2 - c[2] ** 2)
 
 
-def check_free_keys(m, cfg, free: dict) -> None:
-    """ConfigError unless every free key can be a reduced variable (known, not the amplitude, not
-    reshaping the wing in the arm frame, finite bounds around the configured value)."""
+def check_free_bounds(cfg, free: dict) -> None:
+    """ConfigError unless every free key is a known parameter other than the amplitude, with finite
+    bounds lower < upper that hold the configured value and lie in the key's physical range (each
+    bound is a valid configuration value). Needs no model: callers check this before building one."""
     for k, (lo, hi) in free.items():
         if k not in PARAM_NAMES:
             raise ConfigError(k, "unknown parameter for --free" + suggest(k, PARAM_NAMES))
         if k == AMPLITUDE_KEY:
             raise ConfigError(k, "the flapping amplitude is solved for level flight; free other keys")
-        if PARAM_NAMES.index(k) in m.pre_params:
-            raise ConfigError(k, "changes the wing's shape in the arm frame (elbow, wrist, morphology): "
-                                 "free shoulder joints, wing.root_ahead_m or body/aero/drag keys")
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
             raise ConfigError(k, f"bounds must be finite with lower < upper, got ({lo}, {hi})")
         v = float(get_value(cfg, k))
         if not lo <= v <= hi:
             raise ConfigError(k, f"configured value {v:g} lies outside its bounds ({lo:g}, {hi:g}); "
                                  f"widen --bounds {k}=LO:HI")
+        for end, value in (("lower", lo), ("upper", hi)):
+            try:
+                with_values(cfg, {k: float(value)})
+            except ConfigError as exc:
+                raise ConfigError(k, f"the {end} bound {value:g} is not a valid value ({exc}); "
+                                     f"narrow --bounds {k}=LO:HI") from None
+
+
+def check_free_keys(m, cfg, free: dict) -> None:
+    """ConfigError unless every free key can be a reduced variable (:func:`check_free_bounds`, and
+    not reshaping the wing in the arm frame, which the model ``m`` tells)."""
+    check_free_bounds(cfg, free)
+    for k in free:
+        if PARAM_NAMES.index(k) in m.pre_params:
+            raise ConfigError(k, "changes the wing's shape in the arm frame (elbow, wrist, morphology): "
+                                 "free shoulder joints, wing.root_ahead_m or body/aero/drag keys")
 
 
 def _jury_function():
@@ -597,7 +611,55 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     ``second_derivatives`` of a nearby solve held fixed, e.g. those of a coarser grid's optimum:
     one gradient evaluation per iteration).
     ``radius_start_factor``: with the stability objective, r starts at this factor times the start's
-    spectral radius."""
+    spectral radius.
+
+    Parameters
+    ----------
+    cfg : Config, optional
+        The configuration (default: the paper's reference case).
+    free : dict, optional
+        Gait key -> (lo, hi) (default :data:`DEFAULT_GAIT_FREE`).
+    objective : {"power", "cost-of-transport", "positive-power", "stability"}
+        What is minimised.
+    speed_mps : float, optional
+        Mean forward speed held [m/s] (None: free speed).
+    max_multiplier : float, optional
+        Bound on every multiplier's modulus (None: no stability constraint).
+    climb_rate_mps : float
+        Mean vertical speed held [m/s].
+    amplitude_bounds : (float, float)
+        Bounds of the flapping amplitude [deg].
+    steps_per_period : int, optional
+        RK4 steps per period (default ``cfg.solve.steps_per_period``).
+    max_iter : int
+        IPOPT iterations.
+    tol : float
+        IPOPT's tolerance.
+    verify : bool
+        Verify the optimum by an independent trim.
+    progress : bool or callable
+        False (silent), True (one line per evaluation on stderr) or a callable taking that line.
+    start : dict, optional
+        Gait values overriding the configured start.
+    x_guess : array_like (4,), optional
+        State at t = 0 of the start's level cycle, if known.
+    ipopt_options : dict, optional
+        Extra IPOPT options.
+    hessian : {"sr1", "fd", "fixed"}
+        How IPOPT gets second derivatives (see above).
+    radius_start_factor : float
+        Start of r with the stability objective (see above).
+    threads : int
+        Perturbed points evaluated at a time with ``hessian="fd"``.
+    second_derivatives : numpy.ndarray, optional
+        The fixed second derivatives for ``hessian="fixed"``.
+
+    Returns
+    -------
+    GaitOptimum
+        The optimal gait, amplitude, cycle, objective value, multipliers, IPOPT's status, KKT residual
+        and the verification.
+    """
     cfg = cfg or Config()
     if hessian not in ("sr1", "fd", "fixed"):
         raise ValueError(f"hessian must be 'sr1', 'fd' or 'fixed', got {hessian!r}")
@@ -780,7 +842,28 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
     The points are continued outward from the speed of the configured gait's level cycle. Returns
     ``{"rows": [...], "minimum_power": {...}, "maximum_range": {...}, "key": key}``; minimum-power and
     maximum-range (minimum P/U) speeds from a parabola through the three points around the discrete
-    minimum."""
+    minimum.
+
+    Parameters
+    ----------
+    cfg : Config, optional
+        The configuration (default: the paper's reference case).
+    speeds : sequence of float, optional
+        Forward speeds [m/s] (default: a range around the configured gait's level speed).
+    key : str
+        The gait key that sets the speed.
+    bounds : (float, float)
+        Bounds of ``key`` (its units).
+    steps_per_period : int, optional
+        RK4 steps per period (default ``cfg.solve.steps_per_period``).
+    progress : bool
+        One line per point on stderr.
+
+    Returns
+    -------
+    dict
+        ``rows``, ``minimum_power``, ``maximum_range`` and ``key`` (see above).
+    """
     from birdocp.bird.energetics import cycle_energetics
 
     cfg = cfg or Config()
@@ -861,7 +944,38 @@ def stability_pareto(cfg: Config | None, speed_mps: float, bounds, *, free: dict
     Returns one row per bound tried (inserted ones included, ``"inserted": True``), each with
     ``bound``, ``success``, ``status``, ``objective_value``, ``largest_modulus``, ``free``,
     ``amplitude_deg``, ``x0``, ``iterations``, ``kkt_residual``, ``wall_s`` and the verification's
-    ``power_difference_W``. ``options`` go to :func:`optimize_gait`."""
+    ``power_difference_W``. ``options`` go to :func:`optimize_gait`.
+
+    Parameters
+    ----------
+    cfg : Config or None
+        The configuration (None: the paper's reference case).
+    speed_mps : float
+        Mean forward speed held [m/s].
+    bounds : sequence of float
+        The bounds R on every multiplier's modulus, in the order tried.
+    free : dict, optional
+        Gait key -> (lo, hi) (default :data:`DEFAULT_GAIT_FREE`).
+    start : dict, optional
+        Gait values of the first start.
+    x_guess : array_like (4,), optional
+        State at t = 0 of the start's level cycle, if known.
+    objective : str
+        The objective of :func:`optimize_gait`.
+    steps_per_period : int, optional
+        RK4 steps per period.
+    max_halvings : int
+        Inserted bounds in a row after failures.
+    progress : callable, optional
+        ``progress(text)``, one line per point.
+    **options
+        Passed to :func:`optimize_gait`.
+
+    Returns
+    -------
+    list of dict
+        One row per bound tried (see above).
+    """
     queue = [(float(R), False) for R in bounds]
     rows, last_R, halvings = [], None, 0
     while queue:

@@ -1,5 +1,5 @@
 """Wing-mass studies: cycle quantities of a model with wing masses and the "hold mean centre of mass"
-placement of the wing root (spec inertia.md 1).
+placement of the wing root (docs/studies/inertia.md, frames).
 
 With heavy wings the whole bird's centre of mass C moves over the cycle; its cycle mean sits
 ``S̄/M`` from G_b (body frame x' forward, z' down). Moving mass into the wings therefore shifts the
@@ -59,7 +59,7 @@ def mean_com_offset_m(cfg: Config, p=None, n: int = 64) -> tuple[float, float]:
 
 def hold_mean_com_root(cfg: Config, root_ahead_ref_m: float, p=None) -> float:
     """The wing-root position ``wing.root_ahead_m`` [m] that puts the shoulder ``root_ahead_ref_m``
-    ahead of the cycle-mean centre of mass of the whole bird (spec inertia.md 1, x' component):
+    ahead of the cycle-mean centre of mass of the whole bird (docs/studies/inertia.md, frames, x' component):
     ``r' = (M r_ref + sum m_i rhō_x,i) / m_b`` with rho_i the mass points relative to the shoulder.
     The mean C depends on the gait (e.g. the level-flight amplitude): evaluate at the gait of ``p``."""
     p = np.asarray(get_model(cfg).p0 if p is None else p, float)

@@ -95,28 +95,42 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
 
     Parameters
     ----------
-    cfg
-        configuration (default: the paper's reference case); the free parameter starts
-        from its configured value (or from ``warm_start``'s value, if given).
-    free
-        a :data:`PARAM_NAMES` key or alias (``amplitude``, ``root_ahead_m``).
-    bounds
+    cfg : Config, optional
+        Configuration (default: the paper's reference case); the free parameter starts from its
+        configured value (or from ``warm_start``'s value, if given).
+    free : str
+        A :data:`PARAM_NAMES` key or alias (``amplitude``, ``root_ahead_m``).
+    bounds : (float, float), optional
         (lo, hi) of the free parameter; default per :func:`default_bounds`.
-    climb_rate_mps
-        target mean vertical speed (``constrain="vertical_speed_mps"``).
-    target
-        target of the condition for the other constraints (forward speed in m/s, flight
-        path angle in deg); for the vertical speed it overrides ``climb_rate_mps``.
-    warm_start
-        a previous :class:`TrimResult` / LimitCycleResult (shooting points and free value).
-    compiled
-        use the RHS and data compiled to C (:func:`birdocp.studies.trim.solver_ode`; None:
+    climb_rate_mps : float
+        Target mean vertical speed (``constrain="vertical_speed_mps"``) [m/s].
+    constrain : str
+        The period mean held: ``vertical_speed_mps``, ``forward_speed_mps`` or
+        ``flight_path_angle_deg``.
+    x_guess : array_like (4,), optional
+        State at t = 0 to start from (default ``cfg.solve.initial_guess``).
+    warm_start : TrimResult or LimitCycleResult, optional
+        A previous result (shooting points and free value).
+    target : float, optional
+        Target of the condition for the other constraints (forward speed in m/s, flight path angle in
+        deg); for the vertical speed it overrides ``climb_rate_mps``.
+    compiled : bool, optional
+        Use the RHS and data compiled to C (:func:`birdocp.studies.trim.solver_ode`; None:
         ``$BIRDOCP_COMPILED``).
-    method_over
-        overrides of :class:`~birdocp.engine.shooting.MultipleShooting` (default ``cfg.solve``).
+    **method_over
+        Overrides of :class:`~birdocp.engine.shooting.MultipleShooting` (default ``cfg.solve``).
 
-    Returns a :class:`TrimResult`; ``free_values`` holds the solved parameter, ``amplitude_deg`` the
-    (solved or fixed) amplitude.
+    Returns
+    -------
+    TrimResult
+        ``free_values`` holds the solved parameter, ``amplitude_deg`` the (solved or fixed) amplitude.
+
+    Examples
+    --------
+    >>> from birdocp import Config, level
+    >>> flat = level(Config(), steps_per_period=60)
+    >>> flat.success, 40 < flat.amplitude_deg < 46, abs(flat.mean_vertical_speed_mps) < 1e-6
+    (True, True, True)
     """
     cfg = cfg or Config()
     key = resolve_key(free, "free")

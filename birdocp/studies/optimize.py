@@ -242,7 +242,41 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     optimum's state and a trim from scratch at the optimal gait.
 
     ``progress``: False (silent), True (one line per evaluation on stderr) or a callable taking that
-    line's text (e.g. from :func:`birdocp.io.progress.progress_callback`)."""
+    line's text (e.g. from :func:`birdocp.io.progress.progress_callback`).
+
+    Parameters
+    ----------
+    cfg : Config, optional
+        The configuration (default: the paper's reference case).
+    free : dict, optional
+        Gait key -> (lower, upper) bounds (default :data:`DEFAULT_FREE`).
+    climb_rate_mps : float
+        The mean vertical speed held [m/s].
+    amplitude_bounds : (float, float)
+        Bounds of the flapping amplitude [deg].
+    steps_per_period : int, optional
+        RK4 steps per period of the fine stage (default ``cfg.solve.steps_per_period``).
+    max_iter : int
+        IPOPT iterations per stage.
+    tol : float
+        IPOPT's tolerance.
+    verify : bool
+        Verify the optimum independently (see above).
+    progress : bool or callable
+        See above.
+    coarse_steps : int, None or "auto"
+        Steps of the coarse stage (see above).
+    method : {"reduced", "full"}
+        The formulation (see above).
+    threads : int
+        Perturbed points evaluated at a time (reduced method).
+
+    Returns
+    -------
+    StabilityOptimum
+        The optimal gait, amplitude, cycle, multipliers, ``radius``, IPOPT's status and iterations, the
+        verification and the optimum's validity.
+    """
     if method not in METHODS:
         raise ConfigError("--method", f"must be one of {', '.join(METHODS)}, got {method!r}")
     if int(threads) < 1:

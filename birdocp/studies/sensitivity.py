@@ -32,7 +32,7 @@ from birdocp.engine.results import result_dict, serial
 from birdocp.engine.sensitivity import orbit_state_derivative, total_derivative
 from birdocp.bird.model import get_model
 
-__all__ = ["SensitivityResult", "multiplier_sensitivities", "DEFAULT_PARAMETERS", "unit_of", "SecondOrderMaps"]
+__all__ = ["SensitivityResult", "multiplier_sensitivities", "cycle_derivatives", "DEFAULT_PARAMETERS", "unit_of", "SecondOrderMaps"]
 
 AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
 
@@ -102,20 +102,22 @@ class SecondOrderMaps:
     directional derivatives of both along (dx0, dD, dp)."""
 
     @classmethod
-    def get(cls, model, steps: int):
-        """The cached maps of (model, steps)."""
+    def get(cls, model, steps: int, w_output=None):
+        """The cached maps of (model, steps) (``model``: a configured planar model, or any object with
+        ``model`` (its identity), ``ode`` and ``data``; ``w_output``: the ``(x, d, p)`` Function of the
+        mean vertical speed, default the planar model's)."""
         key = (id(model.model), steps)
         hit = _SECOND_ORDER.get(key)
         if hit is None or hit.model is not model.model:
-            hit = cls(model, steps)
+            hit = cls(model, steps, w_output)
             _SECOND_ORDER.put(key, hit)
         return hit
 
-    def __init__(self, model, steps: int):
+    def __init__(self, model, steps: int, w_output=None):
         from birdocp.bird.flight import flight_outputs
 
         self.model = model.model
-        W = flight_outputs(model.ode.nd)["vertical_speed_mps"]
+        W = w_output if w_output is not None else flight_outputs(model.ode.nd)["vertical_speed_mps"]
         self.grid = grid = RK4Grid(model.ode, steps, 1, outputs=(W,))
         nx, nd, np_ = model.ode.nx, model.ode.nd, model.ode.np
         x0 = ca.MX.sym("x0", nx)
@@ -135,10 +137,86 @@ class SecondOrderMaps:
         self.data_fwd = model.data.forward(1).map(self.n_times)
 
 
+def cycle_derivatives(so: SecondOrderMaps, period_s: float, x0, p, param_indices, cycle_states=None):
+    """Exact derivatives of a converged cycle's multipliers, x0 and mean vertical speed along the
+    parameters ``param_indices`` (indices into ``p``), the cycle's change included.
+
+    ``cycle_states``: the states whose periodicity makes the orbit isolated (default: all). A state
+    nothing depends on (the heading of a six-degree-of-freedom bird) adds a multiplier 1, so ``I - Mon``
+    is singular in it: leave it out, its ``dx0`` is 0 (its value on the orbit is a free choice).
+
+    Returns ``(multipliers, d_multipliers, d_moduli, d_x0, d_mean_vertical_speed)``: multipliers
+    largest modulus first (nx), then arrays (n_params, nx) and (n_params,) per unit of each parameter.
+    """
+    grid = so.grid
+    p = np.asarray(p, float)
+    times = ca.DM(grid.times(0.0)).reshape((1, -1))
+    Dgrid = grid.data_grid(times, ca.DM(p))
+    idx = grid.block_index
+    D = Dgrid[:, idx]
+    x0 = ca.DM(np.asarray(x0, float))
+    _, qT, Mon = so.base(x0, D, ca.DM(p))
+    Mon = np.asarray(Mon)
+    nx = Mon.shape[0]
+    cs = list(range(nx)) if cycle_states is None else list(cycle_states)
+    lam, V = np.linalg.eig(Mon)
+    order = multiplier_order(lam)
+    lam, V = lam[order], V[:, order]
+    Wl = np.linalg.inv(V)
+    zeroD = ca.DM.zeros(D.shape)
+    zerox = ca.DM.zeros(nx)
+    zerop = ca.DM.zeros(len(p))
+
+    def split(v):
+        v = np.asarray(v).ravel()
+        return v[:nx], v[nx], v[nx + 1:].reshape(nx, nx, order="F")
+
+    # Second derivatives along the state directions (shared by every parameter).
+    dx_terms = []
+    for i in range(nx):
+        e = np.zeros(nx)
+        e[i] = 1.0
+        dx_terms.append(split(so.directional(x0, D, ca.DM(p), ca.DM(e), zeroD, zerop)))
+
+    n = len(param_indices)
+    dL = np.zeros((n, nx), complex)
+    dmod = np.zeros((n, nx))
+    dx0s = np.zeros((n, nx))
+    dW = np.zeros(n)
+    for k, j in enumerate(param_indices):
+        ep = np.zeros(len(p))
+        ep[j] = 1.0
+        dDgrid = so.data_fwd(times, ca.DM(p), Dgrid, ca.DM.zeros(1, so.n_times), ca.DM(ep))
+        dPhi_dp, dq_dp, dMon_p = split(so.directional(x0, D, ca.DM(p), zerox, dDgrid[:, idx], ca.DM(ep)))
+        dx0 = np.zeros(nx)
+        dx0[cs] = orbit_state_derivative(Mon[np.ix_(cs, cs)], dPhi_dp[cs])
+        dMon = total_derivative(dMon_p, np.stack([t[2] for t in dx_terms], axis=-1), dx0)
+        dq = total_derivative(dq_dp, np.array([t[1] for t in dx_terms]), dx0)
+        dx0s[k] = dx0
+        dW[k] = dq / period_s
+        dL[k] = np.array([Wl[i] @ dMon @ V[:, i] for i in range(nx)])
+        dmod[k] = np.real(np.conj(lam) * dL[k]) / np.abs(lam)
+    return lam, dL, dmod, dx0s, dW
+
+
 def multiplier_sensitivities(cycle_result, parameters=None, *, hold_level: bool = False) -> SensitivityResult:
-    """Exact derivatives of the multipliers of a converged trim (``TrimResult``) with respect to
-    ``parameters`` (keys of PARAM_NAMES; default :data:`DEFAULT_PARAMETERS`), the change of the cycle
-    included; with ``hold_level`` the amplitude is re-solved to keep the mean vertical speed."""
+    """Exact derivatives of the multipliers of a converged trim, the change of the cycle included.
+
+    Parameters
+    ----------
+    cycle_result : TrimResult
+        A converged trim (or level) result.
+    parameters : sequence of str, optional
+        Keys of :data:`PARAM_NAMES` (default :data:`DEFAULT_PARAMETERS`).
+    hold_level : bool
+        Re-solve the amplitude along each direction to keep the mean vertical speed.
+
+    Returns
+    -------
+    SensitivityResult
+        d(multiplier)/d(parameter) and d|multiplier|/d(parameter) per parameter, in the parameter's
+        units; ``ranked()`` orders them by their effect on the largest modulus.
+    """
     cfg: Config = cycle_result.cfg
     c = cycle_result.cycle
     if not c.success:
@@ -152,56 +230,9 @@ def multiplier_sensitivities(cycle_result, parameters=None, *, hold_level: bool 
             raise ValueError("hold_level needs a fixed-amplitude trim (a level() result is one: pass it as a trim)")
         params = [k for k in params if k != AMPLITUDE_KEY] + [AMPLITUDE_KEY]
     m = get_model(cfg)
-    steps = int(c.method["steps_per_period"])
-    so = SecondOrderMaps.get(m, steps)
-    grid = so.grid
-    p = np.asarray(c.p, float)
-    times = ca.DM(grid.times(0.0)).reshape((1, -1))
-    Dgrid = grid.data_grid(times, ca.DM(p))
-    idx = grid.block_index
-    D = Dgrid[:, idx]
-    x0 = ca.DM(np.asarray(c.x0, float))
-    _, qT, Mon = so.base(x0, D, ca.DM(p))
-    Mon = np.asarray(Mon)
-    T = m.period_s
-    nx = m.ode.nx
-    lam, V = np.linalg.eig(Mon)
-    order = multiplier_order(lam)
-    lam, V = lam[order], V[:, order]
-    Wl = np.linalg.inv(V)
-    zeroD = ca.DM.zeros(D.shape)
-    zerox = ca.DM.zeros(nx)
-    zerop = ca.DM.zeros(len(p))
-
-    def split(v):
-        v = np.asarray(v).ravel()
-        return v[:nx], v[nx], v[nx + 1:].reshape(nx, nx, order="F")
-
-    # Second derivatives along the 4 state directions (shared by every parameter).
-    dx_terms = []
-    for i in range(nx):
-        e = np.zeros(nx)
-        e[i] = 1.0
-        dx_terms.append(split(so.directional(x0, D, ca.DM(p), ca.DM(e), zeroD, zerop)))
-
+    so = SecondOrderMaps.get(m, int(c.method["steps_per_period"]))
+    lam, dL, dmod, dx0s, dW = cycle_derivatives(so, m.period_s, c.x0, c.p, [PARAM_NAMES.index(k) for k in params])
     n = len(params)
-    dL = np.zeros((n, nx), complex)
-    dmod = np.zeros((n, nx))
-    dx0s = np.zeros((n, nx))
-    dW = np.zeros(n)
-    for k, key in enumerate(params):
-        j = PARAM_NAMES.index(key)
-        ep = np.zeros(len(p))
-        ep[j] = 1.0
-        dDgrid = so.data_fwd(times, ca.DM(p), Dgrid, ca.DM.zeros(1, so.n_times), ca.DM(ep))
-        dPhi_dp, dq_dp, dMon_p = split(so.directional(x0, D, ca.DM(p), zerox, dDgrid[:, idx], ca.DM(ep)))
-        dx0 = orbit_state_derivative(Mon, dPhi_dp)
-        dMon = total_derivative(dMon_p, np.stack([t[2] for t in dx_terms], axis=-1), dx0)
-        dq = total_derivative(dq_dp, np.array([t[1] for t in dx_terms]), dx0)
-        dx0s[k] = dx0
-        dW[k] = dq / T
-        dL[k] = np.array([Wl[i] @ dMon @ V[:, i] for i in range(nx)])
-        dmod[k] = np.real(np.conj(lam) * dL[k]) / np.abs(lam)
 
     dA = None
     if hold_level:

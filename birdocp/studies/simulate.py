@@ -20,7 +20,9 @@ simulation stops (status ``left_validity``) when the air-relative forward speed 
 ``min_forward_speed_mps``, |pitch| exceeds ``max_abs_pitch_deg``, the airflow meets the body axis at
 more than ``max_airflow_body_angle_deg``, or, over a beat, more than ``max_stalled_fraction`` of the
 span-time area is beyond ``stall_angle_deg`` (effective angles of attack of the 16 elements at every
-RK4 step); non-finite states give status ``non_finite``.
+RK4 step). A state that leaves the model's range (non-finite, a speed above :data:`MAX_SPEED_MPS`
+or a pitch rate above :data:`MAX_PITCH_RATE_RADPS`) stops the run with status ``diverged`` and the
+beat in ``diverged_beat``; the histories keep the states up to the last one in range.
 """
 
 from __future__ import annotations
@@ -45,13 +47,56 @@ __all__ = ["Gust", "SimulationResult", "simulate", "gust_envelope", "nonlinear_b
 STATE_ALIASES = {"u": 0, "w": 1, "q": 2, "theta": 3, **{n: i for i, n in enumerate(STATE_NAMES)}}
 DIRECTIONS = ("vertical", "horizontal")
 
+MAX_SPEED_MPS = 340.0
+"""Largest speed (state u, w; a wind, a gust or a perturbation of them) in the model's range: the
+speed of sound at sea level. The model's air is incompressible, so beyond it nothing it computes
+is physics; a simulation whose speed passes it has diverged."""
+MAX_PITCH_RATE_RADPS = 1000.0
+"""Largest pitch rate |q| in the model's range (about 160 turns per second)."""
+MAX_PITCH_PERTURBATION_RAD = math.pi
+"""Largest pitch perturbation (a pitch beyond +-180 deg is the same attitude)."""
+GUST_LENGTH_BEATS = (0.01, 1.0e4)
+"""A gust's length in beats: from a hundredth of a beat (shorter is not resolved by the RK4 grid) to
+10,000 beats (a constant wind: use --wind)."""
+GUST_LENGTH_M = (0.01, 1.0e6)
+"""A gust's length in metres (1 cm to 1,000 km)."""
+MAX_GUST_START_BEATS = 1.0e4
+"""Farthest gust start, in beats (no simulation flies farther: ``--beats`` is at most 10,000)."""
+
+
+def _in_range(z: np.ndarray) -> np.ndarray:
+    """Per row of states (u, w, q, theta, ...): finite and within the model's range."""
+    z = np.asarray(z, float)
+    with np.errstate(invalid="ignore", over="ignore"):
+        return (np.all(np.isfinite(z), axis=1) & (np.hypot(z[:, 0], z[:, 1]) <= MAX_SPEED_MPS)
+                & (np.abs(z[:, 2]) <= MAX_PITCH_RATE_RADPS))
+
+
+def check_speed(flag: str, what: str, value: float) -> float:
+    """``value`` [m/s] if finite and at most :data:`MAX_SPEED_MPS` in size, else ConfigError on ``flag``."""
+    if not math.isfinite(value) or abs(value) > MAX_SPEED_MPS:
+        raise ConfigError(flag, f"{what} must lie within +-{MAX_SPEED_MPS:g} m/s (the speed of sound: the model's "
+                                f"air is incompressible), got {value!r}")
+    return float(value)
+
 
 @dataclass(frozen=True)
 class Gust:
-    """A 1 - cos gust: ``direction`` 'vertical' (positive up) or 'horizontal' (positive along the
-    flight direction, i.e. a tailwind; negative = headwind), peak ``amplitude_mps``, length in
-    wingbeats (``length_beats``) or metres (``length_m``), start ``start_beats`` ahead (in beats of
-    the cycle's flight distance) or ``start_m``."""
+    """A 1 - cos gust, frozen in the air.
+
+    Attributes
+    ----------
+    direction
+        'vertical' (positive up) or 'horizontal' (positive along the flight direction, i.e. a
+        tailwind; negative = headwind).
+    amplitude_mps
+        peak wind speed of the gust [m/s].
+    length_beats, length_m
+        its length in wingbeats (of the cycle's flight distance) or in metres (``length_m`` wins
+        when given).
+    start_beats, start_m
+        how far ahead of the bird it starts, in beats or in metres (``start_m`` wins when given).
+    """
 
     direction: str
     amplitude_mps: float
@@ -63,11 +108,18 @@ class Gust:
     def __post_init__(self):
         if self.direction not in DIRECTIONS:
             raise ConfigError("--gust", f"direction must be vertical or horizontal, got '{self.direction}'")
-        if not math.isfinite(self.amplitude_mps):
-            raise ConfigError("--gust", f"amplitude must be finite, got {self.amplitude_mps}")
-        length = self.length_m if self.length_m is not None else self.length_beats
-        if length is None or not (math.isfinite(length) and length > 0):
-            raise ConfigError("--gust", f"length must be > 0, got {length}")
+        check_speed("--gust", "the amplitude", self.amplitude_mps)
+        in_m = self.length_m is not None
+        length = self.length_m if in_m else self.length_beats
+        lo, hi = GUST_LENGTH_M if in_m else GUST_LENGTH_BEATS
+        unit = "m" if in_m else "beats"
+        if length is None or not (math.isfinite(length) and lo <= length <= hi):
+            raise ConfigError("--gust", f"the length must lie in {lo:g}..{hi:g} {unit} (shorter is not resolved by "
+                                        f"the RK4 grid, longer is a constant wind: --wind), got {length}")
+        start = self.start_m if self.start_m is not None else self.start_beats
+        top = MAX_GUST_START_BEATS * (1e3 if self.start_m is not None else 1.0)
+        if not (math.isfinite(start) and 0 <= start <= top):
+            raise ConfigError("--gust-start", f"must lie in 0..{top:g} (no simulation flies farther), got {start}")
 
     def span_m(self, beat_m: float) -> tuple[float, float]:
         """(start, length) in metres given the distance flown per beat."""
@@ -103,9 +155,15 @@ def parse_perturbation(items) -> np.ndarray:
         key = key.strip()
         if key not in STATE_ALIASES:
             raise ConfigError("--perturb", f"unknown state '{key}' (one of u, w, q, theta or {', '.join(STATE_NAMES)})")
-        if not math.isfinite(v):
-            raise ConfigError("--perturb", f"value must be finite, got {val}")
-        dx[STATE_ALIASES[key]] += v
+        i = STATE_ALIASES[key]
+        if i < 2:
+            check_speed("--perturb", f"'{key}'", v)
+        else:
+            top, unit, why = ((MAX_PITCH_RATE_RADPS, "rad/s", "the model's range of pitch rates") if i == 2 else
+                              (MAX_PITCH_PERTURBATION_RAD, "rad", "a larger pitch is the same attitude"))
+            if not (math.isfinite(v) and abs(v) <= top):
+                raise ConfigError("--perturb", f"'{key}' must lie within +-{top:g} {unit} ({why}), got {val}")
+        dx[i] += v
     return dx
 
 
@@ -198,6 +256,8 @@ class SimulationResult:
                                       metadata=serial(skip=True))
     # largest stalled share of the span-time area over one beat
     max_stalled_fraction: float = field(default=0.0, metadata=serial(key="max_stalled_fraction_per_beat"))
+    # the beat (1-based) in which the state left the model's range (status "diverged"), else None
+    diverged_beat: int | None = None
 
     @property
     def final_deviation(self) -> float:
@@ -284,7 +344,8 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
     Returns
     -------
     SimulationResult
-        ``success`` False with status ``non_finite`` or ``left_validity`` when the run stopped early.
+        ``success`` False with status ``diverged`` (and ``diverged_beat``) or ``left_validity`` when
+        the run stopped early.
     """
     if int(beats) < 1:
         raise ConfigError("--beats", f"must be >= 1, got {beats}")
@@ -316,7 +377,7 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
     saturated = False
     max_inflow, min_air, max_stalled = 0.0, math.inf, 0.0
     lim = cfg.validity
-    status, message = "ok", f"{beats} beats simulated"
+    status, message, diverged_beat = "ok", f"{beats} beats simulated", None
     T = m.period_s
     for k in range(beats):
         if progress is not None:
@@ -336,13 +397,17 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
             if i == 0:
                 stalled_area = 0.0  # stalled share of the span-time area over this beat
             D = st.data(i, pk)
-            Zi = np.asarray(st.interval(z, D, pd, gd)).T
+            with np.errstate(all="ignore"):
+                Zi = np.asarray(st.interval(z, D, pd, gd)).T
+            ok = _in_range(Zi)
+            if not np.all(ok):  # keep the states up to the first one out of range (the figure, the arrays)
+                Zi = Zi[:int(np.argmin(ok))]
+                status, diverged_beat = "diverged", k + 1
+                message = (f"diverged in beat {k + 1}: the state left the model's range (non-finite, speed above "
+                           f"{MAX_SPEED_MPS:g} m/s or |pitch rate| above {MAX_PITCH_RATE_RADPS:g} rad/s)")
             traj.append(Zi)
-            z = Zi[-1]
-            bad = ~np.all(np.isfinite(Zi), axis=1)
-            if np.any(bad):
-                status, message = "non_finite", f"the state became non-finite in beat {k + 1}"
-            else:
+            z = Zi[-1] if len(Zi) else z
+            if status == "ok":
                 ae, ds, angle, u_air = (np.asarray(v) for v in st.validity(Zi.T, D[:, 2::3], ca.DM(pk), gd))
                 inflow = float(np.max(np.abs(angle)))
                 max_inflow = max(max_inflow, inflow)
@@ -366,7 +431,7 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
                     message = f"left the model's validity in beat {k + 1}: {', '.join(reasons)}"
             if status != "ok":
                 break
-        dev.append(float(np.linalg.norm(z[:4] - x0_cycle)) if status != "non_finite" else float("nan"))
+        dev.append(float(np.linalg.norm(z[:4] - x0_cycle)) if status != "diverged" else float("nan"))
         if status != "ok":
             break
         if (stop_when_recovered and max(dev) > 0 and dev[-1] <= max(dev) / 100.0
@@ -378,7 +443,7 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
     ctrl_arr = np.array(ctrl) if ctrl else np.zeros((0, len(keys)))
     return SimulationResult(status == "ok", status, message, controller is not None, beats, t, Z[:, :4],
                             Z[:, 4], Z[:, 5], np.array(ctrl_t), ctrl_arr, keys, np.array(dev), saturated,
-                            beat_m, spans, max_inflow, min_air, u_cyc, max_stalled)
+                            beat_m, spans, max_inflow, min_air, u_cyc, max_stalled, diverged_beat)
 
 
 def gust_envelope(cfg, x0_cycle, controller, direction: str = "vertical", *, sign: float = 1.0,
@@ -387,7 +452,36 @@ def gust_envelope(cfg, x0_cycle, controller, direction: str = "vertical", *, sig
     """The largest 1 - cos gust (peak amplitude, m/s, of sign ``sign``) the closed loop recovers from
     within ``beats`` beats (deviation back to 1/100 of its peak) without saturating a joint and
     without leaving the model's validity; found by doubling from ``start_mps`` then bisection to
-    ``tol_mps``. Returns the envelope amplitude, the beats to recover there and every trial."""
+    ``tol_mps``. Returns the envelope amplitude, the beats to recover there and every trial.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration of the cycle.
+    x0_cycle : array_like (4,)
+        The cycle's state at the beat start.
+    controller : Controller or None
+        The feedback (None: open loop).
+    direction : {"vertical", "horizontal"}
+        The gust's direction.
+    sign : float
+        +1 or -1: up/tailwind or down/headwind.
+    length_beats : float
+        Gust length in wingbeats.
+    beats : int
+        Beats allowed to recover.
+    steps_per_period : int, optional
+        RK4 steps per beat (default ``cfg.solve.steps_per_period``).
+    p : array_like, optional
+        Parameter vector of the cycle (default that of ``cfg``).
+    start_mps, max_mps, tol_mps : float
+        First trial, largest trial and bisection tolerance of the peak amplitude [m/s].
+
+    Returns
+    -------
+    dict
+        The envelope amplitude [m/s], the beats to recover there and every trial.
+    """
     trials = []
 
     def ok(a):

@@ -10,13 +10,18 @@ Run folder (``out_dir``), written as the sweep goes (every file atomically)::
 
     config.toml            the base configuration
     points/point-0003.json one file per solved point, written as soon as it is solved: the table row,
-                           the full trim result and the parameter vector (enough to warm-start from)
+                           the full trim result, the parameter vector (enough to warm-start from),
+                           ``config_sha256`` of the point's configuration and its ``settings``
     sweep.json             the sweep definition and all rows so far (rewritten after each point)
     sweep.csv              the same rows as a CSV table
     result.json            written last (with provenance): the sweep is complete
 
 ``resume=True`` reads the point files of ``out_dir`` and solves only the missing points, warm-starting
-from the points on disk, so the table is the one of an uninterrupted run (up to wall times).
+from the points on disk, so the table is the one of an uninterrupted run (up to wall times). A resume
+with another definition than sweep.json's is refused, and every point's own configuration hash is
+compared with its configuration in the resumed sweep (also when sweep.json is truncated or damaged):
+a point of another configuration is refused, never reported (:mod:`birdocp.io.resume`, the mechanism
+``continue`` resumes with too).
 A failed point is recorded (``success`` false) and the sweep goes on.
 """
 
@@ -25,7 +30,6 @@ from __future__ import annotations
 import contextlib
 import csv
 import io
-import json
 import math
 import time
 from dataclasses import dataclass
@@ -37,6 +41,9 @@ import numpy as np
 from birdocp.bird.config import Config, ConfigError, to_dict, with_values
 from birdocp.bird.validity import VALIDITY_COLUMNS, validity_columns
 from birdocp.io.files import atomic_write_json, atomic_write_text, to_jsonable
+from birdocp.io import resume as resume_io
+from birdocp.io.inputs import read_json_file
+from birdocp.io.provenance import config_hash
 from birdocp.io.progress import progress_bar
 from birdocp.studies.level import AMPLITUDE_KEY, resolve_key
 
@@ -151,23 +158,15 @@ def _csv_text(rows: list[dict], columns=None) -> str:
     return buf.getvalue()
 
 
-def _point_path(out: Path, index: int) -> Path:
-    return out / "points" / f"point-{index:04d}.json"
-
-
 def read_points(out_dir: str | Path) -> dict[int, dict]:
-    """Point files of a sweep folder by index (unreadable files are ignored: they will be re-solved)."""
-    out = {}
-    folder = Path(out_dir) / "points"
-    if not folder.is_dir():
-        return out
-    for f in sorted(folder.glob("point-*.json")):
-        try:
-            pt = json.loads(f.read_text())
-            out[int(pt["row"]["index"])] = pt
-        except (OSError, ValueError, KeyError, TypeError):
-            continue
-    return out
+    """Point files of a sweep folder by index (:func:`birdocp.io.resume.read_points`: unreadable files
+    are ignored: they will be re-solved)."""
+    return resume_io.read_points(out_dir)
+
+
+def _point_settings(spec: dict) -> dict:
+    """What besides its configuration decides a point's result (stored in every point file)."""
+    return {k: spec[k] for k in ("level", "level_options", "method_over")}
 
 
 class _Progress:
@@ -193,17 +192,33 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
 
     Parameters
     ----------
-    level
-        each point a :func:`birdocp.studies.level.level` solve (``level_options`` passed on:
-        ``free``, ``bounds``, ``climb_rate_mps``, ``constrain``, ``target``).
-    warm
-        warm-start each point from the last successful one (else from the config's guess).
-    out_dir
-        run folder to write as the sweep goes (None: nothing written).
-    resume
-        reuse the points found in ``out_dir`` (same key, values and configuration).
-    method_over
-        overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
+    cfg : Config or None
+        The configuration (None: the paper's reference case).
+    key : str
+        The swept parameter: a dotted key of :data:`PARAM_NAMES` or an alias (``amplitude``,
+        ``root_ahead_m``).
+    values : sequence of float
+        The values of ``key``, solved in this order (:func:`sweep_values` makes an evenly spaced list).
+    level : bool
+        Each point a :func:`birdocp.studies.level.level` solve (``level_options`` passed on: ``free``,
+        ``bounds``, ``climb_rate_mps``, ``constrain``, ``target``).
+    warm : bool
+        Warm-start each point from the last successful one (else from the config's guess).
+    out_dir : str or Path, optional
+        Run folder to write as the sweep goes (None: nothing written).
+    resume : bool
+        Reuse the points found in ``out_dir`` (same key, values and configuration).
+    progress : bool
+        Draw a progress bar on stderr when it is a terminal.
+    level_options : dict, optional
+        Keyword arguments of :func:`~birdocp.studies.level.level` for ``level=True``.
+    **method_over
+        Overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
+
+    Returns
+    -------
+    list of dict
+        One row per value (the columns of :data:`CSV_COLUMNS`, with the point's validity).
     """
     cfg = cfg or Config()
     key = resolve_key(key, "key")
@@ -230,22 +245,13 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
     done: dict[int, dict] = {}
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        old = None
-        if (out / "sweep.json").exists():
-            try:
-                old = json.loads((out / "sweep.json").read_text())
-            except (OSError, ValueError):
-                old = None
+        old, damaged = resume_io.read_index(out / "sweep.json")
         if resume:
             if old is not None:
-                old_spec = {k: old.get(k) for k in spec}
-                if json.loads(json.dumps(old_spec)) != json.loads(json.dumps(to_jsonable(spec))):
-                    diff = [k for k in spec if json.dumps(old_spec[k]) != json.dumps(to_jsonable(spec[k]))]
-                    raise ConfigError("--resume", f"the sweep in '{out}' differs in {', '.join(diff)}; "
-                                                  "resume with the same arguments or use a new folder")
-            done = {i: p for i, p in read_points(out).items() if i < len(values)
-                    and p["row"].get("value") == values[i]}
-        elif old is not None or read_points(out):
+                resume_io.check_index(old, spec, out, "sweep")
+            done = resume_io.kept_points(out, lambda i: config_hash(cfgs[i]), _point_settings(spec), old is not None,
+                                         match=lambda i, p: i < len(values) and p["row"].get("value") == values[i])
+        elif old is not None or damaged or read_points(out):
             raise ConfigError("--out", f"'{out}' already holds a sweep; pass resume=True (--resume) or a new folder")
         from birdocp.bird.config import dumps
         atomic_write_text(out / "config.toml", dumps(cfg))
@@ -287,7 +293,7 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
             last_ok = (i, res.cycle)
         if out is not None:
             point = {"row": row, "p": [float(x) for x in np.asarray(res.cycle.p)], "result": d}
-            atomic_write_json(_point_path(out, i), point)
+            resume_io.write_point(out, i, point, config_hash(cfg_i), _point_settings(spec))
         flush()
         bar.show(i + 1, f"{v:g} {'ok' if res.success else 'FAILED'} {row['iterations']} it "
                         f"{row['wall_s']:.1f} s", solved_now=True)
@@ -320,14 +326,46 @@ def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: s
                executor=None, level: bool = False, warm: bool = True, out_dir: str | Path | None = None,
                resume: bool = False, level_options: dict | None = None, **method_over) -> list[dict]:
     """A grid ``row_key x key``: one warm-started line over ``values`` of ``key`` per value of
-    ``row_key``, the rows independent jobs run by ``executor`` (:mod:`birdocp.engine.executors`; default
-    serial). Returns the table rows (``GRID_COLUMNS``), row after row.
+    ``row_key``, the rows independent jobs run by ``executor``.
 
     Written to ``out_dir``: ``grid.json`` (the definition) at the start; ``rows/row-0003.json`` as each
     row finishes (so an interrupted grid keeps its finished rows: ``resume=True`` solves only the
     missing ones); when all rows are done ``grid.json`` (definition + rows, ``complete: true``),
     ``grid.csv``, and ``timing.json`` (executor and wall times). ``grid.json`` and ``grid.csv`` hold no
-    wall times, so they do not depend on the executor."""
+    wall times, so they do not depend on the executor.
+
+    Parameters
+    ----------
+    cfg : Config or None
+        The configuration (None: the paper's reference case).
+    key : str
+        The parameter along each line (as in :func:`sweep`).
+    values : sequence of float
+        Its values.
+    row_key : str
+        The parameter that changes from row to row.
+    row_values : sequence of float
+        Its values, one line each.
+    executor : Executor, optional
+        Runs the rows (:func:`birdocp.engine.executors.get_executor`; default serial).
+    level : bool
+        Each point a level-flight solve.
+    warm : bool
+        Warm-start each point from its neighbour on the line.
+    out_dir : str or Path, optional
+        The run folder (None: nothing written).
+    resume : bool
+        Keep the finished rows found in ``out_dir``.
+    level_options : dict, optional
+        Keyword arguments of :func:`~birdocp.studies.level.level` for ``level=True``.
+    **method_over
+        Overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
+
+    Returns
+    -------
+    list of dict
+        The table rows (``GRID_COLUMNS``), row after row.
+    """
     from birdocp.engine.executors import SerialExecutor
 
     cfg = cfg or Config()
@@ -354,19 +392,14 @@ def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: s
     done: dict[int, dict] = {}
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        old = None
-        with contextlib.suppress(OSError, ValueError):
-            old = json.loads((out / "grid.json").read_text())
+        old, _ = resume_io.read_index(out / "grid.json")  # a damaged grid.json: every row solved again
         if old is not None and not resume:
             raise ConfigError("--out", f"'{out}' already holds a grid; pass resume=True (--resume) or a new folder")
         if old is not None:
-            diff = [k for k in spec if json.dumps(old.get(k)) != json.dumps(spec[k])]
-            if diff:
-                raise ConfigError("--resume", f"the grid in '{out}' differs in {', '.join(diff)}; "
-                                              "resume with the same arguments or use a new folder")
+            resume_io.check_index(old, spec, out, "grid")
             for f in sorted((out / "rows").glob("row-*.json")) if (out / "rows").is_dir() else []:
-                with contextlib.suppress(OSError, ValueError, KeyError, TypeError):
-                    r = json.loads(f.read_text())
+                with contextlib.suppress(ConfigError, ValueError, KeyError, TypeError):
+                    r = read_json_file(f, "--resume")
                     done[int(r["row"])] = r
         else:
             atomic_write_json(out / "grid.json", dict(spec, points=[], complete=False))

@@ -91,7 +91,7 @@ class TrimResult:
 
     @property
     def wing_power(self) -> dict:
-        """Powers of the wing masses over the cycle (spec inertia.md 6), computed once.
+        """Powers of the wing masses over the cycle (docs/studies/inertia.md, powers), computed once.
 
         Keys: ``t_s`` (the trajectory times, one period), the time histories of
         :data:`birdocp.bird.model.WING_POWER_NAMES` and their period means ``mean_<name>``, the
@@ -248,11 +248,39 @@ def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: Mu
          compiled: bool | None = None, **method_over) -> TrimResult:
     """Trimmed flight of ``cfg`` (default: the paper's reference case).
 
-    ``x_guess``: state (u, w, q, theta) at t = 0 (default ``cfg.solve.initial_guess``);
-    ``warm_start``: a previous :class:`TrimResult` whose cycle starts the solve; ``method`` or keyword
-    overrides of :class:`~birdocp.engine.shooting.MultipleShooting` (default from ``cfg.solve``);
-    ``compiled``: use the state RHS and data compiled to C (:func:`solver_ode`; None: ``$BIRDOCP_COMPILED``;
-    cached; falls back to the interpreted path with a warning on stderr if compilation fails).
+    Parameters
+    ----------
+    cfg : Config, optional
+        The configuration (default: the paper's reference case, 42 deg).
+    x_guess : array_like (4,), optional
+        State (u, w [m/s], q [rad/s], theta [rad]) at t = 0 to start from (default
+        ``cfg.solve.initial_guess``).
+    warm_start : TrimResult, optional
+        A previous result whose cycle starts the solve.
+    method : MultipleShooting, optional
+        The shooting method (default from ``cfg.solve``).
+    compiled : bool, optional
+        Use the state right-hand side and data compiled to C (:func:`solver_ode`; None:
+        ``$BIRDOCP_COMPILED``; cached; falls back to the interpreted path with a warning on stderr if
+        compilation fails).
+    **method_over
+        Overrides of :class:`~birdocp.engine.shooting.MultipleShooting`'s fields (``points``,
+        ``steps_per_period``, ``solver``, ``tol``, ...).
+
+    Returns
+    -------
+    TrimResult
+        The cycle, its multipliers, speeds, powers and validity; ``success`` means the residual is below
+        the tolerance.
+
+    Examples
+    --------
+    >>> from birdocp import Config, trim
+    >>> r = trim(Config(), steps_per_period=60)
+    >>> r.success, r.stable, len(r.multipliers)
+    (True, False, 4)
+    >>> round(float(abs(r.multipliers[0])), 2)   # the expanding multiplier of the reference case
+    1.41
     """
     cfg = cfg or Config()
     m = get_model(cfg)

@@ -75,7 +75,8 @@ __all__ = ["Branch", "BranchPoint", "SpecialPoint", "Continuation", "Continuatio
 def continuation(problem: LimitCycleProblem, param, start_value: float, stop_value: float, *,
                  options: ContinuationOptions | None = None, start=None, accept: Callable | None = None,
                  progress: Callable | None = None, system: Continuation | None = None,
-                 on_point: Callable | None = None, **settings) -> Branch:
+                 on_point: Callable | None = None, on_special: Callable | None = None, orient: float | None = None,
+                 **settings) -> Branch:
     """Follow the periodic orbits of ``problem`` as ``param`` goes from ``start_value`` to ``stop_value``.
 
     Parameters
@@ -103,6 +104,13 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
     on_point : callable, optional
         ``on_point(point)`` with each accepted :class:`BranchPoint` as soon as it is accepted (e.g. to
         keep the points of a run that is interrupted before the branch is returned).
+    on_special : callable, optional
+        ``on_special(special_point)`` with each located :class:`SpecialPoint` as soon as it is located
+        (before the point after it is accepted).
+    orient : float, optional
+        The sign of d(parameter)/ds at the first point: the direction of travel (a branch resumed from
+        a point after a fold: the sign of that point's ``tangent_parameter``); default: towards
+        ``stop_value``.
 
     Returns
     -------
@@ -160,7 +168,7 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
         return Branch(name, [], [], "start_failed", "Newton did not converge at the start value from the given cycle",
                       {}, time.perf_counter() - t_all)
     cur = corr.state(out, None)
-    if cur.t[li] * direction < 0:
+    if cur.t[li] * (direction if orient is None else np.sign(orient) or direction) < 0:
         cur.t = -cur.t
         cur.tests = dict(cur.tests, fold=float(cur.t[li]))
 
@@ -229,7 +237,10 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
             if sp is not None and rlo - 1e-12 <= sp.parameter <= rhi + 1e-12:
                 found.append(sp)
                 say(f"  {kind} at {name} = {sp.parameter:.9g} ({sp.message})")
-        specials.extend(sorted(found, key=lambda q: q.arclength))
+        found.sort(key=lambda q: q.arclength)
+        specials.extend(found)
+        for sp in found:
+            (on_special or (lambda q: None))(sp)
         if boundary is not None:
             last = corr.at_parameter(cur, nxt, boundary, s_lam)
             if last is not None:

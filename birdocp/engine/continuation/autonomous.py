@@ -137,6 +137,28 @@ def continue_orbits(orbit: PeriodicOrbit, ode: ODE, param, stop_value: float, *,
     ``max_points``, ``detect``, ...). Returns its :class:`~birdocp.engine.continuation.Branch`:
     points with ``period`` and the non-trivial multipliers, special points (fold, branch point,
     period doubling, Neimark-Sacker) located on the arclength.
+
+    Parameters
+    ----------
+    orbit : PeriodicOrbit
+        A converged orbit (the start of the branch).
+    ode : ODE
+        Its ODE.
+    param : str or int
+        The continuation parameter (a name of ``ode``'s parameters or an index).
+    stop_value : float
+        Where the branch should end.
+    method : OrbitMethod, optional
+        Points, steps per period and integrator (default: the orbit's).
+    options : ContinuationOptions, optional
+        How the branch is followed.
+    **settings
+        Fields of :class:`~birdocp.engine.continuation.options.ContinuationOptions` overriding ``options``.
+
+    Returns
+    -------
+    Branch
+        See above.
     """
     if not orbit.success:
         raise ValueError(f"continue_orbits: the start orbit did not converge (status {orbit.status!r})")

@@ -1,0 +1,228 @@
+"""The bird in six degrees of freedom: rigid-body equations in body axes with the lifting line in
+asymmetric flow (the equations are written out in ``docs/sixdof.md``).
+
+State ``x`` (9), body frame x' forward, y' right, z' down, origin the centre of mass G:
+
+====  =============  ==========================================================
+ #    name           meaning
+====  =============  ==========================================================
+ 0    ``u_mps``      velocity of G along x' (forward)
+ 1    ``v_mps``      velocity of G along y' (right)
+ 2    ``w_mps``      velocity of G along z' (down)
+ 3    ``p_radps``    roll rate about x' (right wing down positive)
+ 4    ``q_radps``    pitch rate about y' (nose up positive)
+ 5    ``r_radps``    yaw rate about z' (nose right positive)
+ 6    ``phi_rad``    bank angle (3-2-1 Euler angles: yaw psi, pitch theta, roll phi)
+ 7    ``theta_rad``  pitch angle
+ 8    ``psi_rad``    heading
+====  =============  ==========================================================
+
+The wing geometry, the kinematic velocities and the lifting-line matrices are the planar model's
+per-time data ``d(t, p)`` (:class:`birdocp.bird.model.BirdModel`): the gait is symmetric, both wings
+on one line of 16 elements. What changes is the air each element meets: ``V = U_inf - Omega x r -
+v_kin`` with ``U_inf = (-v, w, u)`` and ``Omega = (q, -r, -p)`` in the code frame (e1 right, e2 up,
+e3 back), so sideslip and roll and yaw rates load the two wings differently. The wake filaments stay
+straight along the body axis e3 (as in the planar model, also in sideslip: a choice of the
+lifting-line model, stated in the docs). Loads: ``(X, Y, Z) = (-F3, F1, -F2)`` and
+``(L, M, N) = (-Mc3, Mc1, -Mc2)`` from the code-frame force ``F`` and moment ``Mc = sum r x dF``.
+
+Wings are massless here (the planar model's default); the body has the inertia tensor
+``[[I_xx, 0, -I_xz], [0, I_yy, 0], [-I_xz, 0, I_zz]]`` (:class:`LateralInertia` adds I_xx, I_zz, I_xz
+to the configuration's ``body.pitch_inertia_kgm2`` = I_yy). For a symmetric cycle (v = p = r = phi
+= 0) the longitudinal equations are the planar model's, operation for operation.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import casadi as ca
+
+from birdocp.bird import aero
+from birdocp.bird.config import PARAM_NAMES, Config
+from birdocp.bird.model import N_DATA, BirdModel, Structure, get_model, unpack_data
+from birdocp.engine.cache import register_cache
+from birdocp.engine.problem import PeriodicODE
+
+__all__ = ["STATE_NAMES", "LONGITUDINAL", "LATERAL", "HEADING", "LATERAL_PARAM_NAMES", "LateralInertia",
+           "SixDofModel", "sixdof_model", "embed_planar_state", "body_loads"]
+
+STATE_NAMES = ("u_mps", "v_mps", "w_mps", "p_radps", "q_radps", "r_radps", "phi_rad", "theta_rad", "psi_rad")
+LONGITUDINAL = (0, 2, 4, 7)
+"""Indices of (u, w, q, theta): the planar model's state, in its order."""
+LATERAL = (1, 3, 5, 6)
+"""Indices of (v, p, r, phi)."""
+HEADING = 8
+"""Index of psi: nothing depends on it, so it adds a Floquet multiplier 1 (reported apart)."""
+
+LATERAL_PARAM_NAMES = ("model.roll_inertia_kgm2", "model.yaw_inertia_kgm2", "model.product_inertia_xz_kgm2")
+"""Parameters appended to :data:`birdocp.bird.config.PARAM_NAMES` in the six-degree-of-freedom ODE."""
+
+
+@dataclass(frozen=True)
+class LateralInertia:
+    """Roll and yaw inertia about G [kg m^2] and the product I_xz, as the configuration's ``[model]``
+    section (:class:`birdocp.bird.config.Model`, where the default estimates are explained). Every
+    value is a parameter of the ODE (sweepable, differentiable)."""
+
+    roll_inertia_kgm2: float = 0.011
+    yaw_inertia_kgm2: float = 0.11
+    product_inertia_xz_kgm2: float = 0.0
+
+    @staticmethod
+    def of(cfg: Config) -> "LateralInertia":
+        """The inertia of ``cfg.model``."""
+        m = cfg.model
+        return LateralInertia(m.roll_inertia_kgm2, m.yaw_inertia_kgm2, m.product_inertia_xz_kgm2)
+
+    def vector(self) -> list[float]:
+        """The values in the order of :data:`LATERAL_PARAM_NAMES`."""
+        return [self.roll_inertia_kgm2, self.yaw_inertia_kgm2, self.product_inertia_xz_kgm2]
+
+    def __post_init__(self):
+        ixx, izz, ixz = self.vector()
+        if not (ixx > 0 and izz > 0 and ixx * izz - ixz ** 2 > 0):
+            raise ValueError("LateralInertia: roll_inertia_kgm2 and yaw_inertia_kgm2 must be > 0 and "
+                             "roll*yaw > product_inertia_xz_kgm2**2 (a positive definite inertia)")
+
+
+def _p(p, name):
+    return p[PARAM_NAMES.index(name)]
+
+
+def body_loads(x, d, p):
+    """Body-axis aerodynamic force (X, Y, Z) [N] and moment (L, M, N) [N m] about G at the 9-state
+    ``x``, planar data ``d`` and parameters ``p`` (SX), with the per-element terms.
+
+    Returns ``(F_body 3x1, M_body 3x1, terms)``; ``terms`` is the dict of
+    :func:`birdocp.bird.aero.forces_from_velocity` (code frame)."""
+    u, v, w, pr, q, rr = (x[i] for i in range(6))
+    b = unpack_data(d)
+    r, v_kin = b["r_m"], b["v_kin_mps"]
+    ones = ca.DM.ones(1, r.shape[1])
+    # V = U_inf - Omega x r - v_kin, U_inf = (-v, w, u), Omega = (q, -r, -p) (code frame)
+    om1, om2, om3 = q, -rr, -pr
+    V = ca.vertcat(-v * ones - (om2 * r[2, :] - om3 * r[1, :]) - v_kin[0, :],
+                   w * ones - (om3 * r[0, :] - om1 * r[2, :]) - v_kin[1, :],
+                   u * ones - (om1 * r[1, :] - om2 * r[0, :]) - v_kin[2, :])
+    e = aero.forces_from_velocity(V, b["c_hat"], b["up"], b["tau"], b["ds_m"], b["G"], b["Wx"], b["Wy"],
+                                  _p(p, "aero.air_density_kgm3"))
+    dF = e["dF"]
+    F = ca.sum2(dF)
+    Mc = ca.sum2(ca.vertcat(r[1, :] * dF[2, :] - r[2, :] * dF[1, :],
+                            r[2, :] * dF[0, :] - r[0, :] * dF[2, :],
+                            r[0, :] * dF[1, :] - r[1, :] * dF[0, :]))
+    return ca.vertcat(-F[2], F[0], -F[1]), ca.vertcat(-Mc[2], Mc[0], -Mc[1]), e
+
+
+def _rhs_expr(x, d, p6):
+    """The state derivative (9) of the rigid body with the aerodynamic loads of :func:`body_loads`."""
+    p = p6[:len(PARAM_NAMES)]
+    ixx, izz, ixz = (p6[len(PARAM_NAMES) + i] for i in range(3))
+    m, iyy, g = _p(p, "body.mass_kg"), _p(p, "body.pitch_inertia_kgm2"), _p(p, "body.gravity_mps2")
+    u, v, w, pr, q, rr, phi, th = (x[i] for i in range(8))
+    Fb, Mb, _ = body_loads(x, d, p)
+    X, Y, Z = Fb[0], Fb[1], Fb[2]
+    L, M, N = Mb[0], Mb[1], Mb[2]
+    cth, sth, cph, sph = ca.cos(th), ca.sin(th), ca.cos(phi), ca.sin(phi)
+    udot = rr * v - q * w - g * sth + X / m
+    vdot = pr * w - rr * u + g * sph * cth + Y / m
+    wdot = q * u - pr * v + g * cph * cth + Z / m
+    # Euler: I omega' = M - omega x (I omega), I = [[ixx, 0, -ixz], [0, iyy, 0], [-ixz, 0, izz]]
+    h1, h2, h3 = ixx * pr - ixz * rr, iyy * q, izz * rr - ixz * pr
+    rl = L - (q * h3 - rr * h2)
+    rm = M - (rr * h1 - pr * h3)
+    rn = N - (pr * h2 - q * h1)
+    det = ixx * izz - ixz ** 2
+    pdot = (izz * rl + ixz * rn) / det
+    qdot = rm / iyy
+    rdot = (ixz * rl + ixx * rn) / det
+    turn = q * sph + rr * cph
+    return ca.vertcat(udot, vdot, wdot, pdot, qdot, rdot,
+                      pr + turn * ca.tan(th), q * cph - rr * sph, turn / cth)
+
+
+class SixDofModel:
+    """The six-degree-of-freedom ODE of one planar :class:`~birdocp.bird.model.Structure`.
+
+    ``ode`` is the :class:`~birdocp.engine.problem.PeriodicODE` the engine solves: state
+    :data:`STATE_NAMES`, parameters :data:`~birdocp.bird.config.PARAM_NAMES` +
+    :data:`LATERAL_PARAM_NAMES`, the planar model's data (its ``pre``/``post`` split kept);
+    ``rhs(x, d, p)`` and ``loads_d(x, d, p) -> (X, Y, Z, L, M, N)`` are SX Functions built once;
+    ``data(t, p)`` is the planar model's data with the 6-DOF parameter vector.
+    """
+
+    def __init__(self, planar: BirdModel):
+        structure = planar.structure
+        if structure.tail or structure.drag or structure.wing_mass:
+            raise ValueError("six degrees of freedom: the tail, the drag terms and wing masses are planar "
+                             "terms not yet written in 3-D; use tail.opening_angle_deg = 0, drag off and "
+                             "wing.mass_kg = 0")
+        self.planar = planar
+        n = len(PARAM_NAMES)
+        x = ca.SX.sym("x", 9)
+        d = ca.SX.sym("d", N_DATA)
+        p6 = ca.SX.sym("p", n + len(LATERAL_PARAM_NAMES))
+        self.rhs = ca.Function("rhs6", [x, d, p6], [_rhs_expr(x, d, p6)], ["x", "d", "p"], ["xdot"])
+        Fb, Mb, _ = body_loads(x, d, p6[:n])
+        self.loads_d = ca.Function("loads6", [x, d, p6], [ca.vertcat(Fb, Mb)], ["x", "d", "p"], ["loads"])
+        tm, pm = ca.MX.sym("t"), ca.MX.sym("p", n + len(LATERAL_PARAM_NAMES))
+        pb = pm[:n]
+        pre = ca.Function("pre6", [tm, pm], [planar.pre(tm, pb)], ["t", "p"], ["local"])
+        loc = ca.MX.sym("local", planar.pre.size1_out(0))
+        post = ca.Function("post6", [loc, tm, pm], [planar.post(loc, tm, pb)], ["local", "t", "p"], ["d"])
+        data = ca.Function("data6", [tm, pm], [post(pre(tm, pm), tm, pm)], ["t", "p"], ["d"])
+        self.data = data
+        self.period_s = planar.period_s
+        self.ode = PeriodicODE(rhs=self.rhs, data=data, period_s=planar.period_s, state_names=STATE_NAMES,
+                               param_names=tuple(PARAM_NAMES) + LATERAL_PARAM_NAMES, pre=pre, post=post,
+                               pre_params=planar.pre_params)
+
+    @property
+    def model(self) -> "SixDofModel":
+        """The model itself (the identity the sensitivity maps are cached by, as a configured planar
+        model's ``model``)."""
+        return self
+
+    def params(self, p_planar, inertia: LateralInertia = LateralInertia()) -> list[float]:
+        """The 6-DOF parameter vector: the planar ``p_planar`` followed by ``inertia``'s values."""
+        return [float(v) for v in p_planar] + inertia.vector()
+
+    def flight_outputs(self) -> dict:
+        """``{"vertical_speed_mps": W, "forward_speed_mps": U}`` as Functions ``(x, d, p)`` of the
+        9-state (built once per model): the inertial climb rate
+        ``W = u sin(theta) - (v sin(phi) + w cos(phi)) cos(theta)`` and the horizontal speed along the
+        heading ``U = u cos(theta) + (v sin(phi) + w cos(phi)) sin(theta)``; for phi = 0 they are the
+        planar model's."""
+        if not hasattr(self, "_outputs"):
+            x = ca.SX.sym("x", 9)
+            d = ca.SX.sym("d", N_DATA)
+            p = ca.SX.sym("p", self.ode.np)
+            u, v, w, phi, th = x[0], x[1], x[2], x[6], x[7]
+            side = v * ca.sin(phi) + w * ca.cos(phi)
+            W = u * ca.sin(th) - side * ca.cos(th)
+            U = u * ca.cos(th) + side * ca.sin(th)
+            self._outputs = {"vertical_speed_mps": ca.Function("vertical_speed_mps", [x, d, p], [W]),
+                             "forward_speed_mps": ca.Function("forward_speed_mps", [x, d, p], [U])}
+        return self._outputs
+
+
+@functools.lru_cache(maxsize=4)
+def _sixdof_for(structure: Structure, planar: BirdModel) -> SixDofModel:
+    return SixDofModel(planar)
+
+
+register_cache("bird.sixdof_models", _sixdof_for)
+
+
+def sixdof_model(cfg: Config) -> SixDofModel:
+    """The (cached) :class:`SixDofModel` of ``cfg``'s structure; its numbers come from
+    ``SixDofModel.params(param_vector(cfg), inertia)``."""
+    return _sixdof_for(Structure.of(cfg), get_model(cfg).model)
+
+
+def embed_planar_state(x4) -> list[float]:
+    """The 9-state of a planar state (u, w, q, theta): v = p = r = phi = psi = 0."""
+    u, w, q, th = (float(v) for v in x4)
+    return [u, 0.0, w, 0.0, q, 0.0, 0.0, th, 0.0]

@@ -1,0 +1,272 @@
+"""Lateral-directional stability of the flapping bird: the six-degree-of-freedom cycle
+(:mod:`birdocp.bird.sixdof`) and its Floquet multipliers, split into longitudinal, lateral and
+heading parts and labelled by their eigenvectors.
+
+For a symmetric gait the periodic orbit has v = p = r = phi = 0 and the monodromy matrix is block
+diagonal: the longitudinal block (u, w, q, theta) gives the planar multipliers, the lateral block
+(v, p, r, phi, psi) the lateral ones plus the heading's multiplier 1 (nothing depends on psi), which
+is reported apart. ``coupling_max`` (the largest entry of the off-diagonal blocks) says how exact
+the split is (round-off for a symmetric gait).
+
+Labels of the lateral modes (from the eigenvector, states scaled to comparable units: v by the
+mean forward speed, p and r by the wingbeat frequency, phi as is): a complex pair is
+``dutch_roll_like``; of the real modes the one with the smallest modulus is ``roll_subsidence``
+when its roll-rate share is the largest of the real modes, the one nearest 1 is ``spiral``, others
+``lateral_real``. Every mode carries its time to double (positive) or halve (negative) in wingbeats.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from birdocp.bird.config import PARAM_NAMES, Config, param_vector
+from birdocp.bird.flight import flight_path_angle_deg
+from birdocp.bird.keys import AMPLITUDE_KEY
+from birdocp.bird.sixdof import HEADING, LATERAL, LONGITUDINAL, STATE_NAMES, LateralInertia, embed_planar_state, \
+    sixdof_model
+from birdocp.bird.validity import CycleValidity, periodic_validity
+from birdocp.engine.floquet import multipliers_info, sort_multipliers
+from birdocp.engine.problem import LimitCycleProblem, MeanCondition
+from birdocp.engine.results import result_dict, serial
+from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
+from birdocp.studies.level import default_bounds
+
+__all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "beats_to_double", "lateral_sensitivities",
+           "LATERAL_SENSITIVITY_KEYS"]
+
+
+def beats_to_double(multiplier: complex) -> float:
+    """Wingbeats for a perturbation along a mode to double (positive, |Lambda| > 1) or halve
+    (negative, |Lambda| < 1): ``ln 2 / ln|Lambda|``; inf when |Lambda| = 1, 0 when Lambda = 0."""
+    a = abs(complex(multiplier))
+    if a == 0.0:
+        return 0.0
+    la = np.log(a)
+    return float("inf") if la == 0 else float(np.log(2.0) / la)
+
+
+def lateral_modes(monodromy, period_s: float, speed_mps: float) -> list[dict]:
+    """The lateral multipliers of a 9 x 9 monodromy (its (v, p, r, phi) block), each with its label,
+    beats to double/halve and its eigenvector over (v, p, r, phi) scaled as the module says."""
+    idx = list(LATERAL)
+    lam, vec, _, _, _ = multipliers_info(np.asarray(monodromy)[np.ix_(idx, idx)], period_s)
+    scale = np.array([1.0 / max(speed_mps, 1e-9), period_s, period_s, 1.0])
+    modes = []
+    for k, lk in enumerate(lam):
+        v = vec[:, k] * scale
+        v = v / np.max(np.abs(v))
+        modes.append({"multiplier": complex(lk), "beats_to_double": beats_to_double(lk),
+                      "eigenvector": {STATE_NAMES[i]: complex(v[j]) for j, i in enumerate(idx)},
+                      "dominant_state": STATE_NAMES[idx[int(np.argmax(np.abs(v)))]], "label": "lateral_real"})
+    real = [m for m in modes if abs(m["multiplier"].imag) <= 1e-12 * max(1.0, abs(m["multiplier"]))]
+    for m in modes:
+        if m not in real:
+            m["label"] = "dutch_roll_like"
+    if real:
+        roll_share = [abs(m["eigenvector"]["p_radps"]) for m in real]
+        small = min(real, key=lambda m: abs(m["multiplier"]))
+        if abs(small["eigenvector"]["p_radps"]) >= max(roll_share) - 1e-12:
+            small["label"] = "roll_subsidence"
+        rest = [m for m in real if m["label"] == "lateral_real"]
+        if rest:
+            min(rest, key=lambda m: abs(abs(m["multiplier"]) - 1.0))["label"] = "spiral"
+    return modes
+
+
+@dataclass
+class LateralTrimResult:
+    """The six-degree-of-freedom trim of one gait: the engine's cycle (9 states), every multiplier
+    (largest modulus first), the longitudinal (u, w, q, theta) and lateral (v, p, r, phi) ones, the
+    heading multiplier (1), the largest coupling entry of the monodromy between the blocks, the
+    labelled lateral modes, the inertia used, the validity of the cycle (of its planar part: the
+    cycle is symmetric) and, in level flight, the solved flapping amplitude."""
+
+    cycle: LimitCycleResult = field(metadata=serial(skip=True))
+    multipliers: np.ndarray = field(metadata=serial(complex=True))
+    longitudinal_multipliers: np.ndarray = field(metadata=serial(complex=True))
+    lateral_multipliers: np.ndarray = field(metadata=serial(complex=True))
+    heading_multiplier: float
+    coupling_max: float
+    lateral_modes: list
+    inertia: dict
+    amplitude_deg: float
+    validity: CycleValidity | None = None
+
+    @property
+    def success(self) -> bool:
+        """The cycle converged (residual below the tolerance)."""
+        return bool(self.cycle.success)
+
+    @property
+    def lateral_stable(self) -> bool | None:
+        """Every lateral multiplier inside the unit circle (the heading's 1 excluded)."""
+        return None if not len(self.lateral_multipliers) else bool(np.all(np.abs(self.lateral_multipliers) < 1.0))
+
+    @property
+    def stable(self) -> bool | None:
+        """Every multiplier but the heading's inside the unit circle."""
+        if not len(self.lateral_multipliers):
+            return None
+        return bool(self.lateral_stable and np.all(np.abs(self.longitudinal_multipliers) < 1.0))
+
+    def to_dict(self) -> dict:
+        """JSON of the result: the engine cycle's keys (status, residuals, x0 of 9 states, ...) with
+        ``multipliers`` (all nine) and ``stable`` (the heading's 1 excluded), then this result's
+        fields, ``state_names``, ``lateral_stable`` and the period means ``mean_vertical_speed_mps``
+        and ``mean_forward_speed_mps``."""
+        out = self.cycle.to_dict()
+        out.update(result_dict(self, derived=("success", "stable", "lateral_stable"), extra={
+            "state_names": list(STATE_NAMES), "degrees_of_freedom": 6,
+            "mean_vertical_speed_mps": self.mean_vertical_speed_mps,
+            "mean_forward_speed_mps": self.mean_forward_speed_mps,
+            "flight_path_angle_deg": flight_path_angle_deg(self.mean_vertical_speed_mps, self.mean_forward_speed_mps)}))
+        return out
+
+    @property
+    def mean_vertical_speed_mps(self) -> float:
+        """Period mean of the inertial climb rate W [m/s] (the level condition's target when solved)."""
+        return float(self.cycle.means.get("vertical_speed_mps", np.nan))
+
+    @property
+    def mean_forward_speed_mps(self) -> float:
+        """Period mean of the horizontal speed along the heading U [m/s]."""
+        return float(self.cycle.means.get("forward_speed_mps", np.nan))
+
+
+def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = None, *, level: bool = False,
+                 climb_rate_mps: float = 0.0, bounds=None, method: MultipleShooting | None = None,
+                 x_guess=None) -> LateralTrimResult:
+    """Trim ``cfg``'s gait in six degrees of freedom and split its Floquet multipliers.
+
+    Parameters
+    ----------
+    cfg : Config, optional
+        The configuration (default: the paper's reference case). Tail, drag and wing masses are refused.
+    inertia : LateralInertia, optional
+        Roll and yaw inertia [kg m^2]; default ``cfg.model``'s.
+    level : bool
+        Solve the flapping amplitude for a mean climb rate ``climb_rate_mps`` (level flight: 0).
+    climb_rate_mps : float
+        Target period-mean vertical speed [m/s] with ``level``.
+    bounds : (float, float), optional
+        Amplitude bounds [deg] with ``level`` (default: the planar level flight's).
+    method : MultipleShooting, optional
+        Shooting points and RK4 steps (default: ``cfg.solve``'s).
+    x_guess : sequence of 9 floats, optional
+        Start state (default: the planar guess ``cfg.solve.initial_guess`` with zero lateral states).
+
+    Returns
+    -------
+    LateralTrimResult
+    """
+    cfg = cfg or Config()
+    six = sixdof_model(cfg)
+    p6 = six.params(param_vector(cfg), inertia or LateralInertia.of(cfg))
+    method = method or MultipleShooting(points=cfg.solve.points, steps_per_period=cfg.solve.steps_per_period)
+    guess = embed_planar_state(cfg.solve.initial_guess) if x_guess is None else x_guess
+    outputs = six.flight_outputs()
+    free, means = {}, []
+    if level:
+        free = {AMPLITUDE_KEY: tuple(bounds) if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)}
+        means = [MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")]
+    problem = LimitCycleProblem(ode=six.ode, p=p6, x_guess=guess, free=free, means=means,
+                                outputs={k: f for k, f in outputs.items() if not (level and k == "vertical_speed_mps")})
+    cyc = solve(problem, method)
+    amplitude = float(cyc.free_values.get(AMPLITUDE_KEY, cfg.gait.shoulder_flap.amplitude_deg))
+    return _split(cfg, cyc, six.ode.period_s, method, inertia or LateralInertia.of(cfg), amplitude)
+
+
+def _split(cfg, cyc, T, method, inertia, amplitude) -> LateralTrimResult:
+    if cyc.monodromy is None:
+        nan = np.full(0, np.nan)
+        return LateralTrimResult(cyc, nan, nan, nan, float("nan"), float("nan"), [], _inertia_dict(inertia),
+                                 amplitude)
+    M = np.asarray(cyc.monodromy)
+    lon, lat = list(LONGITUDINAL), list(LATERAL) + [HEADING]
+    coupling = float(max(np.abs(M[np.ix_(lon, lat)]).max(), np.abs(M[np.ix_(lat, lon)]).max()))
+    speed = float(np.mean(cyc.trajectory_x[:, 0])) if cyc.trajectory_x is not None else float(cyc.x0[0])
+    modes = lateral_modes(M, T, speed)
+    p = param_vector(cfg)
+    p[list(PARAM_NAMES).index(AMPLITUDE_KEY)] = amplitude
+    validity = periodic_validity(cfg, np.asarray(cyc.x0)[lon], p=p, steps_per_period=method.steps_per_period)
+    return LateralTrimResult(
+        cycle=cyc, multipliers=sort_multipliers(cyc.multipliers),
+        longitudinal_multipliers=sort_multipliers(np.linalg.eigvals(M[np.ix_(lon, lon)])),
+        lateral_multipliers=sort_multipliers([m["multiplier"] for m in modes]),
+        heading_multiplier=float(M[HEADING, HEADING]), coupling_max=coupling, lateral_modes=modes,
+        inertia=_inertia_dict(inertia), amplitude_deg=amplitude, validity=validity)
+
+
+def _inertia_dict(inertia: LateralInertia) -> dict:
+    return {"roll_inertia_kgm2": inertia.roll_inertia_kgm2, "yaw_inertia_kgm2": inertia.yaw_inertia_kgm2,
+            "product_inertia_xz_kgm2": inertia.product_inertia_xz_kgm2}
+
+
+LATERAL_SENSITIVITY_KEYS = ("gait.shoulder_flap.offset_deg", "gait.shoulder_sweep.offset_deg",
+                            "gait.elbow_flex.offset_deg", "gait.wrist_flex.offset_deg",
+                            "gait.shoulder_incidence.offset_deg", "model.roll_inertia_kgm2",
+                            "model.yaw_inertia_kgm2")
+"""Default parameters of :func:`lateral_sensitivities`: the shoulder elevation (dihedral: the flap
+joint's offset), sweep, elbow and wrist offsets, the wing incidence and the lateral inertias."""
+
+
+def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, parameters=LATERAL_SENSITIVITY_KEYS):
+    """Exact derivatives of every multiplier of a converged 6-DOF cycle (fixed amplitude) with respect
+    to ``parameters`` (keys of :data:`birdocp.bird.config.PARAM_NAMES` or
+    :data:`birdocp.bird.sixdof.LATERAL_PARAM_NAMES`), the change of the cycle included (second-order
+    AD through the RK4 period map, :func:`birdocp.studies.sensitivity.cycle_derivatives`; the heading
+    is left out of the periodicity condition, its multiplier 1 being structural).
+
+    Parameters
+    ----------
+    res : LateralTrimResult
+        A converged fixed-amplitude 6-DOF cycle (:func:`lateral_trim` without ``level``).
+    cfg : Config, optional
+        Its configuration (default: the reference case).
+    parameters : sequence of str
+        Parameter keys (default :data:`LATERAL_SENSITIVITY_KEYS`).
+
+    Returns
+    -------
+    list of dict
+        One row per parameter: ``parameter``, ``d_moduli`` (per multiplier, in the order of
+        ``res.multipliers``' labels: ``labels``), ``d_multipliers`` ([re, im] pairs), per unit of the
+        parameter (deg, kg m^2).
+    """
+    from birdocp.bird.sixdof import LATERAL_PARAM_NAMES
+    from birdocp.studies.sensitivity import SecondOrderMaps, cycle_derivatives
+
+    cfg = cfg or Config()
+    c = res.cycle
+    if not c.success:
+        raise ValueError("the 6-DOF trim did not converge: sensitivities need a converged cycle")
+    if c.free_values:
+        raise ValueError("lateral_sensitivities needs a fixed-amplitude cycle (solve level flight, then trim at "
+                         "its amplitude)")
+    six = sixdof_model(cfg)
+    names = list(PARAM_NAMES) + list(LATERAL_PARAM_NAMES)
+    for k in parameters:
+        if k not in names:
+            raise ValueError(f"unknown parameter {k!r}")
+    so = SecondOrderMaps.get(six, int(c.method["steps_per_period"]), six.flight_outputs()["vertical_speed_mps"])
+    states = [i for i in range(9) if i != HEADING]
+    lam, dL, dmod, _, _ = cycle_derivatives(so, six.period_s, c.x0, c.p, [names.index(k) for k in parameters], states)
+    labels = _labels(lam, res)
+    return [{"parameter": k, "labels": labels, "multipliers": lam, "d_moduli": dmod[i], "d_multipliers": dL[i]}
+            for i, k in enumerate(parameters)]
+
+
+def _labels(lam, res: LateralTrimResult) -> list[str]:
+    """A label per multiplier: the lateral modes' labels, 'heading', or 'longitudinal'."""
+    out = []
+    for z in lam:
+        lab = "longitudinal"
+        if abs(z - res.heading_multiplier) < 1e-9 and abs(z.imag) < 1e-12:
+            lab = "heading"
+        for m in res.lateral_modes:
+            if abs(z - m["multiplier"]) < 1e-9 * max(1.0, abs(z)):
+                lab = m["label"]
+        out.append(lab)
+    return out
