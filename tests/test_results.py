@@ -117,6 +117,7 @@ def _tiny_instances() -> dict:
     from birdocp.export.codegen import ExportInfo
     from birdocp.studies.control import Controller, WingbeatMap
     from birdocp.studies.gait import GaitOptimum
+    from birdocp.studies.lateral import LateralTrimResult
     from birdocp.studies.optimize import StabilityOptimum
     from birdocp.studies.sensitivity import SensitivityResult
     from birdocp.studies.simulate import SimulationResult
@@ -176,6 +177,11 @@ def _tiny_instances() -> dict:
             True, "ok", "", False, 1, np.arange(3.0), np.tile(x4, (3, 1)), np.arange(3.0), np.zeros(3),
             np.zeros(0), np.zeros((0, 0)), [], np.array([0.01, 0.001]), False, 4.5),
         "birdocp.studies.trim.TrimResult": trim,
+        "birdocp.studies.lateral.LateralTrimResult": LateralTrimResult(
+            cycle, lam, lam, lam, 1.0, 1e-16, [{"multiplier": 0.5 + 0.1j, "label": "dutch_roll_like",
+                                                "beats_to_double": -2.0, "eigenvector": {"v_mps": 1j},
+                                                "dominant_state": "v_mps"}],
+            {"roll_inertia_kgm2": 0.011}, 42.0, validity),
         "birdocp.studies.control.Controller": Controller(wmap, np.eye(4), np.eye(1), np.eye(4), np.ones((1, 1, 4)),
                                                          np.array([[-10.0, 10.0]]),
                                                          [{"control": wmap.controls[0], "stabilisable": True}]),

@@ -17,7 +17,7 @@ when its roll-rate share is the largest of the real modes, the one nearest 1 is 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -116,13 +116,14 @@ class LateralTrimResult:
         ``multipliers`` (all nine) and ``stable`` (the heading's 1 excluded), then this result's
         fields, ``state_names``, ``lateral_stable`` and the period means ``mean_vertical_speed_mps``
         and ``mean_forward_speed_mps``."""
-        out = self.cycle.to_dict()
-        out.update(result_dict(self, derived=("success", "stable", "lateral_stable"), extra={
+        own = {f.name for f in fields(self)} | {"success", "stable", "lateral_stable"}
+        extra = {k: v for k, v in self.cycle.to_dict().items() if k not in own}
+        extra.update({
             "state_names": list(STATE_NAMES), "degrees_of_freedom": 6,
             "mean_vertical_speed_mps": self.mean_vertical_speed_mps,
             "mean_forward_speed_mps": self.mean_forward_speed_mps,
-            "flight_path_angle_deg": flight_path_angle_deg(self.mean_vertical_speed_mps, self.mean_forward_speed_mps)}))
-        return out
+            "flight_path_angle_deg": flight_path_angle_deg(self.mean_vertical_speed_mps, self.mean_forward_speed_mps)})
+        return result_dict(self, derived=("success", "stable", "lateral_stable"), extra=extra)
 
     @property
     def mean_vertical_speed_mps(self) -> float:
