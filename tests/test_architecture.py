@@ -115,6 +115,36 @@ def test_public_functions_have_docstrings():
     assert not missing, "undocumented public API: " + ", ".join(missing)
 
 
+def _calls_with_keyword(path: Path, keyword: str) -> list:
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    return [n.lineno for n in ast.walk(tree) if isinstance(n, ast.Call) and any(k.arg == keyword for k in n.keywords)]
+
+
+def test_engine_has_one_levenberg_marquardt_and_one_ipopt_front():
+    """Every damped Gauss-Newton step of the engine is engine/lm.py's (a second copy is a
+    ``lam * np.diag(...)`` normal-equation solve anywhere else), and every IPOPT run goes through
+    engine/nlp.py's run_ipopt (a second front is a solver call with ``lbg=`` anywhere else)."""
+    import re
+
+    lm_pattern = re.compile(r"\blam\w*\s*\*\s*np\.diag\(")
+    engine = PKG / "engine"
+    lm_copies = [f"{p.relative_to(ROOT)}" for p in engine.rglob("*.py")
+                 if p.name != "lm.py" and lm_pattern.search(p.read_text(encoding="utf-8"))]
+    fronts = [f"{p.relative_to(ROOT)}:{line}" for p in engine.rglob("*.py") if p.name != "nlp.py"
+              for line in _calls_with_keyword(p, "lbg")]
+    assert lm_pattern.search((engine / "lm.py").read_text(encoding="utf-8")), "engine/lm.py lost its LM step"
+    assert _calls_with_keyword(engine / "nlp.py", "lbg") or "lbg" in (engine / "nlp.py").read_text(encoding="utf-8")
+    assert not lm_copies, f"a second Levenberg-Marquardt in the engine: {lm_copies}"
+    assert not fronts, f"IPOPT run outside engine/nlp.py: {fronts}"
+
+
+def test_engine_modules_are_small():
+    """No module of the engine over 600 lines (split by concern instead)."""
+    long = [f"{p.relative_to(ROOT)}: {n}" for p in (PKG / "engine").rglob("*.py")
+            if (n := len(p.read_text(encoding="utf-8").splitlines())) > 600]
+    assert not long, long
+
+
 def test_public_faces():
     """The package faces (birdocp, birdocp.engine) are non-empty, every name imports, the lazy tables
     keep the layers (the engine's face names only engine modules; birdocp's none of the command line),

@@ -13,7 +13,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from birdocp.engine import shooting
+from birdocp.engine import shooting_graphs
 from birdocp.bird.config import Config
 from birdocp.engine.integrate import RK4Grid
 from birdocp.bird.model import get_model
@@ -40,7 +40,7 @@ def test_split_data_blocks_equal_composed_data(m):
 
 def _builder(m, general: bool, monkeypatch):
     if general:
-        monkeypatch.setattr(shooting, "_affine_columns", lambda ode, free_idx: None)
+        monkeypatch.setattr(shooting_graphs, "_affine_columns", lambda ode, free_idx: None)
     j = m.ode.param_names.index(ROOT)
     b = ShootingGraphs(m.ode, MultipleShooting(points=3, steps_per_period=48), (j,), (),
                  (flight_outputs()["forward_speed_mps"],))

@@ -123,3 +123,17 @@ def test_max_iter_is_a_failed_result(solver, fallback, iters):
     assert r.iterations == iters  # the ipopt fallback (filter line search) adds its own iteration
     assert ("retried" in r.message) == (solver == "ipopt" and fallback)
     r.to_dict()
+
+
+def test_error_estimate_of_a_forced_orbit_tracks_the_true_error():
+    # estimate at N = 64 (Richardson from 128 steps + solver error) against a 2048-step reference
+    ref = solve(PROB, MultipleShooting(points=5, steps_per_period=2048))
+    r = solve(PROB, MultipleShooting(points=5, steps_per_period=64, error_estimate=True), warm_start=ref)
+    e = r.error_estimate
+    assert r.success and e["fine_status"] == "converged" and e["steps_per_period_fine"] == 128, e
+    true_lam = np.max(np.abs(np.sort_complex(r.multipliers) - np.sort_complex(ref.multipliers)))
+    assert 0.3 * true_lam <= e["multipliers"] <= 3 * true_lam, (true_lam, e)
+    assert 0.3 * np.max(np.abs(r.x0 - ref.x0)) <= e["x0"] <= 3 * np.max(np.abs(r.x0 - ref.x0)) + 1e-12, e
+    plain = solve(PROB, MultipleShooting(points=5, steps_per_period=64), warm_start=ref)
+    assert plain.error_estimate is None and np.array_equal(plain.multipliers, r.multipliers)
+    assert "error_estimate" not in r.to_dict()  # the caller adds it (birdocp trim)

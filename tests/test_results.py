@@ -157,11 +157,11 @@ def _tiny_instances() -> dict:
         "birdocp.engine.equilibria.EquilibriumBranch": EquilibriumBranch(
             0, np.array([0.0, 1.0]), np.zeros((2, 2)), np.array([[1j, -1j], [1 + 1j, 1 - 1j]]),
             np.array([True, False]), [hopf], []),
-        "birdocp.engine.orbits.PeriodicOrbit": PeriodicOrbit(
+        "birdocp.engine.orbit_types.PeriodicOrbit": PeriodicOrbit(
             True, "converged", "", "converged", 2, np.array([1.0, 1e-12]), 1e-12, 6.28, np.ones(2), np.ones(3),
             np.ones((3, 2)), np.arange(3.0), np.ones((3, 2)), 1.0, 6.28, True, multipliers=np.array([1.0, 0.01]),
             trivial_multiplier=1.0, trivial_multiplier_error=0.0, nontrivial_multipliers=np.array([0.01])),
-        "birdocp.engine.shooting.LimitCycleResult": cycle,
+        "birdocp.engine.shooting_types.LimitCycleResult": cycle,
         "birdocp.export.codegen.ExportInfo": ExportInfo(Path("/tmp/c"), ["a.c"], 48, 0.25, 0.25 / 48, 3, ["x"],
                                                         [1.0], {"y": 2.0}),
         "birdocp.studies.optimize.StabilityOptimum": StabilityOptimum(

@@ -336,7 +336,7 @@ def continue_equilibria(ode: ODE, p, param, x_start, stop, *, ds: float = 0.05, 
 def orbit_from_hopf(ode: ODE, hopf: HopfPoint, amplitude: float, method: OrbitMethod = OrbitMethod(points=5, steps_per_period=100),
                     warm_start: PeriodicOrbit | None = None) -> PeriodicOrbit:
     """The periodic orbit of amplitude ``amplitude`` (along Re v) born at ``hopf``; the continued
-    parameter is an unknown (``result.p[hopf.param]``, also in ``result.free_params``). A method
+    parameter is an unknown (``result.p[hopf.param]``, also in ``result.free_values``). A method
     without steps_per_period gets 128 (rounded to the segments); the result's error estimate says
     whether that is enough.
 

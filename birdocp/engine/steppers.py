@@ -6,7 +6,8 @@
 * ``"gauss"``: Gauss-Legendre, 2 stages, order 4, A-stable and symplectic.
 
 The implicit stage equations ``K_i = f(x + h sum_j a_ij K_j, t + c_i h, q)`` are solved by a CasADi
-``rootfinder`` (Newton with the exact stage Jacobian, from K_i = f(x)). A stage solve that does not
+``rootfinder`` (Newton with the exact stage Jacobian, from the linearly implicit slope
+K_i = (I - h J)^-1 f(x), J = df/dx(x), which stays in Newton's basin when h |lambda| >> 1). A stage solve that does not
 converge (stage residual above 1e-8 (1 + max|K|)) makes the step return NaN instead of an unconverged
 value: the shooting solvers treat it as a failed evaluation and shorten their step, and no orbit can
 be "found" on a discrete map that is not the Radau/Gauss one. CasADi differentiates the rootfinder by the
@@ -77,8 +78,13 @@ def make_step(rhs: ca.Function, method: str = "rk4", *, newton_tol: float = 1e-1
                            {"abstol": newton_tol, "abstolStep": 1e-15, "max_iter": 50,
                             "error_on_fail": False, "show_eval_warnings": False})
     xm, tm, qm, hm = ca.MX.sym("x", nx), ca.MX.sym("t"), ca.MX.sym("q", nq), ca.MX.sym("h")
+    # stage start: the linearly implicit (backward-Euler) slope (I - h J)^-1 f(x) rather than f(x): for a
+    # stiff system with h |lambda| >> 1 the latter is far outside Newton's basin (the redox oscillator
+    # from the reference toolbox's guess); it changes where Newton starts, not what it converges to
     f0 = rhs(xm, tm, qm)
-    Kv = solver(ca.repmat(f0, s, 1), ca.vertcat(xm, tm, qm, hm))
+    Jx = ca.jacobian(f0, xm)
+    k0 = ca.solve(ca.MX.eye(nx) - hm * Jx, f0, "qr")
+    Kv = solver(ca.repmat(k0, s, 1), ca.vertcat(xm, tm, qm, hm))
     Km = ca.reshape(Kv, nx, s)
     xn = xm + hm * sum(float(b[j]) * Km[:, j] for j in range(s))
     # NaN when Newton did not converge (a short-circuit conditional: only the taken branch is

@@ -186,6 +186,8 @@ class TrimResult:
                   "validity": self.validity, **self.wing_power_summary()}
         if self.__dict__.get("_energetics") is not None:
             flight.update(self.energetics_dict())
+        if c.error_estimate is not None:  # trim(..., error_estimate=True): the 2N re-solve's estimate
+            flight["error_estimate"] = c.error_estimate
         # the engine cycle's fields (the trajectory and p go to arrays.npz), then the flight's
         return result_dict(c, exclude=("p", "trajectory_t", "trajectory_x"), extra=flight,
                            rename={"floquet_exponents": "floquet_exponents_per_s",
