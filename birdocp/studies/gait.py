@@ -141,7 +141,7 @@ class ReducedLevelCycle:
     """
 
     def __init__(self, cfg: Config, keys, steps_per_period: int | None = None, climb_rate_mps: float = 0.0,
-                 second_order: bool = False, amplitude_start_deg: float | None = None):
+                 second_order: bool = False, amplitude_start_deg: float | None = None, valid: bool = False):
         from birdocp.bird.energetics import power_functions
         from birdocp.bird.model import get_model
         from birdocp.engine.integrate import RK4Grid
@@ -166,6 +166,13 @@ class ReducedLevelCycle:
         if "shoulder_inertial_power_W" in pf.names:
             Pf = Pf + pw[pf.names.index("shoulder_inertial_power_W")]
         out = ca.vertcat(pw[8], pw[7], Pf, pw[0], 0.5 * (Pf + ca.sqrt(Pf ** 2 + POSITIVE_EPS_W ** 2)))
+        self.out_names = _OUT
+        self.valid = bool(valid)
+        if self.valid:  # the smooth validity integrands, on the same RK4 stages (bird.validity_smooth)
+            from birdocp.bird.validity_smooth import integrand_names, smooth_integrands
+
+            out = ca.vertcat(out, smooth_integrands(cfg, m.ode.nd)(x, d, p))
+            self.out_names = _OUT + integrand_names()
         self.outputs = ca.Function("gait_outputs", [x, d, p], [out])
         self.grid = RK4Grid(m.ode, N, 1, outputs=(self.outputs,))
         self.sens = PeriodSensitivities(m.ode, N, (self.outputs,), nv)
@@ -306,7 +313,7 @@ class ReducedLevelCycle:
             dy = -np.linalg.solve(Ry, Rt)           # 5 x nt
         except np.linalg.LinAlgError:
             raise RuntimeError("singular level-cycle Jacobian (a fold of cycles)") from None
-        ev.grads = {n: Jq[i, ct] + Jq[i, cy] @ dy for i, n in enumerate(_OUT)}
+        ev.grads = {n: Jq[i, ct] + Jq[i, cy] @ dy for i, n in enumerate(self.out_names)}
         ev.grads["amplitude_deg"] = dy[4]
         ev.monodromy = np.asarray(s["J"][:, :4])
         if self.second:  # along theta_c with x0 and A following: dy[:4, c], dy[4, c]
@@ -367,7 +374,7 @@ class ReducedLevelCycle:
                 raise RuntimeError("singular level-cycle Jacobian (a fold of cycles)") from None
             it += 1
             R, means = self.residual(y, theta)
-        return Evaluation(theta.copy(), y[:4].copy(), float(y[4]), dict(zip(_OUT, means.tolist())), None,
+        return Evaluation(theta.copy(), y[:4].copy(), float(y[4]), dict(zip(self.out_names, means.tolist())), None,
                           None, None, res, it)
 
     def solve_speed(self, speed_mps: float, theta, k: int = 0, bounds=None, tol: float = 1e-9,
@@ -423,6 +430,14 @@ class GaitOptimum:
     evaluations: dict = field(default_factory=dict)
     cfg: Config | None = None
     start_x0: np.ndarray | None = None
+    validity: dict | None = None
+    """Where the model holds on the optimal cycle (:meth:`birdocp.bird.validity.CycleValidity.to_dict`)."""
+    validity_constraints: dict | None = None
+    """With ``valid=True``: per limit of ``[validity]`` its smooth value, the exact one, the configured
+    bound, the bound used, whether it is active, its multiplier and smoothing
+    (:func:`birdocp.studies.gait_validity.constraint_report`)."""
+    validity_rounds: list | None = None
+    """With ``valid=True``: one entry per solve (bounds used, status, exact verdict, iterations)."""
     second_derivatives: np.ndarray | None = None
     """With ``hessian="fd"``: the last finite-difference second derivatives, ``[k, i, j] =
     d^2 G_i / dz_j dz_k`` (G = objective and constraints, z = free values and r, unscaled); what a
@@ -448,15 +463,19 @@ class ReducedProblem:
     G(z) = [objective; constraints] and dG/dz, z = the scaled free values theta (and r for the
     stability objective); :meth:`jacobian_near` gives a finite-difference Hessian's perturbed points."""
 
-    def __init__(self, rc: ReducedLevelCycle, objective: str, speed, max_multiplier, amplitude_bounds):
+    def __init__(self, rc: ReducedLevelCycle, objective: str, speed, max_multiplier, amplitude_bounds,
+                 valid_bounds: dict | None = None):
         self.rc, self.objective, self.speed, self.R = rc, objective, speed, max_multiplier
         self.amp = amplitude_bounds
         self.with_r = objective == "stability"
         self.jury = _jury_function() if (max_multiplier is not None or self.with_r) else None
         nt = rc.nt
         self.nz = nt + (1 if self.with_r else 0)
+        self.valid_bounds = dict(valid_bounds or {})
+        """limit -> (bound used, 'max' or 'min') of the smooth validity constraints (empty: none)."""
         self.names = ["amplitude_deg"] + (["forward_speed_mps"] if speed is not None else []) \
-            + ([f"jury{i}" for i in range(5)] if self.jury is not None else [])
+            + ([f"jury{i}" for i in range(5)] if self.jury is not None else []) \
+            + ["valid_" + k for k in self.valid_bounds]
         self.ng = 1 + len(self.names)
         self.jac_sparsity = ca.Sparsity.dense(self.ng, self.nz)
         self.sigma = np.ones(self.nz)
@@ -473,7 +492,19 @@ class ReducedProblem:
         if self.jury is not None:
             lo += [JURY_MARGIN] * 5
             hi += [np.inf] * 5
+        for b, kind in self.valid_bounds.values():
+            lo.append(b if kind == "min" else -np.inf)
+            hi.append(b if kind == "max" else np.inf)
         return np.array(lo), np.array(hi)
+
+    def smooth_validity(self, ev: Evaluation, grads: bool = True):
+        """({limit: smooth value}, {limit: gradient in theta}) of the constrained validity limits."""
+        from birdocp.bird.validity_smooth import integrand_names, smooth_measures
+
+        names = integrand_names()
+        g = [ev.grads[n] for n in names] if grads and ev.grads is not None else None
+        vals, der = smooth_measures(self.rc.cfg, [ev.means[n] for n in names], g)
+        return vals, der
 
     def _obj(self, ev: Evaluation, z):
         if self.objective == "power":
@@ -508,6 +539,9 @@ class ReducedProblem:
         if ev.grads is None:  # values only (a line-search trial point)
             G = np.array([self._value(ev)] + [ev.amplitude_deg]
                          + ([ev.means["forward_speed_mps"]] if self.speed is not None else []))
+            if self.valid_bounds:
+                vals = self.smooth_validity(ev, grads=False)[0]
+                G = np.concatenate([G, [vals[k] for k in self.valid_bounds]])
             return G, None
         return self._assemble(ev, z)
 
@@ -535,6 +569,12 @@ class ReducedProblem:
             J[i:i + 5, :nt] = jj[:, :16] @ ev.d_monodromy
             if self.with_r:
                 J[i:i + 5, -1] = jj[:, 16]
+            i += 5
+        if self.valid_bounds:
+            vals, der = self.smooth_validity(ev)
+            for k in self.valid_bounds:
+                G[i], J[i, :nt] = vals[k], der[k]
+                i += 1
         return G, J / self.sigma
 
     def _value(self, ev):
@@ -576,7 +616,7 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
                   verify: bool = True, progress=False, start: dict | None = None, x_guess=None,
                   ipopt_options: dict | None = None, hessian: str = "sr1",
                   radius_start_factor: float = 1.05, threads: int = 2,
-                  second_derivatives: np.ndarray | None = None) -> GaitOptimum:
+                  second_derivatives: np.ndarray | None = None, valid: bool = False) -> GaitOptimum:
     """Minimise mean power (``objective="power"``), cost of transport, smoothed positive-work power,
     or the stability radius (``"stability"``) over the gait parameters ``free`` (key -> (lo, hi);
     default :data:`DEFAULT_GAIT_FREE`), in level flight (mean W = ``climb_rate_mps``, the amplitude
@@ -597,8 +637,31 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     ``second_derivatives`` of a nearby solve held fixed, e.g. those of a coarser grid's optimum:
     one gradient evaluation per iteration).
     ``radius_start_factor``: with the stability objective, r starts at this factor times the start's
-    spectral radius."""
-    cfg = cfg or Config()
+    spectral radius.
+
+    ``valid``: every limit of ``cfg.validity`` is a smooth constraint
+    (:mod:`birdocp.bird.validity_smooth`; exact gradients from the same RK4 stages). The exact
+    validity of the optimum is checked; a limit still crossed (a smooth measure is not a bound of the
+    exact one) has its smooth bound tightened by the difference and the problem is solved again from
+    the optimum, at most :data:`birdocp.studies.gait_validity.VALID_ROUNDS` times in all. The result
+    always carries the exact ``validity``; with ``valid`` also ``validity_constraints``."""
+    from birdocp.studies.gait_validity import solve_valid
+
+    options = dict(objective=objective, speed_mps=speed_mps, max_multiplier=max_multiplier,
+                   climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
+                   steps_per_period=steps_per_period, max_iter=max_iter, tol=tol, verify=verify,
+                   progress=progress, start=start, x_guess=x_guess, ipopt_options=ipopt_options,
+                   hessian=hessian, radius_start_factor=radius_start_factor, threads=threads,
+                   second_derivatives=second_derivatives)
+    return solve_valid(_solve_gait, cfg or Config(), free, valid, options)
+
+
+def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, max_multiplier, climb_rate_mps,
+                amplitude_bounds, steps_per_period, max_iter, tol, verify, progress, start, x_guess,
+                ipopt_options, hessian, radius_start_factor, threads, second_derivatives,
+                valid_bounds: dict | None = None) -> GaitOptimum:
+    """One reduced-space solve (:func:`optimize_gait`); ``valid_bounds``: limit -> (bound, 'max' or
+    'min') of the smooth validity constraints (None: none). Sets the optimum's exact ``validity``."""
     if hessian not in ("sr1", "fd", "fixed"):
         raise ValueError(f"hessian must be 'sr1', 'fd' or 'fixed', got {hessian!r}")
     if (hessian == "fixed") != (second_derivatives is not None):
@@ -626,7 +689,8 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     keys = list(free)
     second = objective == "stability" or max_multiplier is not None
     t0 = time.perf_counter()
-    rc = ReducedLevelCycle(cfg_start, keys, steps_per_period, climb_rate_mps, second_order=second)
+    rc = ReducedLevelCycle(cfg_start, keys, steps_per_period, climb_rate_mps, second_order=second,
+                           valid=bool(valid_bounds))
     wall["build"] = time.perf_counter() - t0
     rc.amplitude_range_deg = (amplitude_bounds[0] - 10.0, amplitude_bounds[1] + 10.0)
     if x_guess is not None:
@@ -647,7 +711,7 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     except RuntimeError as e:
         return _failed(objective, free, f"start: {e}", cfg, speed_mps, max_multiplier)
     wall["start"] = time.perf_counter() - t0
-    prob = ReducedProblem(rc, objective, speed_mps, max_multiplier, amplitude_bounds)
+    prob = ReducedProblem(rc, objective, speed_mps, max_multiplier, amplitude_bounds, valid_bounds)
     prob.progress = progress
     z0 = ev0.theta.copy()
     lbx, ubx = lo.copy(), hi.copy()
@@ -710,6 +774,9 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
                       start_mult, ev.means["forward_speed_mps"], speed_mps, max_multiplier, dict(ev.means),
                       float(np.max(np.abs(kkt))), viol, cfg=cfg)
     out.evaluations = {"full": rc.n_full, "residual": rc.n_resid, "no_level_cycle": len(prob.failures)}
+    from birdocp.studies.gait_validity import attach_validity
+
+    attach_validity(out, prob, ev, lam_g, cfg)
     out.start_x0 = ev0.x0
     if isinstance(fd, StencilHessian) and fd.last is not None:
         out.second_derivatives = fd.last[1] * scale2
