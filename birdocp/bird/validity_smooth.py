@@ -42,9 +42,10 @@ import functools
 import math
 
 from birdocp.bird.config import PARAM_NAMES, Config
+from birdocp.engine.cache import bounded_cache
 
 __all__ = ["SMOOTH_LIMITS", "STALL_WIDTH_DEG", "KS_RHO", "smooth_integrands", "integrand_names",
-           "smooth_measures", "limit_bounds", "smoothing_info"]
+           "smooth_measures", "limit_bounds", "smoothing_info", "cycle_smooth_measures"]
 
 SMOOTH_LIMITS = ("stalled_fraction", "min_forward_speed_mps", "max_abs_pitch_deg", "max_airflow_body_angle_deg")
 """The limits of ``[validity]`` as smooth measures (names of the exact measures)."""
@@ -129,3 +130,29 @@ def smooth_measures(cfg: Config, means, grads=None):
         vals[k] = bound + sign * math.log(mi) / rho
         der[k] = None if g is None else sign * g / (rho * mi)
     return vals, der
+
+
+def cycle_smooth_measures(cfg: Config, x0, p=None, steps_per_period: int | None = None) -> dict:
+    """{limit: smooth value} of the periodic cycle through ``x0`` at t = 0 (one RK4 period on the
+    solver's grid, ``cfg.solve.steps_per_period`` by default, with the integrands as quadrature
+    outputs): the values an optimiser with ``valid=True`` constrains, for a cycle found otherwise."""
+    import casadi as ca
+    import numpy as np
+
+    from birdocp.bird.model import get_model
+    from birdocp.engine.integrate import RK4Grid
+
+    m = get_model(cfg)
+    n = int(steps_per_period or cfg.solve.steps_per_period)
+    p = m.p0 if p is None else np.asarray(p, float).ravel()
+    key = (id(m.ode), n, tuple(limit_bounds(cfg).items()), float(cfg.validity.stall_angle_deg))
+    grid = _GRIDS.get(key)
+    if grid is None:
+        grid = RK4Grid(m.ode, n, 1, outputs=(smooth_integrands(cfg, m.ode.nd),))
+        _GRIDS.put(key, grid)
+    D = grid.blocks_numeric(0.0, p)
+    _, _, q = grid.period_map(ca.DM(np.asarray(x0, float)), D, ca.DM(p))
+    return smooth_measures(cfg, np.asarray(q).ravel() / m.period_s)[0]
+
+
+_GRIDS = bounded_cache("bird.validity_smooth_grids", 4)

@@ -46,11 +46,12 @@ def attach_validity(out, prob, ev, lam_g, cfg: Config) -> None:
 
 
 def constraint_report(cfg: Config, smooth: dict, exact: dict, used: dict, lam: dict | None = None) -> dict:
-    """limit -> ``{"smooth", "exact", "bound", "bound_used", "kind", "active", "multiplier",
-    "smoothing"}``: the smooth value at the optimum, the exact measure (``exact``: a validity dict),
-    the configured bound, the (possibly tightened) bound the optimiser held, 'max' or 'min', whether
-    the smooth constraint is active (within 1e-5 of its bound, relative to max(1, |bound|)), IPOPT's
-    multiplier and the smoothing used."""
+    """limit -> ``{"smooth", "exact", "bound", "bound_used", "kind", "active", "exact_within_bound",
+    "multiplier", "smoothing"}``: the smooth value at the optimum, the exact measure (``exact``: a
+    validity dict), the configured bound, the (possibly tightened) bound the optimiser held, 'max' or
+    'min', whether the smooth constraint is active (within 1e-5 of its bound, relative to
+    max(1, |bound|)), whether the exact measure respects the configured bound, IPOPT's multiplier
+    (None when no optimiser held it) and the smoothing used."""
     from birdocp.bird.validity_smooth import KS_RHO, STALL_WIDTH_DEG, limit_bounds
 
     out = {}
@@ -60,8 +61,11 @@ def constraint_report(cfg: Config, smooth: dict, exact: dict, used: dict, lam: d
         active = s is not None and abs(s - b_used) <= 1e-5 * max(1.0, abs(b_used))
         how = (f"logistic step of width {STALL_WIDTH_DEG:g} deg, span-time mean over the RK4 stages"
                if k == "stalled_fraction" else f"Kreisselmeier-Steinhauser, integral form, rho {KS_RHO[k]:g}")
-        out[k] = {"smooth": s, "exact": (exact or {}).get(k), "bound": bound, "bound_used": b_used, "kind": kind,
-                  "active": bool(active), "multiplier": None if lam is None else lam.get(k), "smoothing": how}
+        e = (exact or {}).get(k)
+        ok = None if e is None else bool(e <= bound if kind == "max" else e >= bound)
+        out[k] = {"smooth": s, "exact": e, "bound": bound, "bound_used": b_used, "kind": kind,
+                  "active": bool(active), "exact_within_bound": ok,
+                  "multiplier": None if lam is None else lam.get(k), "smoothing": how}
     return out
 
 
