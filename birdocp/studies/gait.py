@@ -29,11 +29,13 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest, with_values
+from birdocp.bird.validity import periodic_validity
 from birdocp.engine.floquet import sort_multipliers
 from birdocp.engine.results import result_dict, serial
 
 __all__ = ["ReducedLevelCycle", "ReducedProblem", "GaitOptimum", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
-           "level_at_speed", "power_curve", "SPEED_KEY", "stability_pareto", "jury_conditions",
+           "level_at_speed", "power_curve", "SPEED_KEY", "stability_pareto", "jury_conditions", "valid_power_curve",
+           "curve_optima",
            "check_free_keys"]
 
 AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
@@ -616,7 +618,8 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
                   verify: bool = True, progress=False, start: dict | None = None, x_guess=None,
                   ipopt_options: dict | None = None, hessian: str = "sr1",
                   radius_start_factor: float = 1.05, threads: int = 2,
-                  second_derivatives: np.ndarray | None = None, valid: bool = False) -> GaitOptimum:
+                  second_derivatives: np.ndarray | None = None, valid: bool = False,
+                  valid_rounds: int | None = None) -> GaitOptimum:
     """Minimise mean power (``objective="power"``), cost of transport, smoothed positive-work power,
     or the stability radius (``"stability"``) over the gait parameters ``free`` (key -> (lo, hi);
     default :data:`DEFAULT_GAIT_FREE`), in level flight (mean W = ``climb_rate_mps``, the amplitude
@@ -643,9 +646,10 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     (:mod:`birdocp.bird.validity_smooth`; exact gradients from the same RK4 stages). The exact
     validity of the optimum is checked; a limit still crossed (a smooth measure is not a bound of the
     exact one) has its smooth bound tightened by the difference and the problem is solved again from
-    the optimum, at most :data:`birdocp.studies.gait_validity.VALID_ROUNDS` times in all. The result
+    the optimum, at most ``valid_rounds`` (default
+    :data:`birdocp.studies.gait_validity.VALID_ROUNDS`) solves in all. The result
     always carries the exact ``validity``; with ``valid`` also ``validity_constraints``."""
-    from birdocp.studies.gait_validity import solve_valid
+    from birdocp.studies.gait_validity import VALID_ROUNDS, solve_valid
 
     options = dict(objective=objective, speed_mps=speed_mps, max_multiplier=max_multiplier,
                    climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
@@ -653,7 +657,8 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
                    progress=progress, start=start, x_guess=x_guess, ipopt_options=ipopt_options,
                    hessian=hessian, radius_start_factor=radius_start_factor, threads=threads,
                    second_derivatives=second_derivatives)
-    return solve_valid(_solve_gait, cfg or Config(), free, valid, options)
+    return solve_valid(_solve_gait, cfg or Config(), free, valid, options,
+                       VALID_ROUNDS if valid_rounds is None else valid_rounds)
 
 
 def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, max_multiplier, climb_rate_mps,
@@ -847,7 +852,10 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
     The points are continued outward from the speed of the configured gait's level cycle. Returns
     ``{"rows": [...], "minimum_power": {...}, "maximum_range": {...}, "key": key}``; minimum-power and
     maximum-range (minimum P/U) speeds from a parabola through the three points around the discrete
-    minimum."""
+    minimum, over the rows whose cycle is *valid* only (each row carries ``validity`` and ``valid``,
+    and the cycle: ``x0``, the key's value and ``amplitude_deg``); ``"interior": False`` when the
+    minimum lies at an end of the valid rows. ``minimum_power_all_rows`` and
+    ``maximum_range_all_rows``: the same over every converged row, valid or not."""
     from birdocp.bird.energetics import cycle_energetics
 
     cfg = cfg or Config()
@@ -876,6 +884,8 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
             ev_prev = ev
             p = rc.pfull(ev.theta, ev.amplitude_deg)
             e = cycle_energetics(rc.m, p, ev.x0, rc.N)
+            v = periodic_validity(with_values(cfg, {key: float(ev.theta[0]), AMPLITUDE_KEY: ev.amplitude_deg}),
+                                  ev.x0, p, steps_per_period=rc.N).to_dict()
             lam = ev.multipliers
             row.update({"success": True, key: float(ev.theta[0]), "amplitude_deg": ev.amplitude_deg,
                         "x0": ev.x0.tolist(), "mean_forward_speed_mps": ev.means["forward_speed_mps"],
@@ -884,17 +894,26 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
                                              "mean_positive_power_W", "cost_of_transport",
                                              "strouhal_number", "reduced_frequency")},
                         "multipliers": [[float(v.real), float(v.imag)] for v in lam],
-                        "largest_modulus": float(np.max(np.abs(lam)))})
+                        "largest_modulus": float(np.max(np.abs(lam))), "validity": v, "valid": bool(v["valid"])})
             rows.append(row)
             if progress:
                 print(f"power curve: U {s:6.2f} m/s  {key} {ev.theta[0]:8.4f}  A {ev.amplitude_deg:8.4f} deg  "
                       f"P {e['mean_shoulder_power_W']:8.4f} W  |L1| {row['largest_modulus']:.4f}", flush=True)
     rows.sort(key=lambda r: r["speed_mps"])
-    ok = [r for r in rows if r["success"]]
-    U = np.array([r["speed_mps"] for r in ok])
-    P = np.array([r["mean_shoulder_power_W"] for r in ok])
-    return {"key": key, "rows": rows, "minimum_power": _vertex(U, P, "power_W"),
-            "maximum_range": _vertex(U, P / U if len(U) else P, "power_per_speed_J_per_m", P)}
+    return {"key": key, "rows": rows} | curve_optima(rows)
+
+
+def curve_optima(rows: list) -> dict:
+    """``minimum_power`` and ``maximum_range`` over the valid converged rows (``mean_shoulder_power_W``
+    against ``speed_mps``), and ``..._all_rows`` over every converged row."""
+    out = {}
+    for tag, keep in (("", lambda r: r.get("valid")), ("_all_rows", lambda r: True)):
+        ok = [r for r in rows if r["success"] and keep(r)]
+        U = np.array([r["speed_mps"] for r in ok])
+        P = np.array([r["mean_shoulder_power_W"] for r in ok])
+        out["minimum_power" + tag] = _vertex(U, P, "power_W")
+        out["maximum_range" + tag] = _vertex(U, P / U if len(U) else P, "power_per_speed_J_per_m", P)
+    return out
 
 
 def _vertex(U, y, name, P=None) -> dict:
@@ -918,7 +937,7 @@ def _vertex(U, y, name, P=None) -> dict:
 def stability_pareto(cfg: Config | None, speed_mps: float, bounds, *, free: dict | None = None,
                      start: dict | None = None, x_guess=None, objective: str = "power",
                      steps_per_period: int | None = None, max_halvings: int = 4, progress=None,
-                     **options) -> list[dict]:
+                     executor=None, anchors=(), start_bound: float | None = None, **options) -> list[dict]:
     """The Pareto front of minimum ``objective`` in level flight at ``speed_mps`` against the bound R
     on every multiplier's modulus: one :func:`optimize_gait` per R in ``bounds`` (in the given order,
     normally from loose to tight), each started from the previous optimum (gait, amplitude and cycle).
@@ -928,21 +947,28 @@ def stability_pareto(cfg: Config | None, speed_mps: float, bounds, *, free: dict
     Returns one row per bound tried (inserted ones included, ``"inserted": True``), each with
     ``bound``, ``success``, ``status``, ``objective_value``, ``largest_modulus``, ``free``,
     ``amplitude_deg``, ``x0``, ``iterations``, ``kkt_residual``, ``wall_s`` and the verification's
-    ``power_difference_W``. ``options`` go to :func:`optimize_gait`."""
+    ``power_difference_W``, ``validity``, ``valid`` and ``validity_constraints``. ``options`` go to
+    :func:`optimize_gait` (e.g. ``valid=True``: the front over valid cycles).
+
+    With an ``executor`` (:mod:`birdocp.engine.executors`: processes or Dask) the points are solved in
+    parallel waves, each from its nearest solved neighbour (:func:`birdocp.studies.pareto.pareto_parallel`;
+    ``anchors``: known solutions such as the most stable gait, ``start_bound``: the start's largest
+    modulus); no halving then, one row per bound."""
+    if executor is not None:
+        from birdocp.studies.pareto import pareto_parallel
+
+        return pareto_parallel(executor, optimize_gait, cfg, speed_mps, bounds, free=free, start=start, x_guess=x_guess,
+                               start_bound=start_bound, anchors=anchors, objective=objective,
+                               steps_per_period=steps_per_period, progress=progress, **options)
+    from birdocp.studies.pareto import pareto_row
+
     queue = [(float(R), False) for R in bounds]
     rows, last_R, halvings = [], None, 0
     while queue:
         R, inserted = queue[0]
         opt = optimize_gait(cfg, free, objective=objective, speed_mps=speed_mps, max_multiplier=R, start=start,
                             x_guess=x_guess, steps_per_period=steps_per_period, **options)
-        row = {"bound": R, "inserted": inserted, "success": bool(opt.success), "status": opt.status,
-               "objective_value": opt.objective_value, "largest_modulus": opt.largest_modulus,
-               "free": dict(opt.free), "amplitude_deg": opt.amplitude_deg,
-               "x0": np.asarray(opt.x0, float).tolist(), "iterations": opt.iterations,
-               "kkt_residual": opt.kkt_residual, "constraint_violation": opt.constraint_violation,
-               "mean_forward_speed_mps": opt.mean_forward_speed_mps, "wall_s": dict(opt.wall_s),
-               "verification_power_difference_W": opt.verification.get("power_difference_W"),
-               "verification_trim_success": opt.verification.get("trim_success")}
+        row = pareto_row(R, opt, inserted)
         if progress:
             progress(f"Pareto R = {R:.5f}: {opt.status}, P {opt.objective_value:.5f}, |L1| "
                      f"{opt.largest_modulus:.5f}, {opt.iterations} iterations, "
@@ -961,3 +987,30 @@ def stability_pareto(cfg: Config | None, speed_mps: float, bounds, *, free: dict
             queue.pop(0)
             halvings = 0
     return rows
+
+
+def valid_power_curve(executor, cfg, speeds, *, free=None, start=None, x_guess=None, start_speed=None,
+                      progress=None, wave: int | None = None, **options) -> dict:
+    """The power curve over valid gaits: at each speed the least-power level gait over ``free``
+    (default :data:`DEFAULT_GAIT_FREE`) with every limit of ``[validity]`` a constraint
+    (``optimize_gait(objective="power", valid=True)``), the speeds solved in parallel waves through
+    ``executor`` (:mod:`birdocp.engine.executors`), each from its nearest solved speed
+    (:func:`birdocp.studies.pareto.waves`; ``start``/``x_guess`` at ``start_speed``: a known solution
+    to begin from, default the configured gait). Returns ``{"rows", "minimum_power",
+    "maximum_range", ...}`` as :func:`power_curve` (optima over the valid rows)."""
+    from birdocp.studies.pareto import power_point, waves
+
+    options = {k: v for k, v in options.items() if k != "progress"} | {"valid": True}
+    s0 = float(np.median(speeds)) if start_speed is None else float(start_speed)
+
+    def job(U, nb):
+        return {"optimize": optimize_gait, "cfg": cfg, "free": free, "speed_mps": float(U),
+                "start": nb["start"] or None, "x_guess": nb["x_guess"], "options": options,
+                "started_from": nb["label"]}
+
+    def say(U, row):
+        if progress:
+            progress(f"valid power curve U = {U:.2f}: {row['status']}, P {row['objective_value']:.5f} W, valid "
+                     f"{row['valid']}, {row['iterations']} iterations, {row['wall_s'].get('total', math.nan):.1f} s")
+    rows = waves(executor, [float(U) for U in speeds], [(s0, None, start, x_guess)], job, power_point, say, wave)
+    return {"rows": rows, "free": free} | curve_optima(rows)

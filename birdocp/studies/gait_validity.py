@@ -25,6 +25,9 @@ TIGHTEN_FACTOR = 1.25
 _MIN_STEP = {"stalled_fraction": 1e-3, "min_forward_speed_mps": 0.01, "max_abs_pitch_deg": 0.01,
              "max_airflow_body_angle_deg": 0.01}
 AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
+WARM_IPOPT = {"ipopt.mu_init": 1e-6, "ipopt.mu_strategy": "monotone", "ipopt.bound_push": 1e-8,
+              "ipopt.bound_frac": 1e-8}
+"""IPOPT options of a re-solve from the previous round's optimum (no push away from active constraints)."""
 
 
 def attach_validity(out, prob, ev, lam_g, cfg: Config) -> None:
@@ -92,7 +95,7 @@ def _tightened(cfg: Config, used: dict, exact: dict, smooth: dict) -> dict | Non
     return new if moved else None
 
 
-def solve_valid(solve, cfg: Config, free, valid: bool, options: dict):
+def solve_valid(solve, cfg: Config, free, valid: bool, options: dict, rounds_max: int = VALID_ROUNDS):
     """``solve(cfg, free, valid_bounds=..., **options)`` once (``valid`` False: no smooth constraints),
     or in rounds until the optimum's exact validity is ``valid`` (see the module)."""
     import time
@@ -104,7 +107,7 @@ def solve_valid(solve, cfg: Config, free, valid: bool, options: dict):
     t0 = time.perf_counter()
     used = limit_bounds(cfg)
     rounds, iterations, out = [], 0, None
-    for _ in range(VALID_ROUNDS):
+    for _ in range(max(1, int(rounds_max))):
         out = solve(cfg, free, valid_bounds=used, **options)
         iterations += out.iterations
         v = out.validity or {}
@@ -120,7 +123,8 @@ def solve_valid(solve, cfg: Config, free, valid: bool, options: dict):
         used = new
         # warm: from this optimum (gait, amplitude, cycle); the stability radius restarts just above it
         options = dict(options, start=dict(out.free) | {AMPLITUDE_KEY: float(out.amplitude_deg)},
-                       x_guess=np.asarray(out.x0, float))
+                       x_guess=np.asarray(out.x0, float), radius_start_factor=1.001,
+                       ipopt_options=WARM_IPOPT | dict(options.get("ipopt_options") or {}))
     out.iterations = iterations
     out.validity_rounds = rounds
     if len(rounds) > 1:

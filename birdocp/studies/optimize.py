@@ -280,7 +280,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
         last = k == len(stages) - 1  # a coarse stage only needs to find the basin: looser tolerance
         opt = _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter,
                              tol if last else max(tol, COARSE_TOL), progress, start, x_guess,
-                             opt.second_derivatives if opt is not None else None, threads, valid)
+                             opt.second_derivatives if opt is not None else None, threads, valid, last)
         first = first or opt
         iterations += opt.iterations
         tag = "coarse_" if k < len(stages) - 1 else ""
@@ -323,7 +323,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
 
 
 def _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter, tol, progress, start, x_guess,
-                   second=None, threads=2, valid=False):
+                   second=None, threads=2, valid=False, final=True):
     """One reduced-space solve (:func:`birdocp.studies.gait.optimize_gait`, objective "stability") on
     ``steps`` RK4 steps per period.
 
@@ -334,7 +334,8 @@ def _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter,
     push away from the active Jury condition), and the Hessian is that stage's last finite-difference
     second derivatives (``second``) held fixed: one gradient per iteration and Newton-like steps (6
     iterations, 10 gradient evaluations on the reference problem, against 11 iterations and 27 with
-    SR1 updates, which remain the fallback when ``second`` is missing or not finite)."""
+    SR1 updates, which remain the fallback when ``second`` is missing or not finite). ``valid``: the
+    validity constraints; a coarse stage (``final`` False) makes one solve, the final one its rounds."""
     from birdocp.studies.gait import optimize_gait
 
     warm = start is not None
@@ -347,7 +348,7 @@ def _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter,
                          tol=tol, verify=False, progress=progress, start=start, x_guess=x_guess,
                          hessian=hessian, radius_start_factor=1.001 if warm else 1.05,
                          ipopt_options=opts, threads=threads, second_derivatives=second if hessian == "fixed" else None,
-                         valid=valid)
+                         valid=valid, valid_rounds=None if final else 1)
 
 
 def _verify(out: StabilityOptimum, cfg: Config, N: int, jury=None) -> None:
