@@ -62,7 +62,9 @@ def main():
                     help="run only this part and update its entry of the committed result.json and summary.md")
     ap.add_argument("--threads", type=int, default=2,
                     help="optimize-stability's threads for the finite-difference Hessian (default 2)")
+    ap.add_argument("--out", default=str(OUT), metavar="DIR", help=f"output folder (default {OUT})")
     args = ap.parse_args()
+    set_out(Path(args.out))
     OUT.mkdir(parents=True, exist_ok=True)
     cfg = Config()
     if args.only == "optimize-stability":
@@ -165,6 +167,12 @@ def main():
     atomic_write_json(OUT / "result.json", out)
     atomic_write_text(OUT / "summary.md", summary_md(out))
     log(f"done in {out['wall_s']:.0f} s")
+
+
+def set_out(path: Path) -> None:
+    """Write into ``path`` instead of results/energetics (``--out``)."""
+    global OUT
+    OUT = path
 
 
 def optimize_stability_part(cfg, threads):
