@@ -48,7 +48,8 @@ def main():
     ap.add_argument("--speeds", type=float, nargs=3, default=(10.0, 24.0, 1.0), metavar=("FROM", "TO", "STEP"))
     ap.add_argument("--stable-from", default=str(ROOT / "results" / "stability_optimum" / "valid" / "result.json"),
                     help="the most stable valid gait at the reference speed (stability_valid_study.py), if present")
-    ap.add_argument("--skip-curves", action="store_true")
+    ap.add_argument("--skip-curves", action="store_true", help="keep OUT/result.json's power curves")
+    ap.add_argument("--reuse-optimum", action="store_true", help="keep OUT/result.json's energy-optimal valid gait")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -73,16 +74,19 @@ def main():
             atomic_write_json(out / "result.json", res)
             log(f"  {sum(r.get('valid', False) for r in pc['rows'])} of {len(pc['rows'])} rows valid; minimum power "
                 f"over valid rows {pc['minimum_power']}")
-        log(f"energy-optimal valid gait at {U_ref:.4f} m/s")
-        best = optimize_gait(cfg, objective="power", speed_mps=U_ref, valid=True)
-        b = res["optimal_gait"] = row_of(best) | {"mean_shoulder_power_W": best.objective_value}
-        atomic_write_json(out / "result.json", res)
-        log(f"  P {best.objective_value:.5f} W, |L1| {best.largest_modulus:.5f}, valid {b['valid']}, {best.status}")
+        if args.reuse_optimum and "optimal_gait" in res:
+            b = res["optimal_gait"]
+        else:
+            log(f"energy-optimal valid gait at {U_ref:.4f} m/s")
+            best = optimize_gait(cfg, objective="power", speed_mps=U_ref, valid=True)
+            b = res["optimal_gait"] = row_of(best) | {"mean_shoulder_power_W": best.objective_value}
+            atomic_write_json(out / "result.json", res)
+        log(f"  P {b['objective_value']:.5f} W, |L1| {b['largest_modulus']:.5f}, valid {b['valid']}, {b['status']}")
+        start_gait = dict(b["free"]) | {AMP: b["amplitude_deg"]}
         if not args.skip_curves:
             log("power curve over valid gaits (least power at each speed), parallel")
             t0 = time.perf_counter()
-            vc = valid_power_curve(ex, cfg, speeds, start=dict(best.free) | {AMP: best.amplitude_deg},
-                                   x_guess=best.x0, start_speed=U_ref, progress=log)
+            vc = valid_power_curve(ex, cfg, speeds, start=start_gait, x_guess=b["x0"], start_speed=U_ref, progress=log)
             res["valid_power_curve"] = vc | {"wall_s": time.perf_counter() - t0}
             atomic_write_json(out / "result.json", res)
         stable_path = Path(args.stable_from)
@@ -91,14 +95,19 @@ def main():
             log("most stable valid gait at the reference speed")
             g = optimize_gait(cfg, objective="stability", speed_mps=U_ref, valid=True, max_iter=80)
             st = row_of(g) | {"radius": g.objective_value, "mean_shoulder_power_W": g.means.get("flapping_power_W")}
+        if st.get("mean_shoulder_power_W") is None:  # its power: a trim at the gait, from its state
+            from birdocp.bird.config import with_values
+            from birdocp.studies.trim import trim
+
+            tr = trim(with_values(cfg, dict(st["free"]) | {AMP: st["amplitude_deg"]}), x_guess=st["x0"])
+            st["mean_shoulder_power_W"] = tr.energetics["mean_shoulder_power_W"] if tr.success else None
         res["most_stable_gait"] = st
         R_hi, R_min = float(b["largest_modulus"]), float(st["radius"])
         bounds = [float(R_min + 2e-3 * (R_hi - R_min)) if R == R_min else float(R)
                   for R in np.linspace(R_hi, R_min, args.pareto_points + 1)[1:]]
         log(f"valid Pareto front: {len(bounds)} bounds from {R_hi:.5f} to {R_min:.5f}, {args.jobs} jobs")
         t0 = time.perf_counter()
-        rows = stability_pareto(cfg, U_ref, bounds, start=dict(best.free) | {AMP: best.amplitude_deg},
-                                x_guess=best.x0, executor=ex, anchors=[{"bound": R_min, "free": st["free"],
+        rows = stability_pareto(cfg, U_ref, bounds, start=start_gait, x_guess=b["x0"], executor=ex, anchors=[{"bound": R_min, "free": st["free"],
                                                                          "amplitude_deg": st["amplitude_deg"],
                                                                          "x0": st["x0"]}],
                                 start_bound=R_hi, progress=log, valid=True)
