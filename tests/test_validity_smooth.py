@@ -141,3 +141,19 @@ def test_parallel_pareto_matches_sequential():
     assert seq[-1]["success"] and par[0]["success"] and par[0]["started_from"] is None
     assert par[0]["objective_value"] == pytest.approx(seq[-1]["objective_value"], abs=1e-7)
     assert par[0]["largest_modulus"] <= R + 1e-6 and "validity" in par[0] and "valid" in par[0]
+
+
+@pytest.mark.slow
+def test_valid_power_curve_rows():
+    """The power curve over valid gaits: each row is a valid least-power optimum at its speed, with
+    the cycle to re-solve it, and the optima come from valid rows only."""
+    from birdocp.engine.executors import SerialExecutor
+    from birdocp.studies.gait import valid_power_curve
+
+    cfg = with_values(Config(), {"solve.steps_per_period": 16})
+    out = valid_power_curve(SerialExecutor(), cfg, [18.0], free=FREE)
+    (row,) = out["rows"]
+    assert row["success"] and row["valid"] and row["validity"]["valid"]
+    assert row["mean_forward_speed_mps"] == pytest.approx(18.0, abs=1e-6)
+    assert {"x0", "free", "amplitude_deg", "validity_constraints"} <= set(row)
+    assert out["minimum_power"]["speed_mps"] is None  # fewer than three valid rows: no vertex claimed
