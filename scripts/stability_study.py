@@ -119,8 +119,11 @@ def stability_optimum(out: Path, reuse: bool = False):
             f"and multipliers within {v.get('max_multiplier_difference'):.1e} (numpy eigenvalues), mean vertical "
             f"speed {v.get('trim_mean_vertical_speed_mps'):.1e} m/s; r - spectral radius = "
             f"{v.get('radius_minus_spectral_radius'):.1e}." + other + "\n\n"
-            f"**A stable level-flight gait {'exists' if stable else 'does not exist'} within these bounds"
+            f"**A level cycle with all multipliers inside the unit circle {'exists' if stable else 'does not exist'} "
+            "within these bounds"
             + (f", and the model {'holds' if d['validity']['valid'] else 'does NOT hold'} on it" if stable else "")
+            + ("" if d["validity"]["valid"] else " (so it is not a stable *flight* of the model; the most stable "
+               "valid gait: results/stability_optimum/valid, scripts/stability_valid_study.py)")
             + f"**: largest |Λ| {np.max(np.abs(lam_best)):.4f}, only {1 - np.max(np.abs(lam_best)):.4f} inside "
             "the unit circle (a complex pair at the optimum's radius; a disturbance decays by 1 % only after "
             f"{np.log(0.99) / np.log(np.max(np.abs(lam_best))):.1f} wingbeats).\n")
@@ -154,9 +157,11 @@ def stability_optimum(out: Path, reuse: bool = False):
     ax.set(xlabel="t / T", ylabel="joint angle [deg]",
            title="shoulder joint laws over one wingbeat")
     ax.legend(fontsize=7, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.13), frameon=False)
-    vtext = "model valid" if d["validity"]["valid"] else "model NOT valid: " + "; ".join(d["validity"]["reasons"])
-    fig.suptitle("Most stable level flight within the default gait bounds"
-                 f" ({'stable' if stable else 'still unstable'}: largest |Λ| {np.max(np.abs(lam_best)):.4f})\n{vtext}",
+    valid = bool(d["validity"]["valid"])
+    vtext = "model valid" if valid else "model NOT valid: " + "; ".join(d["validity"]["reasons"])
+    verdict = ("stable" if stable else "still unstable") if valid else "not a flight of the model: NOT valid"
+    fig.suptitle("Smallest largest |Λ| of a level cycle within the default gait bounds (no validity constraint)"
+                 f" ({verdict}: largest |Λ| {np.max(np.abs(lam_best)):.4f})\n{vtext}",
                  fontsize=11, y=1.06)
     save(fig, out / "optimum.png")
     return d

@@ -35,10 +35,14 @@ def register(sub, common) -> None:
                               default_bounds="birdocp.studies.gait.DEFAULT_GAIT_FREE")
     p.add_argument("--max-multiplier", type=float, default=None, metavar="R",
                    help="stability constraint: every Floquet multiplier modulus <= R (default: none)")
+    from birdocp.cli.optimize_stability import add_valid_flag
+
+    add_valid_flag(p)
 
 
 def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
-    from birdocp.cli.optimize_stability import checked_free, residuals
+    from birdocp.bird.validity import validity_text
+    from birdocp.cli.optimize_stability import checked_free, invalid_failure, residuals, validity_lines
     from birdocp.studies.gait import DEFAULT_GAIT_FREE, optimize_gait
 
     cfg = cli.resolve_config(args)
@@ -53,7 +57,8 @@ def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
         run_dir = run.dir
         with run.solving():
             res = optimize_gait(cfg, free, objective=args.objective, speed_mps=args.speed,
-                                max_multiplier=args.max_multiplier, climb_rate_mps=args.climb_rate)
+                                max_multiplier=args.max_multiplier, climb_rate_mps=args.climb_rate,
+                                valid=args.valid)
         result = res.to_dict()
         cli.record_result(run_dir, res.cfg or cfg, result, command_line, "optimize-gait")
         if args.json:
@@ -71,8 +76,13 @@ def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
                 print(f"  {k:40s} {v:+10.4f}   in [{lo:g}, {hi:g}]{at}   (start {res.start_free.get(k, float('nan')):+.4f})")
             print(f"  flapping amplitude {res.amplitude_deg:.4f} deg; mean forward speed "
                   f"{cli.fmt_num(result['mean_forward_speed_mps'], '.6g')} m/s")
+            valid = bool((result.get("validity") or {}).get("valid"))
             print("  multipliers: " + ", ".join(f"{z.real:.5f}{z.imag:+.5f}j" for z in res.multipliers)
-                  + f"  ({'STABLE' if res.largest_modulus < 1 else 'UNSTABLE'})")
+                  + f"  ({'STABLE' if res.largest_modulus < 1 else 'UNSTABLE'}"
+                  + ("" if valid else "; the model is NOT VALID on this cycle") + ")")
+            print(f"  model validity of the optimal cycle: {validity_text(result.get('validity'))}")
+            for line in validity_lines(result):
+                print(line)
             v = res.verification
             if v:
                 ok = v.get("trim_success")
@@ -83,5 +93,9 @@ def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
         if not res.success:
             print(f"{cli.PROG}: optimisation did not converge (status {res.status}, {residuals(res)}: "
                   f"{cli.one_line(res.message)}); result written to {run_dir}", file=sys.stderr)
+            return cli.EXIT_NOT_CONVERGED
+        bad = invalid_failure(res, result, run_dir) if args.valid else None
+        if bad:
+            print(bad, file=sys.stderr)
             return cli.EXIT_NOT_CONVERGED
     return cli.EXIT_OK

@@ -36,6 +36,10 @@ def register(sub, common) -> None:
                                    "NLP, and its Floquet multipliers. Writes a run folder like 'trim'.")
     level_options(p, False)
     solve_shortcuts(p)
+    p.add_argument("--valid", action="store_true",
+                   help="hold the result to the limits of [validity]: JSON adds validity_constraints (each "
+                        "limit's smooth value, exact value, bound); exit 1 if the level cycle is not valid "
+                        "(one free value and one condition leave no freedom to move it: set the gait with --set)")
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-level-<id>/")
     add_plot_flag(p)
     p.set_defaults(func=cmd_level)
@@ -108,6 +112,8 @@ def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
         result["free_value"] = result.get("free_values", {}).get(free)
         result["constrain"] = kw["constrain"]
         result["target"] = kw.get("target", kw["climb_rate_mps"])
+        if getattr(args, "valid", False):
+            result["validity_constraints"] = level_validity_constraints(cfg, res, result)
         finish_result(result, "level", t_start, run.dir)
         run.write(cfg, result, arrays)
         power_figure(arrays, run.dir, args)  # only with --plot: `birdocp plot RUN_DIR` draws it later
@@ -121,4 +127,29 @@ def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
         run.output(result, "\n".join(head) + "\n" + table)
         if not res.success:
             return run.fail("level flight not found", res.status, result.get("max_residual"), res.message)
+        if getattr(args, "valid", False) and not (result.get("validity") or {}).get("valid"):
+            return run.fail("level flight found, but the model is NOT VALID on it (--valid)", res.status,
+                            result.get("max_residual"), "; ".join((result.get("validity") or {}).get("reasons") or []))
     return EXIT_OK
+
+
+def level_validity_constraints(cfg, res, result: dict) -> dict:
+    """The ``validity_constraints`` of a level cycle (``--valid``): per limit the smooth measure an
+    optimiser with ``valid=True`` holds, the exact one and the bound
+    (:func:`birdocp.studies.gait_validity.constraint_report`; ``active``: the smooth value at its bound)."""
+    import numpy as np
+
+    from birdocp.bird.config import with_values
+    from birdocp.bird.validity_smooth import cycle_smooth_measures
+    from birdocp.studies.gait_validity import constraint_report
+
+    if not res.success or not np.all(np.isfinite(res.x0)):
+        return {}
+    vals = dict(result.get("free_values") or {})
+    if result.get("amplitude_deg") is not None:
+        vals[AMPLITUDE_KEY] = float(result["amplitude_deg"])
+    solved = with_values(cfg, vals)
+    steps = int(res.cycle.method["steps_per_period"])
+    t0 = float(res.cycle.trajectory_t[0]) if len(res.cycle.trajectory_t) else 0.0
+    smooth = cycle_smooth_measures(solved, res.x0, res.p, steps) if t0 == 0.0 else {}
+    return constraint_report(cfg, smooth, result.get("validity") or {}, {})

@@ -34,9 +34,41 @@ def register(sub, common) -> None:
     p.add_argument("--method", choices=("reduced", "full"), default="reduced",
                    help="reduced: IPOPT over the gait parameters and r, the level cycle eliminated (default); "
                         "full: the full-space single-shooting NLP (state, parameters, amplitude, r)")
+    add_valid_flag(p)
     p.add_argument("--threads", type=int, default=2, metavar="N",
                    help="threads evaluating the finite-difference Hessian's points (reduced method; default 2; "
                         "the result does not depend on it)")
+
+
+def add_valid_flag(p: argparse.ArgumentParser) -> None:
+    """``--valid``: the limits of ``[validity]`` as smooth constraints of the optimiser."""
+    p.add_argument("--valid", action="store_true",
+                   help="constrain the cycle to where the model holds: every limit of [validity] (stalled "
+                        "span-time share, minimum forward speed, |pitch|, airflow-to-body angle) as a smooth "
+                        "constraint (tighten with --set validity.KEY=VALUE); JSON adds validity_constraints")
+
+
+def validity_lines(result: dict) -> list[str]:
+    """Table lines of a result's ``validity_constraints`` (none without ``--valid``)."""
+    vc = result.get("validity_constraints") or {}
+    lines = []
+    for k, c in vc.items():
+        op = "<=" if c.get("kind") == "max" else ">="
+        tight = "" if c.get("bound_used") == c.get("bound") else f" (held {op} {cli.fmt_num(c.get('bound_used'), '.5g')})"
+        lines.append(f"  validity limit {k:28s} smooth {cli.fmt_num(c.get('smooth'), '.5g'):>9s}  exact "
+                     f"{cli.fmt_num(c.get('exact'), '.5g'):>9s}  {op} {c.get('bound'):g}{tight}"
+                     f"{'  ACTIVE' if c.get('active') else ''}")
+    return lines
+
+
+def invalid_failure(res, result: dict, run_dir) -> str | None:
+    """The failure line when ``--valid`` was asked for and the optimum's exact verdict is not valid."""
+    v = result.get("validity") or {}
+    if v.get("valid"):
+        return None
+    rounds = len(result.get("validity_rounds") or [])
+    return (f"{cli.PROG}: the optimum is NOT VALID after {rounds} validity round(s) "
+            f"({'; '.join(v.get('reasons') or ['not checked'])}); result written to {run_dir}")
 
 
 def parse_bounds(texts) -> dict:
@@ -108,7 +140,7 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
         say, bar = progress_callback("optimize-stability", args.quiet)
         with run.solving(), bar:
             res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, max_iter=args.max_iter, progress=say,
-                                     method=args.method, threads=args.threads)
+                                     method=args.method, threads=args.threads, valid=args.valid)
         result = res.to_dict()
         result["run_dir"] = str(run.dir)
         run.write(res.cfg or cfg, result)
@@ -120,6 +152,10 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
             warn = cli.noise_summary(run.noise)
             print(f"{cli.PROG}: optimisation did not converge (status {res.status}, {residuals(res)}); result "
                   f"written to {run.dir}{warn}", file=sys.stderr)
+            return cli.EXIT_NOT_CONVERGED
+        bad = invalid_failure(res, result, run.dir) if args.valid else None
+        if bad:
+            print(bad, file=sys.stderr)
             return cli.EXIT_NOT_CONVERGED
     return cli.EXIT_OK
 
@@ -135,8 +171,10 @@ def _print_table(res, result: dict, run_dir) -> None:
     kkt = f", KKT residual {res.kkt_residual:.2e}" if res.kkt_residual is not None else ""
     print(f"optimize-stability: {'converged' if res.success else 'NOT converged'} ({res.status}), "
           f"{res.iterations} iterations, {res.wall_s.get('total', 0):.1f} s ({res.method} space){kkt}")
+    valid = bool((result.get("validity") or {}).get("valid"))
     print(f"  largest multiplier modulus {max(abs(res.multipliers)):.6f} (start {max(abs(res.start_multipliers)):.6f}); "
-          f"{'STABLE' if res.stable else 'UNSTABLE'} level flight at amplitude {res.amplitude_deg:.4f} deg")
+          f"{'STABLE' if res.stable else 'UNSTABLE'} level{'' if valid else ' cycle (the model is NOT VALID on it)'}"
+          f"{' flight' if valid else ''} at amplitude {res.amplitude_deg:.4f} deg")
     for k, v in res.free.items():
         lo, hi = res.bounds[k]
         at = " (at a bound)" if min(abs(v - lo), abs(v - hi)) < 1e-6 else ""
@@ -148,4 +186,6 @@ def _print_table(res, result: dict, run_dir) -> None:
               f"multipliers differ by {v.get('max_multiplier_difference')}, "
               f"mean W {v.get('trim_mean_vertical_speed_mps')}")
     print(f"  model validity of the optimal cycle: {validity_text(result.get('validity'))}")
+    for line in validity_lines(result):
+        print(line)
     print(f"  written to {run_dir}")

@@ -29,11 +29,13 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest, with_values
+from birdocp.bird.validity import periodic_validity
 from birdocp.engine.floquet import sort_multipliers
 from birdocp.engine.results import result_dict, serial
 
 __all__ = ["ReducedLevelCycle", "ReducedProblem", "GaitOptimum", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
-           "level_at_speed", "power_curve", "SPEED_KEY", "stability_pareto", "jury_conditions",
+           "level_at_speed", "power_curve", "SPEED_KEY", "stability_pareto", "jury_conditions", "valid_power_curve",
+           "curve_optima",
            "check_free_keys"]
 
 AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
@@ -155,7 +157,7 @@ class ReducedLevelCycle:
     """
 
     def __init__(self, cfg: Config, keys, steps_per_period: int | None = None, climb_rate_mps: float = 0.0,
-                 second_order: bool = False, amplitude_start_deg: float | None = None):
+                 second_order: bool = False, amplitude_start_deg: float | None = None, valid: bool = False):
         from birdocp.bird.energetics import power_functions
         from birdocp.bird.model import get_model
         from birdocp.engine.integrate import RK4Grid
@@ -180,6 +182,13 @@ class ReducedLevelCycle:
         if "shoulder_inertial_power_W" in pf.names:
             Pf = Pf + pw[pf.names.index("shoulder_inertial_power_W")]
         out = ca.vertcat(pw[8], pw[7], Pf, pw[0], 0.5 * (Pf + ca.sqrt(Pf ** 2 + POSITIVE_EPS_W ** 2)))
+        self.out_names = _OUT
+        self.valid = bool(valid)
+        if self.valid:  # the smooth validity integrands, on the same RK4 stages (bird.validity_smooth)
+            from birdocp.bird.validity_smooth import integrand_names, smooth_integrands
+
+            out = ca.vertcat(out, smooth_integrands(cfg, m.ode.nd)(x, d, p))
+            self.out_names = _OUT + integrand_names()
         self.outputs = ca.Function("gait_outputs", [x, d, p], [out])
         self.grid = RK4Grid(m.ode, N, 1, outputs=(self.outputs,))
         self.sens = PeriodSensitivities(m.ode, N, (self.outputs,), nv)
@@ -320,7 +329,7 @@ class ReducedLevelCycle:
             dy = -np.linalg.solve(Ry, Rt)           # 5 x nt
         except np.linalg.LinAlgError:
             raise RuntimeError("singular level-cycle Jacobian (a fold of cycles)") from None
-        ev.grads = {n: Jq[i, ct] + Jq[i, cy] @ dy for i, n in enumerate(_OUT)}
+        ev.grads = {n: Jq[i, ct] + Jq[i, cy] @ dy for i, n in enumerate(self.out_names)}
         ev.grads["amplitude_deg"] = dy[4]
         ev.monodromy = np.asarray(s["J"][:, :4])
         if self.second:  # along theta_c with x0 and A following: dy[:4, c], dy[4, c]
@@ -381,7 +390,7 @@ class ReducedLevelCycle:
                 raise RuntimeError("singular level-cycle Jacobian (a fold of cycles)") from None
             it += 1
             R, means = self.residual(y, theta)
-        return Evaluation(theta.copy(), y[:4].copy(), float(y[4]), dict(zip(_OUT, means.tolist())), None,
+        return Evaluation(theta.copy(), y[:4].copy(), float(y[4]), dict(zip(self.out_names, means.tolist())), None,
                           None, None, res, it)
 
     def solve_speed(self, speed_mps: float, theta, k: int = 0, bounds=None, tol: float = 1e-9,
@@ -437,6 +446,14 @@ class GaitOptimum:
     evaluations: dict = field(default_factory=dict)
     cfg: Config | None = None
     start_x0: np.ndarray | None = None
+    validity: dict | None = None
+    """Where the model holds on the optimal cycle (:meth:`birdocp.bird.validity.CycleValidity.to_dict`)."""
+    validity_constraints: dict | None = None
+    """With ``valid=True``: per limit of ``[validity]`` its smooth value, the exact one, the configured
+    bound, the bound used, whether it is active, its multiplier and smoothing
+    (:func:`birdocp.studies.gait_validity.constraint_report`)."""
+    validity_rounds: list | None = None
+    """With ``valid=True``: one entry per solve (bounds used, status, exact verdict, iterations)."""
     second_derivatives: np.ndarray | None = None
     """With ``hessian="fd"``: the last finite-difference second derivatives, ``[k, i, j] =
     d^2 G_i / dz_j dz_k`` (G = objective and constraints, z = free values and r, unscaled); what a
@@ -462,15 +479,19 @@ class ReducedProblem:
     G(z) = [objective; constraints] and dG/dz, z = the scaled free values theta (and r for the
     stability objective); :meth:`jacobian_near` gives a finite-difference Hessian's perturbed points."""
 
-    def __init__(self, rc: ReducedLevelCycle, objective: str, speed, max_multiplier, amplitude_bounds):
+    def __init__(self, rc: ReducedLevelCycle, objective: str, speed, max_multiplier, amplitude_bounds,
+                 valid_bounds: dict | None = None):
         self.rc, self.objective, self.speed, self.R = rc, objective, speed, max_multiplier
         self.amp = amplitude_bounds
         self.with_r = objective == "stability"
         self.jury = _jury_function() if (max_multiplier is not None or self.with_r) else None
         nt = rc.nt
         self.nz = nt + (1 if self.with_r else 0)
+        self.valid_bounds = dict(valid_bounds or {})
+        """limit -> (bound used, 'max' or 'min') of the smooth validity constraints (empty: none)."""
         self.names = ["amplitude_deg"] + (["forward_speed_mps"] if speed is not None else []) \
-            + ([f"jury{i}" for i in range(5)] if self.jury is not None else [])
+            + ([f"jury{i}" for i in range(5)] if self.jury is not None else []) \
+            + ["valid_" + k for k in self.valid_bounds]
         self.ng = 1 + len(self.names)
         self.jac_sparsity = ca.Sparsity.dense(self.ng, self.nz)
         self.sigma = np.ones(self.nz)
@@ -487,7 +508,19 @@ class ReducedProblem:
         if self.jury is not None:
             lo += [JURY_MARGIN] * 5
             hi += [np.inf] * 5
+        for b, kind in self.valid_bounds.values():
+            lo.append(b if kind == "min" else -np.inf)
+            hi.append(b if kind == "max" else np.inf)
         return np.array(lo), np.array(hi)
+
+    def smooth_validity(self, ev: Evaluation, grads: bool = True):
+        """({limit: smooth value}, {limit: gradient in theta}) of the constrained validity limits."""
+        from birdocp.bird.validity_smooth import integrand_names, smooth_measures
+
+        names = integrand_names()
+        g = [ev.grads[n] for n in names] if grads and ev.grads is not None else None
+        vals, der = smooth_measures(self.rc.cfg, [ev.means[n] for n in names], g)
+        return vals, der
 
     def _obj(self, ev: Evaluation, z):
         if self.objective == "power":
@@ -522,6 +555,9 @@ class ReducedProblem:
         if ev.grads is None:  # values only (a line-search trial point)
             G = np.array([self._value(ev)] + [ev.amplitude_deg]
                          + ([ev.means["forward_speed_mps"]] if self.speed is not None else []))
+            if self.valid_bounds:
+                vals = self.smooth_validity(ev, grads=False)[0]
+                G = np.concatenate([G, [vals[k] for k in self.valid_bounds]])
             return G, None
         return self._assemble(ev, z)
 
@@ -549,6 +585,12 @@ class ReducedProblem:
             J[i:i + 5, :nt] = jj[:, :16] @ ev.d_monodromy
             if self.with_r:
                 J[i:i + 5, -1] = jj[:, 16]
+            i += 5
+        if self.valid_bounds:
+            vals, der = self.smooth_validity(ev)
+            for k in self.valid_bounds:
+                G[i], J[i, :nt] = vals[k], der[k]
+                i += 1
         return G, J / self.sigma
 
     def _value(self, ev):
@@ -590,7 +632,8 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
                   verify: bool = True, progress=False, start: dict | None = None, x_guess=None,
                   ipopt_options: dict | None = None, hessian: str = "sr1",
                   radius_start_factor: float = 1.05, threads: int = 2,
-                  second_derivatives: np.ndarray | None = None) -> GaitOptimum:
+                  second_derivatives: np.ndarray | None = None, valid: bool = False,
+                  valid_rounds: int | None = None) -> GaitOptimum:
     """Minimise mean power (``objective="power"``), cost of transport, smoothed positive-work power,
     or the stability radius (``"stability"``) over the gait parameters ``free`` (key -> (lo, hi);
     default :data:`DEFAULT_GAIT_FREE`), in level flight (mean W = ``climb_rate_mps``, the amplitude
@@ -612,6 +655,14 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     one gradient evaluation per iteration).
     ``radius_start_factor``: with the stability objective, r starts at this factor times the start's
     spectral radius.
+
+    ``valid``: every limit of ``cfg.validity`` is a smooth constraint
+    (:mod:`birdocp.bird.validity_smooth`; exact gradients from the same RK4 stages). The exact
+    validity of the optimum is checked; a limit still crossed (a smooth measure is not a bound of the
+    exact one) has its smooth bound tightened by the difference and the problem is solved again from
+    the optimum, at most ``valid_rounds`` (default
+    :data:`birdocp.studies.gait_validity.VALID_ROUNDS`) solves in all. The result
+    always carries the exact ``validity``; with ``valid`` also ``validity_constraints``.
 
     Parameters
     ----------
@@ -653,14 +704,37 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
         Perturbed points evaluated at a time with ``hessian="fd"``.
     second_derivatives : numpy.ndarray, optional
         The fixed second derivatives for ``hessian="fixed"``.
+    valid : bool
+        Every limit of ``cfg.validity`` a smooth constraint (see above).
+    valid_rounds : int, optional
+        Solves at most, tightening a bound the exact check finds crossed (default
+        :data:`birdocp.studies.gait_validity.VALID_ROUNDS`).
 
     Returns
     -------
     GaitOptimum
         The optimal gait, amplitude, cycle, objective value, multipliers, IPOPT's status, KKT residual
-        and the verification.
+        and the verification; its exact ``validity`` always, with ``valid`` also
+        ``validity_constraints``.
     """
-    cfg = cfg or Config()
+    from birdocp.studies.gait_validity import VALID_ROUNDS, solve_valid
+
+    options = dict(objective=objective, speed_mps=speed_mps, max_multiplier=max_multiplier,
+                   climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
+                   steps_per_period=steps_per_period, max_iter=max_iter, tol=tol, verify=verify,
+                   progress=progress, start=start, x_guess=x_guess, ipopt_options=ipopt_options,
+                   hessian=hessian, radius_start_factor=radius_start_factor, threads=threads,
+                   second_derivatives=second_derivatives)
+    return solve_valid(_solve_gait, cfg or Config(), free, valid, options,
+                       VALID_ROUNDS if valid_rounds is None else valid_rounds)
+
+
+def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, max_multiplier, climb_rate_mps,
+                amplitude_bounds, steps_per_period, max_iter, tol, verify, progress, start, x_guess,
+                ipopt_options, hessian, radius_start_factor, threads, second_derivatives,
+                valid_bounds: dict | None = None) -> GaitOptimum:
+    """One reduced-space solve (:func:`optimize_gait`); ``valid_bounds``: limit -> (bound, 'max' or
+    'min') of the smooth validity constraints (None: none). Sets the optimum's exact ``validity``."""
     if hessian not in ("sr1", "fd", "fixed"):
         raise ValueError(f"hessian must be 'sr1', 'fd' or 'fixed', got {hessian!r}")
     if (hessian == "fixed") != (second_derivatives is not None):
@@ -688,7 +762,8 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     keys = list(free)
     second = objective == "stability" or max_multiplier is not None
     t0 = time.perf_counter()
-    rc = ReducedLevelCycle(cfg_start, keys, steps_per_period, climb_rate_mps, second_order=second)
+    rc = ReducedLevelCycle(cfg_start, keys, steps_per_period, climb_rate_mps, second_order=second,
+                           valid=bool(valid_bounds))
     wall["build"] = time.perf_counter() - t0
     rc.amplitude_range_deg = (amplitude_bounds[0] - 10.0, amplitude_bounds[1] + 10.0)
     if x_guess is not None:
@@ -709,7 +784,7 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     except RuntimeError as e:
         return _failed(objective, free, f"start: {e}", cfg, speed_mps, max_multiplier)
     wall["start"] = time.perf_counter() - t0
-    prob = ReducedProblem(rc, objective, speed_mps, max_multiplier, amplitude_bounds)
+    prob = ReducedProblem(rc, objective, speed_mps, max_multiplier, amplitude_bounds, valid_bounds)
     prob.progress = progress
     z0 = ev0.theta.copy()
     lbx, ubx = lo.copy(), hi.copy()
@@ -772,6 +847,9 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
                       start_mult, ev.means["forward_speed_mps"], speed_mps, max_multiplier, dict(ev.means),
                       float(np.max(np.abs(kkt))), viol, cfg=cfg)
     out.evaluations = {"full": rc.n_full, "residual": rc.n_resid, "no_level_cycle": len(prob.failures)}
+    from birdocp.studies.gait_validity import attach_validity
+
+    attach_validity(out, prob, ev, lam_g, cfg)
     out.start_x0 = ev0.x0
     if isinstance(fd, StencilHessian) and fd.last is not None:
         out.second_derivatives = fd.last[1] * scale2
@@ -842,28 +920,10 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
     The points are continued outward from the speed of the configured gait's level cycle. Returns
     ``{"rows": [...], "minimum_power": {...}, "maximum_range": {...}, "key": key}``; minimum-power and
     maximum-range (minimum P/U) speeds from a parabola through the three points around the discrete
-    minimum.
-
-    Parameters
-    ----------
-    cfg : Config, optional
-        The configuration (default: the paper's reference case).
-    speeds : sequence of float, optional
-        Forward speeds [m/s] (default: a range around the configured gait's level speed).
-    key : str
-        The gait key that sets the speed.
-    bounds : (float, float)
-        Bounds of ``key`` (its units).
-    steps_per_period : int, optional
-        RK4 steps per period (default ``cfg.solve.steps_per_period``).
-    progress : bool
-        One line per point on stderr.
-
-    Returns
-    -------
-    dict
-        ``rows``, ``minimum_power``, ``maximum_range`` and ``key`` (see above).
-    """
+    minimum, over the rows whose cycle is *valid* only (each row carries ``validity`` and ``valid``,
+    and the cycle: ``x0``, the key's value and ``amplitude_deg``); ``"interior": False`` when the
+    minimum lies at an end of the valid rows. ``minimum_power_all_rows`` and
+    ``maximum_range_all_rows``: the same over every converged row, valid or not."""
     from birdocp.bird.energetics import cycle_energetics
 
     cfg = cfg or Config()
@@ -892,6 +952,8 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
             ev_prev = ev
             p = rc.pfull(ev.theta, ev.amplitude_deg)
             e = cycle_energetics(rc.m, p, ev.x0, rc.N)
+            v = periodic_validity(with_values(cfg, {key: float(ev.theta[0]), AMPLITUDE_KEY: ev.amplitude_deg}),
+                                  ev.x0, p, steps_per_period=rc.N).to_dict()
             lam = ev.multipliers
             row.update({"success": True, key: float(ev.theta[0]), "amplitude_deg": ev.amplitude_deg,
                         "x0": ev.x0.tolist(), "mean_forward_speed_mps": ev.means["forward_speed_mps"],
@@ -900,17 +962,26 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
                                              "mean_positive_power_W", "cost_of_transport",
                                              "strouhal_number", "reduced_frequency")},
                         "multipliers": [[float(v.real), float(v.imag)] for v in lam],
-                        "largest_modulus": float(np.max(np.abs(lam)))})
+                        "largest_modulus": float(np.max(np.abs(lam))), "validity": v, "valid": bool(v["valid"])})
             rows.append(row)
             if progress:
                 print(f"power curve: U {s:6.2f} m/s  {key} {ev.theta[0]:8.4f}  A {ev.amplitude_deg:8.4f} deg  "
                       f"P {e['mean_shoulder_power_W']:8.4f} W  |L1| {row['largest_modulus']:.4f}", flush=True)
     rows.sort(key=lambda r: r["speed_mps"])
-    ok = [r for r in rows if r["success"]]
-    U = np.array([r["speed_mps"] for r in ok])
-    P = np.array([r["mean_shoulder_power_W"] for r in ok])
-    return {"key": key, "rows": rows, "minimum_power": _vertex(U, P, "power_W"),
-            "maximum_range": _vertex(U, P / U if len(U) else P, "power_per_speed_J_per_m", P)}
+    return {"key": key, "rows": rows} | curve_optima(rows)
+
+
+def curve_optima(rows: list) -> dict:
+    """``minimum_power`` and ``maximum_range`` over the valid converged rows (``mean_shoulder_power_W``
+    against ``speed_mps``), and ``..._all_rows`` over every converged row."""
+    out = {}
+    for tag, keep in (("", lambda r: r.get("valid")), ("_all_rows", lambda r: True)):
+        ok = [r for r in rows if r["success"] and keep(r)]
+        U = np.array([r["speed_mps"] for r in ok])
+        P = np.array([r["mean_shoulder_power_W"] for r in ok])
+        out["minimum_power" + tag] = _vertex(U, P, "power_W")
+        out["maximum_range" + tag] = _vertex(U, P / U if len(U) else P, "power_per_speed_J_per_m", P)
+    return out
 
 
 def _vertex(U, y, name, P=None) -> dict:
@@ -934,7 +1005,7 @@ def _vertex(U, y, name, P=None) -> dict:
 def stability_pareto(cfg: Config | None, speed_mps: float, bounds, *, free: dict | None = None,
                      start: dict | None = None, x_guess=None, objective: str = "power",
                      steps_per_period: int | None = None, max_halvings: int = 4, progress=None,
-                     **options) -> list[dict]:
+                     executor=None, anchors=(), start_bound: float | None = None, **options) -> list[dict]:
     """The Pareto front of minimum ``objective`` in level flight at ``speed_mps`` against the bound R
     on every multiplier's modulus: one :func:`optimize_gait` per R in ``bounds`` (in the given order,
     normally from loose to tight), each started from the previous optimum (gait, amplitude and cycle).
@@ -944,7 +1015,13 @@ def stability_pareto(cfg: Config | None, speed_mps: float, bounds, *, free: dict
     Returns one row per bound tried (inserted ones included, ``"inserted": True``), each with
     ``bound``, ``success``, ``status``, ``objective_value``, ``largest_modulus``, ``free``,
     ``amplitude_deg``, ``x0``, ``iterations``, ``kkt_residual``, ``wall_s`` and the verification's
-    ``power_difference_W``. ``options`` go to :func:`optimize_gait`.
+    ``power_difference_W``, ``validity``, ``valid`` and ``validity_constraints``. ``options`` go to
+    :func:`optimize_gait` (e.g. ``valid=True``: the front over valid cycles).
+
+    With an ``executor`` (:mod:`birdocp.engine.executors`: processes or Dask) the points are solved in
+    parallel waves, each from its nearest solved neighbour (:func:`birdocp.studies.pareto.pareto_parallel`;
+    ``anchors``: known solutions such as the most stable gait, ``start_bound``: the start's largest
+    modulus); no halving then, one row per bound.
 
     Parameters
     ----------
@@ -968,6 +1045,12 @@ def stability_pareto(cfg: Config | None, speed_mps: float, bounds, *, free: dict
         Inserted bounds in a row after failures.
     progress : callable, optional
         ``progress(text)``, one line per point.
+    executor : Executor, optional
+        Solve the points in parallel waves (see above).
+    anchors : sequence
+        Known solutions to start points from (with ``executor``).
+    start_bound : float, optional
+        The start's largest modulus (with ``executor``).
     **options
         Passed to :func:`optimize_gait`.
 
@@ -976,20 +1059,21 @@ def stability_pareto(cfg: Config | None, speed_mps: float, bounds, *, free: dict
     list of dict
         One row per bound tried (see above).
     """
+    if executor is not None:
+        from birdocp.studies.pareto import pareto_parallel
+
+        return pareto_parallel(executor, optimize_gait, cfg, speed_mps, bounds, free=free, start=start, x_guess=x_guess,
+                               start_bound=start_bound, anchors=anchors, objective=objective,
+                               steps_per_period=steps_per_period, progress=progress, **options)
+    from birdocp.studies.pareto import pareto_row
+
     queue = [(float(R), False) for R in bounds]
     rows, last_R, halvings = [], None, 0
     while queue:
         R, inserted = queue[0]
         opt = optimize_gait(cfg, free, objective=objective, speed_mps=speed_mps, max_multiplier=R, start=start,
                             x_guess=x_guess, steps_per_period=steps_per_period, **options)
-        row = {"bound": R, "inserted": inserted, "success": bool(opt.success), "status": opt.status,
-               "objective_value": opt.objective_value, "largest_modulus": opt.largest_modulus,
-               "free": dict(opt.free), "amplitude_deg": opt.amplitude_deg,
-               "x0": np.asarray(opt.x0, float).tolist(), "iterations": opt.iterations,
-               "kkt_residual": opt.kkt_residual, "constraint_violation": opt.constraint_violation,
-               "mean_forward_speed_mps": opt.mean_forward_speed_mps, "wall_s": dict(opt.wall_s),
-               "verification_power_difference_W": opt.verification.get("power_difference_W"),
-               "verification_trim_success": opt.verification.get("trim_success")}
+        row = pareto_row(R, opt, inserted)
         if progress:
             progress(f"Pareto R = {R:.5f}: {opt.status}, P {opt.objective_value:.5f}, |L1| "
                      f"{opt.largest_modulus:.5f}, {opt.iterations} iterations, "
@@ -1008,3 +1092,30 @@ def stability_pareto(cfg: Config | None, speed_mps: float, bounds, *, free: dict
             queue.pop(0)
             halvings = 0
     return rows
+
+
+def valid_power_curve(executor, cfg, speeds, *, free=None, start=None, x_guess=None, start_speed=None,
+                      progress=None, wave: int | None = None, **options) -> dict:
+    """The power curve over valid gaits: at each speed the least-power level gait over ``free``
+    (default :data:`DEFAULT_GAIT_FREE`) with every limit of ``[validity]`` a constraint
+    (``optimize_gait(objective="power", valid=True)``), the speeds solved in parallel waves through
+    ``executor`` (:mod:`birdocp.engine.executors`), each from its nearest solved speed
+    (:func:`birdocp.studies.pareto.waves`; ``start``/``x_guess`` at ``start_speed``: a known solution
+    to begin from, default the configured gait). Returns ``{"rows", "minimum_power",
+    "maximum_range", ...}`` as :func:`power_curve` (optima over the valid rows)."""
+    from birdocp.studies.pareto import power_point, waves
+
+    options = {k: v for k, v in options.items() if k != "progress"} | {"valid": True}
+    s0 = float(np.median(speeds)) if start_speed is None else float(start_speed)
+
+    def job(U, nb):
+        return {"optimize": optimize_gait, "cfg": cfg, "free": free, "speed_mps": float(U),
+                "start": nb["start"] or None, "x_guess": nb["x_guess"], "options": options,
+                "started_from": nb["label"]}
+
+    def say(U, row):
+        if progress:
+            progress(f"valid power curve U = {U:.2f}: {row['status']}, P {row['objective_value']:.5f} W, valid "
+                     f"{row['valid']}, {row['iterations']} iterations, {row['wall_s'].get('total', math.nan):.1f} s")
+    rows = waves(executor, [float(U) for U in speeds], [(s0, None, start, x_guess)], job, power_point, say, wave)
+    return {"rows": rows, "free": free} | curve_optima(rows)

@@ -87,6 +87,13 @@ class StabilityOptimum:
     (reduced method; None for the full-space method)."""
     constraint_violation: float | None = None
     evaluations: dict = field(default_factory=dict)
+    valid_constrained: bool = False
+    """Whether the limits of ``[validity]`` were constraints (``valid=True``)."""
+    validity_constraints: dict | None = None
+    """With ``valid=True``: per limit its smooth value, exact value, bound, bound used, whether it is
+    active (:func:`birdocp.studies.gait_validity.constraint_report`)."""
+    validity_rounds: list | None = None
+    """With ``valid=True``: the solves of the last stage (bounds used, exact verdict)."""
 
     @property
     def stable(self) -> bool:
@@ -218,7 +225,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
                        amplitude_bounds=(20.0, 70.0), steps_per_period: int | None = None,
                        max_iter: int = 400, tol: float = 1e-7, verify: bool = True,
                        progress=False, coarse_steps: int | None | str = "auto", method: str = "reduced",
-                       threads: int = 2) -> StabilityOptimum:
+                       threads: int = 2, valid: bool = False) -> StabilityOptimum:
     """Minimise the largest multiplier modulus of a level-flight cycle over the gait parameters
     ``free`` (key -> (lower, upper); default :data:`DEFAULT_FREE`): minimise r subject to the Jury
     conditions of ``Mon / r`` (each >= :data:`JURY_MARGIN`), level flight held by the flapping
@@ -243,6 +250,10 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
 
     ``progress``: False (silent), True (one line per evaluation on stderr) or a callable taking that
     line's text (e.g. from :func:`birdocp.io.progress.progress_callback`).
+
+    ``valid``: the limits of ``cfg.validity`` are smooth constraints in every stage (reduced method
+    only; :func:`birdocp.studies.gait.optimize_gait`'s ``valid``); the result carries
+    ``validity_constraints`` and its exact ``validity`` is ``valid`` unless the rounds ran out.
 
     Parameters
     ----------
@@ -270,17 +281,21 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
         The formulation (see above).
     threads : int
         Perturbed points evaluated at a time (reduced method).
+    valid : bool
+        The validity limits as smooth constraints (see above).
 
     Returns
     -------
     StabilityOptimum
         The optimal gait, amplitude, cycle, multipliers, ``radius``, IPOPT's status and iterations, the
-        verification and the optimum's validity.
+        verification, the optimum's validity and, with ``valid``, ``validity_constraints``.
     """
     if method not in METHODS:
         raise ConfigError("--method", f"must be one of {', '.join(METHODS)}, got {method!r}")
     if int(threads) < 1:
         raise ConfigError("--threads", f"must be a positive number of threads, got {threads!r}")
+    if valid and method != "reduced":
+        raise ConfigError("--valid", "validity constraints need the reduced method (drop --method full)")
     if coarse_steps == "auto":
         coarse_steps = COARSE_STEPS[method]
     if method == "full":
@@ -301,7 +316,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
         last = k == len(stages) - 1  # a coarse stage only needs to find the basin: looser tolerance
         opt = _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter,
                              tol if last else max(tol, COARSE_TOL), progress, start, x_guess,
-                             opt.second_derivatives if opt is not None else None, threads)
+                             opt.second_derivatives if opt is not None else None, threads, valid, last)
         first = first or opt
         iterations += opt.iterations
         tag = "coarse_" if k < len(stages) - 1 else ""
@@ -326,22 +341,25 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
                            cfg=cfg)
     out.method, out.kkt_residual = "reduced", opt.kkt_residual
     out.constraint_violation, out.evaluations = opt.constraint_violation, dict(opt.evaluations)
+    out.valid_constrained, out.validity_constraints, out.validity_rounds = bool(valid), opt.validity_constraints, \
+        opt.validity_rounds
     cfg_best = with_values(cfg, dict(opt.free) | {AMPLITUDE_KEY: opt.amplitude_deg})
     if verify and finite:
         t0 = time.perf_counter()
         _verify(out, cfg, N)
         wall["verify"] = time.perf_counter() - t0
-    if finite:
+    if finite:  # the exact verdict on the fine grid (the optimiser's own, when it measured one)
         from birdocp.bird.config import param_vector
 
-        out.validity = periodic_validity(cfg_best, out.x0, param_vector(cfg_best), steps_per_period=N).to_dict()
+        out.validity = opt.validity or periodic_validity(cfg_best, out.x0, param_vector(cfg_best),
+                                                         steps_per_period=N).to_dict()
     wall["total"] = time.perf_counter() - t_start
     out.wall_s = wall
     return out
 
 
 def _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter, tol, progress, start, x_guess,
-                   second=None, threads=2):
+                   second=None, threads=2, valid=False, final=True):
     """One reduced-space solve (:func:`birdocp.studies.gait.optimize_gait`, objective "stability") on
     ``steps`` RK4 steps per period.
 
@@ -352,7 +370,8 @@ def _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter,
     push away from the active Jury condition), and the Hessian is that stage's last finite-difference
     second derivatives (``second``) held fixed: one gradient per iteration and Newton-like steps (6
     iterations, 10 gradient evaluations on the reference problem, against 11 iterations and 27 with
-    SR1 updates, which remain the fallback when ``second`` is missing or not finite)."""
+    SR1 updates, which remain the fallback when ``second`` is missing or not finite). ``valid``: the
+    validity constraints; a coarse stage (``final`` False) makes one solve, the final one its rounds."""
     from birdocp.studies.gait import optimize_gait
 
     warm = start is not None
@@ -364,7 +383,8 @@ def _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter,
                          amplitude_bounds=amplitude_bounds, steps_per_period=steps, max_iter=max_iter,
                          tol=tol, verify=False, progress=progress, start=start, x_guess=x_guess,
                          hessian=hessian, radius_start_factor=1.001 if warm else 1.05,
-                         ipopt_options=opts, threads=threads, second_derivatives=second if hessian == "fixed" else None)
+                         ipopt_options=opts, threads=threads, second_derivatives=second if hessian == "fixed" else None,
+                         valid=valid, valid_rounds=None if final else 1)
 
 
 def _verify(out: StabilityOptimum, cfg: Config, N: int, jury=None) -> None:

@@ -1,0 +1,158 @@
+"""Where the model holds, as smooth constraints: the limits of ``[validity]`` as differentiable
+period means of the cycle.
+
+:mod:`birdocp.bird.validity` measures a cycle exactly (indicator of stall, minimum and maximum over
+the grid); those measures are not differentiable. For an optimiser each limit is written as the
+period mean of a smooth *integrand* ``g(x, d, p)`` of the state, the wing data and the parameters.
+The integrands are outputs of the same RK4 grid as the cycle (quadrature over the RK4 stages, the
+stage data the cycle itself uses), so a level cycle's exact gradients (implicit function theorem,
+variational equations) carry over to them unchanged.
+
+The four smooth measures (names as the exact measures of
+:class:`birdocp.bird.validity.CycleValidity`):
+
+* ``stalled_fraction``: the span-time share beyond the stall angle ``a_s``, the indicator of
+  ``|alpha_eff| > a_s`` replaced by the logistic ``s(z) = 1 / (1 + exp(-z))`` (the derivative of the
+  softplus ``log(1 + exp(z))``) with the smoothing width :data:`STALL_WIDTH_DEG`::
+
+      g = sum_e ds_e [s((alpha_e - a_s) / w) + s((-alpha_e - a_s) / w)] / sum_e ds_e
+
+  (effective angles ``alpha_e`` of the 16 lifting-line elements in degrees, element lengths
+  ``ds_e``); the measure is the period mean of g. An element 1 width beyond stall counts 0.73,
+  one width below 0.27;
+* ``min_forward_speed_mps``, ``max_abs_pitch_deg``, ``max_airflow_body_angle_deg``: the
+  Kreisselmeier-Steinhauser (KS) aggregate of the period, in its integral (mean) form::
+
+      KS = b + (1 / rho) log(mean_t exp(rho (f(t) - b)))
+
+  with the limit ``b`` as the shift (no overflow near the limit; the exponent is capped at 600) and
+  ``f`` = ``-u``, ``+-theta`` or ``+-atan2(w, u)`` (both signs summed for the absolute values; the
+  minimum speed is ``-KS`` of ``-u``). The integral form lies *below* the true maximum by about
+  ``log(1 / share of the period near the peak) / rho``; the sharpness is :data:`KS_RHO` (per degree,
+  per m/s).
+
+Neither smooth measure bounds the exact one from the safe side; the optimisers therefore check the
+exact validity at the optimum and, where a limit is still crossed, tighten that smooth bound by the
+difference and solve again (:func:`birdocp.studies.gait.optimize_gait`).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+from birdocp.bird.config import PARAM_NAMES, Config
+from birdocp.engine.cache import bounded_cache
+
+__all__ = ["SMOOTH_LIMITS", "STALL_WIDTH_DEG", "KS_RHO", "smooth_integrands", "integrand_names",
+           "smooth_measures", "limit_bounds", "smoothing_info", "cycle_smooth_measures"]
+
+SMOOTH_LIMITS = ("stalled_fraction", "min_forward_speed_mps", "max_abs_pitch_deg", "max_airflow_body_angle_deg")
+"""The limits of ``[validity]`` as smooth measures (names of the exact measures)."""
+STALL_WIDTH_DEG = 1.0
+"""Width w of the logistic step that replaces 'the element is stalled' [deg]."""
+KS_RHO = {"min_forward_speed_mps": 3.0, "max_abs_pitch_deg": 3.0, "max_airflow_body_angle_deg": 3.0}
+"""Sharpness rho of the KS aggregates (per m/s for the speed, per degree for the angles)."""
+_CAP = 600.0
+_UPPER = {"stalled_fraction": True, "min_forward_speed_mps": False, "max_abs_pitch_deg": True,
+          "max_airflow_body_angle_deg": True}
+
+
+def integrand_names() -> tuple:
+    """Names of the rows of :func:`smooth_integrands`' output (``valid_<limit>``)."""
+    return tuple("valid_" + k for k in SMOOTH_LIMITS)
+
+
+def limit_bounds(cfg: Config) -> dict:
+    """limit -> (configured bound, 'max' or 'min') from ``cfg.validity``."""
+    v = cfg.validity
+    return {"stalled_fraction": (v.max_stalled_fraction, "max"),
+            "min_forward_speed_mps": (v.min_forward_speed_mps, "min"),
+            "max_abs_pitch_deg": (v.max_abs_pitch_deg, "max"),
+            "max_airflow_body_angle_deg": (v.max_airflow_body_angle_deg, "max")}
+
+
+def smoothing_info() -> dict:
+    """The smoothing parameters, for a result's ``validity_constraints``."""
+    return {"stall_width_deg": STALL_WIDTH_DEG, "ks_rho": dict(KS_RHO), "ks_form": "integral (period mean)",
+            "quadrature": "RK4 stages of the cycle's grid"}
+
+
+def smooth_integrands(cfg: Config, n_data: int):
+    """``g(x, d, p) -> 4 x 1``: the integrands of :data:`SMOOTH_LIMITS` (see the module) for the
+    thresholds of ``cfg.validity``, for a model with data of size ``n_data``; built once per
+    (thresholds, size) and reused."""
+    v = cfg.validity
+    return _integrands(float(v.stall_angle_deg), float(v.min_forward_speed_mps), float(v.max_abs_pitch_deg),
+                       float(v.max_airflow_body_angle_deg), int(n_data))
+
+
+@functools.lru_cache(maxsize=8)
+def _integrands(stall_deg, umin, pitch_deg, airflow_deg, n_data):
+    import casadi as ca
+
+    from birdocp.bird.validity import effective_angles
+
+    x, d, p = ca.SX.sym("x", 4), ca.SX.sym("d", n_data), ca.SX.sym("p", len(PARAM_NAMES))
+    ae, _, ds = effective_angles(n_data)(x, d, p)
+    a = ae * (180.0 / math.pi)
+    w = STALL_WIDTH_DEG
+    logistic = lambda z: 1.0 / (1.0 + ca.exp(-z))  # noqa: E731
+    stall = ca.sum1(ds * (logistic((a - stall_deg) / w) + logistic((-a - stall_deg) / w))) / ca.sum1(ds)
+    e = lambda z: ca.exp(ca.fmin(z, _CAP))  # noqa: E731
+    u, wv, th = x[0], x[1], x[3] * (180.0 / math.pi)
+    phi = ca.atan2(wv, u) * (180.0 / math.pi)
+    r = KS_RHO
+    speed = e(r["min_forward_speed_mps"] * (umin - u))
+    pitch = e(r["max_abs_pitch_deg"] * (th - pitch_deg)) + e(r["max_abs_pitch_deg"] * (-th - pitch_deg))
+    air = e(r["max_airflow_body_angle_deg"] * (phi - airflow_deg)) + e(r["max_airflow_body_angle_deg"] * (-phi - airflow_deg))
+    return ca.Function("validity_integrands", [x, d, p], [ca.vertcat(stall, speed, pitch, air)],
+                       ["x", "d", "p"], ["g"])
+
+
+def smooth_measures(cfg: Config, means, grads=None):
+    """(values, gradients) of the smooth measures from the period means of the integrands (``means``:
+    4 numbers in the order of :data:`SMOOTH_LIMITS`; ``grads``: their gradients, 4 x n, or None).
+    Returns ``({limit: value}, {limit: gradient or None})``."""
+    import numpy as np
+
+    m = np.asarray(means, float).ravel()
+    b = limit_bounds(cfg)
+    vals, der = {}, {}
+    for i, k in enumerate(SMOOTH_LIMITS):
+        g = None if grads is None else np.asarray(grads[i], float)
+        if k == "stalled_fraction":
+            vals[k], der[k] = float(m[i]), g
+            continue
+        rho, (bound, _) = KS_RHO[k], b[k]
+        mi = max(float(m[i]), 1e-300)
+        sign = 1.0 if _UPPER[k] else -1.0
+        vals[k] = bound + sign * math.log(mi) / rho
+        der[k] = None if g is None else sign * g / (rho * mi)
+    return vals, der
+
+
+def cycle_smooth_measures(cfg: Config, x0, p=None, steps_per_period: int | None = None) -> dict:
+    """{limit: smooth value} of the periodic cycle through ``x0`` at t = 0 (one RK4 period on the
+    solver's grid, ``cfg.solve.steps_per_period`` by default, with the integrands as quadrature
+    outputs): the values an optimiser with ``valid=True`` constrains, for a cycle found otherwise."""
+    import casadi as ca
+    import numpy as np
+
+    from birdocp.bird.model import get_model
+    from birdocp.engine.integrate import RK4Grid
+
+    m = get_model(cfg)
+    n = int(steps_per_period or cfg.solve.steps_per_period)
+    p = m.p0 if p is None else np.asarray(p, float).ravel()
+    key = (id(m.ode), n, tuple(limit_bounds(cfg).items()), float(cfg.validity.stall_angle_deg))
+    grid = _GRIDS.get(key)
+    if grid is None:
+        grid = RK4Grid(m.ode, n, 1, outputs=(smooth_integrands(cfg, m.ode.nd),))
+        _GRIDS.put(key, grid)
+    D = grid.blocks_numeric(0.0, p)
+    _, _, q = grid.period_map(ca.DM(np.asarray(x0, float)), D, ca.DM(p))
+    return smooth_measures(cfg, np.asarray(q).ravel() / m.period_s)[0]
+
+
+_GRIDS = bounded_cache("bird.validity_smooth_grids", 4)

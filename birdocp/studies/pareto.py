@@ -1,0 +1,129 @@
+"""The stability-power Pareto front with its points solved in parallel (through an
+:class:`birdocp.engine.executors.Executor`: local processes or a Dask cluster).
+
+The points of the front (least ``objective`` with every multiplier inside the circle of radius R,
+one per bound R) are independent NLPs; what links them is only the start. The points are solved in
+*waves* of as many jobs as the executor has workers: each wave takes the unsolved bounds nearest (in
+R) to an already solved point, and each of those starts from its nearest solved neighbour (gait,
+amplitude and cycle state). The known ends seed the first wave: the unconstrained optimum (``start``,
+at its own largest modulus ``start_bound``) and any ``anchors`` (e.g. the most stable gait). A point
+that fails is tried once more from a nearer neighbour if a later wave has solved one.
+
+Each job is one :func:`birdocp.studies.gait.optimize_gait` call in a worker (passed in: this module
+does not import the gait module, which calls it) (so a job's result does
+not depend on which worker ran it); rows as :func:`birdocp.studies.gait.stability_pareto`'s, plus
+``started_from`` (the bound of the neighbour it started from; None for the unconstrained start).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["pareto_parallel", "pareto_row", "solve_point", "waves", "power_point"]
+
+AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
+
+
+def pareto_row(R: float, opt, inserted: bool = False) -> dict:
+    """The row of the front for one :class:`birdocp.studies.gait.GaitOptimum` at bound ``R``."""
+    return {"bound": R, "inserted": inserted, "success": bool(opt.success), "status": opt.status,
+            "objective_value": opt.objective_value, "largest_modulus": opt.largest_modulus,
+            "free": dict(opt.free), "amplitude_deg": opt.amplitude_deg,
+            "x0": np.asarray(opt.x0, float).tolist(), "iterations": opt.iterations,
+            "kkt_residual": opt.kkt_residual, "constraint_violation": opt.constraint_violation,
+            "mean_forward_speed_mps": opt.mean_forward_speed_mps, "wall_s": dict(opt.wall_s),
+            "verification_power_difference_W": opt.verification.get("power_difference_W"),
+            "verification_trim_success": opt.verification.get("trim_success"),
+            "validity": opt.validity, "valid": None if opt.validity is None else bool(opt.validity.get("valid")),
+            "validity_constraints": opt.validity_constraints}
+
+
+def solve_point(job: dict) -> dict:
+    """One point of the front (a worker's job: picklable dict in, row out)."""
+    opt = job["optimize"](job["cfg"], job["free"], objective=job["objective"], speed_mps=job["speed_mps"],
+                        max_multiplier=job["bound"], start=job["start"], x_guess=job["x_guess"],
+                        steps_per_period=job["steps_per_period"], **job["options"])
+    return pareto_row(job["bound"], opt) | {"started_from": job["started_from"]}
+
+
+def _nearest(R: float, solved: list) -> dict:
+    return min(solved, key=lambda s: abs(s["bound_key"] - R))
+
+
+def pareto_parallel(executor, optimize, cfg, speed_mps: float, bounds, *, free=None, start=None, x_guess=None,
+                    start_bound: float | None = None, anchors=(), objective: str = "power",
+                    steps_per_period=None, progress=None, wave: int | None = None, **options) -> list[dict]:
+    """The front at the ``bounds`` R (see the module), solved ``wave`` points at a time (default: the
+    executor's worker count, else 2) through ``executor.map``; ``optimize``: the optimiser
+    (:func:`birdocp.studies.gait.optimize_gait`, a module-level function: picklable). ``start``/``x_guess``: the unconstrained
+    optimum's gait and cycle state, at largest modulus ``start_bound`` (default: above every bound);
+    ``anchors``: rows of known solutions (``bound``, ``free``, ``amplitude_deg``, ``x0``). Returns
+    one row per bound, in the order of ``bounds``."""
+    options = {k: v for k, v in options.items() if k != "progress"}
+    top = max(bounds) + 1.0 if start_bound is None else float(start_bound)
+    seeds = [(top, None, start, x_guess)] + [(float(a["bound"]), float(a["bound"]), _gait(a), a["x0"]) for a in anchors]
+
+    def job(R, nb):
+        return {"optimize": optimize, "cfg": cfg, "free": free, "objective": objective, "speed_mps": speed_mps, "bound": R,
+                "start": nb["start"] or None, "x_guess": nb["x_guess"], "steps_per_period": steps_per_period,
+                "options": options, "started_from": nb["label"]}
+
+    def say(R, row):
+        if progress:
+            progress(f"Pareto R = {R:.5f} (from {row['started_from']}): {row['status']}, objective "
+                     f"{row['objective_value']:.5f}, |L1| {row['largest_modulus']:.5f}, valid {row['valid']}, "
+                     f"{row['iterations']} iterations, {row['wall_s'].get('total', math.nan):.1f} s")
+    return waves(executor, [float(R) for R in bounds], seeds, job, solve_point, say, wave)
+
+
+def _gait(row: dict) -> dict:
+    return dict(row["free"]) | {AMPLITUDE_KEY: float(row["amplitude_deg"])}
+
+
+def waves(executor, values, seeds, make_job, fn, report=None, wave: int | None = None) -> list[dict]:
+    """Solve one job per value of a scalar (a bound, a speed) in parallel waves, each from its nearest
+    solved neighbour (see the module). ``seeds``: known solutions ``(value, label, start gait,
+    x_guess)``; ``make_job(value, neighbour)`` the job of ``fn`` (neighbour: ``{"label", "start",
+    "x_guess"}``); ``fn(job)`` returns a row with ``success``, ``free``, ``amplitude_deg`` and ``x0``.
+    Returns the rows in the order of ``values``."""
+    n = int(wave or getattr(executor, "jobs", None) or 2)
+    solved = [{"key": float(v), "label": lab, "start": dict(st or {}),
+               "x_guess": None if x is None else np.asarray(x, float)} for v, lab, st, x in seeds]
+    pending, rows, tried = list(values), {}, {}
+    while pending:
+        pending.sort(key=lambda v: abs(_nearest(v, solved)["key"] - v))
+        batch = pending[:n]
+        jobs = []
+        for v in batch:
+            nb = _nearest(v, solved)
+            tried.setdefault(v, []).append(nb["key"])
+            jobs.append(make_job(v, nb))
+        for v, row in zip(batch, executor.map(fn, jobs)):
+            rows[v] = row
+            if report:
+                report(v, row)
+            if row["success"]:
+                solved.append({"key": v, "label": v, "start": _gait(row), "x_guess": np.asarray(row["x0"], float)})
+        for v in batch:
+            pending.remove(v)
+            if not rows[v]["success"] and _nearest(v, solved)["key"] not in tried[v]:
+                pending.append(v)  # a nearer neighbour was solved since: once more from it
+    return [rows[v] for v in values]
+
+
+def _nearest(v: float, solved: list) -> dict:
+    return min(solved, key=lambda s: abs(s["key"] - v))
+
+
+def power_point(job: dict) -> dict:
+    """One speed of :func:`birdocp.studies.gait.valid_power_curve` (a worker's job): the least-power
+    gait at ``job["speed_mps"]`` by ``job["optimize"]``."""
+    opt = job["optimize"](job["cfg"], job["free"], objective="power", speed_mps=job["speed_mps"], start=job["start"],
+                          x_guess=job["x_guess"], **job["options"])
+    row = pareto_row(None, opt)
+    row.pop("bound")
+    return row | {"speed_mps": job["speed_mps"], "started_from": job["started_from"],
+                  "mean_shoulder_power_W": opt.means.get("flapping_power_W"),
+                  "mean_aerodynamic_power_W": opt.means.get("aerodynamic_power_W")}

@@ -1,0 +1,116 @@
+"""Issue 26 speed targets, measured in one run as ratios against today's code paths:
+
+* the stability-power Pareto front at the reference speed: today's sequential tracing
+  (:func:`birdocp.studies.gait.stability_pareto` without an executor, each point from the previous
+  one) against the same bounds solved in parallel waves through the process executor, each from its
+  nearest solved neighbour (``executor=``; target <= 120 s for 12 points on 2 cores), and the same
+  front over valid cycles (``valid=True``);
+* ``optimize_stability`` (reduced space, defaults) against ``optimize_stability(valid=True)``
+  (target <= 60 s).
+
+The bounds, the start (energy optimum) and the anchor (most stable gait) are the committed ones of
+results/energetics/result.json (so both tracings solve the same points). The machine load at the
+start of each part is recorded: other work on the shared machine inflates every number.
+
+    python scripts/benchmark_validity.py [--points 12] [--jobs 2] [--out DIR] [--skip-sequential]
+"""
+
+import argparse
+import json
+import os
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+AMP = "gait.shoulder_flap.amplitude_deg"
+
+
+def log(*a):
+    print(time.strftime("%H:%M:%S"), *a, flush=True)
+
+
+def timed(fn):
+    load = os.getloadavg()[0]
+    t0, c0 = time.perf_counter(), time.process_time()
+    out = fn()
+    return out, {"wall_s": time.perf_counter() - t0, "cpu_s_main_process": time.process_time() - c0,
+                 "load_1min_at_start": load}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--points", type=int, default=12, help="the first N of the committed Pareto bounds")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--out", default=str(ROOT / "results" / "stability_optimum"))
+    ap.add_argument("--skip-sequential", action="store_true")
+    ap.add_argument("--skip-stability", action="store_true")
+    args = ap.parse_args()
+    from birdocp.bird.config import Config
+    from birdocp.engine.executors import get_executor
+    from birdocp.studies.gait import stability_pareto
+    from birdocp.studies.optimize import optimize_stability
+
+    committed = json.loads((ROOT / "results" / "energetics" / "result.json").read_text())
+    b, s = committed["optimal_gait"], committed["most_stable_gait"]
+    U = committed["paper_gait_level"]["mean_forward_speed_mps"]
+    bounds = [q["bound"] for q in committed["pareto"] if isinstance(q["bound"], float) and not q.get("inserted")]
+    bounds = bounds[:args.points]
+    start = dict(b["free"]) | {AMP: b["amplitude_deg"]}
+    anchor = {"bound": s["objective_value"], "free": s["free"], "amplitude_deg": s["amplitude_deg"], "x0": s["x0"]}
+    cfg = Config()
+    res = {"points": len(bounds), "jobs": args.jobs, "cpu_count": os.cpu_count(), "bounds": bounds}
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / "benchmark_validity.json"
+
+    def save():
+        from birdocp.io.files import atomic_write_json
+
+        atomic_write_json(path, res)
+
+    if not args.skip_stability:
+        log("optimize_stability (today: no validity constraints)")
+        so, t = timed(lambda: optimize_stability(cfg))
+        res["optimize_stability"] = t | {"radius": so.radius, "valid": so.validity["valid"], "iterations": so.iterations}
+        log(f"  {t['wall_s']:.1f} s, r {so.radius:.6f}")
+        log("optimize_stability(valid=True)")
+        sv, t = timed(lambda: optimize_stability(cfg, valid=True))
+        res["optimize_stability_valid"] = t | {"radius": sv.radius, "valid": sv.validity["valid"],
+                                               "iterations": sv.iterations, "rounds": len(sv.validity_rounds or [])}
+        res["ratio_valid_over_today"] = res["optimize_stability_valid"]["wall_s"] / res["optimize_stability"]["wall_s"]
+        log(f"  {t['wall_s']:.1f} s, r {sv.radius:.6f}, valid {sv.validity['valid']}")
+        save()
+    if not args.skip_sequential:
+        log(f"Pareto, today's sequential tracing: {len(bounds)} points")
+        rows, t = timed(lambda: stability_pareto(cfg, U, bounds, start=start, x_guess=b["x0"], progress=log))
+        res["pareto_sequential"] = t | {"converged": sum(r["success"] for r in rows),
+                                        "objective_values": [r["objective_value"] for r in rows if not r["inserted"]]}
+        save()
+    with get_executor(jobs=args.jobs) as ex:
+        ex.start()
+        log(f"Pareto in parallel waves ({args.jobs} processes), nearest solved neighbour")
+        rows, t = timed(lambda: stability_pareto(cfg, U, bounds, start=start, x_guess=b["x0"], executor=ex,
+                                                 anchors=[anchor], start_bound=b["largest_modulus"], progress=log))
+        res["pareto_parallel"] = t | {"converged": sum(r["success"] for r in rows),
+                                      "objective_values": [r["objective_value"] for r in rows]}
+        save()
+        log("the same front over valid cycles (valid=True), parallel")
+        rows, t = timed(lambda: stability_pareto(cfg, U, bounds, start=start, x_guess=b["x0"], executor=ex,
+                                                 anchors=[anchor], start_bound=b["largest_modulus"], progress=log,
+                                                 valid=True))
+        res["pareto_parallel_valid"] = t | {"converged": sum(r["success"] for r in rows),
+                                            "valid": sum(bool(r.get("valid")) for r in rows)}
+    if "pareto_sequential" in res:
+        seq = res["pareto_sequential"]["wall_s"]
+        res["ratio_parallel_over_sequential"] = res["pareto_parallel"]["wall_s"] / seq
+        res["ratio_parallel_valid_over_sequential"] = res["pareto_parallel_valid"]["wall_s"] / seq
+        a = [v for v in res["pareto_sequential"]["objective_values"]]
+        c = res["pareto_parallel"]["objective_values"]
+        if len(a) == len(c):
+            res["max_objective_difference_W"] = max(abs(x - y) for x, y in zip(a, c))
+    save()
+    print(json.dumps({k: v for k, v in res.items() if k != "bounds"}, indent=1))
+
+
+if __name__ == "__main__":
+    main()
