@@ -923,7 +923,28 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
     minimum, over the rows whose cycle is *valid* only (each row carries ``validity`` and ``valid``,
     and the cycle: ``x0``, the key's value and ``amplitude_deg``); ``"interior": False`` when the
     minimum lies at an end of the valid rows. ``minimum_power_all_rows`` and
-    ``maximum_range_all_rows``: the same over every converged row, valid or not."""
+    ``maximum_range_all_rows``: the same over every converged row, valid or not.
+
+    Parameters
+    ----------
+    cfg : Config, optional
+        The configuration (default: the paper's reference case).
+    speeds : sequence of float, optional
+        Forward speeds [m/s] (default 12..24 m/s by 1 m/s).
+    key : str
+        The gait key that sets the speed.
+    bounds : (float, float)
+        Bounds of ``key`` (its units).
+    steps_per_period : int, optional
+        RK4 steps per period (default ``cfg.solve.steps_per_period``).
+    progress : bool
+        One line per point on stderr.
+
+    Returns
+    -------
+    dict
+        ``rows``, ``minimum_power``, ``maximum_range`` (over valid rows), their ``*_all_rows`` and ``key``.
+    """
     from birdocp.bird.energetics import cycle_energetics
 
     cfg = cfg or Config()
