@@ -546,12 +546,12 @@ def _build(s: Structure) -> tuple[dict, tuple]:
 
 
 SECTION_OUTPUTS = ("alpha_E_rad", "alpha_eff_quasi_steady_rad", "f_sep", "Gamma_m2ps", "newton_residual",
-                   "ds_m")
+                   "ds_m", "alpha_geo_rad")
 """Outputs of ``BirdModel.section_d(x, d, p)`` (unsteady/stall structures): per element (16) the angle
 the section law sees alpha_E (lag and 3/4-chord term included), the quasi-steady effective angle of
 the same state (today's definition), the separation point f (1 = attached), the circulation, then the
-relative Newton residual max|R| / max|Gamma| of the stall circulation (0 for a linear section) and the
-element lengths."""
+relative Newton residual max|R| / max|Gamma| of the stall circulation (0 for a linear section), the
+element lengths and the geometric angles."""
 
 
 def _section_functions(s: Structure, x, d, p, lt, wind) -> dict:
@@ -568,7 +568,7 @@ def _section_functions(s: Structure, x, d, p, lt, wind) -> dict:
                                 {}, {"K": b["G"], "Vx": b["Wx"], "Vy": b["Wy"]}, _unsteady_params(p))
     vind_qs = qs["vind"]
     a_qs, _ = aero.section_angle(V + vind_qs, b["c_hat"], b["up"], b["tau"])
-    outs = [sec["alpha_E"], a_qs.T, sec["f"].T, sec["Gamma"], sec["newton_residual"], b["ds_m"]]
+    outs = [sec["alpha_E"], a_qs.T, sec["f"].T, sec["Gamma"], sec["newton_residual"], b["ds_m"], sec["alpha"].T]
     outs = ca.substitute(outs, [wind], [ca.SX.zeros(2)])
     fns = {"section_d": ca.Function("section_d", [x, d, p], outs, ["x", "d", "p"], list(SECTION_OUTPUTS))}
     x4 = ca.SX.sym("x4", 4)

@@ -265,7 +265,8 @@ def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dic
     out = {"dF_att": dF_att, "dF_mid": dF_mid, "r_mid": r_mid, "F": F, "M": M, "zdot": ca.vertcat(*zdot),
            "Gamma": Gamma, "Gamma_att": G_att, "alpha_E": aE, "f": f, "vind": vind, "v_s": v_s, "V": V, "Vp": Vp,
            "Vp_norm": Vn, "alpha": alpha, "omega": omega, "newton_residual": rel, "wagner": wag,
-           "n_hat": ud["n_hat"] if wag else None}
+           "n_hat": ud["n_hat"] if wag else None, "r_mid_dot": ud["r_mid_dot"] if ud else None,
+           "omega_k": ud["omega_k"] if wag else None}
     out.update(_non_circulatory(nu, ud, prm, Vn, crow, ds, omega) if wag else
                {"M_A": ca.SX.zeros(3, 3), "b_nc": ca.SX.zeros(3, 1)})
     return out

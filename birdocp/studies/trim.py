@@ -246,7 +246,8 @@ def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: Mu
          compiled: bool | None = None, **method_over) -> TrimResult:
     """Trimmed flight of ``cfg`` (default: the paper's reference case).
 
-    ``x_guess``: state (u, w, q, theta) at t = 0 (default ``cfg.solve.initial_guess``);
+    ``x_guess``: state (u, w, q, theta) at t = 0 (default ``cfg.solve.initial_guess``; the aerodynamic
+    states of an unsteady or dynamic-stall section start on the quasi-steady manifold), or a full state;
     ``warm_start``: a previous :class:`TrimResult` whose cycle starts the solve; ``method`` or keyword
     overrides of :class:`~birdocp.engine.shooting.MultipleShooting` (default from ``cfg.solve``);
     ``compiled``: use the state RHS and data compiled to C (:func:`solver_ode`; None: ``$BIRDOCP_COMPILED``;
@@ -254,8 +255,8 @@ def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: Mu
     """
     cfg = cfg or Config()
     m = get_model(cfg)
-    guess = np.asarray(cfg.solve.initial_guess if x_guess is None else x_guess, float)
-    problem = LimitCycleProblem(ode=solver_ode(m, compiled), p=m.p0, x_guess=guess, outputs=flight_outputs(m.ode.nd))
+    guess = m.complete_state(cfg.solve.initial_guess if x_guess is None else x_guess, m.p0)
+    problem = LimitCycleProblem(ode=solver_ode(m, compiled), p=m.p0, x_guess=guess, outputs=flight_outputs(m.ode.nd, m.ode.nx))
     method = method or method_of(cfg, **method_over)
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
     return TrimResult(check_physical(solve(problem, method, warm_start=ws)), cfg)
