@@ -320,6 +320,7 @@ def _with_added_mass(out, sec, Fx, Fz, My, xi, p):
                                   My / I)
         out["dF_mid"] = sec["dF_mid"]
         out["couple"] = ca.SX.zeros(1, N_EL)
+        out["loads_held"] = ca.vertcat(Fx, Fz, My)
         return Fx, Fz, My
     bvec = ca.vertcat(m * (-q * w - grav * ca.sin(theta)) + Fx + sec["b_nc"][0],
                       m * (q * u + grav * ca.cos(theta)) + Fz + sec["b_nc"][1], My + sec["b_nc"][2])
@@ -327,6 +328,7 @@ def _with_added_mass(out, sec, Fx, Fz, My, xi, p):
     nudot = unsteady.solve_sym3(ca.diag(ca.vertcat(m, m, I)) + MA, bvec)
     react = sec["b_nc"] - MA @ nudot
     out["nudot"] = nudot
+    out["loads_held"] = ca.vertcat(Fx, Fz, My) + sec["b_nc"]  # body accelerations held at zero
     # added-mass force per element along n_hat and the couples, with the solved accelerations
     nc = sec["nc_coef"] + sec["m_a_chi"] * (nudot.T @ sec["a"])
     out["dF_mid"] = sec["dF_mid"] + ca.repmat(nc, 3, 1) * sec["n_hat"]
@@ -339,7 +341,7 @@ GRAPH_FUNCTIONS = ("pre", "post", "rhs", "data", "geometry", "loads_d", "detail_
 """The SX Functions of a :class:`BirdModel` that the graph cache stores (the MX compositions ``f``,
 ``loads``, ``aero_detail`` are rebuilt from them in milliseconds)."""
 
-OPTIONAL_FUNCTIONS = ("mass_points", "wing_power_d", "section_d", "aero_guess_d")
+OPTIONAL_FUNCTIONS = ("mass_points", "wing_power_d", "section_d", "aero_guess_d", "held_d")
 """Functions only some structures have (wing masses; unsteady or stall sections); None otherwise."""
 
 _EAGER = ("pre", "post", "rhs")  # what every solve needs; the rest is read from the cache on first use
@@ -537,7 +539,7 @@ def _build(s: Structure) -> tuple[dict, tuple]:
     if s.aero_extra:
         fns.update(_section_functions(s, x, dsym, p, lt, wind))
     else:
-        fns.update(section_d=None, aero_guess_d=None)
+        fns.update(section_d=None, aero_guess_d=None, held_d=None)
     fns["rhs"] = ca.Function("rhs", [x, dsym, p], [xdot], ["x", "d", "p"], ["xdot"])
     fns["loads_d"] = ca.Function("loads_d", [x, dsym, p], [loads], ["x", "d", "p"], ["loads"])
     fns["detail_d"] = ca.Function("detail_d", [x, dsym, p], ca.vertsplit(detail, [0, N_EL, 2 * N_EL, 3 * N_EL, 3 * N_EL + 3]),
@@ -571,6 +573,8 @@ def _section_functions(s: Structure, x, d, p, lt, wind) -> dict:
     outs = [sec["alpha_E"], a_qs.T, sec["f"].T, sec["Gamma"], sec["newton_residual"], b["ds_m"], sec["alpha"].T]
     outs = ca.substitute(outs, [wind], [ca.SX.zeros(2)])
     fns = {"section_d": ca.Function("section_d", [x, d, p], outs, ["x", "d", "p"], list(SECTION_OUTPUTS))}
+    held = ca.substitute([lt["xdot_aero"], lt["loads_held"]], [wind], [ca.SX.zeros(2)])
+    fns["held_d"] = ca.Function("held_d", [x, d, p], held, ["x", "d", "p"], ["xdot_aero", "loads"])
     x4 = ca.SX.sym("x4", 4)
     prm = dict(_unsteady_params(p), a0=1.0)
     base = {"r": b["r_m"], "v_kin": b["v_kin_mps"], "c_hat": b["c_hat"], "up": b["up"], "tau": b["tau"],

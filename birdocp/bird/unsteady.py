@@ -149,6 +149,29 @@ def _cross(W, tau):
                       W[0, :] * tau[1, :] - W[1, :] * tau[0, :])
 
 
+def lu_solve(A, b):
+    """x = A^-1 b by Gaussian elimination without pivoting, written out in SX (about n^3/3
+    multiply-adds: a third of a symbolic QR). For the lifting-line matrices I + D K, whose eigenvalues
+    keep a positive real part (docs/model_unsteady.md, well-posedness); no branches on the values."""
+    n = A.shape[0]
+    a = [[A[i, j] for j in range(n)] for i in range(n)]
+    y = [b[i] for i in range(n)]
+    for k in range(n):
+        inv = 1.0 / a[k][k]
+        for i in range(k + 1, n):
+            m = a[i][k] * inv
+            for j in range(k + 1, n):
+                a[i][j] = a[i][j] - m * a[k][j]
+            y[i] = y[i] - m * y[k]
+    x = [None] * n
+    for i in reversed(range(n)):
+        acc = y[i]
+        for j in range(i + 1, n):
+            acc = acc - a[i][j] * x[j]
+        x[i] = acc / a[i][i]
+    return ca.vertcat(*x)
+
+
 def _circulation(opts, prm, q_t, zsum, Vn, chord, K, f_state):
     """Gamma (n x 1) and the final relative Newton residual (0 for a linear section): the linear
     lifting-line solve (I + A0 H K) Gamma = H (A0 q~ + z1 + z2), H = diag(c C_la / 2), then for a
@@ -156,7 +179,7 @@ def _circulation(opts, prm, q_t, zsum, Vn, chord, K, f_state):
     a0 = prm["a0"]
     n = chord.shape[0]
     h = 0.5 * chord * prm["cla"]
-    gam = ca.solve(ca.SX.eye(n) + a0 * ca.diag(h) @ K, h * (a0 * q_t + zsum))
+    gam = lu_solve(ca.SX.eye(n) + a0 * ca.diag(h) @ K, h * (a0 * q_t + zsum))
     if opts["section"] == "linear":
         return gam, ca.SX(0)
     cla, cd90, al1 = prm["cla"], prm["cd90"], prm["alpha1"]
@@ -171,7 +194,7 @@ def _circulation(opts, prm, q_t, zsum, Vn, chord, K, f_state):
         R, aE, f = resid(gam)
         slope = _lift_slope(aE, f, cla, cd90, al1, total=not dyn)
         J = ca.SX.eye(n) + a0 * ca.diag(0.5 * chord * slope) @ K
-        gam = gam - ca.solve(J, R)
+        gam = gam - lu_solve(J, R)
     R, _, _ = resid(gam)
     rel = ca.mmax(ca.fabs(R)) / ca.mmax(ca.fabs(gam))
     return gam, rel
@@ -222,7 +245,7 @@ def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dic
     prm = dict(prm, a0=a0)
     zsum = z1 + z2
     K = wake["K"]
-    Gamma, rel = _circulation(opts, prm, q_t, zsum, Vn.T, chord, K, f_state)
+    Gamma, rel = _circulation(opts, prm, q_t, zsum, Vn.T, chord, K, None if f_state is None else f_state.T)
     g = q_t - K @ Gamma
     gE = a0 * g + zsum
     aE = gE / Vn.T
