@@ -25,7 +25,7 @@ from birdocp.io.files import dataclass_to_dict
 __all__ = [
     "ConfigError", "Joint", "Body", "Wing", "Gait", "Aero", "Tail", "Drag", "Solve", "Validity", "Config",
     "JOINT_NAMES", "PARAM_NAMES", "param_vector", "load", "dump", "loads", "dumps",
-    "from_dict", "to_dict", "set_value", "with_values", "WING_MASS_SHARES", "body_alone_mass_kg",
+    "from_dict", "to_dict", "set_value", "with_values", "WING_MASS_SHARES", "body_alone_mass_kg", "require_body_states",
 ]
 
 
@@ -426,6 +426,16 @@ def validate(cfg: Config) -> None:
         raise ConfigError("solve.initial_guess", f"needs 4 numbers (u, w, q, theta), got {len(s.initial_guess)}")
     for i, v in enumerate(s.initial_guess):
         _check_number(f"solve.initial_guess.{i}", v)
+
+
+def require_body_states(cfg: Config, what: str) -> None:
+    """Raise :class:`ConfigError` when ``cfg``'s model has aerodynamic states (``aero.unsteady =
+    "wagner"`` or ``aero.section = "dynamic-stall"``) and ``what`` (a study) works on the 4 body
+    states only."""
+    if cfg.aero.unsteady != "none" or cfg.aero.section == "dynamic-stall":
+        raise ConfigError("aero.unsteady" if cfg.aero.unsteady != "none" else "aero.section",
+                          f"{what} works on the 4 body states only (no lag or separation states yet): use "
+                          "aero.unsteady = 'none' with aero.section = 'linear' or 'stall'")
 
 
 def _validate_unsteady(cfg: Config) -> None:

@@ -76,7 +76,7 @@ def _c_ident(name: str) -> str:
 
 def _functions(model, p0, runtime_idx, h):
     nd = model.rhs.size1_in(1)
-    x = ca.SX.sym("x", 4)
+    x = ca.SX.sym("x", model.rhs.size1_in(0))
     d = ca.SX.sym("d", nd)
     pr = ca.SX.sym("p", len(runtime_idx))
     pels = [ca.SX(float(v)) for v in p0]

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest, with_values
+from birdocp.bird.config import require_body_states, PARAM_NAMES, Config, ConfigError, get_value, suggest, with_values
 from birdocp.engine.floquet import sort_multipliers
 from birdocp.engine.results import result_dict, serial
 
@@ -599,6 +599,7 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     ``radius_start_factor``: with the stability objective, r starts at this factor times the start's
     spectral radius."""
     cfg = cfg or Config()
+    require_body_states(cfg, "this gait study")
     if hessian not in ("sr1", "fd", "fixed"):
         raise ValueError(f"hessian must be 'sr1', 'fd' or 'fixed', got {hessian!r}")
     if (hessian == "fixed") != (second_derivatives is not None):
@@ -784,6 +785,7 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
     from birdocp.bird.energetics import cycle_energetics
 
     cfg = cfg or Config()
+    require_body_states(cfg, "this gait study")
     speeds = np.sort(np.asarray(speeds if speeds is not None else np.arange(12.0, 24.01, 1.0), float))
     rc = ReducedLevelCycle(cfg, [key], steps_per_period)
     ev0 = rc.evaluate(np.array([float(get_value(cfg, key))]))

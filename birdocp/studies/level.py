@@ -141,7 +141,6 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
     if c == "flight_path_angle_deg" and not -89.0 < target < 89.0:
         raise ConfigError("target", f"flight path angle must lie in (-89, 89) deg, got {target!r}")
 
-    import numpy as np
 
     from birdocp.bird.model import get_model
     from birdocp.engine.problem import LimitCycleProblem
