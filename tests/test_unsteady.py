@@ -280,3 +280,16 @@ def test_bad_combinations_are_config_errors():
         with pytest.raises(ConfigError) as e:
             with_values(Config(), values)
         assert key in str(e.value)
+
+
+def test_default_trim_bit_for_bit_as_committed(reference_trim):
+    """The defaults build no new term: the default trim reproduces the committed Experiment 1 (a) cycle
+    (results/experiment1/result.json, written by the code before the unsteady options) to the last bit."""
+    import json
+    from pathlib import Path
+
+    ref = json.loads((Path(__file__).resolve().parents[1] / "results" / "experiment1" / "result.json").read_text())
+    a = ref["variants"]["a"]
+    assert a["config_values"] in ({}, "{}") and a["method"]["points"] == 5
+    assert np.asarray(reference_trim.x0).tolist() == a["x0"]
+    assert [[z.real, z.imag] for z in reference_trim.multipliers] == a["multipliers"]
