@@ -191,17 +191,30 @@ def _header(info: ExportInfo, cfg: Config) -> str:
     for name, (r, c) in DATA_BLOCKS:
         blocks.append(f" *   d[{k}..{k + r * c - 1}]  {name} ({r}x{c}, column-major)")
         k += r * c
-    if info.n_data > k:  # wings with mass: their sums (birdocp.bird.inertia.MASS_BLOCK)
+    from birdocp.bird.model import Structure
+
+    st = Structure.of(cfg)
+    if st.wing_mass:  # wings with mass: their sums (birdocp.bird.inertia.MASS_BLOCK)
         from birdocp.bird.inertia import MASS_BLOCK
 
         blocks += [f" *   d[{k + i}]  {name} (wing masses, body frame)" for i, name in enumerate(MASS_BLOCK)]
         blocks.append(" * With wing masses the RHS adds their inertial forces and moments (birdocp spec"
                       " inertia.md 4): m is then the whole bird's mass and I the body's own pitch inertia.")
+        k += len(MASS_BLOCK)
+    if st.aero_extra:  # unsteady / stall section: G, Wx, Wy are per unit circulation, then the unsteady blocks
+        from birdocp.bird.unsteady import block_sizes
+
+        blocks.append(" *   (with aero.unsteady/aero.section: G holds K, the downwash per unit circulation, and Wx, Wy"
+                      " the induced velocity per unit circulation)")
+        for name, r, c in block_sizes(16):
+            blocks.append(f" *   d[{k}..{k + r * c - 1}]  {name} ({r}x{c}, column-major; docs/model_unsteady.md)")
+            k += r * c
     return HEADER_TEMPLATE.format(
         version=__version__, casadi=ca.__version__, N=info.steps_per_period, T=repr(info.period_s),
         h=repr(info.step_s), nd=info.n_data, ncol=2 * info.steps_per_period + 1,
         np_=len(info.runtime_params), pdefs=pdefs, pdoc=pdoc, baked=baked, blocks="\n".join(blocks),
-        freq=repr(cfg.gait.frequency_hz), circ=cfg.aero.circulation, kin=cfg.aero.kinematic_velocity)
+        freq=repr(cfg.gait.frequency_hz), circ=cfg.aero.circulation, kin=cfg.aero.kinematic_velocity,
+        nx=4 + st.n_aero_states)
 
 
 HEADER_TEMPLATE = """\
@@ -213,6 +226,8 @@ HEADER_TEMPLATE = """\
  *   x[1] = w     [m/s]    velocity of G along the body axis z' (down)
  *   x[2] = q     [rad/s]  pitch rate, positive nose-up
  *   x[3] = theta [rad]    pitch angle of x' above the horizon, positive nose-up
+ *   x[4..BIRD_NX-1]       with aero.unsteady = wagner: lag states z1_0..15, z2_0..15 [m/s]; with
+ *                         aero.section = dynamic-stall: separation points f_0..15 (docs/model_unsteady.md)
  * Body frame x' forward, z' down, origin G; inertial velocities U = u cos(theta) + w sin(theta)
  * (horizontal), W = u sin(theta) - w cos(theta) (vertical, positive up).
  * xdot = (-q w - g sin(theta) + Fx/m,  q u + g cos(theta) + Fz/m,  My/I,  q), with the
@@ -247,7 +262,7 @@ HEADER_TEMPLATE = """\
 extern "C" {{
 #endif
 
-#define BIRD_NX 4              /* states */
+#define BIRD_NX {nx}              /* states: u, w, q, theta, then the aerodynamic states if any */
 #define BIRD_ND {nd}           /* data vector length */
 #define BIRD_NP {np_}              /* runtime parameters */
 #define BIRD_STEPS {N}           /* RK4 steps per period */
