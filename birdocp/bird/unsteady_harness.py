@@ -210,33 +210,41 @@ def held_bird_cycle(cfg, body_state=None, steps: int | None = None) -> dict:
     h = T / steps
     p = ca.DM(m.p0)
     nz = m.ode.nx - 4
-    z = ca.MX.sym("z", nz)
-    tt = ca.MX.sym("t")
-    xs = ca.vertcat(ca.DM(x4), z)
     held = m.held_d
+    nd = m.ode.nd
     if held is None:  # quasi-steady: no aerodynamic state, no added mass
-        xh, dh, ph = ca.SX.sym("x", 4), ca.SX.sym("d", m.ode.nd), ca.SX.sym("p", m.ode.np)
+        xh, dh, ph = ca.SX.sym("x", 4), ca.SX.sym("d", nd), ca.SX.sym("p", m.ode.np)
         held = ca.Function("held_d", [xh, dh, ph], [ca.SX.zeros(0, 1), m.loads_d(xh, dh, ph)])
-    fz = ca.Function("fz", [z, tt], [held(xs, m.data(tt, p), p)[0]])
-    fl = ca.Function("fl", [z, tt], [held(xs, m.data(tt, p), p)[1]])
     ts = h * np.arange(steps)
+    # the wing data at the RK4 stage times, numbers (t, t + h/2, t + h of each step)
+    D0, D1, D2 = (m.data.map(steps)(ca.DM(ts + off).T, ca.repmat(p, 1, steps)) for off in (0.0, h / 2, h))
+    z, d0, d1, d2 = ca.SX.sym("z", nz), ca.SX.sym("d0", nd), ca.SX.sym("d1", nd), ca.SX.sym("d2", nd)
+    xb = ca.DM(x4)
+
+    def f(zz, dd):
+        return held(ca.vertcat(xb, zz), dd, p)[0]
+
+    fl = ca.Function("fl", [z, d0], [held(ca.vertcat(xb, z), d0, p)[1]])
     if nz:
-        k1 = fz(z, tt)
-        k2 = fz(z + h / 2 * k1, tt + h / 2)
-        k3 = fz(z + h / 2 * k2, tt + h / 2)
-        k4 = fz(z + h * k3, tt + h)
-        step = ca.Function("step", [z, tt], [z + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
-        zT = step.mapaccum(steps)(z, ca.DM(ts).T)[:, -1]
-        F = ca.Function("F", [z], [zT - z, ca.jacobian(zT, z)])
+        k1 = f(z, d0)
+        k2 = f(z + h / 2 * k1, d1)
+        k3 = f(z + h / 2 * k2, d1)
+        k4 = f(z + h * k3, d2)
+        step = ca.Function("step", [z, d0, d1, d2], [z + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
+        acc = step.mapaccum(steps)
+        zm = ca.MX.sym("z", nz)
+        Zm = acc(zm, D0, D1, D2)
+        F = ca.Function("F", [zm], [Zm[:, -1] - zm, ca.jacobian(Zm[:, -1], zm), Zm])
         zc = m.complete_state(x4, m.p0, 0.0)[4:]
         for _ in range(3):
-            r, J = (np.asarray(v) for v in F(zc))
+            r, J, _ = (np.asarray(v) for v in F(zc))
             zc = zc - np.linalg.solve(J - np.eye(nz), r.ravel())
-        res = float(np.max(np.abs(np.asarray(F(zc)[0]))))
-        Z = np.hstack([zc[:, None], np.asarray(step.mapaccum(steps - 1)(ca.DM(zc), ca.DM(ts[:-1]).T))])
+        r, _, Zall = (np.asarray(v) for v in F(zc))
+        res = float(np.max(np.abs(r)))
+        Z = np.hstack([zc[:, None], Zall[:, :-1]])
     else:
         res, Z = 0.0, np.zeros((0, steps))
-    L = np.asarray(fl.map(steps)(ca.DM(Z), ca.DM(ts).T))  # Fx', Fz', My' (body frame)
+    L = np.asarray(fl.map(steps)(ca.DM(Z), D0))  # Fx', Fz', My' (body frame)
     th = x4[3]
     Fx, Fz = L[0], L[1]
     lift = -(Fz * math.cos(th) - Fx * math.sin(th))        # Z down -> up
