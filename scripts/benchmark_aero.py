@@ -70,14 +70,18 @@ def element_scaling(unsteady: str, section: str, n: int, evals: int = 200) -> di
 
 def main(argv=None) -> int:
     ap = script_parser(__doc__, "results/aero")
+    ap.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES),
+                    help="trim cases (default all; 'default' is always run: it is the denominator)")
+    ap.add_argument("--max-elements", type=int, default=32, help="largest n of the element scaling (8, 16, 32, ...)")
     args, out = parse_with_out(ap, argv)
     from birdocp.io.files import atomic_write_json
 
-    res = {"trim": {k: trim_cost(v) for k, v in CASES.items()}}
+    cases = ["default"] + [c for c in args.cases if c != "default"]
+    res = {"trim": {k: trim_cost(CASES[k]) for k in cases}}
     base = res["trim"]["default"]["wall_s"]
     res["ratios"] = {k: v["wall_s"] / base for k, v in res["trim"].items()}
     res["targets"] = TARGETS
-    res["elements"] = {f"{u}+{s}": [element_scaling(u, s, n) for n in (8, 16, 32)]
+    res["elements"] = {f"{u}+{s}": [element_scaling(u, s, n) for n in (8, 16, 32, 64) if n <= args.max_elements]
                        for u, s in (("wagner", "linear"), ("wagner", "stall"),
                                     ("wagner", "dynamic-stall"))}
     atomic_write_json(out / "benchmark.json", res)

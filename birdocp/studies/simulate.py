@@ -138,7 +138,7 @@ class _Stepper(PerModel):
         if nx > 4 or self.model.structure.aero_extra:
             from birdocp.bird.validity import model_angles
 
-            ae, _, ds, _, _ = model_angles(self.model)(ca.vertcat(xa, z[6:]), d, p)
+            ae, _, ds, _, _, _ = model_angles(self.model)(ca.vertcat(xa, z[6:]), d, p)
         else:
             ae, _, ds = effective_angles(nd)(xa, d, p)
         # at each step end: effective angles [deg] and element lengths (16 each), airflow-body angle
