@@ -82,16 +82,19 @@ def _summary(r) -> dict:
     return out
 
 
-def run_case(name: str, overrides: dict) -> dict:
+def run_case(name: str, overrides: dict, x_guess=None) -> dict:
+    """Trim and level flight of one case; ``x_guess``: the body state (u, w, q, theta) to start from
+    (the aerodynamic states start on the quasi-steady manifold)."""
     from birdocp.bird.config import Config, with_values
     from birdocp.studies.level import level
     from birdocp.studies.trim import trim
 
     cfg = with_values(Config(), overrides)
     t0 = time.perf_counter()
-    tr = trim(cfg)
+    tr = trim(cfg, x_guess=x_guess)
     t1 = time.perf_counter()
-    res = {"case": name, "overrides": overrides, "trim": _summary(tr), "trim_wall_s": t1 - t0}
+    res = {"case": name, "overrides": overrides, "trim": _summary(tr), "trim_wall_s": t1 - t0,
+           "x_guess": None if x_guess is None else list(x_guess)}
     try:
         lv = level(cfg, warm_start=tr if tr.success else None)
         res["level"] = _summary(lv)
@@ -107,8 +110,8 @@ def _fmt(v, f="{:.4f}"):
 
 def table(rows: list[dict]) -> str:
     head = ("| case | \\|Λ1\\| (prototype) | next multipliers | largest aero | mean W at 42° (m/s) (prototype) | "
-            "level A (deg) (prototype) | P_flap / P_aero (W) | max \\|α_E\\| (deg) | stalled / separated | valid (trim; level) |")
-    lines = [head, "|" + "---|" * 10]
+            "level A (deg) (prototype) | level \\|Λ1\\| | P_flap / P_aero (W) | max \\|α_E\\| (deg) | stalled / separated | valid (trim; level) |")
+    lines = [head, "|" + "---|" * 11]
     for r in rows:
         t, lv = r["trim"], r.get("level", {})
         pl, pw, pa = PROTOTYPE.get(r["case"], (None, None, None))
@@ -120,6 +123,7 @@ def table(rows: list[dict]) -> str:
             f"| {r['case']} | {_fmt(t.get('lambda1'))} ({_fmt(pl)}) | {nxt} | "
             f"{'—' if la is None else f'{abs(complex(*la)):.3f}'} | {_fmt(t.get('mean_vertical_speed_mps'), '{:+.3f}')} "
             f"({_fmt(pw, '{:+.3f}')}) | {_fmt(lamp, '{:.3f}')} ({_fmt(pa, '{:.3f}') if pa else 'none in 25-43'}) | "
+            f"{_fmt(lv.get('lambda1') if lv.get('success') else None)} | "
             f"{_fmt(t.get('mean_flapping_power_W'), '{:.2f}')} / {_fmt(t.get('mean_aerodynamic_power_W'), '{:.2f}')} | "
             f"{_fmt(t.get('max_abs_alpha_E_deg'), '{:.1f}')} | {_fmt(t.get('stalled_fraction'), '{:.3f}')} / "
             f"{_fmt(sep, '{:.3f}')} | {t.get('valid')}; {lv.get('valid') if lv.get('success') else 'no level solution'} |")
@@ -140,7 +144,13 @@ def main(argv=None) -> int:
             rows.append(json.loads(path.read_text()))
             continue
         print(f"{name} ...", flush=True)
-        r = run_case(name, CASES[name])
+        guess = None
+        start = out / "cases" / "wagner.json"
+        if "section" in str(CASES[name]) and start.exists():
+            # the stall sections start from the linear-section wagner cycle's body state: the default
+            # guess sends IPOPT's first trial points where the Newton circulation is singular (NaN)
+            guess = json.loads(start.read_text())["trim"]["x0_body"]
+        r = run_case(name, CASES[name], guess)
         atomic_write_json(path, r)
         rows.append(r)
         print(f"  trim {r['trim'].get('lambda1')}, level {r['level'].get('amplitude_deg')} "
