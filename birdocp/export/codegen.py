@@ -416,8 +416,9 @@ int bird_period(const double x0[BIRD_NX], const double p[BIRD_NP], double x_T[BI
 
 _MAIN_C = """\
 /* main.c -- example: one period of the exported bird model from a state given on the command line.
- *   ./bird_period U W Q THETA [P0 P1 ...]
- * (u [m/s], w [m/s], q [rad/s], theta [rad]; optional runtime parameters in the order of bird.h).
+ *   ./bird_period U W Q THETA [AERODYNAMIC STATES] [P0 P1 ...]
+ * (u [m/s], w [m/s], q [rad/s], theta [rad], then the BIRD_NX - 4 aerodynamic states of an unsteady or
+ * dynamic-stall model; optional runtime parameters in the order of bird.h).
  * Prints the state after one period (one line, 4 numbers) and then the monodromy d x_T / d x0,
  * row by row (4 lines of 4 numbers). Exit 2 on bad arguments, 1 if an evaluation failed. */
 #include <stdio.h>
@@ -434,7 +435,8 @@ int main(int argc, char **argv) {
   double x0[BIRD_NX], xT[BIRD_NX], M[BIRD_NX * BIRD_NX], p[BIRD_NP];
   int i, j;
   if (argc != 1 + BIRD_NX && argc != 1 + BIRD_NX + BIRD_NP) {
-    fprintf(stderr, "usage: %s U W Q THETA [%d runtime parameters, see bird.h]\\n", argv[0], BIRD_NP);
+    fprintf(stderr, "usage: %s U W Q THETA [+%d aerodynamic states] [%d runtime parameters, see bird.h]\\n",
+            argv[0], BIRD_NX - 4, BIRD_NP);
     return 2;
   }
   for (i = 0; i < BIRD_NX; ++i)
