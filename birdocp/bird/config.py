@@ -25,7 +25,7 @@ from birdocp.io.files import dataclass_to_dict
 __all__ = [
     "ConfigError", "Joint", "Body", "Wing", "Gait", "Aero", "Tail", "Drag", "Solve", "Validity", "Config",
     "JOINT_NAMES", "PARAM_NAMES", "param_vector", "load", "dump", "loads", "dumps",
-    "from_dict", "to_dict", "set_value", "with_values", "WING_MASS_SHARES", "body_alone_mass_kg",
+    "from_dict", "to_dict", "set_value", "with_values", "WING_MASS_SHARES", "body_alone_mass_kg", "require_body_states",
 ]
 
 
@@ -130,6 +130,13 @@ class Gait:
 
 CIRCULATION_MODES = ("exact", "relaxed")
 KINEMATIC_VELOCITY_MODES = ("exact", "backward-difference")
+UNSTEADY_MODES = ("none", "wagner")
+SECTION_MODES = ("linear", "stall", "dynamic-stall")
+UNSTEADY_PARAMS = ("wagner_weight", "wagner_time_scale", "pitch_rate_weight", "added_mass_weight",
+                   "separation_angle_deg", "flat_plate_cd90", "separation_lag_semichords",
+                   "separation_delay_semichords")
+"""The numeric keys of the unsteady and stall-aware aerodynamics (``aero.<name>``; numbers in ``p``,
+see docs/model_unsteady.md)."""
 
 
 @dataclass(frozen=True)
@@ -145,6 +152,31 @@ class Aero:
     kinematic_velocity: str = "exact"
     """``exact``: time derivative of the geometry by AD; ``backward-difference``: as the reference."""
     backward_step_s: float = 2.5e-5
+    unsteady: str = "none"
+    """``none``: quasi-steady section; ``wagner``: two lag states per element on the effective
+    normalwash (Jones's indicial response), the 3/4-chord pitch-rate term and the added-mass loads."""
+    section: str = "linear"
+    """``linear``: C_l = C_la alpha; ``stall``: static polar f0(alpha) blend of attached and flat-plate
+    lift, circulation by ``newton_steps`` Newton steps; ``dynamic-stall``: a separation state per element
+    (Goman-Khrabrov)."""
+    newton_steps: int = 5
+    """Newton steps of the stall circulation (structural)."""
+    wagner_weight: float = 1.0
+    """epsilon: homotopy 0 = quasi-steady section, 1 = Jones's indicial response."""
+    wagner_time_scale: float = 1.0
+    """kappa: multiplies every lag time constant (kappa -> 0: quasi-steady limit)."""
+    pitch_rate_weight: float = 1.0
+    """chi_omega: weight of the 3/4-chord pitch-rate term (belongs with added_mass_weight)."""
+    added_mass_weight: float = 1.0
+    """chi_nc: weight of the non-circulatory (added-mass) loads."""
+    separation_angle_deg: float = 17.0
+    """alpha_1 [deg]: f0(alpha_1) = 1/2."""
+    flat_plate_cd90: float = 2.0
+    """C_D90: normal-force coefficient of the separated section at 90 deg."""
+    separation_lag_semichords: float = 3.0
+    """T_f: separation lag tau_1 = T_f c / (2 |Vp|) [semichords]."""
+    separation_delay_semichords: float = 1.7
+    """T_2: separation delay tau_2 = T_2 c / (2 |Vp|) [semichords] (with ``wagner`` only)."""
 
 
 @dataclass(frozen=True)
@@ -339,6 +371,7 @@ def _param_names() -> tuple[str, ...]:
     names += ["aero.air_density_kgm3", "aero.lift_slope_per_rad"]
     names += [f"tail.{f.name}" for f in fields(Tail) if f.type in ("float", float)]
     names += [f"drag.{f.name}" for f in fields(Drag) if f.type in ("float", float)]
+    names += [f"aero.{k}" for k in UNSTEADY_PARAMS]
     return tuple(names)
 
 
@@ -436,7 +469,7 @@ def validate(cfg: Config) -> None:
         if isinstance(value, (str, tuple, bool)):
             continue
         if isinstance(value, int) and not isinstance(value, bool) and key.startswith(
-                ("solve.", "aero.relaxed", "model.degrees")):
+                ("solve.", "aero.relaxed", "aero.newton", "model.degrees")):
             continue
         _check_range(key, _check_number(key, value))
     for i, L in enumerate(cfg.wing.feather_lengths_m):
@@ -469,6 +502,7 @@ def validate(cfg: Config) -> None:
                           f"must be one of {', '.join(KINEMATIC_VELOCITY_MODES)}; got {cfg.aero.kinematic_velocity!r}")
     if not 1 <= cfg.aero.relaxed_evaluations <= 1000:
         raise ConfigError("aero.relaxed_evaluations", f"must be an integer in [1, 1000], got {cfg.aero.relaxed_evaluations!r}")
+    _validate_unsteady(cfg)
     v = cfg.validity
     for name, lo, hi in (("stall_angle_deg", 0.0, 90.0), ("max_stalled_fraction", 0.0, 1.0),
                          ("max_abs_pitch_deg", 0.0, 180.0), ("max_airflow_body_angle_deg", 0.0, 180.0)):
@@ -520,10 +554,50 @@ def _validate_model(cfg: Config) -> None:
         if get_value(cfg, key) != 0:
             raise ConfigError(key, f"{what}: not yet written in six degrees of freedom; set {key} = 0 "
                                    "or model.degrees_of_freedom = 4")
+    for key, default in (("aero.unsteady", "none"), ("aero.section", "linear")):
+        if get_value(cfg, key) != default:
+            raise ConfigError(key, f"not yet written in six degrees of freedom; set {key} = '{default}' "
+                                   "or model.degrees_of_freedom = 4")
     for key, what in (("tail.enabled", "the tail"), ("drag.enabled", "drag terms")):
         if get_value(cfg, key):
             raise ConfigError(key, f"{what}: not yet written in six degrees of freedom; set {key} = false "
                                    "or model.degrees_of_freedom = 4")
+
+
+def require_body_states(cfg: Config, what: str) -> None:
+    """Raise :class:`ConfigError` when ``cfg``'s model has aerodynamic states (``aero.unsteady =
+    "wagner"`` or ``aero.section = "dynamic-stall"``) and ``what`` (a study) works on the 4 body
+    states only."""
+    if cfg.aero.unsteady != "none" or cfg.aero.section == "dynamic-stall":
+        raise ConfigError("aero.unsteady" if cfg.aero.unsteady != "none" else "aero.section",
+                          f"{what} works on the 4 body states only (no lag or separation states yet): use "
+                          "aero.unsteady = 'none' with aero.section = 'linear' or 'stall'")
+
+
+def _validate_unsteady(cfg: Config) -> None:
+    a = cfg.aero
+    if a.unsteady not in UNSTEADY_MODES:
+        raise ConfigError("aero.unsteady", f"must be one of {', '.join(UNSTEADY_MODES)}; got {a.unsteady!r}")
+    if a.section not in SECTION_MODES:
+        raise ConfigError("aero.section", f"must be one of {', '.join(SECTION_MODES)}; got {a.section!r}")
+    if not 1 <= a.newton_steps <= 50:
+        raise ConfigError("aero.newton_steps", f"must be an integer in [1, 50], got {a.newton_steps!r}")
+    if a.circulation == "relaxed" and (a.unsteady != "none" or a.section != "linear"):
+        raise ConfigError("aero.circulation", "'relaxed' works only with aero.unsteady = 'none' and aero.section = "
+                                              "'linear'; use aero.circulation = 'exact'")
+    if a.unsteady != "none" and (cfg.wing.mass_kg > 0 or cfg.wing.inertial_terms):
+        raise ConfigError("aero.unsteady", "'wagner' with wing masses (wing.mass_kg > 0) is not supported yet; "
+                                           "set wing.mass_kg = 0 or aero.unsteady = 'none'")
+    for k in ("wagner_weight", "pitch_rate_weight", "added_mass_weight"):
+        if not 0.0 <= getattr(a, k) <= 1.0:
+            raise ConfigError(f"aero.{k}", f"must lie in [0, 1], got {getattr(a, k)!r}")
+    for k in ("wagner_time_scale", "separation_angle_deg", "flat_plate_cd90", "separation_lag_semichords"):
+        if not getattr(a, k) > 0:
+            raise ConfigError(f"aero.{k}", f"must be > 0, got {getattr(a, k)!r}")
+    if a.separation_angle_deg >= 90:
+        raise ConfigError("aero.separation_angle_deg", f"must lie in (0, 90) deg, got {a.separation_angle_deg!r}")
+    if a.separation_delay_semichords < 0:
+        raise ConfigError("aero.separation_delay_semichords", f"must be >= 0, got {a.separation_delay_semichords!r}")
 
 
 WING_MASS_SHARES = ("mass_share_arm", "mass_share_forearm", "mass_share_hand", "mass_share_primaries",

@@ -65,6 +65,25 @@ def _p(p, name):
     return p[PARAM_NAMES.index(name)]
 
 
+def _mid_chord_powers(lt: dict, u, w, q):
+    """(P_aero, P_flap) parts [W] of the loads at mid-chord (separated and added-mass forces) and of the
+    added-mass couples of an unsteady/stall section (0 otherwise): sum (dF_mid + dF_nc) . V_mid - C omega
+    and -sum (dF_mid + dF_nc) . r_mid' - C omega_k, with V_mid = U_inf - Omega x r_mid - r_mid'."""
+    if "sec" not in lt:
+        return ca.SX(0), ca.SX(0)
+    sec = lt["sec"]
+    rm, rmd, Fm = sec["r_mid"], sec["r_mid_dot"], lt["dF_mid"]
+    n = rm.shape[1]
+    ones = ca.DM.ones(1, n)
+    Vm = ca.vertcat(-rmd[0, :], w * ones + q * rm[2, :] - rmd[1, :], u * ones - q * rm[1, :] - rmd[2, :])
+    Pa = ca.sum2(ca.sum1(Fm * Vm))
+    Pf = -ca.sum2(ca.sum1(Fm * rmd))
+    if sec["wagner"]:
+        Pa = Pa - ca.sum2(lt["couple"] * sec["omega"])
+        Pf = Pf - ca.sum2(lt["couple"] * sec["omega_k"])
+    return Pa, Pf
+
+
 class PowerFunctions:
     """The power Functions of one :class:`birdocp.bird.model.BirdModel` (built once, see
     :func:`power_functions`).
@@ -77,13 +96,14 @@ class PowerFunctions:
 
     def __init__(self, model):
         self.model = model
-        x = ca.SX.sym("x", 4)
+        x = ca.SX.sym("x", model.ode.nx)  # (u, w, q, theta) and the aerodynamic states, if any
         d = ca.SX.sym("d", model.ode.nd)  # N_DATA, plus the wing-mass sums when the wings have mass
         p = ca.SX.sym("p", len(PARAM_NAMES))
         lt = load_terms(model.structure, x, d, p)
         u, w, q, th = x[0], x[1], x[2], x[3]
         F_el = lt["dF"] + lt["dD"]
         V = lt["V"]
+        P_mid_aero, P_mid_flap = _mid_chord_powers(lt, u, w, q)
         U_inf = ca.vertcat(0, w, u)
         P_par = ca.dot(lt["F_par"], U_inf)
         if lt["tail"] is not None:
@@ -91,10 +111,11 @@ class PowerFunctions:
             P_tail = -(-Dt * u - Lt * w + Mt * q)  # the tail is body-fixed: what it takes from the body
         else:
             P_tail = ca.SX(0)
-        P_aero = ca.sum2(ca.sum1(F_el * V)) + P_par + P_tail
-        P_flap = -ca.sum2(ca.sum1(F_el * lt["v_kin"]))
+        P_aero = ca.sum2(ca.sum1(F_el * V)) + P_par + P_tail + P_mid_aero
+        P_flap = -ca.sum2(ca.sum1(F_el * lt["v_kin"])) + P_mid_flap
         P_body = lt["Fx_N"] * u + lt["Fz_N"] * w + lt["My_Nm"] * q
-        P_ind = -ca.sum2(ca.sum1(lt["dF"] * lt["vind"]))
+        v_wake = lt["vind"] if "sec" not in lt else lt["vind"] + lt["sec"]["v_s"]
+        P_ind = -ca.sum2(ca.sum1(lt["dF"] * v_wake)) + P_mid_aero
         P_pro = ca.sum2(ca.sum1(lt["dD"] * V))
         U = u * ca.cos(th) + w * ca.sin(th)
         W = u * ca.sin(th) - w * ca.cos(th)

@@ -28,16 +28,18 @@ def inertial_velocities(x):
     return u * ca.sin(th) - w * ca.cos(th), u * ca.cos(th) + w * ca.sin(th)
 
 
-def _symbols(nd: int):
-    return ca.SX.sym("x", 4), ca.SX.sym("d", int(nd)), ca.SX.sym("p", len(PARAM_NAMES))
+def _symbols(nd: int, nx: int = 4):
+    return ca.SX.sym("x", int(nx)), ca.SX.sym("d", int(nd)), ca.SX.sym("p", len(PARAM_NAMES))
 
 
 @functools.lru_cache(maxsize=None)
-def flight_outputs(nd: int = N_DATA) -> dict:
+def flight_outputs(nd: int = N_DATA, nx: int = 4) -> dict:
     """``{"vertical_speed_mps": W, "forward_speed_mps": U}`` as Functions of ``(x, d, p)``.
 
-    ``nd``: size of the model's data vector, ``model.ode.nd`` (N_DATA + N_MASS with wing masses)."""
-    x, d, p = _symbols(nd)
+    ``nd``: size of the model's data vector, ``model.ode.nd`` (N_DATA + N_MASS with wing masses);
+    ``nx``: size of its state, ``model.ode.nx`` (4, plus the aerodynamic states of an unsteady or
+    dynamic-stall section)."""
+    x, d, p = _symbols(nd, nx)
     W, U = inertial_velocities(x)
     return {"vertical_speed_mps": ca.Function("vertical_speed_mps", [x, d, p], [W]),
             "forward_speed_mps": ca.Function("forward_speed_mps", [x, d, p], [U])}
@@ -47,11 +49,11 @@ register_cache("bird.flight_outputs", flight_outputs)
 
 
 @functools.lru_cache(maxsize=64)
-def path_angle_output(beta_deg: float, nd: int = N_DATA) -> ca.Function:
+def path_angle_output(beta_deg: float, nd: int = N_DATA, nx: int = 4) -> ca.Function:
     """``W - tan(beta) U`` as a Function of ``(x, d, p)``: its period mean is zero on a flight path of
     ``beta_deg`` degrees (one Function per angle and data size ``nd``, so the shooting graphs are
-    reused)."""
-    x, d, p = _symbols(nd)
+    reused; ``nx`` the state size)."""
+    x, d, p = _symbols(nd, nx)
     W, U = inertial_velocities(x)
     return ca.Function("path_angle_residual", [x, d, p], [W - math.tan(math.radians(float(beta_deg))) * U])
 

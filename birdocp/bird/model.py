@@ -22,6 +22,7 @@ from birdocp.bird import aero
 from birdocp.bird import inertia
 from birdocp.bird import kinematics
 from birdocp.bird import tail
+from birdocp.bird import unsteady
 from birdocp.bird import wing
 from birdocp.bird.config import JOINT_NAMES, PARAM_NAMES, WING_MASS_SHARES, Config, param_vector
 from birdocp.engine.cache import register_cache
@@ -39,9 +40,9 @@ DATA_BLOCKS = (
     ("up", (3, N_EL)),           # 'up' normals
     ("tau", (3, N_EL)),          # spanwise directions n x c_hat
     ("ds_m", (N_EL, 1)),         # element lengths
-    ("G", (N_EL, N_EL)),         # Gamma = G (|Vp| alpha)
-    ("Wx", (N_EL, N_EL)),        # induced velocity e1 = Wx (|Vp| alpha)
-    ("Wy", (N_EL, N_EL)),        # induced velocity e2 = Wy (|Vp| alpha)
+    ("G", (N_EL, N_EL)),         # Gamma = G (|Vp| alpha); unsteady/stall structures: K (downwash per unit Gamma)
+    ("Wx", (N_EL, N_EL)),        # induced velocity e1 = Wx (|Vp| alpha); unsteady/stall: per unit Gamma
+    ("Wy", (N_EL, N_EL)),        # induced velocity e2 = Wy (|Vp| alpha); unsteady/stall: per unit Gamma
     ("nodes_m", (3, N_EL + 1)),  # element end nodes relative to G (the tail's induced velocity)
     ("chord_m", (N_EL, 1)),      # element chords (the optional profile drag)
 )
@@ -102,6 +103,23 @@ class Structure:
     tail: bool = False
     wing_mass: bool = False
     drag: bool = False
+    unsteady: str = "none"
+    section: str = "linear"
+    newton_steps: int = 5
+
+    @property
+    def aero_extra(self) -> bool:
+        """True when the unsteady or stall-aware section is on (``aero.unsteady``, ``aero.section``)."""
+        return self.unsteady != "none" or self.section != "linear"
+
+    @property
+    def n_aero_states(self) -> int:
+        """Aerodynamic states after (u, w, q, theta): lag states and separation states."""
+        return unsteady.n_aero_states(self.unsteady, self.section, N_EL)
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        return STATE_NAMES + unsteady.aero_state_names(self.unsteady, self.section, N_EL)
 
     @staticmethod
     def of(cfg: Config) -> "Structure":
@@ -111,7 +129,9 @@ class Structure:
                          a.kinematic_velocity, a.backward_step_s,
                          bool(cfg.tail.enabled or cfg.tail.opening_angle_deg > 0),
                          bool(cfg.wing.inertial_terms or cfg.wing.mass_kg > 0),
-                         drag=bool(dr.enabled or dr.body_drag_coefficient > 0 or dr.profile_drag_coefficient > 0))
+                         drag=bool(dr.enabled or dr.body_drag_coefficient > 0 or dr.profile_drag_coefficient > 0),
+                         unsteady=a.unsteady, section=a.section,
+                         newton_steps=int(a.newton_steps) if a.section != "linear" else 5)
 
 
 def _joint_angles(t, p, frequency_hz):
@@ -197,8 +217,38 @@ GEOMETRY_OUTPUTS = ("joint_angles_rad", "leading_edge_raw", "trailing_edge_raw",
                     "trailing_edge", "line", "chord_m", "chord_dir", "up_dir", "diagnostics")
 
 
-def load_terms(structure: Structure, x, d, p) -> dict:
-    """Every aerodynamic load term at state x (SX 4), data d and parameters p, as expressions.
+def _unsteady_params(p) -> dict:
+    a0 = 1.0 - _p(p, "aero.wagner_weight") * (unsteady.A1 + unsteady.A2)
+    return {"rho": _p(p, "aero.air_density_kgm3"), "cla": _p(p, "aero.lift_slope_per_rad"),
+            "eps": _p(p, "aero.wagner_weight"), "a0": a0, "kappa": _p(p, "aero.wagner_time_scale"),
+            "chi_w": _p(p, "aero.pitch_rate_weight"), "chi_nc": _p(p, "aero.added_mass_weight"),
+            "alpha1": _p(p, "aero.separation_angle_deg") * (ca.pi / 180), "cd90": _p(p, "aero.flat_plate_cd90"),
+            "Tf": _p(p, "aero.separation_lag_semichords"), "T2": _p(p, "aero.separation_delay_semichords")}
+
+
+def _opts(structure: Structure) -> dict:
+    return {"unsteady": structure.unsteady, "section": structure.section, "newton_steps": structure.newton_steps}
+
+
+def unsteady_data_offset(structure: Structure) -> int:
+    """Where the unsteady data blocks start in the data vector (after the wing-mass sums)."""
+    return N_DATA + (N_MASS if structure.wing_mass else 0)
+
+
+def section_terms(structure: Structure, x, d, p) -> dict:
+    """:func:`birdocp.bird.unsteady.section_loads` of an unsteady/stall structure at the air-relative
+    state x (4 + aerodynamic states) and data d."""
+    b = unpack_data(d)
+    k0 = unsteady_data_offset(structure)
+    ud = unsteady.unpack(d[k0:k0 + unsteady.data_size(N_EL)], N_EL)
+    base = {"r": b["r_m"], "v_kin": b["v_kin_mps"], "c_hat": b["c_hat"], "up": b["up"], "tau": b["tau"],
+            "ds": b["ds_m"], "chord": b["chord_m"]}
+    wake = {"K": b["G"], "Vx": b["Wx"], "Vy": b["Wy"]}
+    return unsteady.section_loads(_opts(structure), x[0:3], x[4:], base, ud, wake, _unsteady_params(p))
+
+
+def load_terms(structure: Structure, x, d, p, x_inertial=None) -> dict:
+    """Every aerodynamic load term at state x (SX), data d and parameters p, as expressions.
 
     The one code path for the dynamics (:class:`BirdModel` ``rhs``) and the power outputs
     (:mod:`birdocp.bird.energetics`). Keys: per element (code frame, 3 x 16) ``r``, ``v_kin``, ``V``,
@@ -206,14 +256,28 @@ def load_terms(structure: Structure, x, d, p) -> dict:
     parasite force ``F_par`` (3 x 1, code frame); the tail's ``tail`` = (L_t, D_t, M_t) or None; the
     wing's code-frame force ``F_code`` and the body loads ``Fx_N``, ``Fz_N``, ``My_Nm`` (everything
     included); ``Gamma``, ``alpha`` (16 x 1), ``Vp_norm`` (16 x 1).
+
+    With an unsteady or stall section (``structure.aero_extra``) x carries the aerodynamic states after
+    (u, w, q, theta) and ``x_inertial`` (default x) is the inertial body state of the kinematic terms;
+    ``dF`` is then the attached force at the quarter chord, and the extra keys are ``sec`` (the dict of
+    :func:`birdocp.bird.unsteady.section_loads`), ``dF_mid`` (separated + added-mass force at mid-chord,
+    3 x 16), ``couple`` (1 x 16 added-mass couples about tau_hat, N m), ``nudot`` (u', w', q' with the
+    added mass on the left) and ``xdot_aero``; the body loads include the added-mass reaction.
     """
     b = unpack_data(d)
     rho = _p(p, "aero.air_density_kgm3")
-    e = aero.element_forces(x, b["r_m"], b["v_kin_mps"], b["c_hat"], b["up"], b["tau"], b["ds_m"],
-                            b["G"], b["Wx"], b["Wy"], rho)
     r = b["r_m"]
-    F = ca.sum2(e["dF"])
-    M = aero.moment_about_G(r, e["dF"])
+    sec = None
+    if structure.aero_extra:
+        sec = section_terms(structure, x, d, p)
+        e = {k: sec[k] for k in ("V", "Vp", "vind", "Vp_norm", "alpha", "Gamma")}
+        e["dF"] = sec["dF_att"]
+        F, M = sec["F"], sec["M"]
+    else:
+        e = aero.element_forces(x, b["r_m"], b["v_kin_mps"], b["c_hat"], b["up"], b["tau"], b["ds_m"],
+                                b["G"], b["Wx"], b["Wy"], rho)
+        F = ca.sum2(e["dF"])
+        M = aero.moment_about_G(r, e["dF"])
     out = {"r": r, "v_kin": b["v_kin_mps"], "V": e["V"], "Vp": e["Vp"], "vind": e["vind"], "dF": e["dF"],
            "dD": ca.SX.zeros(3, N_EL), "F_par": ca.SX.zeros(3, 1), "tail": None,
            "Gamma": e["Gamma"], "alpha": e["alpha"].T, "Vp_norm": e["Vp_norm"].T}
@@ -235,8 +299,41 @@ def load_terms(structure: Structure, x, d, p) -> dict:
                                          "kinematic_viscosity_m2ps", "reynolds_speed_mps", "incidence_deg")])
         Fx, Fz, My = Fx - Dt, Fz - Lt, My + Mt
         out["tail"] = (Lt, Dt, Mt)
+    if sec is not None:
+        Fx, Fz, My = _with_added_mass(out, sec, Fx, Fz, My, x if x_inertial is None else x_inertial, p)
+        F = F + ca.sum2(out["dF_mid"] - sec["dF_mid"])  # the added-mass force (code frame)
     out.update(F_code=F, Fx_N=Fx, Fz_N=Fz, My_Nm=My)
     return out
+
+
+def _with_added_mass(out, sec, Fx, Fz, My, xi, p):
+    """Body accelerations with the added mass on the left, (M_b + M_A) nu' = b + b_nc, and the body loads
+    with the added-mass reaction; fills ``nudot``, ``xdot_aero``, ``dF_mid``, ``couple``, ``sec`` of ``out``."""
+    m = _p(p, "body.mass_kg")
+    I = _p(p, "body.pitch_inertia_kgm2")
+    grav = _p(p, "body.gravity_mps2")
+    u, w, q, theta = xi[0], xi[1], xi[2], xi[3]
+    out["sec"] = sec
+    out["xdot_aero"] = sec["zdot"]
+    if not sec["wagner"]:  # no added mass: today's equations of motion
+        out["nudot"] = ca.vertcat(-q * w - grav * ca.sin(theta) + Fx / m, q * u + grav * ca.cos(theta) + Fz / m,
+                                  My / I)
+        out["dF_mid"] = sec["dF_mid"]
+        out["couple"] = ca.SX.zeros(1, N_EL)
+        out["loads_held"] = ca.vertcat(Fx, Fz, My)
+        return Fx, Fz, My
+    bvec = ca.vertcat(m * (-q * w - grav * ca.sin(theta)) + Fx + sec["b_nc"][0],
+                      m * (q * u + grav * ca.cos(theta)) + Fz + sec["b_nc"][1], My + sec["b_nc"][2])
+    MA = sec["M_A"]
+    nudot = unsteady.solve_sym3(ca.diag(ca.vertcat(m, m, I)) + MA, bvec)
+    react = sec["b_nc"] - MA @ nudot
+    out["nudot"] = nudot
+    out["loads_held"] = ca.vertcat(Fx, Fz, My) + sec["b_nc"]  # body accelerations held at zero
+    # added-mass force per element along n_hat and the couples, with the solved accelerations
+    nc = sec["nc_coef"] + sec["m_a_chi"] * (nudot.T @ sec["a"])
+    out["dF_mid"] = sec["dF_mid"] + ca.repmat(nc, 3, 1) * sec["n_hat"]
+    out["couple"] = sec["couple0"] - sec["m_theta_chi"] * sec["tau1"] * nudot[2]
+    return Fx + react[0], Fz + react[1], My + react[2]
 
 
 GRAPH_FUNCTIONS = ("pre", "post", "rhs", "data", "geometry", "loads_d", "detail_d", "rhs_wind",
@@ -244,8 +341,8 @@ GRAPH_FUNCTIONS = ("pre", "post", "rhs", "data", "geometry", "loads_d", "detail_
 """The SX Functions of a :class:`BirdModel` that the graph cache stores (the MX compositions ``f``,
 ``loads``, ``aero_detail`` are rebuilt from them in milliseconds)."""
 
-OPTIONAL_FUNCTIONS = ("mass_points", "wing_power_d")
-"""Functions only some structures have (wing masses); None otherwise."""
+OPTIONAL_FUNCTIONS = ("mass_points", "wing_power_d", "section_d", "aero_guess_d", "held_d")
+"""Functions only some structures have (wing masses; unsteady or stall sections); None otherwise."""
 
 _EAGER = ("pre", "post", "rhs")  # what every solve needs; the rest is read from the cache on first use
 _LAZY = ("pre",)  # of those, read only when evaluated (LazyFunction): its stage-grid values are on disk
@@ -290,6 +387,7 @@ def _build(s: Structure) -> tuple[dict, tuple]:
         raise ValueError(f"aero.kinematic_velocity must be 'exact' or 'backward-difference', got {s.kinematic_velocity!r}")
     ell = ca.vertcat(ca.vec(P), ca.vec(c_hat_l), ca.vec(up_l), ca.vec(chord_l), aux)
     n_aero_local = ell.numel()
+    ell_aero = ell
     if s.wing_mass:
         # wing mass points in the arm's frame with their time derivatives (AD in t): smooth
         # functions of the elbow and wrist joints, so they belong to the numeric 'pre' part
@@ -297,6 +395,12 @@ def _build(s: Structure) -> tuple[dict, tuple]:
         rho_d = ca.jtimes(rho, t, ca.SX(1))
         rho_dd = ca.jtimes(rho_d, t, ca.SX(1))
         ell = ca.vertcat(ell, ca.vec(rho), ca.vec(rho_d), ca.vec(rho_dd))
+    n_before_deriv = ell.numel()
+    if s.aero_extra:
+        # first and second time derivatives of the arm-frame aerodynamic shape (AD in t): the
+        # unsteady data (pitch rates, added-mass rates) are time derivatives of the assembled geometry
+        ell_d = ca.jtimes(ell_aero, t, ca.SX(1))
+        ell = ca.vertcat(ell, ell_d, ca.jtimes(ell_d, t, ca.SX(1)))
     fns["pre"] = ca.Function("wing_local", [t, p], [ell], ["t", "p"], ["local"])
     pre_params = tuple(int(k) for k in np.nonzero(
         np.asarray(ca.DM(ca.jacobian_sparsity(ell, p), 1)).sum(axis=0))[0])
@@ -346,9 +450,12 @@ def _build(s: Structure) -> tuple[dict, tuple]:
     ds = ca.vertcat(*[ca.norm_2(nodes[:, j + 1] - nodes[:, j]) for j in range(N_EL)])
     r_w = ca.vertcat(0, 0, -_p(p, "wing.root_ahead_m"))
     r = centres + ca.repmat(r_w, 1, N_EL)
-    G, Wx, Wy = aero.circulation_matrices(
-        _columns(centres), _columns(nodes), [chord[j] for j in range(N_EL)],
-        _p(p, "aero.lift_slope_per_rad"), s.circulation, s.relaxed_evaluations)
+    if s.aero_extra:  # per unit circulation: the state right-hand side solves the lifting line
+        Wx, Wy, G = aero.induced_matrices(_columns(centres), _columns(nodes))
+    else:
+        G, Wx, Wy = aero.circulation_matrices(
+            _columns(centres), _columns(nodes), [chord[j] for j in range(N_EL)],
+            _p(p, "aero.lift_slope_per_rad"), s.circulation, s.relaxed_evaluations)
     blocks = {"r_m": r, "v_kin_mps": v_kin, "c_hat": c_hat, "up": up, "tau": tau, "ds_m": ds,
               "G": G, "Wx": Wx, "Wy": Wy, "nodes_m": nodes + ca.repmat(r_w, 1, N_EL + 1),
               "chord_m": chord.T}
@@ -374,17 +481,27 @@ def _build(s: Structure) -> tuple[dict, tuple]:
             ["r_m", "v_mps", "a_mps2", "m_kg"])
     else:
         fns["mass_points"] = None
+    if s.aero_extra:
+        na = n_aero_local
+        tangent = ca.vertcat(L[n_before_deriv:n_before_deriv + na], ca.SX.zeros(n_before_deriv - na),
+                             L[n_before_deriv + na:n_before_deriv + 2 * na], ca.SX.zeros(na))
+
+        def ddt(e):
+            return ca.jtimes(e, L, tangent) + ca.jtimes(e, t, ca.SX(1))
+
+        ud = unsteady.element_data(r, v_kin, c_hat, up, tau, chord.T, ds, ddt)
+        d = ca.vertcat(d, unsteady.pack(ud, N_EL))
     fns["post"] = ca.Function("wing_assemble", [L, t, p], [d], ["local", "t", "p"], ["d"])
     fns["data"] = ca.Function("data", [t, p], [fns["post"](ell, t, p)], ["t", "p"], ["d"])
 
     # State part. The aerodynamics sees the air-relative state (``air_state``: the wind in the
     # inertial frame, rotated into the body frame, subtracted from u, w); rhs/loads_d/detail_d
     # are the same graphs with the wind substituted by zero (the exact graphs of before).
-    x = ca.SX.sym("x", 4)
+    x = ca.SX.sym("x", 4 + s.n_aero_states)
     wind = ca.SX.sym("wind_mps", 2)
-    xa = air_state(x, wind)
-    dsym = ca.SX.sym("d", N_DATA + (N_MASS if s.wing_mass else 0))
-    lt = load_terms(s, xa, dsym, p)
+    xa = ca.vertcat(air_state(x, wind), x[4:])
+    dsym = ca.SX.sym("d", unsteady_data_offset(s) + (unsteady.data_size(N_EL) if s.aero_extra else 0))
+    lt = load_terms(s, xa, dsym, p, x_inertial=x)
     Fx, Fz, My, Gamma, alpha, vp, F = (lt[k] for k in ("Fx_N", "Fz_N", "My_Nm", "Gamma", "alpha", "Vp_norm",
                                                       "F_code"))
     m = _p(p, "body.mass_kg")
@@ -395,6 +512,8 @@ def _build(s: Structure) -> tuple[dict, tuple]:
                       q * u + grav * ca.cos(theta) + Fz / m,
                       My / I,
                       q)
+    if s.aero_extra:
+        xdot = ca.vertcat(lt["nudot"], q, lt["xdot_aero"])
     powers = None
     if s.wing_mass:
         # body.mass_kg is the whole bird M, body.pitch_inertia_kgm2 the body alone about G_b
@@ -417,11 +536,64 @@ def _build(s: Structure) -> tuple[dict, tuple]:
                                         ["x", "d", "p"], ["powers"])
     else:
         fns["wing_power_d"] = None
+    if s.aero_extra:
+        fns.update(_section_functions(s, x, dsym, p, lt, wind))
+    else:
+        fns.update(section_d=None, aero_guess_d=None, held_d=None)
     fns["rhs"] = ca.Function("rhs", [x, dsym, p], [xdot], ["x", "d", "p"], ["xdot"])
     fns["loads_d"] = ca.Function("loads_d", [x, dsym, p], [loads], ["x", "d", "p"], ["loads"])
     fns["detail_d"] = ca.Function("detail_d", [x, dsym, p], ca.vertsplit(detail, [0, N_EL, 2 * N_EL, 3 * N_EL, 3 * N_EL + 3]),
                                 ["x", "d", "p"], ["gamma", "alpha_rad", "vp_mps", "F_code"])
     return fns, pre_params
+
+
+SECTION_OUTPUTS = ("alpha_E_rad", "alpha_eff_quasi_steady_rad", "f_sep", "Gamma_m2ps", "newton_residual",
+                   "ds_m", "alpha_geo_rad")
+"""Outputs of ``BirdModel.section_d(x, d, p)`` (unsteady/stall structures): per element (16) the angle
+the section law sees alpha_E (lag and 3/4-chord term included), the quasi-steady effective angle of
+the same state (today's definition), the separation point f (1 = attached), the circulation, then the
+relative Newton residual max|R| / max|Gamma| of the stall circulation (0 for a linear section), the
+element lengths and the geometric angles."""
+
+
+def _section_functions(s: Structure, x, d, p, lt, wind) -> dict:
+    """``section_d`` (:data:`SECTION_OUTPUTS`) and ``aero_guess_d(x4, d, p)``: the aerodynamic states on
+    the quasi-steady manifold (z_i = eps A_i g with A0 = 1 and z = 0, f = f0(alpha_E)) at body state x4."""
+    sec = lt["sec"]
+    b = unpack_data(d)
+    V, vind_qs = sec["V"], None
+    # today's quasi-steady effective angle: the linear lifting line with A0 = 1, no lag, no 3/4 chord
+    qs = unsteady.section_loads({"unsteady": "none", "section": "linear", "newton_steps": 0},
+                                x[0:3], ca.SX.zeros(0, 1), {"r": b["r_m"], "v_kin": b["v_kin_mps"],
+                                "c_hat": b["c_hat"], "up": b["up"], "tau": b["tau"], "ds": b["ds_m"],
+                                                            "chord": b["chord_m"]},
+                                {}, {"K": b["G"], "Vx": b["Wx"], "Vy": b["Wy"]}, _unsteady_params(p))
+    vind_qs = qs["vind"]
+    a_qs, _ = aero.section_angle(V + vind_qs, b["c_hat"], b["up"], b["tau"])
+    outs = [sec["alpha_E"], a_qs.T, sec["f"].T, sec["Gamma"], sec["newton_residual"], b["ds_m"], sec["alpha"].T]
+    outs = ca.substitute(outs, [wind], [ca.SX.zeros(2)])
+    fns = {"section_d": ca.Function("section_d", [x, d, p], outs, ["x", "d", "p"], list(SECTION_OUTPUTS))}
+    held = ca.substitute([lt["xdot_aero"], lt["loads_held"]], [wind], [ca.SX.zeros(2)])
+    fns["held_d"] = ca.Function("held_d", [x, d, p], held, ["x", "d", "p"], ["xdot_aero", "loads"])
+    x4 = ca.SX.sym("x4", 4)
+    prm = dict(_unsteady_params(p), a0=1.0)
+    base = {"r": b["r_m"], "v_kin": b["v_kin_mps"], "c_hat": b["c_hat"], "up": b["up"], "tau": b["tau"],
+            "ds": b["ds_m"], "chord": b["chord_m"]}
+    k0 = unsteady_data_offset(s)
+    ud = unsteady.unpack(d[k0:k0 + unsteady.data_size(N_EL)], N_EL)
+    lin = {"unsteady": s.unsteady, "section": "stall" if s.section != "linear" else "linear",
+           "newton_steps": s.newton_steps}
+    g0 = unsteady.section_loads(lin, x4[0:3], ca.SX.zeros(2 * N_EL if s.unsteady == "wagner" else 0, 1), base, ud,
+                                {"K": b["G"], "Vx": b["Wx"], "Vy": b["Wy"]}, prm)
+    vp = g0["Vp_norm"].T
+    g = g0["alpha_E"] * vp  # with A0 = 1 and z = 0, g_E = g
+    z = []
+    if s.unsteady == "wagner":
+        z += [prm["eps"] * unsteady.A1 * g, prm["eps"] * unsteady.A2 * g]
+    if s.section == "dynamic-stall":
+        z.append(unsteady.separation_point(g0["alpha_E"], prm["alpha1"]))
+    fns["aero_guess_d"] = ca.Function("aero_guess_d", [x4, d, p], [ca.vertcat(*z)], ["x", "d", "p"], ["z"])
+    return fns
 
 
 class BirdModel:
@@ -499,7 +671,7 @@ class BirdModel:
         data_mx = LazyFunction(self._compose_data, data_sig) if isinstance(self.pre, LazyFunction) \
             else self._compose_data()
         self.ode = PeriodicODE(rhs=self.rhs, data=data_mx, period_s=self.period_s,
-                               state_names=STATE_NAMES, param_names=PARAM_NAMES,
+                               state_names=structure.state_names, param_names=PARAM_NAMES,
                                pre=self.pre, post=self.post, pre_params=self.pre_params,
                                graph_key=graphcache.key_digest(key) if use_cache else "")
         self.graph_s = time.perf_counter() - t0
@@ -544,7 +716,7 @@ class BirdModel:
         if name in GRAPH_FUNCTIONS or name in OPTIONAL_FUNCTIONS:
             return self._function(name)
         if name in ("f", "loads", "aero_detail"):
-            xm, tm, pm = ca.MX.sym("x", 4), ca.MX.sym("t"), ca.MX.sym("p", len(PARAM_NAMES))
+            xm, tm, pm = ca.MX.sym("x", self.ode.nx), ca.MX.sym("t"), ca.MX.sym("p", len(PARAM_NAMES))
             dm = self._function("data")(tm, pm)
             if name == "f":
                 f = ca.Function("f", [xm, tm, pm], [self.rhs(xm, dm, pm)], ["x", "t", "p"], ["xdot"])
@@ -563,7 +735,7 @@ class BirdModel:
         t: times [s] (K); X: states (K x 4); p: parameter vector. Returns a dict of arrays (K), all
         zeros for a model without wing masses (massless wings do no inertial work)."""
         t = np.asarray(t, float).ravel()
-        X = np.asarray(X, float).reshape(len(t), 4)
+        X = np.asarray(X, float).reshape(len(t), -1)
         if self.wing_power_d is None:
             return {k: np.zeros(len(t)) for k in WING_POWER_NAMES}
         pd = ca.DM(np.asarray(p, float))
@@ -572,9 +744,21 @@ class BirdModel:
         P = np.asarray(self.wing_power_d.map(K)(ca.DM(X.T), D, ca.repmat(pd, 1, K)))
         return {k: P[i].copy() for i, k in enumerate(WING_POWER_NAMES)}
 
+    def complete_state(self, x, p, t_s: float = 0.0) -> np.ndarray:
+        """The full state (u, w, q, theta, aerodynamic states) from a body state x (4 numbers) at time
+        ``t_s``: the lag and separation states on the quasi-steady manifold (``aero_guess_d``). A full
+        state is returned as it is."""
+        x = np.asarray(x, float).ravel()
+        nx = self.ode.nx
+        if x.size == nx or x.size != 4:
+            return x
+        pd = ca.DM(np.asarray(p, float))
+        z = np.asarray(self.aero_guess_d(ca.DM(x), self.data(float(t_s), pd), pd)).ravel()
+        return np.concatenate([x, z])
+
     def evaluate(self, state, t, p) -> dict:
         """Body-frame loads and the state derivative at one (state, t) for parameters p."""
-        x = ca.DM(np.asarray(state, float))
+        x = ca.DM(self.complete_state(state, p, t))
         d = self.data(float(t), ca.DM(np.asarray(p, float)))
         loads = np.array(self.loads_d(x, d, p)).ravel()
         xdot = np.array(self.rhs(x, d, p)).ravel()

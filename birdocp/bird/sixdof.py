@@ -155,10 +155,11 @@ class SixDofModel:
 
     def __init__(self, planar: BirdModel):
         structure = planar.structure
-        if structure.tail or structure.drag or structure.wing_mass:
-            raise ValueError("six degrees of freedom: the tail, the drag terms and wing masses are planar "
-                             "terms not yet written in 3-D; use tail.opening_angle_deg = 0, drag off and "
-                             "wing.mass_kg = 0")
+        if structure.tail or structure.drag or structure.wing_mass or getattr(structure, "aero_extra", False):
+            raise ValueError("six degrees of freedom: the tail, the drag terms, wing masses and the unsteady or "
+                             "stall-aware sections are planar terms not yet written in 3-D; use "
+                             "tail.opening_angle_deg = 0, drag off, wing.mass_kg = 0, aero.unsteady = 'none' and "
+                             "aero.section = 'linear'")
         self.planar = planar
         n = len(PARAM_NAMES)
         x = ca.SX.sym("x", 9)

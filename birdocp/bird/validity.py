@@ -39,9 +39,9 @@ if TYPE_CHECKING:
 # casadi, numpy and the model are imported inside the functions that compute: the verdict helpers for
 # tables (validity_text, validity_columns) stay light to import.
 
-__all__ = ["CycleValidity", "cycle_validity", "grid_validity", "periodic_validity", "element_angles_function",
-           "effective_angles", "invalid", "validity_text", "VALIDITY_COLUMNS", "validity_columns",
-           "validity_margins", "LIMIT_NAMES"]
+__all__ = ["CycleValidity", "cycle_validity", "model_angles", "grid_validity", "periodic_validity",
+           "element_angles_function", "effective_angles", "invalid", "validity_text", "VALIDITY_COLUMNS",
+           "validity_columns", "validity_margins", "LIMIT_NAMES"]
 
 
 def effective_angles(n_data: int | None = None) -> "ca.Function":
@@ -77,25 +77,49 @@ def _effective_angles(n_data: int) -> "ca.Function":
 register_cache("bird.validity_angles", _effective_angles)
 
 
-def element_angles_function(cfg: Config, n_times: int) -> "ca.Function":
-    """``f(X[4 x n], T[1 x n], p) -> (alpha_eff 16 x n, alpha_geo 16 x n, ds 16 x n)`` (rad, m) for
-    the model of ``cfg``; built once per (model structure, n) and reused."""
+def model_angles(model) -> "ca.Function":
+    """``(x, d, p) -> (alpha_eff 16, alpha_geo 16, ds 16, alpha_eff_quasi_steady 16, f_sep 16,
+    newton_residual)`` for a
+    :class:`~birdocp.bird.model.BirdModel`: with an unsteady or stall section ``alpha_eff`` is the angle
+    the section law sees (alpha_E: lag and 3/4-chord term included) and ``f_sep`` the separation point;
+    otherwise alpha_eff_quasi_steady = alpha_eff, f_sep = 1 and the residual 0 (the relative residual
+    max|R| / max|Gamma| of the stall circulation after its Newton steps)."""
+    import casadi as ca
+
+    if not model.structure.aero_extra:
+        ea = effective_angles(model.ode.nd)
+        x, d, p = (ca.SX.sym(k, *ea.size_in(i)) for i, k in enumerate(("x", "d", "p")))
+        ae, ag, ds = ea(x, d, p)
+        return ca.Function("model_angles", [x, d, p], [ae, ag, ds, ae, ca.DM.ones(ae.shape), ca.DM.zeros(1, 1)])
+    sd = model.section_d
+    x, d, p = (ca.SX.sym(k, *sd.size_in(i)) for i, k in enumerate(("x", "d", "p")))
+    o = sd(x=x, d=d, p=p)
+    return ca.Function("model_angles", [x, d, p], [o["alpha_E_rad"], o["alpha_geo_rad"], o["ds_m"],
+                                                   o["alpha_eff_quasi_steady_rad"], o["f_sep"], o["newton_residual"]])
+
+
+def element_angles_function(cfg: Config, n_times: int, extended: bool = False) -> "ca.Function":
+    """``f(X[nx x n], T[1 x n], p) -> (alpha_eff 16 x n, alpha_geo 16 x n, ds 16 x n)`` (rad, m) for
+    the model of ``cfg``; built once per (model structure, n) and reused. ``extended``: also
+    ``alpha_eff_quasi_steady`` (16 x n), ``f_sep`` (16 x n) and ``newton_residual`` (1 x n) of
+    :func:`model_angles`."""
     import casadi as ca
 
     from birdocp.bird.model import Structure, get_model
 
-    key = (Structure.of(cfg), int(n_times))
+    key = (Structure.of(cfg), int(n_times), bool(extended))
     f = _ANGLE_FUNCTIONS.get(key)
     if f is None:
         n = key[1]
         model = get_model(cfg).model
-        X = ca.MX.sym("X", 4, n)
+        X = ca.MX.sym("X", model.ode.nx, n)
         T = ca.MX.sym("T", 1, n)
         p = ca.MX.sym("p", len(PARAM_NAMES))
         D = model.ode.data.map(n)(T, p)  # post(pre(t, p)): no need to read the whole data graph
-        ae, ag, ds = effective_angles(model.ode.nd).map(n)(X, D, p)
-        f = ca.Function("element_angles", [X, T, p], [ae, ag, ds], ["X", "T", "p"],
-                        ["alpha_eff_rad", "alpha_geo_rad", "ds_m"])
+        outs = model_angles(model).map(n)(X, D, p)
+        names = ["alpha_eff_rad", "alpha_geo_rad", "ds_m", "alpha_eff_quasi_steady_rad", "f_sep", "newton_residual"]
+        k = 6 if extended else 3
+        f = ca.Function("element_angles", [X, T, p], list(outs[:k]), ["X", "T", "p"], names[:k])
         _ANGLE_FUNCTIONS.put(key, f)
     return f
 
@@ -212,7 +236,7 @@ def cycle_validity(cfg: Config, t_s, x, p=None) -> CycleValidity:
 
     cfg = cfg or Config()
     t = np.asarray(t_s, float).ravel()
-    X = np.asarray(x, float).reshape(-1, 4)
+    X = np.asarray(x, float).reshape(-1, get_model(cfg).ode.nx)
     if len(t) != X.shape[0]:
         raise ValueError(f"{len(t)} times for {X.shape[0]} states")
     if X.shape[0] > 2 and np.allclose(X[-1], X[0], rtol=0, atol=1e-6) and math.isclose(
@@ -221,12 +245,28 @@ def cycle_validity(cfg: Config, t_s, x, p=None) -> CycleValidity:
     if not (np.all(np.isfinite(X)) and np.all(np.isfinite(t))):
         return invalid(cfg, "the cycle's states are not finite (no cycle to check)")
     p = get_model(cfg).p0 if p is None else np.asarray(p, float).ravel()
-    f = element_angles_function(cfg, len(t))
-    ae, ag, ds = (np.asarray(v) for v in f(ca.DM(X.T), ca.DM(t[None, :]), ca.DM(p)))
-    return _verdict(cfg, t, X, np.degrees(ae), np.degrees(ag), ds)
+    f = element_angles_function(cfg, len(t), extended=True)
+    ae, ag, ds, aq, fs, nr = (np.asarray(v) for v in f(ca.DM(X.T), ca.DM(t[None, :]), ca.DM(p)))
+    return _verdict(cfg, t, X, np.degrees(ae), np.degrees(ag), ds, _section_measures(cfg, aq, fs, ds, nr))
 
 
-def _verdict(cfg: Config, t, X, ae_deg, ag_deg, ds) -> CycleValidity:
+def _section_measures(cfg: Config, aq, fs, ds, nr) -> dict:
+    """With an unsteady or stall section: the quasi-steady effective angle's range [deg], the
+    separated fraction sum_j int (1 - f_j) ds_j dt / (span T), the smallest f and, with a stall section,
+    the largest relative Newton residual of the circulation over the cycle."""
+    import numpy as np
+
+    if cfg.aero.unsteady == "none" and cfg.aero.section == "linear":
+        return {}
+    span = ds.sum(axis=0)
+    return {"alpha_eff_quasi_steady_min_deg": float(np.degrees(aq.min())),
+            "alpha_eff_quasi_steady_max_deg": float(np.degrees(aq.max())),
+            "separated_fraction": float((((1.0 - fs) * ds).sum(axis=0) / span).mean()),
+            "min_separation_point": float(fs.min()),
+            **({"max_newton_residual": float(np.max(nr))} if cfg.aero.section != "linear" else {})}
+
+
+def _verdict(cfg: Config, t, X, ae_deg, ag_deg, ds, extra: dict | None = None) -> CycleValidity:
     import numpy as np
 
     th = _thresholds(cfg)
@@ -257,6 +297,7 @@ def _verdict(cfg: Config, t, X, ae_deg, ag_deg, ds) -> CycleValidity:
         "max_abs_pitch_deg": float(np.degrees(np.abs(theta).max())),
         "max_airflow_body_angle_deg": float(airflow_deg.max()),
         "n_times": int(X.shape[0]),
+        **(extra or {}),
     }
     reasons = []
     if m["stalled_fraction"] > th["max_stalled_fraction"]:
@@ -352,25 +393,27 @@ def grid_validity(cfg: Config, x, p=None, t0_s: float = 0.0, steps_per_period: i
 
     cfg = cfg or Config()
     n = int(steps_per_period or cfg.solve.steps_per_period)
-    X = np.asarray(x, float).reshape(-1, 4)
+    grid, p = _grid_and_p(cfg, n, p, ode)
+    X = np.asarray(x, float).reshape(-1, grid.ode.nx)
     if X.shape[0] == n + 1:
         X = X[:n]
     if X.shape[0] != n:
         raise ValueError(f"{X.shape[0]} states for {n} steps per period")
     if not np.all(np.isfinite(X)):
         return invalid(cfg, "the cycle's states are not finite (no cycle to check)")
-    grid, p = _grid_and_p(cfg, n, p, ode)
     t = float(t0_s) + grid.h * np.arange(n)
     # the data at the step starts t0 + k h are the first columns of the stage blocks (no second
     # evaluation of the wing on the time grid)
     D = grid.blocks_numeric(float(t0_s), p)
-    nd = grid.ode.nd
-    hit = _ANGLE_MAPS.get((n, nd))
+    from birdocp.bird.model import Structure, get_model
+
+    key = (n, Structure.of(cfg))
+    hit = _ANGLE_MAPS.get(key)
     if hit is None:
-        hit = effective_angles(nd).map(n)
-        _ANGLE_MAPS.put((n, nd), hit)
-    ae, ag, ds = (np.asarray(v) for v in hit(ca.DM(X.T), grid.step_start_data(D), ca.DM(p)))
-    return _verdict(cfg, t, X, np.degrees(ae), np.degrees(ag), ds)
+        hit = model_angles(get_model(cfg).model).map(n)
+        _ANGLE_MAPS.put(key, hit)
+    ae, ag, ds, aq, fs, nr = (np.asarray(v) for v in hit(ca.DM(X.T), grid.step_start_data(D), ca.DM(p)))
+    return _verdict(cfg, t, X, np.degrees(ae), np.degrees(ag), ds, _section_measures(cfg, aq, fs, ds, nr))
 
 
 _ANGLE_MAPS = bounded_cache("bird.validity_angle_maps", 8)

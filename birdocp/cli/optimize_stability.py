@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+
+from birdocp.bird.config import require_body_states
 import math
 import sys
 
@@ -127,6 +129,7 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
     from birdocp.studies.optimize import DEFAULT_FREE, optimize_stability
 
     cfg = cli.resolve_config(args)
+    require_body_states(cfg, "optimize-stability")  # before any computation: exit 2
     if not math.isfinite(args.climb_rate):
         raise ConfigError("--climb-rate", f"must be finite, got {args.climb_rate}")
     if not 1 <= args.max_iter <= 100000:

@@ -81,7 +81,7 @@ def _c_ident(name: str) -> str:
 
 def _functions(model, p0, runtime_idx, h):
     nd = model.rhs.size1_in(1)
-    x = ca.SX.sym("x", 4)
+    x = ca.SX.sym("x", model.rhs.size1_in(0))
     d = ca.SX.sym("d", nd)
     pr = ca.SX.sym("p", len(runtime_idx))
     pels = [ca.SX(float(v)) for v in p0]
@@ -218,17 +218,30 @@ def _header(info: ExportInfo, cfg: Config) -> str:
     for name, (r, c) in DATA_BLOCKS:
         blocks.append(f" *   d[{k}..{k + r * c - 1}]  {name} ({r}x{c}, column-major)")
         k += r * c
-    if info.n_data > k:  # wings with mass: their sums (birdocp.bird.inertia.MASS_BLOCK)
+    from birdocp.bird.model import Structure
+
+    st = Structure.of(cfg)
+    if st.wing_mass:  # wings with mass: their sums (birdocp.bird.inertia.MASS_BLOCK)
         from birdocp.bird.inertia import MASS_BLOCK
 
         blocks += [f" *   d[{k + i}]  {name} (wing masses, body frame)" for i, name in enumerate(MASS_BLOCK)]
         blocks.append(" * With wing masses the RHS adds their inertial forces and moments (docs/studies/inertia.md,"
                       " equations): m is then the whole bird's mass and I the body's own pitch inertia.")
+        k += len(MASS_BLOCK)
+    if st.aero_extra:  # unsteady / stall section: G, Wx, Wy are per unit circulation, then the unsteady blocks
+        from birdocp.bird.unsteady import block_sizes
+
+        blocks.append(" *   (with aero.unsteady/aero.section: G holds K, the downwash per unit circulation, and Wx, Wy"
+                      " the induced velocity per unit circulation)")
+        for name, r, c in block_sizes(16):
+            blocks.append(f" *   d[{k}..{k + r * c - 1}]  {name} ({r}x{c}, column-major; docs/model_unsteady.md)")
+            k += r * c
     return HEADER_TEMPLATE.format(
         version=__version__, casadi=ca.__version__, N=info.steps_per_period, T=repr(info.period_s),
         h=repr(info.step_s), nd=info.n_data, ncol=2 * info.steps_per_period + 1,
         np_=len(info.runtime_params), pdefs=pdefs, pdoc=pdoc, baked=baked, blocks="\n".join(blocks),
-        freq=repr(cfg.gait.frequency_hz), circ=cfg.aero.circulation, kin=cfg.aero.kinematic_velocity)
+        freq=repr(cfg.gait.frequency_hz), circ=cfg.aero.circulation, kin=cfg.aero.kinematic_velocity,
+        nx=4 + st.n_aero_states)
 
 
 HEADER_TEMPLATE = """\
@@ -240,6 +253,8 @@ HEADER_TEMPLATE = """\
  *   x[1] = w     [m/s]    velocity of G along the body axis z' (down)
  *   x[2] = q     [rad/s]  pitch rate, positive nose-up
  *   x[3] = theta [rad]    pitch angle of x' above the horizon, positive nose-up
+ *   x[4..BIRD_NX-1]       with aero.unsteady = wagner: lag states z1_0..15, z2_0..15 [m/s]; with
+ *                         aero.section = dynamic-stall: separation points f_0..15 (docs/model_unsteady.md)
  * Body frame x' forward, z' down, origin G; inertial velocities U = u cos(theta) + w sin(theta)
  * (horizontal), W = u sin(theta) - w cos(theta) (vertical, positive up).
  * xdot = (-q w - g sin(theta) + Fx/m,  q u + g cos(theta) + Fz/m,  My/I,  q), with the
@@ -274,7 +289,7 @@ HEADER_TEMPLATE = """\
 extern "C" {{
 #endif
 
-#define BIRD_NX 4              /* states */
+#define BIRD_NX {nx}              /* states: u, w, q, theta, then the aerodynamic states if any */
 #define BIRD_ND {nd}           /* data vector length */
 #define BIRD_NP {np_}              /* runtime parameters */
 #define BIRD_STEPS {N}           /* RK4 steps per period */
@@ -428,8 +443,9 @@ int bird_period(const double x0[BIRD_NX], const double p[BIRD_NP], double x_T[BI
 
 _MAIN_C = """\
 /* main.c -- example: one period of the exported bird model from a state given on the command line.
- *   ./bird_period U W Q THETA [P0 P1 ...]
- * (u [m/s], w [m/s], q [rad/s], theta [rad]; optional runtime parameters in the order of bird.h).
+ *   ./bird_period U W Q THETA [AERODYNAMIC STATES] [P0 P1 ...]
+ * (u [m/s], w [m/s], q [rad/s], theta [rad], then the BIRD_NX - 4 aerodynamic states of an unsteady or
+ * dynamic-stall model; optional runtime parameters in the order of bird.h).
  * Prints the state after one period (one line, 4 numbers) and then the monodromy d x_T / d x0,
  * row by row (4 lines of 4 numbers). Exit 2 on bad arguments, 1 if an evaluation failed. */
 #include <stdio.h>
@@ -446,7 +462,8 @@ int main(int argc, char **argv) {
   double x0[BIRD_NX], xT[BIRD_NX], M[BIRD_NX * BIRD_NX], p[BIRD_NP];
   int i, j;
   if (argc != 1 + BIRD_NX && argc != 1 + BIRD_NX + BIRD_NP) {
-    fprintf(stderr, "usage: %s U W Q THETA [%d runtime parameters, see bird.h]\\n", argv[0], BIRD_NP);
+    fprintf(stderr, "usage: %s U W Q THETA [+%d aerodynamic states] [%d runtime parameters, see bird.h]\\n",
+            argv[0], BIRD_NX - 4, BIRD_NP);
     return 2;
   }
   for (i = 0; i < BIRD_NX; ++i)

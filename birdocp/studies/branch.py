@@ -114,18 +114,18 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
     m = get_model(cfg)
     points = int(points or cfg.solve.points)
     steps = int(steps_per_period or cfg.solve.steps_per_period)
-    guess = np.asarray(cfg.solve.initial_guess, float)
+    guess = m.complete_state(cfg.solve.initial_guess, m.p0)
     ode = solver_ode(m, compiled)
     if level:
         if model_key == AMPLITUDE_KEY:
             raise ValueError("with level flight held the amplitude is solved for: continue another parameter")
         lo, hi = bounds if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)
-        outputs = flight_outputs(m.ode.nd)
+        outputs = flight_outputs(m.ode.nd, m.ode.nx)
         cond = MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")
         prob = LimitCycleProblem(ode, m.p0, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
                                  outputs={"forward_speed_mps": outputs["forward_speed_mps"]})
     else:
-        prob = LimitCycleProblem(ode, m.p0, guess, outputs=flight_outputs(m.ode.nd))
+        prob = LimitCycleProblem(ode, m.p0, guess, outputs=flight_outputs(m.ode.nd, m.ode.nx))
     ws = start.cycle if isinstance(start, TrimResult) else start
     options.setdefault("scales", {"states": 1.0, "free": 10.0})
 

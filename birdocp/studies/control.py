@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest
+from birdocp.bird.config import require_body_states, PARAM_NAMES, Config, ConfigError, get_value, suggest
 from birdocp.bird.model import get_model
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.floquet import complex_pairs, multiplier_order
@@ -233,6 +233,7 @@ def wingbeat_map(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int 
         ``B_lifted``. State units: u, w [m/s], q [rad/s], theta [rad].
     """
     controls = resolve_controls(controls)
+    require_body_states(cycle_result.cfg, "the wingbeat map (control)")
     N = int(updates_per_beat)
     c = cycle_result.cycle
     steps = int(c.method["steps_per_period"])

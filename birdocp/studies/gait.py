@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest, with_values
+from birdocp.bird.config import require_body_states, PARAM_NAMES, Config, ConfigError, get_value, suggest, with_values
 from birdocp.bird.validity import periodic_validity
 from birdocp.engine.floquet import sort_multipliers
 from birdocp.engine.results import result_dict, serial
@@ -719,13 +719,16 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     """
     from birdocp.studies.gait_validity import VALID_ROUNDS, solve_valid
 
+    cfg = cfg or Config()
+    require_body_states(cfg, "this gait study")
+
     options = dict(objective=objective, speed_mps=speed_mps, max_multiplier=max_multiplier,
                    climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
                    steps_per_period=steps_per_period, max_iter=max_iter, tol=tol, verify=verify,
                    progress=progress, start=start, x_guess=x_guess, ipopt_options=ipopt_options,
                    hessian=hessian, radius_start_factor=radius_start_factor, threads=threads,
                    second_derivatives=second_derivatives)
-    return solve_valid(_solve_gait, cfg or Config(), free, valid, options,
+    return solve_valid(_solve_gait, cfg, free, valid, options,
                        VALID_ROUNDS if valid_rounds is None else valid_rounds)
 
 
@@ -948,6 +951,7 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
     from birdocp.bird.energetics import cycle_energetics
 
     cfg = cfg or Config()
+    require_body_states(cfg, "this gait study")
     speeds = np.sort(np.asarray(speeds if speeds is not None else np.arange(12.0, 24.01, 1.0), float))
     rc = ReducedLevelCycle(cfg, [key], steps_per_period)
     ev0 = rc.evaluate(np.array([float(get_value(cfg, key))]))

@@ -74,16 +74,17 @@ def default_bounds(cfg: Config, key: str) -> tuple[float, float]:
     raise ConfigError("bounds", f"no default range for '{key}'; give bounds=(lo, hi)")
 
 
-def _condition(constrain: str, target: float, nd: int | None = None):
-    """(MeanCondition, extra outputs) for a constraint name; ``nd``: the model's data size."""
+def _condition(constrain: str, target: float, nd: int | None = None, nx: int = 4):
+    """(MeanCondition, extra outputs) for a constraint name; ``nd``, ``nx``: the model's data and state
+    sizes."""
     from birdocp.bird.flight import flight_outputs, path_angle_output
     from birdocp.bird.model import N_DATA
     from birdocp.engine.problem import MeanCondition
 
     c = resolve_constraint(constrain)
-    outputs = flight_outputs(nd or N_DATA)
+    outputs = flight_outputs(nd or N_DATA, nx)
     if c == "flight_path_angle_deg":
-        return MeanCondition(path_angle_output(target, nd or N_DATA), 0.0, "path_angle_residual"), dict(outputs)
+        return MeanCondition(path_angle_output(target, nd or N_DATA, nx), 0.0, "path_angle_residual"), dict(outputs)
     other = {k: v for k, v in outputs.items() if k != c}
     return MeanCondition(outputs[c], float(target), c), other
 
@@ -154,7 +155,6 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
     if c == "flight_path_angle_deg" and not -89.0 < target < 89.0:
         raise ConfigError("target", f"flight path angle must lie in (-89, 89) deg, got {target!r}")
 
-    import numpy as np
 
     from birdocp.bird.model import get_model
     from birdocp.engine.problem import LimitCycleProblem
@@ -162,8 +162,8 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
     from birdocp.studies.trim import TrimResult, method_of, solver_ode
 
     m = get_model(cfg)
-    cond, outputs = _condition(c, target, m.ode.nd)
-    guess = np.asarray(cfg.solve.initial_guess if x_guess is None else x_guess, float)
+    cond, outputs = _condition(c, target, m.ode.nd, m.ode.nx)
+    guess = m.complete_state(cfg.solve.initial_guess if x_guess is None else x_guess, m.p0)
     problem = LimitCycleProblem(ode=solver_ode(m, compiled), p=m.p0, x_guess=guess, free={key: (lo, hi)}, means=[cond],
                                 outputs=outputs)
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
@@ -193,7 +193,7 @@ def mean_sensitivity(result, key: str = AMPLITUDE_KEY, output: str = "vertical_s
     key = resolve_key(key, "key")
     cyc = result.cycle
     ode = get_model(result.cfg).ode
-    grid = RK4Grid(ode, int(cyc.method["steps_per_period"]), 1, outputs=(flight_outputs(ode.nd)[output],))
+    grid = RK4Grid(ode, int(cyc.method["steps_per_period"]), 1, outputs=(flight_outputs(ode.nd, ode.nx)[output],))
     i = PARAM_NAMES.index(key)
     x = ca.MX.sym("x", ode.nx)
     a = ca.MX.sym("a")

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, with_values
+from birdocp.bird.config import require_body_states, PARAM_NAMES, Config, ConfigError, with_values
 from birdocp.bird.validity import invalid, periodic_validity
 from birdocp.engine import interrupts
 from birdocp.engine.floquet import matched_distances, sort_multipliers
@@ -305,6 +305,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     from birdocp.bird.model import get_model
 
     cfg = cfg or Config()
+    require_body_states(cfg, "this gait study")
     free = dict(DEFAULT_FREE if free is None else free)
     check_free_keys(get_model(cfg), cfg, free)
     t_start = time.perf_counter()
@@ -458,6 +459,7 @@ def _optimize_full(cfg: Config | None = None, free: dict | None = None, *, climb
     from birdocp.bird.model import get_model
 
     cfg = cfg or Config()
+    require_body_states(cfg, "this gait study")
     free = dict(DEFAULT_FREE if free is None else free)
     t_start = time.perf_counter()
     m = get_model(cfg)

@@ -128,7 +128,7 @@ class SecondOrderMaps:
         from birdocp.bird.flight import flight_outputs
 
         self.model = model.model
-        W = w_output if w_output is not None else flight_outputs(model.ode.nd)["vertical_speed_mps"]
+        W = w_output if w_output is not None else flight_outputs(model.ode.nd, model.ode.nx)["vertical_speed_mps"]
         self.grid = grid = RK4Grid(model.ode, steps, 1, outputs=(W,))
         nx, nd, np_ = model.ode.nx, model.ode.nd, model.ode.np
         x0 = ca.MX.sym("x0", nx)

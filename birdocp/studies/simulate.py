@@ -174,7 +174,8 @@ class _Stepper(PerModel):
         self.model = model.model
         self.grid = grid = RK4Grid(model.ode, steps, n_intervals)
         n, nd, np_ = grid.n, model.ode.nd, model.ode.np
-        z = ca.SX.sym("z", 6)
+        nx = model.ode.nx  # z = (u, w, q, theta, X, Z, aerodynamic states)
+        z = ca.SX.sym("z", nx + 2)
         d = ca.SX.sym("d", nd)
         p = ca.SX.sym("p", np_)
         g = ca.SX.sym("g", 8)  # constant (h, v), amplitudes (h, v), start/length (h), start/length (v)
@@ -188,11 +189,16 @@ class _Stepper(PerModel):
         wind_up = g[1] + g[3] * shape(g[6], g[7])
         u, w, th = z[0], z[1], z[3]
         wind = ca.vertcat(wind_X, -wind_up)
-        xdot = self.model.rhs_wind(z[:4], d, p, wind)
-        zdot = ca.vertcat(xdot, u * ca.cos(th) + w * ca.sin(th), -u * ca.sin(th) + w * ca.cos(th))
+        xdot = self.model.rhs_wind(ca.vertcat(z[:4], z[6:]), d, p, wind)
+        zdot = ca.vertcat(xdot[:4], u * ca.cos(th) + w * ca.sin(th), -u * ca.sin(th) + w * ca.cos(th), xdot[4:])
         f = ca.Function("f_sim", [z, d, p, g], [zdot])
         xa = air_state(z, wind)
-        ae, _, ds = effective_angles(nd)(xa, d, p)
+        if nx > 4 or self.model.structure.aero_extra:
+            from birdocp.bird.validity import model_angles
+
+            ae, _, ds, _, _, _ = model_angles(self.model)(ca.vertcat(xa, z[6:]), d, p)
+        else:
+            ae, _, ds = effective_angles(nd)(xa, d, p)
         # at each step end: effective angles [deg] and element lengths (16 each), airflow-body angle
         # [deg] and air-relative forward speed [m/s]
         self.validity = ca.Function("beat_validity", [z, d, p, g], [
@@ -220,11 +226,13 @@ def nonlinear_beat_map(cfg, x0, params_per_interval, steps_per_period: int | Non
     (the per-time data recomputed for each). The map :func:`birdocp.studies.control.wingbeat_map`
     linearises."""
     N = len(params_per_interval)
-    st = _Stepper.get(get_model(cfg), int(steps_per_period or cfg.solve.steps_per_period), N)
-    z = np.concatenate([np.asarray(x0, float).ravel(), [0.0, 0.0]])
+    m = get_model(cfg)
+    st = _Stepper.get(m, int(steps_per_period or cfg.solve.steps_per_period), N)
+    x0 = m.complete_state(x0, params_per_interval[0])
+    z = np.concatenate([x0[:4], [0.0, 0.0], x0[4:]])
     for i, p in enumerate(params_per_interval):
         z = np.asarray(st.interval(z, st.data(i, p), ca.DM(np.asarray(p, float)), np.zeros(8)))[:, -1]
-    return z[:4]
+    return np.concatenate([z[:4], z[6:]])
 
 
 @dataclass
@@ -350,10 +358,12 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
     if int(beats) < 1:
         raise ConfigError("--beats", f"must be >= 1, got {beats}")
     beats = int(beats)
-    x0_cycle = finite_vector(x0_cycle, "simulate x0_cycle", 4, "the state is (u, w, q, theta)")
+    m = get_model(cfg)
+    x0_cycle = np.asarray(x0_cycle, float).ravel()
+    x0_cycle = finite_vector(x0_cycle, "simulate x0_cycle", m.ode.nx if x0_cycle.size == m.ode.nx else 4,
+                             "the state is (u, w, q, theta), or the model's full state")
     if perturbation is not None:
         perturbation = finite_vector(perturbation, "simulate perturbation", 4, "the state is (u, w, q, theta)")
-    m = get_model(cfg)
     steps = int(steps_per_period or cfg.solve.steps_per_period)
     N = int(getattr(controller, "updates_per_beat", 1)) if controller is not None else 1
     st = _Stepper.get(m, steps, N)
@@ -361,17 +371,18 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
     keys = list(controller.controls) if controller is not None else []
     idx = [PARAM_NAMES.index(k) for k in keys]
     u_cyc = p_cyc[idx]
-    x0_cycle = np.asarray(x0_cycle, float).ravel()
+    x_full = m.complete_state(x0_cycle, p_cyc)  # aerodynamic states on the quasi-steady manifold if not given
+    x0_cycle = x_full[:4]
     dx0 = np.zeros(4) if perturbation is None else np.asarray(perturbation, float).ravel()
     pd = ca.DM(p_cyc)
     # distance flown per beat on the cycle (open loop, no wind): converts gust lengths in beats
-    zc = np.concatenate([x0_cycle, [0.0, 0.0]])
+    zc = np.concatenate([x0_cycle, [0.0, 0.0], x_full[4:]])
     for i in range(N):
         zc = np.asarray(st.interval(zc, st.data(i, p_cyc), pd, np.zeros(8)))[:, -1]
     beat_m = float(zc[4])
     g, spans = _wind_vector(gusts, wind_mps, beat_m)
     gd = ca.DM(g)
-    z = np.concatenate([x0_cycle + dx0, [0.0, 0.0]])
+    z = np.concatenate([x0_cycle + dx0, [0.0, 0.0], x_full[4:]])
     traj, ctrl_t, ctrl = [z[None, :]], [], []
     dev = [float(np.linalg.norm(dx0))]
     saturated = False

@@ -252,9 +252,10 @@ def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: Mu
     ----------
     cfg : Config, optional
         The configuration (default: the paper's reference case, 42 deg).
-    x_guess : array_like (4,), optional
+    x_guess : array_like, optional
         State (u, w [m/s], q [rad/s], theta [rad]) at t = 0 to start from (default
-        ``cfg.solve.initial_guess``).
+        ``cfg.solve.initial_guess``; the aerodynamic states of an unsteady or dynamic-stall section
+        start on the quasi-steady manifold), or a full state.
     warm_start : TrimResult, optional
         A previous result whose cycle starts the solve.
     method : MultipleShooting, optional
@@ -284,8 +285,8 @@ def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: Mu
     """
     cfg = cfg or Config()
     m = get_model(cfg)
-    guess = np.asarray(cfg.solve.initial_guess if x_guess is None else x_guess, float)
-    problem = LimitCycleProblem(ode=solver_ode(m, compiled), p=m.p0, x_guess=guess, outputs=flight_outputs(m.ode.nd))
+    guess = m.complete_state(cfg.solve.initial_guess if x_guess is None else x_guess, m.p0)
+    problem = LimitCycleProblem(ode=solver_ode(m, compiled), p=m.p0, x_guess=guess, outputs=flight_outputs(m.ode.nd, m.ode.nx))
     method = method or method_of(cfg, **method_over)
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
     return TrimResult(check_physical(solve(problem, method, warm_start=ws)), cfg)

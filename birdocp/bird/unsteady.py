@@ -1,0 +1,330 @@
+"""Unsteady and stall-aware section aerodynamics of the lifting line (docs/model_unsteady.md).
+
+Three pieces, all on per-element matrices (3 x n vectors in the code frame, n x 1 columns):
+
+* the section law: :func:`separation_point` f0(alpha), :func:`lift_coefficient` C_l(alpha, f) (the
+  Oye / Hansen-Gaunaa-Madsen blend of the attached C_la alpha and the flat plate), the separated drag;
+* :func:`element_data`: the time-only data of the unsteady terms (unit normals, kinematic pitch rate,
+  mid-chord velocity, added-mass vectors and their time derivatives, the wake matrices), from the
+  element geometry and a time-derivative operator ``ddt`` (AD in t);
+* :func:`section_loads`: at one (state, data) the circulation (exact linear solve, or a fixed count of
+  Newton steps for a stall section), the lag-state and separation-state derivatives, the circulatory,
+  separated and non-circulatory loads and the added-mass matrix of the body rows (F_x', F_z', M_y').
+
+The same functions serve the bird model (:mod:`birdocp.bird.model`) and the 2-D prescribed-kinematics
+harness (:mod:`birdocp.bird.unsteady_harness`). Units SI, angles in rad.
+"""
+
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+
+A1, A2, B1, B2 = 0.165, 0.335, 0.0455, 0.3
+"""Jones's two-exponential approximation of Wagner's function: phi(s) = 1 - A1 e^(-B1 s) - A2 e^(-B2 s)
+(s in semichords travelled)."""
+
+__all__ = ["A1", "A2", "B1", "B2", "jones_transfer", "wagner_indicial_jones", "separation_point",
+           "lift_coefficient", "separated_drag_coefficient", "element_data", "section_loads",
+           "solve_sym3", "DATA_BLOCKS", "n_aero_states", "aero_state_names"]
+
+
+def jones_transfer(k: float, weight: float = 1.0) -> complex:
+    """Jones's approximation C_J(k) = A0 + sum_i eps A_i b_i / (i k + b_i) of Theodorsen's function at
+    reduced frequency k = omega c / (2 U); ``weight`` = eps (0: quasi-steady, C_J = 1)."""
+    a0 = 1.0 - weight * (A1 + A2)
+    return a0 + weight * (A1 * B1 / (1j * k + B1) + A2 * B2 / (1j * k + B2))
+
+
+def wagner_indicial_jones(s: float) -> float:
+    """Jones's phi(s) = 1 - A1 exp(-B1 s) - A2 exp(-B2 s), s in semichords."""
+    return 1.0 - A1 * math.exp(-B1 * s) - A2 * math.exp(-B2 * s)
+
+
+def separation_point(alpha, alpha1):
+    """Static separation point f0(alpha) = 1 / (1 + (alpha/alpha1)^4) (1 = attached; alpha, alpha1 in rad)."""
+    r2 = (alpha / alpha1) ** 2
+    return 1.0 / (1.0 + r2 * r2)
+
+
+def lift_coefficient(alpha, f, cla, cd90):
+    """C_l(alpha, f) = f C_la alpha + (1 - f) C_D90 sin(2 alpha) / 2."""
+    return f * cla * alpha + (1.0 - f) * 0.5 * cd90 * ca.sin(2 * alpha)
+
+
+def separated_drag_coefficient(alpha, f, cd90):
+    """Pressure drag of the separated part C_d,sep = (1 - f) C_D90 sin^2(alpha)."""
+    return (1.0 - f) * cd90 * ca.sin(alpha) ** 2
+
+
+def _lift_slope(alpha, f, cla, cd90, alpha1, total):
+    """dC_l/dalpha at fixed f, plus f0'(alpha) (C_la alpha - C_D90 sin 2alpha / 2) when ``total``."""
+    s = f * cla + (1.0 - f) * cd90 * ca.cos(2 * alpha)
+    if total:
+        f0 = separation_point(alpha, alpha1)
+        df0 = -4.0 * alpha ** 3 / alpha1 ** 4 * f0 * f0
+        s = s + df0 * (cla * alpha - 0.5 * cd90 * ca.sin(2 * alpha))
+    return s
+
+
+# Time-only data of the unsteady terms (per element; appended to the bird's data vector).
+DATA_BLOCKS = (
+    ("n_hat", 3), ("tau_hat", 3), ("omega_k", 1), ("omega_k_dot", 1), ("r_mid_dot", 3), ("a", 3),
+    ("a_dot", 3), ("w0", 1), ("w0_dot", 1), ("m_a", 1), ("m_a_dot", 1), ("m_theta", 1), ("tau_hat1_dot", 1),
+)
+"""(name, rows) of the unsteady data blocks (n columns each). ``m_a``, ``m_a_dot``, ``m_theta`` are per
+unit air density [m^3, m^3/s, m^5]: the density is a number of the state right-hand side."""
+
+
+def block_sizes(n: int) -> list[tuple[str, int, int]]:
+    """(name, rows, cols) of :data:`DATA_BLOCKS` for n elements."""
+    return [(k, n, n) if r < 0 else (k, r, n) for k, r in DATA_BLOCKS]
+
+
+def pack(blocks: dict, n: int):
+    """The data blocks as one column (layout :func:`block_sizes`)."""
+    return ca.vertcat(*[ca.vec(blocks[k]) for k, _, _ in block_sizes(n)])
+
+
+def unpack(d, n: int) -> dict:
+    """Inverse of :func:`pack` on a column (SX/MX/DM)."""
+    out, k = {}, 0
+    for name, r, c in block_sizes(n):
+        out[name] = ca.reshape(d[k:k + r * c], r, c)
+        k += r * c
+    return out
+
+
+def data_size(n: int) -> int:
+    return sum(r * c for _, r, c in block_sizes(n))
+
+
+def _unit_columns(M):
+    return M / ca.repmat(ca.sqrt(ca.sum1(M * M)), M.shape[0], 1)
+
+
+def element_data(r, v_kin, c_hat, up, tau, chord, ds, ddt) -> dict:
+    """The unsteady data blocks (:data:`DATA_BLOCKS`) of one instant, as expressions.
+
+    ``r``, ``v_kin``, ``c_hat``, ``up``, ``tau``: 3 x n (quarter-chord centres relative to G [m], their
+    kinematic velocity [m/s], chord direction, up normal, spanwise vector; code frame); ``chord``,
+    ``ds`` n x 1 [m]; ``ddt(e)`` the time derivative of an expression (AD in t). Geometry only: no
+    parameter of the state right-hand side enters (the C export keeps the two apart).
+    """
+    n_hat, tau_hat = _unit_columns(up), _unit_columns(tau)
+    c_dot = ddt(c_hat)
+    omega_k = -ca.sum1(c_dot * n_hat)                     # nose-up section pitch rate [rad/s]
+    crow = chord.T
+    r_mid_dot = v_kin + 0.25 * (ca.repmat(ddt(crow), 3, 1) * c_hat + ca.repmat(crow, 3, 1) * c_dot)
+    a = ca.vertcat(n_hat[2, :], n_hat[1, :],
+                   r[2, :] * n_hat[1, :] - r[1, :] * n_hat[2, :] + 0.25 * crow * tau_hat[0, :])
+    w0 = -ca.sum1(v_kin * n_hat) + 0.25 * crow * omega_k
+    m_a = math.pi * crow ** 2 * ds.T / 4
+    m_theta = math.pi * (crow / 2) ** 4 * ds.T / 8
+    return {"n_hat": n_hat, "tau_hat": tau_hat, "omega_k": omega_k, "omega_k_dot": ddt(omega_k),
+            "r_mid_dot": r_mid_dot, "a": a, "a_dot": ddt(a), "w0": w0, "w0_dot": ddt(w0), "m_a": m_a,
+            "m_a_dot": ddt(m_a), "m_theta": m_theta, "tau_hat1_dot": ddt(tau_hat[0, :])}
+
+
+def n_aero_states(unsteady: str, section: str, n: int = 16) -> int:
+    """Number of aerodynamic states: 2 n lag states with ``wagner``, n separation states with
+    ``dynamic-stall``."""
+    return n * ((2 if unsteady == "wagner" else 0) + (1 if section == "dynamic-stall" else 0))
+
+
+def aero_state_names(unsteady: str, section: str, n: int = 16) -> tuple[str, ...]:
+    """``z1_mps_j``, ``z2_mps_j`` (wagner), ``f_sep_j`` (dynamic-stall), j = 0..n-1."""
+    names = []
+    if unsteady == "wagner":
+        names += [f"z1_mps_{j}" for j in range(n)] + [f"z2_mps_{j}" for j in range(n)]
+    if section == "dynamic-stall":
+        names += [f"f_sep_{j}" for j in range(n)]
+    return tuple(names)
+
+
+def _cross(W, tau):
+    return ca.vertcat(W[1, :] * tau[2, :] - W[2, :] * tau[1, :],
+                      W[2, :] * tau[0, :] - W[0, :] * tau[2, :],
+                      W[0, :] * tau[1, :] - W[1, :] * tau[0, :])
+
+
+def lu_solve(A, b):
+    """x = A^-1 b by Gaussian elimination without pivoting, written out in SX (about n^3/3
+    multiply-adds: a third of a symbolic QR). For the lifting-line matrices I + D K, whose eigenvalues
+    keep a positive real part (docs/model_unsteady.md, well-posedness); no branches on the values."""
+    n = A.shape[0]
+    a = [[A[i, j] for j in range(n)] for i in range(n)]
+    y = [b[i] for i in range(n)]
+    for k in range(n):
+        inv = 1.0 / a[k][k]
+        for i in range(k + 1, n):
+            m = a[i][k] * inv
+            for j in range(k + 1, n):
+                a[i][j] = a[i][j] - m * a[k][j]
+            y[i] = y[i] - m * y[k]
+    x = [None] * n
+    for i in reversed(range(n)):
+        acc = y[i]
+        for j in range(i + 1, n):
+            acc = acc - a[i][j] * x[j]
+        x[i] = acc / a[i][i]
+    return ca.vertcat(*x)
+
+
+def _circulation(opts, prm, q_t, zsum, Vn, chord, K, f_state):
+    """Gamma (n x 1) and the final relative Newton residual (0 for a linear section): the linear
+    lifting-line solve (I + A0 H K) Gamma = H (A0 q~ + z1 + z2), H = diag(c C_la / 2), then for a
+    stall section a fixed count of Newton steps."""
+    a0 = prm["a0"]
+    n = chord.shape[0]
+    h = 0.5 * chord * prm["cla"]
+    gam = lu_solve(ca.SX.eye(n) + a0 * ca.diag(h) @ K, h * (a0 * q_t + zsum))
+    if opts["section"] == "linear":
+        return gam, ca.SX(0)
+    cla, cd90, al1 = prm["cla"], prm["cd90"], prm["alpha1"]
+    dyn = opts["section"] == "dynamic-stall"
+
+    def resid(g):
+        aE = (a0 * (q_t - K @ g) + zsum) / Vn
+        f = f_state if dyn else separation_point(aE, al1)
+        return g - 0.5 * chord * Vn * lift_coefficient(aE, f, cla, cd90), aE, f
+
+    for _ in range(int(opts["newton_steps"])):
+        R, aE, f = resid(gam)
+        slope = _lift_slope(aE, f, cla, cd90, al1, total=not dyn)
+        J = ca.SX.eye(n) + a0 * ca.diag(0.5 * chord * slope) @ K
+        gam = gam - lu_solve(J, R)
+    R, _, _ = resid(gam)
+    rel = ca.mmax(ca.fabs(R)) / ca.mmax(ca.fabs(gam))
+    return gam, rel
+
+
+def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dict) -> dict:
+    """Loads and aerodynamic-state derivatives at one instant (see the module and docs).
+
+    ``opts``: ``unsteady``, ``section``, ``newton_steps``. ``nu`` = (u, w, q) air-relative body
+    velocities [m/s, m/s, rad/s]; ``zs``: the aerodynamic states (:func:`aero_state_names` order);
+    ``base``: ``r``, ``v_kin``, ``c_hat``, ``up``, ``tau`` (3 x n), ``ds``, ``chord`` (n x 1); ``ud``:
+    :func:`element_data`; ``wake``: ``K``, ``Vx``, ``Vy`` (n x n: downwash and induced e1, e2
+    velocity per unit circulation); ``prm``: ``rho``, ``cla``, ``eps``, ``a0``, ``kappa``, ``chi_w``, ``chi_nc``,
+    ``alpha1`` [rad], ``cd90``, ``Tf``, ``T2``.
+
+    Returns a dict: ``dF_att`` (at r), ``dF_mid`` (at r_mid), ``r_mid`` (3 x n, N and m); ``F`` (3 x 1,
+    code frame, circulatory + separated), ``M`` (moment about G, N m, nose-up); the non-circulatory
+    ``M_A`` (3 x 3, kg / kg m on (u, w, q)), ``b_nc`` (3, generalised force with nu' = 0), the pieces
+    ``nc_coef`` (per element: dF_nc = (nc_coef + m_a a . nu') n_hat) and ``couple0`` (couple with
+    q' = 0); ``zdot``; ``Gamma``, ``alpha_E`` (n x 1), ``f`` (1 x n), ``vind``, ``v_s``, ``V``, ``Vp``,
+    ``Vp_norm``, ``alpha``, ``omega``, ``newton_residual``.
+    """
+    from birdocp.bird import aero
+
+    u, w, q = nu[0], nu[1], nu[2]
+    n = base["chord"].shape[0]
+    r, v_kin, c_hat, up, tau = (base[k] for k in ("r", "v_kin", "c_hat", "up", "tau"))
+    chord, ds = base["chord"], base["ds"]
+    crow = chord.T
+    ones = ca.DM.ones(1, n)
+    V = ca.vertcat(-v_kin[0, :], w * ones + q * r[2, :] - v_kin[1, :], u * ones - q * r[1, :] - v_kin[2, :])
+    alpha, Vn = aero.section_angle(V, c_hat, up, tau)
+    Vp = V - tau * ca.repmat(ca.sum1(tau * V), 3, 1)
+    wag = opts["unsteady"] == "wagner"
+    dyn = opts["section"] == "dynamic-stall"
+    k = 0
+    if wag:
+        z1, z2 = zs[0:n], zs[n:2 * n]
+        k = 2 * n
+    else:
+        z1 = z2 = ca.SX.zeros(n, 1)
+    f_state = zs[k:k + n].T if dyn else None
+    omega = ud["omega_k"] + q * ud["tau_hat"][0, :] if wag else None
+    q_t = (Vn * alpha).T
+    if wag:
+        q_t = q_t + prm["chi_w"] * 0.5 * chord * omega.T
+    a0 = prm["a0"] if wag else 1.0
+    prm = dict(prm, a0=a0)
+    zsum = z1 + z2
+    K = wake["K"]
+    Gamma, rel = _circulation(opts, prm, q_t, zsum, Vn.T, chord, K, None if f_state is None else f_state.T)
+    g = q_t - K @ Gamma
+    gE = a0 * g + zsum
+    aE = gE / Vn.T
+    if opts["section"] == "linear":
+        f = ca.DM.ones(1, n)
+    elif dyn:
+        f = f_state
+    else:
+        f = separation_point(aE.T, prm["alpha1"])
+    zdot = []
+    if wag:
+        lam1 = 2 * B1 * Vn / (prm["kappa"] * crow)
+        lam2 = 2 * B2 * Vn / (prm["kappa"] * crow)
+        z2dot = lam2.T * (prm["eps"] * A2 * g - z2)
+        zdot += [lam1.T * (prm["eps"] * A1 * g - z1), z2dot]
+    if dyn:
+        a_f = aE.T
+        if wag:
+            tau2 = prm["T2"] * crow / (2 * Vn)
+            a_f = a_f - tau2 * z2dot.T / (A2 * Vn)
+        tau1 = prm["Tf"] * crow / (2 * Vn)
+        zdot.append(((separation_point(a_f, prm["alpha1"]) - f_state) / tau1).T)
+    vind = ca.vertcat((wake["Vx"] @ Gamma).T, (wake["Vy"] @ Gamma).T, ca.DM.zeros(1, n))
+    v_s = ca.repmat((gE - g).T, 3, 1) * ud["n_hat"] if wag else ca.DM.zeros(3, n)
+    cross = _cross(V + vind + v_s, tau)
+    rho = prm["rho"]
+    r_mid = r + 0.25 * ca.repmat(crow, 3, 1) * c_hat
+    if opts["section"] == "linear":
+        dF_att = rho * cross * ca.repmat((Gamma * ds).T, 3, 1)
+        dF_mid = ca.DM.zeros(3, n)
+        G_att = Gamma
+    else:
+        G_att = (0.5 * crow * Vn * f * prm["cla"] * aE.T).T
+        dF_att = rho * cross * ca.repmat(((G_att) * ds).T, 3, 1)
+        cd = separated_drag_coefficient(aE.T, f, prm["cd90"])
+        dF_mid = rho * cross * ca.repmat(((Gamma - G_att) * ds).T, 3, 1) \
+            + 0.5 * rho * Vp * ca.repmat(crow * ds.T * Vn * cd, 3, 1)
+    F = ca.sum2(dF_att + dF_mid)
+    M = aero.moment_about_G(r, dF_att) + aero.moment_about_G(r_mid, dF_mid)
+    out = {"dF_att": dF_att, "dF_mid": dF_mid, "r_mid": r_mid, "F": F, "M": M, "zdot": ca.vertcat(*zdot),
+           "Gamma": Gamma, "Gamma_att": G_att, "alpha_E": aE, "f": f, "vind": vind, "v_s": v_s, "V": V, "Vp": Vp,
+           "Vp_norm": Vn, "alpha": alpha, "omega": omega, "newton_residual": rel, "wagner": wag,
+           "n_hat": ud["n_hat"] if wag else None, "r_mid_dot": ud["r_mid_dot"] if ud else None,
+           "omega_k": ud["omega_k"] if wag else None}
+    out.update(_non_circulatory(nu, ud, prm, Vn, crow, ds, omega) if wag else
+               {"M_A": ca.SX.zeros(3, 3), "b_nc": ca.SX.zeros(3, 1)})
+    return out
+
+
+def _non_circulatory(nu, ud, prm, Vn, crow, ds, omega) -> dict:
+    """Added-mass loads (Theodorsen's flat-plate apparent mass) with nu' = 0 and the mass matrix."""
+    chi = prm["chi_nc"]
+    q = nu[2]
+    a, a_dot = ud["a"], ud["a_dot"]
+    nu_row = ca.repmat(ca.vertcat(nu[0], nu[1], nu[2]), 1, a.shape[1])
+    w_mid = ca.sum1(a * nu_row) + ud["w0"]
+    wdot0 = ca.sum1(a_dot * nu_row) + ud["w0_dot"]
+    rho = prm["rho"]
+    m_a = rho * ud["m_a"]
+    nc_coef = chi * (m_a * wdot0 + rho * ud["m_a_dot"] * w_mid)        # dF_nc with nu' = 0, along n_hat [N]
+    t1 = ud["tau_hat"][0, :]
+    omega_dot0 = ud["omega_k_dot"] + q * ud["tau_hat1_dot"]
+    couple0 = -chi * rho * math.pi * (crow / 2) ** 3 * ds.T * (0.5 * Vn * omega + (crow / 2) * omega_dot0 / 8)
+    b_nc = -(a @ nc_coef.T) + ca.vertcat(0, 0, ca.sum2(couple0 * t1))
+    M_A = chi * (a @ ca.diag(m_a) @ a.T)
+    M_A[2, 2] = M_A[2, 2] + chi * rho * ca.sum2(ud["m_theta"] * t1 ** 2)
+    return {"M_A": M_A, "b_nc": b_nc, "nc_coef": nc_coef, "couple0": couple0, "w_mid": w_mid, "a": a,
+            "m_a_chi": chi * m_a, "m_theta_chi": chi * rho * ud["m_theta"], "tau1": t1}
+
+
+def solve_sym3(M, b):
+    """x = M^-1 b for a 3 x 3 symmetric positive-definite M, in closed form (adjugate; no branches)."""
+    a, bb, c, d, e, f = M[0, 0], M[0, 1], M[0, 2], M[1, 1], M[1, 2], M[2, 2]
+    A = d * f - e * e
+    B = c * e - bb * f
+    C = bb * e - c * d
+    D = a * f - c * c
+    E = bb * c - a * e
+    F = a * d - bb * bb
+    det = a * A + bb * B + c * C
+    return ca.vertcat(A * b[0] + B * b[1] + C * b[2], B * b[0] + D * b[1] + E * b[2],
+                      C * b[0] + E * b[1] + F * b[2]) / det

@@ -1,0 +1,105 @@
+"""Cost of the unsteady and stall-aware aerodynamics, as ratios measured in one run.
+
+1. A trim of the paper's gait (5 points, 148 steps) with ``aero.unsteady = "wagner"`` and with
+   ``wagner`` + ``dynamic-stall``, against the default trim: wall time of the solve with the graphs
+   already built (each case is trimmed twice, the second time is measured), and the size of the state
+   right-hand side (CasADi instructions). Targets: wagner <= 4x, dynamic-stall <= 6x.
+2. How the cost grows with the number of lifting-line elements n: instructions and evaluation time of
+   the section model's right-hand side (prescribed-kinematics wing of n elements, the same functions
+   as the bird) for n = 8, 16, 32.
+
+    python scripts/benchmark_aero.py --out results/aero
+
+Writes DIR/benchmark.json and prints a table.
+"""
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from script_common import parse_with_out, script_parser  # noqa: E402
+
+CASES = {"default": {}, "wagner": {"aero.unsteady": "wagner"}, "wagner_stall": {"aero.unsteady": "wagner",
+                                                                                 "aero.section": "stall"},
+         "wagner_dynamic_stall": {"aero.unsteady": "wagner", "aero.section": "dynamic-stall"}}
+TARGETS = {"wagner": 4.0, "wagner_dynamic_stall": 6.0}
+
+
+def trim_cost(overrides: dict, repeats: int = 2, x_guess=None) -> dict:
+    from birdocp.bird.config import Config, with_values
+    from birdocp.bird.model import get_model
+    from birdocp.studies.trim import trim
+
+    cfg = with_values(Config(), overrides)
+    m = get_model(cfg)
+    walls = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        r = trim(cfg, x_guess=x_guess)
+        walls.append(time.perf_counter() - t0)
+    return {"wall_s": walls[-1], "first_wall_s": walls[0], "success": bool(r.success),
+            "rhs_instructions": int(m.rhs.n_instructions()), "states": int(m.ode.nx),
+            "lambda1": float(abs(r.multipliers[0])) if r.success else None}
+
+
+def element_scaling(unsteady: str, section: str, n: int, evals: int = 200) -> dict:
+    import casadi as ca
+    import numpy as np
+
+    from birdocp.bird.unsteady_harness import PrescribedWing, harmonic
+
+    w = PrescribedWing(unsteady, section, aspect_ratio=6.9, n=n)
+    kin, om, T = harmonic(0.14, 18.0, 0.2, plunge_m=0.05, pitch_rad=0.1, mean_pitch_rad=0.1)
+    t0 = time.perf_counter()
+    f, _ = w.functions(kin)
+    build = time.perf_counter() - t0
+    z = np.zeros(w.nz)
+    if section == "dynamic-stall":
+        z[-n:] = 1.0
+    fm = f.map(evals)
+    Z = ca.repmat(ca.DM(z), 1, evals)
+    ts = ca.DM(np.linspace(0, T, evals)).T
+    fm(Z, ts)
+    t0 = time.perf_counter()
+    fm(Z, ts)
+    ev = (time.perf_counter() - t0) / evals
+    return {"n": n, "instructions": int(f.n_instructions()), "eval_us": 1e6 * ev, "build_s": build}
+
+
+def main(argv=None) -> int:
+    ap = script_parser(__doc__, "results/aero")
+    ap.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES),
+                    help="trim cases (default all; 'default' is always run: it is the denominator)")
+    ap.add_argument("--max-elements", type=int, default=32, help="largest n of the element scaling (8, 16, 32, ...)")
+    args, out = parse_with_out(ap, argv)
+    from birdocp.io.files import atomic_write_json
+
+    cases = ["default"] + [c for c in args.cases if c != "default"]
+    # every case starts from the same body state: the wagner cycle's of the aero study when present (the
+    # stall sections' Newton circulation can be singular at the trial points of a far guess)
+    start = out / "cases" / "wagner.json"
+    guess = json.loads(start.read_text())["trim"]["x0_body"] if start.exists() else None
+    res = {"trim": {k: trim_cost(CASES[k], x_guess=guess) for k in cases}, "x_guess": guess}
+    base = res["trim"]["default"]["wall_s"]
+    res["ratios"] = {k: v["wall_s"] / base for k, v in res["trim"].items()}
+    res["targets"] = TARGETS
+    res["elements"] = {f"{u}+{s}": [element_scaling(u, s, n) for n in (8, 16, 32, 64) if n <= args.max_elements]
+                       for u, s in (("wagner", "linear"), ("wagner", "stall"),
+                                    ("wagner", "dynamic-stall"))}
+    atomic_write_json(out / "benchmark.json", res)
+    print("trim of the paper's gait (graphs built; second solve timed)")
+    for k, v in res["trim"].items():
+        tgt = TARGETS.get(k)
+        print(f"  {k:22s} {v['wall_s']:7.2f} s  x{res['ratios'][k]:5.2f}"
+              + (f" (target <= {tgt:g}x)" if tgt else "") + f"  states {v['states']}, rhs {v['rhs_instructions']} instr.")
+    print("section right-hand side against the number of elements n (instructions, us per evaluation)")
+    for k, rows in res["elements"].items():
+        print(f"  {k:22s} " + "  ".join(f"n={r['n']}: {r['instructions']} / {r['eval_us']:.0f}" for r in rows))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
