@@ -37,6 +37,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from script_common import parse_with_out, script_parser  # noqa: E402
 
+from cycle_phase import peak_phase_deg  # noqa: E402  (this folder: numpy only, shared with run_uvlm.py)
+
 from birdocp.bird.config import Aero, from_dict, with_values  # noqa: E402
 from birdocp.bird.model import get_model  # noqa: E402
 from birdocp.io.files import atomic_write_json, atomic_write_text  # noqa: E402
@@ -108,17 +110,6 @@ def held_loads(cfg, x_body: np.ndarray, samples: int, lag_cycles: int) -> dict:
     if nx != 4:
         cpu /= lag_cycles
     return {"t_s": t, "Fx_N": L[0], "Fz_N": L[1], "cpu_s_per_cycle": cpu}
-
-
-def peak_phase_deg(values: np.ndarray) -> float:
-    """Phase [deg] of the largest value of one periodic cycle sampled at n uniform steps (parabolic
-    refinement through the largest sample and its neighbours; the same rule as run_uvlm.py)."""
-    n = len(values)
-    i = int(np.argmax(values))
-    a, b, c = values[(i - 1) % n], values[i], values[(i + 1) % n]
-    den = a - 2 * b + c
-    shift = 0.5 * (a - c) / den if den != 0 else 0.0
-    return float(((i + shift) / n * 360.0) % 360.0)
 
 
 def birdocp_case(inputs: dict, case: dict, kinematics: str, unsteady: str, lag_cycles: int) -> dict:

@@ -43,6 +43,8 @@ from pathlib import Path
 
 import numpy as np
 
+from cycle_phase import peak_phase_deg  # this folder: numpy only, shared with compare.py
+
 TIP_TRIM = 0.02
 """Fraction of the shoulder-to-tip span dropped at the tip (the planform's tip chord is 0)."""
 WAKE_CYCLES = 2
@@ -144,17 +146,6 @@ def run_steady(ps, inputs: dict, n_chord: int, n_span: int) -> dict:
             "spanwise_panels_per_half_wing": n_span + 1, "lift_N": float(-forces[2]), "thrust_N": float(forces[0]),
             "cpu_s": time.process_time() - t0, "solver": "steady ring vortex lattice",
             "pterasoftware_version": ps_version()}
-
-
-def peak_phase_deg(values: np.ndarray) -> float:
-    """Phase [deg] of the largest value of one periodic cycle sampled at n uniform steps (parabolic
-    refinement through the largest sample and its two neighbours)."""
-    n = len(values)
-    i = int(np.argmax(values))
-    a, b, c = values[(i - 1) % n], values[i], values[(i + 1) % n]
-    den = a - 2 * b + c
-    shift = 0.5 * (a - c) / den if den != 0 else 0.0
-    return float(((i + shift) / n * 360.0) % 360.0)
 
 
 def run_case(ps, inputs: dict, case: dict, n_chord: int, n_span: int, cycles: int, free_wake: bool,
