@@ -32,6 +32,7 @@ from birdocp.engine.problem import LimitCycleProblem, MeanCondition
 from birdocp.engine.results import result_dict, serial
 from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
 from birdocp.studies.level import default_bounds
+from birdocp.studies.trim import check_physical
 
 __all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "beats_to_double", "lateral_sensitivities",
            "LATERAL_SENSITIVITY_KEYS"]
@@ -174,7 +175,7 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
         means = [MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")]
     problem = LimitCycleProblem(ode=six.ode, p=p6, x_guess=guess, free=free, means=means,
                                 outputs={k: f for k, f in outputs.items() if not (level and k == "vertical_speed_mps")})
-    cyc = solve(problem, method)
+    cyc = check_physical(solve(problem, method))  # u <= 0 somewhere: not a forward flight, as the planar trim
     amplitude = float(cyc.free_values.get(AMPLITUDE_KEY, cfg.gait.shoulder_flap.amplitude_deg))
     return _split(cfg, cyc, six.ode.period_s, method, inertia or LateralInertia.of(cfg), amplitude)
 
