@@ -12,7 +12,7 @@ The bounds, the start (energy optimum) and the anchor (most stable gait) are the
 results/energetics/result.json (so both tracings solve the same points). The machine load at the
 start of each part is recorded: other work on the shared machine inflates every number.
 
-    python scripts/benchmark_validity.py [--points 12] [--jobs 2] [--out DIR] [--skip-sequential]
+    python scripts/benchmark_validity.py [--points 12] [--jobs 2] [--out DIR] [--skip-sequential] [--skip-pareto]
 """
 
 import argparse
@@ -44,6 +44,9 @@ def main():
     ap.add_argument("--out", default=str(ROOT / "results" / "stability_optimum"))
     ap.add_argument("--skip-sequential", action="store_true")
     ap.add_argument("--skip-stability", action="store_true")
+    ap.add_argument("--skip-pareto", action="store_true",
+                    help="only the optimize_stability pair; the Pareto entries already in OUT/benchmark_validity.json "
+                         "are kept")
     args = ap.parse_args()
     from birdocp.bird.config import Config
     from birdocp.engine.executors import get_executor
@@ -62,6 +65,10 @@ def main():
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     path = out / "benchmark_validity.json"
+    if args.skip_pareto and path.is_file():  # keep the Pareto measurements of an earlier run
+        res |= {k: v for k, v in json.loads(path.read_text()).items() if k.startswith("pareto") or k in (
+            "points", "jobs", "bounds", "ratio_parallel_over_sequential", "ratio_parallel_valid_over_sequential",
+            "max_objective_difference_W")}
 
     def save():
         from birdocp.io.files import atomic_write_json
@@ -80,6 +87,9 @@ def main():
         res["ratio_valid_over_today"] = res["optimize_stability_valid"]["wall_s"] / res["optimize_stability"]["wall_s"]
         log(f"  {t['wall_s']:.1f} s, r {sv.radius:.6f}, valid {sv.validity['valid']}")
         save()
+    if args.skip_pareto:
+        print(json.dumps({k: v for k, v in res.items() if k != "bounds"}, indent=1))
+        return
     if not args.skip_sequential:
         log(f"Pareto, today's sequential tracing: {len(bounds)} points")
         rows, t = timed(lambda: stability_pareto(cfg, U, bounds, start=start, x_guess=b["x0"], progress=log))
