@@ -165,7 +165,8 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     """
     cfg = cfg or Config()
     six = sixdof_model(cfg)
-    p6 = six.params(param_vector(cfg), inertia or LateralInertia.of(cfg))
+    inertia = inertia or LateralInertia.of(cfg)
+    p6 = six.params(param_vector(cfg), inertia)
     method = method or MultipleShooting(points=cfg.solve.points, steps_per_period=cfg.solve.steps_per_period)
     guess = embed_planar_state(cfg.solve.initial_guess) if x_guess is None else x_guess
     outputs = six.flight_outputs()
@@ -177,7 +178,7 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
                                 outputs={k: f for k, f in outputs.items() if not (level and k == "vertical_speed_mps")})
     cyc = check_physical(solve(problem, method))  # u <= 0 somewhere: not a forward flight, as the planar trim
     amplitude = float(cyc.free_values.get(AMPLITUDE_KEY, cfg.gait.shoulder_flap.amplitude_deg))
-    return _split(cfg, cyc, six.ode.period_s, method, inertia or LateralInertia.of(cfg), amplitude)
+    return _split(cfg, cyc, six.ode.period_s, method, inertia, amplitude)
 
 
 def _split(cfg, cyc, T, method, inertia, amplitude) -> LateralTrimResult:
