@@ -15,7 +15,7 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from birdocp.engine.continuation.branch import Branch, BranchPoint, SpecialPoint
+from birdocp.engine.continuation.branch import Branch, BranchPoint
 from birdocp.engine.continuation.corrector import Corrector
 from birdocp.engine.continuation.events import BranchEvents, event_crossings, locate, locate_event, sign_changes
 from birdocp.engine.continuation.options import ContinuationOptions

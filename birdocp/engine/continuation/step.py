@@ -14,7 +14,7 @@ class ContinuationStep:
 
     The same for branches of periodic orbits (``point`` a
     :class:`~birdocp.engine.continuation.branch.BranchPoint`) and of equilibria (``point`` an
-    :class:`~birdocp.engine.continuation.equilibria.EquilibriumPoint`); the properties read either.
+    :class:`~birdocp.engine.equilibria.EquilibriumPoint`); the properties read either.
 
     Attributes
     ----------
@@ -28,7 +28,7 @@ class ContinuationStep:
         :class:`~birdocp.engine.continuation.branch.SpecialPoint` on an orbit branch (fold,
         branch_point, period_doubling, neimark_sacker, user events), on an equilibrium branch
         :class:`~birdocp.engine.equilibria.HopfPoint` (``kind`` ``"hopf"``) and folds (a
-        :class:`~birdocp.engine.continuation.equilibria.EquilibriumFold`).
+        :class:`~birdocp.engine.equilibria.EquilibriumFold`).
     """
 
     index: int | None
