@@ -87,7 +87,9 @@ class HopfPoint:
 @dataclass
 class EquilibriumBranch:
     """Points of a continued equilibrium branch: params (values of the continued parameter), x (K x nx),
-    eigenvalues (K x nx), stable (K), hopf (located HopfPoints), folds (indices of fold brackets)."""
+    eigenvalues (K x nx), stable (K), hopf (located HopfPoints), folds (indices of fold brackets);
+    ``status`` ``ok``, ``no_start``, ``corrector_failed`` or ``incomplete`` (collected from an
+    iterator that was left early)."""
 
     param: int
     params: np.ndarray
@@ -336,7 +338,7 @@ class EquilibriumBranchIterator:
         self.points: list = []
         self.hopf: list = []
         self.folds: list = []
-        self.status, self.message = "ok", ""
+        self.status, self.message = "incomplete", "the iteration was left before the branch ended"
         self._started = False
 
     def _pp(self, lam: float) -> np.ndarray:
@@ -412,6 +414,8 @@ class EquilibriumBranchIterator:
             u, t = un, tn
             yield self._emit(u, lam, t, h, found)
             h = min(1.5 * h, 4 * self.ds)
+        if self.status == "incomplete":
+            self.status, self.message = "ok", ""
 
     def _special(self, u, t, un, tn, lam) -> list:
         """The fold and the Hopf point between ``u`` and ``un`` (recorded in ``folds`` / ``hopf``)."""

@@ -19,12 +19,15 @@ period doubling and Neimark-Sacker are then detected and located exactly as for 
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from birdocp.engine.continuation import Branch, ContinuationOptions, collect
 from birdocp.engine.continuation.iterate import OrbitBranchIterator
 from birdocp.engine.floquet import monodromy_of
 from birdocp.engine.ode import ODE
+from birdocp.engine.steppers import METHOD_ORDER
 from birdocp.engine.orbits import OrbitMethod, OrbitProblem, PeriodicOrbit, orbit_residual_system
 
 __all__ = ["AutonomousContinuation", "continue_orbits", "autonomous_branch_iterator", "poincare_map_jacobian"]
@@ -63,6 +66,8 @@ class AutonomousContinuation:
         self.ode = ode
         self.j = ode.param_index(param)
         self.method = method
+        self.start = start
+        self.order = METHOD_ORDER[method.integrator]
         self.ev = orbit_residual_system(ode, method, period_free=True, free_idx=(self.j,), n_lin=1, cached=False)
         self.nx, self.S = ode.nx, method.points - 1
         self.nX = self.nx * (self.S + 1)
@@ -81,6 +86,11 @@ class AutonomousContinuation:
         self.mean_names: list = []
         self.evaluations = 0
         self.residual_evaluations = 0
+
+    def refined(self) -> "AutonomousContinuation":
+        """The same system (same phase section) on twice the steps per period (for error estimates)."""
+        return AutonomousContinuation(self.ode, self.j, self.start,
+                                      replace(self.method, steps_per_period=2 * int(self.method.steps_per_period)))
 
     @property
     def name(self) -> str:

@@ -103,7 +103,8 @@ class SpecialPoint:
 class Branch:
     """A branch of periodic orbits: its points in order of arclength, the special points found
     between them, why it ended (``end_reason``: reached_to, reached_from, corrector_failed,
-    free_parameter_bound, rejected, max_points, start_failed, stopped_at_event) and the settings used."""
+    free_parameter_bound, rejected, max_points, start_failed, stopped_at_event; ``incomplete`` when
+    collected from an iterator that was left early) and the settings used."""
 
     parameter_name: str
     points: list

@@ -15,6 +15,7 @@ from typing import Callable, Iterator
 
 import numpy as np
 
+from birdocp.engine.continuation.accuracy import PointError
 from birdocp.engine.continuation.branch import Branch, BranchPoint
 from birdocp.engine.continuation.corrector import Corrector
 from birdocp.engine.continuation.events import BranchEvents, event_crossings, locate, locate_event, sign_changes
@@ -78,10 +79,12 @@ class OrbitBranchIterator:
         self.name, self.free_names = sysm.name, sysm.free_names
         self.points: list = []
         self.special_points: list = []
-        self.end_reason, self.end_message = "max_points", f"max_points={opts.max_points} reached"
+        self.end_reason = "incomplete"
+        self.end_message = "the iteration was left before the branch ended"
         self.settings: dict = {}
         self.steps: StepController | None = None
         self._started = False
+        self._errors: PointError | None = None   # built at the first point with error_estimate
 
     # --- the points -----------------------------------------------------------------------------
     def make_point(self, st: ContinuationState, arclen: float, ds_used: float) -> BranchPoint:
@@ -113,10 +116,15 @@ class OrbitBranchIterator:
                 return "rejected: " + msg
         return None
 
-    def _emit(self, pt: BranchPoint | None, found: list) -> ContinuationStep:
-        """Record the special points ``found`` and the accepted point ``pt``; the step to yield."""
+    def _emit(self, pt: BranchPoint | None, found: list, st: ContinuationState | None = None) -> ContinuationStep:
+        """Record the special points ``found`` and the accepted point ``pt`` (of the corrected state
+        ``st``: its error estimate with ``error_estimate``); the step to yield."""
         self.special_points.extend(found)
         if pt is not None:
+            if self.opts.error_estimate and st is not None:
+                if self._errors is None:
+                    self._errors = PointError(self.sysm, self.s, self.opts.tol, self.opts.max_newton)
+                pt.error_estimate = self._errors.point_error(st)
             self.points.append(pt)
         return ContinuationStep(len(self.points) - 1 if pt is not None else None, pt, list(found))
 
@@ -179,7 +187,7 @@ class OrbitBranchIterator:
         self._setup_steps(cur)
         pt0 = self.make_point(cur, 0.0, 0.0)
         cur_ev = self.events.values(pt0) if self.events is not None else {}
-        yield self._emit(pt0, [])
+        yield self._emit(pt0, [], cur)
         self.say(f"{self.name} = {pt0.parameter:.6g}: start, |L|max {max(pt0.moduli):.4f}")
         below = [k for k, v in cur_ev.items() if v < 0]
         if self.events is not None and self.events.stop and below:
@@ -204,11 +212,12 @@ class OrbitBranchIterator:
                 if found:
                     yield self._emit(None, found)
                 return
-            yield self._emit(pt, found)
+            yield self._emit(pt, found, nxt)
             self.say(f"{self.name} = {pt.parameter:.6g}: {nxt.iterations} it, ds {ds:.3g}, |L|max "
                      f"{max(pt.moduli):.4f}" + (f", free {pt.free_values}" if self.nf else ""))
             cur, cur_ev = nxt, nxt_ev
             self.steps.converged(nxt.iterations)
+        self.end_reason, self.end_message = "max_points", f"max_points={self.opts.max_points} reached"
 
     def _advance(self, cur: ContinuationState) -> tuple:
         """The next corrected state and its step ``(nxt, ds)``, retrying with shorter steps; ``(None,
@@ -242,7 +251,7 @@ class OrbitBranchIterator:
 
     def _locate_events(self, cur, ds, cur_ev, nxt_ev, arclen, found) -> tuple | None:
         """Locate the user test functions' crossings (appended to ``found``); the first located
-        stopping crossing ``(special point, point)``, or None."""
+        stopping crossing ``(special point, point, state)``, or None."""
         events, stop_at = self.events, None
         ev_tol = (events.tol or self.opts.locate_tol) if events is not None else None
         for ev_name in event_crossings(cur_ev, nxt_ev):
@@ -273,7 +282,7 @@ class OrbitBranchIterator:
             self.end_reason = "stopped_at_event"
             self.end_message = (f"stopped at the {stop_at[0].kind} at {self.name} = {stop_at[0].parameter:.8g}: "
                                 f"{stop_at[0].message}")
-            return self._emit(stop_at[1], found)
+            return self._emit(stop_at[1], found, stop_at[2])
         found.sort(key=lambda q: q.arclength)
         if boundary is not None:
             return self._at_boundary(cur, nxt, ds, arclen, boundary, found)
@@ -295,7 +304,7 @@ class OrbitBranchIterator:
         self.end_reason = "reached_to" if boundary == (self.rhi if self.direction > 0 else self.rlo) else "reached_from"
         self.end_message = (f"{self.name} reached {boundary:g}" + (" after turning back at a fold" if folded
                                                                    and self.end_reason == "reached_from" else ""))
-        return self._emit(pt, found)
+        return self._emit(pt, found, last)
 
     def _end_rejected(self, pt: BranchPoint, why: str) -> None:
         self.end_reason = why.split(":")[0]
