@@ -91,3 +91,28 @@ def test_error_estimates_of_continuation_points_track_the_true_error():
     assert "error_estimate" in it.branch().to_dict()["points"][0]
     plain = continuation(prob, "lam", -0.5, -0.3, points=3, steps_per_period=20)
     assert "error_estimate" not in plain.to_dict()["points"][0]
+
+
+def test_bird_branch_and_trim_carry_the_same_error_estimate_through_the_cli(tmp_path, capsys):
+    """``continue --error-estimate`` gives every point an error estimate (a Newton re-solve of the
+    branch's system on 2N steps) and ``trim --error-estimate`` the trim's (a full LM re-solve): two
+    paths to the same number at the start of the branch; the branch's result.json sums them up."""
+    import json
+
+    from birdocp.cli.main import main
+
+    coarse = ["--points", "3", "--steps", "48", "--quiet"]
+    assert main(["trim", *coarse, "--error-estimate", "--out", str(tmp_path / "t")]) == 0
+    trim_est = json.loads((tmp_path / "t" / "result.json").read_text())["error_estimate"]
+    assert main(["continue", "root_ahead_m", "--from", "0.05", "--to", "0.0498", *coarse, "--error-estimate",
+                 "--out", str(tmp_path / "c"), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    pts = out["branch"]["points"]
+    assert len(pts) >= 2 and all(p["error_estimate"]["fine_status"] == "converged" for p in pts)
+    first = pts[0]["error_estimate"]
+    for key in ("multipliers", "x0"):
+        assert abs(first[key] - trim_est[key]) <= 1e-4 * trim_est[key], (key, first[key], trim_est[key])
+    assert 1e-6 < trim_est["multipliers"] < 1e-3   # RK4 on 48 steps: visible, not large
+    summary = json.loads((tmp_path / "c" / "result.json").read_text())["error_estimate"]
+    assert summary["points"] == len(pts) and summary["multipliers"] == max(p["error_estimate"]["multipliers"]
+                                                                            for p in pts)

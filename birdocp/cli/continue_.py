@@ -49,6 +49,9 @@ def register(sub, common) -> None:
     p.add_argument("--resume", action="store_true",
                    help="continue the interrupted continuation in --out DIR (same arguments): the points on disk "
                         "(points/) are kept and the branch goes on from the last one")
+    p.add_argument("--error-estimate", action="store_true",
+                   help="give every point an error_estimate (a re-solve on twice the RK4 steps and the solver's "
+                        "tolerance: multipliers, x0, means, free values); costs about one more solve per point")
     solve_shortcuts(p)
     p.set_defaults(func=cmd_continue)
 
@@ -82,6 +85,8 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
             "climb_rate_mps": climb, "bounds": bounds, "step": args.step, "max_points": args.max_points,
             "stop_at_invalid": bool(args.stop_at_invalid),
             "config": C.to_dict(cfg)}
+    if args.error_estimate:  # only then: the index of a run without it stays as it was (resume checks it)
+        spec["error_estimate"] = True
     with run_folder(args, "continue", command_line, resume_file=INDEX if args.resume else None,
                     scaffold=(INDEX,)) as run:
         from birdocp.io.files import atomic_write_json
@@ -119,6 +124,8 @@ def _finish(run, args, br, cfg, display: str, a: float, b: float, resumed: int, 
                "validity_boundaries": [s for s in d["special_points"] if s["kind"] == "validity_boundary"],
                "resumed_points": resumed, "wall_s": {"total": time.perf_counter() - t_start},
                "run_dir": str(run.dir)}
+    if args.error_estimate:
+        summary["error_estimate"] = branch_error_summary(br)
     run.write(cfg, summary)
     if args.json:
         run.output(dict(summary, branch=d), None)
@@ -130,6 +137,17 @@ def _finish(run, args, br, cfg, display: str, a: float, b: float, resumed: int, 
               f"{len(br.points)} points written to {run.dir}{warn}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     return EXIT_OK
+
+
+def branch_error_summary(br) -> dict:
+    """The largest error estimates over the points of ``br`` that have one (``points``: how many;
+    ``failed``: how many 2N re-solves failed, their estimates NaN and left out of the maxima)."""
+    ests = [p.error_estimate for p in br.points if p.error_estimate]
+    ok = [e for e in ests if e.get("fine_status") == "converged"]
+    out = {"points": len(ests), "failed": len(ests) - len(ok)}
+    for k in ("multipliers", "multipliers_relative", "x0", "solver"):
+        out[k] = max((float(e[k]) for e in ok), default=float("nan"))
+    return out
 
 
 INDEX = "continue.json"
@@ -235,7 +253,8 @@ def _follow(args, cfg, model_key: str, display: str, a: float, b: float, climb: 
             new = bird_branch(cfg, args.param, start_value, b, level=args.level, climb_rate_mps=climb, bounds=bounds,
                               step=args.step, max_points=max_points, progress=say, on_point=rec.point,
                               on_special=rec.special, start=start, orient=orient,
-                              stop_at_invalid=args.stop_at_invalid)
+                              stop_at_invalid=args.stop_at_invalid,
+                              **({"error_estimate": True} if args.error_estimate else {}))
     if not rec.resumed:
         return new
     settings = dict(new.settings, resumed_at_point=rec.offset_points)
@@ -284,6 +303,11 @@ def _table(br, cfg, display: str, level: bool, figs, run_dir) -> str:
     for sp in br.special_points:
         v = -100 * sp.parameter / cfg.body.reference_chord_m if sm else sp.parameter
         lines.append(f"special point: {sp.kind} at {v:.8g} ({sp.message})")
+    est = branch_error_summary(br)
+    if est["points"]:
+        lines.append(f"error estimate (largest over {est['points']} points): multipliers {est['multipliers']:.2g}, "
+                     f"x0 {est['x0']:.2g}, solver {est['solver']:.2g}"
+                     + (f"; {est['failed']} re-solves failed" if est["failed"] else ""))
     lines.append(f"end: {br.end_reason}: {br.end_message}")
     lines.append(f"run folder  {run_dir}  (branch.json, {', '.join(f.name for f in figs)})")
     return "\n".join(lines)

@@ -28,6 +28,9 @@ def register(sub, common) -> None:
                                    "Floquet multipliers. Writes a run folder (config.toml, result.json, arrays.npz).")
     solve_shortcuts(p)
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-trim-<id>/")
+    p.add_argument("--error-estimate", action="store_true",
+                   help="add error_estimate to result.json: a re-solve on twice the RK4 steps and the solver's "
+                        "tolerance (multipliers, x0, means)")
     add_plot_flag(p)
     p.set_defaults(func=cmd_trim)
 
@@ -50,7 +53,7 @@ def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
         with run.solving():
             from birdocp.studies.trim import trim
 
-            res = trim(cfg)  # --compiled: BIRDOCP_COMPILED=1 while the command runs (cli.main)
+            res = trim(cfg, **({"error_estimate": True} if args.error_estimate else {}))  # --compiled: BIRDOCP_COMPILED=1 while the command runs (cli.main)
             getattr(res, "energetics", None)  # computes the power outputs (result.json and the table)
             result = dict(res.to_dict())
             arrays = res.arrays() if hasattr(res, "arrays") else None

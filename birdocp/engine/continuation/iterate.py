@@ -170,6 +170,8 @@ class OrbitBranchIterator:
                          "scales": s.tolist(), "tol": opts.tol, "max_points": opts.max_points,
                          "free": self.free_names, "mean_conditions": self.sysm.mean_names[:self.sysm.nm],
                          "max_dparam": opts.max_dparam, "max_dstate": opts.max_dstate}
+        if opts.error_estimate:  # the key only when asked for (branch files written without it stay as they were)
+            self.settings["error_estimate"] = True
 
     # --- the iteration ----------------------------------------------------------------------------
     def __iter__(self) -> Iterator[ContinuationStep]:
