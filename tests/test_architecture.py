@@ -156,7 +156,6 @@ LONG_FUNCTION_ALLOWED = (
     "birdocp/studies/sweep.py",
     "birdocp/studies/level.py",
     "birdocp/bird/model.py",
-    "birdocp/bird/config.py",
     "birdocp/bird/unsteady.py",
     "birdocp/cli/simulate.py",
 )

@@ -109,7 +109,7 @@ def _tiny_instances() -> dict:
     from birdocp.bird.config import PARAM_NAMES, Config
     from birdocp.bird.validity import CycleValidity
     from birdocp.engine.continuation.branch import Branch, BranchPoint, SpecialPoint
-    from birdocp.engine.equilibria import Equilibrium, EquilibriumBranch, HopfPoint
+    from birdocp.engine.equilibria import Equilibrium, EquilibriumBranch, EquilibriumFold, EquilibriumPoint, HopfPoint
     from birdocp.engine.floquet import FloquetResult
     from birdocp.engine.lyapunov import LyapunovResult
     from birdocp.engine.orbits import PeriodicOrbit
@@ -154,6 +154,9 @@ def _tiny_instances() -> dict:
         "birdocp.engine.equilibria.Equilibrium": Equilibrium(True, "converged", np.zeros(2), np.zeros(3), 0.0, 1,
                                                              np.array([-0.5 + 1j, -0.5 - 1j]), np.eye(2), True),
         "birdocp.engine.equilibria.HopfPoint": hopf,
+        "birdocp.engine.equilibria.EquilibriumPoint": EquilibriumPoint(0.5, np.zeros(2), np.array([0.5 + 2j, 0.5 - 2j]),
+                                                                       False, 0.1, 1.0),
+        "birdocp.engine.equilibria.EquilibriumFold": EquilibriumFold(3, (2, 3), (0.9, 1.1)),
         "birdocp.engine.equilibria.EquilibriumBranch": EquilibriumBranch(
             0, np.array([0.0, 1.0]), np.zeros((2, 2)), np.array([[1j, -1j], [1 + 1j, 1 - 1j]]),
             np.array([True, False]), [hopf], []),

@@ -106,26 +106,23 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
     model_key, display = resolve_parameter(key)
     chord = cfg.body.reference_chord_m
     a, b = _model_units(display, float(start_value), float(stop_value), options, chord)
+    if stop_at_invalid and not validity:
+        raise ValueError("stop_at_invalid needs validity=True (the validity of every point)")
     m = get_model(cfg)
-    points = int(points or cfg.solve.points)
-    steps = int(steps_per_period or cfg.solve.steps_per_period)
+    points, steps = int(points or cfg.solve.points), int(steps_per_period or cfg.solve.steps_per_period)
     ode = solver_ode(m, compiled)
     prob = bird_problem(cfg, m, ode, model_key, level, climb_rate_mps, bounds)
     ws = start.cycle if isinstance(start, TrimResult) else start
     options.setdefault("scales", {"states": 1.0, "free": 10.0})
-    if stop_at_invalid and not validity:
-        raise ValueError("stop_at_invalid needs validity=True (the validity of every point)")
     events = validity_events(cfg, steps, ode, stop_at_invalid) if validity else None
     br = continuation(prob, model_key, a, b, points=points, steps_per_period=steps, start=ws, accept=forward_flight,
                       progress=progress, events=events, **options)
     br.settings.update({"key": key, "display": display, "level": bool(level), "climb_rate_mps": climb_rate_mps,
-                        "stop_at_invalid": bool(stop_at_invalid),
-                        "reference_chord_m": chord, "config_amplitude_deg": cfg.gait.shoulder_flap.amplitude_deg})
+                        "stop_at_invalid": bool(stop_at_invalid), "reference_chord_m": chord,
+                        "config_amplitude_deg": cfg.gait.shoulder_flap.amplitude_deg})
     if display == STABILITY_MARGIN:
         br.settings["stability_margin_percent"] = [sm_percent(p.parameter, chord) for p in br.points]
-    if validity:
-        add_validity(cfg, br, steps, ode)
-    return br
+    return add_validity(cfg, br, steps, ode) if validity else br
 
 
 def _model_units(display: str, a: float, b: float, options: dict, chord: float) -> tuple:
