@@ -15,7 +15,6 @@ bird's branch, and what they cost. Numbers quoted in docs/studies/continuation.m
 from __future__ import annotations
 
 import argparse
-import json
 import time
 
 import casadi as ca

@@ -116,3 +116,32 @@ def test_bird_branch_and_trim_carry_the_same_error_estimate_through_the_cli(tmp_
     summary = json.loads((tmp_path / "c" / "result.json").read_text())["error_estimate"]
     assert summary["points"] == len(pts) and summary["multipliers"] == max(p["error_estimate"]["multipliers"]
                                                                             for p in pts)
+
+
+def test_forced_and_any_ode_results_share_one_base_with_the_same_names():
+    """x'' + x'/2 + x = cos t solved by both engines (multiple shooting with mean conditions, and the
+    orbit solver for any ODE): both results are OrbitResults, every shared name is there, and the
+    shared names agree (x = 2 sin t exactly; period 2 pi; multipliers exp(eig(A) 2 pi))."""
+    import casadi as ca
+
+    from birdocp.engine import (LimitCycleResult, MultipleShooting, OrbitMethod, OrbitProblem, OrbitResult,
+                                PeriodicODE, PeriodicOrbit, solve, solve_orbit)
+    from birdocp.engine.orbit_result import ORBIT_RESULT_NAMES
+
+    x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 1)
+    f = ca.Function("f", [x, t, p], [ca.vertcat(x[1], -p[0] * x[1] - x[0] + ca.cos(t))])
+    forced = solve(LimitCycleProblem(PeriodicODE.from_rhs(f, 2 * np.pi), p=[0.5], x_guess=[0, 0]),
+                   MultipleShooting(points=3, steps_per_period=120))
+    ode = ODE.from_function(lambda x, t, p: [x[1], -p[0] * x[1] - x[0] + ca.cos(t)], 2, ("c",),
+                            forcing_period=2 * np.pi)
+    anyode = solve_orbit(OrbitProblem(ode, [0.5], [0.0, 1.5]), OrbitMethod(points=3, steps_per_period=120))
+    assert isinstance(forced, LimitCycleResult) and isinstance(anyode, PeriodicOrbit)
+    assert forced.success and anyode.success
+    lam_exact = np.exp(np.linalg.eigvals(np.array([[0.0, 1.0], [-1.0, -0.5]])) * 2 * np.pi)
+    for r in (forced, anyode):
+        assert isinstance(r, OrbitResult)
+        assert all(hasattr(r, name) for name in ORBIT_RESULT_NAMES)
+        assert r.autonomous is False and abs(r.period - 2 * np.pi) < 1e-12
+        assert np.allclose(r.x0, [0.0, 2.0], atol=1e-4)
+        assert np.allclose(np.sort_complex(r.multipliers), np.sort_complex(lam_exact), atol=1e-6)
+    assert anyode.means == {} and forced.free_values == anyode.free_values == {}

@@ -71,7 +71,9 @@ def iter_branch(problem, param, start_value: float, stop_value: float, *, start=
         raise TypeError(f"iter_branch: problem must be a LimitCycleProblem or an ODE, got {type(problem).__name__}")
     if start is None:
         raise ValueError("iter_branch: an ODE needs start= (a PeriodicOrbit, an Equilibrium or a state)")
-    if hasattr(start, "period") and hasattr(start, "shooting_points"):
+    from birdocp.engine.orbit_types import PeriodicOrbit
+
+    if isinstance(start, PeriodicOrbit):
         from birdocp.engine.continuation.autonomous import autonomous_branch_iterator
 
         return autonomous_branch_iterator(start, problem, param, start_value, stop_value, **settings)
