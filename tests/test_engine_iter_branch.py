@@ -145,3 +145,22 @@ def test_forced_and_any_ode_results_share_one_base_with_the_same_names():
         assert np.allclose(r.x0, [0.0, 2.0], atol=1e-4)
         assert np.allclose(np.sort_complex(r.multipliers), np.sort_complex(lam_exact), atol=1e-6)
     assert anyode.means == {} and forced.free_values == anyode.free_values == {}
+
+
+def test_error_estimates_of_autonomous_orbit_points_track_the_true_error():
+    """Stuart-Landau orbits (r = sqrt(mu), T = 2 pi / omega, non-trivial multiplier exp(-2 mu T)) on 20
+    RK4 steps, continued through iter_branch from a PeriodicOrbit: the period's estimate
+    (``free_values["period"]``) and the multiplier's track their true errors within 10 %."""
+    from birdocp.engine import OrbitMethod, OrbitProblem, solve_orbit
+
+    o = solve_orbit(OrbitProblem(SL, [0.25, 2.0], [0.5, 0.0], period_guess=3.0), OrbitMethod(points=3, steps_per_period=20))
+    n = 0
+    for step in iter_branch(SL, "mu", 0.25, 1.0, start=o, step=0.25, error_estimate=True):
+        if step.point is None:
+            continue
+        est = step.error_estimate
+        t_ratio = est["free_values"]["period"] / abs(step.point.period - np.pi)
+        l_ratio = est["multipliers"] / abs(step.spectrum[0] - np.exp(-2 * np.pi * step.parameter))
+        assert 0.9 < t_ratio < 1.1 and 0.9 < l_ratio < 1.1, (step.parameter, t_ratio, l_ratio)
+        n += 1
+    assert n >= 3
