@@ -94,6 +94,10 @@ def _figures(run: Path, res: dict, command, arrays: dict | None) -> list:
                 from birdocp.plots.energetics import plot_power
 
                 figs.append(plot_power(cyc, run / "power.png"))
+        if res.get("degrees_of_freedom") == 6 and res.get("monodromy") is not None and res.get("success"):
+            from birdocp.plots.lateral import plot_lateral_run
+
+            figs.extend(plot_lateral_run(res, run))
     else:
         what = f"a '{command}' run" if command else "a result that names no birdocp command"
         raise ConfigError("RUN_DIR", f"do not know how to plot {what}; {PLOTTED_HINT}")

@@ -1,0 +1,53 @@
+"""The lateral Floquet modes over the wingbeat (birdocp.studies.lateral_modes, birdocp.plots.lateral)
+and `birdocp plot` of a six-degree-of-freedom trim run."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from birdocp.bird.config import Config
+from birdocp.engine.shooting import MultipleShooting
+from birdocp.studies.lateral import lateral_trim
+from birdocp.studies.lateral_modes import lateral_mode_histories
+
+
+@pytest.fixture(scope="module")
+def coarse_six():
+    cfg = Config()
+    res = lateral_trim(cfg, method=MultipleShooting(points=3, steps_per_period=48))
+    assert res.success
+    return cfg, res
+
+
+def test_mode_histories_are_periodic_and_start_on_the_eigenvectors(coarse_six):
+    cfg, res = coarse_six
+    h = lateral_mode_histories(res, cfg)
+    assert h["monodromy_error"] < 1e-9  # the stepped Phi(T) is the engine's monodromy
+    assert len(h["modes"]) == 4 and len(h["t_s"]) == 49
+    for m, ref in zip(h["modes"], res.lateral_modes):
+        q = m["history"]
+        assert np.abs(q).max() == pytest.approx(1.0)
+        np.testing.assert_allclose(q[-1], q[0], rtol=0, atol=1e-7)  # periodic: q(T) = q(0)
+        v = np.array([ref["eigenvector"][k] for k in ("v_mps", "p_radps", "r_radps", "phi_rad")])
+        c = np.vdot(v, q[0]) / np.vdot(v, v)  # q(0) is the (scaled) eigenvector of the lateral block
+        np.testing.assert_allclose(q[0], c * v, rtol=0, atol=1e-8)
+        assert abs(c) > 1e-3
+
+
+def test_plot_draws_the_lateral_modes_of_a_six_dof_trim_run(tmp_path):
+    run = tmp_path / "run"
+    trim = subprocess.run([sys.executable, "-m", "birdocp", "trim", "--set", "model.degrees_of_freedom=6",
+                           "--points", "3", "--steps", "48", "--quiet", "--out", str(run)],
+                          capture_output=True, text=True, timeout=300)
+    assert trim.returncode == 0, trim.stderr
+    proc = subprocess.run([sys.executable, "-m", "birdocp", "plot", str(run), "--json"],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    figs = json.loads(proc.stdout)["figures"]
+    for label in ("roll_subsidence", "spiral", "dutch_roll_like"):
+        assert f"lateral_mode_{label}.png" in figs
+        assert (run / f"lateral_mode_{label}.png").stat().st_size > 10_000
