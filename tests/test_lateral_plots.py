@@ -51,3 +51,24 @@ def test_plot_draws_the_lateral_modes_of_a_six_dof_trim_run(tmp_path):
     for label in ("roll_subsidence", "spiral", "dutch_roll_like"):
         assert f"lateral_mode_{label}.png" in figs
         assert (run / f"lateral_mode_{label}.png").stat().st_size > 10_000
+    bad = subprocess.run([sys.executable, "-m", "birdocp", "animate", str(run), "--bank-deg", "99"],
+                         capture_output=True, text=True, timeout=300)
+    assert bad.returncode == 2 and "--bank-deg" in bad.stderr and len(bad.stderr.strip().splitlines()) == 1
+
+
+def test_perturbed_flight_follows_the_monodromy_and_banks_the_right_wing_down(coarse_six):
+    from birdocp.plots.animation_lateral import _world
+    from birdocp.studies.lateral_motion import perturbed_flight
+
+    cfg, res = coarse_six
+    c = res.cycle
+    bank = 0.05  # deg: small, the flight after one wingbeat is the cycle plus M times the perturbation
+    fl = perturbed_flight(cfg, c.x0, c.p, bank, 1, steps_per_period=48)
+    dx0 = np.zeros(9)
+    dx0[6] = np.radians(bank)
+    dxT = fl["x"][-1] - c.x0
+    np.testing.assert_allclose(dxT, np.asarray(c.monodromy) @ dx0, rtol=0, atol=2e-3 * np.radians(bank))
+    east, north, up = _world(0.3, 0.0, 0.0)(np.array([[0.6], [0.0], [0.0]]))  # right wing tip, bank 0.3 rad
+    assert up[0] == pytest.approx(-0.6 * np.sin(0.3)) and east[0] > 0
+    east, north, up = _world(0.0, 0.0, 0.3)(np.array([[0.0], [0.0], [-1.0]]))  # the nose, heading 0.3 rad
+    assert east[0] == pytest.approx(np.sin(0.3)) and north[0] == pytest.approx(np.cos(0.3))
