@@ -21,9 +21,9 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from birdocp.bird.config import JOINT_NAMES, Config, param_vector, with_values
+from birdocp.bird.config import JOINT_NAMES, PARAM_NAMES, Config, param_vector, with_values
 from birdocp.bird.model import unpack_data
-from birdocp.bird.sixdof import LATERAL, STATE_NAMES, LateralInertia, embed_planar_state, sixdof_model
+from birdocp.bird.sixdof import LATERAL, STATE_NAMES, LateralInertia, body_loads, embed_planar_state, sixdof_model
 from birdocp.engine.equilibria import find_equilibrium
 from birdocp.engine.ode import ODE
 
@@ -97,7 +97,8 @@ def steady_glide(cfg: Config | None = None, inertia: LateralInertia | None = Non
         descending), ``eigenvalues`` (all 8, [re, im] 1/s), ``lateral_matrix`` (4 x 4 over v, p, r,
         phi), the lateral modes of :func:`lateral_glide_modes` and ``derivatives`` (body-axis
         dY/dv [N s/m], dL/dp [N m s], ... of the aerodynamic loads: keys ``Y_v``, ``Y_p``, ``Y_r``,
-        ``L_v``, ``L_p``, ``L_r``, ``N_v``, ``N_p``, ``N_r``).
+        ``L_v``, ``L_p``, ``L_r``, ``N_v``, ``N_p``, ``N_r``) and ``section_angles_deg`` (the 16
+        elements' geometric angles of attack, left tip to right tip).
     """
     cfg = frozen_config(cfg)
     six = sixdof_model(cfg)
@@ -114,7 +115,8 @@ def steady_glide(cfg: Config | None = None, inertia: LateralInertia | None = Non
            "speed_mps": float(np.hypot(u, w)), "alpha_body_deg": float(np.degrees(np.arctan2(w, u))),
            "flight_path_angle_deg": float(np.degrees(th - np.arctan2(w, u))),
            "eigenvalues": [[float(z.real), float(z.imag)] for z in eq.eigenvalues],
-           "lateral_matrix": A.tolist(), "derivatives": _load_derivatives(six, x, p6)}
+           "lateral_matrix": A.tolist(), "derivatives": _load_derivatives(six, x, p6),
+           "section_angles_deg": _section_angles_deg(six, x, p6)}
     out.update({k: v for k, v in lateral_glide_modes(A).items() if k != "eigenvalues"})
     out["lateral_eigenvalues"] = lateral_glide_modes(A)["eigenvalues"]
     return out
@@ -154,6 +156,13 @@ def load_derivatives_at(cfg: Config | None, u_mps: float, w_mps: float, inertia:
     six = sixdof_model(cfg)
     p6 = six.params(param_vector(cfg), inertia or LateralInertia.of(cfg))
     return _load_derivatives(six, np.array(embed_planar_state([u_mps, w_mps, 0.0, 0.0]))[:8], p6)
+
+
+def _section_angles_deg(six, x8, p6) -> list[float]:
+    """The geometric angle of attack of each of the 16 elements at the glide [deg], left tip to right tip."""
+    xs = ca.SX.sym("x", 9)
+    alpha = body_loads(xs, six.data(0.0, p6), p6[:len(PARAM_NAMES)])[2]["alpha"]
+    return np.degrees(np.asarray(ca.Function("alpha", [xs], [alpha])(np.append(x8, 0.0)))).ravel().tolist()
 
 
 def _load_derivatives(six, x8, p6) -> dict:
