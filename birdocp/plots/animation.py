@@ -22,7 +22,7 @@ import numpy as np
 
 from birdocp.io.files import atomic_target
 
-__all__ = ["draw_frame", "save_animation", "animation_writer", "BODY_NOTE"]
+__all__ = ["draw_frame", "draw_bird", "save_animation", "animation_writer", "BODY_NOTE"]
 
 BODY_NOTE = "body: schematic (ellipsoid, neck, beak, tail), not a measured shape"
 
@@ -79,10 +79,23 @@ def _stroke(flap_rad: np.ndarray, k: int) -> str:
     return "downstroke" if d < 0 else "upstroke"
 
 
-def _draw_bird(ax, mo: dict, k: int, world, cmap, norm) -> None:
+def draw_bird(ax, mo: dict, k: int, world, cmap, norm) -> None:
     """The bird of frame ``k`` on the 3-D axes ``ax``: schematic body, both wings' outline, bones and
-    master feathers, the lifting line coloured by circulation; ``world`` maps code-frame points
-    (3, K) relative to G to the axes' (X, Y, Z)."""
+    master feathers, the lifting line coloured by circulation.
+
+    Parameters
+    ----------
+    ax : Axes3D
+        The axes to draw on.
+    mo : dict
+        The drawing data (:func:`birdocp.bird.snapshots.motion` with ``gamma_m2ps``).
+    k : int
+        Frame index.
+    world : callable
+        Maps code-frame points (3, K) relative to G to the axes' (X, Y, Z).
+    cmap, norm
+        Colour map and normalisation of the circulation.
+    """
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     mesh, extras = _body_world(0.0, world)
@@ -197,7 +210,7 @@ class _Scene:
         th = float(mo["x"][k, 3])
         ax = self.ax3
         ax.cla()
-        _draw_bird(ax, mo, k, lambda P: _to_world(P, th), self.cmap, self.norm)
+        draw_bird(ax, mo, k, lambda P: _to_world(P, th), self.cmap, self.norm)
         ax.scatter([0], [0], [0], color="k", s=12)
         lim = 0.7
         ax.set_xlim(-lim, lim)

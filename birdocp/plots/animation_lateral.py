@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from birdocp.io.files import atomic_target
-from birdocp.plots.animation import _draw_bird, animation_writer
+from birdocp.plots.animation import draw_bird, animation_writer
 
 __all__ = ["save_lateral_animation", "draw_lateral_frame"]
 
@@ -96,7 +96,7 @@ class _Scene3D:
         mo, fl, ax = self.mo, self.flight, self.ax3
         phi, th, psi = (float(v) for v in mo["x"][k, 6:9])
         ax.cla()
-        _draw_bird(ax, mo, k, _world(phi, th, psi), self.cmap, self.norm)
+        draw_bird(ax, mo, k, _world(phi, th, psi), self.cmap, self.norm)
         ax.scatter([0], [0], [0], color="k", s=12)
         ax.plot([-0.8, 0.8], [0, 0], [-0.5, -0.5], color="0.75", lw=0.8)  # level reference on the floor
         ax.plot([0, 0], [-0.8, 0.8], [-0.5, -0.5], color="0.75", lw=0.8)
