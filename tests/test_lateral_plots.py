@@ -3,9 +3,6 @@ and `birdocp plot` of a six-degree-of-freedom trim run."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 
@@ -38,22 +35,21 @@ def test_mode_histories_are_periodic_and_start_on_the_eigenvectors(coarse_six):
         assert abs(c) > 1e-3
 
 
-def test_plot_draws_the_lateral_modes_of_a_six_dof_trim_run(tmp_path):
+def test_plot_draws_the_lateral_modes_of_a_six_dof_trim_run(tmp_path, capsys):
+    from birdocp.cli.main import main
+
     run = tmp_path / "run"
-    trim = subprocess.run([sys.executable, "-m", "birdocp", "trim", "--set", "model.degrees_of_freedom=6",
-                           "--points", "3", "--steps", "48", "--quiet", "--out", str(run)],
-                          capture_output=True, text=True, timeout=300)
-    assert trim.returncode == 0, trim.stderr
-    proc = subprocess.run([sys.executable, "-m", "birdocp", "plot", str(run), "--json"],
-                          capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    figs = json.loads(proc.stdout)["figures"]
+    assert main(["trim", "--set", "model.degrees_of_freedom=6", "--points", "3", "--steps", "48", "--quiet",
+                 "--out", str(run)]) == 0
+    capsys.readouterr()
+    assert main(["plot", str(run), "--json"]) == 0
+    figs = json.loads(capsys.readouterr().out)["figures"]
     for label in ("roll_subsidence", "spiral", "dutch_roll_like"):
         assert f"lateral_mode_{label}.png" in figs
         assert (run / f"lateral_mode_{label}.png").stat().st_size > 10_000
-    bad = subprocess.run([sys.executable, "-m", "birdocp", "animate", str(run), "--bank-deg", "99"],
-                         capture_output=True, text=True, timeout=300)
-    assert bad.returncode == 2 and "--bank-deg" in bad.stderr and len(bad.stderr.strip().splitlines()) == 1
+    assert main(["animate", str(run), "--bank-deg", "99"]) == 2
+    err = capsys.readouterr().err
+    assert "--bank-deg" in err and len(err.strip().splitlines()) == 1
 
 
 def test_perturbed_flight_follows_the_monodromy_and_banks_the_right_wing_down(coarse_six):
