@@ -3,7 +3,7 @@ per mode (roll subsidence, spiral, Dutch-roll-like pair: one figure for the pair
 shape of :func:`birdocp.studies.lateral_modes.lateral_mode_histories` in its four components
 v/U, p T, r T and phi (normalised: the largest modulus over the wingbeat is 1). A complex mode shows
 its real part (solid) and imaginary part (dashed): the shape at two instants a quarter of its
-oscillation apart."""
+oscillation apart. The downstroke (the flapping angle decreasing) is shaded grey."""
 
 from __future__ import annotations
 
@@ -31,6 +31,23 @@ def _growth(beats: float) -> str:
     return f"doubles in {beats:.3g} wingbeats" if beats > 0 else f"halves in {-beats:.3g} wingbeats"
 
 
+def _downstroke_spans(t, flap) -> list[tuple[float, float]]:
+    """Intervals of ``t`` where the flapping angle decreases (the wing tip moving down)."""
+    if flap is None:
+        return []
+    down = np.diff(np.asarray(flap, float)) < 0
+    spans, start = [], None
+    for i, d in enumerate(down):
+        if d and start is None:
+            start = t[i]
+        if not d and start is not None:
+            spans.append((start, t[i]))
+            start = None
+    if start is not None:
+        spans.append((start, t[-1]))
+    return spans
+
+
 def plot_lateral_mode(histories: dict, k: int, path, validity: str | None = None) -> Path:
     """One mode (index ``k`` of ``histories["modes"]``) over the wingbeat, written to ``path``.
 
@@ -50,7 +67,10 @@ def plot_lateral_mode(histories: dict, k: int, path, validity: str | None = None
     q = np.asarray(m["history"])
     cplx = abs(m["multiplier"].imag) > 1e-12
     fig, axes = plt.subplots(4, 1, figsize=(7.5, 8), sharex=True)
+    down = _downstroke_spans(t, histories.get("flap_angle_rad"))
     for j, ax in enumerate(axes):
+        for a, b in down:
+            ax.axvspan(a, b, color="0.92", lw=0, label="downstroke" if (j == 0 and a == down[0][0]) else None)
         ax.plot(t, q[:, j].real, color=f"C{j}", lw=1.8, label="real part" if cplx else None)
         if cplx:
             ax.plot(t, q[:, j].imag, color=f"C{j}", lw=1.2, ls="--", label="imaginary part")
@@ -58,7 +78,7 @@ def plot_lateral_mode(histories: dict, k: int, path, validity: str | None = None
         ax.set_ylabel(LATERAL_COMPONENT_LABELS[j])
         ax.set_ylim(-1.1, 1.1)
         ax.grid(alpha=0.3)
-    if cplx:
+    if cplx or down:
         axes[0].legend(fontsize=8, loc="upper right")
     axes[-1].set_xlabel("time in the wingbeat t / T")
     z = m["multiplier"]

@@ -20,7 +20,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import Config
-from birdocp.bird.sixdof import LATERAL, STATE_NAMES, sixdof_model
+from birdocp.bird.sixdof import LATERAL, LATERAL_PARAM_NAMES, STATE_NAMES, sixdof_model
 from birdocp.engine.integrate import RK4Grid
 
 __all__ = ["lateral_mode_histories", "state_transition_history"]
@@ -85,7 +85,7 @@ def lateral_mode_histories(res, cfg: Config | None = None) -> dict:
         ``t_s`` (N+1 times over one period), ``period_s``, ``monodromy_error`` (max |Phi(T) - M|),
         ``state_names`` (v, p, r, phi), ``scales`` (the factors applied to them) and ``modes``: per
         lateral mode ``label``, ``multiplier`` (complex), ``beats_to_double`` and ``history`` (complex,
-        (N+1) x 4, normalised).
+        (N+1) x 4, normalised); ``flap_angle_rad`` (N+1: the shoulder flapping angle, tip up positive).
     """
     cfg = cfg or Config()
     success, x0, p, steps, M, lat = _cycle_fields(res)
@@ -109,4 +109,14 @@ def lateral_mode_histories(res, cfg: Config | None = None) -> dict:
         modes.append({"label": m["label"], "multiplier": z, "beats_to_double": m["beats_to_double"],
                       "history": q})
     return {"t_s": t, "period_s": T, "monodromy_error": float(np.max(np.abs(Phi[-1] - M))),
-            "state_names": [STATE_NAMES[i] for i in idx], "scales": scale.tolist(), "modes": modes}
+            "state_names": [STATE_NAMES[i] for i in idx], "scales": scale.tolist(), "modes": modes,
+            "flap_angle_rad": _flap_angles(six, t, p)}
+
+
+def _flap_angles(six, t, p6) -> np.ndarray:
+    """The shoulder flapping angle [rad] at the times ``t`` (the gait's joint law)."""
+    from birdocp.bird.model import GEOMETRY_OUTPUTS
+
+    k = GEOMETRY_OUTPUTS.index("joint_angles_rad")
+    pp = np.asarray(p6, float)[:six.ode.np - len(LATERAL_PARAM_NAMES)]
+    return np.array([float(np.asarray(six.planar.geometry(float(tk), pp)[k]).ravel()[1]) for tk in t])
