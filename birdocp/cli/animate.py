@@ -3,7 +3,9 @@
 Reads a trim or level run folder (``config.toml``, ``arrays.npz`` with the cycle's trajectory and
 parameter vector), evaluates the wing geometry and the lifting line's circulation at every frame
 (:func:`birdocp.bird.snapshots.motion`) and writes a GIF (Pillow, no external program) or an MP4
-(needs ffmpeg). Everything is checked before any computation: a bad RUN_DIR, an unknown suffix or
+(needs ffmpeg). A six-degree-of-freedom run is drawn in 3-D: the flight from the cycle's start with
+its bank disturbed by ``--bank-deg`` over ``--wingbeats`` (:mod:`birdocp.plots.animation_lateral`).
+Everything is checked before any computation: a bad RUN_DIR, an unknown suffix or
 an MP4 without ffmpeg is one line on stderr and exit 2.
 """
 
@@ -39,7 +41,9 @@ def register(sub, common) -> None:
                        description="Draw the bird over one cycle of a trim or level run: schematic body, both "
                                    "wings' bones, master feathers, leading and trailing edges, the lifting line "
                                    "coloured by circulation; the path of the centre of mass relative to the "
-                                   "mean flight and the pitch angle. GIF needs no external program; MP4 needs "
+                                   "mean flight and the pitch angle. A 6-DOF run: the bird in 3-D flying from "
+                                   "the cycle with its bank disturbed (--bank-deg, --wingbeats), its ground "
+                                   "track, bank, heading and pitch. GIF needs no external program; MP4 needs "
                                    "ffmpeg.")
     p.add_argument("run_dir", metavar="RUN_DIR", help="a trim or level run folder (with arrays.npz)")
     p.add_argument("--out", metavar="FILE", help="output file, .gif or .mp4 (default RUN_DIR/animation.gif)")
