@@ -28,7 +28,7 @@ from birdocp.engine.equilibria import find_equilibrium
 from birdocp.engine.ode import ODE
 
 __all__ = ["frozen_config", "steady_glide", "glide_geometry", "lateral_glide_modes", "check_states",
-           "load_derivatives_at"]
+           "load_derivatives_at", "lateral_matrix_with"]
 
 SMALL_SECTION_ANGLE_DEG = 4.0
 """Section angle of attack of the diagnostic state of :func:`check_states` (small: where a section's
@@ -216,3 +216,38 @@ def glide_geometry(cfg: Config | None = None, glide: dict | None = None,
         "product_inertia_xz_kgm2": inertia.product_inertia_xz_kgm2,
         "air_density_kgm3": cfg.aero.air_density_kgm3, "lift_slope_per_rad": cfg.aero.lift_slope_per_rad,
         "check_states": check_states(cfg, glide)}
+
+
+def lateral_matrix_with(glide: dict, derivatives: dict, cfg: Config | None = None,
+                        inertia: LateralInertia | None = None) -> np.ndarray:
+    """The glide's lateral matrix (over v, p, r, phi) with some load derivatives replaced: birdocp's
+    exact matrix plus the change the new values make through the rigid body (dv/dt by Y/m,
+    (dp/dt, dr/dt) by the inverse inertia times (L, N)). With all nine replaced by another model's,
+    it is that model's lateral matrix at the same glide, mass and inertia.
+
+    Parameters
+    ----------
+    glide : dict
+        :func:`steady_glide`'s result.
+    derivatives : dict
+        Some of ``Y_v`` ... ``N_r`` (the keys of ``glide["derivatives"]``) with their new values.
+    cfg : Config, optional
+        The configuration of the glide (its mass; default the reference case).
+    inertia : LateralInertia, optional
+        Roll and yaw inertia (default ``cfg.model``'s).
+    """
+    cfg = cfg or Config()
+    inertia = inertia or LateralInertia.of(cfg)
+    ixx, izz, ixz = inertia.roll_inertia_kgm2, inertia.yaw_inertia_kgm2, inertia.product_inertia_xz_kgm2
+    Iinv = np.linalg.inv(np.array([[ixx, -ixz], [-ixz, izz]]))
+    A = np.array(glide["lateral_matrix"], float)
+    cols = {"v": 0, "p": 1, "r": 2}
+    for key, value in derivatives.items():
+        force, var = key.split("_")
+        d = float(value) - glide["derivatives"][key]
+        j = cols[var]
+        if force == "Y":
+            A[0, j] += d / cfg.body.mass_kg
+        else:
+            A[1:3, j] += Iinv[:, 0 if force == "L" else 1] * d
+    return A
