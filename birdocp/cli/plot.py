@@ -83,6 +83,10 @@ def _figures(run: Path, res: dict, command, arrays: dict | None) -> list:
         from birdocp.plots import figures as plots
 
         cyc = dict(res, **(arrays or {}))
+        if res.get("degrees_of_freedom") == 6 and "trajectory_x" in cyc:  # the states figures: (u, w, q, theta)
+            from birdocp.bird.sixdof import LONGITUDINAL
+
+            cyc["trajectory_x"] = [[row[i] for i in LONGITUDINAL] for row in cyc["trajectory_x"]]
         if "trajectory_x" in cyc:
             figs.append(plots.plot_states(cyc, run / "states.png"))
             figs.append(plots.plot_phase_portrait(cyc, run / "phase.png"))
@@ -94,6 +98,10 @@ def _figures(run: Path, res: dict, command, arrays: dict | None) -> list:
                 from birdocp.plots.energetics import plot_power
 
                 figs.append(plot_power(cyc, run / "power.png"))
+        if res.get("degrees_of_freedom") == 6 and res.get("monodromy") is not None and res.get("success"):
+            from birdocp.plots.lateral import plot_lateral_run
+
+            figs.extend(plot_lateral_run(res, run))
     else:
         what = f"a '{command}' run" if command else "a result that names no birdocp command"
         raise ConfigError("RUN_DIR", f"do not know how to plot {what}; {PLOTTED_HINT}")
