@@ -222,9 +222,16 @@ class Solve:
     steps_per_period: int = 148
     """RK4 steps per period; a multiple of (points - 1)."""
     solver: str = "ipopt"
+    """Nonlinear solver: "ipopt" or "lm" (the paper's Levenberg-Marquardt)."""
     derivatives: str = "exact"
+    """Jacobians: "exact" (automatic differentiation) or "fd" (finite differences; lm only)."""
     initial_guess: tuple[float, ...] = (18.0, 0.5, 0.1, 0.01)
     """State (u [m/s], w [m/s], q [rad/s], theta [rad]) at t = 0."""
+    max_iter: int = 100
+    """Iteration limit of the limit-cycle solve (IPOPT or Levenberg-Marquardt iterations), 1..100000."""
+    tol: float = 0.0
+    """Convergence tolerance of the limit-cycle solve (absolute max-norm of the shooting residual);
+    0 = the solver's default: 1e-10 for ipopt (its ``tol`` and ``constr_viol_tol``), 1e-5 for lm."""
 
 
 @dataclass(frozen=True)

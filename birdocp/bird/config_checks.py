@@ -20,7 +20,7 @@ from birdocp.io.errors import ConfigError
 __all__ = [
     "JOINT_NAMES", "CIRCULATION_MODES", "KINEMATIC_VELOCITY_MODES", "UNSTEADY_MODES", "SECTION_MODES",
     "UNSTEADY_PARAMS", "SIX_DOF_UNSUPPORTED", "WING_MASS_SHARES", "ANGLE_LIMIT_DEG", "MAX_POINTS",
-    "MAX_STEPS_PER_PERIOD", "MAX_GUESS_SPEED_MPS", "get_value", "flat_keys", "suggest", "coerce",
+    "MAX_STEPS_PER_PERIOD", "MAX_SOLVE_ITERATIONS", "MAX_GUESS_SPEED_MPS", "get_value", "flat_keys", "suggest", "coerce",
     "check_number", "parse_scalar", "validate", "require_body_states",
 ]
 
@@ -143,6 +143,8 @@ _UPPER = {
 }
 """Largest physical value of a configuration number (with its unit and, where useful, why): beyond
 it the model's numbers overflow or stop meaning anything, so it is bad input before any work."""
+MAX_SOLVE_ITERATIONS = 100000
+"""Upper bound of solve.max_iter."""
 MAX_GUESS_SPEED_MPS = 340.0
 """Largest |u|, |w| of ``solve.initial_guess`` (the speed of sound)."""
 
@@ -236,6 +238,11 @@ def validate(cfg: Any) -> None:
     if s.derivatives == "fd" and s.solver != "lm":
         raise ConfigError("solve.derivatives", "'fd' (finite-difference Jacobians) needs solve.solver = 'lm' "
                                                "(--solver lm); IPOPT runs on exact derivatives")
+    if isinstance(s.max_iter, bool) or not 1 <= s.max_iter <= MAX_SOLVE_ITERATIONS:
+        raise ConfigError("solve.max_iter", f"must be an integer in [1, {MAX_SOLVE_ITERATIONS}], got {s.max_iter!r}")
+    if not 0.0 <= s.tol < 1.0:
+        raise ConfigError("solve.tol", f"must lie in [0, 1) (0: the solver's default, 1e-10 for ipopt, 1e-5 for "
+                                       f"lm), got {s.tol!r}")
     if len(s.initial_guess) != 4:
         raise ConfigError("solve.initial_guess", f"needs 4 numbers (u, w, q, theta), got {len(s.initial_guess)}")
     for i, v in enumerate(s.initial_guess):

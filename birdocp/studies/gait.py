@@ -38,12 +38,11 @@ __all__ = ["ReducedLevelCycle", "ReducedProblem", "GaitOptimum", "optimize_gait"
            "curve_optima",
            "check_free_keys"]
 
-AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
+from birdocp.bird.keys import AMPLITUDE_BOUNDS_DEG, AMPLITUDE_KEY, JURY_MARGIN  # noqa: E402
 SPEED_KEY = "gait.shoulder_incidence.offset_deg"
 """The gait parameter that holds the forward speed in the power curve (with the amplitude holding
 level flight): the wing's mean incidence."""
 OBJECTIVES = ("power", "cost-of-transport", "positive-power")
-JURY_MARGIN = 1e-6
 POSITIVE_EPS_W = 0.05
 """Smoothing of max(P, 0) in the positive-power objective, 1/2 (P + sqrt(P^2 + eps^2)), error <= eps/2."""
 
@@ -627,7 +626,7 @@ class ReducedProblem:
 
 def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, objective: str = "power",
                   speed_mps: float | None = None, max_multiplier: float | None = None,
-                  climb_rate_mps: float = 0.0, amplitude_bounds=(20.0, 70.0),
+                  climb_rate_mps: float = 0.0, amplitude_bounds=AMPLITUDE_BOUNDS_DEG,
                   steps_per_period: int | None = None, max_iter: int = 100, tol: float = 1e-8,
                   verify: bool = True, progress=False, start: dict | None = None, x_guess=None,
                   ipopt_options: dict | None = None, hessian: str = "sr1",

@@ -43,13 +43,7 @@ from birdocp.studies.gait import check_free_keys, jury_conditions  # noqa: F401 
 
 __all__ = ["DEFAULT_FREE", "METHODS", "check_free_keys", "optimize_stability", "StabilityOptimum", "jury_conditions"]
 
-AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
-JURY_MARGIN = 1e-6
-"""The Jury quantities are bounded below by this margin, not 0: the criterion needs the strict
-inequalities, and with ``>= 0`` an optimiser finds degenerate points of the Jury table (an equality in
-an intermediate row) where multipliers lie outside the circle (seen: r = 0.944 with a multiplier of
-modulus 1.034). With the margin every feasible point has all multipliers strictly inside the circle
-of radius r, at the cost of r exceeding the spectral radius by about the margin."""
+from birdocp.bird.keys import AMPLITUDE_BOUNDS_DEG, AMPLITUDE_KEY, JURY_MARGIN  # noqa: E402
 
 DEFAULT_FREE = {
     # key: (lower, upper) around the paper's gait; a biologically plausible range for the ibis
@@ -222,7 +216,7 @@ farther from the fine one)."""
 
 
 def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, climb_rate_mps: float = 0.0,
-                       amplitude_bounds=(20.0, 70.0), steps_per_period: int | None = None,
+                       amplitude_bounds=AMPLITUDE_BOUNDS_DEG, steps_per_period: int | None = None,
                        max_iter: int = 400, tol: float = 1e-7, verify: bool = True,
                        progress=False, coarse_steps: int | None | str = "auto", method: str = "reduced",
                        threads: int = 2, valid: bool = False) -> StabilityOptimum:
@@ -424,7 +418,7 @@ def _verify(out: StabilityOptimum, cfg: Config, N: int, jury=None) -> None:
 
 
 def _optimize_full(cfg: Config | None = None, free: dict | None = None, *, climb_rate_mps: float = 0.0,
-                   amplitude_bounds=(20.0, 70.0), steps_per_period: int | None = None,
+                   amplitude_bounds=AMPLITUDE_BOUNDS_DEG, steps_per_period: int | None = None,
                    max_iter: int = 400, tol: float = 1e-7, verify: bool = True,
                    progress=False, coarse_steps: int | None = 48) -> StabilityOptimum:
     """The full-space formulation (``method="full"``): single shooting with the state at t = 0, the
