@@ -15,11 +15,13 @@ import os
 import re
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
 from birdocp.bird import config as C
 from birdocp.bird.config import ConfigError
+from birdocp.bird.keys import AMPLITUDE_KEY, ROOT_AHEAD_KEY, resolve_key
 from birdocp.engine.solver_log import LOG_ENV, NoiseFilter
 
 PROG = "birdocp"
@@ -32,8 +34,6 @@ EXIT_INTERNAL = 3
 """An unexpected error (a bug): one line naming the log file that holds the traceback."""
 EXIT_INTERRUPTED = 130
 
-AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
-ROOT_AHEAD_KEY = "wing.root_ahead_m"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -92,9 +92,69 @@ def add_free_gait_options(p: argparse.ArgumentParser, *, free_help: str, default
     """``--free KEY`` (repeatable), ``--bounds KEY=LO:HI`` (repeatable; default ``default_bounds``) and
     ``--climb-rate MPS`` of the gait optimisations."""
     p.add_argument("--free", action="append", metavar="KEY", help=free_help)
-    p.add_argument("--bounds", action="append", metavar="KEY=LO:HI",
-                   help=f"bounds of a free parameter (joint limits; repeatable, LO < HI; default: {default_bounds})")
+    add_bounds_option(p, f"bounds of a free parameter (joint limits; repeatable, LO < HI; default: {default_bounds})")
     p.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS", help="mean vertical speed (default 0)")
+
+
+def bounds_text(text: str) -> str:
+    """The argparse type of ``--bounds``: ``KEY=LO:HI`` (checked later by :func:`parse_bounds`). The
+    form ``--bounds LO HI`` of earlier versions is refused here, while the command line is parsed
+    (its second number would otherwise be taken for the CONFIG file), with one line naming the new form."""
+    if "=" not in text:
+        raise argparse.ArgumentTypeError(
+            f"'{text}' is not KEY=LO:HI: '--bounds LO HI' is now '--bounds KEY=LO:HI', e.g. --bounds amplitude=20:70")
+    return text
+
+
+def add_bounds_option(g, help: str) -> None:
+    """The one ``--bounds KEY=LO:HI`` option (repeatable) of every command that takes bounds."""
+    g.add_argument("--bounds", action="append", type=bounds_text, metavar="KEY=LO:HI", help=help)
+
+
+def parse_bounds(texts: Sequence[str] | None) -> dict[str, tuple[float, float]]:
+    """{model key: (lo, hi)} from ``--bounds KEY=LO:HI`` texts: KEY a dotted key or an alias
+    (:func:`birdocp.bird.keys.resolve_key`), LO < HI finite; ConfigError on ``--bounds`` otherwise."""
+    bounds = {}
+    for text in texts or []:
+        try:
+            key, rng = text.split("=", 1)
+            lo, hi = (float(v) for v in rng.split(":"))
+        except ValueError:
+            raise ConfigError("--bounds", f"expected KEY=LO:HI, got '{text}'") from None
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise ConfigError("--bounds", f"need finite LO < HI, got '{text}'")
+        bounds[resolve_key(key.strip(), "--bounds")] = (lo, hi)
+    return bounds
+
+
+def bounds_of(texts: Sequence[str] | None, key: str) -> tuple[float, float] | None:
+    """The bounds ``--bounds`` gives the one free parameter ``key`` (None: not given); bounds of any
+    other key are a ConfigError naming the free one."""
+    bounds = parse_bounds(texts)
+    for k in bounds:
+        if k != key:
+            raise ConfigError("--bounds", f"'{k}' is not the free parameter; give --bounds {key}=LO:HI")
+    return bounds.get(key)
+
+
+def add_compiled_flag(g) -> None:
+    """``--compiled``: pass ``compiled=True`` to the solves (``BIRDOCP_COMPILED=1`` in the environment
+    is a shorthand for it, see :func:`compiled_requested`)."""
+    g.add_argument("--compiled", action="store_true",
+                   help="use the state RHS and the data's post compiled to C (the same numbers; compiled once, "
+                        "~15 s, and cached in $BIRDOCP_CACHE or ~/.cache/birdocp; falls back to the interpreted "
+                        "path with a warning if compilation fails; BIRDOCP_COMPILED=1 is a shorthand)")
+
+
+COMPILED_ENV = "BIRDOCP_COMPILED"
+"""Environment variable that is a shorthand for ``--compiled`` on the command line (1/on/yes/true).
+The library never reads it: the Python API takes ``compiled=``."""
+
+
+def compiled_requested(args: argparse.Namespace) -> bool:
+    """``compiled=`` of the command's solves: ``--compiled`` or ``$BIRDOCP_COMPILED`` on."""
+    env = os.environ.get(COMPILED_ENV, "").strip().lower() in ("1", "on", "yes", "true")
+    return bool(getattr(args, "compiled", False)) or env
 
 
 # ---------------------------------------------------------------------------------------------
@@ -150,6 +210,8 @@ def flag_values(args: argparse.Namespace) -> list[tuple[str, str, Any]]:
         ("--steps", "solve.steps_per_period", "steps"),
         ("--solver", "solve.solver", "solver"),
         ("--derivatives", "solve.derivatives", "derivatives"),
+        ("--max-iter", "solve.max_iter", "solve_max_iter"),
+        ("--tol", "solve.tol", "solve_tol"),
     ]
     return [(flag, key, getattr(args, attr)) for flag, key, attr in table
             if getattr(args, attr, None) is not None]
@@ -374,19 +436,30 @@ def record_result(run_dir: Path, cfg, result: dict, command_line: list[str], com
     write_run(run_dir, cfg, result, None, command_line, command=command)
 
 
-class _State:
-    """What the entry point needs to know when a command ends with an exception: whether the one
-    JSON object was printed already, and the run folder (if one was kept)."""
+@dataclass
+class Context:
+    """What one run of the command line carries from the entry point to its end, passed explicitly
+    (``args.context``, set by :func:`birdocp.cli.main.main` for every command; :func:`context_of`):
 
-    json_printed = False
+    command_line:  the command as typed (``birdocp trim ...``), for the run folder's provenance.
+    json_printed:  the command's one JSON object was printed (a failure after it prints none).
+    run_dir:       the run folder that was kept (named by an interrupt or a failure), else None.
+    """
+
+    command_line: list[str]
+    json_printed: bool = False
     run_dir: Path | None = None
 
-    @classmethod
-    def reset(cls) -> None:
-        cls.json_printed, cls.run_dir = False, None
 
-
-STATE = _State
+def context_of(args: argparse.Namespace | None) -> Context:
+    """The :class:`Context` of a parsed command line (``args.context``); one is made and attached
+    when the namespace was built without the entry point (a command called from Python)."""
+    ctx = getattr(args, "context", None)
+    if ctx is None:
+        ctx = Context([PROG])
+        if args is not None:
+            args.context = ctx
+    return ctx
 
 
 def validity_word(valid) -> str:
@@ -406,13 +479,14 @@ def validity_notes(rows: list[dict], label: str = "value") -> list[str]:
     return out
 
 
-def print_json(obj: Any) -> None:
-    """Print ``obj`` as the command's one JSON object (complex as [re, im], NaN/inf as null)."""
+def print_json(obj: Any, ctx: Context) -> None:
+    """Print ``obj`` as the command's one JSON object (complex as [re, im], NaN/inf as null) and
+    record in ``ctx`` that it was printed."""
     from birdocp.io.files import to_jsonable
 
     sys.stdout.write(json.dumps(to_jsonable(obj)) + "\n")
     sys.stdout.flush()
-    STATE.json_printed = True
+    ctx.json_printed = True
 
 
 def finish_result(result: dict, command: str, t_start: float, run_dir: Path) -> None:
@@ -492,6 +566,7 @@ class Run:
 
     def __init__(self, args: argparse.Namespace, command: str, run_dir: Path, command_line: list[str]):
         self.args, self.command, self.dir, self.command_line = args, command, run_dir, command_line
+        self.ctx = context_of(args)
         self.noise: NoiseFilter | None = None
         self._verbose = bool(getattr(args, "verbose", False))
 
@@ -511,7 +586,7 @@ class Run:
     def output(self, result: dict, table: str | None) -> None:
         """Print the result: the one JSON object with --json, else the table."""
         if getattr(self.args, "json", False):
-            print_json(result)
+            print_json(result, self.ctx)
         elif table is not None:
             print(table)
 
@@ -554,27 +629,29 @@ def run_folder(args: argparse.Namespace, command: str, command_line: list[str], 
         run_dir = new_run_dir(None, command)
         created, before = True, set()
     run = Run(args, command, run_dir, command_line)
-    STATE.run_dir = run_dir
+    run.ctx.run_dir = run_dir
     try:
         yield run
     except BaseException:
         from birdocp.io.files import signals_deferred
 
         with signals_deferred(), contextlib.suppress(OSError):  # a second Ctrl-C waits for the clean-up
-            _remove_if_empty(run_dir, before, {SOLVER_LOG, *scaffold}, created)
+            if _remove_if_empty(run_dir, before, {SOLVER_LOG, *scaffold}, created):
+                run.ctx.run_dir = None
         raise
     finally:
         release_out_dir(run_dir)
 
 
-def _remove_if_empty(run_dir: Path, before: set, scaffold: set, created: bool) -> None:
+def _remove_if_empty(run_dir: Path, before: set, scaffold: set, created: bool) -> bool:
+    """Remove what this run added to ``run_dir`` when none of it is a result; True if it did."""
     from birdocp.io.runs import folder_entries, release_out_dir
 
     new = set(folder_entries(run_dir)) - before
     # a result: a non-empty sub-folder (points/, rows/) or a file that is not scaffold
     results = [n for n in new if (any((run_dir / n).iterdir()) if (run_dir / n).is_dir() else n not in scaffold)]
     if results:
-        return
+        return False
     for n in new:
         path = run_dir / n
         if path.is_dir():
@@ -584,10 +661,10 @@ def _remove_if_empty(run_dir: Path, before: set, scaffold: set, created: bool) -
     release_out_dir(run_dir)
     if created and not folder_entries(run_dir):
         run_dir.rmdir()
-    STATE.run_dir = None
+    return True
 
 
-def failure_json(status: str, message: str) -> dict:
+def failure_json(status: str, message: str, ctx: Context) -> dict:
     """The one JSON object of a command that ended without its own (interrupt, internal error)."""
     return {"success": False, "status": status, "message": message,
-            "run_dir": str(STATE.run_dir) if STATE.run_dir is not None else None}
+            "run_dir": str(ctx.run_dir) if ctx.run_dir is not None else None}

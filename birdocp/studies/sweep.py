@@ -69,21 +69,21 @@ def sweep_values(start: float, stop: float, step: float) -> list[float]:
 
     The end is always included: when ``|stop - start|`` is not a multiple of ``step`` the last
     interval is shorter than ``step``. A step larger than a non-empty range is refused
-    (:class:`ConfigError` on ``--step``): it would solve the two ends only, which is rarely what was
+    (:class:`ConfigError` on ``--by``): it would solve the two ends only, which is rarely what was
     meant (e.g. a step in centimetres for a parameter in metres).
     """
-    for name, v in (("--from", start), ("--to", stop), ("--step", step)):
+    for name, v in (("--from", start), ("--to", stop), ("--by", step)):
         if not math.isfinite(v):
             raise ConfigError(name, f"must be finite, got {v!r}")
     if not step > 0:
-        raise ConfigError("--step", f"must be positive, got {step!r}")
+        raise ConfigError("--by", f"must be positive, got {step!r}")
     span = abs(stop - start)
     if span > 0 and step > span * (1 + 1e-9):
-        raise ConfigError("--step", f"{step:g} is larger than the range {start:g} .. {stop:g} (width {span:g}); "
+        raise ConfigError("--by", f"{step:g} is larger than the range {start:g} .. {stop:g} (width {span:g}); "
                                     f"give a step <= {span:g}")
     n = int(math.floor(span / step + 1e-9))
     if n + 1 > MAX_SWEEP_POINTS:
-        raise ConfigError("--step", f"{n + 1} points from {start:g} to {stop:g}; at most {MAX_SWEEP_POINTS}: "
+        raise ConfigError("--by", f"{n + 1} points from {start:g} to {stop:g}; at most {MAX_SWEEP_POINTS}: "
                                     "use a larger step")
     sign = 1.0 if stop >= start else -1.0
     values = [float(np.round(start + sign * k * step, 12)) for k in range(n + 1)]
