@@ -47,6 +47,7 @@ SIX_DOF_UNSUPPORTED = (("tail.opening_angle_deg", "tail"), ("wing.mass_kg", "win
 keys must be 0 (and tail.enabled, drag.enabled false)."""
 
 def get_value(cfg: Any, key: str) -> Any:
+    """The value of a dotted key (``"gait.shoulder_flap.amplitude_deg"``, ``"wing.feather_lengths_m.3"``)."""
     obj = cfg
     for part in key.split("."):
         if isinstance(obj, tuple):
@@ -56,6 +57,7 @@ def get_value(cfg: Any, key: str) -> Any:
     return obj
 
 def flat_keys(obj: Any, prefix: str = "") -> list[str]:
+    """The dotted keys of every leaf value of a configuration or section (``prefix`` prepended)."""
     keys = []
     for f in fields(obj):
         v = getattr(obj, f.name)
@@ -67,6 +69,7 @@ def flat_keys(obj: Any, prefix: str = "") -> list[str]:
     return keys
 
 def suggest(key: str, candidates) -> str:
+    """``"; did you mean 'X'?"`` for the closest of ``candidates``, else ``""``."""
     match = difflib.get_close_matches(key, list(candidates), n=1, cutoff=0.6)
     return f"; did you mean '{match[0]}'?" if match else ""
 
@@ -150,6 +153,7 @@ MAX_GUESS_SPEED_MPS = 340.0
 
 
 def check_number(key: str, value: Any) -> float:
+    """``value`` as a finite float, else a ConfigError on ``key``."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ConfigError(key, f"expected a number, got {value!r}")
     try:
