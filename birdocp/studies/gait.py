@@ -801,6 +801,7 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
         start_value = float("nan")  # the configured gait does not fly level at this speed
     start_mult = ev0.multipliers
     from birdocp.engine.oracle import ConstraintOracle, FixedHessian, StencilHessian
+    from birdocp.engine.oracle import ipopt_options as one_ipopt_front  # the one set of IPOPT options
 
     zs = ca.MX.sym("z", prob.nz)
     scale2 = np.multiply.outer(prob.sigma, prob.sigma)[:, None, :]  # [k, ., j]: sigma_k sigma_j
@@ -812,12 +813,12 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
     nlp = {"x": zs, "f": G[0], "g": G[1:]}
     # SR1 limited-memory updates (BFGS crept along the speed constraint in 0.015-deg steps, and did not
     # converge on the stability radius); r is bounded by twice its start (SR1 took wild steps in r)
-    opts = {"ipopt.hessian_approximation": "limited-memory" if hessian == "sr1" else "exact",
+    opts = one_ipopt_front(**{"ipopt.hessian_approximation": "limited-memory" if hessian == "sr1" else "exact",
             "ipopt.limited_memory_update_type": "sr1",
             "ipopt.sb": "yes",
             "ipopt.print_level": 5 if progress is True else 0, "print_time": False, "ipopt.max_iter": int(max_iter),
             "ipopt.tol": tol, "ipopt.constr_viol_tol": 1e-8, "ipopt.acceptable_tol": 1e-6,
-            "ipopt.acceptable_iter": 5, "ipopt.mu_strategy": "adaptive", "ipopt.nlp_scaling_method": "gradient-based", **(ipopt_options or {})}
+            "ipopt.acceptable_iter": 5, "ipopt.mu_strategy": "adaptive", "ipopt.nlp_scaling_method": "gradient-based", **(ipopt_options or {})})
     solver = ca.nlpsol("gait", "ipopt", nlp, opts)
     glo, ghi = prob.bounds_g()
     t0 = time.perf_counter()

@@ -39,6 +39,7 @@ from birdocp.engine import interrupts
 from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.engine.oracle import ConstraintOracle, ipopt_options
 from birdocp.engine.results import result_dict, serial
+from birdocp.io.progress import text_reporter
 from birdocp.studies.gait import check_free_keys, jury_conditions  # noqa: F401 (public here too)
 
 __all__ = ["DEFAULT_FREE", "METHODS", "check_free_keys", "optimize_stability", "StabilityOptimum", "jury_conditions"]
@@ -197,11 +198,7 @@ class _Evaluator:
         if self.progress:
             text = (f"Jacobian {self.n_jac}: r = {r:.6f}, largest |multiplier| = "
                     f"{np.max(np.abs(np.linalg.eigvals(M))):.6f}, periodicity {np.max(np.abs(xT - z[:4])):.1e}")
-            if callable(self.progress):
-                self.progress(text)
-            else:
-                import sys
-                print(f"optimize-stability: {text}", file=sys.stderr, flush=True)
+            text_reporter(self.progress, "optimize-stability")(text)
         return J
 
 
