@@ -32,6 +32,7 @@ from birdocp.bird.config import require_body_states, PARAM_NAMES, Config, Config
 from birdocp.bird.validity import periodic_validity
 from birdocp.engine.floquet import sort_multipliers
 from birdocp.engine.results import result_dict, serial
+from birdocp.io.progress import text_reporter
 
 __all__ = ["ReducedLevelCycle", "ReducedProblem", "GaitOptimum", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
            "level_at_speed", "power_curve", "SPEED_KEY", "stability_pareto", "jury_conditions", "valid_power_curve",
@@ -972,7 +973,7 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
                 row["message"] = str(e)
                 rows.append(row)
                 if progress:
-                    print(f"power curve: {s:.3g} m/s failed: {e}", flush=True)
+                    text_reporter(progress, "power curve")(f"{s:.3g} m/s failed: {e}")
                 break
             ev_prev = ev
             p = rc.pfull(ev.theta, ev.amplitude_deg)
@@ -990,8 +991,9 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
                         "largest_modulus": float(np.max(np.abs(lam))), "validity": v, "valid": bool(v["valid"])})
             rows.append(row)
             if progress:
-                print(f"power curve: U {s:6.2f} m/s  {key} {ev.theta[0]:8.4f}  A {ev.amplitude_deg:8.4f} deg  "
-                      f"P {e['mean_shoulder_power_W']:8.4f} W  |L1| {row['largest_modulus']:.4f}", flush=True)
+                text_reporter(progress, "power curve")(f"U {s:6.2f} m/s  {key} {ev.theta[0]:8.4f}  A "
+                                                       f"{ev.amplitude_deg:8.4f} deg  P {e['mean_shoulder_power_W']:8.4f} W"
+                                                       f"  |L1| {row['largest_modulus']:.4f}")
     rows.sort(key=lambda r: r["speed_mps"])
     return {"key": key, "rows": rows} | curve_optima(rows)
 
