@@ -132,3 +132,10 @@ def test_no_module_level_cli_state_between_runs(fake_studies, capfd):  # noqa: F
     assert cli.main(["trim", "--json"]) == 130
     out, err = capfd.readouterr()
     assert json.loads(out)["run_dir"] is None and "first" not in err
+
+
+def test_continue_refuses_the_solve_settings_it_does_not_use(tmp_path, monkeypatch, capfd):
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["continue", "root_ahead_m", "--from", "0.05", "--to", "0.04", "--tol", "1e-6"]) == 2
+    err = capfd.readouterr().err
+    assert err.count("\n") == 1 and "solve.tol" in err and not (tmp_path / "runs").exists()

@@ -61,6 +61,9 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
     t_start = time.perf_counter()
     model_key, display = resolve_parameter(args.param)
     cfg = resolve_config(args)
+    for key in ("max_iter", "tol"):  # the corrector has its own settings: refused, not ignored
+        if getattr(cfg.solve, key) != getattr(C.Solve(), key):
+            raise ConfigError(f"solve.{key}", "is not used by continue (its corrector has its own settings); drop it")
     a, b = finite_values("--from/--to", [args.start, args.stop])
     if a == b:
         raise ConfigError("--to", "must differ from --from")
