@@ -41,6 +41,7 @@ from birdocp.engine.oracle import ConstraintOracle, ipopt_options
 from birdocp.engine.results import result_dict, serial
 from birdocp.io.progress import text_reporter
 from birdocp.studies.gait import check_free_keys, jury_conditions  # noqa: F401 (public here too)
+from birdocp.studies.gait_validity import WARM_IPOPT
 
 __all__ = ["DEFAULT_FREE", "METHODS", "check_free_keys", "optimize_stability", "StabilityOptimum", "jury_conditions"]
 
@@ -367,8 +368,7 @@ def _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter,
     from birdocp.studies.gait import optimize_gait
 
     warm = start is not None
-    opts = {"ipopt.mu_init": 1e-6, "ipopt.mu_strategy": "monotone", "ipopt.bound_push": 1e-8,
-            "ipopt.bound_frac": 1e-8} if warm else None
+    opts = dict(WARM_IPOPT) if warm else None  # the one set of re-solve options (gait_validity)
     fixed = second is not None and bool(np.all(np.isfinite(second)))
     hessian = "fd" if not warm else ("fixed" if fixed else "sr1")
     return optimize_gait(cfg, free, objective="stability", climb_rate_mps=climb_rate_mps,
