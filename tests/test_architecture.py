@@ -153,8 +153,6 @@ LONG_FUNCTION_ALLOWED = (
     "birdocp/studies/gait.py",
     "birdocp/studies/optimize.py",
     "birdocp/studies/simulate.py",
-    "birdocp/studies/sweep.py",
-    "birdocp/studies/level.py",
     "birdocp/bird/model.py",
     "birdocp/bird/unsteady.py",
     "birdocp/cli/simulate.py",

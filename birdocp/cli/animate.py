@@ -150,7 +150,7 @@ def cmd_animate(args: argparse.Namespace, command_line: list[str]) -> int:
             "period_s": period, "bytes": out.stat().st_size, "run_dir": str(run),
             "wall_s": {"total": time.perf_counter() - t_start}}
     if args.json:
-        cli.print_json(info)
+        cli.print_json(info, cli.context_of(args))
     else:
         print(f"wrote {out} ({args.frames} frames over one period of {1000 * period:g} ms, {fps:g} fps, "
               f"{info['bytes'] / 1e6:.2f} MB)")

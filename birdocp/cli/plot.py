@@ -8,7 +8,7 @@ import os
 from pathlib import Path
 
 from birdocp.bird.config import ConfigError
-from birdocp.cli.common import EXIT_OK, print_json, solver_noise
+from birdocp.cli.common import EXIT_OK, context_of, print_json, solver_noise
 
 
 PLOTTED = ("trim", "level", "sweep", "continue", "optimize-stability", "optimize-gait")
@@ -58,7 +58,8 @@ def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
                                      f"({type(exc).__name__}: {exc})") from None
     names = [Path(f).name for f in figs]
     if args.json:
-        print_json({"run_dir": str(run), "figures": names, "success": True, "status": "plotted"})
+        print_json({"run_dir": str(run), "figures": names, "success": True, "status": "plotted"},
+                   context_of(args))
     else:
         print(f"wrote {', '.join(names) or 'no figures'} in {run}")
     return EXIT_OK

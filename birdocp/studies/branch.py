@@ -47,7 +47,7 @@ def root_of_sm(sm_pct: float, chord_m: float) -> float:
 def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, stop_value: float = 0.035, *,
                 level: bool = False, climb_rate_mps: float = 0.0, bounds=None, points: int | None = None,
                 steps_per_period: int | None = None, start=None, progress=None, validity: bool = True,
-                stop_at_invalid: bool = False, compiled: bool | None = None, **options) -> Branch:
+                stop_at_invalid: bool = False, compiled: bool = False, **options) -> Branch:
     """Continue the bird's periodic flight in one parameter by pseudo-arclength continuation.
 
     The branch's ``parameter`` is the model parameter (``wing.root_ahead_m`` for SM); the SM of every
@@ -89,9 +89,9 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
         period from its x0 with its parameters) and its validity margins.
     stop_at_invalid : bool
         End the branch where it leaves the model's validity.
-    compiled : bool, optional
-        The RHS and data compiled to C (:func:`birdocp.studies.trim.solver_ode`; None:
-        ``$BIRDOCP_COMPILED``).
+    compiled : bool
+        The RHS and data compiled to C (:func:`birdocp.studies.trim.solver_ode`; the same
+        numbers, faster).
     **options
         Settings of :class:`~birdocp.engine.continuation.options.ContinuationOptions` (``step``,
         ``max_points``, ``max_dparam``, ``error_estimate`` (every point's ``error_estimate``), ...) and

@@ -167,7 +167,8 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     six = sixdof_model(cfg)
     inertia = inertia or LateralInertia.of(cfg)
     p6 = six.params(param_vector(cfg), inertia)
-    method = method or MultipleShooting(points=cfg.solve.points, steps_per_period=cfg.solve.steps_per_period)
+    method = method or MultipleShooting(points=cfg.solve.points, steps_per_period=cfg.solve.steps_per_period,
+                                        max_iter=cfg.solve.max_iter, tol=cfg.solve.tol or None)
     guess = embed_planar_state(cfg.solve.initial_guess) if x_guess is None else x_guess
     outputs = six.flight_outputs()
     free, means = {}, []
