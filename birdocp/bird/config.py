@@ -23,7 +23,7 @@ from birdocp.io.errors import ConfigError
 from birdocp.io.files import dataclass_to_dict
 
 __all__ = [
-    "ConfigError", "Joint", "Body", "Wing", "Gait", "Aero", "Tail", "Drag", "Solve", "Validity", "Config",
+    "ConfigError", "Joint", "SideOffsets", "Body", "Wing", "Gait", "Aero", "Tail", "Drag", "Solve", "Validity", "Config",
     "JOINT_NAMES", "PARAM_NAMES", "param_vector", "load", "dump", "loads", "dumps",
     "from_dict", "to_dict", "set_value", "with_values", "WING_MASS_SHARES", "body_alone_mass_kg", "require_body_states",
 ]
@@ -103,6 +103,24 @@ JOINT_NAMES = (
 
 
 @dataclass(frozen=True)
+class SideOffsets:
+    """Offsets added to the joint laws of ONE wing (an asymmetric gait): the wing's joint ``j`` follows
+    ``offset + d_offset + (amplitude + d_amplitude) sin(2 pi f t + phase + d_phase)`` with the
+    ``d_...`` values here (deg). Each wing's angles are in its own mirrored frame (flap tip up, sweep
+    tip forward, incidence leading edge up on both sides), so equal offsets on both sides keep the
+    gait symmetric. Zero everywhere (the default) leaves the law of :class:`Gait` unchanged; a
+    non-zero value needs ``model.degrees_of_freedom = 6``."""
+
+    shoulder_incidence: Joint = Joint()
+    shoulder_flap: Joint = Joint()
+    shoulder_sweep: Joint = Joint()
+    elbow_flex: Joint = Joint()
+    hand_twist: Joint = Joint()
+    wrist_flex: Joint = Joint()
+    wrist_spread: Joint = Joint()
+
+
+@dataclass(frozen=True)
 class Gait:
     """Prescribed wing kinematics: one harmonic law per joint, all at the flapping frequency."""
 
@@ -122,6 +140,11 @@ class Gait:
     """Wrist flexion in the wing plane. Paper: "wrist z"; code slot w_y."""
     wrist_spread: Joint = Joint(0.0, 0.0, 0.0)
     """Wrist rotation about the body axis; not in the paper (identically 0). Code slot w_z."""
+    right_offset: SideOffsets = SideOffsets()
+    """Offsets of the right wing's joint laws (deg; six degrees of freedom only), e.g.
+    ``gait.right_offset.shoulder_flap.amplitude_deg = 2``."""
+    left_offset: SideOffsets = SideOffsets()
+    """Offsets of the left wing's joint laws (deg; six degrees of freedom only)."""
 
     @property
     def period_s(self) -> float:
@@ -488,6 +511,7 @@ def validate(cfg: Config) -> None:
             v = getattr(joint, name)
             if not -lim <= v <= lim:
                 raise ConfigError(f"gait.{j}.{name}", f"must lie in [{-lim:g}, {lim:g}] deg, got {v!r}")
+    _validate_sides(cfg)
     for key in ("drag.body_drag_coefficient", "drag.profile_drag_coefficient"):
         if get_value(cfg, key) < 0:
             raise ConfigError(key, f"must be >= 0 (0 = off), got {get_value(cfg, key)!r}")
@@ -535,6 +559,30 @@ def validate(cfg: Config) -> None:
             raise ConfigError(f"solve.initial_guess.{i}", f"must lie within +-{MAX_GUESS_SPEED_MPS:g} m/s (the speed "
                                                           f"of sound: the model's air is incompressible), got {v!r}")
     _validate_model(cfg)
+
+
+SIDE_KEYS = tuple(f"gait.{side}.{j}.{f.name}" for side in ("right_offset", "left_offset") for j in JOINT_NAMES
+                  for f in fields(Joint))
+"""The per-side offset keys of an asymmetric gait (right wing's 21, then the left wing's)."""
+
+
+def asymmetric(cfg: Config) -> bool:
+    """True when a per-side offset (:data:`SIDE_KEYS`) is not zero."""
+    return any(get_value(cfg, k) != 0 for k in SIDE_KEYS)
+
+
+def _validate_sides(cfg: Config) -> None:
+    for key in SIDE_KEYS:
+        base = get_value(cfg, key.replace(".right_offset", "").replace(".left_offset", ""))
+        v = get_value(cfg, key) + base
+        lim = 2 * ANGLE_LIMIT_DEG if key.endswith("phase_deg") else ANGLE_LIMIT_DEG
+        if not -lim <= v <= lim:
+            raise ConfigError(key, f"the wing's law (joint value + offset) must lie in [{-lim:g}, {lim:g}] deg, "
+                                   f"got {v!r}")
+    if asymmetric(cfg) and cfg.model.degrees_of_freedom != 6:
+        key = next(k for k in SIDE_KEYS if get_value(cfg, k) != 0)
+        raise ConfigError(key, "an asymmetric gait (per-side offset) needs model.degrees_of_freedom = 6; "
+                               "set it or the offset to 0")
 
 
 def _validate_model(cfg: Config) -> None:
