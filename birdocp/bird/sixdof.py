@@ -122,13 +122,14 @@ def body_loads(x, d, p):
     return ca.vertcat(-F[2], F[0], -F[1]), ca.vertcat(-Mc[2], Mc[0], -Mc[1]), e
 
 
-def _rhs_expr(x, d, p6):
-    """The state derivative (9) of the rigid body with the aerodynamic loads of :func:`body_loads`."""
+def _rhs_expr(x, d, p6, x_air=None):
+    """The state derivative (9) of the rigid body with the aerodynamic loads of :func:`body_loads` at
+    ``x_air`` (the state as the air sees it, with a wind; default ``x``)."""
     p = p6[:len(PARAM_NAMES)]
     ixx, izz, ixz = (p6[len(PARAM_NAMES) + i] for i in range(3))
     m, iyy, g = _p(p, "body.mass_kg"), _p(p, "body.pitch_inertia_kgm2"), _p(p, "body.gravity_mps2")
     u, v, w, pr, q, rr, phi, th = (x[i] for i in range(8))
-    Fb, Mb, _ = body_loads(x, d, p)
+    Fb, Mb, _ = body_loads(x if x_air is None else x_air, d, p)
     X, Y, Z = Fb[0], Fb[1], Fb[2]
     L, M, N = Mb[0], Mb[1], Mb[2]
     cth, sth, cph, sph = ca.cos(th), ca.sin(th), ca.cos(phi), ca.sin(phi)

@@ -47,7 +47,7 @@ from birdocp.engine.results import result_dict, serial
 __all__ = ["DEFAULT_CONTROLS", "ACCEPTABLE_STATE", "ACCEPTABLE_CONTROL_DEG", "DEFAULT_LIMIT_DEG",
            "WingbeatMap", "Controller", "wingbeat_map", "periodic_lqr", "design_controller",
            "resolve_controls", "bryson_weights", "default_limits", "sorted_eigs", "reference_cycle",
-           "closed_loop_monodromy", "CONTROL_ALIASES", "PerModel", "linearise"]
+           "closed_loop_monodromy", "CONTROL_ALIASES", "PerModel", "linearise", "controller_on_map"]
 
 DEFAULT_CONTROLS = ("gait.shoulder_incidence.offset_deg", "gait.shoulder_flap.amplitude_deg",
                     "gait.shoulder_sweep.offset_deg")
@@ -511,6 +511,14 @@ def design_controller(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat:
     Qd, Rd = bryson_weights(cycle_result.cfg, wm.controls)
     Q = Qd if Q is None else np.asarray(Q, float)
     R = Rd if R is None else np.asarray(R, float)
+    return controller_on_map(wm, Q, R, default_limits(cycle_result.cfg, wm.controls, wm.p, limit_deg))
+
+
+def controller_on_map(wm: WingbeatMap, Q, R, limits) -> Controller:
+    """The periodic LQR of a linearised wingbeat map (any number of states) with weights ``Q``, ``R``
+    and the analysis of each control alone; ``limits`` (m, 2) go to the controller. Raises
+    ``numpy.linalg.LinAlgError`` carrying ``wingbeat_map`` and ``per_control`` when no stabilising
+    solution exists (:func:`design_controller`)."""
     per = [_single_control(wm, j, Q, R) for j in range(len(wm.controls))]
     try:
         P, K = periodic_lqr(wm.A, wm.B, Q, R)
@@ -518,7 +526,7 @@ def design_controller(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat:
         # the analysis survives the failure: the wingbeat map and each control alone
         exc.wingbeat_map, exc.per_control = wm, per
         raise
-    return Controller(wm, Q, R, P, K, default_limits(cycle_result.cfg, wm.controls, wm.p, limit_deg), per)
+    return Controller(wm, Q, R, P, K, np.asarray(limits, float), per)
 
 
 def reference_cycle(cfg: Config, level: bool = False):

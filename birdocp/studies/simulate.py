@@ -213,11 +213,19 @@ class _Stepper(PerModel):
 
     def data(self, i: int, p) -> ca.DM:
         """Stage blocks of interval i for parameters p (the arm-frame shape ``pre`` memoised)."""
-        n = self.grid.n
-        cols = slice(2 * n * i, 2 * n * (i + 1) + 1)
-        L = self.grid.pre_numeric(0.0, p)[:, cols]
-        G = self.post_interval(L, ca.DM(self.times[:, cols]), ca.DM(np.asarray(p, float)))
-        return G[:, self.blocks]
+        return interval_data(self, i, p)
+
+
+def interval_data(stepper, i: int, p) -> ca.DM:
+    """Stage blocks of interval ``i`` for parameters ``p`` of a stepper with ``grid`` (an
+    :class:`~birdocp.engine.integrate.RK4Grid` of N intervals), ``post_interval`` (the ODE's ``post``
+    mapped over an interval's 2n + 1 times), ``times`` and ``blocks``; the arm-frame shape ``pre``
+    memoised by the grid."""
+    n = stepper.grid.n
+    cols = slice(2 * n * i, 2 * n * (i + 1) + 1)
+    L = stepper.grid.pre_numeric(0.0, p)[:, cols]
+    G = stepper.post_interval(L, ca.DM(stepper.times[:, cols]), ca.DM(np.asarray(p, float)))
+    return G[:, stepper.blocks]
 
 
 def nonlinear_beat_map(cfg, x0, params_per_interval, steps_per_period: int | None = None) -> np.ndarray:
