@@ -166,6 +166,7 @@ class LateralSimulation:
     min_air_forward_speed_mps: float = float("nan")
     max_airflow_body_angle_deg: float = float("nan")
     diverged_beat: int | None = None
+    control_cycle: np.ndarray = field(default_factory=lambda: np.zeros(0), metadata=serial(skip=True))
 
     def to_dict(self) -> dict:
         """JSON-ready dict: the fields but the histories, with the peak bank and the final heading [deg],
@@ -187,7 +188,7 @@ class LateralSimulation:
     def arrays(self) -> dict:
         """The histories (arrays.npz)."""
         return {"t_s": self.t_s, "states": self.states, "position_m": self.position_m,
-                "control_t_s": self.control_t_s, "controls": self.controls,
+                "control_t_s": self.control_t_s, "controls": self.controls, "control_cycle": self.control_cycle,
                 "deviation_per_beat": self.deviation_per_beat}
 
 
@@ -302,4 +303,4 @@ def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | No
         keys, np.array(dev), sat, None if side_gust is None else {
             "amplitude_mps": side_gust.amplitude_mps, "shape": side_gust.shape, "length_beats": side_gust.length_beats,
             "start_beats": side_gust.start_beats}, dx0.tolist(), beat_m, float(np.nanmin(A[0])),
-        float(np.nanmax(np.degrees(np.arctan2(np.hypot(A[1], A[2]), A[0])))), diverged)
+        float(np.nanmax(np.degrees(np.arctan2(np.hypot(A[1], A[2]), A[0])))), diverged, p_cyc[idx])
