@@ -75,3 +75,41 @@ def test_bad_controls_and_gusts_are_refused():
         SideGust(2.0, length_beats=0.0)
     with pytest.raises(ConfigError, match="--perturb"):
         parse_lateral_perturbation(["yaw=1"])
+
+
+def _cli(*argv, tmp_path=None):
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "birdocp", *argv], capture_output=True, text=True, timeout=300)
+
+
+SIX = ["--set", "model.degrees_of_freedom=6", "--set", "solve.points=3", "--set", "solve.steps_per_period=48"]
+
+
+def test_control_and_simulate_cli_in_six_degrees_of_freedom(tmp_path):
+    import json
+
+    ctl_dir = tmp_path / "ctl"
+    proc = _cli("control", *SIX, "--controls", "right_sweep", "left_sweep", "--json", "--out", str(ctl_dir))
+    assert proc.returncode == 0, proc.stderr
+    r = json.loads(proc.stdout)
+    assert r["controls"] == [LATERAL_CONTROLS[1], LATERAL_CONTROLS[4]] and r["closed_loop_spectral_radius"] < 1
+    assert np.asarray(r["gains"]).shape == (1, 2, 8) and len(r["cycle_x0"]) == 8 and r["degrees_of_freedom"] == 6
+    proc = _cli("simulate", *SIX, "--controller", str(ctl_dir), "--beats", "6", "--side-gust", "pulse=1.5:1",
+                "--perturb", "phi=0.05", "--json", "--out", str(tmp_path / "sim"))
+    assert proc.returncode == 0, proc.stderr
+    s = json.loads(proc.stdout)
+    assert s["closed_loop"] and s["side_gust"]["amplitude_mps"] == 1.5 and len(s["deviation_per_beat"]) == 7
+    assert s["deviation_per_beat"][-1] < s["peak_deviation"] and (tmp_path / "sim" / "simulation.png").stat().st_size
+
+
+@pytest.mark.parametrize("argv, flag", [
+    (["simulate", "--beats", "2", "--side-gust", "pulse=1:1"], "--side-gust"),
+    (["simulate", *SIX, "--beats", "2", "--gust", "vertical=1:1"], "--gust"),
+    (["simulate", *SIX, "--beats", "2", "--perturb", "yaw=1"], "--perturb"),
+    (["control", *SIX, "--controls", "right_amplitude", "right_amplitude"], "--controls"),
+])
+def test_bad_six_dof_simulate_and_control_input_exits_2(argv, flag, tmp_path):
+    proc = _cli(*argv, "--out", str(tmp_path / "run"))
+    assert proc.returncode == 2 and flag in proc.stderr and not (tmp_path / "run").exists(), proc.stderr
