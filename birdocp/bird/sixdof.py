@@ -51,7 +51,7 @@ from birdocp.bird.sides import SIDE_PARAM_NAMES, side_data_functions
 from birdocp.engine.cache import register_cache
 from birdocp.engine.problem import PeriodicODE
 
-__all__ = ["STATE_NAMES", "LONGITUDINAL", "LATERAL", "HEADING", "LATERAL_PARAM_NAMES", "LateralInertia",
+__all__ = ["rhs_expression", "STATE_NAMES", "LONGITUDINAL", "LATERAL", "HEADING", "LATERAL_PARAM_NAMES", "LateralInertia",
            "SixDofModel", "sixdof_model", "embed_planar_state", "body_loads"]
 
 STATE_NAMES = ("u_mps", "v_mps", "w_mps", "p_radps", "q_radps", "r_radps", "phi_rad", "theta_rad", "psi_rad")
@@ -122,7 +122,7 @@ def body_loads(x, d, p):
     return ca.vertcat(-F[2], F[0], -F[1]), ca.vertcat(-Mc[2], Mc[0], -Mc[1]), e
 
 
-def _rhs_expr(x, d, p6, x_air=None):
+def rhs_expression(x, d, p6, x_air=None):
     """The state derivative (9) of the rigid body with the aerodynamic loads of :func:`body_loads` at
     ``x_air`` (the state as the air sees it, with a wind; default ``x``)."""
     p = p6[:len(PARAM_NAMES)]
@@ -174,7 +174,7 @@ class SixDofModel:
         x = ca.SX.sym("x", 9)
         d = ca.SX.sym("d", N_DATA)
         p6 = ca.SX.sym("p", len(names))
-        self.rhs = ca.Function("rhs6", [x, d, p6], [_rhs_expr(x, d, p6)], ["x", "d", "p"], ["xdot"])
+        self.rhs = ca.Function("rhs6", [x, d, p6], [rhs_expression(x, d, p6)], ["x", "d", "p"], ["xdot"])
         Fb, Mb, _ = body_loads(x, d, p6[:n])
         self.loads_d = ca.Function("loads6", [x, d, p6], [ca.vertcat(Fb, Mb)], ["x", "d", "p"], ["loads"])
         if self.sides:
@@ -193,7 +193,7 @@ class SixDofModel:
                                param_names=names, pre=pre, post=post, pre_params=pre_params)
         # the heading excluded (nothing depends on it): the ODE of a cycle periodic up to its heading
         x8 = ca.SX.sym("x", 8)
-        rhs8 = ca.Function("rhs6_no_heading", [x8, d, p6], [_rhs_expr(ca.vertcat(x8, 0), d, p6)[:8]],
+        rhs8 = ca.Function("rhs6_no_heading", [x8, d, p6], [rhs_expression(ca.vertcat(x8, 0), d, p6)[:8]],
                            ["x", "d", "p"], ["xdot"])
         self.ode_no_heading = PeriodicODE(rhs=rhs8, data=data, period_s=planar.period_s,
                                           state_names=STATE_NAMES[:HEADING], param_names=names, pre=pre, post=post,

@@ -182,8 +182,8 @@ def resolve_config(args: argparse.Namespace) -> C.Config:
 
 
 SIX_DOF_COMMANDS = ("trim", "level", "control", "simulate")
-"""Commands that solve the six-degree-of-freedom model (:mod:`birdocp.cli.six_dof`, control and simulate
-through :mod:`birdocp.cli.lateral_control` and :mod:`birdocp.cli.lateral_simulate`); the others
+"""Commands that solve the six-degree-of-freedom model (:mod:`birdocp.cli.six_dof`; control and simulate
+in their own modules); the others
 refuse model.degrees_of_freedom = 6."""
 
 

@@ -202,8 +202,6 @@ def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
     t0 = time.perf_counter()
     cfg = cli.resolve_config(args)
     if cfg.model.degrees_of_freedom == 6:
-        from birdocp.cli.lateral_simulate import cmd_lateral_simulate
-
         return cmd_lateral_simulate(args, command_line, cfg, t0)
     dx0, gusts, wind = parse_inputs(args)
     ctl, sim_cfg, ctl_result = check_beats_and_controller(args, cfg)
@@ -263,3 +261,57 @@ def report(args: argparse.Namespace, result: dict, sim, closed: bool, run_dir) -
               file=sys.stderr)
         return cli.EXIT_NOT_CONVERGED
     return cli.EXIT_OK
+
+
+def _six_dof_inputs(args: argparse.Namespace):
+    """(perturbation (9), side gust or None), checked; --gust and --wind refused (planar options)."""
+    from birdocp.studies.lateral_simulate import parse_lateral_perturbation, parse_side_gust
+
+    for flag, given in (("--gust", args.gust), ("--wind", args.wind)):
+        if given:
+            raise ConfigError(flag, "with model.degrees_of_freedom = 6 the wind is a side gust: use --side-gust "
+                                    "pulse|step=MPS[:BEATS]")
+    if args.gust_start is not None and args.side_gust is None:
+        raise ConfigError("--gust-start", "places a gust: add --side-gust SHAPE=MPS[:BEATS] (or drop --gust-start)")
+    dx0 = parse_lateral_perturbation(args.perturb)
+    gust = parse_side_gust(args.side_gust, check_gust_start(args)) if args.side_gust is not None else None
+    return dx0, gust
+
+
+def cmd_lateral_simulate(args: argparse.Namespace, command_line: list[str], cfg, t0: float) -> int:
+    """``birdocp simulate`` with a 6-DOF configuration: one run folder (result.json, arrays.npz,
+    simulation.png); the exit code."""
+    dx0, gust = _six_dof_inputs(args)
+    ctl, sim_cfg, ctl_result = check_beats_and_controller(args, cfg)
+    with cli.run_folder(args, "simulate", command_line) as run:
+        head = {"controller": str(args.controller) if args.controller else None, "run_dir": str(run.dir)}
+        with run.solving():
+            from birdocp.studies.lateral_control import (lateral_reference_cycle, sides_parameter_vector,
+                                                         sides_parameters)
+            from birdocp.studies.lateral_simulate import simulate_lateral
+
+            if ctl is not None:
+                x0, steps, p = ctl_result["cycle_x0"], int(ctl_result["steps_per_period"]), sides_parameter_vector(sim_cfg)
+            else:
+                base, sim_cfg = lateral_reference_cycle(cfg, args.level)
+                c = base.cycle
+                if not base.success:
+                    result = {"success": False, "status": c.status, "message": f"the cycle did not converge: "
+                                                                                 f"{c.message}", **head}
+                    run.write(cfg, result)
+                    run.output(result, None)
+                    return run.fail("the cycle did not converge", c.status, c.max_residual, c.message)
+                x0, steps, p = c.x0, int(c.method["steps_per_period"]), sides_parameters(c.p)
+            sim = simulate_lateral(sim_cfg, x0, p, args.beats, steps_per_period=steps, perturbation=dx0,
+                                   side_gust=gust, controller=ctl)
+        result = {**sim.to_dict(), **head, "cycle_x0": [float(v) for v in x0],
+                  "wall_s": {"total": time.perf_counter() - t0}}
+        arrays = sim.arrays()
+        if sim.states.shape[0] > 1:
+            from birdocp.plots.lateral import plot_lateral_simulation
+
+            runs = {("closed loop" if ctl is not None else "open loop"): dict(arrays, control_keys=sim.control_keys)}
+            result["figure"] = str(plot_lateral_simulation(runs, run.dir / "simulation.png",
+                                                           f"{args.beats} beats: {sim.status}"))
+        run.write(sim_cfg, result, arrays)
+        return report(args, result, sim, ctl is not None, run.dir)

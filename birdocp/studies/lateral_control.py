@@ -29,7 +29,7 @@ from birdocp.studies.control import (DEFAULT_LIMIT_DEG, Controller, WingbeatMap,
                                      controller_on_map, default_limits, linearise)
 
 __all__ = ["LATERAL_CONTROLS", "LATERAL_ALIASES", "ACCEPTABLE_STATE_6DOF", "resolve_lateral_controls",
-           "lateral_wingbeat_map", "design_lateral_controller", "lateral_reference_cycle", "sides_parameters"]
+           "lateral_wingbeat_map", "design_lateral_controller", "lateral_reference_cycle", "sides_parameters", "sides_parameter_vector"]
 
 LATERAL_CONTROLS = tuple(f"gait.{side}_offset.{key}" for side in ("right", "left") for key in (
     "shoulder_flap.amplitude_deg", "shoulder_sweep.offset_deg", "shoulder_incidence.offset_deg"))
@@ -160,8 +160,9 @@ def lateral_reference_cycle(cfg: Config, level: bool = False):
     return lateral_trim(cfg2, x_guess=lv.cycle.x0), cfg2
 
 
-def _p0(cfg: Config) -> np.ndarray:
-    """The per-side model's parameter vector of ``cfg`` (its offsets included)."""
+def sides_parameter_vector(cfg: Config) -> np.ndarray:
+    """The per-side model's parameter vector of ``cfg`` (:data:`PARAM_NAMES`, the lateral inertias,
+    the 42 offsets of :data:`birdocp.bird.sides.SIDE_PARAM_NAMES`)."""
     from birdocp.bird.sides import side_vector
     from birdocp.bird.sixdof import LateralInertia
 

@@ -28,7 +28,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import ConfigError
-from birdocp.bird.sixdof import HEADING, STATE_NAMES, _rhs_expr
+from birdocp.bird.sixdof import HEADING, STATE_NAMES, rhs_expression
 from birdocp.engine.integrate import RK4Grid, rk4_update, stage_block_index
 from birdocp.engine.results import result_dict, serial
 from birdocp.studies.control import PerModel
@@ -129,7 +129,7 @@ class _SixStepper(PerModel):
         C = _dcm(x[6], x[7], x[8])
         wind_b = C @ ca.vertcat(0, east, 0)
         x_air = ca.vertcat(x[:3] - wind_b, x[3:])
-        zdot = ca.vertcat(_rhs_expr(x, d, p, x_air), C.T @ x[:3], 1)
+        zdot = ca.vertcat(rhs_expression(x, d, p, x_air), C.T @ x[:3], 1)
         f = ca.Function("f_sim6", [z, d, p, g], [zdot])
         D3 = ca.SX.sym("D3", nd, 3)
         step = ca.Function("sim6_step", [z, D3, p, g], [rk4_update(f, z, D3, grid.h, p, g)[0]])
