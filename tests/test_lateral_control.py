@@ -23,6 +23,7 @@ def design(coarse):
     return cfg, res, design_lateral_controller(res, cfg)
 
 
+@pytest.mark.slow
 def test_closed_loop_is_stable_and_the_gains_are_mirror_symmetric(design):
     _, res, ctl = design
     assert np.max(np.abs(ctl.map.multipliers)) > 1.0  # the open-loop cycle is unstable
@@ -36,6 +37,7 @@ def test_closed_loop_is_stable_and_the_gains_are_mirror_symmetric(design):
     assert d["state_names"][1] == "v_mps" and len(d["gain"][0]) == 8 and d["success"]
 
 
+@pytest.mark.slow
 def test_the_map_predicts_the_nonlinear_beat(design):
     """One beat of the nonlinear simulation from a small roll and side-slip deviation: its change is
     A dx (open loop) and (A - B K) dx (closed loop) to second order."""
@@ -51,6 +53,7 @@ def test_the_map_predicts_the_nonlinear_beat(design):
         assert np.linalg.norm(end - lin) < 2e-2 * np.linalg.norm(lin), (end, lin)
 
 
+@pytest.mark.slow
 def test_roll_perturbation_and_side_gust_decay_in_closed_loop_only(design):
     cfg, res, ctl = design
     p = sides_parameters(res.cycle.p)
@@ -87,6 +90,7 @@ def _cli(*argv, tmp_path=None):
 SIX = ["--set", "model.degrees_of_freedom=6", "--set", "solve.points=3", "--set", "solve.steps_per_period=48"]
 
 
+@pytest.mark.slow
 def test_control_and_simulate_cli_in_six_degrees_of_freedom(tmp_path):
     import json
 

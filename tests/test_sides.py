@@ -49,6 +49,7 @@ def test_offsets_need_six_degrees_of_freedom():
         _six(**{"gait.right_offset.shoulder_flap.amplitude_deg": 170.0})  # 42 + 170 > 180
 
 
+@pytest.mark.slow
 def test_swapping_the_wings_mirrors_the_solved_cycle():
     right = _six(**{"gait.right_offset.shoulder_flap.amplitude_deg": 1.0,
                     "gait.right_offset.shoulder_sweep.offset_deg": -1.0,
