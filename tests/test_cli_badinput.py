@@ -68,7 +68,7 @@ CASES = [
      "gait.shoulder_flap.amplitude_deg", "[-180, 180]"),
     ("six-dof-value", ["trim", "--set", "model.degrees_of_freedom=5"], "model.degrees_of_freedom", "4 or 6"),
     ("six-dof-unsupported-command", ["sweep", "amplitude", "--from", "41", "--to", "42", "--by", "1",
-                                     "--set", "model.degrees_of_freedom=6"], "model.degrees_of_freedom", "trim and level"),
+                                     "--set", "model.degrees_of_freedom=6"], "model.degrees_of_freedom", "trim, level, control, simulate"),
     ("six-dof-tail", ["trim", "--set", "model.degrees_of_freedom=6", "--set", "tail.opening_angle_deg=30"],
      "tail.opening_angle_deg", "six degrees of freedom"),
     ("six-dof-level-free", ["level", "--set", "model.degrees_of_freedom=6", "--free", "root_ahead_m"], "--free",

@@ -118,6 +118,7 @@ def _tiny_instances() -> dict:
     from birdocp.studies.control import Controller, WingbeatMap
     from birdocp.studies.gait import GaitOptimum
     from birdocp.studies.lateral import LateralTrimResult
+    from birdocp.studies.lateral_simulate import LateralSimulation
     from birdocp.studies.optimize import StabilityOptimum
     from birdocp.studies.sensitivity import SensitivityResult
     from birdocp.studies.simulate import SimulationResult
@@ -185,6 +186,9 @@ def _tiny_instances() -> dict:
                                                 "beats_to_double": -2.0, "eigenvector": {"v_mps": 1j},
                                                 "dominant_state": "v_mps"}],
             {"roll_inertia_kgm2": 0.011}, 42.0, validity),
+        "birdocp.studies.lateral_simulate.LateralSimulation": LateralSimulation(
+            True, "ok", "", False, 1, np.arange(3.0), np.zeros((3, 9)), np.zeros((3, 3)), np.zeros(0),
+            np.zeros((0, 0)), [], np.array([0.01, 0.001]), False, None, [0.0] * 9, 4.5),
         "birdocp.studies.control.Controller": Controller(wmap, np.eye(4), np.eye(1), np.eye(4), np.ones((1, 1, 4)),
                                                          np.array([[-10.0, 10.0]]),
                                                          [{"control": wmap.controls[0], "stabilisable": True}]),

@@ -23,12 +23,12 @@ from typing import Any
 from birdocp.bird.config_checks import (CIRCULATION_MODES, JOINT_NAMES, KINEMATIC_VELOCITY_MODES,  # noqa: F401
                                         SECTION_MODES, SIX_DOF_UNSUPPORTED, UNSTEADY_MODES, UNSTEADY_PARAMS,
                                         WING_MASS_SHARES, coerce, flat_keys, get_value, parse_scalar,
-                                        require_body_states, suggest, validate)
+                                        require_body_states, suggest, validate, SIDE_KEYS, asymmetric)
 from birdocp.io.errors import ConfigError
 from birdocp.io.files import dataclass_to_dict
 
 __all__ = [
-    "ConfigError", "Joint", "Body", "Wing", "Gait", "Aero", "Tail", "Drag", "Solve", "Validity", "Config",
+    "ConfigError", "Joint", "SideOffsets", "Body", "Wing", "Gait", "Aero", "Tail", "Drag", "Solve", "Validity", "Config",
     "JOINT_NAMES", "PARAM_NAMES", "param_vector", "load", "dump", "loads", "dumps",
     "from_dict", "to_dict", "set_value", "with_values", "WING_MASS_SHARES", "body_alone_mass_kg", "require_body_states",
 ]
@@ -102,6 +102,24 @@ class Wing:
 
 
 @dataclass(frozen=True)
+class SideOffsets:
+    """Offsets added to the joint laws of ONE wing (an asymmetric gait): the wing's joint ``j`` follows
+    ``offset + d_offset + (amplitude + d_amplitude) sin(2 pi f t + phase + d_phase)`` with the
+    ``d_...`` values here (deg). Each wing's angles are in its own mirrored frame (flap tip up, sweep
+    tip forward, incidence leading edge up on both sides), so equal offsets on both sides keep the
+    gait symmetric. Zero everywhere (the default) leaves the law of :class:`Gait` unchanged; a
+    non-zero value needs ``model.degrees_of_freedom = 6``."""
+
+    shoulder_incidence: Joint = Joint()
+    shoulder_flap: Joint = Joint()
+    shoulder_sweep: Joint = Joint()
+    elbow_flex: Joint = Joint()
+    hand_twist: Joint = Joint()
+    wrist_flex: Joint = Joint()
+    wrist_spread: Joint = Joint()
+
+
+@dataclass(frozen=True)
 class Gait:
     """Prescribed wing kinematics: one harmonic law per joint, all at the flapping frequency."""
 
@@ -121,6 +139,11 @@ class Gait:
     """Wrist flexion in the wing plane. Paper: "wrist z"; code slot w_y."""
     wrist_spread: Joint = Joint(0.0, 0.0, 0.0)
     """Wrist rotation about the body axis; not in the paper (identically 0). Code slot w_z."""
+    right_offset: SideOffsets = SideOffsets()
+    """Offsets of the right wing's joint laws (deg; six degrees of freedom only), e.g.
+    ``gait.right_offset.shoulder_flap.amplitude_deg = 2``."""
+    left_offset: SideOffsets = SideOffsets()
+    """Offsets of the left wing's joint laws (deg; six degrees of freedom only)."""
 
     @property
     def period_s(self) -> float:

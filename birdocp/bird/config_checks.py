@@ -21,7 +21,7 @@ __all__ = [
     "JOINT_NAMES", "CIRCULATION_MODES", "KINEMATIC_VELOCITY_MODES", "UNSTEADY_MODES", "SECTION_MODES",
     "UNSTEADY_PARAMS", "SIX_DOF_UNSUPPORTED", "WING_MASS_SHARES", "ANGLE_LIMIT_DEG", "MAX_POINTS",
     "MAX_STEPS_PER_PERIOD", "MAX_SOLVE_ITERATIONS", "MAX_GUESS_SPEED_MPS", "get_value", "flat_keys", "suggest", "coerce",
-    "check_number", "parse_scalar", "validate", "require_body_states",
+    "check_number", "parse_scalar", "validate", "require_body_states", "SIDE_KEYS", "asymmetric",
 ]
 
 
@@ -203,6 +203,7 @@ def validate(cfg: Any) -> None:
             v = getattr(joint, name)
             if not -lim <= v <= lim:
                 raise ConfigError(f"gait.{j}.{name}", f"must lie in [{-lim:g}, {lim:g}] deg, got {v!r}")
+    _validate_sides(cfg)
     for key in ("drag.body_drag_coefficient", "drag.profile_drag_coefficient"):
         if get_value(cfg, key) < 0:
             raise ConfigError(key, f"must be >= 0 (0 = off), got {get_value(cfg, key)!r}")
@@ -255,6 +256,30 @@ def validate(cfg: Any) -> None:
             raise ConfigError(f"solve.initial_guess.{i}", f"must lie within +-{MAX_GUESS_SPEED_MPS:g} m/s (the speed "
                                                           f"of sound: the model's air is incompressible), got {v!r}")
     _validate_model(cfg)
+
+
+SIDE_KEYS = tuple(f"gait.{side}.{j}.{field}" for side in ("right_offset", "left_offset") for j in JOINT_NAMES
+                  for field in ("offset_deg", "amplitude_deg", "phase_deg"))
+"""The per-side offset keys of an asymmetric gait (right wing's 21, then the left wing's)."""
+
+
+def asymmetric(cfg: Any) -> bool:
+    """True when a per-side offset (:data:`SIDE_KEYS`) is not zero."""
+    return any(get_value(cfg, k) != 0 for k in SIDE_KEYS)
+
+
+def _validate_sides(cfg: Any) -> None:
+    for key in SIDE_KEYS:
+        base = get_value(cfg, key.replace(".right_offset", "").replace(".left_offset", ""))
+        v = get_value(cfg, key) + base
+        lim = 2 * ANGLE_LIMIT_DEG if key.endswith("phase_deg") else ANGLE_LIMIT_DEG
+        if not -lim <= v <= lim:
+            raise ConfigError(key, f"the wing's law (joint value + offset) must lie in [{-lim:g}, {lim:g}] deg, "
+                                   f"got {v!r}")
+    if asymmetric(cfg) and cfg.model.degrees_of_freedom != 6:
+        key = next(k for k in SIDE_KEYS if get_value(cfg, k) != 0)
+        raise ConfigError(key, "an asymmetric gait (per-side offset) needs model.degrees_of_freedom = 6; "
+                               "set it or the offset to 0")
 
 
 def _validate_model(cfg: Any) -> None:
