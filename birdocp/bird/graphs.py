@@ -104,31 +104,25 @@ GEOMETRY_OUTPUTS = ("joint_angles_rad", "leading_edge_raw", "trailing_edge_raw",
                     "trailing_edge", "line", "chord_m", "chord_dir", "up_dir", "diagnostics")
 
 
-def build(s: Structure) -> tuple[dict, tuple]:
-    """The SX Functions of structure ``s`` (:data:`GRAPH_FUNCTIONS`, and
-    :data:`OPTIONAL_FUNCTIONS` or None) and ``pre_params``."""
-    fns = {}
-    f_hz = s.frequency_hz
-    t = ca.SX.sym("t")
-    p = ca.SX.sym("p", len(PARAM_NAMES))
-    x_ep = _p(p, "wing.shoulder_half_separation_m")
-
-    # Arm-frame shape ("pre") and its kinematic-velocity companion.
-    loc = _local_expr(t, p, f_hz)
-    P, c_hat_l, up_l, chord_l = loc["P"], loc["c_hat"], loc["up"], loc["chord"]
+def _pre(s: Structure, t, p) -> dict:
+    """The arm-frame part ``pre``: the wing shape (P, c_hat, up, chord) with its kinematic-velocity
+    companion, the wing-mass points and, for an unsteady or stall section, the first and second time
+    derivatives of the aerodynamic shape (AD in t). Returns ``ell`` (the column), ``loc``, the sizes
+    ``n_aero`` (shape and companion) and ``n_before_deriv`` (before the time derivatives)."""
+    loc = _local_expr(t, p, s.frequency_hz)
+    P = loc["P"]
     if s.kinematic_velocity == "exact":
         aux = ca.jtimes(ca.vec(P), t, ca.SX(1))       # dP/dt in the arm frame
     elif s.kinematic_velocity == "backward-difference":
         aux = ca.vec(ca.Function("P_local", [t, p], [P])(t - s.backward_step_s, p))  # P(t - delta)
     else:
         raise ValueError(f"aero.kinematic_velocity must be 'exact' or 'backward-difference', got {s.kinematic_velocity!r}")
-    ell = ca.vertcat(ca.vec(P), ca.vec(c_hat_l), ca.vec(up_l), ca.vec(chord_l), aux)
-    n_aero_local = ell.numel()
-    ell_aero = ell
+    ell_aero = ca.vertcat(ca.vec(P), ca.vec(loc["c_hat"]), ca.vec(loc["up"]), ca.vec(loc["chord"]), aux)
+    ell = ell_aero
     if s.wing_mass:
         # wing mass points in the arm's frame with their time derivatives (AD in t): smooth
         # functions of the elbow and wrist joints, so they belong to the numeric 'pre' part
-        rho = ca.horzcat(*_local_mass_points(t, p, f_hz))
+        rho = ca.horzcat(*_local_mass_points(t, p, s.frequency_hz))
         rho_d = ca.jtimes(rho, t, ca.SX(1))
         rho_dd = ca.jtimes(rho_d, t, ca.SX(1))
         ell = ca.vertcat(ell, ca.vec(rho), ca.vec(rho_d), ca.vec(rho_dd))
@@ -138,13 +132,12 @@ def build(s: Structure) -> tuple[dict, tuple]:
         # unsteady data (pitch rates, added-mass rates) are time derivatives of the assembled geometry
         ell_d = ca.jtimes(ell_aero, t, ca.SX(1))
         ell = ca.vertcat(ell, ell_d, ca.jtimes(ell_d, t, ca.SX(1)))
-    fns["pre"] = ca.Function("wing_local", [t, p], [ell], ["t", "p"], ["local"])
-    pre_params = tuple(int(k) for k in np.nonzero(
-        np.asarray(ca.DM(ca.jacobian_sparsity(ell, p), 1)).sum(axis=0))[0])
+    return {"ell": ell, "loc": loc, "n_aero": ell_aero.numel(), "n_before_deriv": n_before_deriv}
 
-    # Geometry for users and plots: the arm-frame shape rotated by R1, merged.
-    R1 = _shoulder(t, p, f_hz)
-    Q, ch, cd, nu = _merged(R1, P, c_hat_l, up_l, chord_l, x_ep)
+
+def _geometry(loc, R1, x_ep, t, p) -> ca.Function:
+    """Geometry for users and plots (:data:`GEOMETRY_OUTPUTS`): the arm-frame shape rotated by R1, merged."""
+    Q, ch, cd, nu = _merged(R1, loc["P"], loc["c_hat"], loc["up"], loc["chord"], x_ep)
     diag = dict(loc["diag"], n_mid=ca.ceil(2 * x_ep / loc["dx"]))
     geo = {
         "joint_angles_rad": loc["joint_angles_rad"],
@@ -153,23 +146,18 @@ def build(s: Structure) -> tuple[dict, tuple]:
         "line": ca.horzcat(*Q), "chord_m": ca.horzcat(*ch), "chord_dir": ca.horzcat(*cd),
         "up_dir": ca.horzcat(*nu), "diagnostics": ca.vertcat(*[diag[k] for k in wing.DIAGNOSTICS]),
     }
-    fns["geometry"] = ca.Function("geometry", [t, p], [geo[k] for k in GEOMETRY_OUTPUTS],
-                                ["t", "p"], list(GEOMETRY_OUTPUTS))
+    return ca.Function("geometry", [t, p], [geo[k] for k in GEOMETRY_OUTPUTS], ["t", "p"], list(GEOMETRY_OUTPUTS))
 
-    # Assembly ("post"): shoulder rotation, merge, kinematic velocity, lifting-line matrices.
-    L = ca.SX.sym("local", ell.numel())
-    k = 0
-    blocks_l = []
+
+def _assemble(s: Structure, L, R1, x_ep, t, p) -> dict:
+    """Assembly (``post``) of the aerodynamic blocks :data:`DATA_BLOCKS` from the arm-frame column L:
+    shoulder rotation, merge, kinematic velocity, lifting-line matrices."""
+    k, parts = 0, []
     for n in (48, 48, 48, 16, 48):
-        blocks_l.append(L[k:k + n])
+        parts.append(L[k:k + n])
         k += n
-    assert k == n_aero_local
-    P_s = ca.reshape(blocks_l[0], 3, N_EL)
-    c_s = ca.reshape(blocks_l[1], 3, N_EL)
-    u_s = ca.reshape(blocks_l[2], 3, N_EL)
-    ch_s = ca.reshape(blocks_l[3], 1, N_EL)
-    aux_s = ca.reshape(blocks_l[4], 3, N_EL)
-    Q, ch, cd, nu = _merged(R1, P_s, c_s, u_s, ch_s, x_ep)
+    P_s, c_s, u_s, aux_s = (ca.reshape(parts[i], 3, N_EL) for i in (0, 1, 2, 4))
+    Q, ch, cd, nu = _merged(R1, P_s, c_s, u_s, ca.reshape(parts[3], 1, N_EL), x_ep)
     line = ca.horzcat(*Q)
     centres, nodes = line[:, 1::2], line[:, 0::2]
     if s.kinematic_velocity == "exact":
@@ -177,7 +165,7 @@ def build(s: Structure) -> tuple[dict, tuple]:
         Qd = wing.merge(_columns(Pdot), [0] * N_EL, _columns(P_s), _columns(P_s), 0.0)[0]
         v_kin = ca.horzcat(*Qd)[:, 1::2]
     else:
-        R1_prev = _shoulder(t - s.backward_step_s, p, f_hz)
+        R1_prev = _shoulder(t - s.backward_step_s, p, s.frequency_hz)
         Qp = wing.merge(_columns(R1_prev @ aux_s), [0] * N_EL, _columns(P_s), _columns(P_s), x_ep)[0]
         v_kin = (centres - ca.horzcat(*Qp)[:, 1::2]) / s.backward_step_s
     c_hat = ca.horzcat(*cd)[:, 1::2]
@@ -193,47 +181,80 @@ def build(s: Structure) -> tuple[dict, tuple]:
         G, Wx, Wy = aero.circulation_matrices(
             _columns(centres), _columns(nodes), [chord[j] for j in range(N_EL)],
             _p(p, "aero.lift_slope_per_rad"), s.circulation, s.relaxed_evaluations)
-    blocks = {"r_m": r, "v_kin_mps": v_kin, "c_hat": c_hat, "up": up, "tau": tau, "ds_m": ds,
-              "G": G, "Wx": Wx, "Wy": Wy, "nodes_m": nodes + ca.repmat(r_w, 1, N_EL + 1),
-              "chord_m": chord.T}
+    return {"r_m": r, "v_kin_mps": v_kin, "c_hat": c_hat, "up": up, "tau": tau, "ds_m": ds,
+            "G": G, "Wx": Wx, "Wy": Wy, "nodes_m": nodes + ca.repmat(r_w, 1, N_EL + 1),
+            "chord_m": chord.T}
+
+
+def _wing_mass(pre: dict, L, R1, t, p) -> tuple:
+    """The wing-mass sums :data:`birdocp.bird.inertia.MASS_BLOCK` of ``post`` (from L) and the
+    Function ``mass_points`` (from the arm-frame expressions)."""
+    npt, k = inertia.N_POINTS_PER_WING, pre["n_aero"]
+    R1d = ca.jtimes(R1, t, ca.SX(1))
+    R1dd = ca.jtimes(R1d, t, ca.SX(1))
+    rho_s = [ca.reshape(L[k + 3 * npt * j:k + 3 * npt * (j + 1)], 3, npt) for j in range(3)]
+    sums = inertia.mass_sums(_point_masses(p), *_wing_points_body(R1, R1d, R1dd, *rho_s, p))
+    mpts = pre["ell"][k:]
+    mr = [ca.reshape(mpts[3 * npt * j:3 * npt * (j + 1)], 3, npt) for j in range(3)]
+    rb, vb, ab = _wing_points_body(R1, R1d, R1dd, *mr, p)
+    mirror = ca.diag(ca.DM([1, -1, 1]))
+    both = [ca.horzcat(ca.horzcat(*z), mirror @ ca.horzcat(*z)) for z in (rb, vb, ab)]
+    mm = ca.vertcat(*_point_masses(p))
+    # both wings' mass points relative to G_b in the body frame (x', y', z'), 3 x 40 each
+    # (right wing then left), their velocities and accelerations relative to the body, masses
+    fn = ca.Function("wing_mass_points", [t, p], both + [ca.vertcat(mm, mm)], ["t", "p"],
+                     ["r_m", "v_mps", "a_mps2", "m_kg"])
+    return [sums[kk] for kk in inertia.MASS_BLOCK], fn
+
+
+def _unsteady_data(pre: dict, L, blocks: dict, t) -> ca.SX:
+    """The unsteady data blocks (:func:`birdocp.bird.unsteady.element_data`) of ``post``: time
+    derivatives by AD in t through the assembly, with the arm-frame derivatives from L."""
+    na, nb = pre["n_aero"], pre["n_before_deriv"]
+    tangent = ca.vertcat(L[nb:nb + na], ca.SX.zeros(nb - na), L[nb + na:nb + 2 * na], ca.SX.zeros(na))
+
+    def ddt(e):
+        return ca.jtimes(e, L, tangent) + ca.jtimes(e, t, ca.SX(1))
+
+    ud = unsteady.element_data(blocks["r_m"], blocks["v_kin_mps"], blocks["c_hat"], blocks["up"], blocks["tau"],
+                               blocks["chord_m"], blocks["ds_m"], ddt)
+    return unsteady.pack(ud, N_EL)
+
+
+def build(s: Structure) -> tuple[dict, tuple]:
+    """The SX Functions of structure ``s`` (:data:`GRAPH_FUNCTIONS`, and
+    :data:`OPTIONAL_FUNCTIONS` or None) and ``pre_params``."""
+    t = ca.SX.sym("t")
+    p = ca.SX.sym("p", len(PARAM_NAMES))
+    x_ep = _p(p, "wing.shoulder_half_separation_m")
+    pre = _pre(s, t, p)
+    ell = pre["ell"]
+    fns = {"pre": ca.Function("wing_local", [t, p], [ell], ["t", "p"], ["local"])}
+    pre_params = tuple(int(k) for k in np.nonzero(
+        np.asarray(ca.DM(ca.jacobian_sparsity(ell, p), 1)).sum(axis=0))[0])
+    R1 = _shoulder(t, p, s.frequency_hz)
+    fns["geometry"] = _geometry(pre["loc"], R1, x_ep, t, p)
+    L = ca.SX.sym("local", ell.numel())
+    blocks = _assemble(s, L, R1, x_ep, t, p)
     d = ca.vertcat(*[ca.vec(blocks[name]) for name, _ in DATA_BLOCKS])
+    fns["mass_points"] = None
     if s.wing_mass:
-        npt = inertia.N_POINTS_PER_WING
-        rho_s = [ca.reshape(L[k + 3 * npt * j:k + 3 * npt * (j + 1)], 3, npt) for j in range(3)]
-        R1d = ca.jtimes(R1, t, ca.SX(1))
-        R1dd = ca.jtimes(R1d, t, ca.SX(1))
-        rb, vb, ab = _wing_points_body(R1, R1d, R1dd, *rho_s, p)
-        sums = inertia.mass_sums(_point_masses(p), rb, vb, ab)
-        d = ca.vertcat(d, *[sums[kk] for kk in inertia.MASS_BLOCK])
-        mpts = ell[n_aero_local:]
-        mr = [ca.reshape(mpts[3 * npt * j:3 * npt * (j + 1)], 3, npt) for j in range(3)]
-        rb, vb, ab = _wing_points_body(R1, R1d, R1dd, *mr, p)
-        mirror = ca.diag(ca.DM([1, -1, 1]))
-        both = [ca.horzcat(ca.horzcat(*z), mirror @ ca.horzcat(*z)) for z in (rb, vb, ab)]
-        mm = ca.vertcat(*_point_masses(p))
-        # both wings' mass points relative to G_b in the body frame (x', y', z'), 3 x 40 each
-        # (right wing then left), their velocities and accelerations relative to the body, masses
-        fns["mass_points"] = ca.Function(
-            "wing_mass_points", [t, p], both + [ca.vertcat(mm, mm)], ["t", "p"],
-            ["r_m", "v_mps", "a_mps2", "m_kg"])
-    else:
-        fns["mass_points"] = None
+        sums, fns["mass_points"] = _wing_mass(pre, L, R1, t, p)
+        d = ca.vertcat(d, *sums)
     if s.aero_extra:
-        na = n_aero_local
-        tangent = ca.vertcat(L[n_before_deriv:n_before_deriv + na], ca.SX.zeros(n_before_deriv - na),
-                             L[n_before_deriv + na:n_before_deriv + 2 * na], ca.SX.zeros(na))
-
-        def ddt(e):
-            return ca.jtimes(e, L, tangent) + ca.jtimes(e, t, ca.SX(1))
-
-        ud = unsteady.element_data(r, v_kin, c_hat, up, tau, chord.T, ds, ddt)
-        d = ca.vertcat(d, unsteady.pack(ud, N_EL))
+        d = ca.vertcat(d, _unsteady_data(pre, L, blocks, t))
     fns["post"] = ca.Function("wing_assemble", [L, t, p], [d], ["local", "t", "p"], ["d"])
     fns["data"] = ca.Function("data", [t, p], [fns["post"](ell, t, p)], ["t", "p"], ["d"])
+    fns.update(_state_functions(s, p))
+    return fns, pre_params
 
-    # State part. The aerodynamics sees the air-relative state (``air_state``: the wind in the
-    # inertial frame, rotated into the body frame, subtracted from u, w); rhs/loads_d/detail_d
-    # are the same graphs with the wind substituted by zero (the exact graphs of before).
+
+def _state_functions(s: Structure, p) -> dict:
+    """The state part: ``rhs``, ``loads_d``, ``detail_d``, their wind versions, ``wing_power_d`` and
+    the section Functions. The aerodynamics sees the air-relative state (``air_state``: the wind in the
+    inertial frame, rotated into the body frame, subtracted from u, w); rhs/loads_d/detail_d are the
+    same graphs with the wind substituted by zero (the exact graphs of before)."""
+    fns = {}
     x = ca.SX.sym("x", 4 + s.n_aero_states)
     wind = ca.SX.sym("wind_mps", 2)
     xa = ca.vertcat(air_state(x, wind), x[4:])
@@ -245,10 +266,7 @@ def build(s: Structure) -> tuple[dict, tuple]:
     I = _p(p, "body.pitch_inertia_kgm2")
     grav = _p(p, "body.gravity_mps2")
     u, w, q, theta = x[0], x[1], x[2], x[3]
-    xdot = ca.vertcat(-q * w - grav * ca.sin(theta) + Fx / m,
-                      q * u + grav * ca.cos(theta) + Fz / m,
-                      My / I,
-                      q)
+    xdot = ca.vertcat(-q * w - grav * ca.sin(theta) + Fx / m, q * u + grav * ca.cos(theta) + Fz / m, My / I, q)
     if s.aero_extra:
         xdot = ca.vertcat(lt["nudot"], q, lt["xdot_aero"])
     powers = None
@@ -263,16 +281,13 @@ def build(s: Structure) -> tuple[dict, tuple]:
         powers = ca.vertcat(*[pw[kk] for kk in WING_POWER_NAMES])
     fns["rhs_wind"] = ca.Function("rhs_wind", [x, dsym, p, wind], [xdot], ["x", "d", "p", "wind_mps"], ["xdot"])
     fns["loads_wind"] = ca.Function("loads_wind", [x, dsym, p, wind], [ca.vertcat(Fx, Fz, My)],
-                                  ["x", "d", "p", "wind_mps"], ["loads"])
+                                    ["x", "d", "p", "wind_mps"], ["loads"])
     zero = [ca.SX.zeros(2)]
     xdot, loads, detail = ca.substitute([xdot, ca.vertcat(Fx, Fz, My), ca.vertcat(Gamma, alpha, vp, ca.vec(F))],
                                         [wind], zero)
-    if powers is not None:
-        # (x, d, p) -> the powers WING_POWER_NAMES [W] (and T_rel [J]) at one instant
-        fns["wing_power_d"] = ca.Function("wing_power_d", [x, dsym, p], ca.substitute([powers], [wind], zero),
-                                        ["x", "d", "p"], ["powers"])
-    else:
-        fns["wing_power_d"] = None
+    # (x, d, p) -> the powers WING_POWER_NAMES [W] (and T_rel [J]) at one instant
+    fns["wing_power_d"] = None if powers is None else ca.Function(
+        "wing_power_d", [x, dsym, p], ca.substitute([powers], [wind], zero), ["x", "d", "p"], ["powers"])
     if s.aero_extra:
         fns.update(_section_functions(s, x, dsym, p, lt, wind))
     else:
@@ -280,8 +295,8 @@ def build(s: Structure) -> tuple[dict, tuple]:
     fns["rhs"] = ca.Function("rhs", [x, dsym, p], [xdot], ["x", "d", "p"], ["xdot"])
     fns["loads_d"] = ca.Function("loads_d", [x, dsym, p], [loads], ["x", "d", "p"], ["loads"])
     fns["detail_d"] = ca.Function("detail_d", [x, dsym, p], ca.vertsplit(detail, [0, N_EL, 2 * N_EL, 3 * N_EL, 3 * N_EL + 3]),
-                                ["x", "d", "p"], ["gamma", "alpha_rad", "vp_mps", "F_code"])
-    return fns, pre_params
+                                  ["x", "d", "p"], ["gamma", "alpha_rad", "vp_mps", "F_code"])
+    return fns
 
 
 SECTION_OUTPUTS = ("alpha_E_rad", "alpha_eff_quasi_steady_rad", "f_sep", "Gamma_m2ps", "newton_residual",
