@@ -17,6 +17,7 @@ harness (:mod:`birdocp.bird.unsteady_harness`). Units SI, angles in rad.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import casadi as ca
@@ -172,29 +173,72 @@ def lu_solve(A, b):
     return ca.vertcat(*x)
 
 
-def _circulation(opts, prm, q_t, zsum, Vn, chord, K, f_state):
-    """Gamma (n x 1) and the final relative Newton residual (0 for a linear section): the linear
-    lifting-line solve (I + A0 H K) Gamma = H (A0 q~ + z1 + z2), H = diag(c C_la / 2), then for a
-    stall section a fixed count of Newton steps."""
-    a0 = prm["a0"]
+INLINE_NEWTON_STEPS = 2
+"""Newton steps of a stall circulation that carry the derivatives: the iterates before them are
+computed in a separate Function whose derivative is declared zero (``is_diff_in``), so AD sees only
+the last two steps. The values are those of all the steps, bit for bit; at the fixed point a Newton
+step's derivative along its starting iterate vanishes, so first derivatives are exact up to the
+residual after N_N - 1 steps and second derivatives up to the residual after N_N - 2 steps
+(docs/model_unsteady.md, cost)."""
+
+
+def _newton(section, a0, cla, cd90, al1, q_t, zsum, Vn, chord, K, f_state, gam, steps):
+    """``steps`` Newton steps of R(Gamma) = Gamma - c |Vp| C_l(alpha_E(Gamma), f) / 2 = 0 from ``gam``;
+    returns the iterate and the last step's residual function."""
     n = chord.shape[0]
-    h = 0.5 * chord * prm["cla"]
-    gam = lu_solve(ca.SX.eye(n) + a0 * ca.diag(h) @ K, h * (a0 * q_t + zsum))
-    if opts["section"] == "linear":
-        return gam, ca.SX(0)
-    cla, cd90, al1 = prm["cla"], prm["cd90"], prm["alpha1"]
-    dyn = opts["section"] == "dynamic-stall"
+    dyn = section == "dynamic-stall"
 
     def resid(g):
         aE = (a0 * (q_t - K @ g) + zsum) / Vn
         f = f_state if dyn else separation_point(aE, al1)
         return g - 0.5 * chord * Vn * lift_coefficient(aE, f, cla, cd90), aE, f
 
-    for _ in range(int(opts["newton_steps"])):
+    for _ in range(steps):
         R, aE, f = resid(gam)
         slope = _lift_slope(aE, f, cla, cd90, al1, total=not dyn)
         J = ca.SX.eye(n) + a0 * ca.diag(0.5 * chord * slope) @ K
         gam = gam - lu_solve(J, R)
+    return gam, resid
+
+
+def _linear_start(a0, cla, q_t, zsum, chord, K):
+    """The linear lifting-line solve (I + A0 H K) Gamma = H (A0 q~ + z1 + z2), H = diag(c C_la / 2)."""
+    h = 0.5 * chord * cla
+    return lu_solve(ca.SX.eye(chord.shape[0]) + a0 * ca.diag(h) @ K, h * (a0 * q_t + zsum))
+
+
+@functools.lru_cache(maxsize=16)
+def _detached_newton(section: str, n: int, steps: int) -> ca.Function:
+    """(a0, cla, cd90, alpha1, q~, z1 + z2, |Vp|, c, K, f) -> the linear start and ``steps`` Newton
+    steps, as a Function called (never inlined) with its derivative declared zero."""
+    sc = [ca.SX.sym(k) for k in ("a0", "cla", "cd90", "alpha1")]
+    cols = [ca.SX.sym(k, n) for k in ("q_t", "zsum", "Vn", "chord", "f")]
+    K = ca.SX.sym("K", n, n)
+    q_t, zsum, Vn, chord, f = cols
+    gam = _linear_start(sc[0], sc[1], q_t, zsum, chord, K)
+    gam, _ = _newton(section, *sc, q_t, zsum, Vn, chord, K, f, gam, steps)
+    args = sc + cols[:4] + [K, f]
+    return ca.Function(f"newton_start_{section.replace('-', '_')}_{steps}", args, [gam],
+                       {"never_inline": True, "is_diff_in": [False] * len(args)})
+
+
+def _circulation(opts, prm, q_t, zsum, Vn, chord, K, f_state):
+    """Gamma (n x 1) and the final relative Newton residual (0 for a linear section): the linear
+    lifting-line solve, then for a stall section a fixed count of Newton steps (the ones before the
+    last :data:`INLINE_NEWTON_STEPS` in :func:`_detached_newton`)."""
+    a0, cla = prm["a0"], prm["cla"]
+    n = chord.shape[0]
+    if opts["section"] == "linear":
+        return _linear_start(a0, cla, q_t, zsum, chord, K), ca.SX(0)
+    cd90, al1 = prm["cd90"], prm["alpha1"]
+    steps = int(opts["newton_steps"])
+    inline = min(steps, INLINE_NEWTON_STEPS)
+    f = f_state if f_state is not None else ca.SX.zeros(n, 1)
+    if steps > inline:
+        gam = _detached_newton(opts["section"], n, steps - inline)(a0, cla, cd90, al1, q_t, zsum, Vn, chord, K, f)
+    else:
+        gam = _linear_start(a0, cla, q_t, zsum, chord, K)
+    gam, resid = _newton(opts["section"], a0, cla, cd90, al1, q_t, zsum, Vn, chord, K, f_state, gam, inline)
     R, _, _ = resid(gam)
     rel = ca.mmax(ca.fabs(R)) / ca.mmax(ca.fabs(gam))
     return gam, rel
