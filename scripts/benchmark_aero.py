@@ -50,13 +50,13 @@ def trim_cost(overrides: dict, repeats: int = 2, x_guess=None, compiled: bool = 
     grid = RK4Grid(m.ode, cfg.solve.steps_per_period, cfg.solve.points - 1)
     s = m.structure
 
-    def count(f):  # the detached Newton iterates counted as the instructions they run
-        return expanded_instructions(f, s.section, N_EL, s.newton_steps)
+    def count(f, evaluations):  # the detached Newton iterates counted as the instructions they run
+        return expanded_instructions(f, s.section, N_EL, s.newton_steps, evaluations)
 
     return {"wall_s": walls[-1], "first_wall_s": walls[0], "success": bool(r.success),
             "wall_parts_s": {k: float(v) for k, v in r.wall_s.items()}, "iterations": int(r.iterations),
-            "rhs_instructions": count(m.rhs), "states": int(m.ode.nx),
-            "variational_step_instructions": count(grid.variational_step()),
+            "rhs_instructions": count(m.rhs, 1), "states": int(m.ode.nx),
+            "variational_step_instructions": count(grid.variational_step(), 4),
             "lambda1": float(abs(r.multipliers[0])) if r.success else None}
 
 

@@ -222,15 +222,16 @@ def _detached_newton(section: str, n: int, steps: int) -> ca.Function:
                        {"never_inline": True, "is_diff_in": [False] * len(args)})
 
 
-def expanded_instructions(f: ca.Function, section: str, n: int, newton_steps: int) -> int:
-    """CasADi instructions of an SX Function ``f`` with the calls of :func:`_detached_newton` counted
-    as the instructions they run (``n_instructions`` counts a call as one)."""
+def expanded_instructions(f: ca.Function, section: str, n: int, newton_steps: int, evaluations: int = 1) -> int:
+    """CasADi instructions of an SX Function ``f`` that evaluates the section model ``evaluations``
+    times, with the call of :func:`_detached_newton` of each evaluation counted as the instructions it
+    runs (``n_instructions`` counts a call as one; the calls of its derivative, zero by declaration,
+    stay counted as one)."""
     total = int(f.n_instructions())
     if section == "linear" or newton_steps <= INLINE_NEWTON_STEPS:
         return total
     inner = _detached_newton(section, n, newton_steps - INLINE_NEWTON_STEPS).n_instructions()
-    calls = sum(1 for k in range(total) if f.instruction_id(k) == ca.OP_CALL)
-    return total + calls * (inner - 1)
+    return total + evaluations * (inner - 1)
 
 
 def _circulation(opts, prm, q_t, zsum, Vn, chord, K, f_state):
