@@ -3,10 +3,14 @@
 1. A trim of the paper's gait (5 points, 148 steps) with ``aero.unsteady = "wagner"`` and with
    ``wagner`` + ``dynamic-stall``, against the default trim: wall time of the solve with the graphs
    already built (each case is trimmed twice, the second time is measured), and the size of the state
-   right-hand side (CasADi instructions). Targets: wagner <= 4x, dynamic-stall <= 6x.
+   right-hand side and of one RK4 step of the variational equations (the state and its Jacobian: what
+   the shooting evaluates 148 times per iterate; CasADi instructions). Targets: wagner <= 4x,
+   dynamic-stall <= 6x. ``--compiled`` adds the same trims with ``compiled=True`` (separate rows; the
+   targets are about the default, interpreted path).
 2. How the cost grows with the number of lifting-line elements n: instructions and evaluation time of
-   the section model's right-hand side (prescribed-kinematics wing of n elements, the same functions
-   as the bird) for n = 8, 16, 32.
+   the section model's right-hand side and of its Jacobian along the aerodynamic states (2n or 3n:
+   the sensitivities), on the prescribed-kinematics wing of n elements (the same functions as the
+   bird), for n = 8, 16, 32.
 
     python scripts/benchmark_aero.py --out results/aero
 
@@ -28,9 +32,12 @@ CASES = {"default": {}, "wagner": {"aero.unsteady": "wagner"}, "wagner_stall": {
 TARGETS = {"wagner": 4.0, "wagner_dynamic_stall": 6.0}
 
 
-def trim_cost(overrides: dict, repeats: int = 2, x_guess=None) -> dict:
+def trim_cost(overrides: dict, repeats: int = 2, x_guess=None, compiled: bool = False) -> dict:
     from birdocp.bird.config import Config, with_values
     from birdocp.bird.model import get_model
+    from birdocp.bird.model import N_EL
+    from birdocp.bird.unsteady import expanded_instructions
+    from birdocp.engine.integrate import RK4Grid
     from birdocp.studies.trim import trim
 
     cfg = with_values(Config(), overrides)
@@ -38,10 +45,18 @@ def trim_cost(overrides: dict, repeats: int = 2, x_guess=None) -> dict:
     walls = []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        r = trim(cfg, x_guess=x_guess)
+        r = trim(cfg, x_guess=x_guess, compiled=compiled)
         walls.append(time.perf_counter() - t0)
+    grid = RK4Grid(m.ode, cfg.solve.steps_per_period, cfg.solve.points - 1)
+    s = m.structure
+
+    def count(f, evaluations):  # the detached Newton iterates counted as the instructions they run
+        return expanded_instructions(f, s.section, N_EL, s.newton_steps, evaluations)
+
     return {"wall_s": walls[-1], "first_wall_s": walls[0], "success": bool(r.success),
-            "rhs_instructions": int(m.rhs.n_instructions()), "states": int(m.ode.nx),
+            "wall_parts_s": {k: float(v) for k, v in r.wall_s.items()}, "iterations": int(r.iterations),
+            "rhs_instructions": count(m.rhs, 1), "states": int(m.ode.nx),
+            "variational_step_instructions": count(grid.variational_step(), 4),
             "lambda1": float(abs(r.multipliers[0])) if r.success else None}
 
 
@@ -49,6 +64,7 @@ def element_scaling(unsteady: str, section: str, n: int, evals: int = 200) -> di
     import casadi as ca
     import numpy as np
 
+    from birdocp.bird.unsteady import expanded_instructions
     from birdocp.bird.unsteady_harness import PrescribedWing, harmonic
 
     w = PrescribedWing(unsteady, section, aspect_ratio=6.9, n=n)
@@ -59,14 +75,22 @@ def element_scaling(unsteady: str, section: str, n: int, evals: int = 200) -> di
     z = np.zeros(w.nz)
     if section == "dynamic-stall":
         z[-n:] = 1.0
-    fm = f.map(evals)
+    zs, ts_ = ca.SX.sym("z", w.nz), ca.SX.sym("t")
+    t0 = time.perf_counter()
+    jac = ca.Function("section_jacobian", [zs, ts_], [ca.jacobian(f(zs, ts_), zs)])
+    build_jac = time.perf_counter() - t0
     Z = ca.repmat(ca.DM(z), 1, evals)
     ts = ca.DM(np.linspace(0, T, evals)).T
-    fm(Z, ts)
-    t0 = time.perf_counter()
-    fm(Z, ts)
-    ev = (time.perf_counter() - t0) / evals
-    return {"n": n, "instructions": int(f.n_instructions()), "eval_us": 1e6 * ev, "build_s": build}
+    ns = w.opts["newton_steps"]
+    out = {"n": n, "states": int(w.nz), "instructions": expanded_instructions(f, section, n, ns),
+           "jacobian_instructions": expanded_instructions(jac, section, n, ns), "build_s": build, "jacobian_build_s": build_jac}
+    for key, fn in (("eval_us", f), ("jacobian_eval_us", jac)):
+        fm = fn.map(evals)
+        fm(Z, ts)
+        t0 = time.perf_counter()
+        fm(Z, ts)
+        out[key] = 1e6 * (time.perf_counter() - t0) / evals
+    return out
 
 
 def main(argv=None) -> int:
@@ -74,6 +98,7 @@ def main(argv=None) -> int:
     ap.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES),
                     help="trim cases (default all; 'default' is always run: it is the denominator)")
     ap.add_argument("--max-elements", type=int, default=32, help="largest n of the element scaling (8, 16, 32, ...)")
+    ap.add_argument("--compiled", action="store_true", help="also time the trims with compiled=True (separate rows)")
     args, out = parse_with_out(ap, argv)
     from birdocp.io.files import atomic_write_json
 
@@ -83,6 +108,8 @@ def main(argv=None) -> int:
     start = out / "cases" / "wagner.json"
     guess = json.loads(start.read_text())["trim"]["x0_body"] if start.exists() else None
     res = {"trim": {k: trim_cost(CASES[k], x_guess=guess) for k in cases}, "x_guess": guess}
+    if args.compiled:
+        res["trim"].update({f"{k}_compiled": trim_cost(CASES[k], x_guess=guess, compiled=True) for k in cases})
     base = res["trim"]["default"]["wall_s"]
     res["ratios"] = {k: v["wall_s"] / base for k, v in res["trim"].items()}
     res["targets"] = TARGETS
@@ -94,10 +121,12 @@ def main(argv=None) -> int:
     for k, v in res["trim"].items():
         tgt = TARGETS.get(k)
         print(f"  {k:22s} {v['wall_s']:7.2f} s  x{res['ratios'][k]:5.2f}"
-              + (f" (target <= {tgt:g}x)" if tgt else "") + f"  states {v['states']}, rhs {v['rhs_instructions']} instr.")
-    print("section right-hand side against the number of elements n (instructions, us per evaluation)")
+              + (f" (target <= {tgt:g}x)" if tgt else "") + f"  states {v['states']}, rhs {v['rhs_instructions']}, "
+              f"variational step {v['variational_step_instructions']} instr., {v['iterations']} iterations")
+    print("section right-hand side / its state Jacobian against the number of elements n (instructions, us per evaluation)")
     for k, rows in res["elements"].items():
-        print(f"  {k:22s} " + "  ".join(f"n={r['n']}: {r['instructions']} / {r['eval_us']:.0f}" for r in rows))
+        print(f"  {k:22s} " + "  ".join(f"n={r['n']}: {r['instructions']} / {r['eval_us']:.0f}, "
+                                        f"{r['jacobian_instructions']} / {r['jacobian_eval_us']:.0f}" for r in rows))
     return 0
 
 

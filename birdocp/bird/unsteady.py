@@ -17,6 +17,7 @@ harness (:mod:`birdocp.bird.unsteady_harness`). Units SI, angles in rad.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import casadi as ca
@@ -172,29 +173,84 @@ def lu_solve(A, b):
     return ca.vertcat(*x)
 
 
-def _circulation(opts, prm, q_t, zsum, Vn, chord, K, f_state):
-    """Gamma (n x 1) and the final relative Newton residual (0 for a linear section): the linear
-    lifting-line solve (I + A0 H K) Gamma = H (A0 q~ + z1 + z2), H = diag(c C_la / 2), then for a
-    stall section a fixed count of Newton steps."""
-    a0 = prm["a0"]
+INLINE_NEWTON_STEPS = 2
+"""Newton steps of a stall circulation that carry the derivatives: the iterates before them are
+computed in a separate Function whose derivative is declared zero (``is_diff_in``), so AD sees only
+the last two steps. The values are those of all the steps, bit for bit; at the fixed point a Newton
+step's derivative along its starting iterate vanishes, so first derivatives are exact up to the
+residual after N_N - 1 steps and second derivatives up to the residual after N_N - 2 steps
+(docs/model_unsteady.md, cost)."""
+
+
+def _newton(section, a0, cla, cd90, al1, q_t, zsum, Vn, chord, K, f_state, gam, steps):
+    """``steps`` Newton steps of R(Gamma) = Gamma - c |Vp| C_l(alpha_E(Gamma), f) / 2 = 0 from ``gam``;
+    returns the iterate and the last step's residual function."""
     n = chord.shape[0]
-    h = 0.5 * chord * prm["cla"]
-    gam = lu_solve(ca.SX.eye(n) + a0 * ca.diag(h) @ K, h * (a0 * q_t + zsum))
-    if opts["section"] == "linear":
-        return gam, ca.SX(0)
-    cla, cd90, al1 = prm["cla"], prm["cd90"], prm["alpha1"]
-    dyn = opts["section"] == "dynamic-stall"
+    dyn = section == "dynamic-stall"
 
     def resid(g):
         aE = (a0 * (q_t - K @ g) + zsum) / Vn
         f = f_state if dyn else separation_point(aE, al1)
         return g - 0.5 * chord * Vn * lift_coefficient(aE, f, cla, cd90), aE, f
 
-    for _ in range(int(opts["newton_steps"])):
+    for _ in range(steps):
         R, aE, f = resid(gam)
         slope = _lift_slope(aE, f, cla, cd90, al1, total=not dyn)
         J = ca.SX.eye(n) + a0 * ca.diag(0.5 * chord * slope) @ K
         gam = gam - lu_solve(J, R)
+    return gam, resid
+
+
+def _linear_start(a0, cla, q_t, zsum, chord, K):
+    """The linear lifting-line solve (I + A0 H K) Gamma = H (A0 q~ + z1 + z2), H = diag(c C_la / 2)."""
+    h = 0.5 * chord * cla
+    return lu_solve(ca.SX.eye(chord.shape[0]) + a0 * ca.diag(h) @ K, h * (a0 * q_t + zsum))
+
+
+@functools.lru_cache(maxsize=16)
+def _detached_newton(section: str, n: int, steps: int) -> ca.Function:
+    """(a0, cla, cd90, alpha1, q~, z1 + z2, |Vp|, c, K, f) -> the linear start and ``steps`` Newton
+    steps, as a Function called (never inlined) with its derivative declared zero."""
+    sc = [ca.SX.sym(k) for k in ("a0", "cla", "cd90", "alpha1")]
+    cols = [ca.SX.sym(k, n) for k in ("q_t", "zsum", "Vn", "chord", "f")]
+    K = ca.SX.sym("K", n, n)
+    q_t, zsum, Vn, chord, f = cols
+    gam = _linear_start(sc[0], sc[1], q_t, zsum, chord, K)
+    gam, _ = _newton(section, *sc, q_t, zsum, Vn, chord, K, f, gam, steps)
+    args = sc + cols[:4] + [K, f]
+    return ca.Function(f"newton_start_{section.replace('-', '_')}_{steps}", args, [gam],
+                       {"never_inline": True, "is_diff_in": [False] * len(args)})
+
+
+def expanded_instructions(f: ca.Function, section: str, n: int, newton_steps: int, evaluations: int = 1) -> int:
+    """CasADi instructions of an SX Function ``f`` that evaluates the section model ``evaluations``
+    times, with the call of :func:`_detached_newton` of each evaluation counted as the instructions it
+    runs (``n_instructions`` counts a call as one; the calls of its derivative, zero by declaration,
+    stay counted as one)."""
+    total = int(f.n_instructions())
+    if section == "linear" or newton_steps <= INLINE_NEWTON_STEPS:
+        return total
+    inner = _detached_newton(section, n, newton_steps - INLINE_NEWTON_STEPS).n_instructions()
+    return total + evaluations * (inner - 1)
+
+
+def _circulation(opts, prm, q_t, zsum, Vn, chord, K, f_state):
+    """Gamma (n x 1) and the final relative Newton residual (0 for a linear section): the linear
+    lifting-line solve, then for a stall section a fixed count of Newton steps (the ones before the
+    last :data:`INLINE_NEWTON_STEPS` in :func:`_detached_newton`)."""
+    a0, cla = prm["a0"], prm["cla"]
+    n = chord.shape[0]
+    if opts["section"] == "linear":
+        return _linear_start(a0, cla, q_t, zsum, chord, K), ca.SX(0)
+    cd90, al1 = prm["cd90"], prm["alpha1"]
+    steps = int(opts["newton_steps"])
+    inline = min(steps, INLINE_NEWTON_STEPS)
+    f = f_state if f_state is not None else ca.SX.zeros(n, 1)
+    if steps > inline:
+        gam = _detached_newton(opts["section"], n, steps - inline)(a0, cla, cd90, al1, q_t, zsum, Vn, chord, K, f)
+    else:
+        gam = _linear_start(a0, cla, q_t, zsum, chord, K)
+    gam, resid = _newton(opts["section"], a0, cla, cd90, al1, q_t, zsum, Vn, chord, K, f_state, gam, inline)
     R, _, _ = resid(gam)
     rel = ca.mmax(ca.fabs(R)) / ca.mmax(ca.fabs(gam))
     return gam, rel
@@ -219,34 +275,20 @@ def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dic
     """
     from birdocp.bird import aero
 
-    u, w, q = nu[0], nu[1], nu[2]
     n = base["chord"].shape[0]
-    r, v_kin, c_hat, up, tau = (base[k] for k in ("r", "v_kin", "c_hat", "up", "tau"))
-    chord, ds = base["chord"], base["ds"]
-    crow = chord.T
-    ones = ca.DM.ones(1, n)
-    V = ca.vertcat(-v_kin[0, :], w * ones + q * r[2, :] - v_kin[1, :], u * ones - q * r[1, :] - v_kin[2, :])
-    alpha, Vn = aero.section_angle(V, c_hat, up, tau)
-    Vp = V - tau * ca.repmat(ca.sum1(tau * V), 3, 1)
     wag = opts["unsteady"] == "wagner"
     dyn = opts["section"] == "dynamic-stall"
-    k = 0
-    if wag:
-        z1, z2 = zs[0:n], zs[n:2 * n]
-        k = 2 * n
-    else:
-        z1 = z2 = ca.SX.zeros(n, 1)
+    kin = _section_flow(nu, base, ud, prm, wag)
+    Vn, chord = kin["Vp_norm"], base["chord"]
+    k = 2 * n if wag else 0
+    z1, z2 = (zs[0:n], zs[n:2 * n]) if wag else (ca.SX.zeros(n, 1), ca.SX.zeros(n, 1))
     f_state = zs[k:k + n].T if dyn else None
-    omega = ud["omega_k"] + q * ud["tau_hat"][0, :] if wag else None
-    q_t = (Vn * alpha).T
-    if wag:
-        q_t = q_t + prm["chi_w"] * 0.5 * chord * omega.T
     a0 = prm["a0"] if wag else 1.0
     prm = dict(prm, a0=a0)
     zsum = z1 + z2
     K = wake["K"]
-    Gamma, rel = _circulation(opts, prm, q_t, zsum, Vn.T, chord, K, None if f_state is None else f_state.T)
-    g = q_t - K @ Gamma
+    Gamma, rel = _circulation(opts, prm, kin["q_t"], zsum, Vn.T, chord, K, None if f_state is None else f_state.T)
+    g = kin["q_t"] - K @ Gamma
     gE = a0 * g + zsum
     aE = gE / Vn.T
     if opts["section"] == "linear":
@@ -255,6 +297,39 @@ def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dic
         f = f_state
     else:
         f = separation_point(aE.T, prm["alpha1"])
+    zdot = _state_rates(prm, g, z1, z2, aE, f_state, Vn, chord.T, wag, dyn)
+    out = _circulatory_forces(opts["section"], prm, base, ud, wake, kin, Gamma, g, gE, aE, f, wag)
+    out["M"] = aero.moment_about_G(base["r"], out["dF_att"]) + aero.moment_about_G(out["r_mid"], out["dF_mid"])
+    out.update({"zdot": ca.vertcat(*zdot), "Gamma": Gamma, "alpha_E": aE, "f": f, "V": kin["V"], "Vp": kin["Vp"],
+                "Vp_norm": Vn, "alpha": kin["alpha"], "omega": kin["omega"], "newton_residual": rel,
+                "wagner": wag, "n_hat": ud["n_hat"] if wag else None,
+                "r_mid_dot": ud["r_mid_dot"] if ud else None, "omega_k": ud["omega_k"] if wag else None})
+    out.update(_non_circulatory(nu, ud, prm, Vn, chord.T, base["ds"], kin["omega"]) if wag else
+               {"M_A": ca.SX.zeros(3, 3), "b_nc": ca.SX.zeros(3, 1)})
+    return out
+
+
+def _section_flow(nu, base, ud, prm, wag) -> dict:
+    """Air velocity V at the elements (3 x n), its part Vp normal to the span and |Vp| (1 x n), the
+    section angle alpha, the section pitch rate omega (``wagner``) and the quasi-steady normalwash
+    q~ (n x 1, with the 3/4-chord term under ``wagner``)."""
+    from birdocp.bird import aero
+
+    u, w, q = nu[0], nu[1], nu[2]
+    r, v_kin, tau = base["r"], base["v_kin"], base["tau"]
+    ones = ca.DM.ones(1, base["chord"].shape[0])
+    V = ca.vertcat(-v_kin[0, :], w * ones + q * r[2, :] - v_kin[1, :], u * ones - q * r[1, :] - v_kin[2, :])
+    alpha, Vn = aero.section_angle(V, base["c_hat"], base["up"], tau)
+    Vp = V - tau * ca.repmat(ca.sum1(tau * V), 3, 1)
+    omega = ud["omega_k"] + q * ud["tau_hat"][0, :] if wag else None
+    q_t = (Vn * alpha).T
+    if wag:
+        q_t = q_t + prm["chi_w"] * 0.5 * base["chord"] * omega.T
+    return {"V": V, "alpha": alpha, "Vp_norm": Vn, "Vp": Vp, "omega": omega, "q_t": q_t}
+
+
+def _state_rates(prm, g, z1, z2, aE, f_state, Vn, crow, wag, dyn) -> list:
+    """The lag-state rates (``wagner``) and the separation-state rate (``dynamic-stall``), as columns."""
     zdot = []
     if wag:
         lam1 = 2 * B1 * Vn / (prm["kappa"] * crow)
@@ -268,12 +343,21 @@ def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dic
             a_f = a_f - tau2 * z2dot.T / (A2 * Vn)
         tau1 = prm["Tf"] * crow / (2 * Vn)
         zdot.append(((separation_point(a_f, prm["alpha1"]) - f_state) / tau1).T)
+    return zdot
+
+
+def _circulatory_forces(section, prm, base, ud, wake, kin, Gamma, g, gE, aE, f, wag) -> dict:
+    """Kutta-Joukowski forces of the attached circulation at r (``dF_att``) and of the separated
+    circulation with the separated pressure drag at mid-chord (``dF_mid``, ``r_mid``), their sum ``F``,
+    the induced and shed-wake velocities ``vind``, ``v_s`` and ``Gamma_att``."""
+    n = base["chord"].shape[0]
+    crow, ds, Vn = base["chord"].T, base["ds"], kin["Vp_norm"]
     vind = ca.vertcat((wake["Vx"] @ Gamma).T, (wake["Vy"] @ Gamma).T, ca.DM.zeros(1, n))
     v_s = ca.repmat((gE - g).T, 3, 1) * ud["n_hat"] if wag else ca.DM.zeros(3, n)
-    cross = _cross(V + vind + v_s, tau)
+    cross = _cross(kin["V"] + vind + v_s, base["tau"])
     rho = prm["rho"]
-    r_mid = r + 0.25 * ca.repmat(crow, 3, 1) * c_hat
-    if opts["section"] == "linear":
+    r_mid = base["r"] + 0.25 * ca.repmat(crow, 3, 1) * base["c_hat"]
+    if section == "linear":
         dF_att = rho * cross * ca.repmat((Gamma * ds).T, 3, 1)
         dF_mid = ca.DM.zeros(3, n)
         G_att = Gamma
@@ -282,17 +366,9 @@ def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dic
         dF_att = rho * cross * ca.repmat(((G_att) * ds).T, 3, 1)
         cd = separated_drag_coefficient(aE.T, f, prm["cd90"])
         dF_mid = rho * cross * ca.repmat(((Gamma - G_att) * ds).T, 3, 1) \
-            + 0.5 * rho * Vp * ca.repmat(crow * ds.T * Vn * cd, 3, 1)
-    F = ca.sum2(dF_att + dF_mid)
-    M = aero.moment_about_G(r, dF_att) + aero.moment_about_G(r_mid, dF_mid)
-    out = {"dF_att": dF_att, "dF_mid": dF_mid, "r_mid": r_mid, "F": F, "M": M, "zdot": ca.vertcat(*zdot),
-           "Gamma": Gamma, "Gamma_att": G_att, "alpha_E": aE, "f": f, "vind": vind, "v_s": v_s, "V": V, "Vp": Vp,
-           "Vp_norm": Vn, "alpha": alpha, "omega": omega, "newton_residual": rel, "wagner": wag,
-           "n_hat": ud["n_hat"] if wag else None, "r_mid_dot": ud["r_mid_dot"] if ud else None,
-           "omega_k": ud["omega_k"] if wag else None}
-    out.update(_non_circulatory(nu, ud, prm, Vn, crow, ds, omega) if wag else
-               {"M_A": ca.SX.zeros(3, 3), "b_nc": ca.SX.zeros(3, 1)})
-    return out
+            + 0.5 * rho * kin["Vp"] * ca.repmat(crow * ds.T * Vn * cd, 3, 1)
+    return {"dF_att": dF_att, "dF_mid": dF_mid, "r_mid": r_mid, "F": ca.sum2(dF_att + dF_mid),
+            "Gamma_att": G_att, "vind": vind, "v_s": v_s}
 
 
 def _non_circulatory(nu, ud, prm, Vn, crow, ds, omega) -> dict:

@@ -1,0 +1,125 @@
+"""Layout of the bird model: the state, the per-time data vector and the structural switches.
+
+The state x = (u [m/s] forward along x', w [m/s] down along z', q [rad/s] pitch rate nose-up, theta
+[rad] pitch angle), then the aerodynamic states of an unsteady or dynamic-stall section; the data
+vector d(t, p) is the column-major blocks :data:`DATA_BLOCKS` (then the wing-mass sums, then the
+unsteady blocks); :class:`Structure` is what changes the graphs (everything else is a number in p).
+Used by :mod:`birdocp.bird.loads`, :mod:`birdocp.bird.graphs` and :mod:`birdocp.bird.model`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+
+from birdocp.bird import aero
+from birdocp.bird import inertia
+from birdocp.bird import unsteady
+from birdocp.bird.config import PARAM_NAMES, Config
+
+N_EL = aero.N_ELEMENTS
+STATE_NAMES = ("u_mps", "w_mps", "q_radps", "theta_rad")
+
+# Layout of the per-time data vector d (column-major blocks).
+DATA_BLOCKS = (
+    ("r_m", (3, N_EL)),          # element centres relative to G, code frame
+    ("v_kin_mps", (3, N_EL)),    # kinematic velocity of the centres
+    ("c_hat", (3, N_EL)),        # chord directions (leading -> trailing edge)
+    ("up", (3, N_EL)),           # 'up' normals
+    ("tau", (3, N_EL)),          # spanwise directions n x c_hat
+    ("ds_m", (N_EL, 1)),         # element lengths
+    ("G", (N_EL, N_EL)),         # Gamma = G (|Vp| alpha); unsteady/stall structures: K (downwash per unit Gamma)
+    ("Wx", (N_EL, N_EL)),        # induced velocity e1 = Wx (|Vp| alpha); unsteady/stall: per unit Gamma
+    ("Wy", (N_EL, N_EL)),        # induced velocity e2 = Wy (|Vp| alpha); unsteady/stall: per unit Gamma
+    ("nodes_m", (3, N_EL + 1)),  # element end nodes relative to G (the tail's induced velocity)
+    ("chord_m", (N_EL, 1)),      # element chords (the optional profile drag)
+)
+
+
+def _offsets():
+    out, k = {}, 0
+    for name, (r, c) in DATA_BLOCKS:
+        out[name] = (k, r, c)
+        k += r * c
+    return out, k
+
+
+DATA_OFFSETS, N_DATA = _offsets()
+
+N_MASS = len(inertia.MASS_BLOCK)
+"""A model with wing masses appends the sums :data:`birdocp.bird.inertia.MASS_BLOCK` to the data
+vector: its data has N_DATA + N_MASS values, the first N_DATA laid out as :data:`DATA_BLOCKS`."""
+
+
+def unpack_mass(d):
+    """The wing-mass sums of a data vector of a model with wing masses, as a dict of scalars."""
+    return {k: d[N_DATA + i] for i, k in enumerate(inertia.MASS_BLOCK)}
+
+
+def unpack_data(d):
+    """Blocks of a data vector (SX/MX/DM) as a dict of matrices."""
+    return {name: ca.reshape(d[k:k + r * c], r, c) for name, (k, r, c) in DATA_OFFSETS.items()}
+
+
+def air_state(x, wind_mps):
+    """The state as the aerodynamics sees it: (u - wind_u, w - wind_w, q, theta).
+
+    ``wind_mps`` = (W_X, W_Z): the air's velocity in the inertial frame (X forward horizontal, Z down,
+    m/s), uniform over the bird; rotated into the body frame (x' forward, z' down) by the pitch angle
+    theta: ``wind_u = cos(theta) W_X - sin(theta) W_Z``, ``wind_w = sin(theta) W_X + cos(theta) W_Z``.
+    The state's u, w stay the inertial velocity of G in the body frame (the equations of motion are
+    unchanged); a zero wind gives back x exactly."""
+    th = x[3]
+    c, s = ca.cos(th), ca.sin(th)
+    return ca.vertcat(x[0] - (c * wind_mps[0] - s * wind_mps[1]),
+                      x[1] - (s * wind_mps[0] + c * wind_mps[1]), x[2], th)
+
+
+def param(p, name):
+    """The entry ``name`` (:data:`birdocp.bird.config.PARAM_NAMES`) of the parameter vector p."""
+    return p[PARAM_NAMES.index(name)]
+
+
+@dataclass(frozen=True)
+class Structure:
+    """What changes the graphs (everything else is a number in ``p``)."""
+
+    frequency_hz: float
+    circulation: str
+    relaxed_evaluations: int
+    kinematic_velocity: str
+    backward_step_s: float
+    tail: bool = False
+    wing_mass: bool = False
+    drag: bool = False
+    unsteady: str = "none"
+    section: str = "linear"
+    newton_steps: int = 5
+
+    @property
+    def aero_extra(self) -> bool:
+        """True when the unsteady or stall-aware section is on (``aero.unsteady``, ``aero.section``)."""
+        return self.unsteady != "none" or self.section != "linear"
+
+    @property
+    def n_aero_states(self) -> int:
+        """Aerodynamic states after (u, w, q, theta): lag states and separation states."""
+        return unsteady.n_aero_states(self.unsteady, self.section, N_EL)
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        return STATE_NAMES + unsteady.aero_state_names(self.unsteady, self.section, N_EL)
+
+    @staticmethod
+    def of(cfg: Config) -> "Structure":
+        a = cfg.aero
+        dr = cfg.drag
+        return Structure(cfg.gait.frequency_hz, a.circulation, a.relaxed_evaluations,
+                         a.kinematic_velocity, a.backward_step_s,
+                         bool(cfg.tail.enabled or cfg.tail.opening_angle_deg > 0),
+                         bool(cfg.wing.inertial_terms or cfg.wing.mass_kg > 0),
+                         drag=bool(dr.enabled or dr.body_drag_coefficient > 0 or dr.profile_drag_coefficient > 0),
+                         unsteady=a.unsteady, section=a.section,
+                         newton_steps=int(a.newton_steps) if a.section != "linear" else 5)
+
