@@ -297,8 +297,7 @@ class Model:
     [[I_xx, 0, -I_xz], [0, I_yy, 0], [-I_xz, 0, I_zz]]."""
 
 
-SIX_DOF_UNSUPPORTED = (("tail.opening_angle_deg", "tail"), ("wing.mass_kg", "wing masses"),
-                       ("drag.body_drag_coefficient", "drag terms"), ("drag.profile_drag_coefficient", "drag terms"))
+SIX_DOF_UNSUPPORTED = (("drag.body_drag_coefficient", "drag terms"), ("drag.profile_drag_coefficient", "drag terms"))
 """Planar terms not yet written in three dimensions: with model.degrees_of_freedom = 6 each of these
 keys must be 0 (and tail.enabled, drag.enabled false)."""
 
@@ -558,7 +557,7 @@ def _validate_model(cfg: Config) -> None:
         if get_value(cfg, key) != default:
             raise ConfigError(key, f"not yet written in six degrees of freedom; set {key} = '{default}' "
                                    "or model.degrees_of_freedom = 4")
-    for key, what in (("tail.enabled", "the tail"), ("drag.enabled", "drag terms")):
+    for key, what in (("drag.enabled", "drag terms"),):
         if get_value(cfg, key):
             raise ConfigError(key, f"{what}: not yet written in six degrees of freedom; set {key} = false "
                                    "or model.degrees_of_freedom = 4")
