@@ -35,7 +35,8 @@ from birdocp.studies.level import default_bounds
 from birdocp.studies.trim import check_physical
 
 __all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "beats_to_double", "lateral_sensitivities",
-           "LATERAL_SENSITIVITY_KEYS"]
+           "LATERAL_SENSITIVITY_KEYS",
+           "TAIL_SENSITIVITY_KEY"]
 
 
 def beats_to_double(multiplier: complex) -> float:
@@ -145,7 +146,8 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     Parameters
     ----------
     cfg : Config, optional
-        The configuration (default: the paper's reference case). Tail, drag and wing masses are refused.
+        The configuration (default: the paper's reference case). Drag and the unsteady or stall sections are refused;
+        the tail and wing masses are taken in 3-D.
     inertia : LateralInertia, optional
         Roll and yaw inertia [kg m^2]; default ``cfg.model``'s.
     level : bool
@@ -212,10 +214,15 @@ LATERAL_SENSITIVITY_KEYS = ("gait.shoulder_flap.offset_deg", "gait.shoulder_swee
                             "gait.shoulder_incidence.offset_deg", "model.roll_inertia_kgm2",
                             "model.yaw_inertia_kgm2")
 """Default parameters of :func:`lateral_sensitivities`: the shoulder elevation (dihedral: the flap
-joint's offset), sweep, elbow and wrist offsets, the wing incidence and the lateral inertias."""
+joint's offset), sweep, elbow and wrist offsets, the wing incidence and the lateral inertias (and, for a
+configuration with the tail, :data:`TAIL_SENSITIVITY_KEY`)."""
+
+TAIL_SENSITIVITY_KEY = "tail.opening_angle_deg"
+"""Added to the default parameters of :func:`lateral_sensitivities` when the configuration has the tail
+(at opening 0 the tail's span and every derivative of its loads vanish, so the key says nothing there)."""
 
 
-def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, parameters=LATERAL_SENSITIVITY_KEYS):
+def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, parameters=None):
     """Exact derivatives of every multiplier of a converged 6-DOF cycle (fixed amplitude) with respect
     to ``parameters`` (keys of :data:`birdocp.bird.config.PARAM_NAMES` or
     :data:`birdocp.bird.sixdof.LATERAL_PARAM_NAMES`), the change of the cycle included (second-order
@@ -228,8 +235,9 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
         A converged fixed-amplitude 6-DOF cycle (:func:`lateral_trim` without ``level``).
     cfg : Config, optional
         Its configuration (default: the reference case).
-    parameters : sequence of str
-        Parameter keys (default :data:`LATERAL_SENSITIVITY_KEYS`).
+    parameters : sequence of str, optional
+        Parameter keys (default :data:`LATERAL_SENSITIVITY_KEYS`, with :data:`TAIL_SENSITIVITY_KEY`
+        when ``cfg`` has the tail).
 
     Returns
     -------
@@ -249,6 +257,8 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
         raise ValueError("lateral_sensitivities needs a fixed-amplitude cycle (solve level flight, then trim at "
                          "its amplitude)")
     six = sixdof_model(cfg)
+    if parameters is None:
+        parameters = LATERAL_SENSITIVITY_KEYS + ((TAIL_SENSITIVITY_KEY,) if six.structure.tail else ())
     names = list(PARAM_NAMES) + list(LATERAL_PARAM_NAMES)
     for k in parameters:
         if k not in names:
