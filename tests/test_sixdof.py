@@ -139,27 +139,31 @@ def test_trim_cli_with_six_degrees_of_freedom(tmp_path):
 
 
 @pytest.mark.slow
-def test_lateral_sensitivity_against_central_differences(default_config, coarse):
-    """The exact derivative of the spiral multiplier's modulus along the shoulder elevation (dihedral)
-    against central differences of re-solved cycles."""
-    from birdocp.bird.config import with_values
+def test_lateral_sensitivity_against_central_differences(mass_tail_config, coarse):
+    """The exact derivatives of the spiral multiplier's modulus along the shoulder elevation (dihedral)
+    and the tail opening, with wing masses and the tail, against central differences of re-solved
+    cycles."""
+    from birdocp.bird.config import get_value, with_values
     from birdocp.studies.lateral import lateral_sensitivities
 
     method = MultipleShooting(**coarse)
-    key = "gait.shoulder_flap.offset_deg"
-    res = lateral_trim(default_config, method=method)
-    (row,) = lateral_sensitivities(res, default_config, [key])
-    spiral = [i for i, lab in enumerate(row["labels"]) if lab == "spiral"]
-    assert len(spiral) == 1 and row["labels"].count("heading") == 1
+    keys = ["gait.shoulder_flap.offset_deg", "tail.opening_angle_deg"]
+    res = lateral_trim(mass_tail_config, method=method)
+    rows = lateral_sensitivities(res, mass_tail_config, keys)
+    spiral = [i for i, lab in enumerate(rows[0]["labels"]) if lab == "spiral"]
+    assert len(spiral) == 1 and rows[0]["labels"].count("heading") == 1
 
-    def modulus(v):
-        r = lateral_trim(with_values(default_config, {key: v}), method=method)
+    def modulus(key, v):
+        r = lateral_trim(with_values(mass_tail_config, {key: v}), method=method)
         return abs(next(m["multiplier"] for m in r.lateral_modes if m["label"] == "spiral"))
 
     h = 0.01
-    fd = (modulus(h) - modulus(-h)) / (2 * h)
-    assert abs(row["d_moduli"][spiral[0]] - fd) < 1e-6 * max(1.0, abs(fd)), (row["d_moduli"][spiral[0]], fd)
-    assert row["d_moduli"][row["labels"].index("heading")] == pytest.approx(0.0, abs=1e-12)
+    for key, row in zip(keys, rows):
+        v0 = get_value(mass_tail_config, key)
+        fd = (modulus(key, v0 + h) - modulus(key, v0 - h)) / (2 * h)
+        assert abs(fd) > 1e-4  # both move the spiral mode
+        assert abs(row["d_moduli"][spiral[0]] - fd) < 1e-6 * max(1.0, abs(fd)), (key, row["d_moduli"][spiral[0]], fd)
+        assert row["d_moduli"][row["labels"].index("heading")] == pytest.approx(0.0, abs=1e-12)
 
 
 # --- wing masses and the tail in six degrees of freedom --------------------------------------------
