@@ -7,23 +7,14 @@ import argparse
 import time
 
 from birdocp.cli.common import EXIT_OK, fmt_num, finish_result, format_trim_table, run_folder
-from birdocp.io.errors import ConfigError
 
 def level_options(kw: dict) -> dict:
     """The 6-DOF level options from the planar level's checked keywords: the amplitude solved for a
-    mean vertical speed (other free keys and conditions are refused, one line)."""
-    from birdocp.bird.keys import AMPLITUDE_KEY
+    mean vertical speed (other free keys and conditions are refused, one line;
+    :func:`birdocp.studies.lateral.level_keywords`)."""
+    from birdocp.studies.lateral import level_keywords
 
-    if kw["free"] != AMPLITUDE_KEY:
-        raise ConfigError("--free", "with model.degrees_of_freedom = 6 level flight solves the amplitude only; "
-                                    "drop --free")
-    if kw["constrain"] != "vertical_speed_mps":
-        raise ConfigError("--constrain", "with model.degrees_of_freedom = 6 level flight holds the mean vertical "
-                                         "speed only; drop --constrain")
-    out = {"level": True, "climb_rate_mps": kw["climb_rate_mps"]}
-    if "bounds" in kw:
-        out["bounds"] = kw["bounds"]
-    return out
+    return level_keywords(kw)
 
 
 def format_lateral_table(r: dict) -> str:

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, param_vector
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, param_vector
 from birdocp.bird.flight import flight_path_angle_deg
 from birdocp.bird.keys import AMPLITUDE_KEY
 from birdocp.bird.sixdof import HEADING, LATERAL, LONGITUDINAL, STATE_NAMES, LateralInertia, embed_planar_state, \
@@ -36,7 +36,7 @@ from birdocp.studies.trim import check_physical
 
 __all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "beats_to_double", "lateral_sensitivities",
            "LATERAL_SENSITIVITY_KEYS",
-           "TAIL_SENSITIVITY_KEY"]
+           "TAIL_SENSITIVITY_KEY", "level_keywords", "solve_point"]
 
 
 def beats_to_double(multiplier: complex) -> float:
@@ -116,12 +116,13 @@ class LateralTrimResult:
     def to_dict(self) -> dict:
         """JSON of the result: the engine cycle's keys (status, residuals, x0 of 9 states, ...) with
         ``multipliers`` (all nine) and ``stable`` (the heading's 1 excluded), then this result's
-        fields, ``state_names``, ``lateral_stable`` and the period means ``mean_vertical_speed_mps``
+        fields, ``state_names``, ``moduli`` (of ``multipliers``), ``lateral_stable`` and the period means ``mean_vertical_speed_mps``
         and ``mean_forward_speed_mps``."""
         own = {f.name for f in fields(self)} | {"success", "stable", "lateral_stable"}
         extra = {k: v for k, v in self.cycle.to_dict().items() if k not in own}
         extra.update({
             "state_names": list(STATE_NAMES), "degrees_of_freedom": 6,
+            "moduli": [float(abs(z)) for z in self.multipliers],
             "mean_vertical_speed_mps": self.mean_vertical_speed_mps,
             "mean_forward_speed_mps": self.mean_forward_speed_mps,
             "flight_path_angle_deg": flight_path_angle_deg(self.mean_vertical_speed_mps, self.mean_forward_speed_mps)})
@@ -140,7 +141,7 @@ class LateralTrimResult:
 
 def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = None, *, level: bool = False,
                  climb_rate_mps: float = 0.0, bounds=None, method: MultipleShooting | None = None,
-                 x_guess=None) -> LateralTrimResult:
+                 x_guess=None, warm_start=None, **method_over) -> LateralTrimResult:
     """Trim ``cfg``'s gait in six degrees of freedom and split its Floquet multipliers.
 
     Parameters
@@ -160,6 +161,11 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
         Shooting points and RK4 steps (default: ``cfg.solve``'s).
     x_guess : sequence of 9 floats, optional
         Start state (default: the planar guess ``cfg.solve.initial_guess`` with zero lateral states).
+    warm_start : LimitCycleResult, optional
+        A previous 6-DOF cycle (its shooting points and, with ``level``, its amplitude) to start from.
+    **method_over
+        Overrides of the default :class:`~birdocp.engine.shooting.MultipleShooting` (``points``,
+        ``steps_per_period``, ...) when ``method`` is not given.
 
     Returns
     -------
@@ -169,7 +175,8 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     six = sixdof_model(cfg)
     inertia = inertia or LateralInertia.of(cfg)
     p6 = six.params(param_vector(cfg), inertia)
-    method = method or MultipleShooting(points=cfg.solve.points, steps_per_period=cfg.solve.steps_per_period)
+    method = method or MultipleShooting(**{"points": cfg.solve.points, "steps_per_period": cfg.solve.steps_per_period,
+                                           **method_over})
     guess = embed_planar_state(cfg.solve.initial_guess) if x_guess is None else x_guess
     outputs = six.flight_outputs()
     free, means = {}, []
@@ -178,9 +185,55 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
         means = [MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")]
     problem = LimitCycleProblem(ode=six.ode, p=p6, x_guess=guess, free=free, means=means,
                                 outputs={k: f for k, f in outputs.items() if not (level and k == "vertical_speed_mps")})
-    cyc = check_physical(solve(problem, method))  # u <= 0 somewhere: not a forward flight, as the planar trim
+    ws = getattr(warm_start, "cycle", warm_start)
+    cyc = check_physical(solve(problem, method, warm_start=ws))  # u <= 0 somewhere: not a forward flight, as the planar trim
     amplitude = float(cyc.free_values.get(AMPLITUDE_KEY, cfg.gait.shoulder_flap.amplitude_deg))
     return _split(cfg, cyc, six.ode.period_s, method, inertia, amplitude)
+
+
+def level_keywords(level_options: dict | None) -> dict:
+    """:func:`lateral_trim` keywords of level flight from the planar level's options (``free``,
+    ``constrain``, ``bounds``, ``climb_rate_mps``, ``target``): in six degrees of freedom level flight
+    solves the flapping amplitude for a mean vertical speed; any other free key or condition is a
+    :class:`~birdocp.bird.config.ConfigError` naming the option."""
+    o = dict(level_options or {})
+    if o.get("free", AMPLITUDE_KEY) not in (AMPLITUDE_KEY, "amplitude"):
+        raise ConfigError("--free", "with model.degrees_of_freedom = 6 level flight solves the amplitude only; "
+                                    "drop --free")
+    if o.get("constrain", "vertical_speed_mps") != "vertical_speed_mps" or o.get("target") is not None:
+        raise ConfigError("--constrain", "with model.degrees_of_freedom = 6 level flight holds the mean vertical "
+                                         "speed only; drop --constrain and --target")
+    out = {"level": True, "climb_rate_mps": float(o.get("climb_rate_mps", 0.0))}
+    if o.get("bounds") is not None:
+        out["bounds"] = tuple(o["bounds"])
+    return out
+
+
+def solve_point(cfg: Config, *, level: bool = False, level_options: dict | None = None, warm_start=None,
+                **method_over) -> LateralTrimResult:
+    """One 6-DOF point of a family (a sweep or grid, :mod:`birdocp.studies.sweep`): :func:`lateral_trim`
+    at fixed amplitude, or in level flight with the planar level's ``level_options``
+    (:func:`level_keywords`).
+
+    Parameters
+    ----------
+    cfg : Config
+        The point's configuration (``model.degrees_of_freedom = 6``).
+    level : bool
+        Solve the amplitude for the mean vertical speed.
+    level_options : dict, optional
+        The planar level's options (``free``, ``bounds``, ``climb_rate_mps``, ...).
+    warm_start : LimitCycleResult, optional
+        The neighbour's 6-DOF cycle.
+    **method_over
+        Overrides of the shooting method.
+
+    Returns
+    -------
+    LateralTrimResult
+    """
+    kw = level_keywords(level_options) if level else {}
+    return lateral_trim(cfg, warm_start=warm_start, **kw, **method_over)
 
 
 def _split(cfg, cyc, T, method, inertia, amplitude) -> LateralTrimResult:

@@ -47,7 +47,8 @@ from birdocp.io.provenance import config_hash
 from birdocp.io.progress import progress_bar
 from birdocp.studies.level import AMPLITUDE_KEY, resolve_key
 
-__all__ = ["sweep", "sweep_values", "read_points", "CSV_COLUMNS", "row_of", "grid_sweep", "GRID_COLUMNS"]
+__all__ = ["sweep", "sweep_values", "read_points", "CSV_COLUMNS", "row_of", "grid_sweep", "GRID_COLUMNS",
+           "SIX_DOF_COLUMNS"]
 
 N_MULT = 4
 CSV_COLUMNS = (
@@ -58,6 +59,15 @@ CSV_COLUMNS = (
        "amplitude_deg", "free_key", "free_value", "iterations", "max_residual", "wall_s", "warm_from"]
     + list(VALIDITY_COLUMNS)
 )
+
+SIX_DOF_COLUMNS = (["lateral_stable"] + [f"lateral_modulus{k}" for k in range(4)]
+                   + [f"longitudinal_modulus{k}" for k in range(4)] + ["spiral_modulus", "coupling_max"])
+"""Columns added to the table of a six-degree-of-freedom family (``model.degrees_of_freedom = 6``):
+the lateral verdict (the heading's multiplier 1 excluded), the moduli of the lateral (v, p, r, phi) and
+longitudinal (u, w, q, theta) multipliers (largest first), the spiral mode's modulus and the largest
+longitudinal-lateral coupling entry of the monodromy. The rows' JSON also hold ``multipliers`` (all
+nine), ``lateral_multipliers``, ``longitudinal_multipliers``, ``heading_multiplier`` and the labelled
+``lateral_modes``."""
 
 
 MAX_SWEEP_POINTS = 10000
@@ -143,7 +153,31 @@ def row_of(index: int, key: str, value: float, d: dict, free_key: str | None, wa
     v = d.get("validity") or {}
     row.update(validity_columns(v))
     row["validity"] = {k: x for k, x in v.items() if k != "thresholds"} or None
+    if "lateral_multipliers" in d:
+        row.update(_six_dof_columns(d))
     return row
+
+
+def _six_dof_columns(d: dict) -> dict:
+    """The :data:`SIX_DOF_COLUMNS` and the multiplier lists of a 6-DOF result's JSON ``d``."""
+    out = {k: d.get(k) for k in ("lateral_stable", "coupling_max") + _SIX_DOF_LISTS}
+    for name in ("lateral", "longitudinal"):
+        mods = [math.hypot(*m) for m in _pair_list(d.get(f"{name}_multipliers"))]
+        for k in range(4):
+            out[f"{name}_modulus{k}"] = mods[k] if k < len(mods) else None
+    spiral = [m for m in d.get("lateral_modes") or [] if m.get("label") == "spiral"]
+    out["spiral_modulus"] = math.hypot(*spiral[0]["multiplier"]) if spiral else None
+    return out
+
+
+_SIX_DOF_LISTS = ("multipliers", "lateral_multipliers", "longitudinal_multipliers", "heading_multiplier",
+                  "lateral_modes")
+
+
+def _columns_of(cfg: Config, base=None) -> list[str]:
+    """The CSV columns of a family of ``cfg`` (the 6-DOF columns appended with six degrees of freedom)."""
+    base = list(CSV_COLUMNS if base is None else base)
+    return base + SIX_DOF_COLUMNS if cfg.model.degrees_of_freedom == 6 else base
 
 
 def _csv_text(rows: list[dict], columns=None) -> str:
@@ -234,6 +268,11 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
         raise ConfigError("key", f"'{key}' is the free parameter of the level-flight solve; sweep another "
                                  "parameter (or sweep without --level)")
     cfgs = [with_values(cfg, {key: v}) for v in values]  # validates every value before solving
+    six = cfg.model.degrees_of_freedom == 6
+    if six and level:
+        from birdocp.studies.lateral import level_keywords
+
+        level_keywords(level_options)  # refused before anything is written
 
     from birdocp.studies.level import level as level_solve  # the model and the engine: after the input checks
     from birdocp.studies.trim import trim
@@ -264,7 +303,7 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
             return
         table = [r for r in rows if r is not None]
         atomic_write_json(out / "sweep.json", dict(spec, points=table, complete=len(table) == len(values)))
-        atomic_write_text(out / "sweep.csv", _csv_text(table))
+        atomic_write_text(out / "sweep.csv", _csv_text(table, _columns_of(cfg)))
 
     flush()
     last_ok = None  # (index, warm start object)
@@ -281,7 +320,11 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
         warm_from = last_ok[0] if (warm and last_ok is not None) else None
         bar.show(i, f"solving {v:g}")
         t = time.perf_counter()
-        if level:
+        if six:
+            from birdocp.studies.lateral import solve_point
+
+            res = solve_point(cfg_i, level=level, level_options=level_options, warm_start=ws, **method_over)
+        elif level:
             res = level_solve(cfg_i, warm_start=ws, **level_options, **method_over)
         else:
             res = trim(cfg_i, warm_start=ws, **method_over)
@@ -417,12 +460,13 @@ def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: s
     for res in results:
         for r in res["rows"]:
             row = {"row": res["row"], "row_key": row_key, "row_value": row_values[res["row"]]}
-            row.update({c: r.get(c) for c in CSV_COLUMNS if c != "wall_s"})
+            row.update({c: r.get(c) for c in _columns_of(cfg) if c != "wall_s"})
             row["validity"] = r.get("validity")
+            row.update({k: r[k] for k in _SIX_DOF_LISTS if k in r})
             table.append(row)
     if out is not None:
         atomic_write_json(out / "grid.json", dict(spec, points=table, complete=True))
-        atomic_write_text(out / "grid.csv", _csv_text(table, GRID_COLUMNS))
+        atomic_write_text(out / "grid.csv", _csv_text(table, _columns_of(cfg, GRID_COLUMNS)))
         atomic_write_json(out / "timing.json", {**executor.describe(), "wall_s": wall,
                                                 "row_wall_s": [r["wall_s"] for r in results],
                                                 "rows_from_disk": sorted(done)})
