@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import time
 
 import numpy as np
@@ -103,41 +104,53 @@ def table(res: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _mode_series(rows: list[dict]) -> dict:
+    """Per row: the moduli of the labelled lateral modes, the largest lateral and longitudinal ones."""
+    out = {k: [] for k in ("spiral", "dutch_roll_like", "roll_subsidence", "lateral_max", "longitudinal_max")}
+    for r in rows:
+        by = {m["label"]: float(np.hypot(*m["multiplier"])) for m in r.get("lateral_modes") or []}
+        for k in ("spiral", "dutch_roll_like", "roll_subsidence"):
+            out[k].append(by.get(k, np.nan))
+        out["lateral_max"].append(r.get("lateral_modulus0") or np.nan)
+        out["longitudinal_max"].append(r.get("longitudinal_modulus0") or np.nan)
+    return {k: np.array(v, float) for k, v in out.items()}
+
+
 def figure(res: dict, path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.4), sharey=True)
-    styles = {"spiral": ("C0", "spiral"), "dutch": ("C1", "Dutch-roll-like pair"),
-              "roll": ("C2", "roll subsidence"), "lon": ("k", "longitudinal, largest")}
-    for ax, fam, title in ((axes[0], "fixed", "A = 42 deg"), (axes[1], "level", "level flight")):
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True, height_ratios=(3, 2))
+    styles = {"lateral_max": ("C3", "--", "lateral, largest"), "spiral": ("C0", "-", "spiral"),
+              "dutch_roll_like": ("C1", "-", "Dutch-roll-like pair"),
+              "longitudinal_max": ("k", "-", "longitudinal, largest"),
+              "roll_subsidence": ("C2", "-", "roll subsidence")}
+    for col, (fam, title) in enumerate((("fixed", "A = 42 deg"), ("level", "level flight"))):
         rows = [r for r in res["families"][fam] if r["success"]]
         sm = np.array([r["sm_percent"] for r in rows])
         valid = np.array([bool(r.get("valid")) for r in rows])
-        series = {k: [] for k in styles}
-        for r in rows:
-            modes = r.get("lateral_modes") or []
-            by = {m["label"]: float(np.hypot(*m["multiplier"])) for m in modes}
-            series["spiral"].append(by.get("spiral", np.nan))
-            series["dutch"].append(by.get("dutch_roll_like", np.nan))
-            series["roll"].append(by.get("roll_subsidence", np.nan))
-            series["lon"].append(r.get("longitudinal_modulus0") or np.nan)
-        for k, (c, lab) in styles.items():
-            y = np.array(series[k], float)
-            ax.plot(sm, y, "-", color=c, lw=1.2, label=lab)
+        series = _mode_series(rows)
+        for k, (c, ls, lab) in styles.items():
+            ax = axes[1 if k == "roll_subsidence" else 0, col]
+            y = series[k]
+            ax.plot(sm, y, ls, color=c, lw=1.2, label=lab)
             ax.scatter(sm[valid], y[valid], color=c, s=14, zorder=3)
-            ax.scatter(sm[~valid], y[~valid], color="0.7", s=22, zorder=4, edgecolor="0.4", lw=0.5)
-        ax.axhline(1.0, color="0.3", lw=0.8, ls=":")
-        ax.axvspan(-32.5, -17.5, color="0.93", zorder=0)
-        ax.set_yscale("log")
-        ax.set_xlabel("stability margin SM [%] (root ahead of G: left)")
-        ax.set_title(f"{title} (grey points: model not valid)")
-    axes[0].set_ylabel("|multiplier|")
-    axes[0].legend(loc="lower left", fontsize=8)
-    fig.suptitle("Lateral and longitudinal Floquet multipliers over the stability margin (6 DOF; shaded: "
-                 "the paper's range)", fontsize=10)
+            ax.scatter(sm[~valid], y[~valid], color="0.75", s=24, zorder=4, edgecolor="0.35", lw=0.6)
+        for ax in axes[:, col]:
+            ax.axvspan(-32.5, -17.5, color="0.94", zorder=0)
+        axes[0, col].axhline(1.0, color="0.3", lw=0.8, ls=":")
+        axes[0, col].set_title(f"{title}")
+        axes[1, col].set_yscale("log")
+        axes[1, col].set_xlabel("stability margin SM [%] (wing root further ahead of G: left)")
+    axes[0, 0].set_ylabel("|multiplier|")
+    axes[1, 0].set_ylabel("|multiplier| (roll subsidence)")
+    axes[0, 0].scatter([], [], color="0.75", edgecolor="0.35", s=24, label="model not valid")
+    axes[0, 0].legend(loc="upper right", fontsize=8)
+    axes[1, 0].legend(loc="upper left", fontsize=8)
+    fig.suptitle("6 DOF: Floquet multipliers over the stability margin (shaded: the paper's range; grey "
+                 "points: model not valid there)", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -146,7 +159,13 @@ def figure(res: dict, path) -> None:
 def main(argv=None) -> dict:
     ap = script_parser(__doc__, "results/lateral/sweep")
     ap.add_argument("--jobs", type=int, default=2, help="local processes (default %(default)s)")
+    ap.add_argument("--replot", action="store_true", help="redraw margin.png and table.md from --out's result.json")
     args, out = parse_with_out(ap, argv)
+    if args.replot:
+        res = json.loads((out / "result.json").read_text())
+        atomic_write_text(out / "table.md", table(res))
+        figure(res, out / "margin.png")
+        return res
     res = run(args.jobs)
     atomic_write_json(out / "result.json", res)
     atomic_write_text(out / "sweep.csv", csv_text(res))

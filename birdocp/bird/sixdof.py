@@ -1,5 +1,5 @@
 """The bird in six degrees of freedom: rigid-body equations in body axes with the lifting line in
-asymmetric flow (the equations are written out in ``docs/sixdof.md``).
+asymmetric flow (the equations are written out in ``docs/studies/lateral.md``).
 
 State ``x`` (9), body frame x' forward, y' right, z' down, origin the centre of mass G:
 
@@ -129,7 +129,7 @@ def tail_body_loads(x, b, gamma, p):
     induced velocity of the whole (possibly asymmetric) wake at its neutral point. The flat tail in
     the plane x'y' carries no side force; the crossflow of sideslip and yaw rate (v - r x_tail along
     y') and the roll rate are not seen by it (its loads are even in sideslip and it adds no roll or
-    yaw moment: slender-wing theory to first order, docs/sixdof.md)."""
+    yaw moment: slender-wing theory to first order, docs/studies/lateral.md)."""
     return tail.tail_loads(ca.vertcat(x[0], x[2], x[4]), b["nodes_m"], gamma, _p(p, "aero.air_density_kgm3"),
                            *[_p(p, f"tail.{k}") for k in ("opening_angle_deg", "root_behind_m", "length_m",
                                                           "kinematic_viscosity_m2ps", "reynolds_speed_mps",

@@ -1,5 +1,5 @@
 """Wings with mass in six degrees of freedom: the 3-D sums of the wing mass points and the rigid body's
-accelerations with them (the equations are in ``docs/sixdof.md``, wing masses).
+accelerations with them (the equations are in ``docs/studies/lateral.md``, wing masses).
 
 The planar model (:mod:`birdocp.bird.inertia`) keeps the in-plane sums of mirror-symmetric wings. In
 three dimensions every sum is a vector or a tensor, and nothing cancels once the wings move
