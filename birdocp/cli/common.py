@@ -181,7 +181,7 @@ def resolve_config(args: argparse.Namespace) -> C.Config:
     return cfg
 
 
-SIX_DOF_COMMANDS = ("trim", "level", "sweep", "sensitivity", "export-c")
+SIX_DOF_COMMANDS = ("trim", "level", "sweep", "sensitivity", "export-c", "continue")
 """Commands that solve the six-degree-of-freedom model (:mod:`birdocp.cli.six_dof`); the others
 refuse model.degrees_of_freedom = 6."""
 

@@ -119,6 +119,9 @@ def _finish(run, args, br, cfg, display: str, a: float, b: float, resumed: int, 
                "validity_boundaries": [s for s in d["special_points"] if s["kind"] == "validity_boundary"],
                "resumed_points": resumed, "wall_s": {"total": time.perf_counter() - t_start},
                "run_dir": str(run.dir)}
+    # six degrees of freedom: the per-point split of the multipliers (birdocp.studies.lateral.add_lateral_split)
+    summary.update({k: br.settings[k] for k in ("degrees_of_freedom", "longitudinal_multipliers",
+                                                 "lateral_multipliers", "lateral_stable") if k in br.settings})
     run.write(cfg, summary)
     if args.json:
         run.output(dict(summary, branch=d), None)

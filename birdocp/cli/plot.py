@@ -83,6 +83,14 @@ def _figures(run: Path, res: dict, command, arrays: dict | None) -> list:
         from birdocp.plots import figures as plots
 
         cyc = dict(res, **(arrays or {}))
+        if res.get("degrees_of_freedom") == 6 and "trajectory_x" in cyc:
+            import numpy as np
+
+            from birdocp.bird.sixdof import LONGITUDINAL
+
+            # the longitudinal states (u, w, q, theta); the lateral ones are zero on a symmetric cycle
+            cyc["trajectory_x"] = np.asarray(cyc["trajectory_x"])[:, list(LONGITUDINAL)]
+            cyc["shooting_points"] = np.asarray(cyc.get("shooting_points", np.zeros((0, 9))))[:, list(LONGITUDINAL)]
         if "trajectory_x" in cyc:
             figs.append(plots.plot_states(cyc, run / "states.png"))
             figs.append(plots.plot_phase_portrait(cyc, run / "phase.png"))

@@ -111,21 +111,27 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
             options["step"] = abs(root_of_sm(options["step"], chord))  # SM percent -> metres
         if options.get("max_dparam"):
             options["max_dparam"] = abs(root_of_sm(options["max_dparam"], chord))
-    m = get_model(cfg)
     points = int(points or cfg.solve.points)
     steps = int(steps_per_period or cfg.solve.steps_per_period)
-    guess = m.complete_state(cfg.solve.initial_guess, m.p0)
-    ode = solver_ode(m, compiled)
+    six = cfg.model.degrees_of_freedom == 6
+    if six:  # the 6-DOF model without its heading (birdocp.studies.lateral.reduced_ode)
+        from birdocp.studies.lateral import branch_parts
+
+        ode, p0, guess, outputs = branch_parts(cfg)
+    else:
+        m = get_model(cfg)
+        p0, guess = m.p0, m.complete_state(cfg.solve.initial_guess, m.p0)
+        ode = solver_ode(m, compiled)
+        outputs = flight_outputs(m.ode.nd, m.ode.nx)
     if level:
         if model_key == AMPLITUDE_KEY:
             raise ValueError("with level flight held the amplitude is solved for: continue another parameter")
         lo, hi = bounds if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)
-        outputs = flight_outputs(m.ode.nd, m.ode.nx)
         cond = MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")
-        prob = LimitCycleProblem(ode, m.p0, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
+        prob = LimitCycleProblem(ode, p0, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
                                  outputs={"forward_speed_mps": outputs["forward_speed_mps"]})
     else:
-        prob = LimitCycleProblem(ode, m.p0, guess, outputs=flight_outputs(m.ode.nd, m.ode.nx))
+        prob = LimitCycleProblem(ode, p0, guess, outputs=outputs)
     ws = start.cycle if isinstance(start, TrimResult) else start
     options.setdefault("scales", {"states": 1.0, "free": 10.0})
 
@@ -145,6 +151,10 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
         br.settings["stability_margin_percent"] = [sm_percent(p.parameter, chord) for p in br.points]
     if validity:
         add_validity(cfg, br, steps, ode)
+    if six:
+        from birdocp.studies.lateral import add_lateral_split
+
+        add_lateral_split(cfg, br, steps, points)
     return br
 
 
@@ -161,8 +171,8 @@ def validity_events(cfg, steps_per_period: int, ode=None, stop: bool = False):
     from birdocp.engine.continuation import BranchEvents
 
     def evaluate(pt):
-        v = periodic_validity(cfg, pt.x0, np.asarray(pt.p, float) if len(pt.p) else None,
-                              steps_per_period=steps_per_period, ode=ode)
+        x0, p, o = _planar_of(cfg, pt, ode)
+        v = periodic_validity(cfg, x0, p, steps_per_period=steps_per_period, ode=o)
         pt.validity = v.to_dict()
         return validity_margins(v)
 
@@ -184,8 +194,18 @@ def add_validity(cfg, br: Branch, steps_per_period: int | None = None, ode=None)
     n = int(steps_per_period or br.settings.get("steps_per_period") or cfg.solve.steps_per_period)
     for pt in br.points:
         if pt.validity is None:
-            pt.validity = periodic_validity(cfg, pt.x0, np.asarray(pt.p, float) if len(pt.p) else None,
-                                            steps_per_period=n, ode=ode).to_dict()
+            x0, p, o = _planar_of(cfg, pt, ode)
+            pt.validity = periodic_validity(cfg, x0, p, steps_per_period=n, ode=o).to_dict()
     return br
+
+
+def _planar_of(cfg, pt, ode):
+    """(x0, p, ode) for the validity of a branch point: as is, or for a 6-DOF point the planar cycle's
+    state and parameters with the planar model (:func:`birdocp.studies.lateral.planar_point`)."""
+    if cfg.model.degrees_of_freedom == 6:
+        from birdocp.studies.lateral import planar_point
+
+        return (*planar_point(pt.x0, pt.p), None)
+    return pt.x0, np.asarray(pt.p, float) if len(pt.p) else None, ode
 
 

@@ -36,7 +36,8 @@ from birdocp.studies.trim import check_physical
 
 __all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "beats_to_double", "lateral_sensitivities",
            "LATERAL_SENSITIVITY_KEYS",
-           "TAIL_SENSITIVITY_KEY", "level_keywords", "solve_point"]
+           "TAIL_SENSITIVITY_KEY", "level_keywords", "solve_point", "reduced_ode", "branch_parts", "planar_point",
+           "add_lateral_split", "N_REDUCED"]
 
 
 def beats_to_double(multiplier: complex) -> float:
@@ -336,3 +337,73 @@ def _labels(lam, res: LateralTrimResult) -> list[str]:
                 lab = m["label"]
         out.append(lab)
     return out
+
+
+# ----------------------------------------------------------------------------------------------
+# Continuation in six degrees of freedom: the heading dropped (nothing depends on it)
+
+N_REDUCED = 8
+"""States of the continuation ODE: (u, v, w, p, q, r, phi, theta), the heading psi left out. Nothing
+depends on psi, so its equation decouples and adds only the structural multiplier 1, which would sit
+on every fold and branch-point test function of the continuation."""
+
+
+def reduced_ode(cfg: Config):
+    """The 6-DOF :class:`~birdocp.engine.problem.PeriodicODE` without the heading (:data:`N_REDUCED`
+    states, same data and parameters) and its flight outputs (dict of Functions ``(x8, d, p)``), built
+    once per 6-DOF model."""
+    import casadi as ca
+
+    from birdocp.engine.problem import PeriodicODE
+
+    six = sixdof_model(cfg)
+    if getattr(six, "_reduced", None) is None:
+        x = ca.SX.sym("x", N_REDUCED)
+        d = ca.SX.sym("d", six.rhs.size1_in(1))
+        p = ca.SX.sym("p", six.ode.np)
+        x9 = ca.vertcat(x, 0)
+        rhs = ca.Function("rhs6_reduced", [x, d, p], [six.rhs(x9, d, p)[:N_REDUCED]], ["x", "d", "p"], ["xdot"])
+        outs = {k: ca.Function(k, [x, d, p], [f(x9, d, p)]) for k, f in six.flight_outputs().items()}
+        o = six.ode
+        ode = PeriodicODE(rhs=rhs, data=o.data, period_s=o.period_s, state_names=STATE_NAMES[:N_REDUCED],
+                          param_names=o.param_names, pre=o.pre, post=o.post, pre_params=o.pre_params)
+        six._reduced = (ode, outs)
+    return six._reduced
+
+
+def branch_parts(cfg: Config):
+    """(ODE, parameter vector, start guess, flight outputs) of a 6-DOF continuation of ``cfg``
+    (:func:`birdocp.studies.branch.bird_branch`): the heading-free ODE of :func:`reduced_ode`."""
+    ode, outs = reduced_ode(cfg)
+    p6 = sixdof_model(cfg).params(param_vector(cfg), LateralInertia.of(cfg))
+    return ode, np.asarray(p6, float), np.array(embed_planar_state(cfg.solve.initial_guess)[:N_REDUCED]), outs
+
+
+def planar_point(x0, p):
+    """The planar (u, w, q, theta) state and parameter vector of a 6-DOF point (its validity is the
+    planar cycle's: a symmetric cycle has v = p = r = phi = 0)."""
+    x0 = np.asarray(x0, float)
+    return x0[list(LONGITUDINAL)], (np.asarray(p, float)[:len(PARAM_NAMES)] if p is not None and len(p) else None)
+
+
+def add_lateral_split(cfg: Config, branch, steps_per_period: int, points: int) -> None:
+    """Give every point of a 6-DOF branch its split multipliers, in ``branch.settings``: the lists
+    ``longitudinal_multipliers`` and ``lateral_multipliers`` ([re, im] pairs, largest modulus first),
+    ``lateral_stable`` and ``coupling_max`` per point, from the point's monodromy (one variational
+    period of the heading-free ODE; the heading's multiplier 1 is not part of the branch)."""
+    from birdocp.engine.shooting import floquet
+
+    ode, _ = reduced_ode(cfg)
+    lon, lat = list(LONGITUDINAL), list(LATERAL)
+    rows = {"longitudinal_multipliers": [], "lateral_multipliers": [], "lateral_stable": [], "coupling_max": []}
+    method = MultipleShooting(points=points, steps_per_period=steps_per_period)
+    for pt in branch.points:
+        M = np.asarray(floquet(ode, pt.x0, pt.p, method).monodromy)
+        L = {"longitudinal": sort_multipliers(np.linalg.eigvals(M[np.ix_(lon, lon)])),
+             "lateral": sort_multipliers(np.linalg.eigvals(M[np.ix_(lat, lat)]))}
+        for k, v in L.items():
+            rows[f"{k}_multipliers"].append([[float(z.real), float(z.imag)] for z in np.asarray(v, complex)])
+        rows["lateral_stable"].append(bool(np.all(np.abs(L["lateral"]) < 1.0)))
+        rows["coupling_max"].append(float(max(np.abs(M[np.ix_(lon, lat)]).max(), np.abs(M[np.ix_(lat, lon)]).max())))
+    branch.settings.update(rows)
+    branch.settings["degrees_of_freedom"] = 6
