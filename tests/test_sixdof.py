@@ -269,3 +269,122 @@ def test_symmetric_cycle_with_wing_masses_and_tail_is_the_planar_cycle(mass_tail
     assert res.coupling_max < 1e-12
     np.testing.assert_allclose(np.sort_complex(res.longitudinal_multipliers), np.sort_complex(planar.multipliers),
                                rtol=0, atol=1e-9)
+
+
+# --- the other commands with model.degrees_of_freedom = 6 (coarse grids) ---------------------------
+
+SIX_CLI = ["--set", "model.degrees_of_freedom=6", "--set", "solve.points=3", "--set", "solve.steps_per_period=48"]
+
+
+def _cli(*args, timeout=300):
+    import json
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "birdocp", *args, *SIX_CLI, "--json"], capture_output=True,
+                          text=True, timeout=timeout)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout)
+
+
+def test_sweep_cli_with_six_degrees_of_freedom(tmp_path):
+    import csv
+
+    r = _cli("sweep", "root_ahead_m", "--from", "0.05", "--to", "0.045", "--step", "0.005", "--out",
+             str(tmp_path / "s"))
+    assert r["success"] and len(r["points"]) == 2
+    for row in r["points"]:
+        assert len(row["multipliers"]) == 9 and len(row["lateral_multipliers"]) == 4
+        assert len(row["longitudinal_multipliers"]) == 4 and row["valid"] in (True, False)
+        assert abs(row["heading_multiplier"] - 1) < 1e-9 and row["coupling_max"] < 1e-12
+        assert row["lateral_modulus0"] == pytest.approx(abs(complex(*row["lateral_multipliers"][0])))
+    # the warm-started second point moved: the spiral mode grows as the root moves back (Experiment 3)
+    assert r["points"][1]["spiral_modulus"] > r["points"][0]["spiral_modulus"]
+    with open(tmp_path / "s" / "sweep.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert "lateral_modulus0" in rows[0] and rows[1]["valid"] in ("True", "False")
+
+
+def test_continue_cli_with_six_degrees_of_freedom(tmp_path):
+    """The branch of the heading-free ODE: 8 multipliers per point (no structural 1 for the fold
+    tests), the per-point split, and the 6-DOF trim's multipliers at the start."""
+    r = _cli("continue", "root_ahead_m", "--from", "0.05", "--to", "0.048", "--out", str(tmp_path / "c"))
+    assert r["success"] and r["degrees_of_freedom"] == 6
+    pts = r["branch"]["points"]
+    assert len(pts[0]["x0"]) == 8 and len(pts[0]["multipliers"]) == 8
+    assert len(r["lateral_multipliers"]) == len(pts) == len(r["longitudinal_multipliers"])
+    assert max(r["branch"]["settings"]["coupling_max"]) < 1e-12
+    assert all(abs(abs(complex(*m)) - 1.0) > 1e-3 for m in pts[0]["multipliers"])
+    trim6 = lateral_trim(Config(), method=MultipleShooting(points=3, steps_per_period=48))
+    np.testing.assert_allclose(sorted(abs(complex(*m)) for m in r["lateral_multipliers"][0]),
+                               sorted(np.abs(trim6.lateral_multipliers)), rtol=0, atol=1e-8)
+
+
+@pytest.mark.slow
+def test_sensitivity_cli_with_six_degrees_of_freedom(tmp_path):
+    r = _cli("sensitivity", "--param", "model.roll_inertia_kgm2", "--out", str(tmp_path / "s"))
+    assert r["success"] and len(r["multipliers"]) == 9 and len(r["lateral_multipliers"]) == 4
+    (row,) = r["sensitivities"]
+    assert row["parameter"] == "model.roll_inertia_kgm2" and len(row["d_moduli"]) == 9
+    # a roll inertia moves only the lateral modes (the longitudinal block does not contain it)
+    assert abs(row["d_modulus_by_mode"]["longitudinal"]) < 1e-12 < abs(row["d_modulus_by_mode"]["spiral"])
+
+
+def _export_six(d):
+    r = _cli("export-c", "--steps", "48", "--out", str(d))
+    assert "model.roll_inertia_kgm2" in r["runtime_params"] and "model.product_inertia_xz_kgm2" in r["runtime_params"]
+    return r
+
+
+def test_export_c_with_six_degrees_of_freedom_writes_the_9_state_model(tmp_path):
+    """The exported table is the 6-DOF model's data on the RK4 stage grid, the header says 9 states."""
+    import re
+
+    r = _export_six(tmp_path / "c6")
+    head = (tmp_path / "c6" / "bird.h").read_text()
+    assert re.search(r"#define BIRD_NX 9\b", head) and "x[3] = p, x[4] = q, x[5] = r" in head
+    cfg = Config()
+    six = sixdof_model(cfg)
+    assert r["n_data"] == six.rhs.size1_in(1)
+    table = (tmp_path / "c6" / "bird_data.c").read_text()
+    first = [float(v) for v in re.search(r"bird_data_table\[[^]]*\] = \{\s*([^}]*)", table).group(1).split(",")[:6]]
+    np.testing.assert_array_equal(first, np.asarray(six.data(0.0, six.params(param_vector(cfg)))).ravel()[:6])
+
+
+@pytest.mark.skipif(not __import__("os").environ.get("BIRDOCP_TEST_C6"),
+                    reason="compiles the 9-state C export (about 1-2 min): set BIRDOCP_TEST_C6=1")
+def test_export_c_with_six_degrees_of_freedom_matches_python(tmp_path):
+    """The compiled period map and monodromy of the 9-state export against the Python RK4 map, at a
+    sideslipping, rolling state (1e-10)."""
+    import os
+    import shutil
+    import subprocess
+
+    import casadi as ca
+
+    from birdocp.engine.integrate import RK4Grid
+    from birdocp.export.compiled import find_compiler
+
+    cc = find_compiler()
+    if cc is None:
+        pytest.skip("no C compiler")
+    d = tmp_path / "c6"
+    _export_six(d)
+    make = shutil.which("make")
+    if make:
+        subprocess.run([make, "-j2", "bird_period"], cwd=d, check=True, capture_output=True,
+                       env=dict(os.environ, CC=" ".join(cc)))
+    else:
+        subprocess.run(cc + ["-O1", "-o", "bird_period", "main.c", "bird.c", "bird_casadi.c", "bird_data.c", "-lm"],
+                       cwd=d, check=True, capture_output=True)
+    x0 = [18.0, 0.4, -1.0, 0.2, 0.1, -0.1, 0.05, -0.1, 0.3]  # a sideslipping, rolling state
+    out = subprocess.run([str(d / "bird_period"), *map(repr, x0)], capture_output=True, text=True, check=True).stdout
+    rows = [np.array(line.split(), float) for line in out.splitlines() if line.strip()]
+    assert len(rows) == 10 and rows[0].size == 9
+    cfg = Config()
+    six = sixdof_model(cfg)
+    p6 = ca.DM(six.params(param_vector(cfg)))
+    grid = RK4Grid(six.ode, 48, 1)
+    xT, J = grid.period_jacobian(ca.DM(x0), grid.blocks_numeric(0.0, np.asarray(p6).ravel()), p6)
+    assert np.max(np.abs(rows[0] - np.asarray(xT).ravel())) < 1e-10
+    assert np.max(np.abs(np.vstack(rows[1:]) - np.asarray(J))) < 1e-10

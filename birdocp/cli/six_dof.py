@@ -14,7 +14,7 @@ def level_options(kw: dict) -> dict:
     """The 6-DOF level options from the planar level's checked keywords: the amplitude solved for a
     mean vertical speed (other free keys and conditions are refused, one line;
     :func:`birdocp.studies.lateral.level_keywords`)."""
-    from birdocp.studies.lateral import level_keywords
+    from birdocp.studies.lateral_options import level_keywords
 
     return level_keywords(kw)
 

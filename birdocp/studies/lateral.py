@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, param_vector
+from birdocp.bird.config import PARAM_NAMES, Config, param_vector
 from birdocp.bird.flight import flight_path_angle_deg
 from birdocp.bird.keys import AMPLITUDE_KEY
 from birdocp.bird.sixdof import HEADING, LATERAL, LONGITUDINAL, STATE_NAMES, LateralInertia, embed_planar_state, \
@@ -31,6 +31,7 @@ from birdocp.engine.floquet import multipliers_info, sort_multipliers
 from birdocp.engine.problem import LimitCycleProblem, MeanCondition
 from birdocp.engine.results import result_dict, serial
 from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
+from birdocp.studies.lateral_options import level_keywords
 from birdocp.studies.level import default_bounds
 from birdocp.studies.trim import check_physical
 
@@ -190,24 +191,6 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     cyc = check_physical(solve(problem, method, warm_start=ws))  # u <= 0 somewhere: not a forward flight, as the planar trim
     amplitude = float(cyc.free_values.get(AMPLITUDE_KEY, cfg.gait.shoulder_flap.amplitude_deg))
     return _split(cfg, cyc, six.ode.period_s, method, inertia, amplitude)
-
-
-def level_keywords(level_options: dict | None) -> dict:
-    """:func:`lateral_trim` keywords of level flight from the planar level's options (``free``,
-    ``constrain``, ``bounds``, ``climb_rate_mps``, ``target``): in six degrees of freedom level flight
-    solves the flapping amplitude for a mean vertical speed; any other free key or condition is a
-    :class:`~birdocp.bird.config.ConfigError` naming the option."""
-    o = dict(level_options or {})
-    if o.get("free", AMPLITUDE_KEY) not in (AMPLITUDE_KEY, "amplitude"):
-        raise ConfigError("--free", "with model.degrees_of_freedom = 6 level flight solves the amplitude only; "
-                                    "drop --free")
-    if o.get("constrain", "vertical_speed_mps") != "vertical_speed_mps" or o.get("target") is not None:
-        raise ConfigError("--constrain", "with model.degrees_of_freedom = 6 level flight holds the mean vertical "
-                                         "speed only; drop --constrain and --target")
-    out = {"level": True, "climb_rate_mps": float(o.get("climb_rate_mps", 0.0))}
-    if o.get("bounds") is not None:
-        out["bounds"] = tuple(o["bounds"])
-    return out
 
 
 def solve_point(cfg: Config, *, level: bool = False, level_options: dict | None = None, warm_start=None,

@@ -270,7 +270,7 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
     cfgs = [with_values(cfg, {key: v}) for v in values]  # validates every value before solving
     six = cfg.model.degrees_of_freedom == 6
     if six and level:
-        from birdocp.studies.lateral import level_keywords
+        from birdocp.studies.lateral_options import level_keywords
 
         level_keywords(level_options)  # refused before anything is written
 
