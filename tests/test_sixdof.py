@@ -209,55 +209,13 @@ def test_one_heavy_wing_in_vacuum_conserves_momentum_and_angular_momentum(mass_t
     products of inertia are loaded), a tumbling start: the inertial momentum and the angular momentum
     about a fixed point of body plus wings stay constant along a wingbeat, to RK4 accuracy (the drift
     falls ~16x per halving of the step). Dropping any wing term of the equations breaks this."""
-    import casadi as ca
+    from birdocp.studies.lateral_checks import vacuum_drift
 
-    from birdocp.bird import sixdof_inertia as w3
-    from birdocp.bird.config import PARAM_NAMES
-
-    heavy = sixdof_model(mass_tail_config)
-    p = np.array(param_vector(mass_tail_config))
-    p[[PARAM_NAMES.index("aero.air_density_kgm3"), PARAM_NAMES.index("body.gravity_mps2")]] = 0.0
-    inertia = LateralInertia(product_inertia_xz_kgm2=0.004)
-    p6 = heavy.params(p, inertia)
-    t, ps = ca.SX.sym("t"), ca.SX.sym("p", len(PARAM_NAMES))
-    r, v, a, m = heavy.planar.mass_points(t, ps)
-    s = w3.mass_sums_3d(m * ca.vertcat(ca.DM.ones(20), ca.DM.zeros(20)), r, v, a)
-    one_wing = ca.Function("one", [t, ps], [ca.vertcat(*[s[k] for k, _ in w3.MASS3_BLOCK])])
-    x = ca.SX.sym("x", 12)
-    d = ca.SX.sym("d", heavy.rhs.size1_in(1))
-    cf, sf, ct, st, cp, sp = (f(x[i]) for i in (6, 7, 8) for f in (ca.cos, ca.sin))
-    R = ca.blockcat([[ct * cp, sf * st * cp - cf * sp, cf * st * cp + sf * sp],
-                     [ct * sp, sf * st * sp + cf * cp, cf * st * sp - sf * cp], [-st, sf * ct, cf * ct]])
-    f = ca.Function("f", [x, d], [ca.vertcat(heavy.rhs(x[:9], d, p6), R @ x[:3])])  # + position of G_b
-    Jb = ca.DM([[inertia.roll_inertia_kgm2, 0, -0.004], [0, p[PARAM_NAMES.index("body.pitch_inertia_kgm2")], 0],
-                [-0.004, 0, inertia.yaw_inertia_kgm2]])
-    P, H = w3.momenta(x[:9], w3.unpack_mass3(d[-w3.N_MASS3:]), p[PARAM_NAMES.index("body.mass_kg")], Jb)
-    cons = ca.Function("cons", [x, d], [ca.vertcat(R @ P, ca.cross(x[9:], R @ P) + R @ H)])
-    T, n_fine = heavy.period_s, 200
-    ts = np.linspace(0.0, T, 2 * n_fine + 1)
-    dd = np.array(heavy.planar.data.map(len(ts))(ts, p))
-    dd = np.vstack([dd, np.array(one_wing.map(len(ts))(ts, p))])
-    x0 = np.array([3.0, 0.5, -0.4, 0.8, -0.6, 0.5, 0.2, 0.1, 0.3, 0.0, 0.0, 0.0])
-    c0 = np.array(cons(x0, dd[:, 0])).ravel()
-    assert np.abs(c0[3:]).max() > 0.03  # a real angular momentum, in every direction
-
-    def drift(n):
-        k, xx, h, out = n_fine // n, x0.copy(), T / n, 0.0
-        for i in range(n):
-            j = 2 * k * i
-            k1 = np.array(f(xx, dd[:, j])).ravel()
-            k2 = np.array(f(xx + h / 2 * k1, dd[:, j + k])).ravel()
-            k3 = np.array(f(xx + h / 2 * k2, dd[:, j + k])).ravel()
-            k4 = np.array(f(xx + h * k3, dd[:, j + 2 * k])).ravel()
-            xx = xx + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-            out = max(out, np.abs(np.array(cons(xx, dd[:, j + 2 * k])).ravel() - c0).max())
-        return out, xx
-
-    errs = [drift(n) for n in (50, 100, 200)]
-    assert abs(errs[-1][1][6]) > 0.5  # the body did roll (the wing's reaction), yet H is conserved
-    assert errs[-1][0] < 5e-9
-    for coarse_, fine in zip(errs, errs[1:]):
-        assert 12.0 < coarse_[0] / fine[0] < 20.0, [e[0] for e in errs]
+    r = vacuum_drift(mass_tail_config, (50, 100, 200))
+    assert np.abs(r["initial"][3:]).max() > 0.03  # a real angular momentum
+    assert abs(r["final_state"][-1][6]) > 0.5  # the body did roll (the wing's reaction), yet H is conserved
+    assert r["drift"][-1] < 5e-9
+    assert all(12.0 < q < 20.0 for q in r["ratios"]), r["drift"]
 
 
 def test_symmetric_cycle_with_wing_masses_and_tail_is_the_planar_cycle(mass_tail_config, coarse):
