@@ -26,10 +26,14 @@ straight along the body axis e3 (as in the planar model, also in sideslip: a cho
 lifting-line model, stated in the docs). Loads: ``(X, Y, Z) = (-F3, F1, -F2)`` and
 ``(L, M, N) = (-Mc3, Mc1, -Mc2)`` from the code-frame force ``F`` and moment ``Mc = sum r x dF``.
 
-Wings are massless here (the planar model's default); the body has the inertia tensor
-``[[I_xx, 0, -I_xz], [0, I_yy, 0], [-I_xz, 0, I_zz]]`` (:class:`LateralInertia` adds I_xx, I_zz, I_xz
-to the configuration's ``body.pitch_inertia_kgm2`` = I_yy). For a symmetric cycle (v = p = r = phi
-= 0) the longitudinal equations are the planar model's, operation for operation.
+The body has the inertia tensor ``[[I_xx, 0, -I_xz], [0, I_yy, 0], [-I_xz, 0, I_zz]]`` about G
+(:class:`LateralInertia` adds I_xx, I_zz, I_xz to the configuration's ``body.pitch_inertia_kgm2`` =
+I_yy). With ``wing.mass_kg`` > 0 the wings' mass points move with the gait and their 3-D inertial
+terms (momentum, angular momentum, products of inertia) are added by
+:mod:`birdocp.bird.sixdof_inertia`; ``body.mass_kg`` is then the whole bird and the inertias are the
+body's own about its centre of mass G_b, as in the planar model with wing masses. With the tail
+(``tail.opening_angle_deg`` > 0) its planar loads are added (:func:`tail_body_loads`). For a symmetric
+cycle (v = p = r = phi = 0) the longitudinal equations are the planar model's.
 """
 
 from __future__ import annotations
