@@ -3,7 +3,7 @@
 1. Vacuum (no air, no gravity), one wingbeat by fixed-step RK4: the drift of the momentum and angular
    momentum of body plus wings, with both wings heavy and with the right wing alone heavy (asymmetric
    wing motion), at 50 .. 400 steps (RK4: 16x smaller per halving).
-2. The paper's gait with wing masses (0.086 kg per wing), with the tail (opening 40 deg) and with both:
+2. The paper's gait with wing masses (0.086 kg per wing), with the tail (opening 20 deg) and with both:
    the 6-DOF cycle against the planar cycle of the same configuration (longitudinal multipliers,
    coupling blocks) and the labelled lateral modes, with validity.
 3. With both: the exact sensitivities of every lateral mode to the dihedral, sweep, elbow, wrist,
@@ -28,8 +28,8 @@ from birdocp.studies.lateral_checks import vacuum_drift
 from birdocp.studies.trim import trim
 from script_common import parse_with_out, script_parser
 
-CASES = {"wing masses": {"wing.mass_kg": 0.086}, "tail": {"tail.opening_angle_deg": 40.0},
-         "wing masses and tail": {"wing.mass_kg": 0.086, "tail.opening_angle_deg": 40.0}}
+CASES = {"wing masses": {"wing.mass_kg": 0.086}, "tail": {"tail.opening_angle_deg": 20.0},
+         "wing masses and tail": {"wing.mass_kg": 0.086, "tail.opening_angle_deg": 20.0}}
 STEPS = (50, 100, 200, 400)
 FD_STEP = {"model.roll_inertia_kgm2": 1e-4, "model.yaw_inertia_kgm2": 1e-4}
 """Central-difference steps (per unit of the parameter; 0.01 deg for the angles)."""

@@ -93,8 +93,8 @@ def test_frozen_wing_multipliers_are_the_glide_eigenvalues(default_config):
 def test_planar_terms_not_in_3d_are_refused():
     from birdocp.bird.config import with_values
 
-    with pytest.raises(ValueError, match="tail"):
-        sixdof_model(with_values(Config(), {"tail.opening_angle_deg": 30.0}))
+    with pytest.raises(ValueError, match="drag"):
+        sixdof_model(with_values(Config(), {"drag.body_drag_coefficient": 0.1}))
     with pytest.raises(ValueError, match="roll_inertia_kgm2"):
         LateralInertia(roll_inertia_kgm2=0.0)
 
@@ -168,7 +168,7 @@ def test_lateral_sensitivity_against_central_differences(mass_tail_config, coars
 
 # --- wing masses and the tail in six degrees of freedom --------------------------------------------
 
-MASS_TAIL = {"wing.mass_kg": 0.086, "tail.opening_angle_deg": 40.0}
+MASS_TAIL = {"wing.mass_kg": 0.086, "tail.opening_angle_deg": 20.0}
 
 
 @pytest.fixture(scope="module")
