@@ -14,7 +14,7 @@ relative velocities and accelerations ``r_i'``, ``r_i''`` (AD in t). The sums (:
 * ``h = sum m r x r'`` (angular momentum of the relative motion about G_b) and ``k = h' = sum m r x r''``.
 
 With ``M = body.mass_kg`` (the whole bird), ``J_b`` the body's own inertia tensor about G_b,
-``omega = (p, q, r)``, ``v = (u, v, w)`` and ``g_b`` gravity in body axes, Newton and Euler read
+``omega = (p, q, r)``, ``v = (u, v, w)`` and ``g_b`` gravity in body axes, Newton and Euler read::
 
     M (v' + omega x v) - S x omega' = F + M g_b - omega x (omega x S) - 2 omega x S' - S''
     S x v' + (J_b + I_w) omega'     = M_aero + S x g_b - S x (omega x v) - I_w' omega - k
