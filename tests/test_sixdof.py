@@ -136,6 +136,7 @@ def test_trim_cli_with_six_degrees_of_freedom(tmp_path):
     assert r["state_names"][1] == "v_mps" and r["validity"]["valid"] in (True, False)
     assert {m["label"] for m in r["lateral_modes"]} <= {"spiral", "dutch_roll_like", "roll_subsidence", "lateral_real"}
     assert json.loads((tmp_path / "run" / "result.json").read_text())["heading_multiplier"] == r["heading_multiplier"]
+    assert {"states.png", "multipliers.png"} <= set(_plot(tmp_path / "run"))
 
 
 @pytest.mark.slow
@@ -234,15 +235,19 @@ def test_symmetric_cycle_with_wing_masses_and_tail_is_the_planar_cycle(mass_tail
 SIX_CLI = ["--set", "model.degrees_of_freedom=6", "--set", "solve.points=3", "--set", "solve.steps_per_period=48"]
 
 
-def _cli(*args, timeout=300):
+def _cli(*args, timeout=300, six=True):
     import json
     import subprocess
     import sys
 
-    proc = subprocess.run([sys.executable, "-m", "birdocp", *args, *SIX_CLI, "--json"], capture_output=True,
-                          text=True, timeout=timeout)
+    proc = subprocess.run([sys.executable, "-m", "birdocp", *args, *(SIX_CLI if six else []), "--json"],
+                          capture_output=True, text=True, timeout=timeout)
     assert proc.returncode == 0, proc.stderr
     return json.loads(proc.stdout)
+
+
+def _plot(folder) -> list:
+    return _cli("plot", str(folder), six=False)["figures"]
 
 
 def test_sweep_cli_with_six_degrees_of_freedom(tmp_path):
@@ -261,6 +266,7 @@ def test_sweep_cli_with_six_degrees_of_freedom(tmp_path):
     with open(tmp_path / "s" / "sweep.csv") as f:
         rows = list(csv.DictReader(f))
     assert "lateral_modulus0" in rows[0] and rows[1]["valid"] in ("True", "False")
+    assert _plot(tmp_path / "s") == ["sweep.png"]
 
 
 def test_continue_cli_with_six_degrees_of_freedom(tmp_path):
@@ -276,6 +282,7 @@ def test_continue_cli_with_six_degrees_of_freedom(tmp_path):
     trim6 = lateral_trim(Config(), method=MultipleShooting(points=3, steps_per_period=48))
     np.testing.assert_allclose(sorted(abs(complex(*m)) for m in r["lateral_multipliers"][0]),
                                sorted(np.abs(trim6.lateral_multipliers)), rtol=0, atol=1e-8)
+    assert set(_plot(tmp_path / "c")) == {"locus.png", "moduli.png"}
 
 
 @pytest.mark.slow
