@@ -69,7 +69,7 @@ CASES = [
     ("six-dof-value", ["trim", "--set", "model.degrees_of_freedom=5"], "model.degrees_of_freedom", "4 or 6"),
     ("six-dof-unsupported-command", ["forces", "--state", "18", "0", "0", "0", "--time", "0", "--set",
                                      "model.degrees_of_freedom=6"],
-     "model.degrees_of_freedom", "trim, level"),
+     "model.degrees_of_freedom", "trim and level"),
     ("six-dof-drag", ["trim", "--set", "model.degrees_of_freedom=6", "--set", "drag.body_drag_coefficient=0.1"],
      "drag.body_drag_coefficient", "six degrees of freedom"),
     ("six-dof-level-free", ["level", "--set", "model.degrees_of_freedom=6", "--free", "root_ahead_m"], "--free",

@@ -189,7 +189,7 @@ refuse model.degrees_of_freedom = 6."""
 def check_six_dof(command: str, cfg) -> None:
     """ConfigError naming ``model.degrees_of_freedom`` when ``command`` has no 6-DOF path."""
     if cfg.model.degrees_of_freedom == 6 and command not in SIX_DOF_COMMANDS:
-        raise ConfigError("model.degrees_of_freedom", f"6 is solved by {', '.join(SIX_DOF_COMMANDS)} so far; "
+        raise ConfigError("model.degrees_of_freedom", f"6 is solved by {' and '.join(SIX_DOF_COMMANDS)} so far; "
                                                       f"'{command}' needs 4 (--set model.degrees_of_freedom=4)")
 
 
