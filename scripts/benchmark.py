@@ -7,7 +7,7 @@ Rows (targets from issue 7; 2-core machine; medians of ``--repeats`` runs unless
 * the trim's solve + Floquet with the graphs already built (second call in one process): <=
   2 x iterations x (one period map with its state Jacobian) -- the *floor*;
 * ``birdocp level`` whole process: <= 4 s;
-* ``birdocp sweep amplitude --from 40 --to 46 --step 0.5`` (13 warm-started trims) whole process: <= 10 s;
+* ``birdocp sweep amplitude --from 40 --to 46 --by 0.5`` (13 warm-started trims) whole process: <= 10 s;
 * the paper reproduction scripts (``experiment1.py --skip-studies``, ``experiment2.py``,
   ``experiment3.py`` when present), each once, into a temporary folder: <= 60 s in total;
 * the default trim (IPOPT, exact derivatives) vs ``--solver lm --derivatives fd`` (the paper's
@@ -592,7 +592,7 @@ def main(argv=None) -> int:
             res["level_process"] = median_child(lambda k: cli + ["level", "--out", str(tmp / f"level{k}")], rep, env)
             print("sweep 40..46 step 0.5, whole process ...", flush=True)
             res["sweep_process"] = median_child(
-                lambda k: cli + ["sweep", "amplitude", "--from", "40", "--to", "46", "--step", "0.5", "--quiet",
+                lambda k: cli + ["sweep", "amplitude", "--from", "40", "--to", "46", "--by", "0.5", "--quiet",
                                  "--out", str(tmp / f"sweep{k}")], rep, env)
             print("in-process: floor, trim with graphs built, LM-fd ...", flush=True)
             code = ("import json,sys; sys.path.insert(0, %r); from benchmark import in_process; "

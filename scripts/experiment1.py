@@ -19,6 +19,7 @@ forces.png (the last three for variant (a)) to --out.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import time
@@ -121,7 +122,7 @@ def reference_data() -> tuple:
     return ref, ref_rk4, paper, np.asarray(impl["x_points"], float), impl
 
 
-def variant_jobs(keys) -> list:
+def variant_jobs(keys, compiled: bool = False) -> list:
     """Trim the variants ``keys`` one after the other (in a worker process with ``--jobs 2``):
     [(key, result, summary)]."""
     ref, ref_rk4, paper, ref_x, _ = reference_data()
@@ -129,7 +130,7 @@ def variant_jobs(keys) -> list:
     for key in keys:
         label, values, over = VARIANTS[key]
         cfg = with_values(Config(), values) if values else Config()
-        r = trim(cfg, **over)
+        r = trim(cfg, compiled=compiled, **over)
         print(f"--- variant {label}\n{r.table()}", flush=True)
         out.append((key, r, {"label": label, "config_values": values, "method_overrides": over,
                              **summary(r, ref_rk4, paper, ref_x, ref["paper_table"]["expanding_eigenvector"])}))
@@ -153,8 +154,8 @@ def main(argv=None) -> int:
     ref_impl_mults = reference_multipliers(impl)
 
     base = Config()
-    others = Beside(variant_jobs, ["b", "c"], args.jobs)
-    [(_, r_a, s_a)] = variant_jobs(["a"])
+    others = Beside(functools.partial(variant_jobs, compiled=args.compiled), ["b", "c"], args.jobs)
+    [(_, r_a, s_a)] = variant_jobs(["a"], args.compiled)
     results, objs = {"a": s_a}, {"a": (r_a, base)}
 
     # --- M-invariance on variant (a): one RK4 grid (144 steps), 1/2/4/8 segments
@@ -162,7 +163,7 @@ def main(argv=None) -> int:
     if not args.skip_studies:
         m_inv = {}
         for pts in (2, 3, 5, 9):
-            r = trim(base, points=pts, steps_per_period=144)
+            r = trim(base, points=pts, steps_per_period=144, compiled=args.compiled)
             lam = sort_multipliers(r.multipliers)
             print(f"M-invariance points={pts}: {fmt_mults([[z.real, z.imag] for z in lam])} "
                   f"({r.iterations} it, {r.wall_s['total']:.1f} s, {r.status})", flush=True)
@@ -183,7 +184,7 @@ def main(argv=None) -> int:
         steps_list = (72, 144, 288, 576, 1152)
         conv, lams = {}, []
         for n in steps_list:
-            r = trim(base, points=5, steps_per_period=n)
+            r = trim(base, points=5, steps_per_period=n, compiled=args.compiled)
             lam = sort_multipliers(r.multipliers)
             lams.append(lam)
             print(f"steps={n}: {fmt_mults([[z.real, z.imag] for z in lam])} "

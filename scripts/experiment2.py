@@ -14,6 +14,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import shutil
 import time
@@ -60,16 +61,16 @@ def flight_path(r):
     return t - t[0], x, z
 
 
-def level_job(name: str) -> dict:
+def level_job(name: str, compiled: bool = False) -> dict:
     """Level flight of one model variant, solved twice (the repeat: the cost without the one-off graph
     build); the summary dict (runs in a worker process with ``--jobs 2``)."""
     over = RELAXED if name == "relaxed_backward_difference" else {}
     c = with_values(Config(), over) if over else Config()
     t = time.perf_counter()
-    r = level(c)
+    r = level(c, compiled=compiled)
     wall = time.perf_counter() - t
     t = time.perf_counter()
-    r2 = level(c)
+    r2 = level(c, compiled=compiled)
     wall2 = time.perf_counter() - t
     s = level_summary(r, wall)
     s["repeat_wall_s"] = wall2
@@ -96,8 +97,8 @@ def main() -> None:
 
     # --- level flight, two model variants (the relaxed one in a worker process when jobs > 1: it
     # depends on nothing below, and its model's graphs are its own)
-    relaxed = Beside(level_job, "relaxed_backward_difference", args.jobs)
-    default = level_job("default")
+    relaxed = Beside(functools.partial(level_job, compiled=args.compiled), "relaxed_backward_difference", args.jobs)
+    default = level_job("default", args.compiled)
     res["level"] = None  # filled below, when the worker is done (keeps the key order of result.json)
     r_level = default["result"]
     a_level = r_level.amplitude_deg
@@ -108,7 +109,7 @@ def main() -> None:
     if sweep_dir.exists():
         shutil.rmtree(sweep_dir)
     t = time.perf_counter()
-    rows = sweep(cfg, AMP, values, out_dir=sweep_dir)
+    rows = sweep(cfg, AMP, values, out_dir=sweep_dir, compiled=args.compiled)
     sweep_wall = time.perf_counter() - t
     A = np.array([r["value"] for r in rows])
     U = np.array([r["mean_forward_speed_mps"] for r in rows])
@@ -137,8 +138,8 @@ def main() -> None:
     # --- trajectories
     c42 = with_values(cfg, {AMP: 42.0})
     c44 = with_values(cfg, {AMP: 44.0})
-    r42 = trim(c42, warm_start=r_level)
-    r44 = trim(c44, warm_start=r_level)
+    r42 = trim(c42, warm_start=r_level, compiled=args.compiled)
+    r44 = trim(c44, warm_start=r_level, compiled=args.compiled)
     paths = {}
     for lab, r in (("A = 42 deg (descending)", r42), (f"A = {a_level:.2f} deg (level)", r_level),
                    ("A = 44 deg (climbing)", r44)):

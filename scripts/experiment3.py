@@ -40,7 +40,8 @@ PAPER_RANGE_CM = (3.5, 6.5)
 def run_half(job: dict) -> dict:
     t = time.perf_counter()
     br = bird_branch(Config(), "stability_margin", job["from_sm"], job["to_sm"], level=job["level"],
-                     step=job["step"], max_dparam=job["max_dparam"], max_dstate=job["max_dstate"])
+                     step=job["step"], max_dparam=job["max_dparam"], max_dstate=job["max_dstate"],
+                     compiled=job.get("compiled", False))
     d = br.to_dict()
     d["job_wall_s"] = time.perf_counter() - t
     return {"name": job["name"], "branch": d}
@@ -72,7 +73,7 @@ def plot_job(job: dict) -> list:
     return [str(p) for p in plot_branches(branches, Path(job["out"]), prefix=job["prefix"], span=tuple(job["span"]))]
 
 
-def trim_checks(halves: dict, fixed: Branch) -> list:
+def trim_checks(halves: dict, fixed: Branch, compiled: bool = False) -> list:
     """Independent trims at three root positions of the fixed-amplitude branch."""
     from birdocp.studies.trim import trim
 
@@ -82,10 +83,10 @@ def trim_checks(halves: dict, fixed: Branch) -> list:
         pt = fixed.points[idx]
         t = time.perf_counter()
         cfg_i = with_values(Config(), {"wing.root_ahead_m": pt.parameter})
-        tr = trim(cfg_i)  # cold, from the configured guess
+        tr = trim(cfg_i, compiled=compiled)  # cold, from the configured guess
         start = "configured guess"
         if not tr.success:  # from the branch's x0 rounded to 1 decimal (a perturbed guess)
-            tr = trim(cfg_i, x_guess=np.round(np.array(pt.x0), 1))
+            tr = trim(cfg_i, x_guess=np.round(np.array(pt.x0), 1), compiled=compiled)
             start = "branch x0 rounded to 0.1"
         L = np.sort_complex(np.array([complex(*m) for m in pt.multipliers]))
         Lt = np.sort_complex(np.asarray(tr.multipliers))
@@ -96,7 +97,7 @@ def trim_checks(halves: dict, fixed: Branch) -> list:
     return checks
 
 
-def figures_and_checks(ex, jobs: int, res: list, out: Path):
+def figures_and_checks(ex, jobs: int, res: list, out: Path, compiled: bool = False):
     """The branch figures (drawn by the executor's workers, in a thread of this process, while this
     process runs the independent trims) and the trim checks."""
     halves = {r["name"]: Branch.from_dict(r["branch"]) for r in res}
@@ -111,11 +112,11 @@ def figures_and_checks(ex, jobs: int, res: list, out: Path):
     if jobs > 1:
         th = threading.Thread(target=lambda: drawn.extend(ex.map(plot_job, plots)))
         th.start()
-        checks = trim_checks(halves, fams["fixed"])
+        checks = trim_checks(halves, fams["fixed"], compiled)
         th.join()
     else:
         drawn = [plot_job(job) for job in plots]
-        checks = trim_checks(halves, fams["fixed"])
+        checks = trim_checks(halves, fams["fixed"], compiled)
     if len(drawn) != len(plots):
         raise RuntimeError("drawing the branch figures failed")
     return halves, fams, [Path(p) for ps in drawn for p in ps], checks
@@ -132,7 +133,7 @@ def main():
     # that two workers finish together
     jobs = [{"name": f"{fam}_{d}", "level": fam == "level", "from_sm": -25.0,
              "to_sm": (-32.5 if d == "up" else a.rear_sm), "step": 0.5,
-             "max_dparam": 1.0, "max_dstate": 1.5}
+             "max_dparam": 1.0, "max_dstate": 1.5, "compiled": a.compiled}
             for d in ("down", "up") for fam in ("level", "fixed")]
     if a.reuse:  # the half-branches of an earlier run of this script (figures, checks and tables redone)
         res = []
@@ -149,7 +150,7 @@ def main():
         if not a.reuse:
             res = ex.map(run_half, jobs)
             wall_branches = time.perf_counter() - t0
-        halves, fams, figs, checks = figures_and_checks(ex, a.jobs, res, out)
+        halves, fams, figs, checks = figures_and_checks(ex, a.jobs, res, out, a.compiled)
     job_wall = {r["name"]: r["branch"].get("job_wall_s", r["branch"]["wall_s"]) for r in res}
     for r in res:
         atomic_write_json(out / f"branch_{r['name']}.json", r["branch"])

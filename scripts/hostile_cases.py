@@ -130,23 +130,24 @@ def main() -> None:
     case("runs/ is chmod 555", ["trim", *COARSE], setup=lambda d: ((d / "runs").mkdir(), os.chmod(d / "runs", 0o555)),
          note=ro_note)
     case("sweep --resume into a folder without sweep.json",
-         ["sweep", "amplitude", "--from", "42", "--to", "43", "--step", "1", "--out", "full", "--resume"],
+         ["sweep", "amplitude", "--from", "42", "--to", "43", "--by", "1", "--out", "full", "--resume"],
          setup=lambda d: ((d / "full").mkdir(), (d / "full" / "x").write_text("x")))
     case("export-c --out dangling symlink", ["export-c", "--out", "link"],
          setup=lambda d: os.symlink(d / "gone", d / "link"))
 
     # absurd values
-    case("sweep step larger than the range", ["sweep", "amplitude", "--from", "40", "--to", "42", "--step", "5"])
-    case("sweep with 1e8 values", ["sweep", "amplitude", "--from", "0", "--to", "100", "--step", "1e-6"])
+    case("sweep step larger than the range", ["sweep", "amplitude", "--from", "40", "--to", "42", "--by", "5"])
+    case("sweep with 1e8 values", ["sweep", "amplitude", "--from", "0", "--to", "100", "--by", "1e-6"])
     case("--steps 1000000", ["trim", "--points", "3", "--steps", "1000000"])
     case("--points 100000", ["trim", "--points", "100000", "--steps", "99999"])
-    case("--jobs 0", ["sweep", "amplitude", "--from", "42", "--to", "43", "--step", "1", "--rows",
+    case("--jobs 0", ["sweep", "amplitude", "--from", "42", "--to", "43", "--by", "1", "--rows",
                       "root_ahead_m=0.04:0.05:0.01", "--jobs", "0"])
-    case("--jobs 100000", ["sweep", "amplitude", "--from", "42", "--to", "43", "--step", "1", "--rows",
+    case("--jobs 100000", ["sweep", "amplitude", "--from", "42", "--to", "43", "--by", "1", "--rows",
                            "root_ahead_m=0.04:0.05:0.01", "--jobs", "100000"])
-    case("level --bounds 60 30", ["level", "--bounds", "60", "30"])
-    case("continue --level --bounds 70 20", ["continue", "root_ahead_m", "--from", "0.05", "--to", "0.04", "--level",
-                                             "--bounds", "70", "20"])
+    case("level --bounds amplitude=60:30", ["level", "--bounds", "amplitude=60:30"])
+    case("continue --level --bounds amplitude=70:20", ["continue", "root_ahead_m", "--from", "0.05", "--to", "0.04",
+                                                       "--level", "--bounds", "amplitude=70:20"])
+    case("level --bounds 60 30 (the old form)", ["level", "--bounds", "60", "30"])
     case("optimize-stability inverted bounds", ["optimize-stability", "--free", "gait.shoulder_sweep.offset_deg",
                                                 "--bounds", "gait.shoulder_sweep.offset_deg=10:-10"])
     case("bad input with --json", ["trim", "--json", "--points", "1"])
@@ -163,7 +164,7 @@ def main() -> None:
     d, _ = case("trim far from any cycle (NaN in IPOPT)", ["trim", *COARSE, "--set",
                                                            "solve.initial_guess=[200.0, 0.0, 0.0, 0.0]", "--out", "run"])
     rows[-1]["note"] = f"solver.log: {sum(1 for _ in open(d / 'run' / 'solver.log'))} CasADi warning lines"
-    d, _ = case("grid --jobs 2, every point NaN in IPOPT", ["sweep", "amplitude", "--from", "42", "--to", "43", "--step",
+    d, _ = case("grid --jobs 2, every point NaN in IPOPT", ["sweep", "amplitude", "--from", "42", "--to", "43", "--by",
                                                            "1", "--rows", "root_ahead_m=0.04:0.05:0.01", "--jobs", "2",
                                                            "--points", "3", "--steps", "48", "--cold", "--set",
                                                            "solve.initial_guess=[200.0, 0.0, 0.0, 0.0]", "--out", "g"])
@@ -183,7 +184,7 @@ def main() -> None:
                 preexec=size_limit(8000))
     rows[-1]["note"] = f"run folder left: {(d / 'run').exists()}"
     failing = ["--set", "solve.solver=lm", "--set", "solve.initial_guess=[200.0, 0.0, 0.0, 0.0]", "--out", "run", "--json"]
-    for command in (["trim", *COARSE], ["sweep", "amplitude", "--from", "42", "--to", "42", "--step", "1", *COARSE],
+    for command in (["trim", *COARSE], ["sweep", "amplitude", "--from", "42", "--to", "42", "--by", "1", *COARSE],
                     ["control", "--set", "solve.points=3", "--set", "solve.steps_per_period=60"]):
         for mode in ("broken pipe", "closed"):
             d, _ = case(f"{command[0]} fails, stdout {mode}", [*command, *failing], stdout=mode)
@@ -220,7 +221,7 @@ def main() -> None:
                 hook=("birdocp.engine.continuation.corrector:Corrector.along", "3"))
     rows[-1]["note"] = (f"branch.json kept with {len(json.loads((d / 'b' / 'branch.json').read_text())['points'])} "
                         "points")
-    sweep = ["sweep", "amplitude", "--from", "42", "--to", "43", "--step", "0.5", *COARSE, "--quiet", "--out", "s"]
+    sweep = ["sweep", "amplitude", "--from", "42", "--to", "43", "--by", "0.5", *COARSE, "--quiet", "--out", "s"]
     d, _ = case("Ctrl-C in a sweep's second point", [*sweep, "--json"],
                 hook=("birdocp.engine.oracle:ConstraintOracle.eval", "24"))
     rows[-1]["note"] = f"points on disk: {len(list((d / 's' / 'points').glob('point-*.json')))}"
@@ -228,7 +229,7 @@ def main() -> None:
     rows.append(summary("  ... then sweep --resume", p, wall))
 
     # grid with workers: SIGINT, and SIGKILL of the parent
-    grid = ["sweep", "amplitude", "--from", "42", "--to", "43", "--step", "1", "--rows", "root_ahead_m=0.04:0.05:0.005",
+    grid = ["sweep", "amplitude", "--from", "42", "--to", "43", "--by", "1", "--rows", "root_ahead_m=0.04:0.05:0.005",
             "--jobs", "2", "--points", "3", "--steps", "48", "--out", "g"]
     for sig, name in ((signal.SIGINT, "Ctrl-C"), (signal.SIGKILL, "SIGKILL")):
         d = root / f"c{len(rows):02d}"

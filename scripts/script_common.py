@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import threading
 from pathlib import Path
 
@@ -10,7 +11,16 @@ def script_parser(doc: str, default_out: str, **kwargs) -> argparse.ArgumentPars
     """The script's options: ``--out DIR`` (default ``default_out``) first; the script adds its own."""
     ap = argparse.ArgumentParser(description=doc.split("\n")[0], **kwargs)
     ap.add_argument("--out", default=default_out, help="output folder (default %(default)s)")
+    ap.add_argument("--compiled", action="store_true", default=compiled_env(),
+                    help="solve with the RHS and data compiled to C (compiled=True; the same numbers, faster; "
+                         "BIRDOCP_COMPILED=1 is a shorthand); used by the scripts whose solves take it")
     return ap
+
+
+def compiled_env() -> bool:
+    """``$BIRDOCP_COMPILED`` on (1/on/yes/true): the default of the scripts' ``--compiled`` (the
+    library itself never reads it: its functions take ``compiled=``)."""
+    return os.environ.get("BIRDOCP_COMPILED", "").strip().lower() in ("1", "on", "yes", "true")
 
 
 def parse_with_out(ap: argparse.ArgumentParser, argv=None) -> tuple[argparse.Namespace, Path]:

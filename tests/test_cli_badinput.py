@@ -38,8 +38,8 @@ CASES = [
     ("unknown-key-in-file", ["trim", "unknown.toml"], "aero.circulaton", "did you mean 'aero.circulation'"),
     ("points-below-2", ["trim", "--points", "1"], "solve.points", ">= 2"),
     ("unknown-key-no-suggestion", ["trim", "--set", "zzz=1"], "zzz", "'birdocp config' prints every key"),
-    ("sweep-level-option-without-level", ["sweep", "amplitude", "--from", "40", "--to", "41", "--step", "1",
-                                          "--bounds", "20", "70"], "--bounds", "add --level"),
+    ("sweep-level-option-without-level", ["sweep", "amplitude", "--from", "40", "--to", "41", "--by", "1",
+                                          "--bounds", "amplitude=20:70"], "--bounds", "add --level"),
     ("level-climb-rate-with-forward-speed", ["level", "--constrain", "forward_speed_mps", "--target", "18",
                                              "--climb-rate", "1"], "--climb-rate", "drop --climb-rate"),
     ("level-target-and-climb-rate", ["level", "--climb-rate", "1", "--target", "2"], "--target", "one of them"),
@@ -54,7 +54,7 @@ CASES = [
      "> 0 m/s"),  # was a failed solve (exit 1) after ~20 s
     ("negative-list-index", ["config", "--set", "wing.feather_lengths_m.-1=0.3"], "wing.feather_lengths_m.-1",
      "index must be 0..6"),  # set the last feather
-    ("jobs-and-scheduler", ["sweep", "amplitude", "--from", "41", "--to", "42", "--step", "1", "--rows",
+    ("jobs-and-scheduler", ["sweep", "amplitude", "--from", "41", "--to", "42", "--by", "1", "--rows",
                             "root_ahead_m=0.04:0.05:0.01", "--jobs", "2", "--scheduler", "tcp://127.0.0.1:1"],
      "--scheduler", "give one of them"),  # --jobs was silently ignored
     ("circulation-typo", ["trim", "--set", "aero.circulation=exat"], "aero.circulation", "exact, relaxed"),
@@ -69,7 +69,7 @@ CASES = [
     ("six-dof-value", ["trim", "--set", "model.degrees_of_freedom=5"], "model.degrees_of_freedom", "4 or 6"),
     ("six-dof-unsupported-command", ["forces", "--state", "18", "0", "0", "0", "--time", "0", "--set",
                                      "model.degrees_of_freedom=6"],
-     "model.degrees_of_freedom", "trim and level"),
+     "model.degrees_of_freedom", "trim, level, control, simulate"),
     ("six-dof-drag", ["trim", "--set", "model.degrees_of_freedom=6", "--set", "drag.body_drag_coefficient=0.1"],
      "drag.body_drag_coefficient", "six degrees of freedom"),
     ("six-dof-level-free", ["level", "--set", "model.degrees_of_freedom=6", "--free", "root_ahead_m"], "--free",
@@ -148,7 +148,7 @@ def test_an_unreachable_scheduler_is_bad_input(workdir):
     pytest.importorskip("distributed")
     env = dict(_env(), DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT="1s")
     proc = subprocess.run([sys.executable, "-m", "birdocp", "sweep", "amplitude", "--from", "41", "--to", "42",
-                           "--step", "1", "--rows", "root_ahead_m=0.04:0.05:0.01", "--scheduler", "tcp://127.0.0.1:1"],
+                           "--by", "1", "--rows", "root_ahead_m=0.04:0.05:0.01", "--scheduler", "tcp://127.0.0.1:1"],
                           cwd=workdir, env=env, capture_output=True, text=True, timeout=120)
     _check(proc, "--scheduler", "cannot reach 'tcp://127.0.0.1:1'")
     assert not (workdir / "runs").exists()

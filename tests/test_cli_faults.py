@@ -88,7 +88,7 @@ def test_sigint_during_a_trim_exits_130_and_leaves_nothing(tmp_path, moment, hoo
 @pytest.mark.slow
 def test_sigint_in_a_sweep_keeps_finished_points_and_resumes(tmp_path):
     out = tmp_path / "sweep"
-    argv = ["sweep", "amplitude", "--from", "42", "--to", "42.5", "--step", "0.5", *COARSE, "--quiet", "--out", str(out)]
+    argv = ["sweep", "amplitude", "--from", "42", "--to", "42.5", "--by", "0.5", *COARSE, "--quiet", "--out", str(out)]
     # the first point takes 19 constraint evaluations (measured): the 24th is inside IPOPT on the second
     p = _cli(*argv, "--json", cwd=tmp_path, hook=("birdocp.engine.oracle:ConstraintOracle.eval", "24"))
     res = _interrupted(p)
@@ -150,7 +150,7 @@ def _workers_of(pid: int) -> list[int]:
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc to find the worker processes")
 def test_sigint_in_a_grid_with_jobs_stops_the_workers_and_resumes(tmp_path):
     out = tmp_path / "grid"
-    argv = ["sweep", "amplitude", "--from", "42", "--to", "43", "--step", "1", "--rows", "root_ahead_m=0.04:0.05:0.005",
+    argv = ["sweep", "amplitude", "--from", "42", "--to", "43", "--by", "1", "--rows", "root_ahead_m=0.04:0.05:0.005",
             "--jobs", "2", "--points", "3", "--steps", "48", "--out", str(out)]
     proc = subprocess.Popen([sys.executable, "-m", "birdocp", *argv, "--json"], cwd=tmp_path, env=_env(),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -325,8 +325,8 @@ def test_output_path_classes_exit_2_before_computing(no_solver, capfd):
         (["trim", "--out", "a_file"], "--out", "existing file"),
         (["trim", "--out", "busy"], "--out", "not empty"),
         (["level", "--out", "dangling"], "--out", "dangling symbolic link"),
-        (["sweep", "amplitude", "--from", "42", "--to", "43", "--step", "1", "--out", "dangling"], "--out", "dangling"),
-        (["sweep", "amplitude", "--from", "42", "--to", "43", "--step", "1", "--out", "busy", "--resume"], "--out",
+        (["sweep", "amplitude", "--from", "42", "--to", "43", "--by", "1", "--out", "dangling"], "--out", "dangling"),
+        (["sweep", "amplitude", "--from", "42", "--to", "43", "--by", "1", "--out", "busy", "--resume"], "--out",
          "no sweep.json"),
         (["export-c", "--out", "dangling"], "--out", "dangling symbolic link"),
     ]
@@ -361,12 +361,12 @@ def test_read_only_locations_exit_2(tmp_path, monkeypatch, capfd):
 
 
 @pytest.mark.parametrize("argv, key, text", [
-    (["level", "--bounds", "60", "30"], "--bounds", "LO < HI"),
-    (["sweep", "amplitude", "--from", "40", "--to", "42", "--step", "5"], "--step", "larger than the range"),
-    (["sweep", "amplitude", "--from", "0", "--to", "100", "--step", "1e-6"], "--step", "at most 10000"),
+    (["level", "--bounds", "amplitude=60:30"], "--bounds", "LO < HI"),
+    (["sweep", "amplitude", "--from", "40", "--to", "42", "--by", "5"], "--by", "larger than the range"),
+    (["sweep", "amplitude", "--from", "0", "--to", "100", "--by", "1e-6"], "--by", "at most 10000"),
     (["trim", "--steps", "1000000", "--points", "3"], "solve.steps_per_period", "<= 10000"),
     (["trim", "--points", "100000", "--steps", "99999"], "solve.points", "<= 500"),
-    (["sweep", "amplitude", "--from", "42", "--to", "43", "--step", "1", "--rows", "root_ahead_m=0.04:0.05:0.005",
+    (["sweep", "amplitude", "--from", "42", "--to", "43", "--by", "1", "--rows", "root_ahead_m=0.04:0.05:0.005",
       "--jobs", "100000"], "--jobs", "<= 256"),
     (["optimize-stability", "--threads", "0"], "--threads", "[1, 64]"),
 ])
@@ -376,7 +376,7 @@ def test_absurd_values_exit_2(no_solver, capfd, argv, key, text):
 
 
 @pytest.mark.parametrize("argv, key, text", [
-    (["continue", "root_ahead_m", "--from", "0.05", "--to", "0.04", "--level", "--bounds", "70", "20"], "--bounds",
+    (["continue", "root_ahead_m", "--from", "0.05", "--to", "0.04", "--level", "--bounds", "amplitude=70:20"], "--bounds",
      "LO < HI"),
     (["optimize-stability", "--free", "gait.shoulder_sweep.offset_deg", "--bounds",
       "gait.shoulder_sweep.offset_deg=10:-10"], "--bounds", "LO < HI"),

@@ -54,10 +54,12 @@ def fake_studies(monkeypatch, tmp_path):
     monkeypatch.chdir(tmp_path)
     mod = types.ModuleType("birdocp.studies.trim")
     mod.calls = []
+    mod.compiled = []
     mod.behaviour = {"success": True, "raise": None}
 
-    def trim(cfg, x_guess=None, warm_start=None):
+    def trim(cfg, x_guess=None, warm_start=None, compiled=False):
         mod.calls.append(cfg)
+        mod.compiled.append(compiled)
         print("IPOPT-like progress on Python stdout")
         os.write(1, b"IPOPT-like progress on fd 1\n")
         if mod.behaviour["raise"] is not None:

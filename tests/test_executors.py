@@ -64,7 +64,7 @@ def test_dask_local_cluster_matches_serial(serial, tmp_path, coarse):
 def test_cli_grid_bad_input(capsys):
     from birdocp.cli.main import main
 
-    base = ["sweep", "amplitude", "--from", "42", "--to", "43", "--step", "1"]
+    base = ["sweep", "amplitude", "--from", "42", "--to", "43", "--by", "1"]
     assert main(base + ["--jobs", "2"]) == 2
     assert "--rows" in capsys.readouterr().err
     assert main(base + ["--rows", "root_ahead_m=0.05"]) == 2

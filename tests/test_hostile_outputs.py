@@ -170,7 +170,7 @@ def test_ctrl_c_during_a_cold_cache_write_leaves_no_temporary_files(tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("command, stdout", [
     (["trim", *FAILING], "broken pipe"),
-    (["sweep", "amplitude", "--from", "42", "--to", "42", "--step", "1", *FAILING], "closed"),
+    (["sweep", "amplitude", "--from", "42", "--to", "42", "--by", "1", *FAILING], "closed"),
     (["control", *FAILING], "broken pipe"),
     (["forces", "--state", "1e300", "1e300", "0", "0", "--time", "0"], "closed"),
 ])

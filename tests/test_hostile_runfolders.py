@@ -222,7 +222,7 @@ def test_toml_numbers_and_nesting_are_bad_input(capsys, tmp_path, text, words):
 
 def test_sweep_resume_with_damaged_index_keeps_only_its_own_points(capsys, tmp_path):
     out = tmp_path / "sw"
-    argv = ["sweep", "amplitude", "--from", "42", "--to", "43", "--step", "1", *FAST, "--out", out, "--quiet", "--json"]
+    argv = ["sweep", "amplitude", "--from", "42", "--to", "43", "--by", "1", *FAST, "--out", out, "--quiet", "--json"]
     code, first, err = _inproc(capsys, argv)
     assert code == 0, err
     walls = [p["wall_s"] for p in json.loads(first)["points"]]

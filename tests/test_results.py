@@ -109,7 +109,7 @@ def _tiny_instances() -> dict:
     from birdocp.bird.config import PARAM_NAMES, Config
     from birdocp.bird.validity import CycleValidity
     from birdocp.engine.continuation.branch import Branch, BranchPoint, SpecialPoint
-    from birdocp.engine.equilibria import Equilibrium, EquilibriumBranch, HopfPoint
+    from birdocp.engine.equilibria import Equilibrium, EquilibriumBranch, EquilibriumFold, EquilibriumPoint, HopfPoint
     from birdocp.engine.floquet import FloquetResult
     from birdocp.engine.lyapunov import LyapunovResult
     from birdocp.engine.orbits import PeriodicOrbit
@@ -118,6 +118,7 @@ def _tiny_instances() -> dict:
     from birdocp.studies.control import Controller, WingbeatMap
     from birdocp.studies.gait import GaitOptimum
     from birdocp.studies.lateral import LateralTrimResult
+    from birdocp.studies.lateral_simulate import LateralSimulation
     from birdocp.studies.optimize import StabilityOptimum
     from birdocp.studies.sensitivity import SensitivityResult
     from birdocp.studies.simulate import SimulationResult
@@ -154,6 +155,9 @@ def _tiny_instances() -> dict:
         "birdocp.engine.equilibria.Equilibrium": Equilibrium(True, "converged", np.zeros(2), np.zeros(3), 0.0, 1,
                                                              np.array([-0.5 + 1j, -0.5 - 1j]), np.eye(2), True),
         "birdocp.engine.equilibria.HopfPoint": hopf,
+        "birdocp.engine.equilibria.EquilibriumPoint": EquilibriumPoint(0.5, np.zeros(2), np.array([0.5 + 2j, 0.5 - 2j]),
+                                                                       False, 0.1, 1.0),
+        "birdocp.engine.equilibria.EquilibriumFold": EquilibriumFold(3, (2, 3), (0.9, 1.1)),
         "birdocp.engine.equilibria.EquilibriumBranch": EquilibriumBranch(
             0, np.array([0.0, 1.0]), np.zeros((2, 2)), np.array([[1j, -1j], [1 + 1j, 1 - 1j]]),
             np.array([True, False]), [hopf], []),
@@ -182,6 +186,9 @@ def _tiny_instances() -> dict:
                                                 "beats_to_double": -2.0, "eigenvector": {"v_mps": 1j},
                                                 "dominant_state": "v_mps"}],
             {"roll_inertia_kgm2": 0.011}, 42.0, validity),
+        "birdocp.studies.lateral_simulate.LateralSimulation": LateralSimulation(
+            True, "ok", "", False, 1, np.arange(3.0), np.zeros((3, 9)), np.zeros((3, 3)), np.zeros(0),
+            np.zeros((0, 0)), [], np.array([0.01, 0.001]), False, None, [0.0] * 9, 4.5),
         "birdocp.studies.control.Controller": Controller(wmap, np.eye(4), np.eye(1), np.eye(4), np.ones((1, 1, 4)),
                                                          np.array([[-10.0, 10.0]]),
                                                          [{"control": wmap.controls[0], "stabilisable": True}]),

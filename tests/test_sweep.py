@@ -104,14 +104,14 @@ BLOCKED = (
 
 
 @pytest.mark.parametrize("argv, key, text", [
-    (["sweep", "amplitud", "--from", "40", "--to", "41", "--step", "0.5"], "KEY", "did you mean 'amplitude'"),
-    (["sweep", "amplitude", "--from", "40", "--to", "41", "--step", "0"], "--step", "positive"),
-    (["sweep", "amplitude", "--from", "40", "--to", "inf", "--step", "1"], "--to", "finite"),
-    (["sweep", "amplitude", "--from", "170", "--to", "190", "--step", "10"], "gait.shoulder_flap.amplitude_deg",
+    (["sweep", "amplitud", "--from", "40", "--to", "41", "--by", "0.5"], "KEY", "did you mean 'amplitude'"),
+    (["sweep", "amplitude", "--from", "40", "--to", "41", "--by", "0"], "--by", "positive"),
+    (["sweep", "amplitude", "--from", "40", "--to", "inf", "--by", "1"], "--to", "finite"),
+    (["sweep", "amplitude", "--from", "170", "--to", "190", "--by", "10"], "gait.shoulder_flap.amplitude_deg",
      "sweep value 190"),
-    (["sweep", "root-ahead", "--from", "0", "--to", "0.1", "--step", "0.05", "--level", "--free", "root_ahead_m"],
+    (["sweep", "root-ahead", "--from", "0", "--to", "0.1", "--by", "0.05", "--level", "--free", "root_ahead_m"],
      "KEY", "free parameter"),
-    (["sweep", "amplitude", "--from", "40", "--to", "41", "--step", "1", "--resume"], "--resume", "--out"),
+    (["sweep", "amplitude", "--from", "40", "--to", "41", "--by", "1", "--resume"], "--resume", "--out"),
     (["level", "--free", "gait.shoulder_flap.amplitud"], "--free", "did you mean"),
     (["level", "--free", "body.mass_kg"], "--bounds", "no default range"),
     (["level", "--climb-rate", "nan"], "--climb-rate", "finite"),

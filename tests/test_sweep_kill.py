@@ -10,7 +10,7 @@ import sys
 import time
 from pathlib import Path
 
-ARGS = ["sweep", "amplitude", "--from", "42", "--to", "43.5", "--step", "0.5", "--points", "3",
+ARGS = ["sweep", "amplitude", "--from", "42", "--to", "43.5", "--by", "0.5", "--points", "3",
         "--steps", "48", "--quiet"]
 
 

@@ -127,7 +127,7 @@ def test_trim_and_sweep_json_carry_validity(tmp_path):
     assert 15.0 < v["alpha_eff_max_deg"] < 20.0 and 0.0 < v["stalled_fraction"] < 0.05
     stored = json.loads((tmp_path / "trim" / "result.json").read_text())
     assert stored["validity"]["valid"] is True
-    sw = _cli_json("sweep", "amplitude", "--from", "42", "--to", "44", "--step", "2", "--quiet",
+    sw = _cli_json("sweep", "amplitude", "--from", "42", "--to", "44", "--by", "2", "--quiet",
                    "--out", str(tmp_path / "sweep"))
     assert len(sw["points"]) == 2
     for pt in sw["points"]:

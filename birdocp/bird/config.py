@@ -7,23 +7,28 @@ converted to radians inside the model graphs. The defaults are the reference imp
 A configuration is read from / written to TOML with sections ``[body]``, ``[wing]``, ``[gait]`` (with
 one sub-table per joint), ``[aero]`` and ``[solve]``. Any bad key or value raises :class:`ConfigError`
 whose one-line message names the dotted key, the value and what is allowed.
+
+The allowed values, the physical limits and :func:`validate` live in :mod:`birdocp.bird.config_checks`
+(re-exported here); the amplitude key and its default bounds in :mod:`birdocp.bird.keys`.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
-import tomllib
 from dataclasses import dataclass, field, fields, is_dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from birdocp.bird.config_checks import (CIRCULATION_MODES, JOINT_NAMES, KINEMATIC_VELOCITY_MODES,  # noqa: F401
+                                        SECTION_MODES, SIX_DOF_UNSUPPORTED, UNSTEADY_MODES, UNSTEADY_PARAMS,
+                                        WING_MASS_SHARES, coerce, flat_keys, get_value, parse_scalar,
+                                        require_body_states, suggest, validate, SIDE_KEYS, asymmetric)
 from birdocp.io.errors import ConfigError
 from birdocp.io.files import dataclass_to_dict
 
 __all__ = [
-    "ConfigError", "Joint", "Body", "Wing", "Gait", "Aero", "Tail", "Drag", "Solve", "Validity", "Config",
+    "ConfigError", "Joint", "SideOffsets", "Body", "Wing", "Gait", "Aero", "Tail", "Drag", "Solve", "Validity", "Config",
     "JOINT_NAMES", "PARAM_NAMES", "param_vector", "load", "dump", "loads", "dumps",
     "from_dict", "to_dict", "set_value", "with_values", "WING_MASS_SHARES", "body_alone_mass_kg", "require_body_states",
 ]
@@ -95,11 +100,23 @@ class Wing:
     to continue from massless wings; at mass 0 they change nothing (bit for bit)."""
 
 
-# Joint names in the order of the model's slots (docs/model.md §2.1). Docstrings carry the paper's names.
-JOINT_NAMES = (
-    "shoulder_incidence", "shoulder_flap", "shoulder_sweep",
-    "elbow_flex", "hand_twist", "wrist_flex", "wrist_spread",
-)
+
+@dataclass(frozen=True)
+class SideOffsets:
+    """Offsets added to the joint laws of ONE wing (an asymmetric gait): the wing's joint ``j`` follows
+    ``offset + d_offset + (amplitude + d_amplitude) sin(2 pi f t + phase + d_phase)`` with the
+    ``d_...`` values here (deg). Each wing's angles are in its own mirrored frame (flap tip up, sweep
+    tip forward, incidence leading edge up on both sides), so equal offsets on both sides keep the
+    gait symmetric. Zero everywhere (the default) leaves the law of :class:`Gait` unchanged; a
+    non-zero value needs ``model.degrees_of_freedom = 6``."""
+
+    shoulder_incidence: Joint = Joint()
+    shoulder_flap: Joint = Joint()
+    shoulder_sweep: Joint = Joint()
+    elbow_flex: Joint = Joint()
+    hand_twist: Joint = Joint()
+    wrist_flex: Joint = Joint()
+    wrist_spread: Joint = Joint()
 
 
 @dataclass(frozen=True)
@@ -122,21 +139,16 @@ class Gait:
     """Wrist flexion in the wing plane. Paper: "wrist z"; code slot w_y."""
     wrist_spread: Joint = Joint(0.0, 0.0, 0.0)
     """Wrist rotation about the body axis; not in the paper (identically 0). Code slot w_z."""
+    right_offset: SideOffsets = SideOffsets()
+    """Offsets of the right wing's joint laws (deg; six degrees of freedom only), e.g.
+    ``gait.right_offset.shoulder_flap.amplitude_deg = 2``."""
+    left_offset: SideOffsets = SideOffsets()
+    """Offsets of the left wing's joint laws (deg; six degrees of freedom only)."""
 
     @property
     def period_s(self) -> float:
         return 1.0 / self.frequency_hz
 
-
-CIRCULATION_MODES = ("exact", "relaxed")
-KINEMATIC_VELOCITY_MODES = ("exact", "backward-difference")
-UNSTEADY_MODES = ("none", "wagner")
-SECTION_MODES = ("linear", "stall", "dynamic-stall")
-UNSTEADY_PARAMS = ("wagner_weight", "wagner_time_scale", "pitch_rate_weight", "added_mass_weight",
-                   "separation_angle_deg", "flat_plate_cd90", "separation_lag_semichords",
-                   "separation_delay_semichords")
-"""The numeric keys of the unsteady and stall-aware aerodynamics (``aero.<name>``; numbers in ``p``,
-see docs/model_unsteady.md)."""
 
 
 @dataclass(frozen=True)
@@ -233,9 +245,16 @@ class Solve:
     steps_per_period: int = 148
     """RK4 steps per period; a multiple of (points - 1)."""
     solver: str = "ipopt"
+    """Nonlinear solver: "ipopt" or "lm" (the paper's Levenberg-Marquardt)."""
     derivatives: str = "exact"
+    """Jacobians: "exact" (automatic differentiation) or "fd" (finite differences; lm only)."""
     initial_guess: tuple[float, ...] = (18.0, 0.5, 0.1, 0.01)
     """State (u [m/s], w [m/s], q [rad/s], theta [rad]) at t = 0."""
+    max_iter: int = 100
+    """Iteration limit of the limit-cycle solve (IPOPT or Levenberg-Marquardt iterations), 1..100000."""
+    tol: float = 0.0
+    """Convergence tolerance of the limit-cycle solve (absolute max-norm of the shooting residual);
+    0 = the solver's default: 1e-10 for ipopt (its ``tol`` and ``constr_viol_tol``), 1e-5 for lm."""
 
 
 @dataclass(frozen=True)
@@ -296,10 +315,6 @@ class Model:
     """I_xz [kg m^2] (0: x' and z' principal axes); the inertia tensor is
     [[I_xx, 0, -I_xz], [0, I_yy, 0], [-I_xz, 0, I_zz]]."""
 
-
-SIX_DOF_UNSUPPORTED = (("drag.body_drag_coefficient", "drag terms"), ("drag.profile_drag_coefficient", "drag terms"))
-"""Planar terms not yet written in three dimensions: with model.degrees_of_freedom = 6 each of these
-keys must be 0 (and tail.enabled, drag.enabled false)."""
 
 
 @dataclass(frozen=True)
@@ -378,247 +393,12 @@ PARAM_NAMES: tuple[str, ...] = _param_names()
 """Names of the entries of the model parameter vector ``p``, in order."""
 
 
-def get_value(cfg: Any, key: str) -> Any:
-    obj = cfg
-    for part in key.split("."):
-        if isinstance(obj, tuple):
-            obj = obj[int(part)]
-        else:
-            obj = getattr(obj, part)
-    return obj
-
 
 def param_vector(cfg: Config):
     """The numeric parameter vector ``p`` (numpy array ordered as :data:`PARAM_NAMES`)."""
     import numpy as np
 
     return np.array([float(get_value(cfg, k)) for k in PARAM_NAMES])
-
-
-# ---------------------------------------------------------------------------------------------
-# Validation
-
-# (lower, upper, inclusive-lower) physical ranges; angles in a documented range.
-_POSITIVE = {
-    "body.mass_kg", "body.pitch_inertia_kgm2", "body.reference_chord_m",
-    "wing.arm_length_m", "wing.forearm_length_m", "wing.hand_length_m",
-    "wing.shoulder_half_separation_m", "wing.section_half_thickness_m", "wing.smoothing_radius_m",
-    "gait.frequency_hz", "aero.air_density_kgm3", "aero.lift_slope_per_rad", "aero.backward_step_s",
-    "tail.root_behind_m", "tail.length_m", "tail.kinematic_viscosity_m2ps", "tail.reynolds_speed_mps",
-    "drag.body_frontal_area_m2", "body.gravity_mps2",
-}
-ANGLE_LIMIT_DEG = 180.0
-MAX_POINTS = 500
-"""Upper bound of solve.points (shooting points per period)."""
-MAX_STEPS_PER_PERIOD = 10000
-"""Upper bound of solve.steps_per_period: the RK4 graphs and the data grid grow with it (the
-reference case uses 148)."""
-"""Joint offsets and amplitudes must lie in [-180, 180] deg, phases in [-360, 360] deg."""
-
-
-_UPPER = {
-    "body.mass_kg": (1.0e4, "kg"), "body.pitch_inertia_kgm2": (1.0e4, "kg m^2"),
-    "body.gravity_mps2": (100.0, "m/s^2 (10 g)"), "body.reference_chord_m": (100.0, "m"),
-    "wing.arm_length_m": (100.0, "m"), "wing.forearm_length_m": (100.0, "m"), "wing.hand_length_m": (100.0, "m"),
-    "wing.shoulder_half_separation_m": (100.0, "m"), "wing.section_half_thickness_m": (100.0, "m"),
-    "wing.smoothing_radius_m": (100.0, "m"), "wing.mass_kg": (1.0e4, "kg"),
-    "gait.frequency_hz": (1000.0, "Hz"), "aero.air_density_kgm3": (100.0, "kg/m^3 (the air at the surface of "
-                                                                          "Venus is 65)"),
-    "aero.lift_slope_per_rad": (100.0, "per rad (thin-airfoil theory gives 2 pi)"),
-    "aero.backward_step_s": (1.0, "s"), "tail.root_behind_m": (100.0, "m"), "tail.length_m": (100.0, "m"),
-    "tail.kinematic_viscosity_m2ps": (1.0, "m^2/s (air 1.5e-5)"),
-    "tail.reynolds_speed_mps": (340.0, "m/s (the speed of sound: the air of the model is incompressible)"),
-    "drag.body_frontal_area_m2": (100.0, "m^2"), "drag.body_drag_coefficient": (100.0, ""),
-    "drag.profile_drag_coefficient": (100.0, ""),
-}
-"""Largest physical value of a configuration number (with its unit and, where useful, why): beyond
-it the model's numbers overflow or stop meaning anything, so it is bad input before any work."""
-MAX_GUESS_SPEED_MPS = 340.0
-"""Largest |u|, |w| of ``solve.initial_guess`` (the speed of sound)."""
-
-
-def _check_number(key: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ConfigError(key, f"expected a number, got {value!r}")
-    try:
-        number = float(value)
-    except OverflowError:  # an integer of hundreds of digits
-        raise ConfigError(key, f"an integer of {len(str(abs(value)))} digits is too large for a number; "
-                               "give a value in the key's physical range") from None
-    if not math.isfinite(number):
-        raise ConfigError(key, f"must be finite, got {value!r}")
-    return number
-
-
-def _check_range(key: str, value: float) -> None:
-    """The physical range of a positive quantity (:data:`_POSITIVE`) or one with an upper bound (:data:`_UPPER`)."""
-    if key in _POSITIVE and value <= 0:
-        why = " (without weight there is no flight to trim: lift, power and cost of transport are per weight)" \
-            if key == "body.gravity_mps2" else ""
-        raise ConfigError(key, f"must be > 0, got {value!r}{why}")
-    if key in _UPPER and value > _UPPER[key][0]:
-        hi, unit = _UPPER[key]
-        raise ConfigError(key, f"must be at most {hi:g} {unit}".rstrip() + f", got {value!r}")
-
-
-def validate(cfg: Config) -> None:
-    """Raise :class:`ConfigError` on the first non-physical value."""
-    for key in _flat_keys(cfg):
-        value = get_value(cfg, key)
-        if isinstance(value, (str, tuple, bool)):
-            continue
-        if isinstance(value, int) and not isinstance(value, bool) and key.startswith(
-                ("solve.", "aero.relaxed", "aero.newton", "model.degrees")):
-            continue
-        _check_range(key, _check_number(key, value))
-    for i, L in enumerate(cfg.wing.feather_lengths_m):
-        _check_number(f"wing.feather_lengths_m.{i}", L)
-        if not 0 < L <= 100.0:
-            raise ConfigError(f"wing.feather_lengths_m.{i}", f"must lie in (0, 100] m, got {L!r}")
-    if len(cfg.wing.feather_lengths_m) != 7:
-        raise ConfigError("wing.feather_lengths_m", f"needs 7 lengths, got {len(cfg.wing.feather_lengths_m)}")
-    _validate_wing_mass(cfg)
-    if not (-0.5 <= cfg.wing.root_ahead_m <= 0.5):
-        raise ConfigError("wing.root_ahead_m", f"must lie in [-0.5, 0.5] m, got {cfg.wing.root_ahead_m!r}")
-    for j in JOINT_NAMES:
-        joint = getattr(cfg.gait, j)
-        for name, lim in (("offset_deg", ANGLE_LIMIT_DEG), ("amplitude_deg", ANGLE_LIMIT_DEG),
-                          ("phase_deg", 2 * ANGLE_LIMIT_DEG)):
-            v = getattr(joint, name)
-            if not -lim <= v <= lim:
-                raise ConfigError(f"gait.{j}.{name}", f"must lie in [{-lim:g}, {lim:g}] deg, got {v!r}")
-    for key in ("drag.body_drag_coefficient", "drag.profile_drag_coefficient"):
-        if get_value(cfg, key) < 0:
-            raise ConfigError(key, f"must be >= 0 (0 = off), got {get_value(cfg, key)!r}")
-    if not 0.0 <= cfg.tail.opening_angle_deg < 180.0:
-        raise ConfigError("tail.opening_angle_deg", f"must lie in [0, 180) deg, got {cfg.tail.opening_angle_deg!r}")
-    if not -90.0 < cfg.tail.incidence_deg < 90.0:
-        raise ConfigError("tail.incidence_deg", f"must lie in (-90, 90) deg, got {cfg.tail.incidence_deg!r}")
-    if cfg.aero.circulation not in CIRCULATION_MODES:
-        raise ConfigError("aero.circulation", f"must be one of {', '.join(CIRCULATION_MODES)}; got {cfg.aero.circulation!r}")
-    if cfg.aero.kinematic_velocity not in KINEMATIC_VELOCITY_MODES:
-        raise ConfigError("aero.kinematic_velocity",
-                          f"must be one of {', '.join(KINEMATIC_VELOCITY_MODES)}; got {cfg.aero.kinematic_velocity!r}")
-    if not 1 <= cfg.aero.relaxed_evaluations <= 1000:
-        raise ConfigError("aero.relaxed_evaluations", f"must be an integer in [1, 1000], got {cfg.aero.relaxed_evaluations!r}")
-    _validate_unsteady(cfg)
-    v = cfg.validity
-    for name, lo, hi in (("stall_angle_deg", 0.0, 90.0), ("max_stalled_fraction", 0.0, 1.0),
-                         ("max_abs_pitch_deg", 0.0, 180.0), ("max_airflow_body_angle_deg", 0.0, 180.0)):
-        val = getattr(v, name)
-        if not lo < val <= hi if name != "max_stalled_fraction" else not lo <= val <= hi:
-            raise ConfigError(f"validity.{name}", f"must lie in ({lo:g}, {hi:g}], got {val!r}")
-    s = cfg.solve
-    if s.points < 2:
-        raise ConfigError("solve.points", f"must be >= 2 (the closing point included), got {s.points!r}")
-    if s.points > MAX_POINTS:
-        raise ConfigError("solve.points", f"must be <= {MAX_POINTS}, got {s.points!r}")
-    if s.steps_per_period > MAX_STEPS_PER_PERIOD:
-        raise ConfigError("solve.steps_per_period",
-                          f"must be <= {MAX_STEPS_PER_PERIOD} (the reference uses 148), got {s.steps_per_period!r}")
-    if s.steps_per_period < 1 or s.steps_per_period % (s.points - 1):
-        raise ConfigError("solve.steps_per_period",
-                          f"must be a positive multiple of points - 1 = {s.points - 1}, got {s.steps_per_period!r}")
-    if s.solver not in ("ipopt", "lm"):
-        raise ConfigError("solve.solver", f"must be 'ipopt' or 'lm', got {s.solver!r}")
-    if s.derivatives not in ("exact", "fd"):
-        raise ConfigError("solve.derivatives", f"must be 'exact' or 'fd', got {s.derivatives!r}")
-    if s.derivatives == "fd" and s.solver != "lm":
-        raise ConfigError("solve.derivatives", "'fd' (finite-difference Jacobians) needs solve.solver = 'lm' "
-                                               "(--solver lm); IPOPT runs on exact derivatives")
-    if len(s.initial_guess) != 4:
-        raise ConfigError("solve.initial_guess", f"needs 4 numbers (u, w, q, theta), got {len(s.initial_guess)}")
-    for i, v in enumerate(s.initial_guess):
-        v = _check_number(f"solve.initial_guess.{i}", v)
-        if i < 2 and abs(v) > MAX_GUESS_SPEED_MPS:
-            raise ConfigError(f"solve.initial_guess.{i}", f"must lie within +-{MAX_GUESS_SPEED_MPS:g} m/s (the speed "
-                                                          f"of sound: the model's air is incompressible), got {v!r}")
-    _validate_model(cfg)
-
-
-def _validate_model(cfg: Config) -> None:
-    m = cfg.model
-    if isinstance(m.degrees_of_freedom, bool) or m.degrees_of_freedom not in (4, 6):
-        raise ConfigError("model.degrees_of_freedom", f"must be 4 or 6, got {m.degrees_of_freedom!r}")
-    ixx, izz, ixz = m.roll_inertia_kgm2, m.yaw_inertia_kgm2, m.product_inertia_xz_kgm2
-    for key, val in (("model.roll_inertia_kgm2", ixx), ("model.yaw_inertia_kgm2", izz)):
-        if val <= 0:
-            raise ConfigError(key, f"must be > 0 kg m^2, got {val!r}")
-    if ixx * izz <= ixz ** 2:
-        raise ConfigError("model.product_inertia_xz_kgm2", f"|I_xz| must be below sqrt(I_xx I_zz) = "
-                                                           f"{math.sqrt(ixx * izz):.4g} kg m^2, got {ixz!r}")
-    if m.degrees_of_freedom != 6:
-        return
-    for key, what in SIX_DOF_UNSUPPORTED:
-        if get_value(cfg, key) != 0:
-            raise ConfigError(key, f"{what}: not yet written in six degrees of freedom; set {key} = 0 "
-                                   "or model.degrees_of_freedom = 4")
-    for key, default in (("aero.unsteady", "none"), ("aero.section", "linear")):
-        if get_value(cfg, key) != default:
-            raise ConfigError(key, f"not yet written in six degrees of freedom; set {key} = '{default}' "
-                                   "or model.degrees_of_freedom = 4")
-    for key, what in (("drag.enabled", "drag terms"),):
-        if get_value(cfg, key):
-            raise ConfigError(key, f"{what}: not yet written in six degrees of freedom; set {key} = false "
-                                   "or model.degrees_of_freedom = 4")
-
-
-def require_body_states(cfg: Config, what: str) -> None:
-    """Raise :class:`ConfigError` when ``cfg``'s model has aerodynamic states (``aero.unsteady =
-    "wagner"`` or ``aero.section = "dynamic-stall"``) and ``what`` (a study) works on the 4 body
-    states only."""
-    if cfg.aero.unsteady != "none" or cfg.aero.section == "dynamic-stall":
-        raise ConfigError("aero.unsteady" if cfg.aero.unsteady != "none" else "aero.section",
-                          f"{what} works on the 4 body states only (no lag or separation states yet): use "
-                          "aero.unsteady = 'none' with aero.section = 'linear' or 'stall'")
-
-
-def _validate_unsteady(cfg: Config) -> None:
-    a = cfg.aero
-    if a.unsteady not in UNSTEADY_MODES:
-        raise ConfigError("aero.unsteady", f"must be one of {', '.join(UNSTEADY_MODES)}; got {a.unsteady!r}")
-    if a.section not in SECTION_MODES:
-        raise ConfigError("aero.section", f"must be one of {', '.join(SECTION_MODES)}; got {a.section!r}")
-    if not 1 <= a.newton_steps <= 50:
-        raise ConfigError("aero.newton_steps", f"must be an integer in [1, 50], got {a.newton_steps!r}")
-    if a.circulation == "relaxed" and (a.unsteady != "none" or a.section != "linear"):
-        raise ConfigError("aero.circulation", "'relaxed' works only with aero.unsteady = 'none' and aero.section = "
-                                              "'linear'; use aero.circulation = 'exact'")
-    if a.unsteady != "none" and (cfg.wing.mass_kg > 0 or cfg.wing.inertial_terms):
-        raise ConfigError("aero.unsteady", "'wagner' with wing masses (wing.mass_kg > 0) is not supported yet; "
-                                           "set wing.mass_kg = 0 or aero.unsteady = 'none'")
-    for k in ("wagner_weight", "pitch_rate_weight", "added_mass_weight"):
-        if not 0.0 <= getattr(a, k) <= 1.0:
-            raise ConfigError(f"aero.{k}", f"must lie in [0, 1], got {getattr(a, k)!r}")
-    for k in ("wagner_time_scale", "separation_angle_deg", "flat_plate_cd90", "separation_lag_semichords"):
-        if not getattr(a, k) > 0:
-            raise ConfigError(f"aero.{k}", f"must be > 0, got {getattr(a, k)!r}")
-    if a.separation_angle_deg >= 90:
-        raise ConfigError("aero.separation_angle_deg", f"must lie in (0, 90) deg, got {a.separation_angle_deg!r}")
-    if a.separation_delay_semichords < 0:
-        raise ConfigError("aero.separation_delay_semichords", f"must be >= 0, got {a.separation_delay_semichords!r}")
-
-
-WING_MASS_SHARES = ("mass_share_arm", "mass_share_forearm", "mass_share_hand", "mass_share_primaries",
-                    "mass_share_secondaries")
-"""The keys of the wing-mass distribution (shares of ``wing.mass_kg``, summing to 1)."""
-
-
-def _validate_wing_mass(cfg: Config) -> None:
-    w = cfg.wing
-    if w.mass_kg < 0:
-        raise ConfigError("wing.mass_kg", f"must be >= 0 kg (0 = massless wings), got {w.mass_kg!r}")
-    if 2 * w.mass_kg >= cfg.body.mass_kg:
-        raise ConfigError("wing.mass_kg", f"both wings (2 x {w.mass_kg!r} kg) must weigh less than the whole "
-                                          f"bird, body.mass_kg = {cfg.body.mass_kg!r} kg")
-    for k in WING_MASS_SHARES:
-        v = getattr(w, k)
-        if not 0.0 <= v <= 1.0:
-            raise ConfigError(f"wing.{k}", f"must lie in [0, 1], got {v!r}")
-    total = sum(getattr(w, k) for k in WING_MASS_SHARES)
-    if abs(total - 1.0) > 1e-9:
-        raise ConfigError("wing." + WING_MASS_SHARES[0],
-                          f"the wing mass shares ({', '.join(WING_MASS_SHARES)}) must sum to 1, got {total!r}")
 
 
 def body_alone_mass_kg(cfg: Config) -> float:
@@ -629,57 +409,16 @@ def body_alone_mass_kg(cfg: Config) -> float:
 # ---------------------------------------------------------------------------------------------
 # Dict / TOML conversion
 
-def _flat_keys(obj: Any, prefix: str = "") -> list[str]:
-    keys = []
-    for f in fields(obj):
-        v = getattr(obj, f.name)
-        k = f"{prefix}{f.name}"
-        if is_dataclass(v):
-            keys += _flat_keys(v, k + ".")
-        else:
-            keys.append(k)
-    return keys
-
 
 def to_dict(cfg: Any) -> dict:
     """Nested plain dict (tuples as lists) of a config or section."""
     return dataclass_to_dict(cfg)
 
 
-def suggest(key: str, candidates) -> str:
-    match = difflib.get_close_matches(key, list(candidates), n=1, cutoff=0.6)
-    return f"; did you mean '{match[0]}'?" if match else ""
-
-
 def unknown_key(key: str, candidates=None) -> str:
     """The message of an unknown configuration key: a did-you-mean suggestion, else where the keys are."""
     return "unknown key" + (suggest(key, _ALL_KEYS if candidates is None else candidates)
                             or "; 'birdocp config' prints every key")
-
-
-def _coerce(key: str, default: Any, value: Any) -> Any:
-    """Check ``value`` against the type of ``default``; return the converted value."""
-    if isinstance(default, bool):
-        if not isinstance(value, bool):
-            raise ConfigError(key, f"expected true or false, got {value!r}")
-        return value
-    if isinstance(default, int):
-        if isinstance(value, bool) or not isinstance(value, int):
-            if isinstance(value, float) and value.is_integer():
-                return int(value)
-            raise ConfigError(key, f"expected an integer, got {value!r}")
-        return value
-    if isinstance(default, float):
-        return _check_number(key, value)
-    if isinstance(default, str):
-        if not isinstance(value, str):
-            raise ConfigError(key, f"expected a string, got {value!r}")
-        return value
-    if isinstance(default, tuple):
-        if not isinstance(value, (list, tuple)):
-            raise ConfigError(key, f"expected a list of numbers, got {value!r}")
-        return tuple(_check_number(f"{key}.{i}", v) for i, v in enumerate(value))
-    raise ConfigError(key, f"unsupported value {value!r}")
 
 
 def _build(cls: type, data: Any, prefix: str, base: Any = None) -> Any:
@@ -699,7 +438,7 @@ def _build(cls: type, data: Any, prefix: str, base: Any = None) -> Any:
         if is_dataclass(sub):
             kwargs[k] = _build(type(sub), v, key + ".", sub)
         else:
-            kwargs[k] = _coerce(key, getattr(default, k) if default is not None else sub, v)
+            kwargs[k] = coerce(key, getattr(default, k) if default is not None else sub, v)
     try:
         return replace(default, **kwargs) if cls is not Config else cls(**kwargs)
     except ConfigError:
@@ -759,18 +498,6 @@ def dump(cfg: Config, path: str | Path) -> None:
     from birdocp.io.files import atomic_write_text
 
     atomic_write_text(path, dumps(cfg))
-
-
-def parse_scalar(text: str) -> Any:
-    """Parse a ``--set`` value as a TOML value; bare words are strings."""
-    try:
-        return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
-        return text
-    except RecursionError:
-        raise ConfigError("--set", f"the value '{text[:40]}...' is nested too deeply") from None
-    except ValueError as exc:  # an integer of more than 4300 digits
-        raise ConfigError("--set", f"the value '{text[:40]}...' cannot be read: {exc}") from None
 
 
 def with_values(cfg: Config, values: dict[str, Any]) -> Config:
@@ -858,7 +585,7 @@ def _all_keys() -> tuple[str, ...]:
     keys = []
     for f in fields(Config):
         sub = f.default_factory()
-        keys += _flat_keys(sub, f.name + ".")
+        keys += flat_keys(sub, f.name + ".")
     return tuple(keys)
 
 

@@ -367,6 +367,65 @@ def graph_key(structure: Structure) -> dict:
             "param_names": list(PARAM_NAMES), "n_data": N_DATA, "birdocp": __version__}
 
 
+def _arm_blocks(L):
+    """(P, c_hat, up, chord, aux) of one wing from the first values of a ``pre`` output ``L``."""
+    k, out = 0, []
+    for rows, n in ((3, 48), (3, 48), (3, 48), (1, 16), (3, 48)):
+        out.append(ca.reshape(L[k:k + n], rows, N_EL))
+        k += n
+    return out
+
+
+def aero_blocks(s: Structure, L, t, p, left=None) -> dict:
+    """The aerodynamic data blocks (:data:`DATA_BLOCKS`, SX) from the arm-frame wing ``L`` (a ``pre``
+    output) at time ``t`` and parameters ``p``: shoulder rotation, merge, kinematic velocity,
+    lifting-line matrices. ``left`` = (L, p) of a left wing with its own joint laws (an asymmetric
+    gait, :mod:`birdocp.bird.sides`); None: the mirror image of the right wing (the planar model)."""
+    f_hz = s.frequency_hz
+    x_ep = _p(p, "wing.shoulder_half_separation_m")
+    R1 = _shoulder(t, p, f_hz)
+    P_s, c_s, u_s, ch_s, aux_s = _arm_blocks(L)
+    if left is None:
+        Q, ch, cd, nu = _merged(R1, P_s, c_s, u_s, ch_s, x_ep)
+    else:
+        R1l = _shoulder(t, left[1], f_hz)
+        Pl, cl, ul, chl, auxl = _arm_blocks(left[0])
+        Q, ch, cd, nu = wing.merge(_columns(R1 @ P_s), [ch_s[j] for j in range(N_EL)], _columns(R1 @ c_s),
+                                   _columns(R1 @ u_s), x_ep,
+                                   left=(_columns(R1l @ Pl), [chl[j] for j in range(N_EL)], _columns(R1l @ cl),
+                                         _columns(R1l @ ul)))
+    line = ca.horzcat(*Q)
+    centres, nodes = line[:, 1::2], line[:, 0::2]
+    if s.kinematic_velocity == "exact":
+        Pdot = ca.jtimes(R1, t, ca.SX(1)) @ P_s + R1 @ aux_s
+        lv = None if left is None else (_columns(ca.jtimes(R1l, t, ca.SX(1)) @ Pl + R1l @ auxl), [0] * N_EL,
+                                        _columns(Pl), _columns(Pl))
+        Qd = wing.merge(_columns(Pdot), [0] * N_EL, _columns(P_s), _columns(P_s), 0.0, left=lv)[0]
+        v_kin = ca.horzcat(*Qd)[:, 1::2]
+    else:
+        R1_prev = _shoulder(t - s.backward_step_s, p, f_hz)
+        lv = None if left is None else (_columns(_shoulder(t - s.backward_step_s, left[1], f_hz) @ auxl),
+                                        [0] * N_EL, _columns(Pl), _columns(Pl))
+        Qp = wing.merge(_columns(R1_prev @ aux_s), [0] * N_EL, _columns(P_s), _columns(P_s), x_ep, left=lv)[0]
+        v_kin = (centres - ca.horzcat(*Qp)[:, 1::2]) / s.backward_step_s
+    c_hat = ca.horzcat(*cd)[:, 1::2]
+    up = ca.horzcat(*nu)[:, 1::2]
+    chord = ca.horzcat(*ch)[1::2]
+    tau = ca.horzcat(*[ca.cross(up[:, j], c_hat[:, j]) for j in range(N_EL)])
+    ds = ca.vertcat(*[ca.norm_2(nodes[:, j + 1] - nodes[:, j]) for j in range(N_EL)])
+    r_w = ca.vertcat(0, 0, -_p(p, "wing.root_ahead_m"))
+    r = centres + ca.repmat(r_w, 1, N_EL)
+    if s.aero_extra:  # per unit circulation: the state right-hand side solves the lifting line
+        Wx, Wy, G = aero.induced_matrices(_columns(centres), _columns(nodes))
+    else:
+        G, Wx, Wy = aero.circulation_matrices(
+            _columns(centres), _columns(nodes), [chord[j] for j in range(N_EL)],
+            _p(p, "aero.lift_slope_per_rad"), s.circulation, s.relaxed_evaluations)
+    return {"r_m": r, "v_kin_mps": v_kin, "c_hat": c_hat, "up": up, "tau": tau, "ds_m": ds,
+            "G": G, "Wx": Wx, "Wy": Wy, "nodes_m": nodes + ca.repmat(r_w, 1, N_EL + 1),
+            "chord_m": chord.T}
+
+
 def _build(s: Structure) -> tuple[dict, tuple]:
     """The SX Functions of structure ``s`` (:data:`GRAPH_FUNCTIONS`, and
     :data:`OPTIONAL_FUNCTIONS` or None) and ``pre_params``."""
@@ -421,44 +480,10 @@ def _build(s: Structure) -> tuple[dict, tuple]:
 
     # Assembly ("post"): shoulder rotation, merge, kinematic velocity, lifting-line matrices.
     L = ca.SX.sym("local", ell.numel())
-    k = 0
-    blocks_l = []
-    for n in (48, 48, 48, 16, 48):
-        blocks_l.append(L[k:k + n])
-        k += n
-    assert k == n_aero_local
-    P_s = ca.reshape(blocks_l[0], 3, N_EL)
-    c_s = ca.reshape(blocks_l[1], 3, N_EL)
-    u_s = ca.reshape(blocks_l[2], 3, N_EL)
-    ch_s = ca.reshape(blocks_l[3], 1, N_EL)
-    aux_s = ca.reshape(blocks_l[4], 3, N_EL)
-    Q, ch, cd, nu = _merged(R1, P_s, c_s, u_s, ch_s, x_ep)
-    line = ca.horzcat(*Q)
-    centres, nodes = line[:, 1::2], line[:, 0::2]
-    if s.kinematic_velocity == "exact":
-        Pdot = ca.jtimes(R1, t, ca.SX(1)) @ P_s + R1 @ aux_s
-        Qd = wing.merge(_columns(Pdot), [0] * N_EL, _columns(P_s), _columns(P_s), 0.0)[0]
-        v_kin = ca.horzcat(*Qd)[:, 1::2]
-    else:
-        R1_prev = _shoulder(t - s.backward_step_s, p, f_hz)
-        Qp = wing.merge(_columns(R1_prev @ aux_s), [0] * N_EL, _columns(P_s), _columns(P_s), x_ep)[0]
-        v_kin = (centres - ca.horzcat(*Qp)[:, 1::2]) / s.backward_step_s
-    c_hat = ca.horzcat(*cd)[:, 1::2]
-    up = ca.horzcat(*nu)[:, 1::2]
-    chord = ca.horzcat(*ch)[1::2]
-    tau = ca.horzcat(*[ca.cross(up[:, j], c_hat[:, j]) for j in range(N_EL)])
-    ds = ca.vertcat(*[ca.norm_2(nodes[:, j + 1] - nodes[:, j]) for j in range(N_EL)])
-    r_w = ca.vertcat(0, 0, -_p(p, "wing.root_ahead_m"))
-    r = centres + ca.repmat(r_w, 1, N_EL)
-    if s.aero_extra:  # per unit circulation: the state right-hand side solves the lifting line
-        Wx, Wy, G = aero.induced_matrices(_columns(centres), _columns(nodes))
-    else:
-        G, Wx, Wy = aero.circulation_matrices(
-            _columns(centres), _columns(nodes), [chord[j] for j in range(N_EL)],
-            _p(p, "aero.lift_slope_per_rad"), s.circulation, s.relaxed_evaluations)
-    blocks = {"r_m": r, "v_kin_mps": v_kin, "c_hat": c_hat, "up": up, "tau": tau, "ds_m": ds,
-              "G": G, "Wx": Wx, "Wy": Wy, "nodes_m": nodes + ca.repmat(r_w, 1, N_EL + 1),
-              "chord_m": chord.T}
+    blocks = aero_blocks(s, L, t, p)
+    r, v_kin, c_hat, up, tau, ds = (blocks[k] for k in ("r_m", "v_kin_mps", "c_hat", "up", "tau", "ds_m"))
+    chord = blocks["chord_m"].T
+    k = n_aero_local
     d = ca.vertcat(*[ca.vec(blocks[name]) for name, _ in DATA_BLOCKS])
     if s.wing_mass:
         npt = inertia.N_POINTS_PER_WING

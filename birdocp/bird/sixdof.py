@@ -26,6 +26,11 @@ straight along the body axis e3 (as in the planar model, also in sideslip: a cho
 lifting-line model, stated in the docs). Loads: ``(X, Y, Z) = (-F3, F1, -F2)`` and
 ``(L, M, N) = (-Mc3, Mc1, -Mc2)`` from the code-frame force ``F`` and moment ``Mc = sum r x dF``.
 
+Asymmetric gaits (:mod:`birdocp.bird.sides`): with ``sides=True`` the parameter vector also holds
+the 42 per-side joint offsets and the data is assembled from two differing wings; such a cycle is
+periodic up to its heading (a turn), so ``ode_no_heading`` (the 8 states without psi, on which
+nothing depends) is the ODE its trim solves.
+
 The body has the inertia tensor ``[[I_xx, 0, -I_xz], [0, I_yy, 0], [-I_xz, 0, I_zz]]`` about G
 (:class:`LateralInertia` adds I_xx, I_zz, I_xz to the configuration's ``body.pitch_inertia_kgm2`` =
 I_yy). With ``wing.mass_kg`` > 0 the wings' mass points move with the gait and their 3-D inertial
@@ -45,12 +50,13 @@ import casadi as ca
 
 from birdocp.bird import aero, tail
 from birdocp.bird import sixdof_inertia as wing3
-from birdocp.bird.config import PARAM_NAMES, Config
+from birdocp.bird.config import PARAM_NAMES, Config, asymmetric
 from birdocp.bird.model import BirdModel, Structure, get_model, unpack_data
+from birdocp.bird.sides import SIDE_PARAM_NAMES, side_data_functions
 from birdocp.engine.cache import register_cache
 from birdocp.engine.problem import PeriodicODE
 
-__all__ = ["STATE_NAMES", "LONGITUDINAL", "LATERAL", "HEADING", "LATERAL_PARAM_NAMES", "LateralInertia",
+__all__ = ["rhs_expression", "STATE_NAMES", "LONGITUDINAL", "LATERAL", "HEADING", "LATERAL_PARAM_NAMES", "LateralInertia",
            "SixDofModel", "sixdof_model", "embed_planar_state", "body_loads"]
 
 STATE_NAMES = ("u_mps", "v_mps", "w_mps", "p_radps", "q_radps", "r_radps", "phi_rad", "theta_rad", "psi_rad")
@@ -140,15 +146,16 @@ def tail_body_loads(x, b, gamma, p):
                                                           "incidence_deg")])
 
 
-def _rhs_expr(x, d, p6, structure: Structure | None = None):
-    """The state derivative (9) of the rigid body with the aerodynamic loads of :func:`body_loads`
-    (and, with ``structure.wing_mass``, the wing masses of :mod:`birdocp.bird.sixdof_inertia`, whose
-    sums follow the planar data in ``d``)."""
+def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None):
+    """The state derivative (9) of the rigid body with the aerodynamic loads of :func:`body_loads` at
+    ``x_air`` (the state as the air sees it, with a wind; default ``x``) and, with
+    ``structure.wing_mass``, the wing masses of :mod:`birdocp.bird.sixdof_inertia` (whose sums follow
+    the planar data in ``d``); ``structure.tail`` adds the tail."""
     p = p6[:len(PARAM_NAMES)]
     ixx, izz, ixz = (p6[len(PARAM_NAMES) + i] for i in range(3))
     m, iyy, g = _p(p, "body.mass_kg"), _p(p, "body.pitch_inertia_kgm2"), _p(p, "body.gravity_mps2")
     u, v, w, pr, q, rr, phi, th = (x[i] for i in range(8))
-    Fb, Mb, _ = body_loads(x, d, p, with_tail=bool(structure and structure.tail))
+    Fb, Mb, _ = body_loads(x if x_air is None else x_air, d, p, with_tail=bool(structure and structure.tail))
     X, Y, Z = Fb[0], Fb[1], Fb[2]
     L, M, N = Mb[0], Mb[1], Mb[2]
     cth, sth, cph, sph = ca.cos(th), ca.sin(th), ca.cos(phi), ca.sin(phi)
@@ -184,37 +191,55 @@ class SixDofModel:
     ``data(t, p)`` is the planar model's data with the 6-DOF parameter vector.
     """
 
-    def __init__(self, planar: BirdModel):
+    def __init__(self, planar: BirdModel, sides: bool = False):
         structure = planar.structure
         if structure.drag or getattr(structure, "aero_extra", False):
             raise ValueError("six degrees of freedom: the drag terms and the unsteady or "
                              "stall-aware sections are planar terms not yet written in 3-D; use "
                              "drag off, aero.unsteady = 'none' and aero.section = 'linear'")
         self.planar = planar
+        self.sides = bool(sides)
         n = len(PARAM_NAMES)
+        names = tuple(PARAM_NAMES) + LATERAL_PARAM_NAMES + (SIDE_PARAM_NAMES if self.sides else ())
         x = ca.SX.sym("x", 9)
         n_planar = planar.rhs.size1_in(1)
+        if structure.wing_mass and self.sides:
+            raise ValueError("six degrees of freedom: wing masses with per-side joint offsets (an asymmetric gait) "
+                             "are not written yet; use wing.mass_kg = 0 or a symmetric gait")
         d = ca.SX.sym("d", n_planar + (wing3.N_MASS3 if structure.wing_mass else 0))
-        p6 = ca.SX.sym("p", n + len(LATERAL_PARAM_NAMES))
+        p6 = ca.SX.sym("p", len(names))
         self.structure = structure
-        self.rhs = ca.Function("rhs6", [x, d, p6], [_rhs_expr(x, d, p6, structure)], ["x", "d", "p"], ["xdot"])
+        self.rhs = ca.Function("rhs6", [x, d, p6], [rhs_expression(x, d, p6, structure=structure)], ["x", "d", "p"],
+                               ["xdot"])
         Fb, Mb, _ = body_loads(x, d, p6[:n], with_tail=structure.tail)
         self.loads_d = ca.Function("loads6", [x, d, p6], [ca.vertcat(Fb, Mb)], ["x", "d", "p"], ["loads"])
-        tm, pm = ca.MX.sym("t"), ca.MX.sym("p", n + len(LATERAL_PARAM_NAMES))
-        pb = pm[:n]
-        pre = ca.Function("pre6", [tm, pm], [planar.pre(tm, pb)], ["t", "p"], ["local"])
-        loc = ca.MX.sym("local", planar.pre.size1_out(0))
-        d_post = planar.post(loc, tm, pb)
-        self.wing_sums = wing3.sums_function(planar.mass_points) if structure.wing_mass else None
-        if self.wing_sums is not None:  # the 3-D wing-mass sums after the planar data
-            d_post = ca.vertcat(d_post, self.wing_sums(tm, pb))
-        post = ca.Function("post6", [loc, tm, pm], [d_post], ["local", "t", "p"], ["d"])
-        data = ca.Function("data6", [tm, pm], [post(pre(tm, pm), tm, pm)], ["t", "p"], ["d"])
+        self.wing_sums = None
+        if self.sides:
+            pre, post, data, pre_params = side_data_functions(planar, len(names), n + len(LATERAL_PARAM_NAMES))
+        else:
+            tm, pm = ca.MX.sym("t"), ca.MX.sym("p", len(names))
+            pb = pm[:n]
+            pre = ca.Function("pre6", [tm, pm], [planar.pre(tm, pb)], ["t", "p"], ["local"])
+            loc = ca.MX.sym("local", planar.pre.size1_out(0))
+            d_post = planar.post(loc, tm, pb)
+            if structure.wing_mass:  # the 3-D wing-mass sums after the planar data
+                self.wing_sums = wing3.sums_function(planar.mass_points)
+                d_post = ca.vertcat(d_post, self.wing_sums(tm, pb))
+            post = ca.Function("post6", [loc, tm, pm], [d_post], ["local", "t", "p"], ["d"])
+            data = ca.Function("data6", [tm, pm], [post(pre(tm, pm), tm, pm)], ["t", "p"], ["d"])
+            pre_params = planar.pre_params
         self.data = data
         self.period_s = planar.period_s
         self.ode = PeriodicODE(rhs=self.rhs, data=data, period_s=planar.period_s, state_names=STATE_NAMES,
-                               param_names=tuple(PARAM_NAMES) + LATERAL_PARAM_NAMES, pre=pre, post=post,
-                               pre_params=planar.pre_params)
+                               param_names=names, pre=pre, post=post, pre_params=pre_params)
+        # the heading excluded (nothing depends on it): the ODE of a cycle periodic up to its heading
+        x8 = ca.SX.sym("x", 8)
+        rhs8 = ca.Function("rhs6_no_heading", [x8, d, p6],
+                           [rhs_expression(ca.vertcat(x8, 0), d, p6, structure=structure)[:8]],
+                           ["x", "d", "p"], ["xdot"])
+        self.ode_no_heading = PeriodicODE(rhs=rhs8, data=data, period_s=planar.period_s,
+                                          state_names=STATE_NAMES[:HEADING], param_names=names, pre=pre, post=post,
+                                          pre_params=pre_params)
 
     @property
     def model(self) -> "SixDofModel":
@@ -222,41 +247,50 @@ class SixDofModel:
         model's ``model``)."""
         return self
 
-    def params(self, p_planar, inertia: LateralInertia = LateralInertia()) -> list[float]:
-        """The 6-DOF parameter vector: the planar ``p_planar`` followed by ``inertia``'s values."""
-        return [float(v) for v in p_planar] + inertia.vector()
+    def params(self, p_planar, inertia: LateralInertia = LateralInertia(), offsets=None) -> list[float]:
+        """The 6-DOF parameter vector: the planar ``p_planar`` followed by ``inertia``'s values and,
+        for a model with per-side joint laws, the 42 ``offsets`` (:data:`SIDE_PARAM_NAMES`, default 0)."""
+        out = [float(v) for v in p_planar] + inertia.vector()
+        if self.sides:
+            out += [0.0] * len(SIDE_PARAM_NAMES) if offsets is None else [float(v) for v in offsets]
+        elif offsets is not None and any(float(v) != 0 for v in offsets):
+            raise ValueError("per-side offsets need a model with sides=True (sixdof_model(cfg, sides=True))")
+        return out
 
-    def flight_outputs(self) -> dict:
+    def flight_outputs(self, n_states: int = 9) -> dict:
         """``{"vertical_speed_mps": W, "forward_speed_mps": U}`` as Functions ``(x, d, p)`` of the
-        9-state (built once per model): the inertial climb rate
-        ``W = u sin(theta) - (v sin(phi) + w cos(phi)) cos(theta)`` and the horizontal speed along the
-        heading ``U = u cos(theta) + (v sin(phi) + w cos(phi)) sin(theta)``; for phi = 0 they are the
-        planar model's."""
-        if not hasattr(self, "_outputs"):
-            x = ca.SX.sym("x", 9)
+        9-state (or of the 8 states of ``ode_no_heading`` with ``n_states = 8``; built once per model):
+        the inertial climb rate ``W = u sin(theta) - (v sin(phi) + w cos(phi)) cos(theta)`` and the
+        horizontal speed along the heading ``U = u cos(theta) + (v sin(phi) + w cos(phi)) sin(theta)``;
+        for phi = 0 they are the planar model's."""
+        cache = self.__dict__.setdefault("_outputs", {})
+        if n_states not in cache:
+            x = ca.SX.sym("x", n_states)
             d = ca.SX.sym("d", self.rhs.size1_in(1))
             p = ca.SX.sym("p", self.ode.np)
             u, v, w, phi, th = x[0], x[1], x[2], x[6], x[7]
             side = v * ca.sin(phi) + w * ca.cos(phi)
             W = u * ca.sin(th) - side * ca.cos(th)
             U = u * ca.cos(th) + side * ca.sin(th)
-            self._outputs = {"vertical_speed_mps": ca.Function("vertical_speed_mps", [x, d, p], [W]),
-                             "forward_speed_mps": ca.Function("forward_speed_mps", [x, d, p], [U])}
-        return self._outputs
+            cache[n_states] = {"vertical_speed_mps": ca.Function("vertical_speed_mps", [x, d, p], [W]),
+                               "forward_speed_mps": ca.Function("forward_speed_mps", [x, d, p], [U])}
+        return cache[n_states]
 
 
 @functools.lru_cache(maxsize=4)
-def _sixdof_for(structure: Structure, planar: BirdModel) -> SixDofModel:
-    return SixDofModel(planar)
+def _sixdof_for(structure: Structure, planar: BirdModel, sides: bool = False) -> SixDofModel:
+    return SixDofModel(planar, sides)
 
 
 register_cache("bird.sixdof_models", _sixdof_for)
 
 
-def sixdof_model(cfg: Config) -> SixDofModel:
+def sixdof_model(cfg: Config, sides: bool | None = None) -> SixDofModel:
     """The (cached) :class:`SixDofModel` of ``cfg``'s structure; its numbers come from
-    ``SixDofModel.params(param_vector(cfg), inertia)``."""
-    return _sixdof_for(Structure.of(cfg), get_model(cfg).model)
+    ``SixDofModel.params(param_vector(cfg), inertia, offsets)``. ``sides``: a model with per-side
+    joint laws (default: when ``cfg``'s gait is asymmetric, :func:`birdocp.bird.config.asymmetric`)."""
+    sides = asymmetric(cfg) if sides is None else bool(sides)
+    return _sixdof_for(Structure.of(cfg), get_model(cfg).model, sides)
 
 
 def embed_planar_state(x4) -> list[float]:

@@ -249,8 +249,13 @@ def sections(P, E, T, L_relaxed):
     return chord, c_hat, up
 
 
-def merge(P, chord, c_hat, up, half_separation_m):
+def merge(P, chord, c_hat, up, half_separation_m, left=None):
     """Both wings on one line from the left tip to the right tip (docs/model.md §4.5-4.6).
+
+    ``P``, ``chord``, ``c_hat``, ``up``: the right wing's points in the wing frame (the left wing is
+    their mirror image); ``left`` = (P, chord, c_hat, up) of a left wing that differs (an asymmetric
+    gait, :mod:`birdocp.bird.sides`), given in its own mirrored frame: mirrored here. The middle node
+    is then the mean of the two root points (with ``left`` None: the right root's, as before).
 
     Returns (Q, chord, c_hat, up): 33 points (wing frame shifted to the body centre line) with their
     chords, chord directions and normals. Even indices are element nodes, odd indices centres.
@@ -258,12 +263,16 @@ def merge(P, chord, c_hat, up, half_separation_m):
     flip = ca.DM([-1.0, 1.0, 1.0])
     shift = ca.DM([half_separation_m, 0, 0]) if not isinstance(half_separation_m, ca.SX) else ca.vertcat(half_separation_m, 0, 0)
     right = [p + shift for p in P]
-    left = [flip * p - shift for p in reversed(P)]
-    mid = ca.vertcat(0.5 * (left[-1][0] + right[0][0]), right[0][1], right[0][2])
-    Q = left + [mid] + right
-    ch = list(reversed(chord)) + [chord[0] * 1e-4] + list(chord)
-    cd = [flip * c for c in reversed(c_hat)] + [c_hat[0]] + list(c_hat)
-    nu = [flip * u for u in reversed(up)] + [up[0]] + list(up)
+    Pl, chl, cl, ul = (P, chord, c_hat, up) if left is None else left
+    left_pts = [flip * p - shift for p in reversed(Pl)]
+    if left is None:
+        mid = ca.vertcat(0.5 * (left_pts[-1][0] + right[0][0]), right[0][1], right[0][2])
+    else:
+        mid = 0.5 * (left_pts[-1] + right[0])
+    Q = left_pts + [mid] + right
+    ch = list(reversed(chl)) + [chord[0] * 1e-4] + list(chord)
+    cd = [flip * c for c in reversed(cl)] + [c_hat[0]] + list(c_hat)
+    nu = [flip * u for u in reversed(ul)] + [up[0]] + list(up)
     return Q, ch, cd, nu
 
 

@@ -3,7 +3,9 @@
 Reads a trim or level run folder (``config.toml``, ``arrays.npz`` with the cycle's trajectory and
 parameter vector), evaluates the wing geometry and the lifting line's circulation at every frame
 (:func:`birdocp.bird.snapshots.motion`) and writes a GIF (Pillow, no external program) or an MP4
-(needs ffmpeg). Everything is checked before any computation: a bad RUN_DIR, an unknown suffix or
+(needs ffmpeg). A six-degree-of-freedom run is drawn in 3-D: the flight from the cycle's start with
+its bank disturbed by ``--bank-deg`` over ``--wingbeats`` (:mod:`birdocp.plots.animation_lateral`).
+Everything is checked before any computation: a bad RUN_DIR, an unknown suffix or
 an MP4 without ffmpeg is one line on stderr and exit 2.
 """
 
@@ -20,6 +22,12 @@ from birdocp.cli import common as cli
 
 DEFAULT_FRAMES = 48
 """Frames per cycle by default (one per T/48; the issue asks for at least one per T/40)."""
+DEFAULT_FRAMES_6DOF = 16
+"""Frames per wingbeat of a 6-DOF run's perturbed flight by default."""
+DEFAULT_BANK_DEG, MAX_BANK_DEG = 15.0, 60.0
+"""Bank-angle perturbation of a 6-DOF animation by default and its largest magnitude [deg]."""
+DEFAULT_WINGBEATS, MAX_WINGBEATS = 6, 50
+"""Wingbeats of a 6-DOF animation by default and at most."""
 MAX_FRAMES = 1000
 """Most frames per cycle (20 times the default; each frame is drawn and stored in the file)."""
 FPS_RANGE = (0.1, 100.0)
@@ -33,12 +41,20 @@ def register(sub, common) -> None:
                        description="Draw the bird over one cycle of a trim or level run: schematic body, both "
                                    "wings' bones, master feathers, leading and trailing edges, the lifting line "
                                    "coloured by circulation; the path of the centre of mass relative to the "
-                                   "mean flight and the pitch angle. GIF needs no external program; MP4 needs "
+                                   "mean flight and the pitch angle. A 6-DOF run: the bird in 3-D flying from "
+                                   "the cycle with its bank disturbed (--bank-deg, --wingbeats), its ground "
+                                   "track, bank, heading and pitch. GIF needs no external program; MP4 needs "
                                    "ffmpeg.")
     p.add_argument("run_dir", metavar="RUN_DIR", help="a trim or level run folder (with arrays.npz)")
     p.add_argument("--out", metavar="FILE", help="output file, .gif or .mp4 (default RUN_DIR/animation.gif)")
-    p.add_argument("--frames", type=int, default=DEFAULT_FRAMES, metavar="N",
-                   help=f"frames per cycle (default {DEFAULT_FRAMES}; at least 8, at most {MAX_FRAMES})")
+    p.add_argument("--frames", type=int, default=None, metavar="N",
+                   help=f"frames per cycle (default {DEFAULT_FRAMES}; a 6-DOF run: per wingbeat, default "
+                        f"{DEFAULT_FRAMES_6DOF}; at least 8, at most {MAX_FRAMES})")
+    p.add_argument("--bank-deg", type=float, default=None, metavar="DEG",
+                   help=f"6-DOF runs: bank-angle perturbation of the cycle's start [deg], |DEG| <= {MAX_BANK_DEG:g} "
+                        f"(default {DEFAULT_BANK_DEG:g}): the animation is the flight from there, in 3-D")
+    p.add_argument("--wingbeats", type=int, default=None, metavar="N",
+                   help=f"6-DOF runs: wingbeats of the perturbed flight, 1..{MAX_WINGBEATS} (default {DEFAULT_WINGBEATS})")
     p.add_argument("--fps", type=float, default=12.0, metavar="F",
                    help="frames per second of the file, 0.1..100 (default 12: one wingbeat in 4 s, 16x slower "
                         "than life)")
@@ -65,7 +81,8 @@ def load_cycle(run_dir: str | Path):
     folder, cfg = read_run_folder(run_dir, "RUN_DIR", commands=CYCLE_COMMANDS, kind="a trim or level run folder",
                                   arrays="required")
     arrays, run = folder.arrays, folder.path
-    t, x = arrays.get("trajectory_t_s"), arrays.get("trajectory_x")
+    t = arrays.get("trajectory_t_s", arrays.get("trajectory_t"))  # a 6-DOF trim stores trajectory_t
+    x = arrays.get("trajectory_x")
     if t is None or x is None or len(t) < 3:
         raise folder.error("arrays.npz", "holds no cycle trajectory (trajectory_t_s, trajectory_x); animate a "
                                          "trim or level run folder")
@@ -83,6 +100,11 @@ def cmd_animate(args: argparse.Namespace, command_line: list[str]) -> int:
     # a read-only or special target is refused now, not after drawing every frame
     out = check_out_file(args.out if args.out is not None else run / "animation.gif",
                          "--out" if args.out is not None else "RUN_DIR", (".gif", ".mp4"))
+    six = cfg.model.degrees_of_freedom == 6
+    if not six and (args.bank_deg is not None or args.wingbeats is not None):
+        raise ConfigError("--bank-deg" if args.bank_deg is not None else "--wingbeats",
+                          "only for a six-degree-of-freedom run (model.degrees_of_freedom = 6)")
+    args.frames = args.frames if args.frames is not None else (DEFAULT_FRAMES_6DOF if six else DEFAULT_FRAMES)
     if not 8 <= args.frames <= MAX_FRAMES:
         raise ConfigError("--frames", f"must lie in 8..{MAX_FRAMES}, got {args.frames}")
     fps = args.fps
@@ -101,6 +123,8 @@ def cmd_animate(args: argparse.Namespace, command_line: list[str]) -> int:
     except (RuntimeError, ValueError) as exc:
         raise ConfigError("--out", cli.one_line(exc)) from None
 
+    if six:
+        return _animate_lateral(args, cfg, arrays, result, out, fps, t_start)
     import numpy as np
 
     from birdocp.bird.snapshots import earth_path, interpolate_states, motion
@@ -126,8 +150,42 @@ def cmd_animate(args: argparse.Namespace, command_line: list[str]) -> int:
             "period_s": period, "bytes": out.stat().st_size, "run_dir": str(run),
             "wall_s": {"total": time.perf_counter() - t_start}}
     if args.json:
-        cli.print_json(info)
+        cli.print_json(info, cli.context_of(args))
     else:
         print(f"wrote {out} ({args.frames} frames over one period of {1000 * period:g} ms, {fps:g} fps, "
               f"{info['bytes'] / 1e6:.2f} MB)")
+    return cli.EXIT_OK
+
+
+def _animate_lateral(args, cfg, arrays, result, out, fps, t_start) -> int:
+    """A 6-DOF run: the flight from the cycle's start with its bank perturbed, in 3-D
+    (:func:`birdocp.plots.animation_lateral.save_lateral_animation`)."""
+    import numpy as np
+
+    bank = DEFAULT_BANK_DEG if args.bank_deg is None else args.bank_deg
+    beats = DEFAULT_WINGBEATS if args.wingbeats is None else args.wingbeats
+    if not (math.isfinite(bank) and abs(bank) <= MAX_BANK_DEG):
+        raise ConfigError("--bank-deg", f"must lie in -{MAX_BANK_DEG:g}..{MAX_BANK_DEG:g} deg, got {args.bank_deg}")
+    if not 1 <= beats <= MAX_WINGBEATS:
+        raise ConfigError("--wingbeats", f"must lie in 1..{MAX_WINGBEATS}, got {args.wingbeats}")
+    from birdocp.io.progress import progress_bar
+    from birdocp.plots.animation_lateral import save_lateral_animation
+    from birdocp.studies.lateral_motion import lateral_motion, perturbed_flight
+
+    per = max(1, math.ceil(96 / args.frames))  # RK4 steps per frame (at least 96 per wingbeat)
+    p6 = arrays["p"] if "p" in arrays else np.asarray(result["p"], float)
+    with cli.stdout_to_stderr():
+        flight = perturbed_flight(cfg, arrays["trajectory_x"][0], p6, bank, beats, steps_per_period=per * args.frames)
+        mo = lateral_motion(cfg, flight, np.arange(0, per * args.frames * beats + 1, per), p6)
+        title = (f"birdocp trim, 6 DOF: the cycle with its bank disturbed by {bank:+g} deg, {beats} wingbeats "
+                 f"(amplitude {cli.fmt_num(result.get('amplitude_deg'), '.2f')} deg, {1 / flight['period_s']:g} Hz)")
+        with progress_bar(len(mo["t_s"]), "animate", quiet=args.quiet, unit="frame") as bar:
+            save_lateral_animation(mo, flight, out, fps=fps, title=title, dpi=args.dpi, progress=bar.update)
+    info = {"success": True, "status": "written", "out": str(out), "frames": int(len(mo["t_s"])), "fps": fps,
+            "period_s": flight["period_s"], "bytes": out.stat().st_size, "run_dir": str(args.run_dir),
+            "bank_deg": bank, "wingbeats": beats, "wall_s": {"total": time.perf_counter() - t_start}}
+    if args.json:
+        cli.print_json(info, cli.context_of(args))
+    else:
+        print(f"wrote {out} ({info['frames']} frames over {beats} wingbeats, {fps:g} fps, {info['bytes'] / 1e6:.2f} MB)")
     return cli.EXIT_OK

@@ -15,11 +15,15 @@ import os
 import re
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
 from birdocp.bird import config as C
 from birdocp.bird.config import ConfigError
+from birdocp.bird.keys import AMPLITUDE_KEY, ROOT_AHEAD_KEY, resolve_key
+from birdocp.cli.tables import (fmt_num, format_trim_table, growth_text, one_line, pairs, real_part,  # noqa: F401
+                                validity_notes, validity_word)
 from birdocp.engine.solver_log import LOG_ENV, NoiseFilter
 
 PROG = "birdocp"
@@ -32,8 +36,6 @@ EXIT_INTERNAL = 3
 """An unexpected error (a bug): one line naming the log file that holds the traceback."""
 EXIT_INTERRUPTED = 130
 
-AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
-ROOT_AHEAD_KEY = "wing.root_ahead_m"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -92,17 +94,73 @@ def add_free_gait_options(p: argparse.ArgumentParser, *, free_help: str, default
     """``--free KEY`` (repeatable), ``--bounds KEY=LO:HI`` (repeatable; default ``default_bounds``) and
     ``--climb-rate MPS`` of the gait optimisations."""
     p.add_argument("--free", action="append", metavar="KEY", help=free_help)
-    p.add_argument("--bounds", action="append", metavar="KEY=LO:HI",
-                   help=f"bounds of a free parameter (joint limits; repeatable, LO < HI; default: {default_bounds})")
+    add_bounds_option(p, f"bounds of a free parameter (joint limits; repeatable, LO < HI; default: {default_bounds})")
     p.add_argument("--climb-rate", type=float, default=0.0, metavar="MPS", help="mean vertical speed (default 0)")
+
+
+def bounds_text(text: str) -> str:
+    """The argparse type of ``--bounds``: ``KEY=LO:HI`` (checked later by :func:`parse_bounds`). The
+    form ``--bounds LO HI`` of earlier versions is refused here, while the command line is parsed
+    (its second number would otherwise be taken for the CONFIG file), with one line naming the new form."""
+    if "=" not in text:
+        raise argparse.ArgumentTypeError(
+            f"'{text}' is not KEY=LO:HI: '--bounds LO HI' is now '--bounds KEY=LO:HI', e.g. --bounds amplitude=20:70")
+    return text
+
+
+def add_bounds_option(g, help: str) -> None:
+    """The one ``--bounds KEY=LO:HI`` option (repeatable) of every command that takes bounds."""
+    g.add_argument("--bounds", action="append", type=bounds_text, metavar="KEY=LO:HI", help=help)
+
+
+def parse_bounds(texts: Sequence[str] | None) -> dict[str, tuple[float, float]]:
+    """{model key: (lo, hi)} from ``--bounds KEY=LO:HI`` texts: KEY a dotted key or an alias
+    (:func:`birdocp.bird.keys.resolve_key`), LO < HI finite; ConfigError on ``--bounds`` otherwise."""
+    bounds = {}
+    for text in texts or []:
+        try:
+            key, rng = text.split("=", 1)
+            lo, hi = (float(v) for v in rng.split(":"))
+        except ValueError:
+            raise ConfigError("--bounds", f"expected KEY=LO:HI, got '{text}'") from None
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise ConfigError("--bounds", f"need finite LO < HI, got '{text}'")
+        bounds[resolve_key(key.strip(), "--bounds")] = (lo, hi)
+    return bounds
+
+
+def bounds_of(texts: Sequence[str] | None, key: str) -> tuple[float, float] | None:
+    """The bounds ``--bounds`` gives the one free parameter ``key`` (None: not given); bounds of any
+    other key are a ConfigError naming the free one."""
+    bounds = parse_bounds(texts)
+    for k in bounds:
+        if k != key:
+            raise ConfigError("--bounds", f"'{k}' is not the free parameter; give --bounds {key}=LO:HI")
+    return bounds.get(key)
+
+
+def add_compiled_flag(g) -> None:
+    """``--compiled``: pass ``compiled=True`` to the solves (``BIRDOCP_COMPILED=1`` in the environment
+    is a shorthand for it, see :func:`compiled_requested`)."""
+    g.add_argument("--compiled", action="store_true",
+                   help="use the state RHS and the data's post compiled to C (the same numbers; compiled once, "
+                        "~15 s, and cached in $BIRDOCP_CACHE or ~/.cache/birdocp; falls back to the interpreted "
+                        "path with a warning if compilation fails; BIRDOCP_COMPILED=1 is a shorthand)")
+
+
+COMPILED_ENV = "BIRDOCP_COMPILED"
+"""Environment variable that is a shorthand for ``--compiled`` on the command line (1/on/yes/true).
+The library never reads it: the Python API takes ``compiled=``."""
+
+
+def compiled_requested(args: argparse.Namespace) -> bool:
+    """``compiled=`` of the command's solves: ``--compiled`` or ``$BIRDOCP_COMPILED`` on."""
+    env = os.environ.get(COMPILED_ENV, "").strip().lower() in ("1", "on", "yes", "true")
+    return bool(getattr(args, "compiled", False)) or env
 
 
 # ---------------------------------------------------------------------------------------------
 # Configuration
-
-def one_line(text: Any) -> str:
-    return " ".join(str(text).split())
-
 
 def config_message(exc: ConfigError) -> str:
     """The message of a ConfigError without its ``"key: "`` prefix."""
@@ -150,6 +208,8 @@ def flag_values(args: argparse.Namespace) -> list[tuple[str, str, Any]]:
         ("--steps", "solve.steps_per_period", "steps"),
         ("--solver", "solve.solver", "solver"),
         ("--derivatives", "solve.derivatives", "derivatives"),
+        ("--max-iter", "solve.max_iter", "solve_max_iter"),
+        ("--tol", "solve.tol", "solve_tol"),
     ]
     return [(flag, key, getattr(args, attr)) for flag, key, attr in table
             if getattr(args, attr, None) is not None]
@@ -181,15 +241,16 @@ def resolve_config(args: argparse.Namespace) -> C.Config:
     return cfg
 
 
-SIX_DOF_COMMANDS = ("trim", "level", "sweep", "sensitivity", "export-c", "continue")
-"""Commands that solve the six-degree-of-freedom model (:mod:`birdocp.cli.six_dof`); the others
+SIX_DOF_COMMANDS = ("trim", "level", "control", "simulate", "sweep", "sensitivity", "export-c", "continue")
+"""Commands that solve the six-degree-of-freedom model (:mod:`birdocp.cli.six_dof`; control and simulate
+in their own modules); the others
 refuse model.degrees_of_freedom = 6."""
 
 
 def check_six_dof(command: str, cfg) -> None:
     """ConfigError naming ``model.degrees_of_freedom`` when ``command`` has no 6-DOF path."""
     if cfg.model.degrees_of_freedom == 6 and command not in SIX_DOF_COMMANDS:
-        raise ConfigError("model.degrees_of_freedom", f"6 is solved by {' and '.join(SIX_DOF_COMMANDS)} so far; "
+        raise ConfigError("model.degrees_of_freedom", f"6 is solved by {', '.join(SIX_DOF_COMMANDS)} so far; "
                                                       f"'{command}' needs 4 (--set model.degrees_of_freedom=4)")
 
 
@@ -225,127 +286,6 @@ def stdout_to_stderr() -> Iterator[None]:
             os.close(saved)
 
 
-def fmt_num(x: Any, fmt: str = ".6g") -> str:
-    if x is None:
-        return "-"
-    if isinstance(x, (list, tuple)) and len(x) == 2:
-        re_, im = x
-        return f"{fmt_num(re_, fmt)} {'-' if (im or 0) < 0 else '+'} {fmt_num(abs(im or 0), fmt)}j"
-    try:
-        return format(float(x), fmt)
-    except (TypeError, ValueError):
-        return str(x)
-
-
-def real_part(x: Any) -> float | None:
-    if x is None:
-        return None
-    if isinstance(x, (list, tuple)):
-        x = x[0] if x else None
-        if x is None:
-            return None
-    try:
-        return float(x)
-    except (TypeError, ValueError):
-        return None
-
-
-def pairs(values: Any) -> list:
-    return list(values) if isinstance(values, (list, tuple)) else []
-
-
-def growth_text(exponent: Any, doubling: Any) -> str:
-    """'doubles in 0.3 s' / 'halves in 1.2 s' / 'neutral'."""
-    rate = real_part(exponent)
-    t = real_part(doubling)
-    if t is not None and math.isfinite(t) and t != 0:
-        sign = 1 if (rate is None and t > 0) or (rate is not None and rate > 0) else -1
-        return f"{'doubles' if sign > 0 else 'halves'} in {abs(t):.4g} s"
-    if rate is not None and rate != 0 and math.isfinite(rate):
-        from birdocp.engine.floquet import doubling_time_s
-
-        return f"{'doubles' if rate > 0 else 'halves'} in {abs(doubling_time_s(rate)):.4g} s"
-    return "neutral"
-
-
-def format_trim_table(r: dict) -> str:
-    from birdocp.bird.validity import validity_text
-
-    lines = []
-    ok = bool(r.get("success"))
-    lines.append(f"trim: {'converged' if ok else 'NOT converged'} (status: {r.get('status')})")
-    if r.get("message"):
-        lines.append(f"  {one_line(r['message'])}")
-    mults = pairs(r.get("multipliers"))
-    if mults:
-        moduli = pairs(r.get("moduli"))
-        exps = pairs(r.get("floquet_exponents", r.get("floquet_exponents_per_s")))
-        dts = pairs(r.get("doubling_times_s"))
-        lines.append("")
-        lines.append("Floquet multipliers (largest modulus first)")
-        header = f"  {'#':>2}  {'re':>12}  {'im':>12}  {'modulus':>10}  {'exponent [1/s]':>24}  growth"
-        lines.append(header)
-        for i, m in enumerate(mults):
-            re_, im = (m[0], m[1]) if isinstance(m, (list, tuple)) and len(m) == 2 else (m, 0.0)
-            mod = moduli[i] if i < len(moduli) else (math.hypot(re_ or 0, im or 0) if re_ is not None else None)
-            ex = exps[i] if i < len(exps) else None
-            dt = dts[i] if i < len(dts) else None
-            lines.append(f"  {i:>2}  {fmt_num(re_):>12}  {fmt_num(im):>12}  {fmt_num(mod, '.6f'):>10}  "
-                         f"{fmt_num(ex):>24}  {growth_text(ex, dt)}")
-    lines.append("")
-    stable = r.get("stable")
-    verdict = "stable" if stable is True else "unstable" if stable is False else "unknown"
-    rows = [
-        ("verdict", verdict),
-        ("model validity", validity_text(r.get("validity"))),
-        ("mean forward speed", f"{fmt_num(r.get('mean_forward_speed_mps'), '.4f')} m/s"),
-        ("mean vertical speed", f"{fmt_num(r.get('mean_vertical_speed_mps'), '.4f')} m/s"),
-        ("flight path angle", f"{fmt_num(r.get('flight_path_angle_deg'), '.4f')} deg"),
-    ]
-    if (r.get("wing_mass_kg") or 0) > 0:
-        rows.append(("wing mass (each)", f"{fmt_num(r.get('wing_mass_kg'), '.4g')} kg"))
-        rows.append(("inertial power", f"dT_rel/dt mean {fmt_num(r.get('mean_inertial_power_W'), '+.3g')} W, "
-                                       f"positive part {fmt_num(r.get('mean_positive_inertial_power_W'), '.4g')} W, "
-                                       f"peak {fmt_num(r.get('peak_inertial_power_W'), '.4g')} W"))
-        rows.append(("shoulder inertial power", f"mean {fmt_num(r.get('mean_shoulder_inertial_power_W'), '+.4g')} W"))
-    x0 = r.get("x0")
-    if isinstance(x0, (list, tuple)) and len(x0) == 4:
-        u, w, q, th = x0
-        rows.append(("x0 (u, w, q, theta)", f"{fmt_num(u, '.6g')} m/s, {fmt_num(w, '.6g')} m/s, "
-                                              f"{fmt_num(q, '.6g')} rad/s, {fmt_num(th, '.6g')} rad"))
-    if r.get("mean_aerodynamic_power_W") is not None:
-        rows += [
-            ("mean aerodynamic power", f"{fmt_num(r.get('mean_aerodynamic_power_W'), '.4f')} W "
-                                       f"(induced {fmt_num(r.get('mean_induced_power_W'), '.4f')} W)"),
-            ("mean shoulder power", f"{fmt_num(r.get('mean_shoulder_power_W'), '.4f')} W "
-                                    f"(body {fmt_num(r.get('mean_body_power_W'), '.4f')} W)"),
-            ("mean positive power", f"{fmt_num(r.get('mean_positive_power_W'), '.4f')} W (no negative-work storage)"),
-            ("cost of transport", f"{fmt_num(r.get('cost_of_transport'), '.4f')} "
-                                  f"(positive work {fmt_num(r.get('cost_of_transport_positive'), '.4f')})"),
-            ("Strouhal number", f"{fmt_num(r.get('strouhal_number'), '.4f')} "
-                                f"(f A / U, tip excursion {fmt_num(r.get('wingtip_excursion_m'), '.4f')} m)"),
-            ("reduced frequency", f"{fmt_num(r.get('reduced_frequency'), '.4f')} (pi f c / U), "
-                                  f"span-based {fmt_num(r.get('reduced_frequency_span'), '.4f')}"),
-        ]
-    rows.append(("iterations", str(r.get("iterations", "-"))))
-    rows.append(("max residual", fmt_num(r.get("max_residual"), ".3e")))
-    sp = r.get("shooting_points")
-    if isinstance(sp, int) or (isinstance(sp, (list, tuple)) and sp):
-        rows.append(("shooting points", str(sp if isinstance(sp, int) else len(sp))))
-    wall = r.get("wall_s")
-    if isinstance(wall, dict):
-        total = wall.get("total")
-        phases = ", ".join(f"{k} {fmt_num(v, '.3g')}" for k, v in wall.items() if k != "total")
-        rows.append(("wall time", f"{fmt_num(total, '.3g')} s" + (f" ({phases})" if phases else "")))
-    elif wall is not None:
-        rows.append(("wall time", f"{fmt_num(wall, '.3g')} s"))
-    if r.get("run_dir"):
-        rows.append(("run folder", str(r["run_dir"])))
-    width = max(len(k) for k, _ in rows)
-    lines += [f"{k:<{width}}  {v}" for k, v in rows]
-    return "\n".join(lines)
-
-
 def add_plot_flag(p) -> None:
     """``--plot``: draw the cycle's figures in the run folder too (the command draws none by default,
     so that it imports no plotting library; ``birdocp plot RUN_DIR`` draws them later)."""
@@ -374,45 +314,40 @@ def record_result(run_dir: Path, cfg, result: dict, command_line: list[str], com
     write_run(run_dir, cfg, result, None, command_line, command=command)
 
 
-class _State:
-    """What the entry point needs to know when a command ends with an exception: whether the one
-    JSON object was printed already, and the run folder (if one was kept)."""
+@dataclass
+class Context:
+    """What one run of the command line carries from the entry point to its end, passed explicitly
+    (``args.context``, set by :func:`birdocp.cli.main.main` for every command; :func:`context_of`):
 
-    json_printed = False
+    command_line:  the command as typed (``birdocp trim ...``), for the run folder's provenance.
+    json_printed:  the command's one JSON object was printed (a failure after it prints none).
+    run_dir:       the run folder that was kept (named by an interrupt or a failure), else None.
+    """
+
+    command_line: list[str]
+    json_printed: bool = False
     run_dir: Path | None = None
 
-    @classmethod
-    def reset(cls) -> None:
-        cls.json_printed, cls.run_dir = False, None
+
+def context_of(args: argparse.Namespace | None) -> Context:
+    """The :class:`Context` of a parsed command line (``args.context``); one is made and attached
+    when the namespace was built without the entry point (a command called from Python)."""
+    ctx = getattr(args, "context", None)
+    if ctx is None:
+        ctx = Context([PROG])
+        if args is not None:
+            args.context = ctx
+    return ctx
 
 
-STATE = _State
-
-
-def validity_word(valid) -> str:
-    """The model-validity column of a table: ``valid``, ``INVALID`` or ``-`` (not checked)."""
-    return "valid" if valid is True else "INVALID" if valid is False else "-"
-
-
-def validity_notes(rows: list[dict], label: str = "value") -> list[str]:
-    """Lines naming each invalid point of a table and why (rows with ``validity`` or ``invalid_reasons``)."""
-    out = []
-    for r in rows:
-        if r.get("valid") is False:
-            reasons = (r.get("validity") or {}).get("reasons") or [r.get("invalid_reasons") or "?"]
-            out.append(f"  {label} {fmt_num(r.get(label), 'g')}: NOT VALID: {'; '.join(reasons)}")
-    if out:
-        out.insert(0, "model validity (birdocp.bird.validity; thresholds in [validity]):")
-    return out
-
-
-def print_json(obj: Any) -> None:
-    """Print ``obj`` as the command's one JSON object (complex as [re, im], NaN/inf as null)."""
+def print_json(obj: Any, ctx: Context) -> None:
+    """Print ``obj`` as the command's one JSON object (complex as [re, im], NaN/inf as null) and
+    record in ``ctx`` that it was printed."""
     from birdocp.io.files import to_jsonable
 
     sys.stdout.write(json.dumps(to_jsonable(obj)) + "\n")
     sys.stdout.flush()
-    STATE.json_printed = True
+    ctx.json_printed = True
 
 
 def finish_result(result: dict, command: str, t_start: float, run_dir: Path) -> None:
@@ -492,6 +427,7 @@ class Run:
 
     def __init__(self, args: argparse.Namespace, command: str, run_dir: Path, command_line: list[str]):
         self.args, self.command, self.dir, self.command_line = args, command, run_dir, command_line
+        self.ctx = context_of(args)
         self.noise: NoiseFilter | None = None
         self._verbose = bool(getattr(args, "verbose", False))
 
@@ -511,7 +447,7 @@ class Run:
     def output(self, result: dict, table: str | None) -> None:
         """Print the result: the one JSON object with --json, else the table."""
         if getattr(self.args, "json", False):
-            print_json(result)
+            print_json(result, self.ctx)
         elif table is not None:
             print(table)
 
@@ -554,27 +490,29 @@ def run_folder(args: argparse.Namespace, command: str, command_line: list[str], 
         run_dir = new_run_dir(None, command)
         created, before = True, set()
     run = Run(args, command, run_dir, command_line)
-    STATE.run_dir = run_dir
+    run.ctx.run_dir = run_dir
     try:
         yield run
     except BaseException:
         from birdocp.io.files import signals_deferred
 
         with signals_deferred(), contextlib.suppress(OSError):  # a second Ctrl-C waits for the clean-up
-            _remove_if_empty(run_dir, before, {SOLVER_LOG, *scaffold}, created)
+            if _remove_if_empty(run_dir, before, {SOLVER_LOG, *scaffold}, created):
+                run.ctx.run_dir = None
         raise
     finally:
         release_out_dir(run_dir)
 
 
-def _remove_if_empty(run_dir: Path, before: set, scaffold: set, created: bool) -> None:
+def _remove_if_empty(run_dir: Path, before: set, scaffold: set, created: bool) -> bool:
+    """Remove what this run added to ``run_dir`` when none of it is a result; True if it did."""
     from birdocp.io.runs import folder_entries, release_out_dir
 
     new = set(folder_entries(run_dir)) - before
     # a result: a non-empty sub-folder (points/, rows/) or a file that is not scaffold
     results = [n for n in new if (any((run_dir / n).iterdir()) if (run_dir / n).is_dir() else n not in scaffold)]
     if results:
-        return
+        return False
     for n in new:
         path = run_dir / n
         if path.is_dir():
@@ -584,10 +522,10 @@ def _remove_if_empty(run_dir: Path, before: set, scaffold: set, created: bool) -
     release_out_dir(run_dir)
     if created and not folder_entries(run_dir):
         run_dir.rmdir()
-    STATE.run_dir = None
+    return True
 
 
-def failure_json(status: str, message: str) -> dict:
+def failure_json(status: str, message: str, ctx: Context) -> dict:
     """The one JSON object of a command that ended without its own (interrupt, internal error)."""
     return {"success": False, "status": status, "message": message,
-            "run_dir": str(STATE.run_dir) if STATE.run_dir is not None else None}
+            "run_dir": str(ctx.run_dir) if ctx.run_dir is not None else None}

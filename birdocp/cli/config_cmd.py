@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from birdocp.bird import config as C
-from birdocp.cli.common import EXIT_OK, print_json, resolve_config
+from birdocp.cli.common import EXIT_OK, context_of, print_json, resolve_config
 
 
 def register(sub, common) -> None:
@@ -19,7 +19,7 @@ def register(sub, common) -> None:
 def cmd_config(args: argparse.Namespace, command_line: list[str]) -> int:
     cfg = resolve_config(args)
     if args.json:
-        print_json(C.to_dict(cfg))
+        print_json(C.to_dict(cfg), context_of(args))
     else:
         sys.stdout.write("# birdocp configuration (resolved)\n"
                          f"# body alone (without the wings): {C.body_alone_mass_kg(cfg):.6g} kg\n" + C.dumps(cfg))

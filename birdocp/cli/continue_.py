@@ -11,9 +11,9 @@ from pathlib import Path
 
 from birdocp.bird import config as C
 from birdocp.bird.config import ConfigError
-from birdocp.cli.common import (AMPLITUDE_KEY, EXIT_NOT_CONVERGED, EXIT_OK, PROG, finite_values, noise_summary,
-                                resolve_config, run_folder, validity_word)
-from birdocp.cli.level import checked_bounds
+from birdocp.cli.common import (AMPLITUDE_KEY, EXIT_NOT_CONVERGED, EXIT_OK, PROG, add_bounds_option, bounds_of,
+                                compiled_requested, finite_values, noise_summary, resolve_config, run_folder,
+                                validity_word)
 from birdocp.cli.trim import solve_shortcuts
 
 
@@ -32,14 +32,16 @@ def register(sub, common) -> None:
     p.add_argument("--from", dest="start", type=float, required=True, metavar="A", help="start value (a cycle is "
                    "solved there first)")
     p.add_argument("--to", dest="stop", type=float, required=True, metavar="B", help="end value")
-    p.add_argument("--step", type=float, metavar="S", help="first step in PARAM's units (default |B-A|/10)")
+    p.add_argument("--first-step", dest="step", type=float, metavar="S",
+                   help="first step in PARAM's units (default |B-A|/10)")
+    p.add_argument("--step", dest="step", type=float, help=argparse.SUPPRESS)  # the old name of --first-step
     p.add_argument("--max-points", type=int, default=200, metavar="N", help="at most N points (default 200, "
                    "at most 100000)")
     p.add_argument("--level", action="store_true",
                    help="hold level flight: the flapping amplitude is solved at every point (mean W = --climb-rate)")
     p.add_argument("--climb-rate", type=float, metavar="MPS", help="held mean vertical speed with --level (default 0)")
-    p.add_argument("--bounds", type=float, nargs=2, metavar=("LO", "HI"),
-                   help="amplitude bounds with --level (default 20 70 deg; LO < HI); leaving them ends the branch")
+    add_bounds_option(p, "amplitude bounds with --level, --bounds amplitude=LO:HI (default 20:70 deg; LO < HI); "
+                         "leaving them ends the branch")
     p.add_argument("--stop-at-invalid", action="store_true",
                    help="end the branch where it leaves the model's validity ([validity] limits): at the located "
                         "validity boundary, or at the start if the start is not valid (default: go on, the points "
@@ -49,6 +51,9 @@ def register(sub, common) -> None:
     p.add_argument("--resume", action="store_true",
                    help="continue the interrupted continuation in --out DIR (same arguments): the points on disk "
                         "(points/) are kept and the branch goes on from the last one")
+    p.add_argument("--error-estimate", action="store_true",
+                   help="give every point an error_estimate (a re-solve on twice the RK4 steps and the solver's "
+                        "tolerance: multipliers, x0, means, free values); costs about one more solve per point")
     solve_shortcuts(p)
     p.set_defaults(func=cmd_continue)
 
@@ -59,6 +64,9 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
     t_start = time.perf_counter()
     model_key, display = resolve_parameter(args.param)
     cfg = resolve_config(args)
+    for key in ("max_iter", "tol"):  # the corrector has its own settings: refused, not ignored
+        if getattr(cfg.solve, key) != getattr(C.Solve(), key):
+            raise ConfigError(f"solve.{key}", "is not used by continue (its corrector has its own settings); drop it")
     a, b = finite_values("--from/--to", [args.start, args.stop])
     if a == b:
         raise ConfigError("--to", "must differ from --from")
@@ -68,20 +76,22 @@ def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
     if args.level and model_key == AMPLITUDE_KEY:
         raise ConfigError("--level", "the amplitude is what --level solves for: continue another parameter")
     if args.step is not None and not (math.isfinite(args.step) and args.step > 0):
-        raise ConfigError("--step", f"must be positive, got {args.step!r}")
+        raise ConfigError("--first-step", f"must be positive, got {args.step!r}")
     if not 2 <= args.max_points <= 100000:
         raise ConfigError("--max-points", f"must be in [2, 100000], got {args.max_points}")
     for flag, value in (("--climb-rate", args.climb_rate), ("--bounds", args.bounds)):
         if value is not None and not args.level:  # refused, not ignored
             raise ConfigError(flag, "is an option of level flight: add --level (or drop it)")
     (climb,) = finite_values("--climb-rate", [0.0 if args.climb_rate is None else args.climb_rate])
-    bounds = checked_bounds("--bounds", args.bounds) if args.bounds is not None else None
+    bounds = bounds_of(args.bounds, AMPLITUDE_KEY)
     if args.resume and not args.out:
         raise ConfigError("--resume", "needs --out DIR, the folder of the continuation to continue")
     spec = {"param": args.param, "parameter": model_key, "from": a, "to": b, "level": bool(args.level),
             "climb_rate_mps": climb, "bounds": bounds, "step": args.step, "max_points": args.max_points,
             "stop_at_invalid": bool(args.stop_at_invalid),
             "config": C.to_dict(cfg)}
+    if args.error_estimate:  # only then: the index of a run without it stays as it was (resume checks it)
+        spec["error_estimate"] = True
     with run_folder(args, "continue", command_line, resume_file=INDEX if args.resume else None,
                     scaffold=(INDEX,)) as run:
         from birdocp.io.files import atomic_write_json
@@ -119,6 +129,8 @@ def _finish(run, args, br, cfg, display: str, a: float, b: float, resumed: int, 
                "validity_boundaries": [s for s in d["special_points"] if s["kind"] == "validity_boundary"],
                "resumed_points": resumed, "wall_s": {"total": time.perf_counter() - t_start},
                "run_dir": str(run.dir)}
+    if args.error_estimate:
+        summary["error_estimate"] = branch_error_summary(br)
     # six degrees of freedom: the per-point split of the multipliers (birdocp.studies.lateral.add_lateral_split)
     summary.update({k: br.settings[k] for k in ("degrees_of_freedom", "longitudinal_multipliers",
                                                  "lateral_multipliers", "lateral_stable") if k in br.settings})
@@ -133,6 +145,17 @@ def _finish(run, args, br, cfg, display: str, a: float, b: float, resumed: int, 
               f"{len(br.points)} points written to {run.dir}{warn}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     return EXIT_OK
+
+
+def branch_error_summary(br) -> dict:
+    """The largest error estimates over the points of ``br`` that have one (``points``: how many;
+    ``failed``: how many 2N re-solves failed, their estimates NaN and left out of the maxima)."""
+    ests = [p.error_estimate for p in br.points if p.error_estimate]
+    ok = [e for e in ests if e.get("fine_status") == "converged"]
+    out = {"points": len(ests), "failed": len(ests) - len(ok)}
+    for k in ("multipliers", "multipliers_relative", "x0", "solver"):
+        out[k] = max((float(e[k]) for e in ok), default=float("nan"))
+    return out
 
 
 INDEX = "continue.json"
@@ -238,7 +261,8 @@ def _follow(args, cfg, model_key: str, display: str, a: float, b: float, climb: 
             new = bird_branch(cfg, args.param, start_value, b, level=args.level, climb_rate_mps=climb, bounds=bounds,
                               step=args.step, max_points=max_points, progress=say, on_point=rec.point,
                               on_special=rec.special, start=start, orient=orient,
-                              stop_at_invalid=args.stop_at_invalid)
+                              stop_at_invalid=args.stop_at_invalid, compiled=compiled_requested(args),
+                              **({"error_estimate": True} if args.error_estimate else {}))
     if not rec.resumed:
         return new
     settings = dict(new.settings, resumed_at_point=rec.offset_points)
@@ -287,6 +311,11 @@ def _table(br, cfg, display: str, level: bool, figs, run_dir) -> str:
     for sp in br.special_points:
         v = -100 * sp.parameter / cfg.body.reference_chord_m if sm else sp.parameter
         lines.append(f"special point: {sp.kind} at {v:.8g} ({sp.message})")
+    est = branch_error_summary(br)
+    if est["points"]:
+        lines.append(f"error estimate (largest over {est['points']} points): multipliers {est['multipliers']:.2g}, "
+                     f"x0 {est['x0']:.2g}, solver {est['solver']:.2g}"
+                     + (f"; {est['failed']} re-solves failed" if est["failed"] else ""))
     lines.append(f"end: {br.end_reason}: {br.end_message}")
     lines.append(f"run folder  {run_dir}  (branch.json, {', '.join(f.name for f in figs)})")
     return "\n".join(lines)

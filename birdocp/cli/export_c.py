@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 
 from birdocp.bird.config import ConfigError
-from birdocp.cli.common import EXIT_OK, print_json, resolve_config, solver_noise
+from birdocp.cli.common import EXIT_OK, context_of, print_json, resolve_config, solver_noise
 
 
 def register(sub, common) -> None:
@@ -52,7 +52,7 @@ def cmd_export_c(args: argparse.Namespace, command_line: list[str]) -> int:
         raise
     lock.release()
     if args.json:
-        print_json(dict(info.to_dict(), success=True, status="written"))
+        print_json(dict(info.to_dict(), success=True, status="written"), context_of(args))
     else:
         print(f"wrote {out}/: {', '.join(info.files)}")
         print(f"  {info.steps_per_period} RK4 steps of {info.step_s:.6g} s per period {info.period_s:.6g} s; "

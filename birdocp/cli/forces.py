@@ -6,7 +6,7 @@ import argparse
 import math
 import sys
 
-from birdocp.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, PROG, finite_values, noise_summary, print_json,
+from birdocp.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, PROG, context_of, finite_values, noise_summary, print_json,
                                 resolve_config, solver_noise)
 
 
@@ -47,12 +47,13 @@ def cmd_forces(args: argparse.Namespace, command_line: list[str]) -> int:
                    f"q = {state[2]:g} rad/s, theta = {state[3]:g} rad, t = {t:g} s (overflow or a singular "
                    "state of the model)")
         if args.json:
-            print_json(dict(res, success=False, status="non_finite", message=message))
+            print_json(dict(res, success=False, status="non_finite", message=message), context_of(args))
         warn = noise_summary(noise)
         print(f"{PROG}: forces: {message}{warn}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     if args.json:
-        print_json(dict(res, success=True, status="ok"))  # the four documented keys, success and status
+        # the four documented keys, success and status
+        print_json(dict(res, success=True, status="ok"), context_of(args))
         return EXIT_OK
     u, w, q, th = state
     xd = res["xdot"] + [float("nan")] * (4 - len(res["xdot"]))

@@ -65,7 +65,7 @@ def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
         result = res.to_dict()
         cli.record_result(run_dir, res.cfg or cfg, result, command_line, "optimize-gait")
         if args.json:
-            cli.print_json(result)
+            cli.print_json(result, cli.context_of(args))
         else:
             unit = " W" if args.objective != "cost-of-transport" else ""
             print(f"optimize-gait: {'converged' if res.success else 'NOT converged'} ({res.status}), "

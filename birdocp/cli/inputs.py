@@ -40,11 +40,8 @@ def check_cycle_arrays(run, cfg) -> None:
     the shooting points and the monodromy 4 columns (arrays that are absent are not checked)."""
     arrays = run.arrays or {}
     n = len(arrays["trajectory_t_s"]) if getattr(arrays.get("trajectory_t_s"), "ndim", 0) == 1 else None
-    nx, n_p = N_STATES, len(C.PARAM_NAMES)
-    if cfg.model.degrees_of_freedom == 6:  # the 9-state rigid body, the lateral inertias appended to p
-        from birdocp.bird.sixdof import LATERAL_PARAM_NAMES, STATE_NAMES
-
-        nx, n_p = len(STATE_NAMES), n_p + len(LATERAL_PARAM_NAMES)
+    six = cfg.model.degrees_of_freedom == 6  # 9 states, 3 lateral inertia parameters appended
+    nx, n_p = (9, len(C.PARAM_NAMES) + 3) if six else (N_STATES, len(C.PARAM_NAMES))
     run.check_arrays({"p": (n_p,), "trajectory_t_s": (None,), "trajectory_x": (n, nx),
                       "shooting_points": (None, nx), "monodromy": (nx, nx),
                       "multipliers": (nx,), "eigenvectors": (nx, nx)}, required=False)

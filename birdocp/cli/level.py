@@ -6,8 +6,10 @@ import argparse
 import time
 
 from birdocp.bird.config import ConfigError
-from birdocp.cli.common import (add_plot_flag, AMPLITUDE_KEY, power_figure, EXIT_OK, config_message, finish_result, finite_values, fmt_num,
-                                format_trim_table, resolve_config, run_folder)
+from birdocp.bird.keys import AMPLITUDE_BOUNDS_DEG, AMPLITUDE_KEY
+from birdocp.cli.common import (add_bounds_option, add_plot_flag, bounds_of, compiled_requested, power_figure, EXIT_OK,
+                                config_message, finish_result, finite_values, fmt_num, format_trim_table,
+                                resolve_config, run_folder)
 from birdocp.cli.trim import solve_shortcuts
 
 
@@ -24,9 +26,10 @@ def level_options(p: argparse.ArgumentParser, in_sweep: bool) -> None:
                         "flight_path_angle_deg (target --target)")
     g.add_argument("--target", type=float, metavar="VALUE",
                    help="target of --constrain forward_speed_mps [m/s] or flight_path_angle_deg [deg]")
-    g.add_argument("--bounds", type=float, nargs=2, metavar=("LO", "HI"),
-                   help="bounds of the free parameter (default: 20..70 deg for the amplitude, value +-30 for "
-                        "other _deg keys, -0.2..0.3 m for the wing root; required otherwise)")
+    lo, hi = AMPLITUDE_BOUNDS_DEG
+    add_bounds_option(g, f"bounds of the free parameter, KEY its key or alias (default: amplitude={lo:g}:{hi:g} deg, "
+                         "the configured value +-30 for other _deg keys, root_ahead_m=-0.2:0.3 m; required "
+                         "otherwise)")
 
 
 def register(sub, common) -> None:
@@ -43,14 +46,6 @@ def register(sub, common) -> None:
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-level-<id>/")
     add_plot_flag(p)
     p.set_defaults(func=cmd_level)
-
-
-def checked_bounds(flag: str, bounds) -> tuple[float, float]:
-    """(LO, HI) finite with LO < HI, else a ConfigError on ``flag``."""
-    lo, hi = finite_values(flag, bounds)
-    if not lo < hi:
-        raise ConfigError(flag, f"need LO < HI, got {lo:g} {hi:g}")
-    return lo, hi
 
 
 LEVEL_FLAGS = (("--free", "free"), ("--climb-rate", "climb_rate"), ("--constrain", "constrain"),
@@ -81,13 +76,14 @@ def level_kwargs(args: argparse.Namespace, cfg) -> dict:
             raise ConfigError("--target", f"flight path angle must lie in (-89, 89) deg, got {kw['target']!r}")
     elif args.target is not None:
         (kw["climb_rate_mps"],) = finite_values("--target", [args.target])
-    if args.bounds is not None:
-        kw["bounds"] = checked_bounds("--bounds", args.bounds)
+    bounds = bounds_of(args.bounds, free)
+    if bounds is not None:
+        kw["bounds"] = bounds
     else:
         try:
             default_bounds(cfg, free)
         except ConfigError as exc:
-            raise ConfigError("--bounds", f"{config_message(exc)} (--bounds LO HI)") from None
+            raise ConfigError("--bounds", f"{config_message(exc)} (--bounds {free}=LO:HI)") from None
     return kw
 
 
@@ -103,7 +99,7 @@ def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
         with run.solving():
             from birdocp.studies.level import level
 
-            res = level(cfg, **kw)
+            res = level(cfg, **kw, compiled=compiled_requested(args))
             getattr(res, "energetics", None)  # computes the power outputs (result.json and the table)
             result = dict(res.to_dict())
             arrays = res.arrays()

@@ -47,7 +47,7 @@ try:
         EXIT_NOT_CONVERGED,
         EXIT_OK,
         PROG,
-        STATE,
+        Context,
         Parser,
         common_options,
         config_message,
@@ -107,13 +107,13 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _json_failure(args, status: str, message: str, argv: Sequence[str] = ()) -> None:
+def _json_failure(args, ctx: Context, status: str, message: str, argv: Sequence[str] = ()) -> None:
     """The one JSON object of a --json run that ended without printing its own (before the arguments
     were parsed, ``--json`` in ``argv`` decides)."""
     wanted = getattr(args, "json", False) if args is not None else "--json" in argv
-    if wanted and not STATE.json_printed:
+    if wanted and not ctx.json_printed:
         with contextlib.suppress(Exception):
-            print_json(failure_json(status, message))
+            print_json(failure_json(status, message, ctx), ctx)
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):  # noqa: ARG001
@@ -122,29 +122,10 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
     print(f"{PROG}: warning: {text}", file=sys.stderr if file is None else file)
 
 
-@contextlib.contextmanager
-def compiled_default(on: bool):
-    """``--compiled``: ``BIRDOCP_COMPILED=1`` while the command runs (every solve of the command and
-    of its worker processes uses the compiled RHS and data; the same numbers), restored after."""
-    if not on:
-        yield
-        return
-    old = os.environ.get("BIRDOCP_COMPILED")
-    os.environ["BIRDOCP_COMPILED"] = "1"
-    try:
-        yield
-    finally:
-        if old is None:
-            os.environ.pop("BIRDOCP_COMPILED", None)
-        else:
-            os.environ["BIRDOCP_COMPILED"] = old
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (the console script passes it to ``sys.exit``)."""
     as_program = argv is None  # the console script or python -m birdocp (not a call from Python)
     argv = sys.argv[1:] if argv is None else list(argv)
-    STATE.reset()
     if as_program:
         open_std_streams()  # a closed stdout (>&-) is os.devnull, not a descriptor a file may take
         tolerant_encodings()  # PYTHONIOENCODING=ascii and a non-ASCII path: escapes, not a traceback
@@ -176,6 +157,7 @@ def _quiet_interrupts() -> None:
 
 def _main(argv: list[str], as_program: bool) -> int:
     command_line = [PROG, *argv]
+    ctx = Context(command_line)  # passed to the command as args.context, and to the reports below
     debug = "--debug" in argv
     args = None
     try:
@@ -189,17 +171,17 @@ def _main(argv: list[str], as_program: bool) -> int:
         except SystemExit as exc:  # --help, --version, or a usage error (already printed)
             return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
         debug = args.debug
-        with compiled_default(getattr(args, "compiled", False)):
-            code = args.func(args, command_line)
+        args.context = ctx
+        code = args.func(args, command_line)
         interrupts.check()
         return code
     except KeyboardInterrupt:
         _quiet_interrupts()
-        return _interrupted(args, debug, argv)
+        return _interrupted(args, ctx, debug, argv)
     except ConfigError as exc:
         _quiet_interrupts()
         if interrupts.pending():
-            return _interrupted(args, debug, argv)
+            return _interrupted(args, ctx, debug, argv)
         if debug:
             traceback.print_exc()
         msg = one_line(config_message(exc))
@@ -208,15 +190,15 @@ def _main(argv: list[str], as_program: bool) -> int:
     except OSError as exc:
         _quiet_interrupts()
         if interrupts.pending():
-            return _interrupted(args, debug, argv)
+            return _interrupted(args, ctx, debug, argv)
         if exc.errno not in WRITE_FAILURES:
-            return _internal_error(exc, args, debug, command_line)
-        return _write_failed(exc, args, debug)
+            return _internal_error(exc, args, ctx, debug)
+        return _write_failed(exc, args, ctx, debug)
     except Exception as exc:
         _quiet_interrupts()
         if interrupts.pending():  # CasADi turned the Ctrl-C into an exception of its own
-            return _interrupted(args, debug, argv)
-        return _internal_error(exc, args, debug, command_line)
+            return _interrupted(args, ctx, debug, argv)
+        return _internal_error(exc, args, ctx, debug)
 
 
 WRITE_FAILURES = {errno.ENOSPC: "no space left on the device", errno.EFBIG: "the file is larger than allowed "
@@ -224,37 +206,37 @@ WRITE_FAILURES = {errno.ENOSPC: "no space left on the device", errno.EFBIG: "the
 """OS errors that mean an output could not be written for lack of room: exit 1, one line."""
 
 
-def _write_failed(exc: OSError, args, debug: bool) -> int:
+def _write_failed(exc: OSError, args, ctx: Context, debug: bool) -> int:
     if debug:
         traceback.print_exc()
     out = getattr(args, "out", None)
     where = f" {exc.filename}" if exc.filename else (f" the output (--out {out})" if out else " the output")
-    kept = f"; finished results kept in {STATE.run_dir}" if STATE.run_dir is not None else ""
+    kept = f"; finished results kept in {ctx.run_dir}" if ctx.run_dir is not None else ""
     msg = f"cannot write{where}: {WRITE_FAILURES[exc.errno]}; nothing partial was kept{kept}"
     print(f"{PROG}: error: {one_line(msg)}", file=sys.stderr)
-    _json_failure(args, "write_failed", one_line(msg))
+    _json_failure(args, ctx, "write_failed", one_line(msg))
     return EXIT_NOT_CONVERGED
 
 
-def _internal_error(exc: BaseException, args, debug: bool, command_line: list[str]) -> int:
+def _internal_error(exc: BaseException, args, ctx: Context, debug: bool) -> int:
     """One line naming the log file with the traceback (:func:`birdocp.cli.streams.write_error_log`)."""
     if debug:
         traceback.print_exc()
-    log = write_error_log(exc, command_line)
+    log = write_error_log(exc, ctx.command_line)
     where = f"; the traceback is in {log}" if log is not None else "; rerun with --debug for the traceback"
     print(f"{PROG}: internal error: {type(exc).__name__}: {one_line(exc)}{where}", file=sys.stderr)
-    _json_failure(args, "internal_error", f"{type(exc).__name__}: {one_line(exc)}")
+    _json_failure(args, ctx, "internal_error", f"{type(exc).__name__}: {one_line(exc)}")
     return EXIT_INTERNAL
 
 
-def _interrupted(args, debug: bool, argv: Sequence[str] = ()) -> int:
+def _interrupted(args, ctx: Context, debug: bool, argv: Sequence[str] = ()) -> int:
     with contextlib.suppress(KeyboardInterrupt):
         interrupts.check()  # clear the flag
     if debug:
         traceback.print_exc()
-    kept = f" (finished results kept in {STATE.run_dir})" if STATE.run_dir is not None else ""
+    kept = f" (finished results kept in {ctx.run_dir})" if ctx.run_dir is not None else ""
     print(f"{PROG}: interrupted{kept}", file=sys.stderr)
-    _json_failure(args, "interrupted", "interrupted (Ctrl-C)", argv)
+    _json_failure(args, ctx, "interrupted", "interrupted (Ctrl-C)", argv)
     return EXIT_INTERRUPTED
 
 

@@ -73,26 +73,11 @@ def invalid_failure(res, result: dict, run_dir) -> str | None:
             f"({'; '.join(v.get('reasons') or ['not checked'])}); result written to {run_dir}")
 
 
-def parse_bounds(texts) -> dict:
-    """{key: (lo, hi)} from ``KEY=LO:HI`` texts (finite, LO < HI)."""
-    bounds = {}
-    for text in texts or []:
-        try:
-            key, rng = text.split("=", 1)
-            lo, hi = (float(v) for v in rng.split(":"))
-        except ValueError:
-            raise ConfigError("--bounds", f"expected KEY=LO:HI, got '{text}'") from None
-        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-            raise ConfigError("--bounds", f"need finite LO < HI, got '{text}'")
-        bounds[check_key(key.strip(), "--bounds")] = (lo, hi)
-    return bounds
-
-
 def free_with_bounds(args: argparse.Namespace, defaults: dict) -> dict:
     """key -> (lo, hi) from ``--free KEY`` (default: the keys of ``defaults``) and ``--bounds KEY=LO:HI``
     (default: ``defaults``' range); ConfigError (exit 2) on an unknown key or a malformed range."""
     keys = [check_key(k, "--free") for k in (args.free or [])] or list(defaults)
-    bounds = parse_bounds(args.bounds)
+    bounds = cli.parse_bounds(args.bounds)
     free = {}
     for k in keys:
         if k == AMPLITUDE_KEY:
@@ -148,7 +133,7 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
         result["run_dir"] = str(run.dir)
         run.write(res.cfg or cfg, result)
         if args.json:
-            cli.print_json(result)
+            cli.print_json(result, cli.context_of(args))
         else:
             _print_table(res, result, run.dir)
         if not res.success:

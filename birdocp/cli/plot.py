@@ -8,7 +8,7 @@ import os
 from pathlib import Path
 
 from birdocp.bird.config import ConfigError
-from birdocp.cli.common import EXIT_OK, print_json, solver_noise
+from birdocp.cli.common import EXIT_OK, context_of, print_json, solver_noise
 
 
 PLOTTED = ("trim", "level", "sweep", "continue", "optimize-stability", "optimize-gait")
@@ -58,7 +58,8 @@ def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
                                      f"({type(exc).__name__}: {exc})") from None
     names = [Path(f).name for f in figs]
     if args.json:
-        print_json({"run_dir": str(run), "figures": names, "success": True, "status": "plotted"})
+        print_json({"run_dir": str(run), "figures": names, "success": True, "status": "plotted"},
+                   context_of(args))
     else:
         print(f"wrote {', '.join(names) or 'no figures'} in {run}")
     return EXIT_OK
@@ -83,14 +84,10 @@ def _figures(run: Path, res: dict, command, arrays: dict | None) -> list:
         from birdocp.plots import figures as plots
 
         cyc = dict(res, **(arrays or {}))
-        if res.get("degrees_of_freedom") == 6 and "trajectory_x" in cyc:
-            import numpy as np
-
+        if res.get("degrees_of_freedom") == 6 and "trajectory_x" in cyc:  # the states figures: (u, w, q, theta)
             from birdocp.bird.sixdof import LONGITUDINAL
 
-            # the longitudinal states (u, w, q, theta); the lateral ones are zero on a symmetric cycle
-            cyc["trajectory_x"] = np.asarray(cyc["trajectory_x"])[:, list(LONGITUDINAL)]
-            cyc["shooting_points"] = np.asarray(cyc.get("shooting_points", np.zeros((0, 9))))[:, list(LONGITUDINAL)]
+            cyc["trajectory_x"] = [[row[i] for i in LONGITUDINAL] for row in cyc["trajectory_x"]]
         if "trajectory_x" in cyc:
             figs.append(plots.plot_states(cyc, run / "states.png"))
             figs.append(plots.plot_phase_portrait(cyc, run / "phase.png"))
@@ -102,6 +99,10 @@ def _figures(run: Path, res: dict, command, arrays: dict | None) -> list:
                 from birdocp.plots.energetics import plot_power
 
                 figs.append(plot_power(cyc, run / "power.png"))
+        if res.get("degrees_of_freedom") == 6 and res.get("monodromy") is not None and res.get("success"):
+            from birdocp.plots.lateral import plot_lateral_run
+
+            figs.extend(plot_lateral_run(res, run))
     else:
         what = f"a '{command}' run" if command else "a result that names no birdocp command"
         raise ConfigError("RUN_DIR", f"do not know how to plot {what}; {PLOTTED_HINT}")

@@ -19,7 +19,8 @@ HELP = "simulate many wingbeats with a perturbation or a gust, open or closed lo
 DESCRIPTION = """Integrate the full model from the cycle for K beats (state augmented with the inertial position X
 forward, Z down). Perturbations add to the cycle's state at t = 0; gusts are 1 - cos, frozen in space, starting one
 beat ahead; with --controller the feedback of a 'birdocp control' run is applied at each update, saturated at its
-joint limits. Writes the time histories (arrays.npz), result.json and simulation.png."""
+joint limits. Writes the time histories (arrays.npz), result.json and simulation.png. With model.degrees_of_freedom =
+6 the 6-DOF bird is simulated (--side-gust, --perturb on any of the 9 states, a 6-DOF controller)."""
 """The text of ``birdocp simulate --help`` (argparse joins the lines)."""
 
 
@@ -40,6 +41,10 @@ def register(sub, common) -> None:
     p.add_argument("--controller", metavar="RUN_DIR", help="a 'birdocp control' run folder (closed loop); its "
                    "configuration must be the simulated one")
     p.add_argument("--level", action="store_true", help="open loop: simulate about the level-flight cycle")
+    p.add_argument("--side-gust", metavar="SHAPE=MPS[:BEATS]",
+                   help="six degrees of freedom: a side wind towards the bird's right, pulse (1 - cos over BEATS, "
+                        "default 1) or step, starting after --gust-start beats (default 1); with "
+                        "model.degrees_of_freedom = 6 --perturb also takes v=, p=, r=, phi=, psi=")
 
 
 def _first_difference(a: dict, b: dict, prefix: str = "") -> str | None:
@@ -98,15 +103,19 @@ def _array(folder, name: str, shape: tuple, value):
 def controller_fields(folder, cycle_cfg) -> SimpleNamespace:
     """The controller in a control run's result.json, every field checked against the stored
     configuration: known gait controls (no repeats), ``updates_per_beat`` dividing the RK4 steps, gains
-    ``(N, m, 4)``, cycle states ``(N, 4)`` and ``cycle_x0`` finite, limits ``(m, 2)`` with LO < HI."""
+    ``(N, m, n)``, cycle states ``(N, n)`` and ``cycle_x0`` finite (n = 4, or 8 in six degrees of freedom),
+    limits ``(m, 2)`` with LO < HI."""
     from birdocp.studies.control import resolve_controls
+    from birdocp.studies.lateral_control import resolve_lateral_controls
 
+    six = cycle_cfg.model.degrees_of_freedom == 6
+    resolve, nx = (resolve_lateral_controls, 8) if six else (resolve_controls, 4)
     r = folder.result
     controls = r.get("controls")
     if not isinstance(controls, list) or not controls or not all(isinstance(c, str) for c in controls):
         raise folder.error("result.json", "'controls' is not a list of configuration keys")
     try:
-        if list(resolve_controls(controls)) != controls:
+        if list(resolve(controls)) != controls:
             raise ConfigError("controls", f"{controls} are not in the resolved form")
     except ConfigError as exc:
         raise folder.error("result.json", f"'controls': {cli.config_message(exc)}") from None
@@ -121,9 +130,9 @@ def controller_fields(folder, cycle_cfg) -> SimpleNamespace:
     limits = _array(folder, "limits", (m, 2), r.get("limits"))
     if not all(limits[:, 0] < limits[:, 1]):
         raise folder.error("result.json", "'limits' are not LO < HI for every control")
-    _array(folder, "cycle_x0", (4,), r.get("cycle_x0"))
-    return SimpleNamespace(controls=list(controls), K=_array(folder, "gains", (n, m, 4), r.get("gains")),
-                           x_starts=_array(folder, "x_starts", (n, 4), r.get("x_starts")), limits=limits,
+    _array(folder, "cycle_x0", (nx,), r.get("cycle_x0"))
+    return SimpleNamespace(controls=list(controls), K=_array(folder, "gains", (n, m, nx), r.get("gains")),
+                           x_starts=_array(folder, "x_starts", (n, nx), r.get("x_starts")), limits=limits,
                            updates_per_beat=n)
 
 
@@ -140,23 +149,20 @@ def _run_simulation(args, sim_cfg, x0, steps, dx0, gusts, wind, ctl):
         bar.close()
 
 
-def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
+def parse_inputs(args: argparse.Namespace):
+    """(perturbation, gusts, wind) of the planar ``simulate``'s options, checked (ConfigError, exit 2)."""
     from birdocp.studies.simulate import DIRECTIONS, check_speed, parse_gust, parse_perturbation
 
-    t0 = time.perf_counter()
-    cfg = cli.resolve_config(args)
-    if not 1 <= args.beats <= MAX_BEATS:
-        raise ConfigError("--beats", f"must be an integer in [1, {MAX_BEATS}], got {args.beats}")
+    if args.side_gust is not None:
+        raise ConfigError("--side-gust", "a side gust needs model.degrees_of_freedom = 6 (--set "
+                                         "model.degrees_of_freedom=6); the planar bird has --gust")
     dx0 = parse_perturbation(args.perturb)
     gusts = [parse_gust(g) for g in args.gust]
     if len({g.direction for g in gusts}) < len(gusts):
         raise ConfigError("--gust", "at most one vertical and one horizontal gust")
     if args.gust_start is not None and not gusts:  # refused, not ignored
         raise ConfigError("--gust-start", "places a gust: add --gust DIR=MPS:BEATS (or drop --gust-start)")
-    gust_start = 1.0 if args.gust_start is None else args.gust_start
-    if not math.isfinite(gust_start) or not 0 <= gust_start <= MAX_BEATS:
-        raise ConfigError("--gust-start", f"must lie in 0..{MAX_BEATS} beats (no simulation flies farther), "
-                                          f"got {gust_start}")
+    gust_start = check_gust_start(args)
     gusts = [type(g)(g.direction, g.amplitude_mps, g.length_beats, g.length_m, gust_start) for g in gusts]
     wind = [0.0, 0.0]
     for text in args.wind:
@@ -168,11 +174,37 @@ def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
         if d.strip() not in DIRECTIONS or not math.isfinite(val):
             raise ConfigError("--wind", f"expected vertical|horizontal=MPS with a finite value, got '{text}'")
         wind[0 if d.strip() == "horizontal" else 1] = check_speed("--wind", "the wind", val)
-    ctl = None
-    if args.controller:
-        if args.level:
-            raise ConfigError("--level", "the controller's cycle is used with --controller; drop --level")
-        ctl, sim_cfg, ctl_result = load_controller(args.controller, cfg)
+    return dx0, gusts, wind
+
+
+def check_gust_start(args: argparse.Namespace) -> float:
+    """``--gust-start`` in beats (default 1), checked."""
+    gust_start = 1.0 if args.gust_start is None else args.gust_start
+    if not math.isfinite(gust_start) or not 0 <= gust_start <= MAX_BEATS:
+        raise ConfigError("--gust-start", f"must lie in 0..{MAX_BEATS} beats (no simulation flies farther), "
+                                          f"got {gust_start}")
+    return gust_start
+
+
+def check_beats_and_controller(args: argparse.Namespace, cfg):
+    """``--beats`` checked; the controller of ``--controller`` (None), its cycle's configuration and
+    result (:func:`load_controller`); ``--level`` refused with a controller."""
+    if not 1 <= args.beats <= MAX_BEATS:
+        raise ConfigError("--beats", f"must be an integer in [1, {MAX_BEATS}], got {args.beats}")
+    if not args.controller:
+        return None, None, None
+    if args.level:
+        raise ConfigError("--level", "the controller's cycle is used with --controller; drop --level")
+    return load_controller(args.controller, cfg)
+
+
+def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
+    t0 = time.perf_counter()
+    cfg = cli.resolve_config(args)
+    if cfg.model.degrees_of_freedom == 6:
+        return cmd_lateral_simulate(args, command_line, cfg, t0)
+    dx0, gusts, wind = parse_inputs(args)
+    ctl, sim_cfg, ctl_result = check_beats_and_controller(args, cfg)
     with cli.run_folder(args, "simulate", command_line) as run:
         run_dir = run.dir
         head = {"controller": str(args.controller) if args.controller else None, "run_dir": str(run_dir),
@@ -205,19 +237,81 @@ def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
             result["figure"] = str(plot_simulation(runs, run_dir / "simulation.png",
                                                    f"{args.beats} beats: {sim.status}"))
         run.write(sim_cfg, result, arrays)
-        if args.json:
-            run.output(result, None)
-        else:
-            dev = result["deviation_per_beat"]
-            print(f"simulate: {sim.status} ({'closed' if ctl is not None else 'open'} loop): {sim.message}")
-            print("  deviation per beat: " + ", ".join(cli.fmt_num(v, ".3g") for v in dev[:12])
-                  + (" ..." if len(dev) > 12 else ""))
-            print(f"  final deviation {cli.fmt_num(result['final_deviation'], '.3g')}, peak "
-                  f"{cli.fmt_num(result['peak_deviation'], '.3g')} at beat {result['peak_beat']}, beats to recover "
-                  f"{result['beats_to_recover']}, saturated {result['saturated']}")
-            print(f"  written to {run_dir}")
-        if not sim.success:
-            print(f"{cli.PROG}: simulation failed ({sim.status}): {sim.message}; result written to {run_dir}",
-                  file=sys.stderr)
-            return cli.EXIT_NOT_CONVERGED
+        return report(args, result, sim, ctl is not None, run_dir)
+
+
+def report(args: argparse.Namespace, result: dict, sim, closed: bool, run_dir) -> int:
+    """Print the simulation's JSON or summary (and the failure line); the exit code."""
+    if args.json:
+        cli.print_json(result, cli.context_of(args))
+    else:
+        dev = result["deviation_per_beat"]
+        print(f"simulate: {sim.status} ({'closed' if closed else 'open'} loop): {sim.message}")
+        print("  deviation per beat: " + ", ".join(cli.fmt_num(v, ".3g") for v in dev[:12])
+              + (" ..." if len(dev) > 12 else ""))
+        print(f"  final deviation {cli.fmt_num(result['final_deviation'], '.3g')}, peak "
+              f"{cli.fmt_num(result['peak_deviation'], '.3g')} at beat {result['peak_beat']}, beats to recover "
+              f"{result['beats_to_recover']}, saturated {result['saturated']}")
+        for key in ("max_abs_bank_deg", "final_heading_deg", "max_abs_east_drift_m"):
+            if key in result:
+                print(f"  {key} {cli.fmt_num(result[key], '.4g')}")
+        print(f"  written to {run_dir}")
+    if not sim.success:
+        print(f"{cli.PROG}: simulation failed ({sim.status}): {sim.message}; result written to {run_dir}",
+              file=sys.stderr)
+        return cli.EXIT_NOT_CONVERGED
     return cli.EXIT_OK
+
+
+def _six_dof_inputs(args: argparse.Namespace):
+    """(perturbation (9), side gust or None), checked; --gust and --wind refused (planar options)."""
+    from birdocp.studies.lateral_simulate import parse_lateral_perturbation, parse_side_gust
+
+    for flag, given in (("--gust", args.gust), ("--wind", args.wind)):
+        if given:
+            raise ConfigError(flag, "with model.degrees_of_freedom = 6 the wind is a side gust: use --side-gust "
+                                    "pulse|step=MPS[:BEATS]")
+    if args.gust_start is not None and args.side_gust is None:
+        raise ConfigError("--gust-start", "places a gust: add --side-gust SHAPE=MPS[:BEATS] (or drop --gust-start)")
+    dx0 = parse_lateral_perturbation(args.perturb)
+    gust = parse_side_gust(args.side_gust, check_gust_start(args)) if args.side_gust is not None else None
+    return dx0, gust
+
+
+def cmd_lateral_simulate(args: argparse.Namespace, command_line: list[str], cfg, t0: float) -> int:
+    """``birdocp simulate`` with a 6-DOF configuration: one run folder (result.json, arrays.npz,
+    simulation.png); the exit code."""
+    dx0, gust = _six_dof_inputs(args)
+    ctl, sim_cfg, ctl_result = check_beats_and_controller(args, cfg)
+    with cli.run_folder(args, "simulate", command_line) as run:
+        head = {"controller": str(args.controller) if args.controller else None, "run_dir": str(run.dir)}
+        with run.solving():
+            from birdocp.studies.lateral_control import (lateral_reference_cycle, sides_parameter_vector,
+                                                         sides_parameters)
+            from birdocp.studies.lateral_simulate import simulate_lateral
+
+            if ctl is not None:
+                x0, steps, p = ctl_result["cycle_x0"], int(ctl_result["steps_per_period"]), sides_parameter_vector(sim_cfg)
+            else:
+                base, sim_cfg = lateral_reference_cycle(cfg, args.level)
+                c = base.cycle
+                if not base.success:
+                    result = {"success": False, "status": c.status, "message": f"the cycle did not converge: "
+                                                                                 f"{c.message}", **head}
+                    run.write(cfg, result)
+                    run.output(result, None)
+                    return run.fail("the cycle did not converge", c.status, c.max_residual, c.message)
+                x0, steps, p = c.x0, int(c.method["steps_per_period"]), sides_parameters(c.p)
+            sim = simulate_lateral(sim_cfg, x0, p, args.beats, steps_per_period=steps, perturbation=dx0,
+                                   side_gust=gust, controller=ctl)
+        result = {**sim.to_dict(), **head, "cycle_x0": [float(v) for v in x0],
+                  "wall_s": {"total": time.perf_counter() - t0}}
+        arrays = sim.arrays()
+        if sim.states.shape[0] > 1:
+            from birdocp.plots.lateral_simulation import plot_lateral_simulation
+
+            runs = {("closed loop" if ctl is not None else "open loop"): dict(arrays, control_keys=sim.control_keys)}
+            result["figure"] = str(plot_lateral_simulation(runs, run.dir / "simulation.png",
+                                                           f"{args.beats} beats: {sim.status}"))
+        run.write(sim_cfg, result, arrays)
+        return report(args, result, sim, ctl is not None, run.dir)

@@ -25,7 +25,11 @@ def format_lateral_table(r: dict) -> str:
              f"  heading multiplier {fmt_num(r.get('heading_multiplier'), '.12g')} (psi: reported apart, "
              "not a stability mode)",
              f"  longitudinal-lateral coupling in the monodromy: max {fmt_num(r.get('coupling_max'), '.2e')}",
-             f"  lateral verdict: {_verdict(r.get('lateral_stable'))}",
+             f"  lateral verdict: {_verdict(r.get('lateral_stable'))}"
+             + ("" if r.get("symmetric", True) else
+                f"\n  asymmetric gait: periodic up to its heading, which changes by "
+                f"{fmt_num(r.get('heading_change_deg'), '.6g')} deg per beat (a turn); the 8 multipliers without "
+                "psi and the heading's 1 above, no longitudinal/lateral split"),
              "  lateral modes (beats: wingbeats to double, negative: to halve)",
              f"    {'label':<17} {'re':>12} {'im':>12} {'modulus':>10} {'beats':>10}  dominant"]
     for m in r.get("lateral_modes") or []:

@@ -8,8 +8,8 @@ import time
 
 from birdocp.bird import config as C
 from birdocp.bird.config import ConfigError
-from birdocp.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, PROG, config_message, fmt_num, noise_summary, one_line,
-                                resolve_config, run_folder, validity_notes, validity_word)
+from birdocp.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, PROG, compiled_requested, config_message, fmt_num,
+                                noise_summary, one_line, resolve_config, run_folder, validity_notes, validity_word)
 from birdocp.cli.level import LEVEL_FLAGS, level_kwargs, level_options
 from birdocp.cli.trim import solve_shortcuts
 
@@ -20,7 +20,7 @@ def register(sub, common) -> None:
                      help="parameter to sweep: amplitude (gait.shoulder_flap.amplitude_deg), root_ahead_m / "
                           "root-ahead (wing.root_ahead_m), or any dotted model parameter key")
     p = sub.add_parser("sweep", parents=[key, common], help="a family of trims (or level solves) over one parameter",
-                       description="Solve one limit cycle per value of KEY from --from to --to by --step, each "
+                       description="Solve one limit cycle per value of KEY from --from to --to --by S, each "
                                    "warm-started from its neighbour, writing every point as soon as it is solved "
                                    "(points/, sweep.json, sweep.csv in the run folder). --resume DIR solves only "
                                    "the points missing there.")
@@ -29,8 +29,9 @@ def register(sub, common) -> None:
     r.add_argument("--to", dest="stop", type=float, required=True, metavar="B",
                    help="last value (inclusive, also when B - A is not a multiple of the step: the last "
                         "interval is then shorter)")
-    r.add_argument("--step", type=float, required=True, metavar="S",
-                   help="step (> 0, at most |B - A|; at most 10000 values)")
+    r.add_argument("--by", dest="step", type=float, metavar="S",
+                   help="step between values (> 0, at most |B - A|; at most 10000 values; required)")
+    r.add_argument("--step", dest="step", type=float, help=argparse.SUPPRESS)  # the old name of --by
     p.add_argument("--level", action="store_true", help="each point a level-flight solve (see the level options)")
     p.add_argument("--cold", action="store_true", help="no warm starts: every point from the configured guess")
     p.add_argument("--out", metavar="DIR", help="run folder (new or empty; with --resume an earlier sweep's folder); "
@@ -121,6 +122,8 @@ def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
 
     t_start = time.perf_counter()
     key = resolve_key(args.key, "KEY")
+    if args.step is None:
+        raise ConfigError("--by", "the step between values is required, e.g. --from 40 --to 46 --by 0.5")
     values = sweep_values(args.start, args.stop, args.step)
     cfg = resolve_config(args)
     for v in values:  # every value checked before anything is solved or written
@@ -144,7 +147,8 @@ def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
                     scaffold=("config.toml", "sweep.json", "sweep.csv")) as run:
         with run.solving():
             rows = sweep(cfg, key, values, level=args.level, warm=not args.cold, out_dir=run.dir,
-                         resume=args.resume, progress=not args.quiet, level_options=level_kw)
+                         resume=args.resume, progress=not args.quiet, level_options=level_kw,
+                         compiled=compiled_requested(args))
         ok = all(r["success"] for r in rows)
         result = {"success": ok, "status": "converged" if ok else "some_points_failed", "key": key,
                   "values": values, "level": bool(args.level), "level_options": level_kw,
@@ -201,7 +205,8 @@ def _run_grid(args, command_line, cfg, key, values, level_kw, t_start, row_key, 
     with run_folder(args, "sweep", command_line, resume_file=resume_file, scaffold=("grid.json",)) as run:
         with run.solving(), ex:
             rows = grid_sweep(cfg, key, values, row_key, row_values, executor=ex, level=args.level,
-                              warm=not args.cold, out_dir=run.dir, resume=args.resume, level_options=level_kw)
+                              warm=not args.cold, out_dir=run.dir, resume=args.resume, level_options=level_kw,
+                              compiled=compiled_requested(args))
         ok = all(r["success"] for r in rows)
         result = {"success": ok, "status": "converged" if ok else "some_points_failed", "key": key,
                   "values": values, "row_key": row_key, "row_values": row_values,

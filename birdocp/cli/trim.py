@@ -5,21 +5,24 @@ from __future__ import annotations
 import argparse
 import time
 
-from birdocp.cli.common import (add_plot_flag, EXIT_OK, finish_result, format_trim_table, power_figure, resolve_config,
-                                run_folder)
+from birdocp.cli.common import (add_compiled_flag, add_plot_flag, compiled_requested, EXIT_OK, finish_result,
+                                format_trim_table, power_figure, resolve_config, run_folder)
 
 
 def solve_shortcuts(p: argparse.ArgumentParser) -> None:
-    """--points, --steps, --solver, --derivatives (shortcuts for solve.* keys) and --compiled."""
-    s = p.add_argument_group("solve (shortcuts for solve.* keys)")
+    """--points, --steps, --solver, --derivatives, --max-iter, --tol (shorthands writing the solve.*
+    keys, applied after --set) and --compiled (``compiled=True`` of the solves)."""
+    s = p.add_argument_group("solve (shorthands for the solve.* keys of the configuration)")
     s.add_argument("--points", type=int, metavar="M", help="shooting points per period, closing point included (solve.points)")
     s.add_argument("--steps", type=int, metavar="N", help="RK4 steps per period, a multiple of M-1 (solve.steps_per_period)")
     s.add_argument("--solver", choices=("ipopt", "lm"), help="nonlinear solver (solve.solver)")
     s.add_argument("--derivatives", choices=("exact", "fd"), help="Jacobians by AD or finite differences (solve.derivatives)")
-    s.add_argument("--compiled", action="store_true",
-                   help="use the state RHS and the data's post compiled to C (the same numbers; compiled once, "
-                        "~15 s, and cached in $BIRDOCP_CACHE or ~/.cache/birdocp; falls back to the interpreted "
-                        "path with a warning if compilation fails; BIRDOCP_COMPILED=1 makes it the default)")
+    s.add_argument("--max-iter", dest="solve_max_iter", type=int, metavar="N",
+                   help="iteration limit of the limit-cycle solve (solve.max_iter, default 100)")
+    s.add_argument("--tol", dest="solve_tol", type=float, metavar="TOL",
+                   help="convergence tolerance of the limit-cycle solve, max-norm of the shooting residual "
+                        "(solve.tol; default 0: 1e-10 for ipopt, 1e-5 for lm)")
+    add_compiled_flag(s)
 
 
 def register(sub, common) -> None:
@@ -28,6 +31,9 @@ def register(sub, common) -> None:
                                    "Floquet multipliers. Writes a run folder (config.toml, result.json, arrays.npz).")
     solve_shortcuts(p)
     p.add_argument("--out", metavar="DIR", help="run folder to write (new or empty); default runs/<time>-trim-<id>/")
+    p.add_argument("--error-estimate", action="store_true",
+                   help="add error_estimate to result.json: a re-solve on twice the RK4 steps and the solver's "
+                        "tolerance (multipliers, x0, means)")
     add_plot_flag(p)
     p.set_defaults(func=cmd_trim)
 
@@ -50,7 +56,8 @@ def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
         with run.solving():
             from birdocp.studies.trim import trim
 
-            res = trim(cfg)  # --compiled: BIRDOCP_COMPILED=1 while the command runs (cli.main)
+            res = trim(cfg, compiled=compiled_requested(args),
+                       **({"error_estimate": True} if args.error_estimate else {}))
             getattr(res, "energetics", None)  # computes the power outputs (result.json and the table)
             result = dict(res.to_dict())
             arrays = res.arrays() if hasattr(res, "arrays") else None

@@ -2,7 +2,8 @@
 periodic orbit born at a Hopf point.
 
 * :func:`find_equilibrium`: damped Newton on f(x, p) = 0 with the exact Jacobian (CasADi AD).
-* :func:`continue_equilibria`: pseudo-arclength continuation of f(x, p) = 0 in one parameter
+* :class:`EquilibriumBranchIterator` (collected by :func:`continue_equilibria`): pseudo-arclength
+  continuation of f(x, p) = 0 in one parameter
   (tangent predictor, Newton corrector on the bordered system), eigenvalues at every point;
   detects Hopf points (a complex pair crosses the imaginary axis) and folds (the parameter
   component of the tangent changes sign), and locates each Hopf point to round-off by a secant
@@ -20,17 +21,21 @@ periodic orbit born at a Hopf point.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import Iterator
 
 import casadi as ca
 import numpy as np
 
+from birdocp.engine.continuation.step import ContinuationStep
 from birdocp.engine.ode import ODE
 from birdocp.engine.orbits import OrbitMethod, OrbitProblem, PeriodicOrbit, solve_orbit_system
 from birdocp.engine.problem import finite_vector
 from birdocp.engine.results import result_dict, serial
 
 __all__ = ["Equilibrium", "EquilibriumBranch", "HopfPoint", "find_equilibrium", "continue_equilibria",
-           "locate_hopf", "orbit_from_hopf", "hopf_branch"]
+           "locate_hopf", "orbit_from_hopf", "hopf_branch",
+           "ode_jacobians", "sorted_eig", "critical_pair",
+           "EquilibriumPoint", "EquilibriumFold", "EquilibriumBranchIterator"]
 
 
 @dataclass
@@ -66,7 +71,13 @@ class HopfPoint:
 
     @property
     def period(self) -> float:
+        """The period 2 pi / omega of the orbit born here (time units)."""
         return 2 * np.pi / self.omega
+
+    @property
+    def kind(self) -> str:
+        """``"hopf"`` (a special point of an equilibrium branch)."""
+        return "hopf"
 
     def to_dict(self) -> dict:
         """JSON-ready dict (:func:`birdocp.engine.results.result_dict`, with the period)."""
@@ -76,7 +87,9 @@ class HopfPoint:
 @dataclass
 class EquilibriumBranch:
     """Points of a continued equilibrium branch: params (values of the continued parameter), x (K x nx),
-    eigenvalues (K x nx), stable (K), hopf (located HopfPoints), folds (indices of fold brackets)."""
+    eigenvalues (K x nx), stable (K), hopf (located HopfPoints), folds (indices of fold brackets);
+    ``status`` ``ok``, ``no_start``, ``corrector_failed`` or ``incomplete`` (collected from an
+    iterator that was left early)."""
 
     param: int
     params: np.ndarray
@@ -93,12 +106,14 @@ class EquilibriumBranch:
         return result_dict(self)
 
 
-def _jac(ode: ODE, x, p, t=0.0):
+def ode_jacobians(ode: ODE, x, p, t=0.0):
+    """(df/dx, df/dp) at (x, t, p) as numpy arrays."""
     fx, fp = ode.jacobian_function()(ca.DM(x), t, ca.DM(p))
     return np.asarray(fx), np.asarray(fp)
 
 
-def _eig(J):
+def sorted_eig(J):
+    """Eigenvalues and eigenvectors of J, largest real part first (then largest imaginary part)."""
     lam, V = np.linalg.eig(J)
     order = np.lexsort((-lam.imag, -lam.real))
     return lam[order].astype(complex), V[:, order].astype(complex)
@@ -139,7 +154,7 @@ def find_equilibrium(ode: ODE, p, x_guess, *, tol: float = 1e-12, max_iter: int 
         if r <= tol:
             status = "converged"
             break
-        J, _ = _jac(ode, x, p, t)
+        J, _ = ode_jacobians(ode, x, p, t)
         try:
             dx = np.linalg.solve(J, -f)
         except np.linalg.LinAlgError:
@@ -156,12 +171,12 @@ def find_equilibrium(ode: ODE, p, x_guess, *, tol: float = 1e-12, max_iter: int 
     r = float(np.max(np.abs(f)))
     if status == "max_iter" and r <= tol:
         status = "converged"
-    J, _ = _jac(ode, x, p, t)
-    lam, V = _eig(J) if np.all(np.isfinite(J)) else (np.full(ode.nx, np.nan + 0j), np.eye(ode.nx, dtype=complex))
+    J, _ = ode_jacobians(ode, x, p, t)
+    lam, V = sorted_eig(J) if np.all(np.isfinite(J)) else (np.full(ode.nx, np.nan + 0j), np.eye(ode.nx, dtype=complex))
     return Equilibrium(status == "converged", status, x, p, r, it, lam, V, bool(np.all(lam.real < 0)))
 
 
-def _crit_pair(lam, tol_imag=1e-8):
+def critical_pair(lam, tol_imag=1e-8):
     """Index of the complex eigenvalue (Im > 0) with the real part closest to 0, or None."""
     idx = [i for i, v in enumerate(lam) if v.imag > tol_imag]
     if not idx:
@@ -181,7 +196,7 @@ def locate_hopf(ode: ODE, p, param, x_guess, bracket, *, tol: float = 1e-12, max
         pp = p.copy()
         pp[j] = val
         e = find_equilibrium(ode, pp, xg)
-        k = _crit_pair(e.eigenvalues)
+        k = critical_pair(e.eigenvalues)
         return (e.eigenvalues[k].real if k is not None and e.success else np.nan), e, k
 
     a, b = map(float, bracket)
@@ -225,6 +240,9 @@ def continue_equilibria(ode: ODE, p, param, x_start, stop, *, ds: float = 0.05, 
     """Pseudo-arclength continuation of f(x, p) = 0 in ``param`` from ``(x_start, p[param])`` towards
     ``stop`` (a parameter value), with eigenvalues; Hopf points located to ``tol``.
 
+    The collector over :class:`EquilibriumBranchIterator` (the iterator behind
+    :func:`birdocp.engine.iter_branch` for equilibria).
+
     Parameters
     ----------
     ode : ODE
@@ -251,86 +269,180 @@ def continue_equilibria(ode: ODE, p, param, x_start, stop, *, ds: float = 0.05, 
     EquilibriumBranch
         The points with their eigenvalues, the Hopf points and folds.
     """
-    j = ode.param_index(param)
-    p = np.asarray(p, float).ravel().copy()
-    if not np.isfinite(stop):
-        raise ValueError(f"continue_equilibria: stop must be a finite parameter value, got {stop!r}")
-    e0 = find_equilibrium(ode, p, x_start)
-    if not e0.success:
-        return EquilibriumBranch(j, np.zeros(0), np.zeros((0, ode.nx)), np.zeros((0, ode.nx)), np.zeros(0, bool),
-                                 status="no_start", message=f"no equilibrium at the start ({e0.status})")
-    nx = ode.nx
-    direction = np.sign(stop - p[j]) or 1.0
-    u = np.concatenate([e0.x, [p[j]]])
+    from birdocp.engine.continuation import collect
 
-    def F(u):
-        pp = p.copy()
-        pp[j] = u[-1]
-        return ode.evaluate(u[:nx], 0.0, pp)
+    return collect(EquilibriumBranchIterator(ode, p, param, x_start, stop, ds=ds, max_points=max_points, tol=tol,
+                                             locate=locate))
 
-    def DF(u):
-        pp = p.copy()
-        pp[j] = u[-1]
-        fx, fp = _jac(ode, u[:nx], pp)
-        return np.hstack([fx, fp[:, [j]]])
 
-    def tangent(u, prev=None):
-        A = DF(u)
-        _, _, Vt = np.linalg.svd(A)
+@dataclass
+class EquilibriumPoint:
+    """One point of an equilibrium branch: the parameter value, the equilibrium ``x``, the eigenvalues
+    of df/dx (largest real part first), ``stable``, the arclength ``step`` that produced it (0 for the
+    first) and the parameter component of the unit tangent ``tangent_parameter``."""
+
+    parameter: float
+    x: np.ndarray
+    eigenvalues: np.ndarray = field(metadata=serial(complex=True))
+    stable: bool
+    step: float
+    tangent_parameter: float
+
+    @property
+    def state(self) -> np.ndarray:
+        """The equilibrium."""
+        return self.x
+
+    @property
+    def spectrum(self) -> np.ndarray:
+        """The eigenvalues of df/dx."""
+        return self.eigenvalues
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`)."""
+        return result_dict(self)
+
+
+@dataclass
+class EquilibriumFold:
+    """A fold of an equilibrium branch: the parameter component of the tangent changes sign between
+    the points ``between`` (the parameter there is ``parameter_range``; not located further)."""
+
+    index: int
+    between: tuple
+    parameter_range: tuple
+    kind: str = "fold"
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`)."""
+        return result_dict(self)
+
+
+class EquilibriumBranchIterator:
+    """A branch of equilibria of ``ode``, followed as it is iterated (once).
+
+    The arguments are those of :func:`birdocp.engine.equilibria.continue_equilibria`. After (or
+    during) the iteration ``points``, ``hopf``, ``folds``, ``status`` and ``message`` hold what was
+    found so far and :meth:`branch` returns it as an :class:`~birdocp.engine.equilibria.EquilibriumBranch`.
+    """
+
+    def __init__(self, ode: ODE, p, param, x_start, stop: float, *, ds: float = 0.05, max_points: int = 500,
+                 tol: float = 1e-11, locate: bool = True):
+        self.ode, self.j = ode, ode.param_index(param)
+        self.p = np.asarray(p, float).ravel().copy()
+        if not np.isfinite(stop):
+            raise ValueError(f"continue_equilibria: stop must be a finite parameter value, got {stop!r}")
+        self.x_start, self.stop = x_start, float(stop)
+        self.ds, self.max_points, self.tol, self.locate = ds, max_points, tol, locate
+        self.direction = np.sign(stop - self.p[self.j]) or 1.0
+        self.points: list = []
+        self.hopf: list = []
+        self.folds: list = []
+        self.status, self.message = "incomplete", "the iteration was left before the branch ended"
+        self._started = False
+
+    def _pp(self, lam: float) -> np.ndarray:
+        pp = self.p.copy()
+        pp[self.j] = lam
+        return pp
+
+    def _F(self, u):
+        return self.ode.evaluate(u[:self.ode.nx], 0.0, self._pp(u[-1]))
+
+    def _DF(self, u):
+        fx, fp = ode_jacobians(self.ode, u[:self.ode.nx], self._pp(u[-1]))
+        return np.hstack([fx, fp[:, [self.j]]])
+
+    def _tangent(self, u, prev=None):
+        _, _, Vt = np.linalg.svd(self._DF(u))
         t = Vt[-1]
         if prev is None:
-            t = t * np.sign(t[-1] * direction or 1.0)
+            t = t * np.sign(t[-1] * self.direction or 1.0)
         elif t @ prev < 0:
             t = -t
         return t / np.linalg.norm(t)
 
-    t = tangent(u)
-    pts, lams, stab = [u.copy()], [e0.eigenvalues], [e0.stable]
-    folds, hopfs = [], []
-    status, msg = "ok", ""
-    h = ds
-    while len(pts) < max_points:
-        if (u[-1] - stop) * direction >= 0:
-            break
+    def _correct(self, u, t, h):
+        """Newton on the bordered system from the predictor ``u + h t``; None if it fails."""
         un = u + h * t
-        ok = False
         for _ in range(20):
-            r = np.concatenate([F(un), [t @ (un - u) - h]])
+            r = np.concatenate([self._F(un), [t @ (un - u) - h]])
             if not np.all(np.isfinite(r)):
-                break
-            if np.max(np.abs(r)) <= tol:
-                ok = True
-                break
-            Jb = np.vstack([DF(un), t[None, :]])
+                return None
+            if np.max(np.abs(r)) <= self.tol:
+                return un
             try:
-                un = un - np.linalg.solve(Jb, r)
+                un = un - np.linalg.solve(np.vstack([self._DF(un), t[None, :]]), r)
             except np.linalg.LinAlgError:
+                return None
+        return None
+
+    def _emit(self, u, lam, t, h, found) -> ContinuationStep:
+        nx = self.ode.nx
+        pt = EquilibriumPoint(float(u[-1]), u[:nx].copy(), lam, bool(np.all(lam.real < 0)), float(h), float(t[-1]))
+        self.points.append(pt)
+        return ContinuationStep(len(self.points) - 1, pt, found)
+
+    def __iter__(self) -> Iterator[ContinuationStep]:
+        if self._started:
+            raise RuntimeError("a branch iterator runs once; make a new one to follow the branch again")
+        self._started = True
+        return self._run()
+
+    def _run(self) -> Iterator[ContinuationStep]:
+        e0 = find_equilibrium(self.ode, self.p, self.x_start)
+        if not e0.success:
+            self.status, self.message = "no_start", f"no equilibrium at the start ({e0.status})"
+            return
+        u = np.concatenate([e0.x, [self.p[self.j]]])
+        t = self._tangent(u)
+        yield self._emit(u, e0.eigenvalues, t, 0.0, [])
+        h = self.ds
+        while len(self.points) < self.max_points:
+            if (u[-1] - self.stop) * self.direction >= 0:
                 break
-        if not ok:
-            h /= 2
-            if h < 1e-8 * ds:
-                status, msg = "corrector_failed", f"corrector failed at param={u[-1]:.6g}"
-                break
-            continue
-        tn = tangent(un, t)
-        pp = p.copy()
-        pp[j] = un[-1]
-        J, _ = _jac(ode, un[:nx], pp)
-        lam, _ = _eig(J)
+            un = self._correct(u, t, h)
+            if un is None:
+                h /= 2
+                if h < 1e-8 * self.ds:
+                    self.status, self.message = "corrector_failed", f"corrector failed at param={u[-1]:.6g}"
+                    break
+                continue
+            tn = self._tangent(un, t)
+            lam, _ = sorted_eig(ode_jacobians(self.ode, un[:self.ode.nx], self._pp(un[-1]))[0])
+            found = self._special(u, t, un, tn, lam)
+            u, t = un, tn
+            yield self._emit(u, lam, t, h, found)
+            h = min(1.5 * h, 4 * self.ds)
+        if self.status == "incomplete":
+            self.status, self.message = "ok", ""
+
+    def _special(self, u, t, un, tn, lam) -> list:
+        """The fold and the Hopf point between ``u`` and ``un`` (recorded in ``folds`` / ``hopf``)."""
+        found = []
+        i = len(self.points)
         if tn[-1] * t[-1] < 0:
-            folds.append(len(pts))
-        kp, kn = _crit_pair(lams[-1]), _crit_pair(lam)
-        if locate and kp is not None and kn is not None and lams[-1][kp].real * lam[kn].real < 0:
-            hp = locate_hopf(ode, p, j, u[:nx], (u[-1], un[-1]))
+            self.folds.append(i)
+            found.append(EquilibriumFold(i, (i - 1, i), (float(u[-1]), float(un[-1]))))
+        prev = self.points[-1].eigenvalues
+        kp, kn = critical_pair(prev), critical_pair(lam)
+        if self.locate and kp is not None and kn is not None and prev[kp].real * lam[kn].real < 0:
+            hp = locate_hopf(self.ode, self.p, self.j, u[:self.ode.nx], (u[-1], un[-1]))
             if hp is not None:
-                hopfs.append(hp)
-        u, t = un, tn
-        pts.append(u.copy())
-        lams.append(lam)
-        stab.append(bool(np.all(lam.real < 0)))
-        h = min(1.5 * h, 4 * ds)
-    P = np.array(pts)
-    return EquilibriumBranch(j, P[:, -1], P[:, :nx], np.array(lams), np.array(stab), hopfs, folds, status, msg)
+                self.hopf.append(hp)
+                found.append(hp)
+        return found
+
+    def branch(self) -> EquilibriumBranch:
+        """The branch followed so far (all of it after the iteration ended)."""
+        nx = self.ode.nx
+        if not self.points:
+            return EquilibriumBranch(self.j, np.zeros(0), np.zeros((0, nx)), np.zeros((0, nx)), np.zeros(0, bool),
+                                     status=self.status, message=self.message)
+        P = np.array([np.concatenate([pt.x, [pt.parameter]]) for pt in self.points])
+        return EquilibriumBranch(self.j, P[:, -1], P[:, :nx], np.array([pt.eigenvalues for pt in self.points]),
+                                 np.array([pt.stable for pt in self.points]), list(self.hopf), list(self.folds),
+                                 self.status, self.message)
 
 
 def orbit_from_hopf(ode: ODE, hopf: HopfPoint, amplitude: float, method: OrbitMethod = OrbitMethod(points=5, steps_per_period=100),

@@ -27,7 +27,7 @@ from birdocp.engine.problem import finite_vector
 from birdocp.engine.results import result_dict, serial
 from birdocp.engine.steppers import make_step
 
-__all__ = ["LyapunovResult", "lyapunov_exponents", "largest_lyapunov_exponent"]
+__all__ = ["LyapunovResult", "lyapunov_exponents", "largest_lyapunov_exponent", "kaplan_yorke_dimension"]
 
 
 @dataclass
@@ -87,6 +87,37 @@ def _chunk(ode: ODE, k: int, n_sub: int, integrator: str) -> ca.Function:
     return fn
 
 
+def _benettin(chunk, x, Q, t: float, pd, dt: float, tau: float, n: int, orient: bool = True) -> tuple:
+    """``n`` chunks of length ``tau`` from state ``x`` and orthonormal tangent vectors ``Q`` at time
+    ``t``, re-orthonormalised (QR) after each (with ``orient``: signs kept continuous); returns ``(x,
+    Q, t, logs)`` with ``logs[c]`` the log growths of chunk ``c`` (one per tangent vector)."""
+    nx, k = Q.shape
+    logs = np.zeros((n, k))
+    for c in range(n):
+        xo, Wo = chunk(ca.DM(x), ca.DM(Q), t, pd, dt)
+        x = np.asarray(xo).ravel()
+        Q, R = np.linalg.qr(np.asarray(Wo).reshape(nx, k))
+        d = np.diag(R)
+        if orient:
+            Q = Q * np.sign(np.where(d == 0, 1.0, d))  # keep a continuous orientation
+        logs[c] = np.log(np.abs(d))
+        t += tau
+    return x, Q, t, logs
+
+
+def kaplan_yorke_dimension(lam) -> float:
+    """The Kaplan-Yorke dimension of a full Lyapunov spectrum ``lam`` (largest first): ``j + S_j /
+    |lam_{j+1}|`` with ``j`` the largest index where the partial sum ``S_j >= 0`` (0 when the largest
+    exponent is negative, nx when the sum is not)."""
+    cs = np.cumsum(lam)
+    if cs[0] < 0:
+        return 0.0
+    if cs[-1] >= 0:
+        return float(len(lam))
+    j = int(np.max(np.nonzero(cs >= 0)[0]))
+    return float((j + 1) + cs[j] / abs(lam[j + 1]))
+
+
 def lyapunov_exponents(ode: ODE, x0, p, *, t_total: float = 1000.0, dt: float = 0.01,
                        t_transient: float = 50.0, n_exponents: int | None = None,
                        renorm_time: float = 1.0, n_blocks: int = 10, t0: float = 0.0,
@@ -140,21 +171,8 @@ def lyapunov_exponents(ode: ODE, x0, p, *, t_total: float = 1000.0, dt: float = 
     pd = ca.DM(np.asarray(p, float))
     x = np.asarray(x0, float).ravel()
     Q, _ = np.linalg.qr(np.random.default_rng(seed).standard_normal((nx, k)))
-    t = float(t0)
-    for _ in range(int(round(t_transient / tau))):
-        xo, Wo = chunk(ca.DM(x), ca.DM(Q), t, pd, dt)
-        x = np.asarray(xo).ravel()
-        Q, _ = np.linalg.qr(np.asarray(Wo).reshape(nx, k))
-        t += tau
-    logs = np.zeros((n_chunks, k))
-    for c in range(n_chunks):
-        xo, Wo = chunk(ca.DM(x), ca.DM(Q), t, pd, dt)
-        x = np.asarray(xo).ravel()
-        Q, R = np.linalg.qr(np.asarray(Wo).reshape(nx, k))
-        d = np.diag(R)
-        Q = Q * np.sign(np.where(d == 0, 1.0, d))  # keep a continuous orientation
-        logs[c] = np.log(np.abs(d))
-        t += tau
+    x, Q, t, _ = _benettin(chunk, x, Q, float(t0), pd, dt, tau, int(round(t_transient / tau)), False)
+    x, Q, t, logs = _benettin(chunk, x, Q, t, pd, dt, tau, n_chunks)
     if not np.all(np.isfinite(logs)):
         raise FloatingPointError("non-finite tangent growth (trajectory diverged?)")
     avg_t = n_chunks * tau
@@ -164,16 +182,7 @@ def lyapunov_exponents(ode: ODE, x0, p, *, t_total: float = 1000.0, dt: float = 
     order = np.argsort(-lam)
     lam, se, blocks = lam[order], se[order], blocks[:, order]
     hist = np.cumsum(logs, axis=0)[:, order] / (tau * np.arange(1, n_chunks + 1))[:, None]
-    dky = float("nan")
-    if k == nx:
-        cs = np.cumsum(lam)
-        if cs[0] < 0:
-            dky = 0.0
-        elif cs[-1] >= 0:
-            dky = float(nx)
-        else:
-            j = int(np.max(np.nonzero(cs >= 0)[0]))
-            dky = (j + 1) + cs[j] / abs(lam[j + 1])
+    dky = kaplan_yorke_dimension(lam) if k == nx else float("nan")
     return LyapunovResult(lam, se, avg_t, dt, tau, n_blocks, blocks, tau * np.arange(1, n_chunks + 1), hist,
                           x, dky, time.perf_counter() - tw,
                           {"integrator": integrator, "t_transient": t_transient, "n_exponents": k, "seed": seed})

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["cover_multiple", "attach_error", "solver_error", "match_multipliers", "failure_reason"]
+__all__ = ["cover_multiple", "attach_error", "solver_error", "match_multipliers", "failure_reason", "richardson_errors"]
 
 EPS = np.finfo(float).eps
 
@@ -73,6 +73,32 @@ def solver_error(J, g) -> float:
         return float("nan")
     smin = float(np.linalg.svd(J, compute_uv=False)[-1])
     return float(np.linalg.norm(g) / smin) if smin > 0 else float("inf")
+
+
+def richardson_errors(lam, lam_fine, x0, x0_fine, means: dict, means_fine: dict, e_solver: float,
+                      order: int = 4) -> dict:
+    """Error estimates of a forced orbit solved on N and 2N steps: the differences of the matched
+    multipliers, of x0 and of the period means scaled by ``2^order / (2^order - 1)`` (Richardson),
+    plus the solver's part ``e_solver`` (added to x0 and, relative to the state's size ``1 +
+    max|x0|``, to the multipliers); every estimate at least the round-off of its value.
+
+    Returns
+    -------
+    dict
+        ``multipliers`` (absolute, max over the matched multipliers), ``multipliers_relative``,
+        ``x0`` (state units), ``means`` (by name).
+    """
+    from birdocp.engine.floquet import matched_distances
+
+    eps, fac = np.finfo(float).eps, 2.0 ** order / (2.0 ** order - 1.0)
+    lam, lam_fine = np.asarray(lam), np.asarray(lam_fine)
+    xs = 1.0 + float(np.max(np.abs(x0)))
+    dl = matched_distances(lam, lam_fine)
+    return {"multipliers": float(fac * np.max(dl) + e_solver / xs * np.max(np.abs(lam)) + 16 * eps),
+            "multipliers_relative": float(np.max((fac * dl + e_solver / xs + 16 * eps)
+                                                 / np.maximum(np.abs(lam_fine), 1.0))),
+            "x0": float(fac * np.max(np.abs(np.asarray(x0) - np.asarray(x0_fine))) + e_solver + 16 * eps * xs),
+            "means": {k: float(fac * abs(v - means_fine[k]) + 16 * eps * abs(v)) for k, v in means.items()}}
 
 
 def match_multipliers(a, b):

@@ -10,6 +10,7 @@ from birdocp.engine.ode import ODE
 from birdocp.engine.problem import finite_vector
 from birdocp.engine.results import result_dict, serial
 from birdocp.engine.shooting_types import ShootingGrid
+from birdocp.engine.orbit_result import OrbitResult
 from birdocp.engine.steppers import METHOD_ORDER
 
 __all__ = ["OrbitMethod", "OrbitProblem", "PeriodicOrbit", "PHASE_CONDITIONS"]
@@ -159,8 +160,11 @@ class OrbitProblem:
 
 
 @dataclass
-class PeriodicOrbit:
+class PeriodicOrbit(OrbitResult):
     """Result of :func:`solve_orbit` (failures are results with ``success=False``).
+
+    An :class:`~birdocp.engine.orbit_result.OrbitResult` (the names every orbit result shares; its
+    ``means`` is a property here, always empty).
 
     Attributes
     ----------
@@ -228,6 +232,11 @@ class PeriodicOrbit:
     free_values: dict = field(default_factory=dict)
     covers: int = 1
     reduced_from_period: float | None = None
+
+    @property
+    def means(self) -> dict:
+        """Period means of outputs: none (an orbit problem has no mean conditions); ``{}``."""
+        return {}
 
     @property
     def free_params(self) -> dict:

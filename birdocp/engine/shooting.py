@@ -196,11 +196,9 @@ def estimate_error(problem: LimitCycleProblem, method: MultipleShooting, result:
     """
     from dataclasses import replace
 
-    from birdocp.engine.floquet import matched_distances
-    from birdocp.engine.orbit_checks import solver_error
+    from birdocp.engine.orbit_checks import richardson_errors, solver_error
 
     t = time.perf_counter()
-    eps, fac = np.finfo(float).eps, 16.0 / 15.0
     b = graphs if graphs is not None else shooting_graphs(problem, method)[0]
     if z is None:
         z = np.concatenate([np.asarray(result.shooting_points).ravel(), result.p[list(b.free_idx)]])
@@ -209,14 +207,10 @@ def estimate_error(problem: LimitCycleProblem, method: MultipleShooting, result:
     fine_m = replace(method, steps_per_period=2 * int(method.steps_per_period), solver="lm", error_estimate=False,
                      tol=min(method.resolved_tol, 1e-10), max_iter=20)
     fine = solve(problem, fine_m, warm_start=result)
-    lam, xs = np.asarray(result.multipliers), 1.0 + float(np.max(np.abs(result.x0)))
+    lam = np.asarray(result.multipliers)
     out = {"solver": e_solver, "steps_per_period_fine": fine_m.steps_per_period, "fine_status": fine.status}
     if fine.success and fine.multipliers is not None:
-        dl = matched_distances(lam, fine.multipliers)
-        out["multipliers"] = float(fac * np.max(dl) + e_solver / xs * np.max(np.abs(lam)) + 16 * eps)
-        out["multipliers_relative"] = float(np.max((fac * dl + e_solver / xs + 16 * eps) / np.maximum(np.abs(fine.multipliers), 1.0)))
-        out["x0"] = float(fac * np.max(np.abs(result.x0 - fine.x0)) + e_solver + 16 * eps * xs)
-        out["means"] = {k: float(fac * abs(v - fine.means[k]) + 16 * eps * abs(v)) for k, v in result.means.items()}
+        out.update(richardson_errors(lam, fine.multipliers, result.x0, fine.x0, result.means, fine.means, e_solver))
     else:
         out.update(multipliers=float("nan"), multipliers_relative=float("nan"), x0=float("nan"), means={})
     out["wall_s"] = time.perf_counter() - t

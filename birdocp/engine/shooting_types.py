@@ -5,6 +5,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from birdocp.engine.orbit_result import OrbitResult
 from birdocp.engine.results import result_dict, serial
 
 __all__ = ["ShootingGrid", "MultipleShooting", "LimitCycleResult", "IPOPT_DEFAULTS"]
@@ -121,8 +122,11 @@ class MultipleShooting(ShootingGrid):
 
 
 @dataclass
-class LimitCycleResult:
+class LimitCycleResult(OrbitResult):
     """Outcome of :func:`solve`. Failures are results (``success=False``), not exceptions.
+
+    An :class:`~birdocp.engine.orbit_result.OrbitResult` (the names every orbit result shares; its
+    ``period`` and ``autonomous`` are properties here).
 
     Attributes
     ----------
@@ -179,6 +183,17 @@ class LimitCycleResult:
     monodromy_vs_full_period_jacobian: float = float("nan")
     method: dict = field(default_factory=dict)
     error_estimate: dict | None = field(default=None, metadata=serial(skip=True))
+
+    @property
+    def period(self) -> float:
+        """The forcing period (time units of the system): the span of the shooting times."""
+        t = self.shooting_times if len(self.shooting_times) else self.trajectory_t
+        return float(t[-1] - t[0]) if len(t) else float("nan")
+
+    @property
+    def autonomous(self) -> bool:
+        """``False``: the period of a forced orbit is the forcing's."""
+        return False
 
     def to_dict(self) -> dict:
         """JSON-ready dict (see the class docstring)."""

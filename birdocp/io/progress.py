@@ -6,7 +6,9 @@ The bar is shown only when stderr is a terminal and ``quiet`` is false; otherwis
 no-op (logs and pipes stay clean, and ``--json`` output on stdout is never touched).
 
 ``progress_callback(label, quiet)`` adapts a text callback (``progress(text)``, as the continuation
-takes) to a bar that counts the calls and shows the last text.
+takes) to a bar that counts the calls and shows the last text. ``text_reporter(progress, label)`` turns
+a study's ``progress`` argument (False, True or a callable) into that callback: the one way a study
+reports progress (a bar from the command line, one line per step on stderr from Python).
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from __future__ import annotations
 import sys
 from typing import Any, Callable
 
-__all__ = ["progress_enabled", "progress_bar", "progress_callback", "NullBar"]
+__all__ = ["progress_enabled", "progress_bar", "progress_callback", "text_reporter", "NullBar"]
 
 
 def progress_enabled(quiet: bool = False, stream=None) -> bool:
@@ -100,3 +102,30 @@ def progress_callback(label: str, quiet: bool = False, total: int | None = None,
         bar.set_postfix_str(str(text).strip()[:80])
 
     return say, bar
+
+
+def text_reporter(progress: Any, label: str) -> Callable[[str], None] | None:
+    """The callback a study calls with one line of progress text, from its ``progress`` argument.
+
+    Parameters
+    ----------
+    progress : bool or callable
+        False or None: silent (returns None); a callable ``progress(text)``: itself (e.g.
+        :func:`progress_callback`'s ``say``); True: one line ``"label: text"`` per call on stderr.
+    label : str
+        The prefix of the stderr lines, e.g. ``"optimize-stability"``.
+
+    Returns
+    -------
+    callable or None
+        ``say(text)``, or None when silent.
+    """
+    if not progress:
+        return None
+    if callable(progress):
+        return progress
+
+    def say(text: str) -> None:
+        print(f"{label}: {text}", file=sys.stderr, flush=True)
+
+    return say

@@ -22,7 +22,7 @@ import numpy as np
 
 from birdocp.io.files import atomic_target
 
-__all__ = ["draw_frame", "save_animation", "animation_writer", "BODY_NOTE"]
+__all__ = ["draw_frame", "draw_bird", "save_animation", "animation_writer", "BODY_NOTE"]
 
 BODY_NOTE = "body: schematic (ellipsoid, neck, beak, tail), not a measured shape"
 
@@ -44,20 +44,22 @@ def _to_world(P: np.ndarray, theta: float) -> tuple[np.ndarray, np.ndarray, np.n
     return P[0], c * fwd - s * up, s * fwd + c * up
 
 
-def _body_world(theta: float):
-    """Schematic body as (span, forward, up) arrays: ellipsoid mesh, neck-beak polyline, tail."""
+def _body_world(theta: float, world=None):
+    """Schematic body as (span, forward, up) arrays: ellipsoid mesh, neck-beak polyline, tail
+    (``world``: a code-frame (3, K) -> (X, Y, Z) transform; default pitched by ``theta``)."""
+    world = world or (lambda P: _to_world(P, theta))
     a, b, c = _BODY_SEMI_AXES_M
     uu, vv = np.meshgrid(np.linspace(0, 2 * np.pi, 17), np.linspace(0, np.pi, 9))
     fwd = _BODY_CENTRE_FWD_M + a * np.cos(vv)
     span = b * np.sin(vv) * np.cos(uu)
     up = c * np.sin(vv) * np.sin(uu)
     pts = np.stack([span.ravel(), up.ravel(), -fwd.ravel()])
-    X, Y, Z = _to_world(pts, theta)
+    X, Y, Z = world(pts)
     mesh = tuple(v.reshape(fwd.shape) for v in (X, Y, Z))
     extras = []
     for poly in (_NECK_HEAD_BEAK_M, _TAIL_M):
         pts = np.stack([poly[:, 1], poly[:, 2], -poly[:, 0]])
-        extras.append(_to_world(pts, theta))
+        extras.append(world(pts))
     return mesh, extras
 
 
@@ -75,6 +77,51 @@ def _stroke(flap_rad: np.ndarray, k: int) -> str:
     if abs(d) <= 1e-6 * max(float(np.ptp(flap_rad)), 1e-12):
         return "reversal"
     return "downstroke" if d < 0 else "upstroke"
+
+
+def draw_bird(ax, mo: dict, k: int, world, cmap, norm) -> None:
+    """The bird of frame ``k`` on the 3-D axes ``ax``: schematic body, both wings' outline, bones and
+    master feathers, the lifting line coloured by circulation.
+
+    Parameters
+    ----------
+    ax : Axes3D
+        The axes to draw on.
+    mo : dict
+        The drawing data (:func:`birdocp.bird.snapshots.motion` with ``gamma_m2ps``).
+    k : int
+        Frame index.
+    world : callable
+        Maps code-frame points (3, K) relative to G to the axes' (X, Y, Z).
+    cmap, norm
+        Colour map and normalisation of the circulation.
+    """
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    mesh, extras = _body_world(0.0, world)
+    ax.plot_wireframe(*mesh, color="0.5", lw=0.35, alpha=0.6)
+    ax.plot(*extras[0], color="0.25", lw=2.2)   # neck, head, beak
+    ax.plot(*extras[1], color="0.35", lw=1.2)   # tail
+    for mirror in (False, True):
+        fix = _mirror if mirror else (lambda P: P)
+        le = fix(mo["leading_edge_m"][k])
+        te = fix(mo["trailing_edge_m"][k])
+        outline = np.concatenate([le, te[:, ::-1]], axis=1)
+        X, Y, Z = world(outline)
+        ax.add_collection3d(Poly3DCollection([list(zip(X, Y, Z))], facecolor=(0.55, 0.7, 0.9, 0.25),
+                                             edgecolor="none"))
+        ax.plot(*world(le), color="k", lw=1.0)
+        ax.plot(*world(te), color="0.35", lw=0.9)
+        ax.plot(*world(fix(mo["chain_m"][k])), color="saddlebrown", lw=3.0,
+                solid_capstyle="round")
+        for i in range(mo["feather_base_m"].shape[2]):
+            seg = np.stack([mo["feather_base_m"][k][:, i], mo["feather_tip_m"][k][:, i]], axis=1)
+            ax.plot(*world(fix(seg)), color="peru", lw=1.3)
+    line = mo["line_m"][k]
+    gam = mo["gamma_m2ps"][k]
+    for j in range(len(gam)):
+        seg = line[:, 2 * j:2 * j + 3]
+        ax.plot(*world(seg), color=cmap(norm(gam[j])), lw=2.4)
 
 
 class _Scene:
@@ -159,36 +206,11 @@ class _Scene:
 
     # ------------------------------------------------------------------------------------------
     def draw(self, k: int) -> None:
-        from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-
         mo = self.mo
         th = float(mo["x"][k, 3])
         ax = self.ax3
         ax.cla()
-        mesh, extras = _body_world(th)
-        ax.plot_wireframe(*mesh, color="0.5", lw=0.35, alpha=0.6)
-        ax.plot(*extras[0], color="0.25", lw=2.2)   # neck, head, beak
-        ax.plot(*extras[1], color="0.35", lw=1.2)   # tail
-        for mirror in (False, True):
-            fix = _mirror if mirror else (lambda P: P)
-            le = fix(mo["leading_edge_m"][k])
-            te = fix(mo["trailing_edge_m"][k])
-            outline = np.concatenate([le, te[:, ::-1]], axis=1)
-            X, Y, Z = _to_world(outline, th)
-            ax.add_collection3d(Poly3DCollection([list(zip(X, Y, Z))], facecolor=(0.55, 0.7, 0.9, 0.25),
-                                                 edgecolor="none"))
-            ax.plot(*_to_world(le, th), color="k", lw=1.0)
-            ax.plot(*_to_world(te, th), color="0.35", lw=0.9)
-            ax.plot(*_to_world(fix(mo["chain_m"][k]), th), color="saddlebrown", lw=3.0,
-                    solid_capstyle="round")
-            for i in range(mo["feather_base_m"].shape[2]):
-                seg = np.stack([mo["feather_base_m"][k][:, i], mo["feather_tip_m"][k][:, i]], axis=1)
-                ax.plot(*_to_world(fix(seg), th), color="peru", lw=1.3)
-        line = mo["line_m"][k]
-        gam = mo["gamma_m2ps"][k]
-        for j in range(len(gam)):
-            seg = line[:, 2 * j:2 * j + 3]
-            ax.plot(*_to_world(seg, th), color=self.cmap(self.norm(gam[j])), lw=2.4)
+        draw_bird(ax, mo, k, lambda P: _to_world(P, th), self.cmap, self.norm)
         ax.scatter([0], [0], [0], color="k", s=12)
         lim = 0.7
         ax.set_xlim(-lim, lim)

@@ -78,6 +78,12 @@ def end_label(reason: str) -> str:
         reason, f"branch end: {reason}")
 
 
+MARKS = {"fold": ("s", "tab:red"), "branch_point": ("D", "tab:orange"), "period_doubling": ("v", "tab:purple"),
+         "neimark_sacker": ("*", "tab:green"), "validity_boundary": ("P", "0.25")}
+"""Marker and colour of each kind of special point."""
+STYLES = ["-", "--", ":", "-."]
+
+
 def plot_branches(branches: dict, out_dir, prefix: str = "", span=None) -> list:
     """Figures of one or more branches (label -> Branch): ``locus.png`` (multipliers in the complex plane,
     coloured by the parameter, unit circle), ``moduli.png`` (moduli against the parameter, special
@@ -88,106 +94,122 @@ def plot_branches(branches: dict, out_dir, prefix: str = "", span=None) -> list:
     continuation was stopped at the end of the requested range; filled square: the branch itself ends,
     e.g. its free parameter reaches a bound). ``span``: (lo, hi, label) of a parameter range to shade
     (e.g. the paper's range)."""
-    import matplotlib.pyplot as plt
-
     out_dir = Path(out_dir)
-    paths = []
     labels = [k for k, b in branches.items() if b.points]
     if not labels:
-        return paths
-    marks = {"fold": ("s", "tab:red"), "branch_point": ("D", "tab:orange"), "period_doubling": ("v", "tab:purple"),
-             "neimark_sacker": ("*", "tab:green"), "validity_boundary": ("P", "0.25")}
-    # locus
+        return []
+    return [_locus_figure(branches, labels, out_dir / f"{prefix}locus.png"),
+            _moduli_figure(branches, labels, out_dir / f"{prefix}moduli.png", span)]
+
+
+def _unique_legend(ax, **kw) -> None:
+    """The axes' legend with each label once."""
+    h, l_ = ax.get_legend_handles_labels()
+    uniq = dict(zip(l_, h))
+    ax.legend(uniq.values(), uniq.keys(), fontsize=8, **kw)
+
+
+def _locus_figure(branches: dict, labels: list, path: Path):
+    import matplotlib.pyplot as plt
+
     fig, axes = plt.subplots(1, len(labels), figsize=(6.2 * len(labels), 5.8), squeeze=False)
     for ax, lab in zip(axes[0], labels):
-        b = branches[lab]
-        x, xl = _x_of(b)
-        th = np.linspace(0, 2 * np.pi, 400)
-        ax.plot(np.cos(th), np.sin(th), "k-", lw=0.8, label="unit circle")
-        L = b.multipliers()
-        ok = valid_mask(b)
-        sc = None
-        for k in range(L.shape[1]):
-            sc = ax.scatter(L[ok, k].real, L[ok, k].imag, c=x[ok], cmap="viridis", s=18, zorder=3,
-                            vmin=x.min(), vmax=x.max())
-            ax.scatter(L[~ok, k].real, L[~ok, k].imag, s=18, facecolors="none", edgecolors="0.55", lw=0.8, zorder=3,
-                       label="model not valid" if k == 0 and (~ok).any() else None)
-            ax.plot(L[:, k].real, L[:, k].imag, "-", color="0.6", lw=0.6, zorder=2)
-        for sp in b.special_points:
-            m, c = marks.get(sp.kind, ("o", "k"))
-            Ls = np.array([complex(*v) for v in sp.multipliers])
-            ax.plot(Ls.real, Ls.imag, m, color=c, ms=9, mfc="none", mew=2, label=_sp_label(sp), zorder=4)
-        ax.axhline(0, color="0.85", lw=0.5, zorder=0)
-        ax.axvline(0, color="0.85", lw=0.5, zorder=0)
-        ax.set_aspect("equal")
-        lim = max(1.15, float(np.max(np.abs(L))) * 1.08)
-        ax.set_xlim(-lim, lim)
-        ax.set_ylim(-min(lim, 1.2), min(lim, 1.2))
-        ax.set_xlabel("Re Λ")
-        ax.set_ylabel("Im Λ")
-        ax.set_title(f"{lab}: multipliers along the branch")
-        cb = fig.colorbar(sc, ax=ax, shrink=0.7)
-        cb.set_label(xl)
-        h, l_ = ax.get_legend_handles_labels()
-        uniq = dict(zip(l_, h))
-        ax.legend(uniq.values(), uniq.keys(), loc="upper left", fontsize=8)
+        _locus_panel(fig, ax, branches[lab], lab)
     fig.tight_layout()
-    paths.append(save_figure(fig, out_dir / f"{prefix}locus.png"))
+    out = save_figure(fig, path)
     plt.close(fig)
-    # moduli (+ free parameter)
+    return out
+
+
+def _locus_panel(fig, ax, b: Branch, lab: str) -> None:
+    """The multipliers of branch ``b`` in the complex plane, coloured by the parameter."""
+    x, xl = _x_of(b)
+    th = np.linspace(0, 2 * np.pi, 400)
+    ax.plot(np.cos(th), np.sin(th), "k-", lw=0.8, label="unit circle")
+    L = b.multipliers()
+    ok = valid_mask(b)
+    sc = None
+    for k in range(L.shape[1]):
+        sc = ax.scatter(L[ok, k].real, L[ok, k].imag, c=x[ok], cmap="viridis", s=18, zorder=3,
+                        vmin=x.min(), vmax=x.max())
+        ax.scatter(L[~ok, k].real, L[~ok, k].imag, s=18, facecolors="none", edgecolors="0.55", lw=0.8, zorder=3,
+                   label="model not valid" if k == 0 and (~ok).any() else None)
+        ax.plot(L[:, k].real, L[:, k].imag, "-", color="0.6", lw=0.6, zorder=2)
+    for sp in b.special_points:
+        m, c = MARKS.get(sp.kind, ("o", "k"))
+        Ls = np.array([complex(*v) for v in sp.multipliers])
+        ax.plot(Ls.real, Ls.imag, m, color=c, ms=9, mfc="none", mew=2, label=_sp_label(sp), zorder=4)
+    ax.axhline(0, color="0.85", lw=0.5, zorder=0)
+    ax.axvline(0, color="0.85", lw=0.5, zorder=0)
+    ax.set_aspect("equal")
+    lim = max(1.15, float(np.max(np.abs(L))) * 1.08)
+    ax.set_xlim(-lim, lim)
+    ax.set_ylim(-min(lim, 1.2), min(lim, 1.2))
+    ax.set_xlabel("Re Λ")
+    ax.set_ylabel("Im Λ")
+    ax.set_title(f"{lab}: multipliers along the branch")
+    cb = fig.colorbar(sc, ax=ax, shrink=0.7)
+    cb.set_label(xl)
+    _unique_legend(ax, loc="upper left")
+
+
+def _moduli_figure(branches: dict, labels: list, path: Path, span):
+    import matplotlib.pyplot as plt
+
     has_free = any(branches[lab].free_names for lab in labels)
     fig, axes = plt.subplots(2 if has_free else 1, 1, figsize=(12, 7.5 if has_free else 4.8), sharex=True,
                              squeeze=False)
     ax = axes[0, 0]
-    styles = ["-", "--", ":", "-."]
+    ax_free = axes[1, 0] if has_free else None
     if span is not None:
         ax.axvspan(min(span[0], span[1]), max(span[0], span[1]), color="tab:green", alpha=0.08, label=span[2])
         if has_free:
-            axes[1, 0].axvspan(min(span[0], span[1]), max(span[0], span[1]), color="tab:green", alpha=0.08)
+            ax_free.axvspan(min(span[0], span[1]), max(span[0], span[1]), color="tab:green", alpha=0.08)
+    xl = ""
     for i, lab in enumerate(labels):
-        b = branches[lab]
-        x, xl = _x_of(b)
-        M = np.array([p.moduli for p in b.points])
-        ok = valid_mask(b)
-        F = np.array([[p.free_values[n] for n in b.free_names] for p in b.points]) if b.free_names else None
-        for a, z, valid in runs(ok):
-            col1, col = ("tab:red", "tab:blue") if valid else ("0.55", "0.7")
-            tag = "" if valid else ", model not valid"
-            ax.plot(x[a:z], M[a:z, 0], styles[i % 4], color=col1, marker="." if valid else None,
-                    lw=1.5 if valid else 1.2, label=f"{lab}: |Λ1| (expanding){tag}")
-            for k in range(1, M.shape[1]):
-                ax.plot(x[a:z], M[a:z, k], styles[i % 4], color=col, lw=0.8,
-                        label=f"{lab}: |Λ2..4|{tag}" if k == 1 else None)
-            if has_free and F is not None:
-                axes[1, 0].plot(x[a:z], F[a:z, 0], styles[i % 4], color=f"C{i}" if valid else "0.55",
-                                marker="." if valid else None, label=f"{lab}: {b.free_names[0]}{tag}")
-        for e in branch_ends(b):
-            j = e["index"]
-            stopped = e["reason"] in STOPPED
-            ax.plot(x[j], M[j, 0], "x" if stopped else "s", color="k", ms=10 if stopped else 8, mew=2,
-                    label=end_label(e["reason"]), zorder=5)
-            if has_free and F is not None:
-                axes[1, 0].plot(x[j], F[j, 0], "x" if stopped else "s", color="k", ms=10 if stopped else 8, mew=2,
-                                zorder=5)
-        for sp in b.special_points:
-            m, c = marks.get(sp.kind, ("o", "k"))
-            xs, _ = _x_of(b, [sp])
-            ax.plot(xs, [max(sp.moduli)], m, color=c, ms=9, mfc="none", mew=2, label=_sp_label(sp))
+        xl = _moduli_branch(ax, ax_free, branches[lab], lab, STYLES[i % 4], i)
     ax.axhline(1.0, color="k", lw=0.8)
     ax.set_ylabel("|Λ|")
     ax.set_title("Floquet multipliers' moduli along the branch (|Λ| > 1: unstable)")
-    h, l_ = ax.get_legend_handles_labels()
-    uniq = dict(zip(l_, h))
-    ax.legend(uniq.values(), uniq.keys(), fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    _unique_legend(ax, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.grid(alpha=0.3)
     if has_free:
-        axes[1, 0].set_ylabel("solved free parameter")
-        h, l_ = axes[1, 0].get_legend_handles_labels()
-        uniq = dict(zip(l_, h))
-        axes[1, 0].legend(uniq.values(), uniq.keys(), fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-        axes[1, 0].grid(alpha=0.3)
+        ax_free.set_ylabel("solved free parameter")
+        _unique_legend(ax_free, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+        ax_free.grid(alpha=0.3)
     axes[-1, 0].set_xlabel(xl)
     fig.tight_layout()
-    paths.append(save_figure(fig, out_dir / f"{prefix}moduli.png"))
+    out = save_figure(fig, path)
     plt.close(fig)
-    return paths
+    return out
+
+
+def _moduli_branch(ax, ax_free, b: Branch, lab: str, style: str, i: int) -> str:
+    """The moduli (and the free parameter on ``ax_free``) of one branch, its ends and special points;
+    returns the parameter's axis label."""
+    x, xl = _x_of(b)
+    M = np.array([p.moduli for p in b.points])
+    ok = valid_mask(b)
+    F = np.array([[p.free_values[n] for n in b.free_names] for p in b.points]) if b.free_names else None
+    for a, z, valid in runs(ok):
+        col1, col = ("tab:red", "tab:blue") if valid else ("0.55", "0.7")
+        tag = "" if valid else ", model not valid"
+        ax.plot(x[a:z], M[a:z, 0], style, color=col1, marker="." if valid else None,
+                lw=1.5 if valid else 1.2, label=f"{lab}: |Λ1| (expanding){tag}")
+        for k in range(1, M.shape[1]):
+            ax.plot(x[a:z], M[a:z, k], style, color=col, lw=0.8, label=f"{lab}: |Λ2..4|{tag}" if k == 1 else None)
+        if ax_free is not None and F is not None:
+            ax_free.plot(x[a:z], F[a:z, 0], style, color=f"C{i}" if valid else "0.55",
+                         marker="." if valid else None, label=f"{lab}: {b.free_names[0]}{tag}")
+    for e in branch_ends(b):
+        j = e["index"]
+        stopped = e["reason"] in STOPPED
+        ax.plot(x[j], M[j, 0], "x" if stopped else "s", color="k", ms=10 if stopped else 8, mew=2,
+                label=end_label(e["reason"]), zorder=5)
+        if ax_free is not None and F is not None:
+            ax_free.plot(x[j], F[j, 0], "x" if stopped else "s", color="k", ms=10 if stopped else 8, mew=2, zorder=5)
+    for sp in b.special_points:
+        m, c = MARKS.get(sp.kind, ("o", "k"))
+        xs, _ = _x_of(b, [sp])
+        ax.plot(xs, [max(sp.moduli)], m, color=c, ms=9, mfc="none", mew=2, label=_sp_label(sp))
+    return xl

@@ -18,7 +18,7 @@ from birdocp.studies.level import default_bounds
 from birdocp.studies.trim import TrimResult, solver_ode
 
 __all__ = ["STABILITY_MARGIN", "PARAM_ALIASES", "resolve_parameter", "sm_percent", "root_of_sm", "bird_branch",
-           "validity_events", "add_validity"]
+           "bird_problem", "forward_flight", "validity_events", "add_validity"]
 
 STABILITY_MARGIN = "stability_margin"
 PARAM_ALIASES = ("root_ahead_m", "stability_margin", "amplitude_deg")
@@ -47,7 +47,7 @@ def root_of_sm(sm_pct: float, chord_m: float) -> float:
 def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, stop_value: float = 0.035, *,
                 level: bool = False, climb_rate_mps: float = 0.0, bounds=None, points: int | None = None,
                 steps_per_period: int | None = None, start=None, progress=None, validity: bool = True,
-                stop_at_invalid: bool = False, compiled: bool | None = None, **options) -> Branch:
+                stop_at_invalid: bool = False, compiled: bool = False, **options) -> Branch:
     """Continue the bird's periodic flight in one parameter by pseudo-arclength continuation.
 
     The branch's ``parameter`` is the model parameter (``wing.root_ahead_m`` for SM); the SM of every
@@ -89,12 +89,13 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
         period from its x0 with its parameters) and its validity margins.
     stop_at_invalid : bool
         End the branch where it leaves the model's validity.
-    compiled : bool, optional
-        The RHS and data compiled to C (:func:`birdocp.studies.trim.solver_ode`; None:
-        ``$BIRDOCP_COMPILED``).
+    compiled : bool
+        The RHS and data compiled to C (:func:`birdocp.studies.trim.solver_ode`; the same
+        numbers, faster).
     **options
         Settings of :class:`~birdocp.engine.continuation.options.ContinuationOptions` (``step``,
-        ``max_points``, ``max_dparam``, ...).
+        ``max_points``, ``max_dparam``, ``error_estimate`` (every point's ``error_estimate``), ...) and
+        the callbacks of :func:`~birdocp.engine.continuation.continuation` (``on_point``, ...).
 
     Returns
     -------
@@ -104,58 +105,80 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
     cfg = cfg or Config()
     model_key, display = resolve_parameter(key)
     chord = cfg.body.reference_chord_m
-    a, b = float(start_value), float(stop_value)
-    if display == STABILITY_MARGIN:
-        a, b = root_of_sm(a, chord), root_of_sm(b, chord)
-        if options.get("step"):
-            options["step"] = abs(root_of_sm(options["step"], chord))  # SM percent -> metres
-        if options.get("max_dparam"):
-            options["max_dparam"] = abs(root_of_sm(options["max_dparam"], chord))
-    points = int(points or cfg.solve.points)
-    steps = int(steps_per_period or cfg.solve.steps_per_period)
-    six = cfg.model.degrees_of_freedom == 6
-    if six:  # the 6-DOF model without its heading (birdocp.studies.lateral.reduced_ode)
-        from birdocp.studies.lateral import branch_parts
-
-        ode, p0, guess, outputs = branch_parts(cfg)
-    else:
-        m = get_model(cfg)
-        p0, guess = m.p0, m.complete_state(cfg.solve.initial_guess, m.p0)
-        ode = solver_ode(m, compiled)
-        outputs = flight_outputs(m.ode.nd, m.ode.nx)
-    if level:
-        if model_key == AMPLITUDE_KEY:
-            raise ValueError("with level flight held the amplitude is solved for: continue another parameter")
-        lo, hi = bounds if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)
-        cond = MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")
-        prob = LimitCycleProblem(ode, p0, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
-                                 outputs={"forward_speed_mps": outputs["forward_speed_mps"]})
-    else:
-        prob = LimitCycleProblem(ode, p0, guess, outputs=outputs)
-    ws = start.cycle if isinstance(start, TrimResult) else start
-    options.setdefault("scales", {"states": 1.0, "free": 10.0})
-
-    def accept(pt):
-        u = np.asarray(pt.shooting_points)[:, 0]
-        return None if np.all(u > 0) else f"u <= 0 at a shooting point (min {u.min():.3g} m/s)"
-
+    a, b = _model_units(display, float(start_value), float(stop_value), options, chord)
     if stop_at_invalid and not validity:
         raise ValueError("stop_at_invalid needs validity=True (the validity of every point)")
+    points, steps = int(points or cfg.solve.points), int(steps_per_period or cfg.solve.steps_per_period)
+    ode, prob = _problem(cfg, compiled, model_key, level, climb_rate_mps, bounds)
+    ws = start.cycle if isinstance(start, TrimResult) else start
+    options.setdefault("scales", {"states": 1.0, "free": 10.0})
     events = validity_events(cfg, steps, ode, stop_at_invalid) if validity else None
-    br = continuation(prob, model_key, a, b, points=points, steps_per_period=steps, start=ws, accept=accept,
+    br = continuation(prob, model_key, a, b, points=points, steps_per_period=steps, start=ws, accept=forward_flight,
                       progress=progress, events=events, **options)
     br.settings.update({"key": key, "display": display, "level": bool(level), "climb_rate_mps": climb_rate_mps,
-                        "stop_at_invalid": bool(stop_at_invalid),
-                        "reference_chord_m": chord, "config_amplitude_deg": cfg.gait.shoulder_flap.amplitude_deg})
+                        "stop_at_invalid": bool(stop_at_invalid), "reference_chord_m": chord,
+                        "config_amplitude_deg": cfg.gait.shoulder_flap.amplitude_deg})
     if display == STABILITY_MARGIN:
         br.settings["stability_margin_percent"] = [sm_percent(p.parameter, chord) for p in br.points]
     if validity:
         add_validity(cfg, br, steps, ode)
-    if six:
+    return _with_lateral_split(cfg, br, steps, points)
+
+
+def _with_lateral_split(cfg, br: Branch, steps: int, points: int) -> Branch:
+    """``br``, with six degrees of freedom given its per-point longitudinal/lateral split
+    (:func:`birdocp.studies.lateral.add_lateral_split`)."""
+    if cfg.model.degrees_of_freedom == 6:
         from birdocp.studies.lateral import add_lateral_split
 
         add_lateral_split(cfg, br, steps, points)
     return br
+
+
+def _problem(cfg, compiled, model_key: str, level: bool, climb_rate_mps: float, bounds):
+    """``(ode, problem)`` of a branch: the planar bird's (:func:`bird_problem`) or, with six degrees of
+    freedom, the heading-free 6-DOF model's (:func:`birdocp.studies.lateral.branch_problem`)."""
+    if cfg.model.degrees_of_freedom == 6:
+        from birdocp.studies.lateral import branch_problem
+
+        return branch_problem(cfg, model_key, level, climb_rate_mps, bounds)
+    m = get_model(cfg)
+    ode = solver_ode(m, compiled)
+    return ode, bird_problem(cfg, m, ode, model_key, level, climb_rate_mps, bounds)
+
+
+def _model_units(display: str, a: float, b: float, options: dict, chord: float) -> tuple:
+    """The interval (and ``step``, ``max_dparam`` in ``options``, in place) in the model parameter's
+    units: a stability margin in percent becomes the root position in metres."""
+    if display != STABILITY_MARGIN:
+        return a, b
+    if options.get("step"):
+        options["step"] = abs(root_of_sm(options["step"], chord))  # SM percent -> metres
+    if options.get("max_dparam"):
+        options["max_dparam"] = abs(root_of_sm(options["max_dparam"], chord))
+    return root_of_sm(a, chord), root_of_sm(b, chord)
+
+
+def bird_problem(cfg, m, ode, model_key: str, level: bool, climb_rate_mps: float, bounds) -> LimitCycleProblem:
+    """The bird's limit-cycle problem of a branch: at fixed gait, or (``level``) with the amplitude
+    free (within ``bounds``, default the level-flight bounds) and the mean vertical speed held at
+    ``climb_rate_mps``."""
+    guess = m.complete_state(cfg.solve.initial_guess, m.p0)
+    if not level:
+        return LimitCycleProblem(ode, m.p0, guess, outputs=flight_outputs(m.ode.nd, m.ode.nx))
+    if model_key == AMPLITUDE_KEY:
+        raise ValueError("with level flight held the amplitude is solved for: continue another parameter")
+    lo, hi = bounds if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)
+    outputs = flight_outputs(m.ode.nd, m.ode.nx)
+    cond = MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")
+    return LimitCycleProblem(ode, m.p0, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
+                             outputs={"forward_speed_mps": outputs["forward_speed_mps"]})
+
+
+def forward_flight(pt) -> str | None:
+    """Why a branch point is not a forward flight (u <= 0 at a shooting point), or None."""
+    u = np.asarray(pt.shooting_points)[:, 0]
+    return None if np.all(u > 0) else f"u <= 0 at a shooting point (min {u.min():.3g} m/s)"
 
 
 VALIDITY_LOCATE_TOL = 1e-7

@@ -47,7 +47,7 @@ from birdocp.engine.results import result_dict, serial
 __all__ = ["DEFAULT_CONTROLS", "ACCEPTABLE_STATE", "ACCEPTABLE_CONTROL_DEG", "DEFAULT_LIMIT_DEG",
            "WingbeatMap", "Controller", "wingbeat_map", "periodic_lqr", "design_controller",
            "resolve_controls", "bryson_weights", "default_limits", "sorted_eigs", "reference_cycle",
-           "closed_loop_monodromy", "CONTROL_ALIASES", "PerModel"]
+           "closed_loop_monodromy", "CONTROL_ALIASES", "PerModel", "linearise", "controller_on_map"]
 
 DEFAULT_CONTROLS = ("gait.shoulder_incidence.offset_deg", "gait.shoulder_flap.amplitude_deg",
                     "gait.shoulder_sweep.offset_deg")
@@ -92,24 +92,26 @@ def _acceptable(cfg: Config, key: str) -> float:
 
 def bryson_weights(cfg: Config, controls, acceptable_state=ACCEPTABLE_STATE, acceptable_control=None):
     """(Q, R) = (diag(1/dx_max^2), diag(1/du_max^2)): Bryson's rule in the state's and the controls'
-    own units. ``acceptable_control``: one value per control (default :data:`ACCEPTABLE_CONTROL_DEG`)."""
+    own units. ``acceptable_state``: one value per state (default :data:`ACCEPTABLE_STATE`, the
+    planar 4); ``acceptable_control``: one value per control (default :data:`ACCEPTABLE_CONTROL_DEG`)."""
     dx = np.asarray(acceptable_state, float)
     du = (np.array([_acceptable(cfg, k) for k in controls]) if acceptable_control is None
           else np.asarray(acceptable_control, float))
-    if dx.shape != (4,) or not np.all(dx > 0) or du.shape != (len(controls),) or not np.all(du > 0):
-        raise ConfigError("weights", "acceptable deviations must be positive: 4 for the state, one per control")
+    if dx.ndim != 1 or not np.all(dx > 0) or du.shape != (len(controls),) or not np.all(du > 0):
+        raise ConfigError("weights", "acceptable deviations must be positive: one per state, one per control")
     return np.diag(1.0 / dx ** 2), np.diag(1.0 / du ** 2)
 
 
-def default_limits(cfg: Config, controls, p, limit_deg: float = DEFAULT_LIMIT_DEG) -> np.ndarray:
+def default_limits(cfg: Config, controls, p, limit_deg: float = DEFAULT_LIMIT_DEG, names=PARAM_NAMES) -> np.ndarray:
     """(m, 2) absolute joint limits: the cycle value +- ``limit_deg`` (amplitudes not below 0,
-    angles within the configuration's [-180, 180] deg); other units +- 20 %."""
+    angles within the configuration's [-180, 180] deg); other units +- 20 %. ``names``: the names of
+    ``p`` (default :data:`PARAM_NAMES`). A per-side offset's limits are those of the offset itself."""
     out = []
     for k in controls:
-        v = float(p[PARAM_NAMES.index(k)])
+        v = float(p[list(names).index(k)])
         if k.endswith("_deg"):
             lo, hi = max(v - limit_deg, -180.0), min(v + limit_deg, 180.0)
-            if k.endswith("amplitude_deg"):
+            if k.endswith("amplitude_deg") and "_offset." not in k:
                 lo = max(lo, 0.0)
         else:
             lo, hi = v - 0.2 * abs(v), v + 0.2 * abs(v)
@@ -149,12 +151,14 @@ class PerModel:
 
 class _Linearisation(PerModel):
     """CasADi Functions of one interval of the beat for (model, steps, N): end state, state Jacobian
-    and directional derivatives along the data/parameter directions of the controls."""
+    and directional derivatives along the data/parameter directions of the controls. ``model``: any
+    object with ``ode`` (a :class:`~birdocp.engine.problem.PeriodicODE` of nx states), ``data`` (its
+    data Function) and ``model`` (the identity it is cached by)."""
 
     def __init__(self, model, steps: int, n_intervals: int):
         self.model = model.model
         self.grid = grid = RK4Grid(model.ode, steps, n_intervals)
-        nx, nd, np_ = 4, model.ode.nd, model.ode.np
+        nx, nd, np_ = model.ode.nx, model.ode.nd, model.ode.np
         x = ca.MX.sym("x", nx)
         Dn = ca.MX.sym("D", nd, 3 * grid.n)
         p = ca.MX.sym("p", np_)
@@ -173,12 +177,14 @@ class WingbeatMap:
     """The linearised wingbeat map with controls, at a cycle.
 
     controls: the control keys; updates_per_beat: N; x0: the cycle's state at the beat start;
-    p: the cycle's parameters; x_starts (N, 4): the cycle's state at each interval start;
-    A (N, 4, 4), B (N, 4, m): interval maps (B per unit of each control's own unit, e.g. per deg);
-    M (4, 4): the monodromy A_{N-1}..A_0; B_lifted (4, N m): the response of the state one beat later
+    p: the cycle's parameters; x_starts (N, n): the cycle's state at each interval start;
+    A (N, n, n), B (N, n, m): interval maps (B per unit of each control's own unit, e.g. per deg);
+    M (n, n): the monodromy A_{N-1}..A_0; B_lifted (n, N m): the response of the state one beat later
     to each interval's control (columns interval-major); cycle_validity: the exact validity of the
     cycle (:meth:`birdocp.bird.validity.CycleValidity.to_dict`; whether the model holds on the
-    cycle the controller is designed around).
+    cycle the controller is designed around); param_names, state_names: the names of ``p`` and
+    of the n states (the planar model's 4 by default; the six-degree-of-freedom map of
+    :mod:`birdocp.studies.lateral_control` has 8).
     """
 
     controls: list
@@ -190,10 +196,16 @@ class WingbeatMap:
     A: np.ndarray
     B: np.ndarray
     cycle_validity: dict | None = None
+    param_names: tuple = PARAM_NAMES
+    state_names: tuple = ("u_mps", "w_mps", "q_radps", "theta_rad")
+
+    @property
+    def n_states(self) -> int:
+        return int(self.A.shape[1])
 
     @property
     def M(self) -> np.ndarray:
-        out = np.eye(4)
+        out = np.eye(self.n_states)
         for Ai in self.A:
             out = Ai @ out
         return out
@@ -202,7 +214,7 @@ class WingbeatMap:
     def B_lifted(self) -> np.ndarray:
         N, cols = self.updates_per_beat, []
         for i in range(N):
-            T = np.eye(4)
+            T = np.eye(self.n_states)
             for j in range(i + 1, N):
                 T = self.A[j] @ T
             cols.append(T @ self.B[i])
@@ -244,23 +256,37 @@ def wingbeat_map(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int 
                           "change it or solve.steps_per_period")
     if not c.success:
         raise ValueError("the cycle did not converge: the wingbeat map needs a converged cycle")
-    m = get_model(cycle_result.cfg)
-    lin = _Linearisation.get(m, steps, N)
+    xs, A, B = linearise(get_model(cycle_result.cfg), c.x0, c.p, steps, N,
+                         [PARAM_NAMES.index(k) for k in controls])
+    v = getattr(cycle_result, "validity", None)
+    return WingbeatMap(list(controls), N, steps, np.asarray(c.x0, float), np.asarray(c.p, float), xs, A, B,
+                       v.to_dict() if v is not None else None)
+
+
+def linearise(model, x0, p, steps: int, updates_per_beat: int, control_index):
+    """The interval maps of the wingbeat map at a cycle: ``(x_starts (N, n), A (N, n, n), B (N, n, m))``.
+
+    ``model``: an object with ``ode``, ``data`` and ``model`` (:class:`_Linearisation`); ``x0`` the
+    cycle's start state, ``p`` its parameter vector, ``control_index`` the indices in ``p`` of the m
+    controls (held over each of the N intervals). Exact forward AD through the per-time data and
+    every RK4 step of the ``steps``-step grid."""
+    N = int(updates_per_beat)
+    lin = _Linearisation.get(model, steps, N)
     grid = lin.grid
-    p = np.asarray(c.p, float)
+    p = np.asarray(p, float)
     times = ca.DM(grid.times(0.0)).reshape((1, -1))
     Dgrid = grid.data_grid(times, ca.DM(p))
     idx = grid.block_index
-    nm = len(controls)
+    nm, nx = len(control_index), model.ode.nx
     dDs, dps = [], []
-    for key in controls:
+    for k in control_index:
         ep = np.zeros(len(p))
-        ep[PARAM_NAMES.index(key)] = 1.0
+        ep[k] = 1.0
         dDs.append(lin.data_fwd(times, ca.DM(p), Dgrid, ca.DM.zeros(1, lin.n_times), ca.DM(ep))[:, idx])
         dps.append(ca.DM(ep))
     width = 3 * grid.n
-    x = ca.DM(np.asarray(c.x0, float))
-    xs, A, B = [], np.zeros((N, 4, 4)), np.zeros((N, 4, nm))
+    x = ca.DM(np.asarray(x0, float))
+    xs, A, B = [], np.zeros((N, nx, nx)), np.zeros((N, nx, nm))
     D = Dgrid[:, idx]
     for i in range(N):
         cols = slice(width * i, width * (i + 1))
@@ -270,9 +296,7 @@ def wingbeat_map(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int 
             B[i, :, j] = np.asarray(Ju).ravel()
         A[i] = np.asarray(Jx)
         x = xe
-    v = getattr(cycle_result, "validity", None)
-    return WingbeatMap(list(controls), N, steps, np.asarray(c.x0, float), p, np.array(xs), A, B,
-                       v.to_dict() if v is not None else None)
+    return np.array(xs), A, B
 
 
 def periodic_lqr(A, B, Q, R):
@@ -342,7 +366,7 @@ def _single_control(wm: WingbeatMap, j: int, Q, R) -> dict:
     unstable = np.abs(lam) >= 1.0
     Bl = wm.B_lifted[:, j::len(wm.controls)]  # this control's columns, one per interval
     scale = np.linalg.norm(wm.M, 2) + np.linalg.norm(Bl, 2)
-    pbh = [float(np.linalg.svd(np.hstack([lam[i] * np.eye(4) - wm.M, Bl]), compute_uv=False)[-1] / scale)
+    pbh = [float(np.linalg.svd(np.hstack([lam[i] * np.eye(wm.n_states) - wm.M, Bl]), compute_uv=False)[-1] / scale)
            for i in np.nonzero(unstable)[0]]
     stabilisable = bool(all(s > 1e-9 for s in pbh))
     modal = W[0] @ Bl  # input of the expanding mode (v normalised to unit 2-norm)
@@ -442,10 +466,12 @@ class Controller:
             "open_loop_spectral_radius": np.max(np.abs(ol)), "closed_loop_spectral_radius": rho,
             "beats_to_reduce_100x": (math.log(100.0) / -math.log(rho)) if 0 < rho < 1 else None,
             "gain": self.K[0],
-            "gain_units": "control unit (deg) per state unit (u, w: m/s; q: rad/s; theta: rad)",
+            "gain_units": ("control unit (deg) per state unit (u, w: m/s; q: rad/s; theta: rad)" if wm.n_states == 4 else
+                           "control unit (deg) per state unit (u, v, w: m/s; p, q, r: rad/s; phi, theta: rad)"),
+            "state_names": list(wm.state_names),
             "controllable": {r["control"]: r["stabilisable"] for r in self.per_control},
-            "cycle_x0": wm.x0, "cycle_controls": [wm.p[PARAM_NAMES.index(k)] for k in wm.controls],
-            "cycle_amplitude_deg": wm.p[PARAM_NAMES.index("gait.shoulder_flap.amplitude_deg")],
+            "cycle_x0": wm.x0, "cycle_controls": [wm.p[list(wm.param_names).index(k)] for k in wm.controls],
+            "cycle_amplitude_deg": wm.p[list(wm.param_names).index("gait.shoulder_flap.amplitude_deg")],
             "cycle_validity": wm.cycle_validity,
             "cycle_valid": None if wm.cycle_validity is None else bool(wm.cycle_validity.get("valid")),
             "x_starts": wm.x_starts, "A": wm.A, "B": wm.B, "monodromy": wm.M, "B_lifted": wm.B_lifted})
@@ -485,6 +511,14 @@ def design_controller(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat:
     Qd, Rd = bryson_weights(cycle_result.cfg, wm.controls)
     Q = Qd if Q is None else np.asarray(Q, float)
     R = Rd if R is None else np.asarray(R, float)
+    return controller_on_map(wm, Q, R, default_limits(cycle_result.cfg, wm.controls, wm.p, limit_deg))
+
+
+def controller_on_map(wm: WingbeatMap, Q, R, limits) -> Controller:
+    """The periodic LQR of a linearised wingbeat map (any number of states) with weights ``Q``, ``R``
+    and the analysis of each control alone; ``limits`` (m, 2) go to the controller. Raises
+    ``numpy.linalg.LinAlgError`` carrying ``wingbeat_map`` and ``per_control`` when no stabilising
+    solution exists (:func:`design_controller`)."""
     per = [_single_control(wm, j, Q, R) for j in range(len(wm.controls))]
     try:
         P, K = periodic_lqr(wm.A, wm.B, Q, R)
@@ -492,7 +526,7 @@ def design_controller(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat:
         # the analysis survives the failure: the wingbeat map and each control alone
         exc.wingbeat_map, exc.per_control = wm, per
         raise
-    return Controller(wm, Q, R, P, K, default_limits(cycle_result.cfg, wm.controls, wm.p, limit_deg), per)
+    return Controller(wm, Q, R, P, K, np.asarray(limits, float), per)
 
 
 def reference_cycle(cfg: Config, level: bool = False):

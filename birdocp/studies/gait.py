@@ -32,18 +32,18 @@ from birdocp.bird.config import require_body_states, PARAM_NAMES, Config, Config
 from birdocp.bird.validity import periodic_validity
 from birdocp.engine.floquet import sort_multipliers
 from birdocp.engine.results import result_dict, serial
+from birdocp.io.progress import text_reporter
 
 __all__ = ["ReducedLevelCycle", "ReducedProblem", "GaitOptimum", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
            "level_at_speed", "power_curve", "SPEED_KEY", "stability_pareto", "jury_conditions", "valid_power_curve",
            "curve_optima",
            "check_free_keys"]
 
-AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
+from birdocp.bird.keys import AMPLITUDE_BOUNDS_DEG, AMPLITUDE_KEY, JURY_MARGIN  # noqa: E402
 SPEED_KEY = "gait.shoulder_incidence.offset_deg"
 """The gait parameter that holds the forward speed in the power curve (with the amplitude holding
 level flight): the wing's mean incidence."""
 OBJECTIVES = ("power", "cost-of-transport", "positive-power")
-JURY_MARGIN = 1e-6
 POSITIVE_EPS_W = 0.05
 """Smoothing of max(P, 0) in the positive-power objective, 1/2 (P + sqrt(P^2 + eps^2)), error <= eps/2."""
 
@@ -627,7 +627,7 @@ class ReducedProblem:
 
 def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, objective: str = "power",
                   speed_mps: float | None = None, max_multiplier: float | None = None,
-                  climb_rate_mps: float = 0.0, amplitude_bounds=(20.0, 70.0),
+                  climb_rate_mps: float = 0.0, amplitude_bounds=AMPLITUDE_BOUNDS_DEG,
                   steps_per_period: int | None = None, max_iter: int = 100, tol: float = 1e-8,
                   verify: bool = True, progress=False, start: dict | None = None, x_guess=None,
                   ipopt_options: dict | None = None, hessian: str = "sr1",
@@ -802,6 +802,7 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
         start_value = float("nan")  # the configured gait does not fly level at this speed
     start_mult = ev0.multipliers
     from birdocp.engine.oracle import ConstraintOracle, FixedHessian, StencilHessian
+    from birdocp.engine.oracle import ipopt_options as one_ipopt_front  # the one set of IPOPT options
 
     zs = ca.MX.sym("z", prob.nz)
     scale2 = np.multiply.outer(prob.sigma, prob.sigma)[:, None, :]  # [k, ., j]: sigma_k sigma_j
@@ -813,12 +814,12 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
     nlp = {"x": zs, "f": G[0], "g": G[1:]}
     # SR1 limited-memory updates (BFGS crept along the speed constraint in 0.015-deg steps, and did not
     # converge on the stability radius); r is bounded by twice its start (SR1 took wild steps in r)
-    opts = {"ipopt.hessian_approximation": "limited-memory" if hessian == "sr1" else "exact",
+    opts = one_ipopt_front(**{"ipopt.hessian_approximation": "limited-memory" if hessian == "sr1" else "exact",
             "ipopt.limited_memory_update_type": "sr1",
             "ipopt.sb": "yes",
             "ipopt.print_level": 5 if progress is True else 0, "print_time": False, "ipopt.max_iter": int(max_iter),
             "ipopt.tol": tol, "ipopt.constr_viol_tol": 1e-8, "ipopt.acceptable_tol": 1e-6,
-            "ipopt.acceptable_iter": 5, "ipopt.mu_strategy": "adaptive", "ipopt.nlp_scaling_method": "gradient-based", **(ipopt_options or {})}
+            "ipopt.acceptable_iter": 5, "ipopt.mu_strategy": "adaptive", "ipopt.nlp_scaling_method": "gradient-based", **(ipopt_options or {})})
     solver = ca.nlpsol("gait", "ipopt", nlp, opts)
     glo, ghi = prob.bounds_g()
     t0 = time.perf_counter()
@@ -972,7 +973,7 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
                 row["message"] = str(e)
                 rows.append(row)
                 if progress:
-                    print(f"power curve: {s:.3g} m/s failed: {e}", flush=True)
+                    text_reporter(progress, "power curve")(f"{s:.3g} m/s failed: {e}")
                 break
             ev_prev = ev
             p = rc.pfull(ev.theta, ev.amplitude_deg)
@@ -990,8 +991,9 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
                         "largest_modulus": float(np.max(np.abs(lam))), "validity": v, "valid": bool(v["valid"])})
             rows.append(row)
             if progress:
-                print(f"power curve: U {s:6.2f} m/s  {key} {ev.theta[0]:8.4f}  A {ev.amplitude_deg:8.4f} deg  "
-                      f"P {e['mean_shoulder_power_W']:8.4f} W  |L1| {row['largest_modulus']:.4f}", flush=True)
+                text_reporter(progress, "power curve")(f"U {s:6.2f} m/s  {key} {ev.theta[0]:8.4f}  A "
+                                                       f"{ev.amplitude_deg:8.4f} deg  P {e['mean_shoulder_power_W']:8.4f} W"
+                                                       f"  |L1| {row['largest_modulus']:.4f}")
     rows.sort(key=lambda r: r["speed_mps"])
     return {"key": key, "rows": rows} | curve_optima(rows)
 

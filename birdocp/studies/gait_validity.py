@@ -24,7 +24,7 @@ TIGHTEN_FACTOR = 1.25
 """A crossed limit's smooth bound moves inward by this factor times the exact measure's excess."""
 _MIN_STEP = {"stalled_fraction": 1e-3, "min_forward_speed_mps": 0.01, "max_abs_pitch_deg": 0.01,
              "max_airflow_body_angle_deg": 0.01}
-AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
+from birdocp.bird.keys import AMPLITUDE_KEY  # noqa: E402
 WARM_IPOPT = {"ipopt.mu_init": 1e-6, "ipopt.mu_strategy": "monotone", "ipopt.bound_push": 1e-8,
               "ipopt.bound_frac": 1e-8}
 """IPOPT options of a re-solve from the previous round's optimum (no push away from active constraints)."""

@@ -21,9 +21,10 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, param_vector
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, param_vector
 from birdocp.bird.flight import flight_path_angle_deg
 from birdocp.bird.keys import AMPLITUDE_KEY
+from birdocp.bird.sides import side_vector
 from birdocp.bird.sixdof import HEADING, LATERAL, LONGITUDINAL, STATE_NAMES, LateralInertia, embed_planar_state, \
     sixdof_model
 from birdocp.bird.validity import CycleValidity, periodic_validity
@@ -36,9 +37,8 @@ from birdocp.studies.level import default_bounds
 from birdocp.studies.trim import check_physical
 
 __all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "beats_to_double", "lateral_sensitivities",
-           "LATERAL_SENSITIVITY_KEYS",
-           "TAIL_SENSITIVITY_KEY", "level_keywords", "solve_point", "reduced_ode", "branch_parts", "planar_point",
-           "add_lateral_split", "N_REDUCED"]
+           "LATERAL_SENSITIVITY_KEYS", "heading_trajectory", "TAIL_SENSITIVITY_KEY", "level_keywords",
+           "solve_point", "branch_problem", "planar_point", "add_lateral_split"]
 
 
 def beats_to_double(multiplier: complex) -> float:
@@ -85,7 +85,13 @@ class LateralTrimResult:
     (largest modulus first), the longitudinal (u, w, q, theta) and lateral (v, p, r, phi) ones, the
     heading multiplier (1), the largest coupling entry of the monodromy between the blocks, the
     labelled lateral modes, the inertia used, the validity of the cycle (of its planar part: the
-    cycle is symmetric) and, in level flight, the solved flapping amplitude."""
+    cycle is symmetric) and, in level flight, the solved flapping amplitude.
+
+    An asymmetric gait (per-side offsets, :mod:`birdocp.bird.sides`; ``symmetric`` False) flies a
+    cycle periodic up to its heading: ``cycle`` then has the 8 states without psi, ``heading_change_deg``
+    is psi(T) - psi(0) over one beat, ``multipliers`` are its 8 and the heading's 1 (the split into
+    longitudinal and lateral ones and the lateral mode labels are left empty: the blocks couple,
+    ``coupling_max`` says how much) and ``validity`` is None (the validity checks are planar)."""
 
     cycle: LimitCycleResult = field(metadata=serial(skip=True))
     multipliers: np.ndarray = field(metadata=serial(complex=True))
@@ -97,6 +103,8 @@ class LateralTrimResult:
     inertia: dict
     amplitude_deg: float
     validity: CycleValidity | None = None
+    symmetric: bool = True
+    heading_change_deg: float = 0.0
 
     @property
     def success(self) -> bool:
@@ -111,6 +119,9 @@ class LateralTrimResult:
     @property
     def stable(self) -> bool | None:
         """Every multiplier but the heading's inside the unit circle."""
+        if not self.symmetric and len(self.multipliers) and np.all(np.isfinite(self.multipliers)):
+            rest = sorted(self.multipliers, key=lambda z: abs(z - 1.0))[1:]  # the heading's 1 left out
+            return bool(np.all(np.abs(rest) < 1.0))
         if not len(self.lateral_multipliers):
             return None
         return bool(self.lateral_stable and np.all(np.abs(self.longitudinal_multipliers) < 1.0))
@@ -123,7 +134,7 @@ class LateralTrimResult:
         own = {f.name for f in fields(self)} | {"success", "stable", "lateral_stable"}
         extra = {k: v for k, v in self.cycle.to_dict().items() if k not in own}
         extra.update({
-            "state_names": list(STATE_NAMES), "degrees_of_freedom": 6,
+            "state_names": list(STATE_NAMES if self.symmetric else STATE_NAMES[:HEADING]), "degrees_of_freedom": 6,
             "moduli": [float(abs(z)) for z in self.multipliers],
             "mean_vertical_speed_mps": self.mean_vertical_speed_mps,
             "mean_forward_speed_mps": self.mean_forward_speed_mps,
@@ -176,20 +187,24 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     cfg = cfg or Config()
     six = sixdof_model(cfg)
     inertia = inertia or LateralInertia.of(cfg)
-    p6 = six.params(param_vector(cfg), inertia)
+    asym = six.sides  # per-side offsets: periodic up to the heading, the 8 states without psi solved
+    p6 = six.params(param_vector(cfg), inertia, side_vector(cfg) if asym else None)
     method = method or MultipleShooting(**{"points": cfg.solve.points, "steps_per_period": cfg.solve.steps_per_period,
-                                           **method_over})
+                                           "max_iter": cfg.solve.max_iter, "tol": cfg.solve.tol or None, **method_over})
     guess = embed_planar_state(cfg.solve.initial_guess) if x_guess is None else x_guess
-    outputs = six.flight_outputs()
+    outputs = six.flight_outputs(8 if asym else 9)
     free, means = {}, []
     if level:
         free = {AMPLITUDE_KEY: tuple(bounds) if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)}
         means = [MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")]
-    problem = LimitCycleProblem(ode=six.ode, p=p6, x_guess=guess, free=free, means=means,
+    problem = LimitCycleProblem(ode=six.ode_no_heading if asym else six.ode, p=p6,
+                                x_guess=list(guess)[:8] if asym else guess, free=free, means=means,
                                 outputs={k: f for k, f in outputs.items() if not (level and k == "vertical_speed_mps")})
     ws = getattr(warm_start, "cycle", warm_start)
     cyc = check_physical(solve(problem, method, warm_start=ws))  # u <= 0 somewhere: not a forward flight, as the planar trim
     amplitude = float(cyc.free_values.get(AMPLITUDE_KEY, cfg.gait.shoulder_flap.amplitude_deg))
+    if asym:
+        return _split_asymmetric(six, cyc, method, inertia, amplitude)
     return _split(cfg, cyc, six.ode.period_s, method, inertia, amplitude)
 
 
@@ -218,6 +233,32 @@ def solve_point(cfg: Config, *, level: bool = False, level_options: dict | None 
     """
     kw = level_keywords(level_options) if level else {}
     return lateral_trim(cfg, warm_start=warm_start, **kw, **method_over)
+
+
+def heading_trajectory(six, cycle, steps_per_period: int | None = None):
+    """``(t, X)``: the 9 states over one beat from a cycle's start with psi(0) = 0 (RK4 on the trim's
+    grid; the 8-state cycle of an asymmetric gait with its heading, or a 9-state cycle)."""
+    from birdocp.engine.integrate import simulate as rk4
+
+    x0 = list(np.asarray(cycle.x0, float))[:8] + [0.0]
+    steps = int(steps_per_period or cycle.method["steps_per_period"])
+    return rk4(six.ode, x0, cycle.p, steps_per_period=steps)
+
+
+def _split_asymmetric(six, cyc, method, inertia, amplitude) -> LateralTrimResult:
+    none = np.full(0, np.nan)
+    if cyc.monodromy is None:
+        return LateralTrimResult(cyc, none, none, none, float("nan"), float("nan"), [], _inertia_dict(inertia),
+                                 amplitude, None, symmetric=False, heading_change_deg=float("nan"))
+    M = np.asarray(cyc.monodromy)
+    lon, lat = list(LONGITUDINAL), list(LATERAL)
+    coupling = float(max(np.abs(M[np.ix_(lon, lat)]).max(), np.abs(M[np.ix_(lat, lon)]).max()))
+    _, X = heading_trajectory(six, cyc, method.steps_per_period)
+    return LateralTrimResult(
+        cycle=cyc, multipliers=sort_multipliers(list(cyc.multipliers) + [1.0]), longitudinal_multipliers=none,
+        lateral_multipliers=none, heading_multiplier=1.0, coupling_max=coupling, lateral_modes=[],
+        inertia=_inertia_dict(inertia), amplitude_deg=amplitude, validity=None, symmetric=False,
+        heading_change_deg=float(np.degrees(X[-1, HEADING] - X[0, HEADING])))
 
 
 def _split(cfg, cyc, T, method, inertia, amplitude) -> LateralTrimResult:
@@ -325,41 +366,26 @@ def _labels(lam, res: LateralTrimResult) -> list[str]:
 # ----------------------------------------------------------------------------------------------
 # Continuation in six degrees of freedom: the heading dropped (nothing depends on it)
 
-N_REDUCED = 8
-"""States of the continuation ODE: (u, v, w, p, q, r, phi, theta), the heading psi left out. Nothing
-depends on psi, so its equation decouples and adds only the structural multiplier 1, which would sit
-on every fold and branch-point test function of the continuation."""
-
-
-def reduced_ode(cfg: Config):
-    """The 6-DOF :class:`~birdocp.engine.problem.PeriodicODE` without the heading (:data:`N_REDUCED`
-    states, same data and parameters) and its flight outputs (dict of Functions ``(x8, d, p)``), built
-    once per 6-DOF model."""
-    import casadi as ca
-
-    from birdocp.engine.problem import PeriodicODE
-
+def branch_problem(cfg: Config, model_key: str, level: bool, climb_rate_mps: float, bounds):
+    """``(ode, problem)`` of a 6-DOF continuation of ``cfg`` (:func:`birdocp.studies.branch.bird_branch`):
+    the heading-free ODE ``ode_no_heading`` (8 states; nothing depends on psi, whose multiplier 1 would
+    sit on every fold and branch-point test), at fixed gait or (``level``) with the amplitude free and
+    the mean vertical speed held at ``climb_rate_mps``."""
     six = sixdof_model(cfg)
-    if getattr(six, "_reduced", None) is None:
-        x = ca.SX.sym("x", N_REDUCED)
-        d = ca.SX.sym("d", six.rhs.size1_in(1))
-        p = ca.SX.sym("p", six.ode.np)
-        x9 = ca.vertcat(x, 0)
-        rhs = ca.Function("rhs6_reduced", [x, d, p], [six.rhs(x9, d, p)[:N_REDUCED]], ["x", "d", "p"], ["xdot"])
-        outs = {k: ca.Function(k, [x, d, p], [f(x9, d, p)]) for k, f in six.flight_outputs().items()}
-        o = six.ode
-        ode = PeriodicODE(rhs=rhs, data=o.data, period_s=o.period_s, state_names=STATE_NAMES[:N_REDUCED],
-                          param_names=o.param_names, pre=o.pre, post=o.post, pre_params=o.pre_params)
-        six._reduced = (ode, outs)
-    return six._reduced
-
-
-def branch_parts(cfg: Config):
-    """(ODE, parameter vector, start guess, flight outputs) of a 6-DOF continuation of ``cfg``
-    (:func:`birdocp.studies.branch.bird_branch`): the heading-free ODE of :func:`reduced_ode`."""
-    ode, outs = reduced_ode(cfg)
-    p6 = sixdof_model(cfg).params(param_vector(cfg), LateralInertia.of(cfg))
-    return ode, np.asarray(p6, float), np.array(embed_planar_state(cfg.solve.initial_guess)[:N_REDUCED]), outs
+    if six.sides:
+        raise ConfigError("model.degrees_of_freedom", "continue with an asymmetric gait (per-side offsets) is not "
+                                                      "written yet; continue the symmetric gait")
+    ode, outs = six.ode_no_heading, six.flight_outputs(HEADING)
+    p6 = np.asarray(six.params(param_vector(cfg), LateralInertia.of(cfg)), float)
+    guess = np.array(embed_planar_state(cfg.solve.initial_guess)[:HEADING])
+    if not level:
+        return ode, LimitCycleProblem(ode, p6, guess, outputs=outs)
+    if model_key == AMPLITUDE_KEY:
+        raise ValueError("with level flight held the amplitude is solved for: continue another parameter")
+    lo, hi = bounds if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)
+    cond = MeanCondition(outs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")
+    return ode, LimitCycleProblem(ode, p6, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
+                                  outputs={"forward_speed_mps": outs["forward_speed_mps"]})
 
 
 def planar_point(x0, p):
@@ -376,7 +402,7 @@ def add_lateral_split(cfg: Config, branch, steps_per_period: int, points: int) -
     period of the heading-free ODE; the heading's multiplier 1 is not part of the branch)."""
     from birdocp.engine.shooting import floquet
 
-    ode, _ = reduced_ode(cfg)
+    ode = sixdof_model(cfg).ode_no_heading
     lon, lat = list(LONGITUDINAL), list(LATERAL)
     rows = {"longitudinal_multipliers": [], "lateral_multipliers": [], "lateral_stable": [], "coupling_max": []}
     method = MultipleShooting(points=points, steps_per_period=steps_per_period)

@@ -38,7 +38,7 @@ import math
 from typing import TYPE_CHECKING
 
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest
-from birdocp.bird.keys import AMPLITUDE_KEY, KEY_ALIASES, ROOT_AHEAD_KEY, resolve_key
+from birdocp.bird.keys import AMPLITUDE_BOUNDS_DEG, AMPLITUDE_KEY, KEY_ALIASES, ROOT_AHEAD_KEY, resolve_key
 
 if TYPE_CHECKING:  # the model and the engine are imported on first solve (key checks stay light)
     from birdocp.studies.trim import TrimResult
@@ -65,13 +65,36 @@ def resolve_constraint(constrain: str, what: str = "constrain") -> str:
 def default_bounds(cfg: Config, key: str) -> tuple[float, float]:
     """Default bounds of a free parameter (see the module docstring)."""
     if key == AMPLITUDE_KEY:
-        return 20.0, 70.0
+        return AMPLITUDE_BOUNDS_DEG
     if key == ROOT_AHEAD_KEY:
         return -0.2, 0.3
     if key.endswith("_deg"):
         v = float(get_value(cfg, key))
         return v - 30.0, v + 30.0
     raise ConfigError("bounds", f"no default range for '{key}'; give bounds=(lo, hi)")
+
+
+def _checked_target(c: str, target) -> float:
+    """The finite target of condition ``c`` (ConfigError on ``target`` otherwise)."""
+    if target is None:
+        raise ConfigError("target", f"constrain='{c}' needs target=...")
+    target = float(target)
+    if not math.isfinite(target):
+        raise ConfigError("target", f"must be finite, got {target!r}")
+    if c == "flight_path_angle_deg" and not -89.0 < target < 89.0:
+        raise ConfigError("target", f"flight path angle must lie in (-89, 89) deg, got {target!r}")
+    return target
+
+
+def _checked_bounds(bounds) -> tuple[float, float]:
+    """(lo, hi) finite with lo < hi (ConfigError on ``bounds`` otherwise)."""
+    try:
+        lo, hi = (float(b) for b in bounds)
+    except (TypeError, ValueError):
+        raise ConfigError("bounds", f"expected (lo, hi), got {bounds!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise ConfigError("bounds", f"need finite lo < hi, got ({lo}, {hi})")
+    return lo, hi
 
 
 def _condition(constrain: str, target: float, nd: int | None = None, nx: int = 4):
@@ -91,7 +114,7 @@ def _condition(constrain: str, target: float, nd: int | None = None, nx: int = 4
 
 def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, climb_rate_mps: float = 0.0,
           constrain: str = "vertical_speed_mps", x_guess=None, warm_start=None, *, target: float | None = None,
-          compiled: bool | None = None, **method_over) -> "TrimResult":
+          compiled: bool = False, **method_over) -> "TrimResult":
     """Level (or climbing) periodic flight: ``free`` solved so that the mean of ``constrain`` is met.
 
     Parameters
@@ -115,9 +138,9 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
     target : float, optional
         Target of the condition for the other constraints (forward speed in m/s, flight path angle in
         deg); for the vertical speed it overrides ``climb_rate_mps``.
-    compiled : bool, optional
-        Use the RHS and data compiled to C (:func:`birdocp.studies.trim.solver_ode`; None:
-        ``$BIRDOCP_COMPILED``).
+    compiled : bool
+        Use the RHS and data compiled to C (:func:`birdocp.studies.trim.solver_ode`; the same
+        numbers, faster).
     **method_over
         Overrides of :class:`~birdocp.engine.shooting.MultipleShooting` (default ``cfg.solve``).
 
@@ -136,25 +159,8 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
     cfg = cfg or Config()
     key = resolve_key(free, "free")
     c = resolve_constraint(constrain)
-    if target is None:
-        target = climb_rate_mps if c == "vertical_speed_mps" else None
-        if target is None:
-            raise ConfigError("target", f"constrain='{c}' needs target=...")
-    target = float(target)
-    if not math.isfinite(target):
-        raise ConfigError("target", f"must be finite, got {target!r}")
-    if bounds is None:
-        lo, hi = default_bounds(cfg, key)
-    else:
-        try:
-            lo, hi = (float(b) for b in bounds)
-        except (TypeError, ValueError):
-            raise ConfigError("bounds", f"expected (lo, hi), got {bounds!r}") from None
-        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-            raise ConfigError("bounds", f"need finite lo < hi, got ({lo}, {hi})")
-    if c == "flight_path_angle_deg" and not -89.0 < target < 89.0:
-        raise ConfigError("target", f"flight path angle must lie in (-89, 89) deg, got {target!r}")
-
+    target = _checked_target(c, climb_rate_mps if target is None and c == "vertical_speed_mps" else target)
+    lo, hi = default_bounds(cfg, key) if bounds is None else _checked_bounds(bounds)
 
     from birdocp.bird.model import get_model
     from birdocp.engine.problem import LimitCycleProblem

@@ -39,17 +39,13 @@ from birdocp.engine import interrupts
 from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.engine.oracle import ConstraintOracle, ipopt_options
 from birdocp.engine.results import result_dict, serial
+from birdocp.io.progress import text_reporter
 from birdocp.studies.gait import check_free_keys, jury_conditions  # noqa: F401 (public here too)
+from birdocp.studies.gait_validity import WARM_IPOPT
 
 __all__ = ["DEFAULT_FREE", "METHODS", "check_free_keys", "optimize_stability", "StabilityOptimum", "jury_conditions"]
 
-AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
-JURY_MARGIN = 1e-6
-"""The Jury quantities are bounded below by this margin, not 0: the criterion needs the strict
-inequalities, and with ``>= 0`` an optimiser finds degenerate points of the Jury table (an equality in
-an intermediate row) where multipliers lie outside the circle (seen: r = 0.944 with a multiplier of
-modulus 1.034). With the margin every feasible point has all multipliers strictly inside the circle
-of radius r, at the cost of r exceeding the spectral radius by about the margin."""
+from birdocp.bird.keys import AMPLITUDE_BOUNDS_DEG, AMPLITUDE_KEY, JURY_MARGIN  # noqa: E402
 
 DEFAULT_FREE = {
     # key: (lower, upper) around the paper's gait; a biologically plausible range for the ibis
@@ -203,11 +199,7 @@ class _Evaluator:
         if self.progress:
             text = (f"Jacobian {self.n_jac}: r = {r:.6f}, largest |multiplier| = "
                     f"{np.max(np.abs(np.linalg.eigvals(M))):.6f}, periodicity {np.max(np.abs(xT - z[:4])):.1e}")
-            if callable(self.progress):
-                self.progress(text)
-            else:
-                import sys
-                print(f"optimize-stability: {text}", file=sys.stderr, flush=True)
+            text_reporter(self.progress, "optimize-stability")(text)
         return J
 
 
@@ -222,7 +214,7 @@ farther from the fine one)."""
 
 
 def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, climb_rate_mps: float = 0.0,
-                       amplitude_bounds=(20.0, 70.0), steps_per_period: int | None = None,
+                       amplitude_bounds=AMPLITUDE_BOUNDS_DEG, steps_per_period: int | None = None,
                        max_iter: int = 400, tol: float = 1e-7, verify: bool = True,
                        progress=False, coarse_steps: int | None | str = "auto", method: str = "reduced",
                        threads: int = 2, valid: bool = False) -> StabilityOptimum:
@@ -376,8 +368,7 @@ def _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter,
     from birdocp.studies.gait import optimize_gait
 
     warm = start is not None
-    opts = {"ipopt.mu_init": 1e-6, "ipopt.mu_strategy": "monotone", "ipopt.bound_push": 1e-8,
-            "ipopt.bound_frac": 1e-8} if warm else None
+    opts = dict(WARM_IPOPT) if warm else None  # the one set of re-solve options (gait_validity)
     fixed = second is not None and bool(np.all(np.isfinite(second)))
     hessian = "fd" if not warm else ("fixed" if fixed else "sr1")
     return optimize_gait(cfg, free, objective="stability", climb_rate_mps=climb_rate_mps,
@@ -424,7 +415,7 @@ def _verify(out: StabilityOptimum, cfg: Config, N: int, jury=None) -> None:
 
 
 def _optimize_full(cfg: Config | None = None, free: dict | None = None, *, climb_rate_mps: float = 0.0,
-                   amplitude_bounds=(20.0, 70.0), steps_per_period: int | None = None,
+                   amplitude_bounds=AMPLITUDE_BOUNDS_DEG, steps_per_period: int | None = None,
                    max_iter: int = 400, tol: float = 1e-7, verify: bool = True,
                    progress=False, coarse_steps: int | None = 48) -> StabilityOptimum:
     """The full-space formulation (``method="full"``): single shooting with the state at t = 0, the

@@ -23,7 +23,7 @@ import numpy as np
 
 __all__ = ["pareto_parallel", "pareto_row", "solve_point", "waves", "power_point"]
 
-AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
+from birdocp.bird.keys import AMPLITUDE_KEY  # noqa: E402
 
 
 def pareto_row(R: float, opt, inserted: bool = False) -> dict:

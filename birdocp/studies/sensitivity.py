@@ -34,7 +34,7 @@ from birdocp.bird.model import get_model
 
 __all__ = ["SensitivityResult", "multiplier_sensitivities", "cycle_derivatives", "DEFAULT_PARAMETERS", "unit_of", "SecondOrderMaps"]
 
-AMPLITUDE_KEY = "gait.shoulder_flap.amplitude_deg"
+from birdocp.bird.keys import AMPLITUDE_KEY  # noqa: E402
 
 DEFAULT_PARAMETERS = tuple(k for k in PARAM_NAMES
                            if k.startswith("gait.") or k in (

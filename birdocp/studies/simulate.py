@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import casadi as ca
 import numpy as np
@@ -213,11 +214,19 @@ class _Stepper(PerModel):
 
     def data(self, i: int, p) -> ca.DM:
         """Stage blocks of interval i for parameters p (the arm-frame shape ``pre`` memoised)."""
-        n = self.grid.n
-        cols = slice(2 * n * i, 2 * n * (i + 1) + 1)
-        L = self.grid.pre_numeric(0.0, p)[:, cols]
-        G = self.post_interval(L, ca.DM(self.times[:, cols]), ca.DM(np.asarray(p, float)))
-        return G[:, self.blocks]
+        return interval_data(self, i, p)
+
+
+def interval_data(stepper, i: int, p) -> ca.DM:
+    """Stage blocks of interval ``i`` for parameters ``p`` of a stepper with ``grid`` (an
+    :class:`~birdocp.engine.integrate.RK4Grid` of N intervals), ``post_interval`` (the ODE's ``post``
+    mapped over an interval's 2n + 1 times), ``times`` and ``blocks``; the arm-frame shape ``pre``
+    memoised by the grid."""
+    n = stepper.grid.n
+    cols = slice(2 * n * i, 2 * n * (i + 1) + 1)
+    L = stepper.grid.pre_numeric(0.0, p)[:, cols]
+    G = stepper.post_interval(L, ca.DM(stepper.times[:, cols]), ca.DM(np.asarray(p, float)))
+    return G[:, stepper.blocks]
 
 
 def nonlinear_beat_map(cfg, x0, params_per_interval, steps_per_period: int | None = None) -> np.ndarray:
@@ -358,6 +367,41 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
     if int(beats) < 1:
         raise ConfigError("--beats", f"must be >= 1, got {beats}")
     beats = int(beats)
+    r = _setup(cfg, x0_cycle, perturbation, steps_per_period, controller, p)
+    # distance flown per beat on the cycle (open loop, no wind): converts gust lengths in beats
+    zc = np.concatenate([r.x0_cycle, [0.0, 0.0], r.x_full[4:]])
+    for i in range(r.N):
+        zc = np.asarray(r.st.interval(zc, r.st.data(i, r.p_cyc), r.pd, np.zeros(8)))[:, -1]
+    beat_m = float(zc[4])
+    g, spans = _wind_vector(gusts, wind_mps, beat_m)
+    r.gd = ca.DM(g)
+    r.z = np.concatenate([r.x0_cycle + r.dx0, [0.0, 0.0], r.x_full[4:]])
+    r.traj, r.dev = [r.z[None, :]], [float(np.linalg.norm(r.dx0))]
+    r.status, r.message, r.diverged_beat = "ok", f"{beats} beats simulated", None
+    for k in range(beats):
+        if progress is not None:
+            progress(f"beat {k + 1}/{beats}")
+        for i in range(r.N):
+            _interval(r, cfg.validity, controller, k, i)
+            if r.status != "ok":
+                break
+        r.dev.append(float(np.linalg.norm(r.z[:4] - r.x0_cycle)) if r.status != "diverged" else float("nan"))
+        if r.status != "ok":
+            break
+        if (stop_when_recovered and max(r.dev) > 0 and r.dev[-1] <= max(r.dev) / 100.0
+                and all(r.z[4] > sp["start_m"] + sp["length_m"] for sp in spans)):
+            r.message = f"recovered after {k + 1} beats"
+            break
+    Z = np.vstack(r.traj)
+    t = np.arange(Z.shape[0]) * r.st.grid.h
+    ctrl_arr = np.array(r.ctrl) if r.ctrl else np.zeros((0, len(r.keys)))
+    return SimulationResult(r.status == "ok", r.status, r.message, controller is not None, beats, t, Z[:, :4],
+                            Z[:, 4], Z[:, 5], np.array(r.ctrl_t), ctrl_arr, r.keys, np.array(r.dev), r.saturated,
+                            beat_m, spans, r.max_inflow, r.min_air, r.u_cyc, r.max_stalled, r.diverged_beat)
+
+
+def _setup(cfg, x0_cycle, perturbation, steps_per_period, controller, p) -> SimpleNamespace:
+    """The checked inputs and the run's accumulators of :func:`simulate`."""
     m = get_model(cfg)
     x0_cycle = np.asarray(x0_cycle, float).ravel()
     x0_cycle = finite_vector(x0_cycle, "simulate x0_cycle", m.ode.nx if x0_cycle.size == m.ode.nx else 4,
@@ -366,95 +410,72 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
         perturbation = finite_vector(perturbation, "simulate perturbation", 4, "the state is (u, w, q, theta)")
     steps = int(steps_per_period or cfg.solve.steps_per_period)
     N = int(getattr(controller, "updates_per_beat", 1)) if controller is not None else 1
-    st = _Stepper.get(m, steps, N)
     p_cyc = np.asarray(m.p0 if p is None else p, float)
     keys = list(controller.controls) if controller is not None else []
     idx = [PARAM_NAMES.index(k) for k in keys]
-    u_cyc = p_cyc[idx]
     x_full = m.complete_state(x0_cycle, p_cyc)  # aerodynamic states on the quasi-steady manifold if not given
-    x0_cycle = x_full[:4]
-    dx0 = np.zeros(4) if perturbation is None else np.asarray(perturbation, float).ravel()
-    pd = ca.DM(p_cyc)
-    # distance flown per beat on the cycle (open loop, no wind): converts gust lengths in beats
-    zc = np.concatenate([x0_cycle, [0.0, 0.0], x_full[4:]])
-    for i in range(N):
-        zc = np.asarray(st.interval(zc, st.data(i, p_cyc), pd, np.zeros(8)))[:, -1]
-    beat_m = float(zc[4])
-    g, spans = _wind_vector(gusts, wind_mps, beat_m)
-    gd = ca.DM(g)
-    z = np.concatenate([x0_cycle + dx0, [0.0, 0.0], x_full[4:]])
-    traj, ctrl_t, ctrl = [z[None, :]], [], []
-    dev = [float(np.linalg.norm(dx0))]
-    saturated = False
-    max_inflow, min_air, max_stalled = 0.0, math.inf, 0.0
-    lim = cfg.validity
-    status, message, diverged_beat = "ok", f"{beats} beats simulated", None
-    T = m.period_s
-    for k in range(beats):
-        if progress is not None:
-            progress(f"beat {k + 1}/{beats}")
-        for i in range(N):
-            pk = p_cyc
-            if controller is not None:
-                du = -np.asarray(controller.K[i]) @ (z[:4] - np.asarray(controller.x_starts[i]))
-                u = u_cyc + du
-                lo, hi = np.asarray(controller.limits)[:, 0], np.asarray(controller.limits)[:, 1]
-                uc = np.clip(u, lo, hi)
-                saturated = saturated or bool(np.any(uc != u))
-                pk = p_cyc.copy()
-                pk[idx] = uc
-                ctrl_t.append((k + i / N) * T)
-                ctrl.append(uc)
-            if i == 0:
-                stalled_area = 0.0  # stalled share of the span-time area over this beat
-            D = st.data(i, pk)
-            with np.errstate(all="ignore"):
-                Zi = np.asarray(st.interval(z, D, pd, gd)).T
-            ok = _in_range(Zi)
-            if not np.all(ok):  # keep the states up to the first one out of range (the figure, the arrays)
-                Zi = Zi[:int(np.argmin(ok))]
-                status, diverged_beat = "diverged", k + 1
-                message = (f"diverged in beat {k + 1}: the state left the model's range (non-finite, speed above "
-                           f"{MAX_SPEED_MPS:g} m/s or |pitch rate| above {MAX_PITCH_RATE_RADPS:g} rad/s)")
-            traj.append(Zi)
-            z = Zi[-1] if len(Zi) else z
-            if status == "ok":
-                ae, ds, angle, u_air = (np.asarray(v) for v in st.validity(Zi.T, D[:, 2::3], ca.DM(pk), gd))
-                inflow = float(np.max(np.abs(angle)))
-                max_inflow = max(max_inflow, inflow)
-                min_air = min(min_air, float(np.min(u_air)))
-                pitch = float(np.degrees(np.max(np.abs(Zi[:, 3]))))
-                stalled_area += float(np.mean(((np.abs(ae) > lim.stall_angle_deg) * ds).sum(axis=0)
-                                              / ds.sum(axis=0))) / N
-                reasons = [text for bad, text in (
-                    (min_air < lim.min_forward_speed_mps,
-                     f"air-relative forward speed {min_air:.3g} m/s < {lim.min_forward_speed_mps:g} m/s"),
-                    (pitch > lim.max_abs_pitch_deg, f"|pitch| {pitch:.3g} > {lim.max_abs_pitch_deg:g} deg"),
-                    (inflow > lim.max_airflow_body_angle_deg,
-                     f"airflow at {inflow:.3g} deg to the body axis > {lim.max_airflow_body_angle_deg:g} deg"),
-                    (i == N - 1 and stalled_area > lim.max_stalled_fraction,
-                     f"{stalled_area:.1%} of the span-time area beyond the stall angle "
-                     f"{lim.stall_angle_deg:g} deg > {lim.max_stalled_fraction:.0%}")) if bad]
-                if i == N - 1:
-                    max_stalled = max(max_stalled, stalled_area)
-                if reasons:
-                    status = "left_validity"
-                    message = f"left the model's validity in beat {k + 1}: {', '.join(reasons)}"
-            if status != "ok":
-                break
-        dev.append(float(np.linalg.norm(z[:4] - x0_cycle)) if status != "diverged" else float("nan"))
-        if status != "ok":
-            break
-        if (stop_when_recovered and max(dev) > 0 and dev[-1] <= max(dev) / 100.0
-                and all(z[4] > s["start_m"] + s["length_m"] for s in spans)):
-            message = f"recovered after {k + 1} beats"
-            break
-    Z = np.vstack(traj)
-    t = np.arange(Z.shape[0]) * st.grid.h
-    ctrl_arr = np.array(ctrl) if ctrl else np.zeros((0, len(keys)))
-    return SimulationResult(status == "ok", status, message, controller is not None, beats, t, Z[:, :4],
-                            Z[:, 4], Z[:, 5], np.array(ctrl_t), ctrl_arr, keys, np.array(dev), saturated,
-                            beat_m, spans, max_inflow, min_air, u_cyc, max_stalled, diverged_beat)
+    return SimpleNamespace(
+        m=m, N=N, st=_Stepper.get(m, steps, N), p_cyc=p_cyc, pd=ca.DM(p_cyc), keys=keys, idx=idx, u_cyc=p_cyc[idx],
+        x_full=x_full, x0_cycle=x_full[:4], T=m.period_s,
+        dx0=np.zeros(4) if perturbation is None else np.asarray(perturbation, float).ravel(),
+        ctrl_t=[], ctrl=[], saturated=False, max_inflow=0.0, min_air=math.inf, max_stalled=0.0, stalled_area=0.0)
+
+
+def _interval(r: SimpleNamespace, lim, controller, k: int, i: int) -> None:
+    """Interval i of beat k of :func:`simulate`: the controls, the RK4 steps, the range and validity
+    checks (updates ``r``)."""
+    N = r.N
+    pk = r.p_cyc
+    if controller is not None:
+        du = -np.asarray(controller.K[i]) @ (r.z[:4] - np.asarray(controller.x_starts[i]))
+        u = r.u_cyc + du
+        lo, hi = np.asarray(controller.limits)[:, 0], np.asarray(controller.limits)[:, 1]
+        uc = np.clip(u, lo, hi)
+        r.saturated = r.saturated or bool(np.any(uc != u))
+        pk = r.p_cyc.copy()
+        pk[r.idx] = uc
+        r.ctrl_t.append((k + i / N) * r.T)
+        r.ctrl.append(uc)
+    if i == 0:
+        r.stalled_area = 0.0  # stalled share of the span-time area over this beat
+    D = r.st.data(i, pk)
+    with np.errstate(all="ignore"):
+        Zi = np.asarray(r.st.interval(r.z, D, r.pd, r.gd)).T
+    ok = _in_range(Zi)
+    if not np.all(ok):  # keep the states up to the first one out of range (the figure, the arrays)
+        Zi = Zi[:int(np.argmin(ok))]
+        r.status, r.diverged_beat = "diverged", k + 1
+        r.message = (f"diverged in beat {k + 1}: the state left the model's range (non-finite, speed above "
+                     f"{MAX_SPEED_MPS:g} m/s or |pitch rate| above {MAX_PITCH_RATE_RADPS:g} rad/s)")
+    r.traj.append(Zi)
+    r.z = Zi[-1] if len(Zi) else r.z
+    if r.status == "ok":
+        _check_validity(r, lim, Zi, D, pk, k, i)
+
+
+def _check_validity(r: SimpleNamespace, lim, Zi, D, pk, k: int, i: int) -> None:
+    """The validity thresholds on interval i's steps (updates ``r``: extremes, status, message)."""
+    N = r.N
+    ae, ds, angle, u_air = (np.asarray(v) for v in r.st.validity(Zi.T, D[:, 2::3], ca.DM(pk), r.gd))
+    inflow = float(np.max(np.abs(angle)))
+    r.max_inflow = max(r.max_inflow, inflow)
+    r.min_air = min(r.min_air, float(np.min(u_air)))
+    pitch = float(np.degrees(np.max(np.abs(Zi[:, 3]))))
+    r.stalled_area += float(np.mean(((np.abs(ae) > lim.stall_angle_deg) * ds).sum(axis=0) / ds.sum(axis=0))) / N
+    reasons = [text for bad, text in (
+        (r.min_air < lim.min_forward_speed_mps,
+         f"air-relative forward speed {r.min_air:.3g} m/s < {lim.min_forward_speed_mps:g} m/s"),
+        (pitch > lim.max_abs_pitch_deg, f"|pitch| {pitch:.3g} > {lim.max_abs_pitch_deg:g} deg"),
+        (inflow > lim.max_airflow_body_angle_deg,
+         f"airflow at {inflow:.3g} deg to the body axis > {lim.max_airflow_body_angle_deg:g} deg"),
+        (i == N - 1 and r.stalled_area > lim.max_stalled_fraction,
+         f"{r.stalled_area:.1%} of the span-time area beyond the stall angle "
+         f"{lim.stall_angle_deg:g} deg > {lim.max_stalled_fraction:.0%}")) if bad]
+    if i == N - 1:
+        r.max_stalled = max(r.max_stalled, r.stalled_area)
+    if reasons:
+        r.status = "left_validity"
+        r.message = f"left the model's validity in beat {k + 1}: {', '.join(reasons)}"
 
 
 def gust_envelope(cfg, x0_cycle, controller, direction: str = "vertical", *, sign: float = 1.0,

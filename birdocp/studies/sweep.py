@@ -79,21 +79,21 @@ def sweep_values(start: float, stop: float, step: float) -> list[float]:
 
     The end is always included: when ``|stop - start|`` is not a multiple of ``step`` the last
     interval is shorter than ``step``. A step larger than a non-empty range is refused
-    (:class:`ConfigError` on ``--step``): it would solve the two ends only, which is rarely what was
+    (:class:`ConfigError` on ``--by``): it would solve the two ends only, which is rarely what was
     meant (e.g. a step in centimetres for a parameter in metres).
     """
-    for name, v in (("--from", start), ("--to", stop), ("--step", step)):
+    for name, v in (("--from", start), ("--to", stop), ("--by", step)):
         if not math.isfinite(v):
             raise ConfigError(name, f"must be finite, got {v!r}")
     if not step > 0:
-        raise ConfigError("--step", f"must be positive, got {step!r}")
+        raise ConfigError("--by", f"must be positive, got {step!r}")
     span = abs(stop - start)
     if span > 0 and step > span * (1 + 1e-9):
-        raise ConfigError("--step", f"{step:g} is larger than the range {start:g} .. {stop:g} (width {span:g}); "
+        raise ConfigError("--by", f"{step:g} is larger than the range {start:g} .. {stop:g} (width {span:g}); "
                                     f"give a step <= {span:g}")
     n = int(math.floor(span / step + 1e-9))
     if n + 1 > MAX_SWEEP_POINTS:
-        raise ConfigError("--step", f"{n + 1} points from {start:g} to {stop:g}; at most {MAX_SWEEP_POINTS}: "
+        raise ConfigError("--by", f"{n + 1} points from {start:g} to {stop:g}; at most {MAX_SWEEP_POINTS}: "
                                     "use a larger step")
     sign = 1.0 if stop >= start else -1.0
     values = [float(np.round(start + sign * k * step, 12)) for k in range(n + 1)]
@@ -221,7 +221,7 @@ class _Progress:
 
 def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool = False, warm: bool = True,
           out_dir: str | Path | None = None, resume: bool = False, progress: bool = True,
-          level_options: dict | None = None, **method_over) -> list[dict]:
+          level_options: dict | None = None, compiled: bool = False, **method_over) -> list[dict]:
     """Solve one limit cycle per value of ``key``; returns the table rows (see :data:`CSV_COLUMNS`).
 
     Parameters
@@ -246,6 +246,9 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
         Draw a progress bar on stderr when it is a terminal.
     level_options : dict, optional
         Keyword arguments of :func:`~birdocp.studies.level.level` for ``level=True``.
+    compiled : bool
+        Solve with the RHS and data compiled to C (:func:`birdocp.studies.trim.solver_ode`; the same
+        numbers, faster).
     **method_over
         Overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
 
@@ -256,91 +259,117 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
     """
     cfg = cfg or Config()
     key = resolve_key(key, "key")
-    values = [float(v) for v in values]
-    if not values:
-        raise ConfigError("values", "no values to sweep")
-    for v in values:
-        if not math.isfinite(v):
-            raise ConfigError("values", f"must be finite, got {v!r}")
+    values = _checked_values(values)
     level_options = dict(level_options or {})
     free_key = resolve_key(level_options.get("free", AMPLITUDE_KEY), "free") if level else None
     if level and free_key == key:
         raise ConfigError("key", f"'{key}' is the free parameter of the level-flight solve; sweep another "
                                  "parameter (or sweep without --level)")
     cfgs = [with_values(cfg, {key: v}) for v in values]  # validates every value before solving
-    six = cfg.model.degrees_of_freedom == 6
-    if six and level:
+    if cfg.model.degrees_of_freedom == 6 and level:
         from birdocp.studies.lateral_options import level_keywords
 
         level_keywords(level_options)  # refused before anything is written
-
-    from birdocp.studies.level import level as level_solve  # the model and the engine: after the input checks
-    from birdocp.studies.trim import trim
 
     out = Path(out_dir) if out_dir is not None else None
     spec = {"key": key, "values": values, "level": bool(level), "warm": bool(warm),
             "level_options": to_jsonable(level_options), "method_over": to_jsonable(method_over),
             "config": to_dict(cfg)}
-    done: dict[int, dict] = {}
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
-        old, damaged = resume_io.read_index(out / "sweep.json")
-        if resume:
-            if old is not None:
-                resume_io.check_index(old, spec, out, "sweep")
-            done = resume_io.kept_points(out, lambda i: config_hash(cfgs[i]), _point_settings(spec), old is not None,
-                                         match=lambda i, p: i < len(values) and p["row"].get("value") == values[i])
-        elif old is not None or damaged or read_points(out):
-            raise ConfigError("--out", f"'{out}' already holds a sweep; pass resume=True (--resume) or a new folder")
-        from birdocp.bird.config import dumps
-        atomic_write_text(out / "config.toml", dumps(cfg))
-
+    done = _claim_sweep_folder(out, spec, cfg, cfgs, resume) if out is not None else {}
     rows: list[dict | None] = [done[i]["row"] if i in done else None for i in range(len(values))]
     bar = _Progress(len(values), progress, f"sweep {key}" + (" (level)" if level else ""))
-
-    def flush():
-        if out is None:
-            return
-        table = [r for r in rows if r is not None]
-        atomic_write_json(out / "sweep.json", dict(spec, points=table, complete=len(table) == len(values)))
-        atomic_write_text(out / "sweep.csv", _csv_text(table, _columns_of(cfg)))
-
-    flush()
+    solve = _point_solver(level, level_options, compiled, method_over)
+    _flush_sweep(out, spec, rows, len(values), _columns_of(cfg))
     last_ok = None  # (index, warm start object)
     for i, (v, cfg_i) in enumerate(zip(values, cfgs)):
         if i in done:
-            pt = done[i]
-            if pt["row"].get("success"):
-                ws = _warm_from_point(pt)
-                if ws is not None:
-                    last_ok = (i, ws)
+            ws = _warm_from_point(done[i]) if done[i]["row"].get("success") else None
+            last_ok = (i, ws) if ws is not None else last_ok
             bar.show(i + 1, f"{v:g} (on disk)")
             continue
-        ws = last_ok[1] if (warm and last_ok is not None) else None
-        warm_from = last_ok[0] if (warm and last_ok is not None) else None
         bar.show(i, f"solving {v:g}")
+        warm_from = last_ok if (warm and last_ok is not None) else (None, None)
+        res, row = solve(cfg_i, i, key, v, free_key, warm_from)
+        rows[i] = row
+        last_ok = (i, res.cycle) if res.success else last_ok
+        if out is not None:
+            point = {"row": row, "p": [float(x) for x in np.asarray(res.cycle.p)], "result": res.result}
+            resume_io.write_point(out, i, point, config_hash(cfg_i), _point_settings(spec))
+        _flush_sweep(out, spec, rows, len(values), _columns_of(cfg))
+        bar.show(i + 1, f"{v:g} {'ok' if res.success else 'FAILED'} {row['iterations']} it "
+                        f"{row['wall_s']:.1f} s", solved_now=True)
+    return [r for r in rows if r is not None]
+
+
+def _checked_values(values) -> list[float]:
+    values = [float(v) for v in values]
+    if not values:
+        raise ConfigError("values", "no values to sweep")
+    for v in values:
+        if not math.isfinite(v):
+            raise ConfigError("values", f"must be finite, got {v!r}")
+    return values
+
+
+def _claim_sweep_folder(out: Path, spec: dict, cfg: Config, cfgs: list, resume: bool) -> dict[int, dict]:
+    """Create ``out`` (config.toml) and return the points kept from an earlier run (``resume``); a
+    folder that holds a sweep without ``resume`` is a ConfigError."""
+    values = spec["values"]
+    out.mkdir(parents=True, exist_ok=True)
+    old, damaged = resume_io.read_index(out / "sweep.json")
+    done: dict[int, dict] = {}
+    if resume:
+        if old is not None:
+            resume_io.check_index(old, spec, out, "sweep")
+        done = resume_io.kept_points(out, lambda i: config_hash(cfgs[i]), _point_settings(spec), old is not None,
+                                     match=lambda i, p: i < len(values) and p["row"].get("value") == values[i])
+    elif old is not None or damaged or read_points(out):
+        raise ConfigError("--out", f"'{out}' already holds a sweep; pass resume=True (--resume) or a new folder")
+    from birdocp.bird.config import dumps
+    atomic_write_text(out / "config.toml", dumps(cfg))
+    return done
+
+
+def _flush_sweep(out: Path | None, spec: dict, rows: list, n: int, columns=None) -> None:
+    """sweep.json and sweep.csv (``columns``, default :data:`CSV_COLUMNS`) with the rows solved so far."""
+    if out is None:
+        return
+    table = [r for r in rows if r is not None]
+    atomic_write_json(out / "sweep.json", dict(spec, points=table, complete=len(table) == n))
+    atomic_write_text(out / "sweep.csv", _csv_text(table, columns))
+
+
+@dataclass
+class _Solved:
+    """One solved point: its verdict, its cycle (the next point's warm start) and its result dict."""
+
+    success: bool
+    cycle: object
+    result: dict
+
+
+def _point_solver(level: bool, level_options: dict, compiled: bool, method_over: dict):
+    """``solve(cfg_i, i, key, v, free_key, (warm_from, warm_start)) -> (_Solved, row)``: one point
+    of a sweep, a trim or a level solve, timed."""
+    from birdocp.studies.level import level as level_solve  # the model and the engine: after the input checks
+    from birdocp.studies.trim import trim
+
+    def solve(cfg_i, i, key, v, free_key, warm):
+        warm_from, ws = warm
         t = time.perf_counter()
-        if six:
+        if cfg_i.model.degrees_of_freedom == 6:  # the 6-DOF trim or level solve (birdocp.studies.lateral)
             from birdocp.studies.lateral import solve_point
 
             res = solve_point(cfg_i, level=level, level_options=level_options, warm_start=ws, **method_over)
         elif level:
-            res = level_solve(cfg_i, warm_start=ws, **level_options, **method_over)
+            res = level_solve(cfg_i, warm_start=ws, compiled=compiled, **level_options, **method_over)
         else:
-            res = trim(cfg_i, warm_start=ws, **method_over)
+            res = trim(cfg_i, warm_start=ws, compiled=compiled, **method_over)
         d = res.to_dict()
         d.setdefault("wall_s", {})["total"] = time.perf_counter() - t
-        row = row_of(i, key, v, d, free_key, warm_from)
-        rows[i] = row
-        if res.success:
-            last_ok = (i, res.cycle)
-        if out is not None:
-            point = {"row": row, "p": [float(x) for x in np.asarray(res.cycle.p)], "result": d}
-            resume_io.write_point(out, i, point, config_hash(cfg_i), _point_settings(spec))
-        flush()
-        bar.show(i + 1, f"{v:g} {'ok' if res.success else 'FAILED'} {row['iterations']} it "
-                        f"{row['wall_s']:.1f} s", solved_now=True)
-    return [r for r in rows if r is not None]
+        return _Solved(bool(res.success), res.cycle, d), row_of(i, key, v, d, free_key, warm_from)
+
+    return solve
 
 
 # ----------------------------------------------------------------------------------------------
@@ -357,7 +386,8 @@ def _grid_row(job: dict) -> dict:
     cfg = with_values(from_dict(job["config"]), {job["row_key"]: job["row_value"]})
     t = time.perf_counter()
     rows = sweep(cfg, job["key"], job["values"], level=job["level"], warm=job["warm"], out_dir=None,
-                 progress=False, level_options=job["level_options"], **job["method_over"])
+                 progress=False, level_options=job["level_options"], compiled=job.get("compiled", False),
+                 **job["method_over"])
     return {"row": job["row"], "rows": rows, "wall_s": time.perf_counter() - t}
 
 
@@ -367,7 +397,8 @@ def _row_path(out: Path, row: int) -> Path:
 
 def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: str, row_values: Sequence[float], *,
                executor=None, level: bool = False, warm: bool = True, out_dir: str | Path | None = None,
-               resume: bool = False, level_options: dict | None = None, **method_over) -> list[dict]:
+               resume: bool = False, level_options: dict | None = None, compiled: bool = False,
+               **method_over) -> list[dict]:
     """A grid ``row_key x key``: one warm-started line over ``values`` of ``key`` per value of
     ``row_key``, the rows independent jobs run by ``executor``.
 
@@ -401,6 +432,8 @@ def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: s
         Keep the finished rows found in ``out_dir``.
     level_options : dict, optional
         Keyword arguments of :func:`~birdocp.studies.level.level` for ``level=True``.
+    compiled : bool
+        Solve with the RHS and data compiled to C in every job (the same numbers, faster).
     **method_over
         Overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
 
@@ -416,58 +449,78 @@ def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: s
     row_key = resolve_key(row_key, "rows")
     if row_key == key:
         raise ConfigError("rows", "the row parameter must differ from the swept parameter")
-    values = [float(v) for v in values]
-    row_values = [float(v) for v in row_values]
-    if not values or not row_values:
-        raise ConfigError("values", "no values to sweep")
-    for v in row_values:
-        with_values(cfg, {row_key: v})  # validates before any job starts
-    for v in values:
-        with_values(cfg, {key: v})
-    level_options = dict(level_options or {})
+    values, row_values = _grid_values(cfg, key, values, row_key, row_values)
     executor = executor or SerialExecutor()
     base = {"config": to_dict(cfg), "key": key, "values": values, "row_key": row_key, "level": bool(level),
-            "warm": bool(warm), "level_options": level_options, "method_over": dict(method_over)}
+            "warm": bool(warm), "level_options": dict(level_options or {}), "method_over": dict(method_over)}
     spec = to_jsonable(dict({k: base[k] for k in ("key", "values", "row_key", "level", "warm", "level_options",
                                                   "method_over", "config")}, row_values=row_values))
-    jobs = [dict(base, row=i, row_value=v) for i, v in enumerate(row_values)]
+    jobs = [dict(base, row=i, row_value=v, compiled=bool(compiled)) for i, v in enumerate(row_values)]
     out = Path(out_dir) if out_dir is not None else None
-    done: dict[int, dict] = {}
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
-        old, _ = resume_io.read_index(out / "grid.json")  # a damaged grid.json: every row solved again
-        if old is not None and not resume:
-            raise ConfigError("--out", f"'{out}' already holds a grid; pass resume=True (--resume) or a new folder")
-        if old is not None:
-            resume_io.check_index(old, spec, out, "grid")
-            for f in sorted((out / "rows").glob("row-*.json")) if (out / "rows").is_dir() else []:
-                with contextlib.suppress(ConfigError, ValueError, KeyError, TypeError):
-                    r = read_json_file(f, "--resume")
-                    done[int(r["row"])] = r
-        else:
-            atomic_write_json(out / "grid.json", dict(spec, points=[], complete=False))
-
-    def keep(i: int, res: dict) -> None:
-        if out is not None:
-            atomic_write_json(_row_path(out, res["row"]), res)
-
-    todo = [j for j in jobs if j["row"] not in done]
+    done = _claim_grid_folder(out, spec, resume) if out is not None else {}
     t = time.perf_counter()
-    fresh = executor.map(_grid_row, todo, on_result=lambda i, r: keep(i, r)) if todo else []
+    fresh = _run_rows(executor, [j for j in jobs if j["row"] not in done], out)
     wall = time.perf_counter() - t
     results = sorted(list(done.values()) + list(fresh), key=lambda r: r["row"])
-    table = []
-    for res in results:
-        for r in res["rows"]:
-            row = {"row": res["row"], "row_key": row_key, "row_value": row_values[res["row"]]}
-            row.update({c: r.get(c) for c in _columns_of(cfg) if c != "wall_s"})
-            row["validity"] = r.get("validity")
-            row.update({k: r[k] for k in _SIX_DOF_LISTS if k in r})
-            table.append(row)
+    table = _grid_table(results, row_key, row_values)
     if out is not None:
         atomic_write_json(out / "grid.json", dict(spec, points=table, complete=True))
         atomic_write_text(out / "grid.csv", _csv_text(table, _columns_of(cfg, GRID_COLUMNS)))
         atomic_write_json(out / "timing.json", {**executor.describe(), "wall_s": wall,
                                                 "row_wall_s": [r["wall_s"] for r in results],
                                                 "rows_from_disk": sorted(done)})
+    return table
+
+
+def _run_rows(executor, todo: list[dict], out: Path | None) -> list[dict]:
+    """The rows of ``todo`` run by ``executor``, each written to ``out/rows/`` as it finishes."""
+    def keep(i: int, res: dict) -> None:
+        if out is not None:
+            atomic_write_json(_row_path(out, res["row"]), res)
+
+    return executor.map(_grid_row, todo, on_result=keep) if todo else []
+
+
+def _grid_values(cfg: Config, key: str, values, row_key: str, row_values) -> tuple[list[float], list[float]]:
+    """Both value lists as floats, each value checked in ``cfg`` before any job starts."""
+    values = [float(v) for v in values]
+    row_values = [float(v) for v in row_values]
+    if not values or not row_values:
+        raise ConfigError("values", "no values to sweep")
+    for v in row_values:
+        with_values(cfg, {row_key: v})
+    for v in values:
+        with_values(cfg, {key: v})
+    return values, row_values
+
+
+def _claim_grid_folder(out: Path, spec: dict, resume: bool) -> dict[int, dict]:
+    """Create ``out`` (grid.json, the definition) and return the finished rows of an earlier run
+    (``resume``); a folder that holds a grid without ``resume`` is a ConfigError."""
+    out.mkdir(parents=True, exist_ok=True)
+    old, _ = resume_io.read_index(out / "grid.json")  # a damaged grid.json: every row solved again
+    if old is not None and not resume:
+        raise ConfigError("--out", f"'{out}' already holds a grid; pass resume=True (--resume) or a new folder")
+    done: dict[int, dict] = {}
+    if old is None:
+        atomic_write_json(out / "grid.json", dict(spec, points=[], complete=False))
+        return done
+    resume_io.check_index(old, spec, out, "grid")
+    for f in sorted((out / "rows").glob("row-*.json")) if (out / "rows").is_dir() else []:
+        with contextlib.suppress(ConfigError, ValueError, KeyError, TypeError):
+            r = read_json_file(f, "--resume")
+            done[int(r["row"])] = r
+    return done
+
+
+def _grid_table(results: list[dict], row_key: str, row_values: list[float]) -> list[dict]:
+    """The grid's table (:data:`GRID_COLUMNS` and each point's validity), row after row."""
+    table = []
+    for res in results:
+        for r in res["rows"]:
+            row = {"row": res["row"], "row_key": row_key, "row_value": row_values[res["row"]]}
+            row.update({c: r.get(c) for c in CSV_COLUMNS if c != "wall_s"})
+            row["validity"] = r.get("validity")
+            row.update({k: r[k] for k in SIX_DOF_COLUMNS + list(_SIX_DOF_LISTS) if k in r})  # 6 DOF
+            table.append(row)
     return table

@@ -23,26 +23,13 @@ from birdocp.engine.problem import LimitCycleProblem
 from birdocp.engine.results import finite_or_none, result_dict
 from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
 
-__all__ = ["TrimResult", "trim", "method_of", "solver_ode", "compiled_default"]
+__all__ = ["TrimResult", "trim", "method_of", "solver_ode"]
 
-_ON = ("1", "on", "yes", "true")
-
-
-def compiled_default() -> bool:
-    """True when ``$BIRDOCP_COMPILED`` is ``1``/``on``/``yes``/``true``: solves that are not told
-    otherwise use the compiled RHS and data (:func:`solver_ode`; the same numbers, faster)."""
-    import os
-
-    return os.environ.get("BIRDOCP_COMPILED", "").strip().lower() in _ON
-
-
-def solver_ode(m, compiled: bool | None = None):
-    """The ODE the engine solves for the configured model ``m``: ``m.ode``, or with ``compiled`` (None:
-    :func:`compiled_default`) its twin whose RHS and numeric data Functions are compiled C
+def solver_ode(m, compiled: bool = False):
+    """The ODE the engine solves for the configured model ``m``: ``m.ode``, or with ``compiled`` its
+    twin whose RHS and numeric data Functions are compiled C
     (:func:`birdocp.export.compiled.compiled_ode`, cached; bit-identical numbers). Falls back to
     ``m.ode`` with a warning on stderr if compiling fails."""
-    if compiled is None:
-        compiled = compiled_default()
     if not compiled:
         return m.ode
     from birdocp.export.compiled import compiled_ode
@@ -54,7 +41,7 @@ def method_of(cfg: Config, **over) -> MultipleShooting:
     """The :class:`MultipleShooting` method of ``cfg.solve`` (fields overridden by ``over``)."""
     s = cfg.solve
     kw = dict(points=s.points, steps_per_period=s.steps_per_period, solver=s.solver,
-              derivatives=s.derivatives)
+              derivatives=s.derivatives, max_iter=s.max_iter, tol=s.tol if s.tol > 0 else None)
     kw.update(over)
     return MultipleShooting(**kw)
 
@@ -245,7 +232,7 @@ class TrimResult:
 
 
 def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: MultipleShooting | None = None,
-         compiled: bool | None = None, **method_over) -> TrimResult:
+         compiled: bool = False, **method_over) -> TrimResult:
     """Trimmed flight of ``cfg`` (default: the paper's reference case).
 
     Parameters
@@ -260,10 +247,10 @@ def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: Mu
         A previous result whose cycle starts the solve.
     method : MultipleShooting, optional
         The shooting method (default from ``cfg.solve``).
-    compiled : bool, optional
-        Use the state right-hand side and data compiled to C (:func:`solver_ode`; None:
-        ``$BIRDOCP_COMPILED``; cached; falls back to the interpreted path with a warning on stderr if
-        compilation fails).
+    compiled : bool
+        Use the state right-hand side and data compiled to C (:func:`solver_ode`; the same numbers,
+        faster; compiled once and cached; falls back to the interpreted path with a warning on stderr
+        if compilation fails). The CLI's ``--compiled`` (or ``BIRDOCP_COMPILED=1``) sets it.
     **method_over
         Overrides of :class:`~birdocp.engine.shooting.MultipleShooting`'s fields (``points``,
         ``steps_per_period``, ``solver``, ``tol``, ...).

@@ -54,28 +54,36 @@ the start when one is negative there: ``stopped_at_event``).
 
 The pieces, one module each: ``options`` (:class:`ContinuationOptions`), ``system`` (the augmented
 system, tangent, test functions), ``corrector`` (quasi-Newton), ``steps`` (step control), ``events``
-(special points), ``branch`` (the result types); :func:`continuation` puts them together.
+(special points), ``branch`` (the result types), ``iterate`` (:class:`OrbitBranchIterator`, the branch
+as an iterator of :class:`ContinuationStep`), ``front`` (:func:`birdocp.engine.iter_branch`, one front
+for orbits and equilibria); :func:`continuation` collects the iterator's points into a :class:`Branch`.
 """
 from __future__ import annotations
 
-import time
-from dataclasses import fields
 from typing import Callable
 
-import numpy as np
-
 from birdocp.engine.continuation.branch import Branch, BranchPoint, SpecialPoint
-from birdocp.engine.continuation.corrector import Corrector
-from birdocp.engine.continuation.events import BranchEvents, event_crossings, locate, locate_event, sign_changes
+from birdocp.engine.continuation.events import BranchEvents
+from birdocp.engine.continuation.iterate import OrbitBranchIterator
 from birdocp.engine.continuation.options import SPECIAL_POINT_KINDS, ContinuationOptions
-from birdocp.engine.continuation.steps import StepController
-from birdocp.engine.continuation.system import Continuation, ContinuationState
-from birdocp.engine.floquet import complex_pairs, multipliers_info
+from birdocp.engine.continuation.step import ContinuationStep
+from birdocp.engine.continuation.system import Continuation
 from birdocp.engine.problem import LimitCycleProblem
-from birdocp.engine.shooting import MultipleShooting, initial_points, solve
 
 __all__ = ["Branch", "BranchPoint", "SpecialPoint", "Continuation", "ContinuationOptions", "SPECIAL_POINT_KINDS",
-           "BranchEvents", "continuation"]
+           "BranchEvents", "ContinuationStep", "continuation", "collect"]
+
+
+def collect(steps, on_point: Callable | None = None, on_special: Callable | None = None):
+    """Run a branch iterator to its end, calling ``on_special`` with every special point and then
+    ``on_point`` with the point of each step; returns the iterator's ``branch()``."""
+    for step in steps:
+        for sp in step.special_points:
+            if on_special is not None:
+                on_special(sp)
+        if step.point is not None and on_point is not None:
+            on_point(step.point)
+    return steps.branch()
 
 
 def continuation(problem: LimitCycleProblem, param, start_value: float, stop_value: float, *,
@@ -84,6 +92,9 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
                  on_point: Callable | None = None, on_special: Callable | None = None, orient: float | None = None,
                  events: BranchEvents | None = None, **settings) -> Branch:
     """Follow the periodic orbits of ``problem`` as ``param`` goes from ``start_value`` to ``stop_value``.
+
+    The collector over :class:`~birdocp.engine.continuation.iterate.OrbitBranchIterator` (the
+    iterator behind :func:`birdocp.engine.iter_branch`): it runs the branch to its end and returns it.
 
     Parameters
     ----------
@@ -128,190 +139,6 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
     Branch
         The points, the special points and why the branch ended.
     """
-    opts = options or ContinuationOptions()
-    names = {f.name for f in fields(ContinuationOptions)}
-    unknown = set(settings) - names
-    if unknown:
-        raise TypeError(f"unknown continuation setting(s): {sorted(unknown)}")
-    if settings:
-        opts = ContinuationOptions(**{**opts.__dict__, **settings})
-    t_all = time.perf_counter()
-    sysm = system or Continuation(problem, param, opts.points, opts.steps_per_period)
-    nx, S = sysm.nx, sysm.S
-    nX = nx * (S + 1)
-    nf = len(sysm.free_idx)
-    if not (np.isfinite(start_value) and np.isfinite(stop_value)):
-        raise ValueError(f"start_value and stop_value must be finite, got {start_value!r}, {stop_value!r}")
-    span = abs(stop_value - start_value)
-    if not span > 0:
-        raise ValueError("start_value and stop_value must differ")
-    direction = 1.0 if stop_value > start_value else -1.0
-    rlo, rhi = min(start_value, stop_value), max(start_value, stop_value)
-    sc = dict(opts.scales or {})
-    s_states = np.broadcast_to(np.asarray(sc.get("states", 1.0), float), (nx,))
-    s_free = np.broadcast_to(np.asarray(sc.get("free", 1.0), float), (nf,))
-    s_lam = float(sc.get("parameter", span))
-    s = np.concatenate([np.tile(s_states, S + 1), s_free, [s_lam]])
-    li = sysm.nz - 1   # index of lam in z
-    say = progress or (lambda text: None)
-    corr = Corrector(sysm, s, opts.tol, opts.max_newton, opts.chord_contraction)
-    name, free_names = sysm.name, sysm.free_names
-
-    # --- first point: Newton at fixed lam from the given cycle, or from the problem's guess integrated
-    # forward; if that fails, the engine (IPOPT)
-    p_start = np.asarray(start.p if start is not None else problem.p, float).copy()
-    p_start[sysm.j] = start_value
-    if start is not None:
-        z0 = sysm.z_of(start.shooting_points, p_start)
-    else:
-        D0 = sysm.grid.blocks_numeric(float(problem.t0), p_start)
-        z0 = sysm.z_of(initial_points(sysm.builder, problem.x_guess, D0, p_start).T, p_start)
-    e_l = np.zeros(sysm.nz)
-    e_l[li] = 1.0
-    out = corr.newton(z0 / s, e_l, start_value / s_lam)
-    if out is None and start is None:
-        prob0 = LimitCycleProblem(problem.ode, p_start, problem.x_guess, problem.free, problem.means,
-                                  problem.t0, problem.outputs)
-        eng = solve(prob0, MultipleShooting(points=opts.points, steps_per_period=opts.steps_per_period))
-        if eng.success:
-            out = corr.newton(sysm.z_of(eng.shooting_points, p_start) / s, e_l, start_value / s_lam)
-    if out is None:
-        return Branch(name, [], [], "start_failed", "Newton did not converge at the start value from the given cycle",
-                      {}, time.perf_counter() - t_all)
-    cur = corr.state(out, None)
-    if cur.t[li] * (direction if orient is None else np.sign(orient) or direction) < 0:
-        cur.t = -cur.t
-        cur.tests = dict(cur.tests, fold=float(cur.t[li]))
-
-    dlam0 = float(opts.step) if opts.step else span / 10.0
-    ds0 = abs(dlam0 / s_lam) / max(abs(cur.t[li]), 1e-3)
-    steps = StepController(ds0, opts.ds_min or ds0 / 256, opts.ds_max or 4 * ds0, s, li, nX,
-                           opts.max_dparam, opts.max_dstate)
-    run_settings = {"parameter": name, "from": start_value, "to": stop_value, "points": opts.points,
-                    "steps_per_period": opts.steps_per_period, "first_step": dlam0, "ds_first": ds0,
-                    "ds_min": steps.ds_min, "ds_max": steps.ds_max, "scales": s.tolist(), "tol": opts.tol,
-                    "max_points": opts.max_points, "free": free_names, "mean_conditions": sysm.mean_names[:sysm.nm],
-                    "max_dparam": opts.max_dparam, "max_dstate": opts.max_dstate}
-
-    def make_point(st: ContinuationState, arclen: float, ds_used: float) -> BranchPoint:
-        z = s * st.u
-        lam_m, _, _, _, stable = multipliers_info(st.Mon, sysm.period_of(z))
-        p = sysm.p_of(z)
-        X = sysm.X_of(z)
-        return BranchPoint(
-            parameter=float(z[li]), x0=X[:, 0].tolist(), shooting_points=X.T.tolist(),
-            free_values={n: float(p[i]) for n, i in zip(free_names, sysm.free_idx)},
-            multipliers=complex_pairs(lam_m), moduli=[float(abs(v)) for v in lam_m], stable=bool(stable),
-            means={n: float(v) for n, v in zip(sysm.mean_names, st.means)}, arclength=float(arclen),
-            tangent_parameter=float(st.t[li]), iterations=int(st.iterations),
-            max_residual=float(np.max(np.abs(st.g))) if st.g.size else 0.0, step=float(ds_used),
-            tests=dict(st.tests), p=p.tolist(), period=sysm.period_of(z))
-
-    def rejection(pt: BranchPoint) -> str | None:
-        if nf:
-            fv = np.array([pt.p[i] for i in sysm.free_idx])
-            if np.any(fv < sysm.lo) or np.any(fv > sysm.hi):
-                return "free_parameter_bound"
-        if accept is not None:
-            msg = accept(pt)
-            if msg:
-                return "rejected: " + msg
-        return None
-
-    pts = [make_point(cur, 0.0, 0.0)]
-    keep = on_point or (lambda point: None)
-    ev_tol = (events.tol or opts.locate_tol) if events is not None else None
-    cur_ev = events.values(pts[0]) if events is not None else {}
-    keep(pts[0])
-    specials: list[SpecialPoint] = []
-    arclen = 0.0
-    end_reason, end_message = "max_points", f"max_points={opts.max_points} reached"
-    say(f"{name} = {pts[0].parameter:.6g}: start, |L|max {max(pts[0].moduli):.4f}")
-    below = [k for k, v in cur_ev.items() if v < 0]
-    if events is not None and events.stop and below:
-        end_reason = "stopped_at_event"
-        end_message = f"{events.kind} at the start ({name} = {pts[0].parameter:.8g}): {', '.join(below)} < 0"
-    while len(pts) < opts.max_points and end_reason != "stopped_at_event":
-        ds = steps.capped(cur)
-        nxt = corr.along(cur, ds)
-        if nxt is None:
-            if not steps.failed():
-                end_reason = "corrector_failed"
-                end_message = (f"the corrector failed at the minimum step ds={ds:.3g} after {name} = "
-                               f"{pts[-1].parameter:.8g}: no nearby continuation of the branch")
-                break
-            continue
-        if steps.refuse(cur, nxt):
-            continue
-        lam_new = s_lam * nxt.u[li]
-        boundary = None
-        if lam_new > rhi or lam_new < rlo:
-            boundary = rhi if lam_new > rhi else rlo
-        # special points between cur and nxt (located on the arc, before cutting at a boundary)
-        found = []
-        for kind in sign_changes(cur, nxt, opts.detect):
-            sp = locate(kind, corr, cur, nxt, ds, len(pts) - 1, arclen, make_point, name, opts.locate_tol)
-            if sp is not None and rlo - 1e-12 <= sp.parameter <= rhi + 1e-12:
-                found.append(sp)
-                say(f"  {kind} at {name} = {sp.parameter:.9g} ({sp.message})")
-        pt = make_point(nxt, arclen + ds, ds)
-        nxt_ev = events.values(pt) if events is not None else {}
-        stop_at = None
-        for ev_name in event_crossings(cur_ev, nxt_ev):
-            hit = locate_event(events, ev_name, corr, cur, ds, cur_ev[ev_name], nxt_ev[ev_name], len(pts) - 1,
-                               arclen, make_point, ev_tol)
-            if hit is not None and rlo - 1e-12 <= hit[0].parameter <= rhi + 1e-12:
-                found.append(hit[0])
-                say(f"  {hit[0].kind} at {name} = {hit[0].parameter:.9g} ({hit[0].message})")
-                if events.stop and hit[0].direction < 0 and (stop_at is None
-                                                             or hit[0].arclength < stop_at[0].arclength):
-                    stop_at = hit
-        if stop_at is not None:
-            found = sorted((q for q in found if q.arclength <= stop_at[0].arclength), key=lambda q: q.arclength)
-            specials.extend(found)
-            for sp in found:
-                (on_special or (lambda q: None))(sp)
-            pts.append(stop_at[1])
-            keep(stop_at[1])
-            end_reason = "stopped_at_event"
-            end_message = f"stopped at the {stop_at[0].kind} at {name} = {stop_at[0].parameter:.8g}: {stop_at[0].message}"
-            break
-        found.sort(key=lambda q: q.arclength)
-        specials.extend(found)
-        for sp in found:
-            (on_special or (lambda q: None))(sp)
-        if boundary is not None:
-            last = corr.at_parameter(cur, nxt, boundary, s_lam)
-            if last is not None:
-                arclen += float(np.linalg.norm(last.u - cur.u))
-                pt = make_point(last, arclen, ds)
-                if events is not None:
-                    events.values(pt)
-                if rejection(pt) is None:
-                    pts.append(pt)
-                    keep(pt)
-            folded = any(q.kind == "fold" for q in specials)
-            end_reason = "reached_to" if boundary == (rhi if direction > 0 else rlo) else "reached_from"
-            end_message = (f"{name} reached {boundary:g}" + (" after turning back at a fold" if folded
-                                                              and end_reason == "reached_from" else ""))
-            break
-        arclen += ds
-        why = rejection(pt)
-        if why is not None:
-            end_reason = why.split(":")[0]
-            end_message = f"point at {name} = {pt.parameter:.8g} not accepted: {why}"
-            if why == "free_parameter_bound":
-                end_message += f" (free values {pt.free_values}, bounds {sysm.lo.tolist()}..{sysm.hi.tolist()})"
-            break
-        pts.append(pt)
-        keep(pt)
-        say(f"{name} = {pt.parameter:.6g}: {nxt.iterations} it, ds {ds:.3g}, |L|max {max(pt.moduli):.4f}"
-            + (f", free {pt.free_values}" if nf else ""))
-        cur, cur_ev = nxt, nxt_ev
-        steps.converged(nxt.iterations)
-    run_settings["evaluations"] = sysm.evaluations
-    run_settings["residual_evaluations"] = sysm.residual_evaluations
-    run_settings["corrector_failures"] = steps.failures
-    run_settings["refused_steps"] = steps.refusals
-    return Branch(name, pts, specials, end_reason, end_message, run_settings, time.perf_counter() - t_all,
-                  free_names)
+    it = OrbitBranchIterator(problem, param, start_value, stop_value, options=options, start=start, accept=accept,
+                             progress=progress, system=system, orient=orient, events=events, **settings)
+    return collect(it, on_point, on_special)

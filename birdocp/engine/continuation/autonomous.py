@@ -19,14 +19,18 @@ period doubling and Neimark-Sacker are then detected and located exactly as for 
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
-from birdocp.engine.continuation import Branch, ContinuationOptions, continuation
+from birdocp.engine.continuation import Branch, ContinuationOptions, collect
+from birdocp.engine.continuation.iterate import OrbitBranchIterator
 from birdocp.engine.floquet import monodromy_of
 from birdocp.engine.ode import ODE
+from birdocp.engine.steppers import METHOD_ORDER
 from birdocp.engine.orbits import OrbitMethod, OrbitProblem, PeriodicOrbit, orbit_residual_system
 
-__all__ = ["AutonomousContinuation", "continue_orbits", "poincare_map_jacobian"]
+__all__ = ["AutonomousContinuation", "continue_orbits", "autonomous_branch_iterator", "poincare_map_jacobian"]
 
 
 def poincare_map_jacobian(monodromy: np.ndarray, f0: np.ndarray) -> np.ndarray:
@@ -62,6 +66,8 @@ class AutonomousContinuation:
         self.ode = ode
         self.j = ode.param_index(param)
         self.method = method
+        self.start = start
+        self.order = METHOD_ORDER[method.integrator]
         self.ev = orbit_residual_system(ode, method, period_free=True, free_idx=(self.j,), n_lin=1, cached=False)
         self.nx, self.S = ode.nx, method.points - 1
         self.nX = self.nx * (self.S + 1)
@@ -80,6 +86,11 @@ class AutonomousContinuation:
         self.mean_names: list = []
         self.evaluations = 0
         self.residual_evaluations = 0
+
+    def refined(self) -> "AutonomousContinuation":
+        """The same system (same phase section) on twice the steps per period (for error estimates)."""
+        return AutonomousContinuation(self.ode, self.j, self.start,
+                                      replace(self.method, steps_per_period=2 * int(self.method.steps_per_period)))
 
     @property
     def name(self) -> str:
@@ -160,6 +171,42 @@ def continue_orbits(orbit: PeriodicOrbit, ode: ODE, param, stop_value: float, *,
     Branch
         See above.
     """
+    return collect(autonomous_branch_iterator(orbit, ode, param, None, stop_value, method=method, options=options,
+                                              **settings))
+
+
+def autonomous_branch_iterator(orbit: PeriodicOrbit, ode: ODE, param, start_value: float | None, stop_value: float, *,
+                               method: OrbitMethod | None = None, options: ContinuationOptions | None = None,
+                               **settings) -> OrbitBranchIterator:
+    """The branch of autonomous orbits through ``orbit`` as an iterator (:func:`continue_orbits`
+    collects it; :func:`birdocp.engine.iter_branch` returns it for an ODE and a start orbit).
+
+    Parameters
+    ----------
+    orbit : PeriodicOrbit
+        A converged orbit near ``start_value`` (its x0 and f(x0) define the phase section).
+    ode : ODE
+        Its ODE (autonomous).
+    param : str or int
+        The continuation parameter.
+    start_value : float or None
+        Where the branch starts (the first point is corrected there); None: the orbit's own value.
+    stop_value : float
+        Where the branch should end.
+    method : OrbitMethod, optional
+        Points, steps per period and integrator (default: the orbit's).
+    options : ContinuationOptions, optional
+        How the branch is followed.
+    **settings
+        Fields of :class:`~birdocp.engine.continuation.options.ContinuationOptions` and the
+        keywords of :class:`~birdocp.engine.continuation.iterate.OrbitBranchIterator` (``accept``,
+        ``progress``, ``orient``, ``events``).
+
+    Returns
+    -------
+    OrbitBranchIterator
+        Iterate it for the points; its ``branch()`` is the :class:`Branch`.
+    """
     if not orbit.success:
         raise ValueError(f"continue_orbits: the start orbit did not converge (status {orbit.status!r})")
     if method is None:
@@ -172,5 +219,6 @@ def continue_orbits(orbit: PeriodicOrbit, ode: ODE, param, stop_value: float, *,
     opts = ContinuationOptions(**{**opts.__dict__, "points": method.points,
                                   "steps_per_period": int(method.steps_per_period)})
     problem = OrbitProblem(ode, orbit.p, orbit.x0, period_guess=orbit.period)
-    return continuation(problem, j, float(orbit.p[j]), float(stop_value), options=opts, start=orbit,
-                        system=sysm, **settings)
+    a = float(orbit.p[j]) if start_value is None else float(start_value)
+    return OrbitBranchIterator(problem, j, a, float(stop_value), options=opts, start=orbit,
+                               system=sysm, **settings)

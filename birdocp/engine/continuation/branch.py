@@ -27,7 +27,9 @@ class BranchPoint:
     ``validity`` is filled by the application (for the bird: where the model holds on the cycle,
     :func:`birdocp.bird.validity.periodic_validity`; ``None`` when not checked); ``event_values``
     holds the user test functions at the point (:class:`~birdocp.engine.continuation.events.BranchEvents`;
-    ``None`` without them)."""
+    ``None`` without them); ``error_estimate`` the point's estimated errors with
+    ``ContinuationOptions(error_estimate=True)`` (:func:`~birdocp.engine.continuation.accuracy.point_error`;
+    ``None``, and no JSON key, without it)."""
 
     parameter: float
     x0: list
@@ -48,10 +50,22 @@ class BranchPoint:
     validity: dict | None = None
     period: float | None = None   # the orbit's period (varies along a branch of autonomous orbits)
     event_values: dict | None = None  # the user test functions at the point (BranchEvents), else None
+    error_estimate: dict | None = None  # ContinuationOptions(error_estimate=True), else None
+
+    @property
+    def state(self) -> list:
+        """The state at the start of the period (``x0``)."""
+        return self.x0
+
+    @property
+    def spectrum(self) -> np.ndarray:
+        """The Floquet multipliers as complex numbers (largest modulus first)."""
+        return np.array([complex(a, b) for a, b in self.multipliers])
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; NaN test values as null)."""
-        return result_dict(self)
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; NaN test values as null; the
+        ``error_estimate`` key only where the point has one)."""
+        return result_dict(self, exclude=() if self.error_estimate is not None else ("error_estimate",))
 
 
 @dataclass
@@ -89,7 +103,8 @@ class SpecialPoint:
 class Branch:
     """A branch of periodic orbits: its points in order of arclength, the special points found
     between them, why it ended (``end_reason``: reached_to, reached_from, corrector_failed,
-    free_parameter_bound, rejected, max_points, start_failed, stopped_at_event) and the settings used."""
+    free_parameter_bound, rejected, max_points, start_failed, stopped_at_event; ``incomplete`` when
+    collected from an iterator that was left early) and the settings used."""
 
     parameter_name: str
     points: list

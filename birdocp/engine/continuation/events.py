@@ -88,7 +88,8 @@ def locate_event(events: BranchEvents, name: str, corrector: Corrector, base: Co
                  tol: float):
     """Locate where the test function ``name`` of ``events`` crosses zero between ``base`` (branch point
     ``index``, value ``va``) and the point ``ds`` further (value ``vb``): (SpecialPoint, the
-    BranchPoint there with its ``event_values``), or ``None`` when no corrector solve succeeded."""
+    BranchPoint there with its ``event_values``, its corrected state), or ``None`` when no corrector
+    solve succeeded."""
     seen: dict = {}
 
     def test(st: ContinuationState, c: float) -> float:
@@ -107,7 +108,7 @@ def locate_event(events: BranchEvents, name: str, corrector: Corrector, base: Co
                       free_values=pt.free_values, x0=pt.x0, arclength=pt.arclength, between=(index, index + 1),
                       located=ok, evaluations=nev, test_value=float(pt.event_values[name]),
                       message=events.message(name, direction, pt), event=name, direction=direction)
-    return sp, pt
+    return sp, pt, st
 
 
 def sign_changes(cur: ContinuationState, nxt: ContinuationState, detect) -> list:

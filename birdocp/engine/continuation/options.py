@@ -39,6 +39,10 @@ class ContinuationOptions:
         A corrected step changing the parameter (its units) or a shooting-point state by more than
         this is refused and shortened in proportion; steps aim at 0.85 of the limits (guards against
         jumping to another branch).
+    error_estimate : bool
+        Give every accepted point an ``error_estimate`` (a re-solve on twice the steps per period and
+        the solver's tolerance: :mod:`birdocp.engine.continuation.accuracy`); costs about one more
+        corrector solve on the 2N grid per point.
     """
 
     points: int = 5
@@ -55,3 +59,4 @@ class ContinuationOptions:
     detect: tuple = SPECIAL_POINT_KINDS
     max_dparam: float | None = None
     max_dstate: float | None = None
+    error_estimate: bool = False

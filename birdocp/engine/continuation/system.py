@@ -58,6 +58,13 @@ class Continuation:
         self.evaluations = 0        # residual + Jacobian evaluations
         self.residual_evaluations = 0  # residual only (quasi-Newton steps)
 
+    order = 4
+    """The order of the grid's integrator (RK4)."""
+
+    def refined(self) -> "Continuation":
+        """The same system on twice the steps per period (same unknowns: for error estimates)."""
+        return Continuation(self.problem, self.j, self.method.points, 2 * int(self.method.steps_per_period))
+
     @property
     def name(self) -> str:
         """The continuation parameter's name."""

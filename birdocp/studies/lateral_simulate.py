@@ -1,0 +1,306 @@
+"""Many wingbeats of the six-degree-of-freedom bird: a side gust or a roll perturbation, open or closed
+loop (the controller of :func:`birdocp.studies.lateral_control.design_lateral_controller`).
+
+The 9 states are integrated on the trim's RK4 grid, augmented by the inertial position of G (north
+= the cycle's initial heading, east = to its right, down) and the time. The air each element meets
+is the inertial velocity minus the wind, the wind given in the inertial frame and rotated into the
+body axes by the 3-2-1 attitude (psi, theta, phi): the state as the air sees it goes to the loads of
+:func:`birdocp.bird.sixdof.body_loads`, the equations of motion keep the inertial velocity.
+
+Side gust (:class:`SideGust`): an east wind (positive from the left, i.e. blowing towards the bird's
+right) as a function of time, a ``step`` from its start on, or a ``1 - cos`` ``pulse`` of a given
+length (beats). Equivalently a gust frozen in space along the cycle's path: the length in beats times
+``distance_per_beat_m``.
+
+A run stops with status ``diverged`` when the state leaves the model's range (non-finite, a speed
+above :data:`birdocp.studies.simulate.MAX_SPEED_MPS`, a rate above 1000 rad/s), with
+``left_validity`` when the air-relative forward speed falls below ``validity.min_forward_speed_mps``,
+|pitch| exceeds ``validity.max_abs_pitch_deg`` or the air meets the body axis at more than
+``validity.max_airflow_body_angle_deg``; the planar stall-fraction check is not evaluated here.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from birdocp.bird.config import ConfigError
+from birdocp.bird.sixdof import HEADING, STATE_NAMES, rhs_expression
+from birdocp.engine.integrate import RK4Grid, rk4_update, stage_block_index
+from birdocp.engine.results import result_dict, serial
+from birdocp.studies.control import PerModel
+from birdocp.studies.simulate import MAX_SPEED_MPS, interval_data
+
+__all__ = ["SideGust", "LateralSimulation", "simulate_lateral", "parse_side_gust", "parse_lateral_perturbation",
+           "LATERAL_STATE_ALIASES"]
+
+LATERAL_STATE_ALIASES = {"u": 0, "v": 1, "w": 2, "p": 3, "q": 4, "r": 5, "phi": 6, "theta": 7, "psi": 8,
+                         **{n: i for i, n in enumerate(STATE_NAMES)}}
+MAX_RATE_RADPS = 1000.0
+"""Largest body rate |p|, |q|, |r| in the model's range."""
+SHAPES = ("pulse", "step")
+
+
+@dataclass(frozen=True)
+class SideGust:
+    """An east (side) wind: ``amplitude_mps`` (positive: blowing towards the bird's right), ``shape``
+    'pulse' (``A/2 (1 - cos(2 pi (t - t_s)/L))`` for t_s <= t <= t_s + L) or 'step' (A from t_s on),
+    ``length_beats`` L and ``start_beats`` t_s in wingbeats."""
+
+    amplitude_mps: float
+    length_beats: float = 1.0
+    start_beats: float = 1.0
+    shape: str = "pulse"
+
+    def __post_init__(self):
+        if self.shape not in SHAPES:
+            raise ConfigError("--side-gust", f"shape must be pulse or step, got '{self.shape}'")
+        if not (math.isfinite(self.amplitude_mps) and abs(self.amplitude_mps) <= MAX_SPEED_MPS):
+            raise ConfigError("--side-gust", f"the amplitude must lie within +-{MAX_SPEED_MPS:g} m/s, got "
+                                             f"{self.amplitude_mps}")
+        if not (math.isfinite(self.length_beats) and 0.01 <= self.length_beats <= 1e4):
+            raise ConfigError("--side-gust", f"the length must lie in 0.01..10000 beats, got {self.length_beats}")
+        if not (math.isfinite(self.start_beats) and 0 <= self.start_beats <= 1e4):
+            raise ConfigError("--side-gust", f"the start must lie in 0..10000 beats, got {self.start_beats}")
+
+    def vector(self, period_s: float) -> np.ndarray:
+        """(A, t_s [s], L [s], step flag) for the stepper."""
+        return np.array([self.amplitude_mps, self.start_beats * period_s, self.length_beats * period_s,
+                         1.0 if self.shape == "step" else 0.0])
+
+
+def parse_side_gust(text: str, start_beats: float = 1.0) -> SideGust:
+    """``pulse|step=MPS[:BEATS]`` (BEATS the pulse length, default 1)."""
+    try:
+        shape, rest = text.split("=", 1)
+        amp, _, length = rest.partition(":")
+        return SideGust(float(amp), float(length) if length else 1.0, start_beats, shape.strip())
+    except ValueError as exc:
+        if isinstance(exc, ConfigError):
+            raise
+        raise ConfigError("--side-gust", f"expected pulse|step=MPS[:BEATS], got '{text}'") from None
+
+
+def parse_lateral_perturbation(items) -> np.ndarray:
+    """``KEY=VALUE`` deviations of the 9 states (u, v, w [m/s], p, q, r [rad/s], phi, theta, psi [rad])."""
+    dx = np.zeros(9)
+    for text in items or []:
+        try:
+            key, val = text.split("=", 1)
+            v = float(val)
+        except ValueError:
+            raise ConfigError("--perturb", f"expected KEY=VALUE, got '{text}'") from None
+        key = key.strip()
+        if key not in LATERAL_STATE_ALIASES:
+            raise ConfigError("--perturb", f"unknown state '{key}' (six degrees of freedom: u, v, w, p, q, r, phi, "
+                                           "theta, psi)")
+        i = LATERAL_STATE_ALIASES[key]
+        top = MAX_SPEED_MPS if i < 3 else MAX_RATE_RADPS if i < 6 else math.pi
+        if not (math.isfinite(v) and abs(v) <= top):
+            raise ConfigError("--perturb", f"'{key}' must lie within +-{top:g} (m/s, rad/s or rad), got {val}")
+        dx[i] += v
+    return dx
+
+
+def _dcm(phi, th, psi):
+    """Inertial (north, east, down) -> body rotation of the 3-2-1 angles."""
+    cf, sf, ct, st, cp, sp = ca.cos(phi), ca.sin(phi), ca.cos(th), ca.sin(th), ca.cos(psi), ca.sin(psi)
+    return ca.vertcat(ca.horzcat(ct * cp, ct * sp, -st),
+                      ca.horzcat(sf * st * cp - cf * sp, sf * st * sp + cf * cp, sf * ct),
+                      ca.horzcat(cf * st * cp + sf * sp, cf * st * sp - sf * cp, cf * ct))
+
+
+class _SixStepper(PerModel):
+    """RK4 of the 9 states + position (N, E, D) + time with a side wind, for (model, steps, N)."""
+
+    def __init__(self, six, steps: int, n_intervals: int):
+        self.model = six
+        self.grid = grid = RK4Grid(six.ode, steps, n_intervals)
+        n, nd, np_ = grid.n, six.ode.nd, six.ode.np
+        z = ca.SX.sym("z", 13)
+        d, p, g = ca.SX.sym("d", nd), ca.SX.sym("p", np_), ca.SX.sym("g", 4)
+        x, t = z[:9], z[12]
+        s = (t - g[1]) / g[2]
+        pulse = ca.if_else(ca.logic_and(s > 0, s < 1), 0.5 * (1 - ca.cos(2 * math.pi * s)), 0)
+        east = g[0] * ca.if_else(g[3] > 0, ca.if_else(t >= g[1], 1, 0), pulse)
+        C = _dcm(x[6], x[7], x[8])
+        wind_b = C @ ca.vertcat(0, east, 0)
+        x_air = ca.vertcat(x[:3] - wind_b, x[3:])
+        zdot = ca.vertcat(rhs_expression(x, d, p, x_air, structure=six.structure), C.T @ x[:3], 1)
+        f = ca.Function("f_sim6", [z, d, p, g], [zdot])
+        D3 = ca.SX.sym("D3", nd, 3)
+        step = ca.Function("sim6_step", [z, D3, p, g], [rk4_update(f, z, D3, grid.h, p, g)[0]])
+        self.interval = step.mapaccum("sim6_interval", n)
+        self.air = ca.Function("air6", [z, g], [x_air[:3]]).map(n)
+        self.post_interval = six.ode.post.map(2 * n + 1)
+        self.blocks = stage_block_index(n)
+        self.times = grid.times(0.0)
+
+    def data(self, i: int, p) -> ca.DM:
+        return interval_data(self, i, p)
+
+
+@dataclass
+class LateralSimulation:
+    """Time histories and per-beat deviations of a 6-DOF simulation (:func:`simulate_lateral`)."""
+
+    success: bool
+    status: str
+    message: str
+    closed_loop: bool
+    beats: int
+    t_s: np.ndarray = field(metadata=serial(skip=True))  # (n,) times of the RK4 steps
+    states: np.ndarray = field(metadata=serial(skip=True))  # (n, 9) the state (STATE_NAMES)
+    position_m: np.ndarray = field(metadata=serial(skip=True))  # (n, 3) north, east, down of G
+    control_t_s: np.ndarray = field(metadata=serial(skip=True))
+    controls: np.ndarray = field(metadata=serial(skip=True))  # (k, m) applied values (absolute, deg)
+    control_keys: list = field(metadata=serial(key="controls"))
+    deviation_per_beat: np.ndarray  # (K+1,) 2-norm of the 8 states (heading excluded) minus the cycle's
+    saturated: bool
+    side_gust: dict | None
+    perturbation: list
+    distance_per_beat_m: float
+    min_air_forward_speed_mps: float = float("nan")
+    max_airflow_body_angle_deg: float = float("nan")
+    diverged_beat: int | None = None
+    control_cycle: np.ndarray = field(default_factory=lambda: np.zeros(0), metadata=serial(skip=True))
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict: the fields but the histories, with the peak bank and the final heading [deg],
+        the largest sideways drift [m] and the beats to recover (deviation back to 1/100 of its peak)."""
+        dev = np.asarray(self.deviation_per_beat, float)
+        k = int(np.nanargmax(dev)) if np.any(np.isfinite(dev)) else 0
+        later = np.nonzero(dev[k:] <= dev[k] / 100.0)[0]
+        some = len(self.states) > 0
+        return result_dict(self, extra={
+            "state_names": list(STATE_NAMES), "degrees_of_freedom": 6,
+            "peak_deviation": dev[k], "peak_beat": k, "final_deviation": dev[-1],
+            "beats_to_recover": int(later[0]) if later.size and self.success else None,
+            "max_abs_bank_deg": np.degrees(np.max(np.abs(self.states[:, 6]))) if some else None,
+            "final_heading_deg": np.degrees(self.states[-1, HEADING]) if some else None,
+            "max_abs_east_drift_m": np.max(np.abs(self.position_m[:, 1])) if some else None,
+            "control_range": [[np.min(c), np.max(c)] for c in self.controls.T] if self.controls.size else [],
+            "stall_fraction_checked": False})
+
+    def arrays(self) -> dict:
+        """The histories (arrays.npz)."""
+        return {"t_s": self.t_s, "states": self.states, "position_m": self.position_m,
+                "control_t_s": self.control_t_s, "controls": self.controls, "control_cycle": self.control_cycle,
+                "deviation_per_beat": self.deviation_per_beat}
+
+
+def _limits_text(status_z, air, lim):
+    """The reasons a step range leaves the model's range or validity (empty: none)."""
+    z = status_z
+    speed = np.linalg.norm(z[:, :3], axis=1)
+    if not np.all(np.isfinite(z)) or np.any(speed > MAX_SPEED_MPS) or np.any(np.abs(z[:, 3:6]) > MAX_RATE_RADPS):
+        return "diverged", "the state left the model's range (non-finite, speed or rate too large)"
+    inflow = np.degrees(np.arctan2(np.hypot(air[1], air[2]), air[0]))
+    pitch = np.degrees(np.max(np.abs(z[:, 7])))
+    reasons = [t for bad, t in (
+        (np.min(air[0]) < lim.min_forward_speed_mps,
+         f"air-relative forward speed {np.min(air[0]):.3g} m/s < {lim.min_forward_speed_mps:g} m/s"),
+        (pitch > lim.max_abs_pitch_deg, f"|pitch| {pitch:.3g} > {lim.max_abs_pitch_deg:g} deg"),
+        (np.max(np.abs(inflow)) > lim.max_airflow_body_angle_deg,
+         f"airflow at {np.max(np.abs(inflow)):.3g} deg to the body axis > {lim.max_airflow_body_angle_deg:g} deg"),
+    ) if bad]
+    return ("left_validity", ", ".join(reasons)) if reasons else ("ok", "")
+
+
+def _beat(st, z, k, N, p_cyc, idx, u_cyc, controller, gvec, T):
+    """One beat of :func:`simulate_lateral`: (z, Zs, controls applied, saturated, air velocities)."""
+    Zs, applied, sat, airs = [], [], False, []
+    for i in range(N):
+        pk = p_cyc
+        if controller is not None:
+            u = u_cyc - np.asarray(controller.K[i]) @ (z[:HEADING] - np.asarray(controller.x_starts[i]))
+            lim = np.asarray(controller.limits)
+            uc = np.clip(u, lim[:, 0], lim[:, 1])
+            sat = sat or bool(np.any(uc != u))
+            pk = p_cyc.copy()
+            pk[idx] = uc
+            applied.append(((k + i / N) * T, uc))
+        with np.errstate(all="ignore"):
+            Zi = np.asarray(st.interval(z, st.data(i, pk), ca.DM(pk), ca.DM(gvec))).T
+        Zs.append(Zi)
+        airs.append(np.asarray(st.air(Zi.T, ca.DM(gvec))))
+        z = Zi[-1]
+    return z, np.vstack(Zs), applied, sat, np.hstack(airs)
+
+
+def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | None = None, perturbation=None,
+                     side_gust: SideGust | None = None, controller=None, progress=None) -> LateralSimulation:
+    """Integrate the 6-DOF bird ``beats`` wingbeats from ``x0_cycle + perturbation``.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration (``model.degrees_of_freedom = 6``; its ``[validity]`` thresholds).
+    x0_cycle : array (8,) or (9,)
+        The cycle's state at the beat start (psi = 0 when 8 are given).
+    p : array
+        The per-side model's parameter vector of the cycle
+        (:func:`birdocp.studies.lateral_control.sides_parameters`).
+    beats : int
+        Wingbeats to simulate (>= 1).
+    steps_per_period : int, optional
+        RK4 steps per beat (default ``cfg.solve.steps_per_period``; use the cycle's).
+    perturbation : array (9,), optional
+        State deviation at t = 0 (:func:`parse_lateral_perturbation`).
+    side_gust : SideGust, optional
+        The side wind.
+    controller : Controller, optional
+        A 6-DOF controller (gains (N, m, 8)); None = open loop.
+    progress : callable, optional
+        ``progress(text)`` at the start of every beat.
+
+    Returns
+    -------
+    LateralSimulation
+    """
+    from birdocp.bird.sixdof import sixdof_model
+
+    if int(beats) < 1:
+        raise ConfigError("--beats", f"must be >= 1, got {beats}")
+    six = sixdof_model(cfg, sides=True)
+    x0 = np.zeros(9)
+    x0[:len(np.ravel(x0_cycle))] = np.ravel(x0_cycle)
+    dx0 = np.zeros(9) if perturbation is None else np.asarray(perturbation, float).ravel()
+    N = int(getattr(controller, "updates_per_beat", 1)) if controller is not None else 1
+    st = _SixStepper.get(six, int(steps_per_period or cfg.solve.steps_per_period), N)
+    p_cyc = np.asarray(p, float)
+    names = list(six.ode.param_names)
+    keys = list(controller.controls) if controller is not None else []
+    idx = [names.index(k) for k in keys]
+    gvec = side_gust.vector(six.period_s) if side_gust is not None else np.array([0.0, 0.0, 1.0, 0.0])
+    zc, _, _, _, _ = _beat(st, np.concatenate([x0, [0.0] * 4]), 0, N, p_cyc, idx, p_cyc[idx], None,
+                           np.array([0.0, 0.0, 1.0, 0.0]), six.period_s)
+    beat_m = float(np.hypot(zc[9], zc[10]))
+    z = np.concatenate([x0 + dx0, [0.0] * 4])
+    traj, ctrl, dev = [z[None, :]], [], [float(np.linalg.norm(dx0[:HEADING]))]
+    sat, status, message, diverged, airs = False, "ok", f"{int(beats)} beats simulated", None, []
+    for k in range(int(beats)):
+        if progress is not None:
+            progress(f"beat {k + 1}/{beats}")
+        z, Zk, applied, s, air = _beat(st, z, k, N, p_cyc, idx, p_cyc[idx], controller, gvec, six.period_s)
+        status, why = _limits_text(Zk, air, cfg.validity)
+        sat, ctrl = sat or s, ctrl + applied
+        traj.append(Zk)
+        airs.append(air)
+        dev.append(float(np.linalg.norm(z[:HEADING] - x0[:HEADING])) if status != "diverged" else float("nan"))
+        if status != "ok":
+            diverged = k + 1 if status == "diverged" else None
+            message = f"{'diverged' if diverged else 'left the model validity'} in beat {k + 1}: {why}"
+            break
+    Z = np.vstack(traj)
+    A = np.hstack(airs) if airs else np.full((3, 1), np.nan)
+    return LateralSimulation(
+        status == "ok", status, message, controller is not None, int(beats), np.asarray(Z[:, 12]), Z[:, :9],
+        Z[:, 9:12], np.array([c[0] for c in ctrl]), np.array([c[1] for c in ctrl]) if ctrl else np.zeros((0, len(keys))),
+        keys, np.array(dev), sat, None if side_gust is None else {
+            "amplitude_mps": side_gust.amplitude_mps, "shape": side_gust.shape, "length_beats": side_gust.length_beats,
+            "start_beats": side_gust.start_beats}, dx0.tolist(), beat_m, float(np.nanmin(A[0])),
+        float(np.nanmax(np.degrees(np.arctan2(np.hypot(A[1], A[2]), A[0])))), diverged, p_cyc[idx])

@@ -1,0 +1,125 @@
+"""The gliding limit against an independent vortex-lattice model: birdocp's steady glide of the
+frozen wing (all flapping amplitudes 0) and its lateral roots next to AeroSandbox's.
+
+    python scripts/glide_comparison.py --out results/lateral/glide
+
+writes ``geometry.json`` (birdocp's frozen lifting line and glide: the input of
+``scripts/reference_aerosandbox/run_aerosandbox.py``, run in AeroSandbox's own environment),
+``birdocp.json`` (the glide, its eigenvalues, lateral matrix and derivatives) and, when
+``aerosandbox.json`` is in the folder, ``comparison.json`` and ``comparison.md`` (the roll-subsidence
+root, the Dutch-roll frequency and the other roots and derivatives side by side, with the relative
+differences).
+"""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from script_common import parse_with_out, script_parser  # noqa: E402
+
+from birdocp.studies.glide import (glide_geometry, lateral_glide_modes, lateral_matrix_with,  # noqa: E402
+                                   load_derivatives_at, steady_glide)
+
+TOLERANCE = 0.05
+"""The issue's agreement target for the roll-subsidence root and the Dutch-roll frequency."""
+
+
+def rel(a: float, b: float) -> float:
+    """(a - b) / |b|."""
+    return (a - b) / abs(b)
+
+
+def compare(ours: dict, ref: dict) -> dict:
+    """The comparison rows: birdocp's value, AeroSandbox's (body-axis and wind-aligned wakes), relative
+    differences (also the load derivatives at the reference's check states); ``within_tolerance``
+    for the two quantities the issue names."""
+    def pick(d):
+        dr = d["dutch_roll"] or {}
+        return {"roll_subsidence_per_s": d["roll_subsidence_per_s"], "dutch_roll_frequency_radps":
+                dr.get("frequency_radps"), "dutch_roll_real_per_s": dr.get("real_per_s"),
+                "dutch_roll_natural_frequency_radps": dr.get("natural_frequency_radps"),
+                "spiral_per_s": d["spiral_per_s"], **{f"d{k}": v for k, v in d["derivatives"].items()}}
+    mine = pick(ours)
+    rows = []
+    for key, value in mine.items():
+        row = {"quantity": key, "birdocp": value}
+        for wake in ("body_axis_wake", "wind_aligned_wake"):
+            r = pick(ref[wake])[key]
+            row[wake] = r
+            row[f"relative_{wake}"] = None if (r is None or value is None or r == 0) else rel(value, r)
+        rows.append(row)
+    for i, st in enumerate(ref["body_axis_wake"].get("check_states", [])):
+        mine_d = load_derivatives_at(None, st["u_mps"], st["w_mps"])
+        for k, value in mine_d.items():
+            row = {"quantity": f"{st['name']}: d{k}", "birdocp": value}
+            for wake in ("body_axis_wake", "wind_aligned_wake"):
+                r = ref[wake]["check_states"][i]["derivatives"][k]
+                row[wake] = r
+                row[f"relative_{wake}"] = None if r == 0 else rel(value, r)
+            rows.append(row)
+    named_rows = _attribution(ours, ref["body_axis_wake"])
+    named = [r for r in rows if r["quantity"] in ("roll_subsidence_per_s", "dutch_roll_frequency_radps")]
+    ok = all(r["relative_body_axis_wake"] is not None and abs(r["relative_body_axis_wake"]) <= TOLERANCE
+             for r in named)
+    return {"tolerance": TOLERANCE, "within_tolerance": ok, "rows": rows, "attribution": named_rows}
+
+
+def _attribution(ours: dict, ref: dict) -> list[dict]:
+    """birdocp's roll-subsidence root and Dutch-roll frequency with one of the VLM's derivatives (body-axis
+    wake) put in place of birdocp's at a time, then all nine (that is the VLM's lateral matrix: its
+    roots must be the VLM's, a check of the two rigid-body linearisations)."""
+    out = []
+    swaps = [(k, {k: v}) for k, v in ref["derivatives"].items()] + [("all nine", dict(ref["derivatives"]))]
+    for name, swap in swaps:
+        m = lateral_glide_modes(lateral_matrix_with(ours, swap))
+        dr = m["dutch_roll"] or {}
+        out.append({"replaced": name, "roll_subsidence_per_s": m["roll_subsidence_per_s"],
+                    "dutch_roll_frequency_radps": dr.get("frequency_radps"), "spiral_per_s": m["spiral_per_s"]})
+    return out
+
+
+def table(cmp: dict) -> str:
+    def f(x, pct=False):
+        if x is None:
+            return "-"
+        return f"{100 * x:+.1f} %" if pct else f"{x:.4g}"
+    lines = ["| quantity | birdocp | AeroSandbox VLM (body-axis wake) | diff | AeroSandbox VLM (wind-aligned wake) | diff |",
+             "|---|---|---|---|---|---|"]
+    for r in cmp["rows"]:
+        lines.append(f"| {r['quantity']} | {f(r['birdocp'])} | {f(r['body_axis_wake'])} | "
+                     f"{f(r['relative_body_axis_wake'], True)} | {f(r['wind_aligned_wake'])} | "
+                     f"{f(r['relative_wind_aligned_wake'], True)} |")
+    lines += ["", "birdocp's roots with the VLM's (body-axis wake) derivatives put in, one at a time, then all nine:", "",
+              "| replaced | roll subsidence [1/s] | Dutch-roll frequency [rad/s] | spiral [1/s] |", "|---|---|---|---|"]
+    for r in cmp["attribution"]:
+        lines.append(f"| {r['replaced']} | {f(r['roll_subsidence_per_s'])} | {f(r['dutch_roll_frequency_radps'])} | "
+                     f"{f(r['spiral_per_s'])} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> None:
+    ap = script_parser(__doc__, "results/lateral/glide")
+    _, out = parse_with_out(ap, argv)
+    glide = steady_glide()
+    if not glide["success"]:
+        raise SystemExit(f"the steady glide did not converge (residual {glide['residual']:.3g})")
+    (out / "birdocp.json").write_text(json.dumps(glide, indent=1) + "\n")
+    (out / "geometry.json").write_text(json.dumps(glide_geometry(glide=glide), indent=1) + "\n")
+    print(f"glide: speed {glide['speed_mps']:.4f} m/s, body angle of attack {glide['alpha_body_deg']:.2f} deg, "
+          f"flight path {glide['flight_path_angle_deg']:.2f} deg; roll subsidence "
+          f"{glide['roll_subsidence_per_s']:.4f} 1/s, Dutch roll {glide['dutch_roll']['frequency_radps']:.4f} rad/s")
+    ref_file = out / "aerosandbox.json"
+    if ref_file.exists():
+        cmp = compare(glide, json.loads(ref_file.read_text()))
+        (out / "comparison.json").write_text(json.dumps(cmp, indent=1) + "\n")
+        (out / "comparison.md").write_text(table(cmp))
+        print(table(cmp))
+    else:
+        print(f"no {ref_file}: run scripts/reference_aerosandbox/run_aerosandbox.py in AeroSandbox's environment")
+
+
+if __name__ == "__main__":
+    main()
