@@ -1,7 +1,7 @@
 """Lateral-directional stability of the flapping ibis: the six-degree-of-freedom cycle and its lateral
 Floquet multipliers at the paper's gait and in level flight, over the stability margin (the wing-root
 position of Experiment 3) and over the roll inertia, which the planar model does not need and which
-is an estimate (docs/sixdof.md).
+is an estimate (docs/studies/lateral.md).
 
 Every row carries the cycle's model validity; invalid rows are drawn dashed and grey. Writes
 result.json, table.md and lateral_margin.png.
@@ -93,7 +93,7 @@ def fmt_mult(m) -> str:
 def table(res: dict) -> str:
     lines = ["# Lateral multipliers of the flapping ibis (six degrees of freedom)", "",
              f"Roll inertia {res['inertia']['roll_inertia_kgm2']} kg m², yaw {res['inertia']['yaw_inertia_kgm2']} kg m² "
-             "(estimates, docs/sixdof.md); 5 shooting points, 148 RK4 steps. Beats: wingbeats to double "
+             "(estimates, docs/studies/lateral.md); 5 shooting points, 148 RK4 steps. Beats: wingbeats to double "
              "(negative: to halve).", ""]
     for key, title in (("paper_gait", "Paper's gait (A = 42 deg)"), ("level", "Level flight")):
         r = res[key]

@@ -93,8 +93,8 @@ def test_frozen_wing_multipliers_are_the_glide_eigenvalues(default_config):
 def test_planar_terms_not_in_3d_are_refused():
     from birdocp.bird.config import with_values
 
-    with pytest.raises(ValueError, match="tail"):
-        sixdof_model(with_values(Config(), {"tail.opening_angle_deg": 30.0}))
+    with pytest.raises(ValueError, match="drag"):
+        sixdof_model(with_values(Config(), {"drag.body_drag_coefficient": 0.1}))
     with pytest.raises(ValueError, match="roll_inertia_kgm2"):
         LateralInertia(roll_inertia_kgm2=0.0)
 
@@ -136,27 +136,220 @@ def test_trim_cli_with_six_degrees_of_freedom(tmp_path):
     assert r["state_names"][1] == "v_mps" and r["validity"]["valid"] in (True, False)
     assert {m["label"] for m in r["lateral_modes"]} <= {"spiral", "dutch_roll_like", "roll_subsidence", "lateral_real"}
     assert json.loads((tmp_path / "run" / "result.json").read_text())["heading_multiplier"] == r["heading_multiplier"]
+    assert {"states.png", "multipliers.png"} <= set(_plot(tmp_path / "run"))
 
 
 @pytest.mark.slow
-def test_lateral_sensitivity_against_central_differences(default_config, coarse):
-    """The exact derivative of the spiral multiplier's modulus along the shoulder elevation (dihedral)
-    against central differences of re-solved cycles."""
-    from birdocp.bird.config import with_values
+def test_lateral_sensitivity_against_central_differences(mass_tail_config, coarse):
+    """The exact derivatives of the spiral multiplier's modulus along the shoulder elevation (dihedral)
+    and the tail opening, with wing masses and the tail, against central differences of re-solved
+    cycles."""
+    from birdocp.bird.config import get_value, with_values
     from birdocp.studies.lateral import lateral_sensitivities
 
     method = MultipleShooting(**coarse)
-    key = "gait.shoulder_flap.offset_deg"
-    res = lateral_trim(default_config, method=method)
-    (row,) = lateral_sensitivities(res, default_config, [key])
-    spiral = [i for i, lab in enumerate(row["labels"]) if lab == "spiral"]
-    assert len(spiral) == 1 and row["labels"].count("heading") == 1
+    keys = ["gait.shoulder_flap.offset_deg", "tail.opening_angle_deg"]
+    res = lateral_trim(mass_tail_config, method=method)
+    rows = lateral_sensitivities(res, mass_tail_config, keys)
+    spiral = [i for i, lab in enumerate(rows[0]["labels"]) if lab == "spiral"]
+    assert len(spiral) == 1 and rows[0]["labels"].count("heading") == 1
 
-    def modulus(v):
-        r = lateral_trim(with_values(default_config, {key: v}), method=method)
+    def modulus(key, v):
+        r = lateral_trim(with_values(mass_tail_config, {key: v}), method=method)
         return abs(next(m["multiplier"] for m in r.lateral_modes if m["label"] == "spiral"))
 
     h = 0.01
-    fd = (modulus(h) - modulus(-h)) / (2 * h)
-    assert abs(row["d_moduli"][spiral[0]] - fd) < 1e-6 * max(1.0, abs(fd)), (row["d_moduli"][spiral[0]], fd)
-    assert row["d_moduli"][row["labels"].index("heading")] == pytest.approx(0.0, abs=1e-12)
+    for key, row in zip(keys, rows):
+        v0 = get_value(mass_tail_config, key)
+        fd = (modulus(key, v0 + h) - modulus(key, v0 - h)) / (2 * h)
+        assert abs(fd) > 1e-4  # both move the spiral mode
+        assert abs(row["d_moduli"][spiral[0]] - fd) < 1e-6 * max(1.0, abs(fd)), (key, row["d_moduli"][spiral[0]], fd)
+        assert row["d_moduli"][row["labels"].index("heading")] == pytest.approx(0.0, abs=1e-12)
+
+
+# --- wing masses and the tail in six degrees of freedom --------------------------------------------
+
+MASS_TAIL = {"wing.mass_kg": 0.086, "tail.opening_angle_deg": 20.0}
+
+
+@pytest.fixture(scope="module")
+def mass_tail_config():
+    from birdocp.bird.config import with_values
+
+    return with_values(Config(), MASS_TAIL)
+
+
+def test_wing_masses_and_tail_off_by_their_parameters_are_the_massless_model_bit_for_bit(mass_tail_config, six,
+                                                                                          default_config):
+    """The structure with wing masses and tail at wing.mass_kg = 0 and opening 0: the right-hand side
+    of the massless, tailless 6-DOF model, every bit (the wing correction is an exact zero)."""
+    from birdocp.bird.config import PARAM_NAMES
+
+    heavy = sixdof_model(mass_tail_config)
+    p = np.array(param_vector(mass_tail_config))
+    p[[PARAM_NAMES.index("wing.mass_kg"), PARAM_NAMES.index("tail.opening_angle_deg")]] = 0.0
+    x = [17.5, 0.8, -1.0, 0.3, 0.2, -0.4, 0.15, -0.1, 0.7]
+    for t in (0.02, 0.13):
+        d0 = six.data(t, six.params(param_vector(default_config)))
+        f0 = np.array(six.rhs(x, d0, six.params(param_vector(default_config)))).ravel()
+        f1 = np.array(heavy.rhs(x, heavy.data(t, heavy.params(p)), heavy.params(p))).ravel()
+        assert np.array_equal(f0, f1)
+
+
+def test_mirror_symmetry_with_wing_masses_and_tail(mass_tail_config):
+    heavy = sixdof_model(mass_tail_config)
+    p6 = heavy.params(param_vector(mass_tail_config))
+    x = np.array([17.5, 0.8, -1.0, 0.3, 0.2, -0.4, 0.15, -0.1, 0.7])
+    d = heavy.data(0.07, p6)
+    f = np.array(heavy.rhs(x, d, p6)).ravel()
+    np.testing.assert_allclose(np.array(heavy.rhs(MIRROR @ x, d, p6)).ravel(), MIRROR @ f, rtol=1e-12, atol=1e-11)
+
+
+def test_one_heavy_wing_in_vacuum_conserves_momentum_and_angular_momentum(mass_tail_config):
+    """No air, no gravity, only the right wing has mass (asymmetric wing motion: roll, yaw and the
+    products of inertia are loaded), a tumbling start: the inertial momentum and the angular momentum
+    about a fixed point of body plus wings stay constant along a wingbeat, to RK4 accuracy (the drift
+    falls ~16x per halving of the step). Dropping any wing term of the equations breaks this."""
+    from birdocp.studies.lateral_checks import vacuum_drift
+
+    r = vacuum_drift(mass_tail_config, (50, 100, 200))
+    assert np.abs(r["initial"][3:]).max() > 0.03  # a real angular momentum
+    assert abs(r["final_state"][-1][6]) > 0.5  # the body did roll (the wing's reaction), yet H is conserved
+    assert r["drift"][-1] < 5e-9
+    assert all(12.0 < q < 20.0 for q in r["ratios"]), r["drift"]
+
+
+def test_symmetric_cycle_with_wing_masses_and_tail_is_the_planar_cycle(mass_tail_config, coarse):
+    from birdocp.studies.trim import trim
+
+    res = lateral_trim(mass_tail_config, method=MultipleShooting(**coarse))
+    planar = trim(mass_tail_config, **coarse)
+    assert res.success and planar.success
+    assert res.coupling_max < 1e-12
+    np.testing.assert_allclose(np.sort_complex(res.longitudinal_multipliers), np.sort_complex(planar.multipliers),
+                               rtol=0, atol=1e-9)
+
+
+# --- the other commands with model.degrees_of_freedom = 6 (coarse grids) ---------------------------
+
+SIX_CLI = ["--set", "model.degrees_of_freedom=6", "--set", "solve.points=3", "--set", "solve.steps_per_period=48"]
+
+
+def _cli(*args, timeout=300, six=True):
+    import json
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "birdocp", *args, *(SIX_CLI if six else []), "--json"],
+                          capture_output=True, text=True, timeout=timeout)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout)
+
+
+def _plot(folder) -> list:
+    return _cli("plot", str(folder), six=False)["figures"]
+
+
+def test_sweep_cli_with_six_degrees_of_freedom(tmp_path):
+    import csv
+
+    r = _cli("sweep", "root_ahead_m", "--from", "0.05", "--to", "0.045", "--step", "0.005", "--out",
+             str(tmp_path / "s"))
+    assert r["success"] and len(r["points"]) == 2
+    for row in r["points"]:
+        assert len(row["multipliers"]) == 9 and len(row["lateral_multipliers"]) == 4
+        assert len(row["longitudinal_multipliers"]) == 4 and row["valid"] in (True, False)
+        assert abs(row["heading_multiplier"] - 1) < 1e-9 and row["coupling_max"] < 1e-12
+        assert row["lateral_modulus0"] == pytest.approx(abs(complex(*row["lateral_multipliers"][0])))
+    # the warm-started second point moved: the spiral mode grows as the root moves back (Experiment 3)
+    assert r["points"][1]["spiral_modulus"] > r["points"][0]["spiral_modulus"]
+    with open(tmp_path / "s" / "sweep.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert "lateral_modulus0" in rows[0] and rows[1]["valid"] in ("True", "False")
+    assert _plot(tmp_path / "s") == ["sweep.png"]
+
+
+def test_continue_cli_with_six_degrees_of_freedom(tmp_path):
+    """The branch of the heading-free ODE: 8 multipliers per point (no structural 1 for the fold
+    tests), the per-point split, and the 6-DOF trim's multipliers at the start."""
+    r = _cli("continue", "root_ahead_m", "--from", "0.05", "--to", "0.048", "--out", str(tmp_path / "c"))
+    assert r["success"] and r["degrees_of_freedom"] == 6
+    pts = r["branch"]["points"]
+    assert len(pts[0]["x0"]) == 8 and len(pts[0]["multipliers"]) == 8
+    assert len(r["lateral_multipliers"]) == len(pts) == len(r["longitudinal_multipliers"])
+    assert max(r["branch"]["settings"]["coupling_max"]) < 1e-12
+    assert all(abs(abs(complex(*m)) - 1.0) > 1e-3 for m in pts[0]["multipliers"])
+    trim6 = lateral_trim(Config(), method=MultipleShooting(points=3, steps_per_period=48))
+    np.testing.assert_allclose(sorted(abs(complex(*m)) for m in r["lateral_multipliers"][0]),
+                               sorted(np.abs(trim6.lateral_multipliers)), rtol=0, atol=1e-8)
+    assert set(_plot(tmp_path / "c")) == {"locus.png", "moduli.png"}
+
+
+@pytest.mark.slow
+def test_sensitivity_cli_with_six_degrees_of_freedom(tmp_path):
+    r = _cli("sensitivity", "--param", "model.roll_inertia_kgm2", "--out", str(tmp_path / "s"))
+    assert r["success"] and len(r["multipliers"]) == 9 and len(r["lateral_multipliers"]) == 4
+    (row,) = r["sensitivities"]
+    assert row["parameter"] == "model.roll_inertia_kgm2" and len(row["d_moduli"]) == 9
+    # a roll inertia moves only the lateral modes (the longitudinal block does not contain it)
+    assert abs(row["d_modulus_by_mode"]["longitudinal"]) < 1e-12 < abs(row["d_modulus_by_mode"]["spiral"])
+
+
+def _export_six(d):
+    r = _cli("export-c", "--steps", "48", "--out", str(d))
+    assert "model.roll_inertia_kgm2" in r["runtime_params"] and "model.product_inertia_xz_kgm2" in r["runtime_params"]
+    return r
+
+
+def test_export_c_with_six_degrees_of_freedom_writes_the_9_state_model(tmp_path):
+    """The exported table is the 6-DOF model's data on the RK4 stage grid, the header says 9 states."""
+    import re
+
+    r = _export_six(tmp_path / "c6")
+    head = (tmp_path / "c6" / "bird.h").read_text()
+    assert re.search(r"#define BIRD_NX 9\b", head) and "x[3] = p, x[4] = q, x[5] = r" in head
+    cfg = Config()
+    six = sixdof_model(cfg)
+    assert r["n_data"] == six.rhs.size1_in(1)
+    table = (tmp_path / "c6" / "bird_data.c").read_text()
+    first = [float(v) for v in re.search(r"bird_data_table\[[^]]*\] = \{\s*([^}]*)", table).group(1).split(",")[:6]]
+    np.testing.assert_array_equal(first, np.asarray(six.data(0.0, six.params(param_vector(cfg)))).ravel()[:6])
+
+
+@pytest.mark.skipif(not __import__("os").environ.get("BIRDOCP_TEST_C6"),
+                    reason="compiles the 9-state C export (about 1-2 min): set BIRDOCP_TEST_C6=1")
+def test_export_c_with_six_degrees_of_freedom_matches_python(tmp_path):
+    """The compiled period map and monodromy of the 9-state export against the Python RK4 map, at a
+    sideslipping, rolling state (1e-10)."""
+    import os
+    import shutil
+    import subprocess
+
+    import casadi as ca
+
+    from birdocp.engine.integrate import RK4Grid
+    from birdocp.export.compiled import find_compiler
+
+    cc = find_compiler()
+    if cc is None:
+        pytest.skip("no C compiler")
+    d = tmp_path / "c6"
+    _export_six(d)
+    make = shutil.which("make")
+    if make:
+        subprocess.run([make, "-j2", "bird_period"], cwd=d, check=True, capture_output=True,
+                       env=dict(os.environ, CC=" ".join(cc)))
+    else:
+        subprocess.run(cc + ["-O1", "-o", "bird_period", "main.c", "bird.c", "bird_casadi.c", "bird_data.c", "-lm"],
+                       cwd=d, check=True, capture_output=True)
+    x0 = [18.0, 0.4, -1.0, 0.2, 0.1, -0.1, 0.05, -0.1, 0.3]  # a sideslipping, rolling state
+    out = subprocess.run([str(d / "bird_period"), *map(repr, x0)], capture_output=True, text=True, check=True).stdout
+    rows = [np.array(line.split(), float) for line in out.splitlines() if line.strip()]
+    assert len(rows) == 10 and rows[0].size == 9
+    cfg = Config()
+    six = sixdof_model(cfg)
+    p6 = ca.DM(six.params(param_vector(cfg)))
+    grid = RK4Grid(six.ode, 48, 1)
+    xT, J = grid.period_jacobian(ca.DM(x0), grid.blocks_numeric(0.0, np.asarray(p6).ravel()), p6)
+    assert np.max(np.abs(rows[0] - np.asarray(xT).ravel())) < 1e-10
+    assert np.max(np.abs(np.vstack(rows[1:]) - np.asarray(J))) < 1e-10

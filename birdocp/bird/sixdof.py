@@ -1,5 +1,5 @@
 """The bird in six degrees of freedom: rigid-body equations in body axes with the lifting line in
-asymmetric flow (the equations are written out in ``docs/sixdof.md``).
+asymmetric flow (the equations are written out in ``docs/studies/lateral.md``).
 
 State ``x`` (9), body frame x' forward, y' right, z' down, origin the centre of mass G:
 
@@ -31,10 +31,14 @@ the 42 per-side joint offsets and the data is assembled from two differing wings
 periodic up to its heading (a turn), so ``ode_no_heading`` (the 8 states without psi, on which
 nothing depends) is the ODE its trim solves.
 
-Wings are massless here (the planar model's default); the body has the inertia tensor
-``[[I_xx, 0, -I_xz], [0, I_yy, 0], [-I_xz, 0, I_zz]]`` (:class:`LateralInertia` adds I_xx, I_zz, I_xz
-to the configuration's ``body.pitch_inertia_kgm2`` = I_yy). For a symmetric cycle (v = p = r = phi
-= 0) the longitudinal equations are the planar model's, operation for operation.
+The body has the inertia tensor ``[[I_xx, 0, -I_xz], [0, I_yy, 0], [-I_xz, 0, I_zz]]`` about G
+(:class:`LateralInertia` adds I_xx, I_zz, I_xz to the configuration's ``body.pitch_inertia_kgm2`` =
+I_yy). With ``wing.mass_kg`` > 0 the wings' mass points move with the gait and their 3-D inertial
+terms (momentum, angular momentum, products of inertia) are added by
+:mod:`birdocp.bird.sixdof_inertia`; ``body.mass_kg`` is then the whole bird and the inertias are the
+body's own about its centre of mass G_b, as in the planar model with wing masses. With the tail
+(``tail.opening_angle_deg`` > 0) its planar loads are added (:func:`tail_body_loads`). For a symmetric
+cycle (v = p = r = phi = 0) the longitudinal equations are the planar model's.
 """
 
 from __future__ import annotations
@@ -44,9 +48,10 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from birdocp.bird import aero
+from birdocp.bird import aero, tail
+from birdocp.bird import sixdof_inertia as wing3
 from birdocp.bird.config import PARAM_NAMES, Config, asymmetric
-from birdocp.bird.model import N_DATA, BirdModel, Structure, get_model, unpack_data
+from birdocp.bird.model import BirdModel, Structure, get_model, unpack_data
 from birdocp.bird.sides import SIDE_PARAM_NAMES, side_data_functions
 from birdocp.engine.cache import register_cache
 from birdocp.engine.problem import PeriodicODE
@@ -97,9 +102,11 @@ def _p(p, name):
     return p[PARAM_NAMES.index(name)]
 
 
-def body_loads(x, d, p):
+def body_loads(x, d, p, with_tail=False):
     """Body-axis aerodynamic force (X, Y, Z) [N] and moment (L, M, N) [N m] about G at the 9-state
     ``x``, planar data ``d`` and parameters ``p`` (SX), with the per-element terms.
+
+    ``with_tail``: add the tail's loads (:func:`tail_body_loads`).
 
     Returns ``(F_body 3x1, M_body 3x1, terms)``; ``terms`` is the dict of
     :func:`birdocp.bird.aero.forces_from_velocity` (code frame)."""
@@ -119,17 +126,36 @@ def body_loads(x, d, p):
     Mc = ca.sum2(ca.vertcat(r[1, :] * dF[2, :] - r[2, :] * dF[1, :],
                             r[2, :] * dF[0, :] - r[0, :] * dF[2, :],
                             r[0, :] * dF[1, :] - r[1, :] * dF[0, :]))
-    return ca.vertcat(-F[2], F[0], -F[1]), ca.vertcat(-Mc[2], Mc[0], -Mc[1]), e
+    Fb, Mb = ca.vertcat(-F[2], F[0], -F[1]), ca.vertcat(-Mc[2], Mc[0], -Mc[1])
+    if with_tail:
+        Lt, Dt, Mt = tail_body_loads(x, b, e["Gamma"], p)
+        Fb, Mb = Fb - ca.vertcat(Dt, 0, Lt), Mb + ca.vertcat(0, Mt, 0)
+    return Fb, Mb, e
 
 
-def rhs_expression(x, d, p6, x_air=None):
+def tail_body_loads(x, b, gamma, p):
+    """The tail's lift (up), drag (backwards) and pitching moment about G (:func:`birdocp.bird.tail.tail_loads`)
+    in six degrees of freedom: the planar tail fed with the symmetry-plane velocities (u, w, q) and the
+    induced velocity of the whole (possibly asymmetric) wake at its neutral point. The flat tail in
+    the plane x'y' carries no side force; the crossflow of sideslip and yaw rate (v - r x_tail along
+    y') and the roll rate are not seen by it (its loads are even in sideslip and it adds no roll or
+    yaw moment: slender-wing theory to first order, docs/studies/lateral.md)."""
+    return tail.tail_loads(ca.vertcat(x[0], x[2], x[4]), b["nodes_m"], gamma, _p(p, "aero.air_density_kgm3"),
+                           *[_p(p, f"tail.{k}") for k in ("opening_angle_deg", "root_behind_m", "length_m",
+                                                          "kinematic_viscosity_m2ps", "reynolds_speed_mps",
+                                                          "incidence_deg")])
+
+
+def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None):
     """The state derivative (9) of the rigid body with the aerodynamic loads of :func:`body_loads` at
-    ``x_air`` (the state as the air sees it, with a wind; default ``x``)."""
+    ``x_air`` (the state as the air sees it, with a wind; default ``x``) and, with
+    ``structure.wing_mass``, the wing masses of :mod:`birdocp.bird.sixdof_inertia` (whose sums follow
+    the planar data in ``d``); ``structure.tail`` adds the tail."""
     p = p6[:len(PARAM_NAMES)]
     ixx, izz, ixz = (p6[len(PARAM_NAMES) + i] for i in range(3))
     m, iyy, g = _p(p, "body.mass_kg"), _p(p, "body.pitch_inertia_kgm2"), _p(p, "body.gravity_mps2")
     u, v, w, pr, q, rr, phi, th = (x[i] for i in range(8))
-    Fb, Mb, _ = body_loads(x if x_air is None else x_air, d, p)
+    Fb, Mb, _ = body_loads(x if x_air is None else x_air, d, p, with_tail=bool(structure and structure.tail))
     X, Y, Z = Fb[0], Fb[1], Fb[2]
     L, M, N = Mb[0], Mb[1], Mb[2]
     cth, sth, cph, sph = ca.cos(th), ca.sin(th), ca.cos(phi), ca.sin(phi)
@@ -145,6 +171,11 @@ def rhs_expression(x, d, p6, x_air=None):
     pdot = (izz * rl + ixz * rn) / det
     qdot = rm / iyy
     rdot = (ixz * rl + ixx * rn) / det
+    if structure is not None and structure.wing_mass:
+        J_b = ca.blockcat([[ixx, 0, -ixz], [0, iyy, 0], [-ixz, 0, izz]])
+        s = wing3.unpack_mass3(d[d.shape[0] - wing3.N_MASS3:])
+        udot, vdot, wdot, pdot, qdot, rdot = ca.vertsplit(wing3.wing_corrected_accelerations(
+            ca.vertcat(udot, vdot, wdot, pdot, qdot, rdot), x, s, m, J_b, g * ca.vertcat(-sth, sph * cth, cph * cth)))
     turn = q * sph + rr * cph
     return ca.vertcat(udot, vdot, wdot, pdot, qdot, rdot,
                       pr + turn * ca.tan(th), q * cph - rr * sph, turn / cth)
@@ -162,21 +193,27 @@ class SixDofModel:
 
     def __init__(self, planar: BirdModel, sides: bool = False):
         structure = planar.structure
-        if structure.tail or structure.drag or structure.wing_mass or getattr(structure, "aero_extra", False):
-            raise ValueError("six degrees of freedom: the tail, the drag terms, wing masses and the unsteady or "
+        if structure.drag or getattr(structure, "aero_extra", False):
+            raise ValueError("six degrees of freedom: the drag terms and the unsteady or "
                              "stall-aware sections are planar terms not yet written in 3-D; use "
-                             "tail.opening_angle_deg = 0, drag off, wing.mass_kg = 0, aero.unsteady = 'none' and "
-                             "aero.section = 'linear'")
+                             "drag off, aero.unsteady = 'none' and aero.section = 'linear'")
         self.planar = planar
         self.sides = bool(sides)
         n = len(PARAM_NAMES)
         names = tuple(PARAM_NAMES) + LATERAL_PARAM_NAMES + (SIDE_PARAM_NAMES if self.sides else ())
         x = ca.SX.sym("x", 9)
-        d = ca.SX.sym("d", N_DATA)
+        n_planar = planar.rhs.size1_in(1)
+        if structure.wing_mass and self.sides:
+            raise ValueError("six degrees of freedom: wing masses with per-side joint offsets (an asymmetric gait) "
+                             "are not written yet; use wing.mass_kg = 0 or a symmetric gait")
+        d = ca.SX.sym("d", n_planar + (wing3.N_MASS3 if structure.wing_mass else 0))
         p6 = ca.SX.sym("p", len(names))
-        self.rhs = ca.Function("rhs6", [x, d, p6], [rhs_expression(x, d, p6)], ["x", "d", "p"], ["xdot"])
-        Fb, Mb, _ = body_loads(x, d, p6[:n])
+        self.structure = structure
+        self.rhs = ca.Function("rhs6", [x, d, p6], [rhs_expression(x, d, p6, structure=structure)], ["x", "d", "p"],
+                               ["xdot"])
+        Fb, Mb, _ = body_loads(x, d, p6[:n], with_tail=structure.tail)
         self.loads_d = ca.Function("loads6", [x, d, p6], [ca.vertcat(Fb, Mb)], ["x", "d", "p"], ["loads"])
+        self.wing_sums = None
         if self.sides:
             pre, post, data, pre_params = side_data_functions(planar, len(names), n + len(LATERAL_PARAM_NAMES))
         else:
@@ -184,7 +221,11 @@ class SixDofModel:
             pb = pm[:n]
             pre = ca.Function("pre6", [tm, pm], [planar.pre(tm, pb)], ["t", "p"], ["local"])
             loc = ca.MX.sym("local", planar.pre.size1_out(0))
-            post = ca.Function("post6", [loc, tm, pm], [planar.post(loc, tm, pb)], ["local", "t", "p"], ["d"])
+            d_post = planar.post(loc, tm, pb)
+            if structure.wing_mass:  # the 3-D wing-mass sums after the planar data
+                self.wing_sums = wing3.sums_function(planar.mass_points)
+                d_post = ca.vertcat(d_post, self.wing_sums(tm, pb))
+            post = ca.Function("post6", [loc, tm, pm], [d_post], ["local", "t", "p"], ["d"])
             data = ca.Function("data6", [tm, pm], [post(pre(tm, pm), tm, pm)], ["t", "p"], ["d"])
             pre_params = planar.pre_params
         self.data = data
@@ -193,7 +234,8 @@ class SixDofModel:
                                param_names=names, pre=pre, post=post, pre_params=pre_params)
         # the heading excluded (nothing depends on it): the ODE of a cycle periodic up to its heading
         x8 = ca.SX.sym("x", 8)
-        rhs8 = ca.Function("rhs6_no_heading", [x8, d, p6], [rhs_expression(ca.vertcat(x8, 0), d, p6)[:8]],
+        rhs8 = ca.Function("rhs6_no_heading", [x8, d, p6],
+                           [rhs_expression(ca.vertcat(x8, 0), d, p6, structure=structure)[:8]],
                            ["x", "d", "p"], ["xdot"])
         self.ode_no_heading = PeriodicODE(rhs=rhs8, data=data, period_s=planar.period_s,
                                           state_names=STATE_NAMES[:HEADING], param_names=names, pre=pre, post=post,
@@ -224,7 +266,7 @@ class SixDofModel:
         cache = self.__dict__.setdefault("_outputs", {})
         if n_states not in cache:
             x = ca.SX.sym("x", n_states)
-            d = ca.SX.sym("d", N_DATA)
+            d = ca.SX.sym("d", self.rhs.size1_in(1))
             p = ca.SX.sym("p", self.ode.np)
             u, v, w, phi, th = x[0], x[1], x[2], x[6], x[7]
             side = v * ca.sin(phi) + w * ca.cos(phi)

@@ -185,7 +185,7 @@ def _animate_lateral(args, cfg, arrays, result, out, fps, t_start) -> int:
             "period_s": flight["period_s"], "bytes": out.stat().st_size, "run_dir": str(args.run_dir),
             "bank_deg": bank, "wingbeats": beats, "wall_s": {"total": time.perf_counter() - t_start}}
     if args.json:
-        cli.print_json(info)
+        cli.print_json(info, cli.context_of(args))
     else:
         print(f"wrote {out} ({info['frames']} frames over {beats} wingbeats, {fps:g} fps, {info['bytes'] / 1e6:.2f} MB)")
     return cli.EXIT_OK

@@ -241,7 +241,7 @@ def resolve_config(args: argparse.Namespace) -> C.Config:
     return cfg
 
 
-SIX_DOF_COMMANDS = ("trim", "level", "control", "simulate")
+SIX_DOF_COMMANDS = ("trim", "level", "control", "simulate", "sweep", "sensitivity", "export-c", "continue")
 """Commands that solve the six-degree-of-freedom model (:mod:`birdocp.cli.six_dof`; control and simulate
 in their own modules); the others
 refuse model.degrees_of_freedom = 6."""

@@ -38,6 +38,10 @@ def check_key(key: str, flag: str) -> str:
 def cmd_sensitivity(args: argparse.Namespace, command_line: list[str]) -> int:
     t0 = time.perf_counter()
     cfg = cli.resolve_config(args)
+    if cfg.model.degrees_of_freedom == 6:
+        from birdocp.cli.six_dof import run_six_dof_sensitivity
+
+        return run_six_dof_sensitivity(args, command_line, cfg, t0)
     params = list(dict.fromkeys(check_key(k, "--param") for k in (args.param or []))) or None
     if args.level and AMPLITUDE_KEY in (params or []):  # it would be dropped: the result had no row for it
         raise ConfigError("--param", f"{AMPLITUDE_KEY} is re-solved for level flight with --level, not a "

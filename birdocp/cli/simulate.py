@@ -243,7 +243,7 @@ def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
 def report(args: argparse.Namespace, result: dict, sim, closed: bool, run_dir) -> int:
     """Print the simulation's JSON or summary (and the failure line); the exit code."""
     if args.json:
-        cli.print_json(result)
+        cli.print_json(result, cli.context_of(args))
     else:
         dev = result["deviation_per_beat"]
         print(f"simulate: {sim.status} ({'closed' if closed else 'open'} loop): {sim.message}")

@@ -7,23 +7,16 @@ import argparse
 import time
 
 from birdocp.cli.common import EXIT_OK, fmt_num, finish_result, format_trim_table, run_folder
+from birdocp.bird.validity import validity_text
 from birdocp.io.errors import ConfigError
 
 def level_options(kw: dict) -> dict:
     """The 6-DOF level options from the planar level's checked keywords: the amplitude solved for a
-    mean vertical speed (other free keys and conditions are refused, one line)."""
-    from birdocp.bird.keys import AMPLITUDE_KEY
+    mean vertical speed (other free keys and conditions are refused, one line;
+    :func:`birdocp.studies.lateral.level_keywords`)."""
+    from birdocp.studies.lateral_options import level_keywords
 
-    if kw["free"] != AMPLITUDE_KEY:
-        raise ConfigError("--free", "with model.degrees_of_freedom = 6 level flight solves the amplitude only; "
-                                    "drop --free")
-    if kw["constrain"] != "vertical_speed_mps":
-        raise ConfigError("--constrain", "with model.degrees_of_freedom = 6 level flight holds the mean vertical "
-                                         "speed only; drop --constrain")
-    out = {"level": True, "climb_rate_mps": kw["climb_rate_mps"]}
-    if "bounds" in kw:
-        out["bounds"] = kw["bounds"]
-    return out
+    return level_keywords(kw)
 
 
 def format_lateral_table(r: dict) -> str:
@@ -79,3 +72,73 @@ def run_six_dof(args: argparse.Namespace, command: str, command_line: list[str],
         if not res.success:
             return run.fail(f"{command} did not converge", c.status, c.max_residual, c.message)
     return EXIT_OK
+
+
+def _sensitivity_keys(raw) -> list[str] | None:
+    """The checked ``--param`` keys of a 6-DOF sensitivity: model parameters, aliases or the lateral
+    inertias (:data:`birdocp.bird.sixdof.LATERAL_PARAM_NAMES`)."""
+    from birdocp.bird.keys import resolve_key
+    from birdocp.bird.sixdof import LATERAL_PARAM_NAMES
+
+    keys = [k if k in LATERAL_PARAM_NAMES else resolve_key(k, "--param") for k in raw or []]
+    return list(dict.fromkeys(keys)) or None
+
+
+def run_six_dof_sensitivity(args: argparse.Namespace, command_line: list[str], cfg, t_start: float) -> int:
+    """``birdocp sensitivity`` with ``model.degrees_of_freedom = 6``: the exact derivatives of every
+    multiplier of the 6-DOF cycle at fixed amplitude (:func:`birdocp.studies.lateral.lateral_sensitivities`),
+    one row per parameter with the derivative of each lateral mode's modulus; the exit code."""
+    params = _sensitivity_keys(args.param)
+    if args.level:
+        raise ConfigError("--level", "with model.degrees_of_freedom = 6 the sensitivities are taken at fixed "
+                                     "amplitude: solve 'birdocp level' and set gait.shoulder_flap.amplitude_deg "
+                                     "to its amplitude (drop --level)")
+    if args.top < 1:
+        raise ConfigError("--top", f"must be >= 1, got {args.top}")
+    with run_folder(args, "sensitivity", command_line) as run:
+        with run.solving():
+            from birdocp.studies.lateral import lateral_sensitivities, lateral_trim
+
+            base = lateral_trim(cfg)
+        result = base.to_dict()
+        for k in ("trajectory_t", "trajectory_x"):
+            result.pop(k, None)
+        if not base.success:
+            finish_result(result, "sensitivity", t_start, run.dir)
+            run.write(cfg, result)
+            run.output(result, None)
+            return run.fail("sensitivity: the 6-DOF cycle did not converge", base.cycle.status,
+                            base.cycle.max_residual, base.cycle.message)
+        with run.solving():
+            rows = lateral_sensitivities(base, cfg, params)
+        result["sensitivities"] = [_sensitivity_row(r) for r in rows]
+        result["sensitivity_labels"] = rows[0]["labels"] if rows else []
+        finish_result(result, "sensitivity", t_start, run.dir)
+        run.write(cfg, result)
+        run.output(result, _sensitivity_table(result, args.top))
+    return EXIT_OK
+
+
+def _sensitivity_row(r: dict) -> dict:
+    """One parameter's row: d|Lambda| per multiplier (in the order of ``sensitivity_labels``), the
+    derivatives of the multipliers as [re, im] and, per mode label, one d|Lambda| (a pair shares it)."""
+    by_label: dict = {}
+    for lab, d in zip(r["labels"], r["d_moduli"]):
+        by_label.setdefault(lab, float(d))
+    return {"parameter": r["parameter"], "d_moduli": [float(v) for v in r["d_moduli"]],
+            "d_multipliers": [[float(complex(z).real), float(complex(z).imag)] for z in r["d_multipliers"]],
+            "d_modulus_by_mode": by_label}
+
+
+def _sensitivity_table(result: dict, top: int) -> str:
+    modes = [m for m in ("spiral", "dutch_roll_like", "roll_subsidence", "lateral_real", "longitudinal")
+             if any(m in r["d_modulus_by_mode"] for r in result["sensitivities"])]
+    lines = ["sensitivity of the 6-DOF multipliers (fixed amplitude), d|Lambda| per unit of the parameter "
+             "(longitudinal: the first longitudinal multiplier in the list):",
+             f"  {'parameter':40s}" + "".join(f" {m:>16s}" for m in modes)]
+    rows = sorted(result["sensitivities"], key=lambda r: -max(abs(v) for v in r["d_modulus_by_mode"].values()))
+    for r in rows[:top]:
+        lines.append(f"  {r['parameter']:40s}" + "".join(f" {r['d_modulus_by_mode'].get(m, float('nan')):+16.3e}"
+                                                         for m in modes))
+    lines.append(f"  model validity of the cycle: {validity_text(result.get('validity'))}")
+    return "\n".join(lines)

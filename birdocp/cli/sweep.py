@@ -65,6 +65,14 @@ def format_sweep_table(rows: list[dict], key: str, level: bool) -> str:
         if level:
             line += f"  {fmt_num(r['amplitude_deg'], '.4f'):>9}"
         lines.append(line + f"  {fmt_num(r['wall_s'], '.2f'):>8}  {validity_word(r.get('valid'))}")
+    if rows and "lateral_modulus0" in rows[0]:  # six degrees of freedom: the split multipliers
+        lines += ["", "six degrees of freedom: moduli of the lateral (v, p, r, phi) multipliers (heading's 1 apart)",
+                  f"{'value':>10}  {'lateral moduli':<40}  {'spiral':>8}  lateral"]
+        for r in rows:
+            mods = " ".join(fmt_num(r.get(f"lateral_modulus{k}"), ".6f") for k in range(4))
+            verdict = {True: "stable", False: "unstable"}.get(r.get("lateral_stable"), "unknown")
+            lines.append(f"{fmt_num(r['value'], 'g'):>10}  {mods:<40}  {fmt_num(r.get('spiral_modulus'), '.6f'):>8}  "
+                         f"{verdict}")
     return "\n".join(lines + validity_notes(rows))
 
 

@@ -64,15 +64,33 @@ class ExportInfo:
         return result_dict(self)
 
 
-def runtime_parameters(model) -> tuple[list[int], list[int]]:
-    """(indices the state RHS depends on, indices the data depends on), from Jacobian sparsity."""
+def runtime_parameters(model, names=PARAM_NAMES) -> tuple[list[int], list[int]]:
+    """(indices the state RHS depends on, indices the data depends on), from Jacobian sparsity
+    (``names``: the parameter names, for the message)."""
     r = sorted(set(model.rhs.sparsity_jac(2, 0).get_col()))
     d = sorted(set(model.data.sparsity_jac(1, 0).get_col()))
     both = set(r) & set(d)
     if both:
         raise RuntimeError("parameters used by both the data table and the state RHS cannot be exported: "
-                           + ", ".join(PARAM_NAMES[i] for i in sorted(both)))
+                           + ", ".join(names[i] for i in sorted(both)))
     return r, d
+
+
+def _exported_model(cfg: Config):
+    """(model with ``rhs``/``data``, parameter vector, parameter names, period [s]) of ``cfg``: the
+    planar model, or with ``model.degrees_of_freedom = 6`` the six-degree-of-freedom model (9 states,
+    the lateral inertias appended to the parameters)."""
+    if cfg.model.degrees_of_freedom == 6:
+        from birdocp.bird.config import param_vector
+        from birdocp.bird.sixdof import LATERAL_PARAM_NAMES, LateralInertia, sixdof_model
+
+        six = sixdof_model(cfg)
+        p0 = np.asarray(six.params(param_vector(cfg), LateralInertia.of(cfg)), float)
+        return six, p0, list(PARAM_NAMES) + list(LATERAL_PARAM_NAMES), float(six.period_s)
+    from birdocp.bird.model import get_model
+
+    m = get_model(cfg)
+    return m.model, np.asarray(m.p0, float), list(PARAM_NAMES), float(m.period_s)
 
 
 def _c_ident(name: str) -> str:
@@ -125,33 +143,29 @@ def export_c(cfg: Config | None = None, out_dir: str | os.PathLike = "bird_c", *
     ExportInfo
         What was written (files, sizes, the parameter table).
     """
-    from birdocp.bird.model import get_model
-
     t_all = time.perf_counter()
     cfg = cfg or Config()
     N = int(steps_per_period or cfg.solve.steps_per_period)
     if N < 1:
         raise ValueError(f"steps_per_period must be a positive integer, got {N}")
-    m = get_model(cfg)
-    T = float(m.period_s)
+    model, p0, names, T = _exported_model(cfg)
     h = T / N
-    p0 = np.asarray(m.p0, float)
     wall = {"model": time.perf_counter() - t_all}
-    runtime_idx, data_idx = runtime_parameters(m.model)
-    nd = int(m.rhs.size1_in(1))
+    runtime_idx, data_idx = runtime_parameters(model, names)
+    nd = int(model.rhs.size1_in(1))
 
     t = time.perf_counter()
     times = stage_time_grid(0.0, T, N)
-    table = np.asarray(m.data.map(2 * N + 1)(ca.DM(times), ca.DM(p0)))
+    table = np.asarray(model.data.map(2 * N + 1)(ca.DM(times), ca.DM(p0)))
     if not np.all(np.isfinite(table)):
         raise RuntimeError("the data table has non-finite values for this configuration")
     wall["data_table"] = time.perf_counter() - t
 
     out = Path(out_dir)
     t = time.perf_counter()
-    fns = _functions(m.model, p0, runtime_idx, h)
-    rnames = [PARAM_NAMES[i] for i in runtime_idx]
-    baked = {PARAM_NAMES[i]: float(p0[i]) for i in data_idx}
+    fns = _functions(model, p0, runtime_idx, h)
+    rnames = [names[i] for i in runtime_idx]
+    baked = {names[i]: float(p0[i]) for i in data_idx}
     info = ExportInfo(out, [], N, T, h, nd, rnames, [float(p0[i]) for i in runtime_idx], baked, wall)
     # the whole folder at once: written beside ``out`` and put in its place in one step, so an
     # interrupt, a full disk or a size limit leaves the earlier export complete (never a mix of two);
@@ -236,12 +250,42 @@ def _header(info: ExportInfo, cfg: Config) -> str:
         for name, r, c in block_sizes(16):
             blocks.append(f" *   d[{k}..{k + r * c - 1}]  {name} ({r}x{c}, column-major; docs/model_unsteady.md)")
             k += r * c
-    return HEADER_TEMPLATE.format(
+    six = cfg.model.degrees_of_freedom == 6
+    if six and st.wing_mass:
+        from birdocp.bird.sixdof_inertia import MASS3_BLOCK
+
+        for name, n in MASS3_BLOCK:
+            blocks.append(f" *   d[{k}..{k + n - 1}]  {name} (wing masses in 3-D, body frame about G_b; "
+                          "birdocp.bird.sixdof_inertia)")
+            k += n
+    text = HEADER_TEMPLATE.format(
         version=__version__, casadi=ca.__version__, N=info.steps_per_period, T=repr(info.period_s),
         h=repr(info.step_s), nd=info.n_data, ncol=2 * info.steps_per_period + 1,
         np_=len(info.runtime_params), pdefs=pdefs, pdoc=pdoc, baked=baked, blocks="\n".join(blocks),
         freq=repr(cfg.gait.frequency_hz), circ=cfg.aero.circulation, kin=cfg.aero.kinematic_velocity,
-        nx=4 + st.n_aero_states)
+        nx=9 if six else 4 + st.n_aero_states, nout=9 if six else 4,
+        usage="U V W P Q R PHI THETA PSI" if six else "U W Q THETA")
+    if six:
+        a, b = text.index(" * MODEL."), text.index(" * TIME.")
+        text = text[:a] + _SIX_DOF_MODEL + text[b:]
+        text = text.replace("/* states: u, w, q, theta, then the aerodynamic states if any */",
+                            "/* states: u, v, w, p, q, r, phi, theta, psi */")
+        text = text.replace("xdot[4]", "xdot[9]").replace("row-major 4x4", "row-major 9x9")
+        text = text.replace("A[i*4 + j]", "A[i*9 + j]").replace("X[k*4 + i]", "X[k*9 + i]")
+    return text
+
+
+_SIX_DOF_MODEL = """\
+ * MODEL. The bird as a rigid body in six degrees of freedom (model.degrees_of_freedom = 6), state
+ *   x[0] = u, x[1] = v, x[2] = w  [m/s]    velocity of G along the body axes x' (forward), y' (right),
+ *                                          z' (down)
+ *   x[3] = p, x[4] = q, x[5] = r  [rad/s]  roll (right wing down), pitch (nose up), yaw (nose right)
+ *   x[6] = phi, x[7] = theta, x[8] = psi [rad]  bank, pitch and heading (3-2-1 Euler angles)
+ * Newton-Euler in body axes with the lifting line in asymmetric flow (sideslip, roll and yaw rates in
+ * every element's velocity), gravity through the attitude, the body's inertia tensor (and, with
+ * wing masses, their 3-D inertial terms); the equations are in the documentation (docs/studies/lateral.md).
+ *
+"""
 
 
 HEADER_TEMPLATE = """\
@@ -290,6 +334,8 @@ extern "C" {{
 #endif
 
 #define BIRD_NX {nx}              /* states: u, w, q, theta, then the aerodynamic states if any */
+#define BIRD_NOUT {nout}            /* states printed by the example main.c */
+#define BIRD_STATE_USAGE "{usage}"
 #define BIRD_ND {nd}           /* data vector length */
 #define BIRD_NP {np_}              /* runtime parameters */
 #define BIRD_STEPS {N}           /* RK4 steps per period */
@@ -462,8 +508,8 @@ int main(int argc, char **argv) {
   double x0[BIRD_NX], xT[BIRD_NX], M[BIRD_NX * BIRD_NX], p[BIRD_NP];
   int i, j;
   if (argc != 1 + BIRD_NX && argc != 1 + BIRD_NX + BIRD_NP) {
-    fprintf(stderr, "usage: %s U W Q THETA [+%d aerodynamic states] [%d runtime parameters, see bird.h]\\n",
-            argv[0], BIRD_NX - 4, BIRD_NP);
+    fprintf(stderr, "usage: %s " BIRD_STATE_USAGE " [+%d aerodynamic states] [%d runtime parameters, see bird.h]\\n",
+            argv[0], BIRD_NX - BIRD_NOUT, BIRD_NP);
     return 2;
   }
   for (i = 0; i < BIRD_NX; ++i)
@@ -476,7 +522,8 @@ int main(int argc, char **argv) {
     }
   }
   if (bird_period(x0, p, xT, M, NULL)) { fprintf(stderr, "%s: evaluation failed\\n", argv[0]); return 1; }
-  printf("%.17g %.17g %.17g %.17g\\n", xT[0], xT[1], xT[2], xT[3]);
+  for (i = 0; i < BIRD_NOUT; ++i) printf(i ? " %.17g" : "%.17g", xT[i]);
+  printf("\\n");
   for (i = 0; i < BIRD_NX; ++i) {
     for (j = 0; j < BIRD_NX; ++j) printf(j ? " %.17g" : "%.17g", M[i * BIRD_NX + j]);
     printf("\\n");

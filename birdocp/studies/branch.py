@@ -108,10 +108,8 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
     a, b = _model_units(display, float(start_value), float(stop_value), options, chord)
     if stop_at_invalid and not validity:
         raise ValueError("stop_at_invalid needs validity=True (the validity of every point)")
-    m = get_model(cfg)
     points, steps = int(points or cfg.solve.points), int(steps_per_period or cfg.solve.steps_per_period)
-    ode = solver_ode(m, compiled)
-    prob = bird_problem(cfg, m, ode, model_key, level, climb_rate_mps, bounds)
+    ode, prob = _problem(cfg, compiled, model_key, level, climb_rate_mps, bounds)
     ws = start.cycle if isinstance(start, TrimResult) else start
     options.setdefault("scales", {"states": 1.0, "free": 10.0})
     events = validity_events(cfg, steps, ode, stop_at_invalid) if validity else None
@@ -122,7 +120,31 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
                         "config_amplitude_deg": cfg.gait.shoulder_flap.amplitude_deg})
     if display == STABILITY_MARGIN:
         br.settings["stability_margin_percent"] = [sm_percent(p.parameter, chord) for p in br.points]
-    return add_validity(cfg, br, steps, ode) if validity else br
+    if validity:
+        add_validity(cfg, br, steps, ode)
+    return _with_lateral_split(cfg, br, steps, points)
+
+
+def _with_lateral_split(cfg, br: Branch, steps: int, points: int) -> Branch:
+    """``br``, with six degrees of freedom given its per-point longitudinal/lateral split
+    (:func:`birdocp.studies.lateral.add_lateral_split`)."""
+    if cfg.model.degrees_of_freedom == 6:
+        from birdocp.studies.lateral import add_lateral_split
+
+        add_lateral_split(cfg, br, steps, points)
+    return br
+
+
+def _problem(cfg, compiled, model_key: str, level: bool, climb_rate_mps: float, bounds):
+    """``(ode, problem)`` of a branch: the planar bird's (:func:`bird_problem`) or, with six degrees of
+    freedom, the heading-free 6-DOF model's (:func:`birdocp.studies.lateral.branch_problem`)."""
+    if cfg.model.degrees_of_freedom == 6:
+        from birdocp.studies.lateral import branch_problem
+
+        return branch_problem(cfg, model_key, level, climb_rate_mps, bounds)
+    m = get_model(cfg)
+    ode = solver_ode(m, compiled)
+    return ode, bird_problem(cfg, m, ode, model_key, level, climb_rate_mps, bounds)
 
 
 def _model_units(display: str, a: float, b: float, options: dict, chord: float) -> tuple:
@@ -172,8 +194,8 @@ def validity_events(cfg, steps_per_period: int, ode=None, stop: bool = False):
     from birdocp.engine.continuation import BranchEvents
 
     def evaluate(pt):
-        v = periodic_validity(cfg, pt.x0, np.asarray(pt.p, float) if len(pt.p) else None,
-                              steps_per_period=steps_per_period, ode=ode)
+        x0, p, o = _planar_of(cfg, pt, ode)
+        v = periodic_validity(cfg, x0, p, steps_per_period=steps_per_period, ode=o)
         pt.validity = v.to_dict()
         return validity_margins(v)
 
@@ -195,8 +217,18 @@ def add_validity(cfg, br: Branch, steps_per_period: int | None = None, ode=None)
     n = int(steps_per_period or br.settings.get("steps_per_period") or cfg.solve.steps_per_period)
     for pt in br.points:
         if pt.validity is None:
-            pt.validity = periodic_validity(cfg, pt.x0, np.asarray(pt.p, float) if len(pt.p) else None,
-                                            steps_per_period=n, ode=ode).to_dict()
+            x0, p, o = _planar_of(cfg, pt, ode)
+            pt.validity = periodic_validity(cfg, x0, p, steps_per_period=n, ode=o).to_dict()
     return br
+
+
+def _planar_of(cfg, pt, ode):
+    """(x0, p, ode) for the validity of a branch point: as is, or for a 6-DOF point the planar cycle's
+    state and parameters with the planar model (:func:`birdocp.studies.lateral.planar_point`)."""
+    if cfg.model.degrees_of_freedom == 6:
+        from birdocp.studies.lateral import planar_point
+
+        return (*planar_point(pt.x0, pt.p), None)
+    return pt.x0, np.asarray(pt.p, float) if len(pt.p) else None, ode
 
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, param_vector
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, param_vector
 from birdocp.bird.flight import flight_path_angle_deg
 from birdocp.bird.keys import AMPLITUDE_KEY
 from birdocp.bird.sides import side_vector
@@ -32,11 +32,13 @@ from birdocp.engine.floquet import multipliers_info, sort_multipliers
 from birdocp.engine.problem import LimitCycleProblem, MeanCondition
 from birdocp.engine.results import result_dict, serial
 from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
+from birdocp.studies.lateral_options import level_keywords
 from birdocp.studies.level import default_bounds
 from birdocp.studies.trim import check_physical
 
 __all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "beats_to_double", "lateral_sensitivities",
-           "LATERAL_SENSITIVITY_KEYS", "heading_trajectory"]
+           "LATERAL_SENSITIVITY_KEYS", "heading_trajectory", "TAIL_SENSITIVITY_KEY", "level_keywords",
+           "solve_point", "branch_problem", "planar_point", "add_lateral_split"]
 
 
 def beats_to_double(multiplier: complex) -> float:
@@ -127,12 +129,13 @@ class LateralTrimResult:
     def to_dict(self) -> dict:
         """JSON of the result: the engine cycle's keys (status, residuals, x0 of 9 states, ...) with
         ``multipliers`` (all nine) and ``stable`` (the heading's 1 excluded), then this result's
-        fields, ``state_names``, ``lateral_stable`` and the period means ``mean_vertical_speed_mps``
+        fields, ``state_names``, ``moduli`` (of ``multipliers``), ``lateral_stable`` and the period means ``mean_vertical_speed_mps``
         and ``mean_forward_speed_mps``."""
         own = {f.name for f in fields(self)} | {"success", "stable", "lateral_stable"}
         extra = {k: v for k, v in self.cycle.to_dict().items() if k not in own}
         extra.update({
             "state_names": list(STATE_NAMES if self.symmetric else STATE_NAMES[:HEADING]), "degrees_of_freedom": 6,
+            "moduli": [float(abs(z)) for z in self.multipliers],
             "mean_vertical_speed_mps": self.mean_vertical_speed_mps,
             "mean_forward_speed_mps": self.mean_forward_speed_mps,
             "flight_path_angle_deg": flight_path_angle_deg(self.mean_vertical_speed_mps, self.mean_forward_speed_mps)})
@@ -151,13 +154,14 @@ class LateralTrimResult:
 
 def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = None, *, level: bool = False,
                  climb_rate_mps: float = 0.0, bounds=None, method: MultipleShooting | None = None,
-                 x_guess=None) -> LateralTrimResult:
+                 x_guess=None, warm_start=None, **method_over) -> LateralTrimResult:
     """Trim ``cfg``'s gait in six degrees of freedom and split its Floquet multipliers.
 
     Parameters
     ----------
     cfg : Config, optional
-        The configuration (default: the paper's reference case). Tail, drag and wing masses are refused.
+        The configuration (default: the paper's reference case). Drag and the unsteady or stall sections are refused;
+        the tail and wing masses are taken in 3-D.
     inertia : LateralInertia, optional
         Roll and yaw inertia [kg m^2]; default ``cfg.model``'s.
     level : bool
@@ -170,6 +174,11 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
         Shooting points and RK4 steps (default: ``cfg.solve``'s).
     x_guess : sequence of 9 floats, optional
         Start state (default: the planar guess ``cfg.solve.initial_guess`` with zero lateral states).
+    warm_start : LimitCycleResult, optional
+        A previous 6-DOF cycle (its shooting points and, with ``level``, its amplitude) to start from.
+    **method_over
+        Overrides of the default :class:`~birdocp.engine.shooting.MultipleShooting` (``points``,
+        ``steps_per_period``, ...) when ``method`` is not given.
 
     Returns
     -------
@@ -180,8 +189,8 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     inertia = inertia or LateralInertia.of(cfg)
     asym = six.sides  # per-side offsets: periodic up to the heading, the 8 states without psi solved
     p6 = six.params(param_vector(cfg), inertia, side_vector(cfg) if asym else None)
-    method = method or MultipleShooting(points=cfg.solve.points, steps_per_period=cfg.solve.steps_per_period,
-                                        max_iter=cfg.solve.max_iter, tol=cfg.solve.tol or None)
+    method = method or MultipleShooting(**{"points": cfg.solve.points, "steps_per_period": cfg.solve.steps_per_period,
+                                           "max_iter": cfg.solve.max_iter, "tol": cfg.solve.tol or None, **method_over})
     guess = embed_planar_state(cfg.solve.initial_guess) if x_guess is None else x_guess
     outputs = six.flight_outputs(8 if asym else 9)
     free, means = {}, []
@@ -191,11 +200,39 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     problem = LimitCycleProblem(ode=six.ode_no_heading if asym else six.ode, p=p6,
                                 x_guess=list(guess)[:8] if asym else guess, free=free, means=means,
                                 outputs={k: f for k, f in outputs.items() if not (level and k == "vertical_speed_mps")})
-    cyc = check_physical(solve(problem, method))  # u <= 0 somewhere: not a forward flight, as the planar trim
+    ws = getattr(warm_start, "cycle", warm_start)
+    cyc = check_physical(solve(problem, method, warm_start=ws))  # u <= 0 somewhere: not a forward flight, as the planar trim
     amplitude = float(cyc.free_values.get(AMPLITUDE_KEY, cfg.gait.shoulder_flap.amplitude_deg))
     if asym:
         return _split_asymmetric(six, cyc, method, inertia, amplitude)
     return _split(cfg, cyc, six.ode.period_s, method, inertia, amplitude)
+
+
+def solve_point(cfg: Config, *, level: bool = False, level_options: dict | None = None, warm_start=None,
+                **method_over) -> LateralTrimResult:
+    """One 6-DOF point of a family (a sweep or grid, :mod:`birdocp.studies.sweep`): :func:`lateral_trim`
+    at fixed amplitude, or in level flight with the planar level's ``level_options``
+    (:func:`level_keywords`).
+
+    Parameters
+    ----------
+    cfg : Config
+        The point's configuration (``model.degrees_of_freedom = 6``).
+    level : bool
+        Solve the amplitude for the mean vertical speed.
+    level_options : dict, optional
+        The planar level's options (``free``, ``bounds``, ``climb_rate_mps``, ...).
+    warm_start : LimitCycleResult, optional
+        The neighbour's 6-DOF cycle.
+    **method_over
+        Overrides of the shooting method.
+
+    Returns
+    -------
+    LateralTrimResult
+    """
+    kw = level_keywords(level_options) if level else {}
+    return lateral_trim(cfg, warm_start=warm_start, **kw, **method_over)
 
 
 def heading_trajectory(six, cycle, steps_per_period: int | None = None):
@@ -255,10 +292,15 @@ LATERAL_SENSITIVITY_KEYS = ("gait.shoulder_flap.offset_deg", "gait.shoulder_swee
                             "gait.shoulder_incidence.offset_deg", "model.roll_inertia_kgm2",
                             "model.yaw_inertia_kgm2")
 """Default parameters of :func:`lateral_sensitivities`: the shoulder elevation (dihedral: the flap
-joint's offset), sweep, elbow and wrist offsets, the wing incidence and the lateral inertias."""
+joint's offset), sweep, elbow and wrist offsets, the wing incidence and the lateral inertias (and, for a
+configuration with the tail, :data:`TAIL_SENSITIVITY_KEY`)."""
+
+TAIL_SENSITIVITY_KEY = "tail.opening_angle_deg"
+"""Added to the default parameters of :func:`lateral_sensitivities` when the configuration has the tail
+(at opening 0 the tail's span and every derivative of its loads vanish, so the key says nothing there)."""
 
 
-def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, parameters=LATERAL_SENSITIVITY_KEYS):
+def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, parameters=None):
     """Exact derivatives of every multiplier of a converged 6-DOF cycle (fixed amplitude) with respect
     to ``parameters`` (keys of :data:`birdocp.bird.config.PARAM_NAMES` or
     :data:`birdocp.bird.sixdof.LATERAL_PARAM_NAMES`), the change of the cycle included (second-order
@@ -271,8 +313,9 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
         A converged fixed-amplitude 6-DOF cycle (:func:`lateral_trim` without ``level``).
     cfg : Config, optional
         Its configuration (default: the reference case).
-    parameters : sequence of str
-        Parameter keys (default :data:`LATERAL_SENSITIVITY_KEYS`).
+    parameters : sequence of str, optional
+        Parameter keys (default :data:`LATERAL_SENSITIVITY_KEYS`, with :data:`TAIL_SENSITIVITY_KEY`
+        when ``cfg`` has the tail).
 
     Returns
     -------
@@ -292,6 +335,8 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
         raise ValueError("lateral_sensitivities needs a fixed-amplitude cycle (solve level flight, then trim at "
                          "its amplitude)")
     six = sixdof_model(cfg)
+    if parameters is None:
+        parameters = LATERAL_SENSITIVITY_KEYS + ((TAIL_SENSITIVITY_KEY,) if six.structure.tail else ())
     names = list(PARAM_NAMES) + list(LATERAL_PARAM_NAMES)
     for k in parameters:
         if k not in names:
@@ -316,3 +361,58 @@ def _labels(lam, res: LateralTrimResult) -> list[str]:
                 lab = m["label"]
         out.append(lab)
     return out
+
+
+# ----------------------------------------------------------------------------------------------
+# Continuation in six degrees of freedom: the heading dropped (nothing depends on it)
+
+def branch_problem(cfg: Config, model_key: str, level: bool, climb_rate_mps: float, bounds):
+    """``(ode, problem)`` of a 6-DOF continuation of ``cfg`` (:func:`birdocp.studies.branch.bird_branch`):
+    the heading-free ODE ``ode_no_heading`` (8 states; nothing depends on psi, whose multiplier 1 would
+    sit on every fold and branch-point test), at fixed gait or (``level``) with the amplitude free and
+    the mean vertical speed held at ``climb_rate_mps``."""
+    six = sixdof_model(cfg)
+    if six.sides:
+        raise ConfigError("model.degrees_of_freedom", "continue with an asymmetric gait (per-side offsets) is not "
+                                                      "written yet; continue the symmetric gait")
+    ode, outs = six.ode_no_heading, six.flight_outputs(HEADING)
+    p6 = np.asarray(six.params(param_vector(cfg), LateralInertia.of(cfg)), float)
+    guess = np.array(embed_planar_state(cfg.solve.initial_guess)[:HEADING])
+    if not level:
+        return ode, LimitCycleProblem(ode, p6, guess, outputs=outs)
+    if model_key == AMPLITUDE_KEY:
+        raise ValueError("with level flight held the amplitude is solved for: continue another parameter")
+    lo, hi = bounds if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)
+    cond = MeanCondition(outs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")
+    return ode, LimitCycleProblem(ode, p6, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
+                                  outputs={"forward_speed_mps": outs["forward_speed_mps"]})
+
+
+def planar_point(x0, p):
+    """The planar (u, w, q, theta) state and parameter vector of a 6-DOF point (its validity is the
+    planar cycle's: a symmetric cycle has v = p = r = phi = 0)."""
+    x0 = np.asarray(x0, float)
+    return x0[list(LONGITUDINAL)], (np.asarray(p, float)[:len(PARAM_NAMES)] if p is not None and len(p) else None)
+
+
+def add_lateral_split(cfg: Config, branch, steps_per_period: int, points: int) -> None:
+    """Give every point of a 6-DOF branch its split multipliers, in ``branch.settings``: the lists
+    ``longitudinal_multipliers`` and ``lateral_multipliers`` ([re, im] pairs, largest modulus first),
+    ``lateral_stable`` and ``coupling_max`` per point, from the point's monodromy (one variational
+    period of the heading-free ODE; the heading's multiplier 1 is not part of the branch)."""
+    from birdocp.engine.shooting import floquet
+
+    ode = sixdof_model(cfg).ode_no_heading
+    lon, lat = list(LONGITUDINAL), list(LATERAL)
+    rows = {"longitudinal_multipliers": [], "lateral_multipliers": [], "lateral_stable": [], "coupling_max": []}
+    method = MultipleShooting(points=points, steps_per_period=steps_per_period)
+    for pt in branch.points:
+        M = np.asarray(floquet(ode, pt.x0, pt.p, method).monodromy)
+        L = {"longitudinal": sort_multipliers(np.linalg.eigvals(M[np.ix_(lon, lon)])),
+             "lateral": sort_multipliers(np.linalg.eigvals(M[np.ix_(lat, lat)]))}
+        for k, v in L.items():
+            rows[f"{k}_multipliers"].append([[float(z.real), float(z.imag)] for z in np.asarray(v, complex)])
+        rows["lateral_stable"].append(bool(np.all(np.abs(L["lateral"]) < 1.0)))
+        rows["coupling_max"].append(float(max(np.abs(M[np.ix_(lon, lat)]).max(), np.abs(M[np.ix_(lat, lon)]).max())))
+    branch.settings.update(rows)
+    branch.settings["degrees_of_freedom"] = 6

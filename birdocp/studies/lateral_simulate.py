@@ -129,7 +129,7 @@ class _SixStepper(PerModel):
         C = _dcm(x[6], x[7], x[8])
         wind_b = C @ ca.vertcat(0, east, 0)
         x_air = ca.vertcat(x[:3] - wind_b, x[3:])
-        zdot = ca.vertcat(rhs_expression(x, d, p, x_air), C.T @ x[:3], 1)
+        zdot = ca.vertcat(rhs_expression(x, d, p, x_air, structure=six.structure), C.T @ x[:3], 1)
         f = ca.Function("f_sim6", [z, d, p, g], [zdot])
         D3 = ca.SX.sym("D3", nd, 3)
         step = ca.Function("sim6_step", [z, D3, p, g], [rk4_update(f, z, D3, grid.h, p, g)[0]])

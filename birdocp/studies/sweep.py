@@ -47,7 +47,8 @@ from birdocp.io.provenance import config_hash
 from birdocp.io.progress import progress_bar
 from birdocp.studies.level import AMPLITUDE_KEY, resolve_key
 
-__all__ = ["sweep", "sweep_values", "read_points", "CSV_COLUMNS", "row_of", "grid_sweep", "GRID_COLUMNS"]
+__all__ = ["sweep", "sweep_values", "read_points", "CSV_COLUMNS", "row_of", "grid_sweep", "GRID_COLUMNS",
+           "SIX_DOF_COLUMNS"]
 
 N_MULT = 4
 CSV_COLUMNS = (
@@ -58,6 +59,15 @@ CSV_COLUMNS = (
        "amplitude_deg", "free_key", "free_value", "iterations", "max_residual", "wall_s", "warm_from"]
     + list(VALIDITY_COLUMNS)
 )
+
+SIX_DOF_COLUMNS = (["lateral_stable"] + [f"lateral_modulus{k}" for k in range(4)]
+                   + [f"longitudinal_modulus{k}" for k in range(4)] + ["spiral_modulus", "coupling_max"])
+"""Columns added to the table of a six-degree-of-freedom family (``model.degrees_of_freedom = 6``):
+the lateral verdict (the heading's multiplier 1 excluded), the moduli of the lateral (v, p, r, phi) and
+longitudinal (u, w, q, theta) multipliers (largest first), the spiral mode's modulus and the largest
+longitudinal-lateral coupling entry of the monodromy. The rows' JSON also hold ``multipliers`` (all
+nine), ``lateral_multipliers``, ``longitudinal_multipliers``, ``heading_multiplier`` and the labelled
+``lateral_modes``."""
 
 
 MAX_SWEEP_POINTS = 10000
@@ -143,7 +153,31 @@ def row_of(index: int, key: str, value: float, d: dict, free_key: str | None, wa
     v = d.get("validity") or {}
     row.update(validity_columns(v))
     row["validity"] = {k: x for k, x in v.items() if k != "thresholds"} or None
+    if "lateral_multipliers" in d:
+        row.update(_six_dof_columns(d))
     return row
+
+
+def _six_dof_columns(d: dict) -> dict:
+    """The :data:`SIX_DOF_COLUMNS` and the multiplier lists of a 6-DOF result's JSON ``d``."""
+    out = {k: d.get(k) for k in ("lateral_stable", "coupling_max") + _SIX_DOF_LISTS}
+    for name in ("lateral", "longitudinal"):
+        mods = [math.hypot(*m) for m in _pair_list(d.get(f"{name}_multipliers"))]
+        for k in range(4):
+            out[f"{name}_modulus{k}"] = mods[k] if k < len(mods) else None
+    spiral = [m for m in d.get("lateral_modes") or [] if m.get("label") == "spiral"]
+    out["spiral_modulus"] = math.hypot(*spiral[0]["multiplier"]) if spiral else None
+    return out
+
+
+_SIX_DOF_LISTS = ("multipliers", "lateral_multipliers", "longitudinal_multipliers", "heading_multiplier",
+                  "lateral_modes")
+
+
+def _columns_of(cfg: Config, base=None) -> list[str]:
+    """The CSV columns of a family of ``cfg`` (the 6-DOF columns appended with six degrees of freedom)."""
+    base = list(CSV_COLUMNS if base is None else base)
+    return base + SIX_DOF_COLUMNS if cfg.model.degrees_of_freedom == 6 else base
 
 
 def _csv_text(rows: list[dict], columns=None) -> str:
@@ -232,6 +266,11 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
         raise ConfigError("key", f"'{key}' is the free parameter of the level-flight solve; sweep another "
                                  "parameter (or sweep without --level)")
     cfgs = [with_values(cfg, {key: v}) for v in values]  # validates every value before solving
+    if cfg.model.degrees_of_freedom == 6 and level:
+        from birdocp.studies.lateral_options import level_keywords
+
+        level_keywords(level_options)  # refused before anything is written
+
     out = Path(out_dir) if out_dir is not None else None
     spec = {"key": key, "values": values, "level": bool(level), "warm": bool(warm),
             "level_options": to_jsonable(level_options), "method_over": to_jsonable(method_over),
@@ -240,7 +279,7 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
     rows: list[dict | None] = [done[i]["row"] if i in done else None for i in range(len(values))]
     bar = _Progress(len(values), progress, f"sweep {key}" + (" (level)" if level else ""))
     solve = _point_solver(level, level_options, compiled, method_over)
-    _flush_sweep(out, spec, rows, len(values))
+    _flush_sweep(out, spec, rows, len(values), _columns_of(cfg))
     last_ok = None  # (index, warm start object)
     for i, (v, cfg_i) in enumerate(zip(values, cfgs)):
         if i in done:
@@ -256,7 +295,7 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
         if out is not None:
             point = {"row": row, "p": [float(x) for x in np.asarray(res.cycle.p)], "result": res.result}
             resume_io.write_point(out, i, point, config_hash(cfg_i), _point_settings(spec))
-        _flush_sweep(out, spec, rows, len(values))
+        _flush_sweep(out, spec, rows, len(values), _columns_of(cfg))
         bar.show(i + 1, f"{v:g} {'ok' if res.success else 'FAILED'} {row['iterations']} it "
                         f"{row['wall_s']:.1f} s", solved_now=True)
     return [r for r in rows if r is not None]
@@ -291,13 +330,13 @@ def _claim_sweep_folder(out: Path, spec: dict, cfg: Config, cfgs: list, resume: 
     return done
 
 
-def _flush_sweep(out: Path | None, spec: dict, rows: list, n: int) -> None:
-    """sweep.json and sweep.csv with the rows solved so far."""
+def _flush_sweep(out: Path | None, spec: dict, rows: list, n: int, columns=None) -> None:
+    """sweep.json and sweep.csv (``columns``, default :data:`CSV_COLUMNS`) with the rows solved so far."""
     if out is None:
         return
     table = [r for r in rows if r is not None]
     atomic_write_json(out / "sweep.json", dict(spec, points=table, complete=len(table) == n))
-    atomic_write_text(out / "sweep.csv", _csv_text(table))
+    atomic_write_text(out / "sweep.csv", _csv_text(table, columns))
 
 
 @dataclass
@@ -318,7 +357,11 @@ def _point_solver(level: bool, level_options: dict, compiled: bool, method_over:
     def solve(cfg_i, i, key, v, free_key, warm):
         warm_from, ws = warm
         t = time.perf_counter()
-        if level:
+        if cfg_i.model.degrees_of_freedom == 6:  # the 6-DOF trim or level solve (birdocp.studies.lateral)
+            from birdocp.studies.lateral import solve_point
+
+            res = solve_point(cfg_i, level=level, level_options=level_options, warm_start=ws, **method_over)
+        elif level:
             res = level_solve(cfg_i, warm_start=ws, compiled=compiled, **level_options, **method_over)
         else:
             res = trim(cfg_i, warm_start=ws, compiled=compiled, **method_over)
@@ -422,7 +465,7 @@ def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: s
     table = _grid_table(results, row_key, row_values)
     if out is not None:
         atomic_write_json(out / "grid.json", dict(spec, points=table, complete=True))
-        atomic_write_text(out / "grid.csv", _csv_text(table, GRID_COLUMNS))
+        atomic_write_text(out / "grid.csv", _csv_text(table, _columns_of(cfg, GRID_COLUMNS)))
         atomic_write_json(out / "timing.json", {**executor.describe(), "wall_s": wall,
                                                 "row_wall_s": [r["wall_s"] for r in results],
                                                 "rows_from_disk": sorted(done)})
@@ -478,5 +521,6 @@ def _grid_table(results: list[dict], row_key: str, row_values: list[float]) -> l
             row = {"row": res["row"], "row_key": row_key, "row_value": row_values[res["row"]]}
             row.update({c: r.get(c) for c in CSV_COLUMNS if c != "wall_s"})
             row["validity"] = r.get("validity")
+            row.update({k: r[k] for k in SIX_DOF_COLUMNS + list(_SIX_DOF_LISTS) if k in r})  # 6 DOF
             table.append(row)
     return table
