@@ -30,6 +30,7 @@ import numpy as np
 
 from birdocp.bird.config import require_body_states, PARAM_NAMES, Config, ConfigError, get_value, suggest, with_values
 from birdocp.bird.validity import periodic_validity
+from birdocp.engine.cache import bounded_cache
 from birdocp.engine.floquet import sort_multipliers
 from birdocp.engine.results import result_dict, serial
 
@@ -148,6 +149,71 @@ class Evaluation:
         return sort_multipliers(np.linalg.eigvals(self.monodromy))
 
 
+_GRAPHS = bounded_cache("studies.gait_graphs", 4)
+
+
+def _graphs(m, cfg: Config, N: int, vidx: tuple, nt: int, second: bool, valid: bool) -> dict:
+    """The CasADi Functions of a :class:`ReducedLevelCycle` (outputs, RK4 grid, first- and
+    second-order sensitivities, the monodromy alone, the data and its directions), built once per
+    (model, steps, free parameters, order, validity thresholds, the wing's arm-frame shape) and reused
+    by every later cycle of the same problem in this process (e.g. every point of a Pareto front a
+    worker solves): a build costs seconds, a point's solve tens of them."""
+    from birdocp.bird.energetics import power_functions
+    from birdocp.engine.integrate import RK4Grid
+    from birdocp.engine.variational import PeriodSensitivities
+
+    p0 = np.asarray(m.p0, float)
+    thresholds = None
+    if valid:
+        v = cfg.validity
+        thresholds = (v.stall_angle_deg, v.min_forward_speed_mps, v.max_abs_pitch_deg, v.max_airflow_body_angle_deg)
+    key = (id(m.model), N, vidx, second, thresholds, p0[list(m.ode.pre_params)].tobytes())
+    hit = _GRAPHS.get(key)
+    if hit is not None and hit["model"] is m.model:
+        return hit
+    nv = len(vidx)
+    pf = power_functions(m)
+    x, d, p = ca.SX.sym("x", 4), ca.SX.sym("d", m.ode.nd), ca.SX.sym("p", len(PARAM_NAMES))
+    pw = pf.power(x, d, p)
+    Pf = pw[1]  # the shoulder power: flapping (aerodynamic) + the wings' inertial part if any
+    if "shoulder_inertial_power_W" in pf.names:
+        Pf = Pf + pw[pf.names.index("shoulder_inertial_power_W")]
+    out = ca.vertcat(pw[8], pw[7], Pf, pw[0], 0.5 * (Pf + ca.sqrt(Pf ** 2 + POSITIVE_EPS_W ** 2)))
+    out_names = _OUT
+    if valid:  # the smooth validity integrands, on the same RK4 stages (bird.validity_smooth)
+        from birdocp.bird.validity_smooth import integrand_names, smooth_integrands
+
+        out = ca.vertcat(out, smooth_integrands(cfg, m.ode.nd)(x, d, p))
+        out_names = _OUT + integrand_names()
+    outputs = ca.Function("gait_outputs", [x, d, p], [out])
+    grid = RK4Grid(m.ode, N, 1, outputs=(outputs,))
+    sens = PeriodSensitivities(m.ode, N, (outputs,), nv)
+    g = {"model": m.model, "out_names": out_names, "outputs": outputs, "grid": grid, "sens": sens,
+         # second order only along the nt total directions (x0 and A moving with theta), known once
+         # the first-order pass gave dy/dtheta: about half the cost of all 4 + nt + 1 directions
+         "sens2": (PeriodSensitivities(m.ode, N, (outputs,), nt, True, combined=True, n_data=nv) if second else None),
+         # the monodromy alone (the 4 state directions): what a line-search trial point's stability
+         # constraint needs, at a fraction of a gradient evaluation's cost
+         "sens_mono": PeriodSensitivities(m.ode, N, (), 0) if second else None,
+         "times": ca.DM(grid.times(0.0)).reshape((1, -1)), "local": grid.pre_numeric(0.0, p0)}
+    L, t, ps = ca.SX.sym("local", m.pre.size1_out(0)), ca.SX.sym("t"), ca.SX.sym("p", len(PARAM_NAMES))
+    dd = m.post(L, t, ps)
+    # the data and its Jacobian along the free parameters (forward mode, shared nominal values)
+    post_jac = ca.Function("post_jac", [L, t, ps], [dd, ca.jacobian(dd, ca.vertcat(*[ps[j] for j in vidx]))])
+    seeds = np.zeros((len(PARAM_NAMES), nv))
+    for k, j in enumerate(vidx):
+        seeds[j, k] = 1.0
+    # data and its directions in the variational layout, as one MX Function (the reordering of
+    # ~10^6 numbers stays in CasADi: through numpy it cost more than the sensitivities)
+    pm = ca.MX.sym("p", len(PARAM_NAMES))
+    blk = grid.block_index
+    Dg, Jg = post_jac.map(2 * N + 1)(g["local"], g["times"], pm)  # Jg: nv columns per time
+    cols = sens.direction_columns([Jg[:, [tk * nv + k for tk in blk]] for k in range(nv)])
+    g |= {"seeds": seeds, "data": ca.Function("gait_data", [pm], [Dg[:, blk], cols])}
+    _GRAPHS.put(key, g)
+    return g
+
+
 class ReducedLevelCycle:
     """The level-flight cycle as a function of the free gait parameters (see module docstring).
 
@@ -158,10 +224,7 @@ class ReducedLevelCycle:
 
     def __init__(self, cfg: Config, keys, steps_per_period: int | None = None, climb_rate_mps: float = 0.0,
                  second_order: bool = False, amplitude_start_deg: float | None = None, valid: bool = False):
-        from birdocp.bird.energetics import power_functions
         from birdocp.bird.model import get_model
-        from birdocp.engine.integrate import RK4Grid
-        from birdocp.engine.variational import PeriodSensitivities
 
         self.cfg = cfg
         self.m = m = get_model(cfg)
@@ -172,48 +235,15 @@ class ReducedLevelCycle:
         self.ia = PARAM_NAMES.index(AMPLITUDE_KEY)
         self.vidx = self.idx + [self.ia]
         self.nt = len(self.idx)
-        nv = self.nt + 1
         self.p0 = np.asarray(m.p0, float).copy()
         self.T = m.period_s
-        pf = power_functions(m)
-        x, d, p = ca.SX.sym("x", 4), ca.SX.sym("d", m.ode.nd), ca.SX.sym("p", len(PARAM_NAMES))
-        pw = pf.power(x, d, p)
-        Pf = pw[1]  # the shoulder power: flapping (aerodynamic) + the wings' inertial part if any
-        if "shoulder_inertial_power_W" in pf.names:
-            Pf = Pf + pw[pf.names.index("shoulder_inertial_power_W")]
-        out = ca.vertcat(pw[8], pw[7], Pf, pw[0], 0.5 * (Pf + ca.sqrt(Pf ** 2 + POSITIVE_EPS_W ** 2)))
-        self.out_names = _OUT
         self.valid = bool(valid)
-        if self.valid:  # the smooth validity integrands, on the same RK4 stages (bird.validity_smooth)
-            from birdocp.bird.validity_smooth import integrand_names, smooth_integrands
-
-            out = ca.vertcat(out, smooth_integrands(cfg, m.ode.nd)(x, d, p))
-            self.out_names = _OUT + integrand_names()
-        self.outputs = ca.Function("gait_outputs", [x, d, p], [out])
-        self.grid = RK4Grid(m.ode, N, 1, outputs=(self.outputs,))
-        self.sens = PeriodSensitivities(m.ode, N, (self.outputs,), nv)
-        # second order only along the nt total directions (x0 and A moving with theta), known once
-        # the first-order pass gave dy/dtheta: about half the cost of all 4 + nt + 1 directions
-        self.sens2 = (PeriodSensitivities(m.ode, N, (self.outputs,), self.nt, True, combined=True, n_data=nv)
-                      if second_order else None)
         self.second = bool(second_order)
-        self.K = K = 2 * N + 1
-        self.times = ca.DM(self.grid.times(0.0)).reshape((1, -1))
-        self.local = self.grid.pre_numeric(0.0, self.p0)
-        L, t, ps = ca.SX.sym("local", m.pre.size1_out(0)), ca.SX.sym("t"), ca.SX.sym("p", len(PARAM_NAMES))
-        dd = m.post(L, t, ps)
-        # the data and its Jacobian along the free parameters (forward mode, shared nominal values)
-        post_jac = ca.Function("post_jac", [L, t, ps], [dd, ca.jacobian(dd, ca.vertcat(*[ps[j] for j in self.vidx]))])
-        self._seeds = np.zeros((len(PARAM_NAMES), nv))
-        for k, j in enumerate(self.vidx):
-            self._seeds[j, k] = 1.0
-        # data and its directions in the variational layout, as one MX Function (the reordering of
-        # ~10^6 numbers stays in CasADi: through numpy it cost more than the sensitivities)
-        pm = ca.MX.sym("p", len(PARAM_NAMES))
-        blk = self.grid.block_index
-        Dg, Jg = post_jac.map(K)(self.local, self.times, pm)  # Jg: nv columns per time
-        cols = self.sens.direction_columns([Jg[:, [tk * nv + k for tk in blk]] for k in range(nv)])
-        self._data = ca.Function("gait_data", [pm], [Dg[:, blk], cols])
+        self.K = 2 * N + 1
+        g = _graphs(m, cfg, N, tuple(self.vidx), self.nt, self.second, self.valid)
+        self.out_names, self.outputs, self.grid, self.sens = g["out_names"], g["outputs"], g["grid"], g["sens"]
+        self.sens2, self.sens_mono, self._data = g["sens2"], g["sens_mono"], g["data"]
+        self.times, self.local, self._seeds = g["times"], g["local"], g["seeds"]
         self._y = np.concatenate([np.asarray(cfg.solve.initial_guess, float),
                                   [float(amplitude_start_deg if amplitude_start_deg is not None
                                          else self.p0[self.ia])]])
@@ -236,7 +266,7 @@ class ReducedLevelCycle:
         return p
 
     def _D(self, p):
-        return self.grid.post_grid(self.local, self.times, ca.DM(p))[:, self.grid.block_index]
+        return self.grid.blocks_numeric(0.0, p)  # one Function (the slicing of a DM in Python cost a third)
 
     def residual(self, y, theta):
         """(R, means): the level-cycle residual (x_T - x0, mean W - climb) and the period means."""
@@ -337,6 +367,12 @@ class ReducedLevelCycle:
             s2 = self.sens2(ev.x0, D, p, dp=self._seeds, columns=cols, W=W, dx0=dy[:4])
             ev.d_monodromy, ev.monodromy = s2["dMon"], np.asarray(s2["Mon"])
         ev.dy, ev.Ry = dy, Ry
+
+    def fill_monodromy(self, ev: Evaluation) -> None:
+        """Set ``ev.monodromy`` if it has none (state directions only: no gradients, no second order)."""
+        if ev.monodromy is None:
+            p = self.pfull(ev.theta, ev.amplitude_deg)
+            ev.monodromy = np.asarray(self.sens_mono(ev.x0, self._D(p), p)["J"])
 
     def evaluate_near(self, theta, base: Evaluation, tol: float = 1e-10, max_newton: int = 12) -> Evaluation:
         """The level cycle at theta, with its gradients, from the nearby ``base`` (an evaluation with
@@ -548,13 +584,17 @@ class ReducedProblem:
         z = np.asarray(z, float).ravel() / self.sigma
         nt = self.rc.nt
         try:
-            ev = self.rc.evaluate(z[:nt], grads=grads or self.jury is not None)
+            ev = self.rc.evaluate(z[:nt], grads=grads)
         except RuntimeError as e:  # no level cycle here: NaN makes IPOPT cut its step back
             self.failures.append(str(e))
             return np.full(self.ng, np.nan), np.full((self.ng, self.nz), np.nan)
         if ev.grads is None:  # values only (a line-search trial point)
-            G = np.array([self._value(ev)] + [ev.amplitude_deg]
+            G = np.array([z[-1] if self.with_r else self._value(ev)] + [ev.amplitude_deg]
                          + ([ev.means["forward_speed_mps"]] if self.speed is not None else []))
+            if self.jury is not None:  # the monodromy alone: no gradients at a trial point
+                self.rc.fill_monodromy(ev)
+                r = z[-1] if self.with_r else self.R
+                G = np.concatenate([G, np.asarray(self.jury(ca.DM(ev.monodromy), r)[0]).ravel()])
             if self.valid_bounds:
                 vals = self.smooth_validity(ev, grads=False)[0]
                 G = np.concatenate([G, [vals[k] for k in self.valid_bounds]])
