@@ -18,6 +18,8 @@ start of each part is recorded: other work on the shared machine inflates every 
 import argparse
 import json
 import os
+import shutil
+import subprocess
 import time
 from pathlib import Path
 
@@ -68,7 +70,12 @@ def main():
     if args.skip_pareto and path.is_file():  # keep the Pareto measurements of an earlier run
         res |= {k: v for k, v in json.loads(path.read_text()).items() if k.startswith("pareto") or k in (
             "points", "jobs", "bounds", "ratio_parallel_over_sequential", "ratio_parallel_valid_over_sequential",
-            "max_objective_difference_W")}
+            "max_objective_difference_W", "uptime")}
+    if args.skip_stability and path.is_file():  # keep the optimize_stability measurements of an earlier run
+        res |= {k: v for k, v in json.loads(path.read_text()).items() if k.startswith("optimize_stability")
+                or k == "ratio_valid_over_today"}
+    res["uptime"] = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip() if shutil.which(
+        "uptime") else None
 
     def save():
         from birdocp.io.files import atomic_write_json
