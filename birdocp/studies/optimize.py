@@ -39,7 +39,7 @@ from birdocp.engine import interrupts
 from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.engine.oracle import ConstraintOracle, ipopt_options
 from birdocp.engine.results import result_dict, serial
-from birdocp.studies.gait import check_free_keys, jury_conditions  # noqa: F401 (public here too)
+from birdocp.studies.gait_cycle import check_free_keys, jury_conditions  # noqa: F401 (public here too)
 
 __all__ = ["DEFAULT_FREE", "METHODS", "check_free_keys", "optimize_stability", "StabilityOptimum", "jury_conditions"]
 
