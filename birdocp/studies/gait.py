@@ -21,7 +21,7 @@ from birdocp.studies.gait_cycle import (AMPLITUDE_KEY, JURY_MARGIN, POSITIVE_EPS
 from birdocp.studies.gait_problem import ReducedProblem
 from birdocp.studies.power_curves import SPEED_KEY, curve_optima, level_at_speed, power_curve  # noqa: F401
 
-__all__ = ["ReducedLevelCycle", "ReducedProblem", "GaitOptimum", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
+__all__ = ["ReducedLevelCycle", "ReducedProblem", "GaitOptimum", "GaitSolverOptions", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
            "level_at_speed", "power_curve", "SPEED_KEY", "stability_pareto", "jury_conditions", "valid_power_curve",
            "curve_optima",
            "check_free_keys"]
@@ -95,25 +95,10 @@ class GaitOptimum:
             "mean_vertical_speed_mps": self.means.get("vertical_speed_mps")})
 
 
-def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, objective: str = "power",
-                  speed_mps: float | None = None, max_multiplier: float | None = None,
-                  climb_rate_mps: float = 0.0, amplitude_bounds=(20.0, 70.0),
-                  steps_per_period: int | None = None, max_iter: int = 100, tol: float = 1e-8,
-                  verify: bool = True, progress=False, start: dict | None = None, x_guess=None,
-                  ipopt_options: dict | None = None, hessian: str = "sr1",
-                  radius_start_factor: float = 1.05, threads: int = 2,
-                  second_derivatives: np.ndarray | None = None, valid: bool = False,
-                  valid_rounds: int | None = None) -> GaitOptimum:
-    """Minimise mean power (``objective="power"``), cost of transport, smoothed positive-work power,
-    or the stability radius (``"stability"``) over the gait parameters ``free`` (key -> (lo, hi);
-    default :data:`DEFAULT_GAIT_FREE`), in level flight (mean W = ``climb_rate_mps``, the amplitude
-    solved within ``amplitude_bounds``) at mean forward speed ``speed_mps`` (None: free speed), with
-    all multipliers inside the circle of radius ``max_multiplier`` (None: no stability constraint).
-
-    The start is the configured gait (``start`` overrides values), brought to ``speed_mps`` by the
-    first free key (Newton, exact derivative); its objective is ``start_objective_value``. ``x_guess``:
-    the state at t = 0 of the start's level cycle, if known (default: a trim of the start gait). The
-    optimum is verified by a trim (5-point multiple shooting) at the optimal gait.
+@dataclass
+class GaitSolverOptions:
+    """How :func:`optimize_gait` solves (the problem itself: objective, speed, bounds, start, are its
+    own arguments). Every field can also be given to :func:`optimize_gait` by keyword.
 
     ``hessian``: "sr1" (limited-memory SR1 updates) or "fd" (IPOPT's exact-Hessian mode on the
     forward finite difference of the exact constraint gradients, four or five extra gradient
@@ -123,16 +108,75 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     result does not depend on the number of threads), or "fixed" (exact-Hessian mode on the
     ``second_derivatives`` of a nearby solve held fixed, e.g. those of a coarser grid's optimum:
     one gradient evaluation per iteration).
-    ``radius_start_factor``: with the stability objective, r starts at this factor times the start's
-    spectral radius.
+
+    Parameters
+    ----------
+    max_iter : int
+        IPOPT iterations.
+    tol : float
+        IPOPT's tolerance.
+    verify : bool
+        Verify the optimum by an independent trim.
+    progress : bool or callable
+        False (silent), True (one line per evaluation on stderr) or a callable taking that line.
+    ipopt_options : dict, optional
+        Extra IPOPT options.
+    hessian : {"sr1", "fd", "fixed"}
+        How IPOPT gets second derivatives (see above).
+    radius_start_factor : float
+        With the stability objective, r starts at this factor times the start's spectral radius.
+    threads : int
+        Perturbed points evaluated at a time with ``hessian="fd"``.
+    second_derivatives : numpy.ndarray, optional
+        The fixed second derivatives for ``hessian="fixed"``.
+    valid_rounds : int, optional
+        With ``valid``: solves at most, tightening a bound the exact check finds crossed (default
+        :data:`birdocp.studies.gait_validity.VALID_ROUNDS`).
+    """
+
+    max_iter: int = 100
+    tol: float = 1e-8
+    verify: bool = True
+    progress: object = False
+    ipopt_options: dict | None = None
+    hessian: str = "sr1"
+    radius_start_factor: float = 1.05
+    threads: int = 2
+    second_derivatives: np.ndarray | None = None
+    valid_rounds: int | None = None
+
+    def check(self) -> None:
+        """ValueError/ConfigError (naming the option) for an impossible choice, before any computation."""
+        if self.hessian not in ("sr1", "fd", "fixed"):
+            raise ValueError(f"hessian must be 'sr1', 'fd' or 'fixed', got {self.hessian!r}")
+        if (self.hessian == "fixed") != (self.second_derivatives is not None):
+            raise ValueError("hessian='fixed' needs second_derivatives (and only it takes them)")
+        if int(self.threads) < 1:
+            raise ConfigError("--threads", f"must be a positive number of threads, got {self.threads!r}")
+
+
+def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, objective: str = "power",
+                  speed_mps: float | None = None, max_multiplier: float | None = None,
+                  climb_rate_mps: float = 0.0, amplitude_bounds=(20.0, 70.0),
+                  steps_per_period: int | None = None, start: dict | None = None, x_guess=None,
+                  valid: bool = False, solver: GaitSolverOptions | None = None, **solver_options) -> GaitOptimum:
+    """Minimise mean power (``objective="power"``), cost of transport, smoothed positive-work power,
+    or the stability radius (``"stability"``) over the gait parameters ``free`` (key -> (lo, hi);
+    default :data:`DEFAULT_GAIT_FREE`), in level flight (mean W = ``climb_rate_mps``, the amplitude
+    solved within ``amplitude_bounds``) at mean forward speed ``speed_mps`` (None: free speed), with
+    all multipliers inside the circle of radius ``max_multiplier`` (None: no stability constraint).
+
+    The start is the configured gait (``start`` overrides values), brought to ``speed_mps`` by the
+    first free key (Newton, exact derivative); its objective is ``start_objective_value``. The
+    optimum is verified by a trim (5-point multiple shooting) at the optimal gait. How IPOPT solves:
+    :class:`GaitSolverOptions` (``solver``, or its fields by keyword, e.g. ``max_iter=60``).
 
     ``valid``: every limit of ``cfg.validity`` is a smooth constraint
     (:mod:`birdocp.bird.validity_smooth`; exact gradients from the same RK4 stages). The exact
     validity of the optimum is checked; a limit still crossed (a smooth measure is not a bound of the
     exact one) has its smooth bound tightened by the difference and the problem is solved again from
-    the optimum, at most ``valid_rounds`` (default
-    :data:`birdocp.studies.gait_validity.VALID_ROUNDS`) solves in all. The result
-    always carries the exact ``validity``; with ``valid`` also ``validity_constraints``.
+    the optimum, at most ``valid_rounds`` solves in all. The result always carries the exact
+    ``validity``; with ``valid`` also ``validity_constraints``.
 
     Parameters
     ----------
@@ -152,33 +196,18 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
         Bounds of the flapping amplitude [deg].
     steps_per_period : int, optional
         RK4 steps per period (default ``cfg.solve.steps_per_period``).
-    max_iter : int
-        IPOPT iterations.
-    tol : float
-        IPOPT's tolerance.
-    verify : bool
-        Verify the optimum by an independent trim.
-    progress : bool or callable
-        False (silent), True (one line per evaluation on stderr) or a callable taking that line.
     start : dict, optional
         Gait values overriding the configured start.
     x_guess : array_like (4,), optional
-        State at t = 0 of the start's level cycle, if known.
-    ipopt_options : dict, optional
-        Extra IPOPT options.
-    hessian : {"sr1", "fd", "fixed"}
-        How IPOPT gets second derivatives (see above).
-    radius_start_factor : float
-        Start of r with the stability objective (see above).
-    threads : int
-        Perturbed points evaluated at a time with ``hessian="fd"``.
-    second_derivatives : numpy.ndarray, optional
-        The fixed second derivatives for ``hessian="fixed"``.
+        State at t = 0 of the start's level cycle, if known (default: a trim of the start gait).
     valid : bool
         Every limit of ``cfg.validity`` a smooth constraint (see above).
-    valid_rounds : int, optional
-        Solves at most, tightening a bound the exact check finds crossed (default
-        :data:`birdocp.studies.gait_validity.VALID_ROUNDS`).
+    solver : GaitSolverOptions, optional
+        How IPOPT solves (default :class:`GaitSolverOptions`).
+    **solver_options
+        Fields of :class:`GaitSolverOptions` overriding ``solver``'s (``max_iter``, ``tol``,
+        ``verify``, ``progress``, ``ipopt_options``, ``hessian``, ``radius_start_factor``,
+        ``threads``, ``second_derivatives``, ``valid_rounds``).
 
     Returns
     -------
@@ -187,33 +216,22 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
         and the verification; its exact ``validity`` always, with ``valid`` also
         ``validity_constraints``.
     """
+    from dataclasses import asdict, replace
+
     from birdocp.studies.gait_validity import VALID_ROUNDS, solve_valid
 
+    opts = replace(solver or GaitSolverOptions(), **solver_options)
     cfg = cfg or Config()
     require_body_states(cfg, "this gait study")
-
-    options = dict(objective=objective, speed_mps=speed_mps, max_multiplier=max_multiplier,
-                   climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
-                   steps_per_period=steps_per_period, max_iter=max_iter, tol=tol, verify=verify,
-                   progress=progress, start=start, x_guess=x_guess, ipopt_options=ipopt_options,
-                   hessian=hessian, radius_start_factor=radius_start_factor, threads=threads,
-                   second_derivatives=second_derivatives)
+    options = {k: v for k, v in asdict(opts).items() if k != "valid_rounds"} | dict(
+        objective=objective, speed_mps=speed_mps, max_multiplier=max_multiplier, climb_rate_mps=climb_rate_mps,
+        amplitude_bounds=amplitude_bounds, steps_per_period=steps_per_period, start=start, x_guess=x_guess)
     return solve_valid(_solve_gait, cfg, free, valid, options,
-                       VALID_ROUNDS if valid_rounds is None else valid_rounds)
+                       VALID_ROUNDS if opts.valid_rounds is None else opts.valid_rounds)
 
 
-def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, max_multiplier, climb_rate_mps,
-                amplitude_bounds, steps_per_period, max_iter, tol, verify, progress, start, x_guess,
-                ipopt_options, hessian, radius_start_factor, threads, second_derivatives,
-                valid_bounds: dict | None = None) -> GaitOptimum:
-    """One reduced-space solve (:func:`optimize_gait`); ``valid_bounds``: limit -> (bound, 'max' or
-    'min') of the smooth validity constraints (None: none). Sets the optimum's exact ``validity``."""
-    if hessian not in ("sr1", "fd", "fixed"):
-        raise ValueError(f"hessian must be 'sr1', 'fd' or 'fixed', got {hessian!r}")
-    if (hessian == "fixed") != (second_derivatives is not None):
-        raise ValueError("hessian='fixed' needs second_derivatives (and only it takes them)")
-    if int(threads) < 1:
-        raise ConfigError("--threads", f"must be a positive number of threads, got {threads!r}")
+def _checked_free(objective, free, speed_mps, max_multiplier) -> dict:
+    """The free keys (default :data:`DEFAULT_GAIT_FREE`), after the problem's own checks (ConfigError)."""
     if objective not in OBJECTIVES + ("stability",):
         raise ConfigError("--objective", f"must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
     free = dict(DEFAULT_GAIT_FREE if free is None else free)
@@ -223,73 +241,83 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
         raise ConfigError("--speed", f"must be a positive finite speed in m/s, got {speed_mps!r}")
     if max_multiplier is not None and not (math.isfinite(max_multiplier) and max_multiplier > 0):
         raise ConfigError("--max-multiplier", f"must be a positive number, got {max_multiplier!r}")
-    from birdocp.bird.model import get_model
+    return free
 
-    m = get_model(cfg)
-    if start:  # a previous optimum may sit on a bound to within IPOPT's tolerance
-        start = {k: float(np.clip(v, *free[k])) if k in free else v for k, v in start.items()}
-    cfg_start = with_values(cfg, start) if start else cfg
-    check_free_keys(m, cfg_start, free)
-    t_all, cpu_all = time.perf_counter(), time.process_time()
-    wall = {}
-    keys = list(free)
-    second = objective == "stability" or max_multiplier is not None
-    t0 = time.perf_counter()
-    rc = ReducedLevelCycle(cfg_start, keys, steps_per_period, climb_rate_mps, second_order=second,
-                           valid=bool(valid_bounds))
-    wall["build"] = time.perf_counter() - t0
-    rc.amplitude_range_deg = (amplitude_bounds[0] - 10.0, amplitude_bounds[1] + 10.0)
-    if x_guess is not None:
-        rc.set_guess(x_guess)
-    lo = np.array([free[k][0] for k in keys])
-    hi = np.array([free[k][1] for k in keys])
-    theta0 = np.array([float(get_value(cfg_start, k)) for k in keys])
-    t0 = time.perf_counter()
-    start_note = ""
+
+def _start_cycle(rc: ReducedLevelCycle, theta0, lo, hi, speed_mps):
+    """The start's level cycle (brought to ``speed_mps`` by the first free key when it can be) and a
+    note when it could not; RuntimeError when there is no level cycle at the start."""
+    ev0 = rc.evaluate(theta0)
+    if speed_mps is None:
+        return ev0, ""
     try:
-        ev0 = rc.evaluate(theta0)
-        if speed_mps is not None:
-            try:
-                ev0 = rc.solve_speed(speed_mps, theta0, 0, (lo[0], hi[0]))
-            except RuntimeError as e:  # the first key cannot reach the speed: IPOPT starts infeasible
-                ev0 = rc.evaluate(rc._theta if rc._theta is not None else theta0)
-                start_note = f"; start not at the speed ({e})"
-    except RuntimeError as e:
-        return _failed(objective, free, f"start: {e}", cfg, speed_mps, max_multiplier)
-    wall["start"] = time.perf_counter() - t0
-    prob = ReducedProblem(rc, objective, speed_mps, max_multiplier, amplitude_bounds, valid_bounds)
-    prob.progress = progress
-    z0 = ev0.theta.copy()
-    lbx, ubx = lo.copy(), hi.copy()
-    if prob.with_r:
-        r0 = radius_start_factor * float(np.max(np.abs(ev0.multipliers)))
-        z0 = np.append(z0, r0)
-        lbx, ubx = np.append(lbx, 0.02), np.append(ubx, 2.0 * r0)
-    prob.set_scale(ev0)
-    z0, lbx, ubx = z0 * prob.sigma, lbx * prob.sigma, ubx * prob.sigma
-    start_value = float(prob.both(z0)[0][0]) if not prob.with_r else float(np.max(np.abs(ev0.multipliers)))
-    if start_note and not prob.with_r:
-        start_value = float("nan")  # the configured gait does not fly level at this speed
-    start_mult = ev0.multipliers
+        return rc.solve_speed(speed_mps, theta0, 0, (lo[0], hi[0])), ""
+    except RuntimeError as e:  # the first key cannot reach the speed: IPOPT starts infeasible
+        return rc.evaluate(rc._theta if rc._theta is not None else theta0), f"; start not at the speed ({e})"
+
+
+def _nlp_solver(prob: ReducedProblem, opts: GaitSolverOptions):
+    """(IPOPT solver, the oracle to keep alive, the Hessian object, the sigma_k sigma_j scale) of ``prob``."""
     from birdocp.engine.oracle import ConstraintOracle, FixedHessian, StencilHessian
 
     zs = ca.MX.sym("z", prob.nz)
     scale2 = np.multiply.outer(prob.sigma, prob.sigma)[:, None, :]  # [k, ., j]: sigma_k sigma_j
-    fd = {"fd": lambda: StencilHessian(h=1e-6, threads=int(threads)),
-          "fixed": lambda: FixedHessian(np.asarray(second_derivatives, float) / scale2),
-          "sr1": lambda: None}[hessian]()
+    fd = {"fd": lambda: StencilHessian(h=1e-6, threads=int(opts.threads)),
+          "fixed": lambda: FixedHessian(np.asarray(opts.second_derivatives, float) / scale2),
+          "sr1": lambda: None}[opts.hessian]()
     oracle = ConstraintOracle(prob, "gait", fd_hessian=fd)  # keep a reference: IPOPT calls it during the solve
     G = oracle(zs)
-    nlp = {"x": zs, "f": G[0], "g": G[1:]}
     # SR1 limited-memory updates (BFGS crept along the speed constraint in 0.015-deg steps, and did not
     # converge on the stability radius); r is bounded by twice its start (SR1 took wild steps in r)
-    opts = {"ipopt.hessian_approximation": "limited-memory" if hessian == "sr1" else "exact",
-            "ipopt.limited_memory_update_type": "sr1",
-            "ipopt.sb": "yes",
-            "ipopt.print_level": 5 if progress is True else 0, "print_time": False, "ipopt.max_iter": int(max_iter),
-            "ipopt.tol": tol, "ipopt.constr_viol_tol": 1e-8, "ipopt.acceptable_tol": 1e-6,
-            "ipopt.acceptable_iter": 5, "ipopt.mu_strategy": "adaptive", "ipopt.nlp_scaling_method": "gradient-based", **(ipopt_options or {})}
-    solver = ca.nlpsol("gait", "ipopt", nlp, opts)
+    ipopt = {"ipopt.hessian_approximation": "limited-memory" if opts.hessian == "sr1" else "exact",
+             "ipopt.limited_memory_update_type": "sr1", "ipopt.sb": "yes",
+             "ipopt.print_level": 5 if opts.progress is True else 0, "print_time": False,
+             "ipopt.max_iter": int(opts.max_iter), "ipopt.tol": opts.tol, "ipopt.constr_viol_tol": 1e-8,
+             "ipopt.acceptable_tol": 1e-6, "ipopt.acceptable_iter": 5, "ipopt.mu_strategy": "adaptive",
+             "ipopt.nlp_scaling_method": "gradient-based", **(opts.ipopt_options or {})}
+    return ca.nlpsol("gait", "ipopt", {"x": zs, "f": G[0], "g": G[1:]}, ipopt), oracle, fd, scale2
+
+
+def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, max_multiplier, climb_rate_mps,
+                amplitude_bounds, steps_per_period, start, x_guess, valid_bounds: dict | None = None,
+                **solver_options) -> GaitOptimum:
+    """One reduced-space solve (:func:`optimize_gait`; ``solver_options``: the fields of
+    :class:`GaitSolverOptions`); ``valid_bounds``: limit -> (bound, 'max' or 'min') of the smooth
+    validity constraints (None: none). Sets the optimum's exact ``validity``."""
+    opts = GaitSolverOptions(**solver_options)
+    opts.check()
+    free = _checked_free(objective, free, speed_mps, max_multiplier)
+    from birdocp.bird.model import get_model
+
+    if start:  # a previous optimum may sit on a bound to within IPOPT's tolerance
+        start = {k: float(np.clip(v, *free[k])) if k in free else v for k, v in start.items()}
+    cfg_start = with_values(cfg, start) if start else cfg
+    check_free_keys(get_model(cfg), cfg_start, free)
+    t_all, cpu_all = time.perf_counter(), time.process_time()
+    keys = list(free)
+    t0 = time.perf_counter()
+    rc = ReducedLevelCycle(cfg_start, keys, steps_per_period, climb_rate_mps,
+                           second_order=objective == "stability" or max_multiplier is not None,
+                           valid=bool(valid_bounds))
+    wall = {"build": time.perf_counter() - t0}
+    rc.amplitude_range_deg = (amplitude_bounds[0] - 10.0, amplitude_bounds[1] + 10.0)
+    if x_guess is not None:
+        rc.set_guess(x_guess)
+    lo, hi = np.array([free[k][0] for k in keys]), np.array([free[k][1] for k in keys])
+    t0 = time.perf_counter()
+    fail = lambda m: _failed(objective, free, m, cfg, speed_mps, max_multiplier)  # noqa: E731
+    try:
+        ev0, note = _start_cycle(rc, np.array([float(get_value(cfg_start, k)) for k in keys]), lo, hi, speed_mps)
+    except RuntimeError as e:
+        return fail(f"start: {e}")
+    wall["start"] = time.perf_counter() - t0
+    prob = ReducedProblem(rc, objective, speed_mps, max_multiplier, amplitude_bounds, valid_bounds)
+    prob.progress = opts.progress
+    z0, lbx, ubx = _scaled_start(prob, ev0, lo, hi, opts.radius_start_factor)
+    start_value = float(prob.both(z0)[0][0]) if not prob.with_r else float(np.max(np.abs(ev0.multipliers)))
+    if note and not prob.with_r:
+        start_value = float("nan")  # the configured gait does not fly level at this speed
+    solver, oracle, fd, scale2 = _nlp_solver(prob, opts)
     glo, ghi = prob.bounds_g()
     t0 = time.perf_counter()
     try:
@@ -297,36 +325,17 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
 
         with interrupts.interruptible():  # Ctrl-C inside IPOPT: KeyboardInterrupt, not a status
             sol = solver(x0=z0, lbx=lbx, ubx=ubx, lbg=glo, ubg=ghi)
-        st = solver.stats()
-        status, ok, iters = str(st["return_status"]), bool(st["success"]), int(st["iter_count"])
-        z = np.asarray(sol["x"]).ravel() / prob.sigma
-        lam_g, lam_x = np.asarray(sol["lam_g"]).ravel(), np.asarray(sol["lam_x"]).ravel()
-        msg = f"IPOPT: {status}{start_note}"
     except RuntimeError as e:  # the reduced map failed (no level cycle) and IPOPT could not recover
-        return _failed(objective, free, f"IPOPT stopped: {e}", cfg, speed_mps, max_multiplier)
+        return fail(f"IPOPT stopped: {e}")
     wall["solve"] = time.perf_counter() - t0
-    Gz, Jz = prob.both(z * prob.sigma)
-    if Jz is None or not np.all(np.isfinite(Jz)):
-        return _failed(objective, free, f"{msg}; no level cycle at IPOPT's last point", cfg, speed_mps,
-                       max_multiplier)
-    ev = rc.evaluate(z[:rc.nt])
-    # KKT: gradient of the Lagrangian in the scaled variables (IPOPT's sign convention:
-    # grad f + J^T lam_g + lam_x = 0); per unit of each parameter: times sigma
-    kkt = (Jz[0] + Jz[1:].T @ lam_g + lam_x) * prob.sigma
-    viol = float(np.max(np.concatenate([np.maximum(glo - Gz[1:], 0), np.maximum(Gz[1:] - ghi, 0)])))
-    best = {k: float(v) for k, v in zip(keys, z[:rc.nt])}
-    out = GaitOptimum(ok and viol < 1e-6, status, msg, objective, iters, float(Gz[0]), start_value, best, free,
-                      dict(zip(keys, ev0.theta.tolist())), ev.amplitude_deg, ev.x0, ev.multipliers,
-                      start_mult, ev.means["forward_speed_mps"], speed_mps, max_multiplier, dict(ev.means),
-                      float(np.max(np.abs(kkt))), viol, cfg=cfg)
-    out.evaluations = {"full": rc.n_full, "residual": rc.n_resid, "no_level_cycle": len(prob.failures)}
-    from birdocp.studies.gait_validity import attach_validity
-
-    attach_validity(out, prob, ev, lam_g, cfg)
-    out.start_x0 = ev0.x0
-    if isinstance(fd, StencilHessian) and fd.last is not None:
+    st = solver.stats()
+    msg = f"IPOPT: {st['return_status']}{note}"
+    out = _optimum(prob, sol, st, msg, (glo, ghi), ev0, start_value, free, cfg, speed_mps, max_multiplier)
+    if out is None:
+        return fail(f"{msg}; no level cycle at IPOPT's last point")
+    if getattr(fd, "last", None) is not None:  # a StencilHessian's last second derivatives, unscaled
         out.second_derivatives = fd.last[1] * scale2
-    if verify:
+    if opts.verify:
         t0 = time.perf_counter()
         out.verification = verify_gait(out, cfg, rc.N)
         out.cfg = out.verification.pop("cfg")
@@ -334,6 +343,46 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
     wall["total"] = time.perf_counter() - t_all
     wall["cpu_total"] = time.process_time() - cpu_all  # this process's CPU time (the machine is shared)
     out.wall_s = wall
+    return out
+
+
+def _scaled_start(prob: ReducedProblem, ev0: Evaluation, lo, hi, radius_start_factor: float):
+    """(z0, lbx, ubx) in IPOPT's scaled variables (r appended for the stability objective, bounded by
+    twice its start: SR1 took wild steps in r)."""
+    z0, lbx, ubx = ev0.theta.copy(), np.asarray(lo, float).copy(), np.asarray(hi, float).copy()
+    if prob.with_r:
+        r0 = radius_start_factor * float(np.max(np.abs(ev0.multipliers)))
+        z0, lbx, ubx = np.append(z0, r0), np.append(lbx, 0.02), np.append(ubx, 2.0 * r0)
+    prob.set_scale(ev0)
+    return z0 * prob.sigma, lbx * prob.sigma, ubx * prob.sigma
+
+
+def _optimum(prob: ReducedProblem, sol, st, msg, gbounds, ev0, start_value, free, cfg, speed_mps,
+             max_multiplier) -> GaitOptimum | None:
+    """The :class:`GaitOptimum` at IPOPT's last point (KKT residual, violation, exact validity), or
+    None when there is no level cycle there."""
+    rc, (glo, ghi) = prob.rc, gbounds
+    z = np.asarray(sol["x"]).ravel() / prob.sigma
+    lam_g, lam_x = np.asarray(sol["lam_g"]).ravel(), np.asarray(sol["lam_x"]).ravel()
+    Gz, Jz = prob.both(z * prob.sigma)
+    if Jz is None or not np.all(np.isfinite(Jz)):
+        return None
+    ev = rc.evaluate(z[:rc.nt])
+    # KKT: gradient of the Lagrangian in the scaled variables (IPOPT's sign convention:
+    # grad f + J^T lam_g + lam_x = 0); per unit of each parameter: times sigma
+    kkt = (Jz[0] + Jz[1:].T @ lam_g + lam_x) * prob.sigma
+    viol = float(np.max(np.concatenate([np.maximum(glo - Gz[1:], 0), np.maximum(Gz[1:] - ghi, 0)])))
+    best = {k: float(v) for k, v in zip(rc.keys, z[:rc.nt])}
+    out = GaitOptimum(bool(st["success"]) and viol < 1e-6, str(st["return_status"]), msg, prob.objective,
+                      int(st["iter_count"]), float(Gz[0]), start_value, best, free,
+                      dict(zip(rc.keys, ev0.theta.tolist())), ev.amplitude_deg, ev.x0, ev.multipliers,
+                      ev0.multipliers, ev.means["forward_speed_mps"], speed_mps, max_multiplier, dict(ev.means),
+                      float(np.max(np.abs(kkt))), viol, cfg=cfg)
+    out.evaluations = {"full": rc.n_full, "residual": rc.n_resid, "no_level_cycle": len(prob.failures)}
+    from birdocp.studies.gait_validity import attach_validity
+
+    attach_validity(out, prob, ev, lam_g, cfg)
+    out.start_x0 = ev0.x0
     return out
 
 
@@ -440,6 +489,14 @@ def stability_pareto(cfg: Config | None, speed_mps: float, bounds, *, free: dict
         return pareto_parallel(executor, optimize_gait, cfg, speed_mps, bounds, free=free, start=start, x_guess=x_guess,
                                start_bound=start_bound, anchors=anchors, objective=objective,
                                steps_per_period=steps_per_period, progress=progress, **options)
+    return _pareto_sequential(cfg, speed_mps, bounds, free, start, x_guess, objective, steps_per_period,
+                              max_halvings, progress, options)
+
+
+def _pareto_sequential(cfg, speed_mps, bounds, free, start, x_guess, objective, steps_per_period, max_halvings,
+                       progress, options) -> list[dict]:
+    """:func:`stability_pareto` without an executor: each bound from the previous optimum, a failed
+    one retried from halfway."""
     from birdocp.studies.pareto import pareto_row
 
     queue = [(float(R), False) for R in bounds]

@@ -311,6 +311,14 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     t_start = time.perf_counter()
     N = int(steps_per_period or cfg.solve.steps_per_period)
     stages = [coarse_steps, N] if coarse_steps and coarse_steps < N else [N]
+    opt, first, iterations, wall, notes = _reduced_stages(cfg, free, stages, climb_rate_mps, amplitude_bounds,
+                                                          max_iter, tol, progress, threads, valid)
+    return _stability_result(cfg, free, opt, first, iterations, wall, notes, N, verify, valid, t_start)
+
+
+def _reduced_stages(cfg, free, stages, climb_rate_mps, amplitude_bounds, max_iter, tol, progress, threads, valid):
+    """The reduced solves on the grids ``stages`` (coarse first, each from the last one's optimum and
+    second derivatives): (last optimum, first optimum, iterations in all, wall times, notes)."""
     wall, iterations, notes = {}, 0, []
     start, x_guess, first, opt = None, None, None, None
     for k, steps in enumerate(stages):
@@ -328,6 +336,11 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
                 break
             start = dict(opt.free) | {AMPLITUDE_KEY: opt.amplitude_deg}
             x_guess = opt.x0
+    return opt, first, iterations, wall, notes
+
+
+def _stability_result(cfg, free, opt, first, iterations, wall, notes, N, verify, valid, t_start) -> StabilityOptimum:
+    """The :class:`StabilityOptimum` of the last stage's optimum ``opt`` (verified, exact validity)."""
     nan4 = np.full(4, np.nan)
     if not opt.free:
         out = StabilityOptimum(False, opt.status, opt.message, iterations, {}, free, float("nan"), float("nan"),
