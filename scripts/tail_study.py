@@ -45,7 +45,7 @@ from script_common import parse_with_out, script_parser
 AMP = "gait.shoulder_flap.amplitude_deg"
 INCIDENCES_DEG = (-15.0, -10.0, -5.0, 0.0, 5.0, 10.0, 15.0)
 TAIL_FREE = {"tail.opening_angle_deg": (0.0, 60.0), "tail.incidence_deg": (-15.0, 15.0)}
-"""The tail's keys freed with ``--optimize`` (bounds: the branches' ranges), starting at β = 10 deg, i = 0."""
+"""The tail's keys freed with ``--optimize`` (bounds: the branches' ranges), starting at β = 0, i = 0."""
 STYLE = {"flight": dict(ls="-", lw=2.0), "dive": dict(ls=":", lw=2.0), "invalid": dict(ls="--", lw=1.0, color="0.6")}
 
 
@@ -197,7 +197,9 @@ def optimize_valid(threads: int = 2) -> dict:
     """The most stable valid level gait with the tail's incidence and opening free (see the module)."""
     from birdocp.studies.optimize import DEFAULT_FREE, optimize_stability
 
-    cfg = with_values(Config(), {"tail.enabled": True, "tail.opening_angle_deg": 10.0, "tail.incidence_deg": 0.0})
+    # from the closed tail (beta = 0: the reference level cycle, which the default guess finds; at
+    # beta = 10 deg the coarse stage's Newton did not find a level cycle from it)
+    cfg = with_values(Config(), {"tail.enabled": True, "tail.opening_angle_deg": 0.0, "tail.incidence_deg": 0.0})
     t0 = time.perf_counter()
     opt = optimize_stability(cfg, dict(DEFAULT_FREE) | TAIL_FREE, valid=True, threads=threads)
     d = opt.to_dict()
@@ -208,6 +210,9 @@ def optimize_valid(threads: int = 2) -> dict:
 
 def optimum_lines(o: dict) -> list:
     """The certificate of the valid stability optimum with the tail keys free, in words."""
+    if o.get("radius") is None:
+        return ["", "## The most stable valid gait with the tail's incidence and opening free", "",
+                f"optimize_stability(valid=True) FAILED: {o['status']}: {o['message'][:300]}"]
     r = max(o["moduli"])
     verdict = ("stable" if o["stable"] else "NOT stable") + (" where the model holds" if o["validity"]["valid"]
                                                              else ", and the model does NOT hold there")
