@@ -208,6 +208,16 @@ def optimize_valid(threads: int = 2) -> dict:
                 "active_validity_limits": active, "script_wall_s": time.perf_counter() - t0}
 
 
+def at_bound(o: dict, tol: float = 1e-4) -> list:
+    """The free keys of the optimum ``o`` within ``tol`` of a bound, as 'key = bound'."""
+    out = []
+    for k, v in o["free"].items():
+        lo, hi = o["bounds"][k]
+        if min(v - lo, hi - v) < tol:
+            out.append(f"{k} = {lo:g}" if v - lo < hi - v else f"{k} = {hi:g}")
+    return out
+
+
 def optimum_lines(o: dict) -> list:
     """The certificate of the valid stability optimum with the tail keys free, in words."""
     if o.get("radius") is None:
@@ -223,8 +233,9 @@ def optimum_lines(o: dict) -> list:
             f"{o['script_wall_s']:.0f} s",
             f"- r* = {o['radius']:.6f}, largest |Λ| = {r:.6f}: {verdict}",
             f"- KKT residual {o['kkt_residual']:.2e}, constraint violation {o['constraint_violation']:.1e}",
-            f"- active validity limits: {', '.join(o['active_validity_limits']) or 'none'}; parameters at a bound: "
-            f"{', '.join(o['active_bounds']) or 'none'}",
+            f"- active validity limits: {', '.join(o['active_validity_limits']) or 'none'}; parameters at a bound "
+            f"(within 1e-4 deg: IPOPT's interior point stops that close): {', '.join(at_bound(o)) or 'none'}; "
+            f"flapping amplitude {o['amplitude_deg']:.5f} deg (its bounds 20-70 deg)",
             f"- exact validity: {'valid' if o['validity']['valid'] else 'NOT valid: ' + '; '.join(o['validity']['reasons'])}",
             f"- optimum: {fv}, amplitude {o['amplitude_deg']:.3f} deg"]
 
