@@ -12,12 +12,14 @@ The bounds, the start (energy optimum) and the anchor (most stable gait) are the
 results/energetics/result.json (so both tracings solve the same points). The machine load at the
 start of each part is recorded: other work on the shared machine inflates every number.
 
-    python scripts/benchmark_validity.py [--points 12] [--jobs 2] [--out DIR] [--skip-sequential] [--skip-pareto]
+    python scripts/benchmark_validity.py [--points 12] [--jobs 2] [--out DIR] [--skip-sequential] [--skip-valid] [--skip-pareto]
 """
 
 import argparse
 import json
 import os
+import shutil
+import subprocess
 import time
 from pathlib import Path
 
@@ -43,6 +45,8 @@ def main():
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", default=str(ROOT / "results" / "stability_optimum"))
     ap.add_argument("--skip-sequential", action="store_true")
+    ap.add_argument("--skip-valid", action="store_true",
+                    help="no valid front (scripts/energetics_valid_study.py times its own, with its own bounds)")
     ap.add_argument("--skip-stability", action="store_true")
     ap.add_argument("--skip-pareto", action="store_true",
                     help="only the optimize_stability pair; the Pareto entries already in OUT/benchmark_validity.json "
@@ -68,7 +72,12 @@ def main():
     if args.skip_pareto and path.is_file():  # keep the Pareto measurements of an earlier run
         res |= {k: v for k, v in json.loads(path.read_text()).items() if k.startswith("pareto") or k in (
             "points", "jobs", "bounds", "ratio_parallel_over_sequential", "ratio_parallel_valid_over_sequential",
-            "max_objective_difference_W")}
+            "max_objective_difference_W", "uptime")}
+    if args.skip_stability and path.is_file():  # keep the optimize_stability measurements of an earlier run
+        res |= {k: v for k, v in json.loads(path.read_text()).items() if k.startswith("optimize_stability")
+                or k == "ratio_valid_over_today"}
+    res["uptime"] = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip() if shutil.which(
+        "uptime") else None
 
     def save():
         from birdocp.io.files import atomic_write_json
@@ -104,16 +113,21 @@ def main():
         res["pareto_parallel"] = t | {"converged": sum(r["success"] for r in rows),
                                       "objective_values": [r["objective_value"] for r in rows]}
         save()
-        log("the same front over valid cycles (valid=True), parallel")
-        rows, t = timed(lambda: stability_pareto(cfg, U, bounds, start=start, x_guess=b["x0"], executor=ex,
-                                                 anchors=[anchor], start_bound=b["largest_modulus"], progress=log,
-                                                 valid=True))
-        res["pareto_parallel_valid"] = t | {"converged": sum(r["success"] for r in rows),
-                                            "valid": sum(bool(r.get("valid")) for r in rows)}
+        if not args.skip_valid:
+            log("the same front over valid cycles (valid=True), parallel")
+            rows, t = timed(lambda: stability_pareto(cfg, U, bounds, start=start, x_guess=b["x0"], executor=ex,
+                                                     anchors=[anchor], start_bound=b["largest_modulus"],
+                                                     progress=log, valid=True))
+            res["pareto_parallel_valid"] = t | {"converged": sum(r["success"] for r in rows),
+                                                "valid": sum(bool(r.get("valid")) for r in rows)}
+        else:
+            for k in ("pareto_parallel_valid", "ratio_parallel_valid_over_sequential"):
+                res.pop(k, None)
     if "pareto_sequential" in res:
         seq = res["pareto_sequential"]["wall_s"]
         res["ratio_parallel_over_sequential"] = res["pareto_parallel"]["wall_s"] / seq
-        res["ratio_parallel_valid_over_sequential"] = res["pareto_parallel_valid"]["wall_s"] / seq
+        if "pareto_parallel_valid" in res:
+            res["ratio_parallel_valid_over_sequential"] = res["pareto_parallel_valid"]["wall_s"] / seq
         a = [v for v in res["pareto_sequential"]["objective_values"]]
         c = res["pareto_parallel"]["objective_values"]
         if len(a) == len(c):

@@ -15,6 +15,8 @@ Writes results/energetics/ (JSON, summary.md, figures):
     python scripts/energetics_study.py --out /tmp/energetics   # elsewhere (default results/energetics)
     python scripts/energetics_study.py --only optimize-stability   # that part alone (~40 s), into the
                                                   # committed result.json and summary.md
+    python scripts/energetics_study.py --only power-curve   # the power curve alone (every row with its
+                                                  # validity; optima over valid rows): power_curve.json/png
 """
 
 import json
@@ -60,15 +62,18 @@ def main():
                     help="explicit bounds R of the Pareto points (default: evenly spaced, --pareto-points)")
     ap.add_argument("--reuse", action="store_true",
                     help="reuse power_curve.json and optimal_gait.json of an earlier run (same code)")
-    ap.add_argument("--only", choices=("optimize-stability",), default=None,
+    ap.add_argument("--only", choices=("optimize-stability", "power-curve"), default=None,
                     help="run only this part and update its entry of the committed result.json and summary.md")
     ap.add_argument("--threads", type=int, default=2,
                     help="optimize-stability's threads for the finite-difference Hessian (default 2)")
     args, OUT = parse_with_out(ap)  # --out: every writer below uses OUT
     cfg = Config()
-    if args.only == "optimize-stability":
+    if args.only is not None:
         out = json.loads((OUT / "result.json").read_text())
-        out["optimize_stability"] = optimize_stability_part(cfg, args.threads)
+        if args.only == "optimize-stability":
+            out["optimize_stability"] = optimize_stability_part(cfg, args.threads)
+        else:
+            out["power_curve"] = power_curve_part(cfg)
         atomic_write_json(OUT / "result.json", out)
         atomic_write_text(OUT / "summary.md", summary_md(out))
         return
@@ -91,14 +96,12 @@ def main():
     t0 = time.perf_counter()
     if args.reuse and (OUT / "power_curve.json").is_file():
         pc = json.loads((OUT / "power_curve.json").read_text())
+        plot_power_curve(pc["rows"], OUT / "power_curve.png",
+                         title="Power curve of the paper's gait (speed held by the incidence offset, "
+                               "level flight by the amplitude)")
     else:
-        pc = power_curve(cfg, np.arange(9.0, 24.01, 1.0), bounds=(-10.0, 45.0), progress=True)
-        pc["wall_s"] = time.perf_counter() - t0
+        pc = power_curve_part(cfg)
     out["power_curve"] = pc
-    plot_power_curve(pc["rows"], OUT / "power_curve.png",
-                     title="Power curve of the paper's gait (speed held by the incidence offset, "
-                           "level flight by the amplitude)")
-    atomic_write_json(OUT / "power_curve.json", pc)
 
     # 3. the energy-optimal gait at the reference speed, and the most stable one
     log(f"energy-optimal gait at {U_ref:.4f} m/s")
@@ -195,6 +198,30 @@ def optimize_stability_part(cfg, threads):
     return part
 
 
+def _yes(valid) -> str:
+    return "unknown" if valid is None else ("yes" if valid else "NO")
+
+
+def _vertex_text(v) -> str:
+    """A minimum of the power curve (:func:`birdocp.studies.power_curves.curve_optima`) in words."""
+    if not v or v.get("speed_mps") is None:
+        return "none (fewer than three rows)"
+    where = "interior" if v["interior"] else "at an END of the rows: no interior minimum"
+    return f"{v['speed_mps']:.3f} m/s ({v.get('power_W', float('nan')):.3f} W; {where})"
+
+
+def power_curve_part(cfg) -> dict:
+    """The power curve of the paper's gait (every row with its validity), written with its figure."""
+    t0 = time.perf_counter()
+    pc = power_curve(cfg, np.arange(9.0, 24.01, 1.0), bounds=(-10.0, 45.0), progress=True)
+    pc["wall_s"] = time.perf_counter() - t0
+    plot_power_curve(pc["rows"], OUT / "power_curve.png",
+                     title="Power curve of the paper's gait (speed held by the incidence offset, "
+                           "level flight by the amplitude)")
+    atomic_write_json(OUT / "power_curve.json", pc)
+    return pc
+
+
 def summary_md(out):
     pg = out["paper_gait_level"]
     pc = out["power_curve"]
@@ -206,20 +233,23 @@ def summary_md(out):
              f"{pg['mean_positive_power_W']:.3f} W, cost of transport {pg['cost_of_transport']:.4f}, "
              f"Strouhal {pg['strouhal_number']:.3f}, reduced frequency {pg['reduced_frequency']:.3f}", "",
              "## Power curve (speed held by the incidence offset, level flight by the amplitude)", "",
-             "| U [m/s] | incidence offset [deg] | amplitude [deg] | P [W] | P+ [W] | COT | St | largest modulus |",
-             "|---|---|---|---|---|---|---|---|"]
+             "| U [m/s] | incidence offset [deg] | amplitude [deg] | P [W] | P+ [W] | COT | St | largest modulus "
+             "| valid | why not |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in pc["rows"]:
         if r["success"]:
+            why = "; ".join((r.get("validity") or {}).get("reasons", []))[:110]
             lines.append(f"| {r['speed_mps']:.1f} | {r[pc['key']]:.3f} | {r['amplitude_deg']:.3f} | "
                          f"{r['mean_shoulder_power_W']:.3f} | {r['mean_positive_power_W']:.3f} | "
-                         f"{r['cost_of_transport']:.4f} | {r['strouhal_number']:.3f} | {r['largest_modulus']:.4f} |")
+                         f"{r['cost_of_transport']:.4f} | {r['strouhal_number']:.3f} | {r['largest_modulus']:.4f} | "
+                         f"{_yes(r.get('valid'))} | {why} |")
         else:
-            lines.append(f"| {r['speed_mps']:.1f} | failed: {r.get('message', '')[:60]} | | | | | | |")
-    mp, mr = pc["minimum_power"], pc["maximum_range"]
-    lines += ["", f"minimum-power speed {mp['speed_mps']:.3f} m/s ({mp['power_W']:.3f} W"
-              f"{'' if mp['interior'] else ', at the end of the range'}); maximum-range speed "
-              f"{mr['speed_mps']:.3f} m/s ({mr.get('power_W', float('nan')):.3f} W"
-              f"{'' if mr['interior'] else ', at the end of the range'})", "",
+            lines.append(f"| {r['speed_mps']:.1f} | failed: {r.get('message', '')[:60]} | | | | | | | | |")
+    lines += ["", f"Over the valid rows only: minimum-power speed {_vertex_text(pc.get('minimum_power'))}; "
+              f"maximum-range speed {_vertex_text(pc.get('maximum_range'))}.",
+              f"Over every converged row, valid or not (NOT flights where the model does not hold): minimum power "
+              f"{_vertex_text(pc.get('minimum_power_all_rows'))}; maximum range "
+              f"{_vertex_text(pc.get('maximum_range_all_rows'))}.", "",
               "## Energy-optimal and most stable gaits at the reference speed", "",
               "| gait | P [W] | largest modulus | amplitude [deg] | free values | iterations | KKT | wall [s] |",
               "|---|---|---|---|---|---|---|---|",

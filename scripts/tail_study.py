@@ -13,10 +13,16 @@ and the margins of the validity limits; where a limit is crossed a ``validity_bo
 is located on the branch, naming the limit. A point is a *flight* where the model is valid and
 |mean W| < 1 m/s (else a dive, or invalid).
 
+With ``--optimize``: the most stable level gait with the tail's incidence and opening angle free
+together with the shoulder keys of ``optimize-stability`` (:data:`OPT_FREE`), every limit of
+``[validity]`` a constraint (``optimize_stability(valid=True)``); its certificate (r*, KKT residual,
+active limits and bounds, exact validity) goes to OUT/optimum_valid.json and the table.
+
 Writes OUT/ (``--out``, default results/tail): branch_<family>.json, summary.json, table.md, tail.png.
 
     python scripts/tail_study.py                  # ~5-8 min on 2 cores
     python scripts/tail_study.py --reuse          # redraw from the branch files
+    python scripts/tail_study.py --reuse --optimize   # + the valid stability optimum, tail keys free
 """
 from __future__ import annotations
 
@@ -38,6 +44,8 @@ from script_common import parse_with_out, script_parser
 
 AMP = "gait.shoulder_flap.amplitude_deg"
 INCIDENCES_DEG = (-15.0, -10.0, -5.0, 0.0, 5.0, 10.0, 15.0)
+TAIL_FREE = {"tail.opening_angle_deg": (0.0, 60.0), "tail.incidence_deg": (-15.0, 15.0)}
+"""The tail's keys freed with ``--optimize`` (bounds: the branches' ranges), starting at β = 0, i = 0."""
 STYLE = {"flight": dict(ls="-", lw=2.0), "dive": dict(ls=":", lw=2.0), "invalid": dict(ls="--", lw=1.0, color="0.6")}
 
 
@@ -181,7 +189,55 @@ def table(summary: dict, answer: list) -> str:
                      f"{s['beta_range_deg'][1]:.2f} | {s['end_reason']} | {s['m1_at_0']:.4f} | {best} | "
                      f"{s['flight_points']} / {s['dive_points']} / {s['invalid_points']} | {vb} | {stable} | "
                      f"{'yes' if s['stable_in_flight'] else 'no'} |")
-    return "\n".join(lines + ["", "## Answer", ""] + [f"- {a}" for a in answer]) + "\n"
+    opt = optimum_lines(summary["optimum_valid"]) if summary.get("optimum_valid") else []
+    return "\n".join(lines + ["", "## Answer", ""] + [f"- {a}" for a in answer] + opt) + "\n"
+
+
+def optimize_valid(threads: int = 2) -> dict:
+    """The most stable valid level gait with the tail's incidence and opening free (see the module)."""
+    from birdocp.studies.optimize import DEFAULT_FREE, optimize_stability
+
+    # from the closed tail (beta = 0: the reference level cycle, which the default guess finds; at
+    # beta = 10 deg the coarse stage's Newton did not find a level cycle from it)
+    cfg = with_values(Config(), {"tail.enabled": True, "tail.opening_angle_deg": 0.0, "tail.incidence_deg": 0.0})
+    t0 = time.perf_counter()
+    opt = optimize_stability(cfg, dict(DEFAULT_FREE) | TAIL_FREE, valid=True, threads=threads)
+    d = opt.to_dict()
+    active = [k for k, c in (d.get("validity_constraints") or {}).items() if c.get("active")]
+    return d | {"free_bounds": {k: list(v) for k, v in (dict(DEFAULT_FREE) | TAIL_FREE).items()},
+                "active_validity_limits": active, "script_wall_s": time.perf_counter() - t0}
+
+
+def at_bound(o: dict, tol: float = 1e-4) -> list:
+    """The free keys of the optimum ``o`` within ``tol`` of a bound, as 'key = bound'."""
+    out = []
+    for k, v in o["free"].items():
+        lo, hi = o["bounds"][k]
+        if min(v - lo, hi - v) < tol:
+            out.append(f"{k} = {lo:g}" if v - lo < hi - v else f"{k} = {hi:g}")
+    return out
+
+
+def optimum_lines(o: dict) -> list:
+    """The certificate of the valid stability optimum with the tail keys free, in words."""
+    if o.get("radius") is None:
+        return ["", "## The most stable valid gait with the tail's incidence and opening free", "",
+                f"optimize_stability(valid=True) FAILED: {o['status']}: {o['message'][:300]}"]
+    r = max(o["moduli"])
+    verdict = ("stable" if o["stable"] else "NOT stable") + (" where the model holds" if o["validity"]["valid"]
+                                                             else ", and the model does NOT hold there")
+    fv = ", ".join(f"{k} {v:.3f}" for k, v in o["free"].items())
+    return ["", "## The most stable valid gait with the tail's incidence and opening free", "",
+            f"optimize_stability(valid=True), free: {', '.join(o['free_bounds'])} (bounds in optimum_valid.json).", "",
+            f"- status {o['status']} ({'converged' if o['success'] else 'NOT converged'}), {o['iterations']} iterations, "
+            f"{o['script_wall_s']:.0f} s",
+            f"- r* = {o['radius']:.6f}, largest |Λ| = {r:.6f}: {verdict}",
+            f"- KKT residual {o['kkt_residual']:.2e}, constraint violation {o['constraint_violation']:.1e}",
+            f"- active validity limits: {', '.join(o['active_validity_limits']) or 'none'}; parameters at a bound "
+            f"(within 1e-4 deg: IPOPT's interior point stops that close): {', '.join(at_bound(o)) or 'none'}; "
+            f"flapping amplitude {o['amplitude_deg']:.5f} deg (its bounds 20-70 deg)",
+            f"- exact validity: {'valid' if o['validity']['valid'] else 'NOT valid: ' + '; '.join(o['validity']['reasons'])}",
+            f"- optimum: {fv}, amplitude {o['amplitude_deg']:.3f} deg"]
 
 
 def answer_of(summary: dict) -> list:
@@ -217,6 +273,9 @@ def main(argv=None):
     ap.add_argument("--incidences", type=float, nargs="+", default=list(INCIDENCES_DEG), metavar="DEG",
                     help="tail incidences of the level-flight families (default %(default)s)")
     ap.add_argument("--reuse", action="store_true", help="redraw from the branch files in --out")
+    ap.add_argument("--optimize", action="store_true",
+                    help="also the most stable valid gait with the tail's incidence and opening free "
+                         "(OUT/optimum_valid.json; without it an earlier one is kept in the table)")
     args, out = parse_with_out(ap, argv)
     results = {}
     for level, i in [(True, i) for i in args.incidences] + [(False, 0.0)]:
@@ -234,6 +293,10 @@ def main(argv=None):
         atomic_write_json(path, results[name])
     summary = {"families": {n: summarise(d) for n, d in results.items()}}
     summary["answer"] = answer_of(summary)
+    if args.optimize:
+        atomic_write_json(out / "optimum_valid.json", optimize_valid())
+    if (out / "optimum_valid.json").is_file():
+        summary["optimum_valid"] = json.loads((out / "optimum_valid.json").read_text())
     atomic_write_json(out / "summary.json", summary)
     atomic_write_text(out / "table.md", table(summary, summary["answer"]))
     figure(results, out)

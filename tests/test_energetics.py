@@ -158,3 +158,24 @@ def test_drag_costs_power_in_level_flight():
     spd = np.hypot(X[:, 0], X[:, 1])
     k = 0.5 * 1.225 * 0.0092 * 0.1
     assert k * spd.min() ** 3 <= e1["mean_parasite_power_W"] <= k * spd.max() ** 3
+
+
+def test_committed_power_curve_rows_carry_validity_and_optima_over_valid_rows():
+    """results/energetics/power_curve.json (scripts/energetics_study.py --only power-curve): every
+    converged row carries its exact validity, ``valid`` and the cycle to re-solve it; the stored
+    minimum-power and maximum-range speeds are those of the valid rows only (recomputed here)."""
+    import json
+    from pathlib import Path
+
+    from birdocp.studies.power_curves import curve_optima
+
+    pc = json.loads((Path(__file__).resolve().parents[1] / "results" / "energetics" / "power_curve.json").read_text())
+    ok = [r for r in pc["rows"] if r["success"]]
+    assert len(ok) >= 3
+    for r in ok:
+        assert r["valid"] == r["validity"]["valid"] and len(r["x0"]) == 4 and "amplitude_deg" in r and pc["key"] in r
+    again = curve_optima(pc["rows"])
+    for k in ("minimum_power", "maximum_range", "minimum_power_all_rows"):
+        assert again[k] == pc[k], k
+    valid_U = [r["speed_mps"] for r in ok if r["valid"]]
+    assert min(valid_U) <= pc["minimum_power"]["speed_mps"] <= max(valid_U)

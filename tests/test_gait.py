@@ -193,3 +193,25 @@ def test_combined_second_order_pass_equals_all_directions():
     dMon = s["dMon"][:, ct] + s["dMon"][:, cy] @ ev.dy
     assert np.allclose(ev.d_monodromy, dMon, rtol=0, atol=1e-12 * np.max(np.abs(dMon)))
     assert np.allclose(ev.monodromy, s["Mon"], rtol=0, atol=1e-13)
+
+
+def test_trial_point_values_equal_the_gradient_evaluation_values():
+    """A line-search trial point (values only) gets the monodromy alone (4 state directions): its
+    constraint values, Jury rows included, equal those of the full evaluation with second-order
+    gradients at the same point (another code path), with the bound R and with r free; a second
+    reduced cycle of the same problem reuses the first one's CasADi Functions."""
+    from birdocp.studies.gait import ReducedProblem
+
+    rc = ReducedLevelCycle(small(), KEYS, second_order=True)
+    assert ReducedLevelCycle(small(), KEYS, second_order=True).sens2 is rc.sens2
+    for objective, R in (("power", 1.2), ("stability", None)):
+        prob = ReducedProblem(rc, objective, None, R, (20.0, 70.0))
+        theta = np.array([14.0 if R else 13.5, -19.0])
+        z = theta if R else np.append(theta, 1.3)
+        g_trial = prob.g(z)
+        ev = rc.cached(theta)
+        assert ev is not None and ev.grads is None and ev.d_monodromy is None  # no gradients were computed
+        G, J = prob.both(z)
+        assert J is not None and rc.cached(theta).d_monodromy is not None
+        assert np.allclose(g_trial, G, rtol=1e-9, atol=1e-12), (objective, g_trial - G)
+        assert np.all(np.abs(g_trial[2:7]) > 1e-8)  # the Jury rows are there, not zero padding

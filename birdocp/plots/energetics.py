@@ -59,11 +59,12 @@ def plot_power(arrays: dict, path, title: str = "Power over one wingbeat") -> Pa
 
 def plot_power_curve(rows: list, path, title: str = "Power curve of level flight") -> Path:
     """Mean power against forward speed (aerodynamic and positive-work), the minimum-power and
-    maximum-range speeds marked, and the largest multiplier modulus along the curve.
+    maximum-range speeds over the *valid* rows marked, and the largest multiplier modulus along the
+    curve. Rows whose cycle is not valid (``valid`` False) are drawn as open grey markers and take no
+    part in the marked optima; a marked optimum at an end of the valid rows says so (no interior one).
 
     ``rows``: dicts with ``speed_mps``, ``mean_shoulder_power_W``, ``mean_positive_power_W``,
-    ``largest_modulus``, ``success``; optional ``minimum_power`` / ``maximum_range`` dicts (speed, power)
-    passed as the rows' owner keys ``_marks``."""
+    ``largest_modulus``, ``success`` and ``valid`` (a row without ``valid`` counts as valid)."""
     from birdocp.plots.figures import save_figure
 
     plt = _plt()
@@ -72,23 +73,35 @@ def plot_power_curve(rows: list, path, title: str = "Power curve of level flight
     P = np.array([r["mean_shoulder_power_W"] for r in ok], float)
     Pp = np.array([r["mean_positive_power_W"] for r in ok], float)
     R = np.array([r["largest_modulus"] for r in ok], float)
+    v = np.array([r.get("valid") is not False for r in ok], bool)
     fig, ax = plt.subplots(2, 1, figsize=(8, 7.5), sharex=True, gridspec_kw={"height_ratios": [2, 1]})
-    ax[0].plot(U, P, "o-", color="C0", label="mean mechanical power (= mean aerodynamic power, level)")
-    ax[0].plot(U, Pp, "s--", color="C3", ms=4, label="mean positive-work power (no elastic storage)")
-    if len(U) >= 3:
-        i = int(np.argmin(P))
-        ax[0].plot(U[i], P[i], "k*", ms=15, label=f"minimum power: {P[i]:.3g} W at {U[i]:.3g} m/s")
-        j = int(np.argmin(P / U))
-        ax[0].plot([0, U[j] * 1.15], [0, P[j] / U[j] * U[j] * 1.15], ":", color="grey", lw=1)
-        ax[0].plot(U[j], P[j], "kD", ms=8, mfc="none",
-                   label=f"maximum range (min P/U): {P[j]:.3g} W at {U[j]:.3g} m/s")
+    ax[0].plot(U, P, "-", color="0.75", lw=1)
+    ax[0].plot(U[v], P[v], "o-", color="C0", label="mean mechanical power (= mean aerodynamic power, level)")
+    ax[0].plot(U, Pp, "--", color="0.75", lw=1)
+    ax[0].plot(U[v], Pp[v], "s--", color="C3", ms=4, label="mean positive-work power (no elastic storage)")
+    if (~v).any():
+        ax[0].plot(U[~v], P[~v], "o", color="0.55", mfc="none", label="model NOT valid there (grey, open)")
+        ax[0].plot(U[~v], Pp[~v], "s", color="0.55", mfc="none", ms=4)
+    Uv, Pv = U[v], P[v]
+    if len(Uv) >= 3:
+        i = int(np.argmin(Pv))
+        end = "" if 0 < i < len(Uv) - 1 else " (end of the valid rows: no interior minimum)"
+        ax[0].plot(Uv[i], Pv[i], "k*", ms=15, label=f"minimum power over valid rows: {Pv[i]:.3g} W at {Uv[i]:.3g} m/s{end}")
+        j = int(np.argmin(Pv / Uv))
+        end = "" if 0 < j < len(Uv) - 1 else " (end of the valid rows)"
+        ax[0].plot([0, Uv[j] * 1.15], [0, Pv[j] * 1.15], ":", color="grey", lw=1)
+        ax[0].plot(Uv[j], Pv[j], "kD", ms=8, mfc="none",
+                   label=f"maximum range over valid rows (min P/U): {Pv[j]:.3g} W at {Uv[j]:.3g} m/s{end}")
+    if len(U):
         ax[0].set_ylim(0, 1.1 * max(np.max(Pp), np.max(P)))
         ax[0].set_xlim(0.95 * U.min(), 1.03 * U.max())
     ax[0].set_ylabel("power [W]")
     ax[0].set_title(title, fontsize=11)
     ax[0].grid(alpha=0.3)
     ax[0].legend(fontsize=8, loc="upper left")
-    ax[1].plot(U, R, "o-", color="C1")
+    ax[1].plot(U, R, "-", color="0.75", lw=1)
+    ax[1].plot(U[v], R[v], "o", color="C1")
+    ax[1].plot(U[~v], R[~v], "o", color="0.55", mfc="none")
     ax[1].axhline(1, color="k", lw=0.8)
     ax[1].set_ylabel("largest |multiplier|")
     ax[1].set_xlabel("mean forward speed U [m/s]")

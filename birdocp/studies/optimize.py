@@ -40,7 +40,7 @@ from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.engine.oracle import ConstraintOracle, ipopt_options
 from birdocp.engine.results import result_dict, serial
 from birdocp.io.progress import text_reporter
-from birdocp.studies.gait import check_free_keys, jury_conditions  # noqa: F401 (public here too)
+from birdocp.studies.gait_cycle import check_free_keys, jury_conditions  # noqa: F401 (public here too)
 from birdocp.studies.gait_validity import WARM_IPOPT
 
 __all__ = ["DEFAULT_FREE", "METHODS", "check_free_keys", "optimize_stability", "StabilityOptimum", "jury_conditions"]
@@ -303,6 +303,14 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     t_start = time.perf_counter()
     N = int(steps_per_period or cfg.solve.steps_per_period)
     stages = [coarse_steps, N] if coarse_steps and coarse_steps < N else [N]
+    opt, first, iterations, wall, notes = _reduced_stages(cfg, free, stages, climb_rate_mps, amplitude_bounds,
+                                                          max_iter, tol, progress, threads, valid)
+    return _stability_result(cfg, free, opt, first, iterations, wall, notes, N, verify, valid, t_start)
+
+
+def _reduced_stages(cfg, free, stages, climb_rate_mps, amplitude_bounds, max_iter, tol, progress, threads, valid):
+    """The reduced solves on the grids ``stages`` (coarse first, each from the last one's optimum and
+    second derivatives): (last optimum, first optimum, iterations in all, wall times, notes)."""
     wall, iterations, notes = {}, 0, []
     start, x_guess, first, opt = None, None, None, None
     for k, steps in enumerate(stages):
@@ -320,6 +328,11 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
                 break
             start = dict(opt.free) | {AMPLITUDE_KEY: opt.amplitude_deg}
             x_guess = opt.x0
+    return opt, first, iterations, wall, notes
+
+
+def _stability_result(cfg, free, opt, first, iterations, wall, notes, N, verify, valid, t_start) -> StabilityOptimum:
+    """The :class:`StabilityOptimum` of the last stage's optimum ``opt`` (verified, exact validity)."""
     nan4 = np.full(4, np.nan)
     if not opt.free:
         out = StabilityOptimum(False, opt.status, opt.message, iterations, {}, free, float("nan"), float("nan"),
@@ -414,6 +427,27 @@ def _verify(out: StabilityOptimum, cfg: Config, N: int, jury=None) -> None:
     }
 
 
+def _full_two_grids(cfg, free, climb_rate_mps, amplitude_bounds, coarse_steps, N_full, max_iter, tol, verify,
+                    progress) -> StabilityOptimum:
+    """:func:`_optimize_full` on the coarse grid, then on the full grid from the coarse optimum (the
+    coarse result when it has no finite optimum)."""
+    coarse = _optimize_full(cfg, free, climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
+                                steps_per_period=coarse_steps, max_iter=max_iter, tol=tol, verify=False,
+                            progress=progress, coarse_steps=None)
+    if np.all(np.isfinite(list(coarse.free.values()))) and coarse.free:
+        start = with_values(cfg or Config(), coarse.free)
+        fine = _optimize_full(start, free, climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
+                                  steps_per_period=N_full, max_iter=max_iter, tol=tol, verify=verify,
+                              progress=progress, coarse_steps=None)
+        fine.iterations += coarse.iterations
+        fine.start_multipliers = coarse.start_multipliers
+        fine.wall_s = {"coarse_" + k: v for k, v in coarse.wall_s.items()} | fine.wall_s
+        fine.wall_s["total"] = coarse.wall_s.get("total", 0.0) + fine.wall_s.get("total", 0.0)
+        fine.message += f"; coarse stage ({coarse_steps} steps): {coarse.status}, {coarse.iterations} iterations"
+        return fine
+    return coarse
+
+
 def _optimize_full(cfg: Config | None = None, free: dict | None = None, *, climb_rate_mps: float = 0.0,
                    amplitude_bounds=AMPLITUDE_BOUNDS_DEG, steps_per_period: int | None = None,
                    max_iter: int = 400, tol: float = 1e-7, verify: bool = True,
@@ -431,21 +465,8 @@ def _optimize_full(cfg: Config | None = None, free: dict | None = None, *, climb
     line's text (e.g. from :func:`birdocp.io.progress.progress_callback`)."""
     N_full = int(steps_per_period or (cfg or Config()).solve.steps_per_period)
     if coarse_steps and coarse_steps < N_full:
-        coarse = _optimize_full(cfg, free, climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
-                                    steps_per_period=coarse_steps, max_iter=max_iter, tol=tol, verify=False,
-                                progress=progress, coarse_steps=None)
-        if np.all(np.isfinite(list(coarse.free.values()))) and coarse.free:
-            start = with_values(cfg or Config(), coarse.free)
-            fine = _optimize_full(start, free, climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
-                                      steps_per_period=N_full, max_iter=max_iter, tol=tol, verify=verify,
-                                  progress=progress, coarse_steps=None)
-            fine.iterations += coarse.iterations
-            fine.start_multipliers = coarse.start_multipliers
-            fine.wall_s = {"coarse_" + k: v for k, v in coarse.wall_s.items()} | fine.wall_s
-            fine.wall_s["total"] = coarse.wall_s.get("total", 0.0) + fine.wall_s.get("total", 0.0)
-            fine.message += f"; coarse stage ({coarse_steps} steps): {coarse.status}, {coarse.iterations} iterations"
-            return fine
-        return coarse
+        return _full_two_grids(cfg, free, climb_rate_mps, amplitude_bounds, coarse_steps, N_full, max_iter, tol,
+                               verify, progress)
     from birdocp.studies.level import level
     from birdocp.bird.model import get_model
 
@@ -494,6 +515,12 @@ def _optimize_full(cfg: Config | None = None, free: dict | None = None, *, climb
         sol = solver(x0=zinit, lbx=lo, ubx=hi, lbg=lbg, ubg=ubg)
     stats = solver.stats()
     wall["solve"] = time.perf_counter() - t0
+    return _full_result(sol, stats, ev, free, p0, idx, lam0, cfg, N, verify, wall, t_start)
+
+
+def _full_result(sol, stats, ev, free, p0, idx, lam0, cfg, N, verify, wall, t_start) -> StabilityOptimum:
+    """The :class:`StabilityOptimum` of the full-space solve ``sol`` (numpy eigenvalues of its
+    monodromy, verification, exact validity)."""
     zs = np.asarray(sol["x"]).ravel()
     xs, ps, rs = zs[:4], zs[4:-1], float(zs[-1])
     pbest = p0.copy()
@@ -506,7 +533,6 @@ def _optimize_full(cfg: Config | None = None, free: dict | None = None, *, climb
     out = StabilityOptimum(bool(stats["success"]) and finite, str(stats["return_status"]) if finite else "nan",
                            f"IPOPT: {stats['return_status']}" + ("" if finite else " (non-finite result)"),
                            int(stats["iter_count"]), best, free, float(ps[-1]), rs, lam, lam0, xs, cfg=cfg)
-
     out.method = "full"
     out.evaluations = {"constraints": ev.n_g, "jacobians": ev.n_jac}
     if verify and np.all(np.isfinite(zs)):

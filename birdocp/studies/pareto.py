@@ -9,9 +9,8 @@ amplitude and cycle state). The known ends seed the first wave: the unconstraine
 at its own largest modulus ``start_bound``) and any ``anchors`` (e.g. the most stable gait). A point
 that fails is tried once more from a nearer neighbour if a later wave has solved one.
 
-Each job is one :func:`birdocp.studies.gait.optimize_gait` call in a worker (passed in: this module
-does not import the gait module, which calls it) (so a job's result does
-not depend on which worker ran it); rows as :func:`birdocp.studies.gait.stability_pareto`'s, plus
+Each job is one :func:`birdocp.studies.gait.optimize_gait` call in a worker (passed in as a
+picklable module-level function: this module does not import the gait module, which calls it), so a job's result does not depend on which worker ran it; rows as :func:`birdocp.studies.gait.stability_pareto`'s, plus
 ``started_from`` (the bound of the neighbour it started from; None for the unconstrained start).
 """
 

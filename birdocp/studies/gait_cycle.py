@@ -1,0 +1,432 @@
+"""The level-flight cycle as a function of a few gait parameters (reduced space), with exact gradients.
+
+Formulation (the reduced-space choice of issue 19): the decision variables are a few gait
+parameters theta (shoulder joints' offsets, amplitudes, phases; wing root; any key that leaves the
+wing's arm-frame shape numeric). For every theta the level cycle is eliminated: the state x0 at t = 0
+and the flapping amplitude A solve ``Phi(x0; theta, A) = x0`` and ``mean W = climb rate`` (Newton,
+warm-started by the first-order prediction of the previous point), and every output's gradient is
+exact by the implicit function theorem::
+
+    R(y, theta) = 0,  y = (x0, A)   =>   dy/dtheta = -R_y^-1 R_theta,   do/dtheta = o_theta + o_y dy/dtheta
+
+with the partial derivatives (and, for stability, the monodromy's) from the variational equations of
+:class:`birdocp.engine.variational.PeriodSensitivities` and the data's forward derivative along the
+free parameters. IPOPT (limited-memory Hessian on the few reduced variables) then sees a small, dense
+NLP: objective mean power, cost of transport or the stability radius r; constraints mean forward speed
+= U (optional), the amplitude within its limits (the free keys' own limits are variable bounds), and
+optionally all multipliers inside the circle of radius R (Jury conditions on Mon / R, as
+:mod:`birdocp.studies.optimize`).
+"""
+
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest, with_values
+from birdocp.engine.cache import bounded_cache
+from birdocp.engine.floquet import sort_multipliers
+
+__all__ = ["ReducedLevelCycle", "Evaluation", "jury_conditions", "check_free_bounds", "check_free_keys",
+           "AMPLITUDE_KEY", "JURY_MARGIN", "POSITIVE_EPS_W"]
+
+from birdocp.bird.keys import AMPLITUDE_KEY, JURY_MARGIN  # noqa: E402 (one definition of each)
+POSITIVE_EPS_W = 0.05
+"""Smoothing of max(P, 0) in the positive-power objective, 1/2 (P + sqrt(P^2 + eps^2)), error <= eps/2."""
+
+# rows of the quadrature output vector
+_OUT = ("vertical_speed_mps", "forward_speed_mps", "flapping_power_W", "aerodynamic_power_W",
+        "positive_power_smooth_W")
+
+def jury_conditions(A):
+    """The five Jury quantities (each >= 0 <=> all eigenvalues of the 4 x 4 A in the closed unit
+    disc, strict > 0 for the open disc)."""
+    t1 = ca.trace(A)
+    A2 = A @ A
+    t2 = ca.trace(A2)
+    t3 = ca.trace(A2 @ A)
+    a3 = -t1
+    a2 = 0.5 * (t1 ** 2 - t2)
+    a1 = -(t1 ** 3 - 3 * t1 * t2 + 2 * t3) / 6
+    a0 = ca.det(A)
+    a = [a0, a1, a2, a3, 1.0]
+    p1 = sum(a)
+    pm1 = a0 - a1 + a2 - a3 + 1.0
+    b = [a[0] * a[k] - a[4] * a[4 - k] for k in range(4)]
+    c = [b[0] * b[k] - b[3] * b[3 - k] for k in range(3)]
+    return ca.vertcat(p1, pm1, 1 - a0 ** 2, b[0] ** 2 - b[3] ** 2, c[0] ** 2 - c[2] ** 2)
+
+
+def check_free_bounds(cfg, free: dict) -> None:
+    """ConfigError unless every free key is a known parameter other than the amplitude, with finite
+    bounds lower < upper that hold the configured value and lie in the key's physical range (each
+    bound is a valid configuration value). Needs no model: callers check this before building one."""
+    for k, (lo, hi) in free.items():
+        if k not in PARAM_NAMES:
+            raise ConfigError(k, "unknown parameter for --free" + suggest(k, PARAM_NAMES))
+        if k == AMPLITUDE_KEY:
+            raise ConfigError(k, "the flapping amplitude is solved for level flight; free other keys")
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+            raise ConfigError(k, f"bounds must be finite with lower < upper, got ({lo}, {hi})")
+        v = float(get_value(cfg, k))
+        if not lo <= v <= hi:
+            raise ConfigError(k, f"configured value {v:g} lies outside its bounds ({lo:g}, {hi:g}); "
+                                 f"widen --bounds {k}=LO:HI")
+        for end, value in (("lower", lo), ("upper", hi)):
+            try:
+                with_values(cfg, {k: float(value)})
+            except ConfigError as exc:
+                raise ConfigError(k, f"the {end} bound {value:g} is not a valid value ({exc}); "
+                                     f"narrow --bounds {k}=LO:HI") from None
+
+
+def check_free_keys(m, cfg, free: dict) -> None:
+    """ConfigError unless every free key can be a reduced variable (:func:`check_free_bounds`, and
+    not reshaping the wing in the arm frame, which the model ``m`` tells)."""
+    check_free_bounds(cfg, free)
+    for k in free:
+        if PARAM_NAMES.index(k) in m.pre_params:
+            raise ConfigError(k, "changes the wing's shape in the arm frame (elbow, wrist, morphology): "
+                                 "free shoulder joints, wing.root_ahead_m or body/aero/drag keys")
+
+
+def jury_function():
+    M, r = ca.SX.sym("M", 4, 4), ca.SX.sym("r")
+    j = jury_conditions(M / r)
+    return ca.Function("jury", [M, r], [j, ca.jacobian(j, ca.vertcat(ca.vec(M), r))])
+
+
+@dataclass
+class Evaluation:
+    """The level cycle at one theta and its exact gradients (per unit of each free key)."""
+
+    theta: np.ndarray
+    x0: np.ndarray
+    amplitude_deg: float
+    means: dict            # _OUT name -> period mean
+    grads: dict            # name -> d mean / d theta; also "amplitude_deg"
+    monodromy: np.ndarray
+    d_monodromy: np.ndarray | None  # 16 x n_theta (column-major vec), second order only
+    residual: float
+    newton_iterations: int
+    dy: np.ndarray | None = None    # d(x0, A)/d theta (5 x n_theta), with the gradients
+    Ry: np.ndarray | None = None    # the level-cycle residual's Jacobian in (x0, A), with the gradients
+
+    @property
+    def y(self) -> np.ndarray:
+        """The level cycle's unknowns (x0, A)."""
+        return np.append(self.x0, self.amplitude_deg)
+
+    @property
+    def multipliers(self) -> np.ndarray:
+        if self.monodromy is None or not np.all(np.isfinite(self.monodromy)):
+            return np.full(4, np.nan, complex)
+        return sort_multipliers(np.linalg.eigvals(self.monodromy))
+
+
+_GRAPHS = bounded_cache("studies.gait_graphs", 4)
+
+
+def _graphs(m, cfg: Config, N: int, vidx: tuple, nt: int, second: bool, valid: bool) -> dict:
+    """The CasADi Functions of a :class:`ReducedLevelCycle` (outputs, RK4 grid, first- and
+    second-order sensitivities, the monodromy alone, the data and its directions), built once per
+    (model, steps, free parameters, order, validity thresholds, the wing's arm-frame shape) and reused
+    by every later cycle of the same problem in this process (e.g. every point of a Pareto front a
+    worker solves): a build costs seconds, a point's solve tens of them."""
+    from birdocp.bird.energetics import power_functions
+    from birdocp.engine.integrate import RK4Grid
+    from birdocp.engine.variational import PeriodSensitivities
+
+    p0 = np.asarray(m.p0, float)
+    thresholds = None
+    if valid:
+        v = cfg.validity
+        thresholds = (v.stall_angle_deg, v.min_forward_speed_mps, v.max_abs_pitch_deg, v.max_airflow_body_angle_deg)
+    key = (id(m.model), N, vidx, second, thresholds, p0[list(m.ode.pre_params)].tobytes())
+    hit = _GRAPHS.get(key)
+    if hit is not None and hit["model"] is m.model:
+        return hit
+    nv = len(vidx)
+    pf = power_functions(m)
+    x, d, p = ca.SX.sym("x", 4), ca.SX.sym("d", m.ode.nd), ca.SX.sym("p", len(PARAM_NAMES))
+    pw = pf.power(x, d, p)
+    Pf = pw[1]  # the shoulder power: flapping (aerodynamic) + the wings' inertial part if any
+    if "shoulder_inertial_power_W" in pf.names:
+        Pf = Pf + pw[pf.names.index("shoulder_inertial_power_W")]
+    out = ca.vertcat(pw[8], pw[7], Pf, pw[0], 0.5 * (Pf + ca.sqrt(Pf ** 2 + POSITIVE_EPS_W ** 2)))
+    out_names = _OUT
+    if valid:  # the smooth validity integrands, on the same RK4 stages (bird.validity_smooth)
+        from birdocp.bird.validity_smooth import integrand_names, smooth_integrands
+
+        out = ca.vertcat(out, smooth_integrands(cfg, m.ode.nd)(x, d, p))
+        out_names = _OUT + integrand_names()
+    outputs = ca.Function("gait_outputs", [x, d, p], [out])
+    grid = RK4Grid(m.ode, N, 1, outputs=(outputs,))
+    sens = PeriodSensitivities(m.ode, N, (outputs,), nv)
+    g = {"model": m.model, "out_names": out_names, "outputs": outputs, "grid": grid, "sens": sens,
+         # second order only along the nt total directions (x0 and A moving with theta), known once
+         # the first-order pass gave dy/dtheta: about half the cost of all 4 + nt + 1 directions
+         "sens2": (PeriodSensitivities(m.ode, N, (outputs,), nt, True, combined=True, n_data=nv) if second else None),
+         # the monodromy alone (the 4 state directions): what a line-search trial point's stability
+         # constraint needs, at a fraction of a gradient evaluation's cost
+         "sens_mono": PeriodSensitivities(m.ode, N, (), 0) if second else None,
+         "times": ca.DM(grid.times(0.0)).reshape((1, -1)), "local": grid.pre_numeric(0.0, p0)}
+    L, t, ps = ca.SX.sym("local", m.pre.size1_out(0)), ca.SX.sym("t"), ca.SX.sym("p", len(PARAM_NAMES))
+    dd = m.post(L, t, ps)
+    # the data and its Jacobian along the free parameters (forward mode, shared nominal values)
+    post_jac = ca.Function("post_jac", [L, t, ps], [dd, ca.jacobian(dd, ca.vertcat(*[ps[j] for j in vidx]))])
+    seeds = np.zeros((len(PARAM_NAMES), nv))
+    for k, j in enumerate(vidx):
+        seeds[j, k] = 1.0
+    # data and its directions in the variational layout, as one MX Function (the reordering of
+    # ~10^6 numbers stays in CasADi: through numpy it cost more than the sensitivities)
+    pm = ca.MX.sym("p", len(PARAM_NAMES))
+    blk = grid.block_index
+    Dg, Jg = post_jac.map(2 * N + 1)(g["local"], g["times"], pm)  # Jg: nv columns per time
+    cols = sens.direction_columns([Jg[:, [tk * nv + k for tk in blk]] for k in range(nv)])
+    g |= {"seeds": seeds, "data": ca.Function("gait_data", [pm], [Dg[:, blk], cols])}
+    _GRAPHS.put(key, g)
+    return g
+
+
+class ReducedLevelCycle:
+    """The level-flight cycle as a function of the free gait parameters (see module docstring).
+
+    cfg: configuration (every other value); keys: the free parameters theta; steps_per_period: RK4
+    grid; climb_rate_mps: the mean vertical speed held by the amplitude; second_order: also the
+    monodromy's derivatives (for stability constraints).
+    """
+
+    def __init__(self, cfg: Config, keys, steps_per_period: int | None = None, climb_rate_mps: float = 0.0,
+                 second_order: bool = False, amplitude_start_deg: float | None = None, valid: bool = False):
+        from birdocp.bird.model import get_model
+
+        self.cfg = cfg
+        self.m = m = get_model(cfg)
+        self.keys = list(keys)
+        self.N = N = int(steps_per_period or cfg.solve.steps_per_period)
+        self.climb = float(climb_rate_mps)
+        self.idx = [PARAM_NAMES.index(k) for k in self.keys]
+        self.ia = PARAM_NAMES.index(AMPLITUDE_KEY)
+        self.vidx = self.idx + [self.ia]
+        self.nt = len(self.idx)
+        self.p0 = np.asarray(m.p0, float).copy()
+        self.T = m.period_s
+        self.valid = bool(valid)
+        self.second = bool(second_order)
+        self.K = 2 * N + 1
+        g = _graphs(m, cfg, N, tuple(self.vidx), self.nt, self.second, self.valid)
+        self.out_names, self.outputs, self.grid, self.sens = g["out_names"], g["outputs"], g["grid"], g["sens"]
+        self.sens2, self.sens_mono, self._data = g["sens2"], g["sens_mono"], g["data"]
+        self.times, self.local, self._seeds = g["times"], g["local"], g["seeds"]
+        self._y = np.concatenate([np.asarray(cfg.solve.initial_guess, float),
+                                  [float(amplitude_start_deg if amplitude_start_deg is not None
+                                         else self.p0[self.ia])]])
+        self._theta = None
+        self._started = False
+        self._dy = None
+        self._Ry = None
+        self._cache: dict = {}
+        self._anchor = None
+        self.amplitude_range_deg = (0.0, 90.0)
+        """Newton solutions with the flapping amplitude outside this range are failures [deg]."""
+        self.n_full = self.n_resid = 0
+        self._count_lock = threading.Lock()  # the counters (evaluate_near runs in threads)
+
+    # -- pieces ----------------------------------------------------------------------------------
+    def pfull(self, theta, A):
+        p = self.p0.copy()
+        p[self.idx] = theta
+        p[self.ia] = A
+        return p
+
+    def _D(self, p):
+        return self.grid.blocks_numeric(0.0, p)  # one Function (the slicing of a DM in Python cost a third)
+
+    def residual(self, y, theta):
+        """(R, means): the level-cycle residual (x_T - x0, mean W - climb) and the period means."""
+        p = self.pfull(theta, y[4])
+        xT, _, q = self.grid.period_map(ca.DM(y[:4]), self._D(p), ca.DM(p))
+        with self._count_lock:
+            self.n_resid += 1
+        means = np.asarray(q).ravel() / self.T
+        return np.concatenate([np.asarray(xT).ravel() - y[:4], [means[0] - self.climb]]), means
+
+    def _full(self, y, theta):
+        """First-order sensitivities at (y, theta): R, R_y, R_theta, the means' partials, and the
+        data (D, directions, p) for a second-order pass."""
+        with self._count_lock:
+            self.n_full += 1
+        p = self.pfull(theta, y[4])
+        D, cols = self._data(ca.DM(p))
+        s = self.sens(y[:4], D, p, dp=self._seeds, columns=cols)
+        T, nt = self.T, self.nt
+        cy = list(range(4)) + [4 + nt]          # columns of y = (x0, A)
+        ct = list(range(4, 4 + nt))             # columns of theta
+        J, Jq = s["J"], s["Jq"] / T
+        R = np.concatenate([s["x_T"] - y[:4], [s["q"][0] / T - self.climb]])
+        Ry = np.vstack([J[:, cy] - np.eye(5)[:4], Jq[0, cy]])
+        Rt = np.vstack([J[:, ct], Jq[0, ct]])
+        return s, R, Ry, Rt, Jq, cy, ct, (D, cols, p)
+
+    # -- the reduced map -------------------------------------------------------------------------
+    def set_guess(self, x0) -> None:
+        """Start the first Newton solve from the state ``x0`` (at the configured amplitude)."""
+        self._y[:4] = np.asarray(x0, float)
+        self._started = True
+
+    def _first_guess(self, theta):
+        """x0 from a trim (multiple shooting) of the gait theta at the configured amplitude."""
+        from birdocp.studies.trim import trim
+
+        y = self._y.copy()
+        tr = trim(with_values(self.cfg, dict(zip(self.keys, map(float, theta)))), steps_per_period=self.N)
+        if tr.success:
+            y[:4] = tr.x0
+        return y
+
+    def evaluate(self, theta, grads: bool = True, tol: float = 1e-10, max_newton: int = 12) -> Evaluation:
+        """The level cycle at theta (Newton on (x0, A), chord steps with the last Jacobian) and, with
+        ``grads``, its exact gradients and monodromy; raises RuntimeError if Newton fails.
+
+        Newton starts from the first-order prediction off the last point with gradients; if that
+        fails (near a fold of cycles the prediction ``dy/dtheta`` is large and can throw Newton onto
+        another cycle), from the last solved point, then from the last accepted point
+        (:meth:`accept`). A non-finite residual, a growing one, or an amplitude outside
+        ``amplitude_range_deg`` is a failure: the optimiser sees an evaluation error and cuts its step."""
+        theta = np.asarray(theta, float).ravel()
+        key = theta.tobytes()
+        ev = self._cache.get(key)
+        if ev is None:
+            if self._theta is None and not self._started:
+                self._started = True
+                starts = [self._first_guess(theta)]
+            else:
+                starts = []
+                if self._theta is not None and self._dy is not None:
+                    starts.append(self._y + self._dy @ (theta - self._theta))  # first-order prediction
+                starts.append(self._y.copy())
+                if self._anchor is not None:
+                    starts.append(self._anchor.copy())
+            errors = []
+            for y in starts:
+                try:
+                    ev = self._newton(y, theta, tol, max_newton)
+                    break
+                except RuntimeError as e:
+                    errors.append(str(e))
+            else:
+                raise RuntimeError(f"level cycle not found at {dict(zip(self.keys, theta.tolist()))}: "
+                                   + "; ".join(errors))
+            self._cache[key] = ev
+            while len(self._cache) > 8:  # the last few points (a finite-difference Hessian's stencil)
+                self._cache.pop(next(iter(self._cache)))
+        if grads and ev.grads is None:
+            self._gradients(ev)
+            self._theta, self._dy, self._Ry = theta.copy(), ev.dy, ev.Ry
+        self._y = ev.y
+        return ev
+
+    def _gradients(self, ev: Evaluation) -> None:
+        """Fill ``ev``'s exact gradients, monodromy (and its derivatives), ``dy`` and ``Ry``."""
+        s, R, Ry, Rt, Jq, cy, ct, (D, cols, p) = self._full(ev.y, ev.theta)
+        try:
+            dy = -np.linalg.solve(Ry, Rt)           # 5 x nt
+        except np.linalg.LinAlgError:
+            raise RuntimeError("singular level-cycle Jacobian (a fold of cycles)") from None
+        ev.grads = {n: Jq[i, ct] + Jq[i, cy] @ dy for i, n in enumerate(self.out_names)}
+        ev.grads["amplitude_deg"] = dy[4]
+        ev.monodromy = np.asarray(s["J"][:, :4])
+        if self.second:  # along theta_c with x0 and A following: dy[:4, c], dy[4, c]
+            W = np.vstack([np.eye(self.nt), dy[4]])
+            s2 = self.sens2(ev.x0, D, p, dp=self._seeds, columns=cols, W=W, dx0=dy[:4])
+            ev.d_monodromy, ev.monodromy = s2["dMon"], np.asarray(s2["Mon"])
+        ev.dy, ev.Ry = dy, Ry
+
+    def fill_monodromy(self, ev: Evaluation) -> None:
+        """Set ``ev.monodromy`` if it has none (state directions only: no gradients, no second order)."""
+        if ev.monodromy is None:
+            p = self.pfull(ev.theta, ev.amplitude_deg)
+            ev.monodromy = np.asarray(self.sens_mono(ev.x0, self._D(p), p)["J"])
+
+    def evaluate_near(self, theta, base: Evaluation, tol: float = 1e-10, max_newton: int = 12) -> Evaluation:
+        """The level cycle at theta, with its gradients, from the nearby ``base`` (an evaluation with
+        gradients): Newton from base's first-order prediction with base's Jacobian as the chord.
+
+        Side-effect-free (no warm-start state read or written, nothing cached; only the evaluation
+        counters change, under a lock), so safe in threads and a pure function of (theta, base): the
+        perturbed points of a finite-difference Hessian. Raises RuntimeError if Newton fails."""
+        theta = np.asarray(theta, float).ravel()
+        y0 = base.y + base.dy @ (theta - base.theta)
+        ev = self._newton(y0, theta, tol, max_newton, Ry=base.Ry, keep=False)
+        self._gradients(ev)
+        return ev
+
+    def cached(self, theta) -> Evaluation | None:
+        """The evaluation at exactly theta if it is among the last few, else None (no computation)."""
+        return self._cache.get(np.asarray(theta, float).ravel().tobytes())
+
+    def accept(self, theta) -> None:
+        """Mark the (already evaluated) cycle at theta as a good restart point for Newton."""
+        ev = self._cache.get(np.asarray(theta, float).ravel().tobytes())
+        if ev is not None:
+            self._anchor = np.append(ev.x0, ev.amplitude_deg)
+
+    def _newton(self, y, theta, tol, max_newton, Ry=None, keep: bool = True) -> Evaluation:
+        """Newton on the level-cycle residual from y: chord steps with the last Jacobian (``keep``,
+        which also remembers a fresh one for the next solve) or with ``Ry`` (``keep=False``: no
+        state read or written), a fresh Jacobian when they stall."""
+        y = np.asarray(y, float).copy()
+        lo, hi = self.amplitude_range_deg
+        it = 0
+        Ry = self._Ry if keep else Ry
+        R, means = self.residual(y, theta)
+        last, first = np.inf, np.max(np.abs(R))
+        while True:
+            res = float(np.max(np.abs(R)))
+            if not (math.isfinite(res) and np.all(np.isfinite(y))) or not lo <= y[4] <= hi:
+                raise RuntimeError(f"Newton left the level cycles (residual {res:.2e}, amplitude {y[4]:.4g} deg)")
+            if res <= tol:
+                break
+            if it >= max_newton or res > 1e3 * max(first, 1e-6):
+                raise RuntimeError(f"residual {res:.2e} after {it} Newton steps")
+            if Ry is None or res > 0.3 * last:
+                _, R, Ry, *_ = self._full(y, theta)  # fresh Jacobian (the chord stalled)
+                if keep:
+                    self._Ry = Ry
+            last = res
+            try:
+                y = y - np.linalg.solve(Ry, R)
+            except np.linalg.LinAlgError:
+                raise RuntimeError("singular level-cycle Jacobian (a fold of cycles)") from None
+            it += 1
+            R, means = self.residual(y, theta)
+        return Evaluation(theta.copy(), y[:4].copy(), float(y[4]), dict(zip(self.out_names, means.tolist())), None,
+                          None, None, res, it)
+
+    def solve_speed(self, speed_mps: float, theta, k: int = 0, bounds=None, tol: float = 1e-9,
+                    max_iter: int = 30) -> Evaluation:
+        """Level flight at mean forward speed ``speed_mps``: Newton on theta[k] (the others fixed),
+        exact derivative dU/dtheta_k; damped, kept within ``bounds``."""
+        theta = np.asarray(theta, float).copy()
+        for _ in range(max_iter):
+            ev = self.evaluate(theta)
+            r = ev.means["forward_speed_mps"] - speed_mps
+            if abs(r) < tol:
+                return ev
+            g = ev.grads["forward_speed_mps"][k]
+            step = -r / g if g != 0 else 0.0
+            step = float(np.clip(step, -3.0, 3.0))
+            new = theta[k] + step
+            if bounds is not None:
+                new = float(np.clip(new, *bounds))
+            if new == theta[k]:
+                break  # at a bound
+            theta[k] = new
+        raise RuntimeError(f"speed {speed_mps} m/s not reached by {self.keys[k]} within its bounds (last U = "
+                           f"{ev.means['forward_speed_mps']:.9g} m/s at {self.keys[k]} = {theta[k]:.6g})")
