@@ -282,18 +282,30 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
         The optimal gait, amplitude, cycle, multipliers, ``radius``, IPOPT's status and iterations, the
         verification, the optimum's validity and, with ``valid``, ``validity_constraints``.
     """
-    if method not in METHODS:
-        raise ConfigError("--method", f"must be one of {', '.join(METHODS)}, got {method!r}")
-    if int(threads) < 1:
-        raise ConfigError("--threads", f"must be a positive number of threads, got {threads!r}")
-    if valid and method != "reduced":
-        raise ConfigError("--valid", "validity constraints need the reduced method (drop --method full)")
+    _check_options(method, threads, valid)
     if coarse_steps == "auto":
         coarse_steps = COARSE_STEPS[method]
     if method == "full":
         return _optimize_full(cfg, free, climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
                               steps_per_period=steps_per_period, max_iter=max_iter, tol=tol, verify=verify,
                               progress=progress, coarse_steps=coarse_steps)
+    return _optimize_reduced(cfg, free, climb_rate_mps, amplitude_bounds, steps_per_period, coarse_steps,
+                             max_iter, tol, verify, progress, threads, valid)
+
+
+def _check_options(method: str, threads, valid: bool) -> None:
+    """ConfigError naming the option when ``method``, ``threads`` or ``valid`` is not allowed."""
+    if method not in METHODS:
+        raise ConfigError("--method", f"must be one of {', '.join(METHODS)}, got {method!r}")
+    if int(threads) < 1:
+        raise ConfigError("--threads", f"must be a positive number of threads, got {threads!r}")
+    if valid and method != "reduced":
+        raise ConfigError("--valid", "validity constraints need the reduced method (drop --method full)")
+
+
+def _optimize_reduced(cfg, free, climb_rate_mps, amplitude_bounds, steps_per_period, coarse_steps, max_iter,
+                      tol, verify, progress, threads, valid) -> StabilityOptimum:
+    """The reduced-space formulation of :func:`optimize_stability` (coarse stage, then the full grid)."""
     from birdocp.bird.model import get_model
 
     cfg = cfg or Config()
