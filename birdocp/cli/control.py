@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from birdocp.bird.config import require_body_states
 import math
 import sys
 import time
@@ -44,7 +43,6 @@ def cmd_control(args: argparse.Namespace, command_line: list[str]) -> int:
 
     t0 = time.perf_counter()
     cfg = cli.resolve_config(args)
-    require_body_states(cfg, "control")  # before any computation: exit 2
     controls = resolve_controls(args.controls if args.controls is not None else DEFAULT_CONTROLS)
     N = args.updates_per_beat
     steps = cfg.solve.steps_per_period

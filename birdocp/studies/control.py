@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from birdocp.bird.config import require_body_states, PARAM_NAMES, Config, ConfigError, get_value, suggest
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest
 from birdocp.bird.model import get_model
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.floquet import complex_pairs, multiplier_order
@@ -47,7 +47,7 @@ from birdocp.engine.results import result_dict, serial
 __all__ = ["DEFAULT_CONTROLS", "ACCEPTABLE_STATE", "ACCEPTABLE_CONTROL_DEG", "DEFAULT_LIMIT_DEG",
            "WingbeatMap", "Controller", "wingbeat_map", "periodic_lqr", "design_controller",
            "resolve_controls", "bryson_weights", "default_limits", "sorted_eigs", "reference_cycle",
-           "closed_loop_monodromy", "CONTROL_ALIASES", "PerModel"]
+           "closed_loop_monodromy", "body_gains", "CONTROL_ALIASES", "PerModel"]
 
 DEFAULT_CONTROLS = ("gait.shoulder_incidence.offset_deg", "gait.shoulder_flap.amplitude_deg",
                     "gait.shoulder_sweep.offset_deg")
@@ -154,7 +154,7 @@ class _Linearisation(PerModel):
     def __init__(self, model, steps: int, n_intervals: int):
         self.model = model.model
         self.grid = grid = RK4Grid(model.ode, steps, n_intervals)
-        nx, nd, np_ = 4, model.ode.nd, model.ode.np
+        nx, nd, np_ = model.ode.nx, model.ode.nd, model.ode.np
         x = ca.MX.sym("x", nx)
         Dn = ca.MX.sym("D", nd, 3 * grid.n)
         p = ca.MX.sym("p", np_)
@@ -178,7 +178,12 @@ class WingbeatMap:
     M (4, 4): the monodromy A_{N-1}..A_0; B_lifted (4, N m): the response of the state one beat later
     to each interval's control (columns interval-major); cycle_validity: the exact validity of the
     cycle (:meth:`birdocp.bird.validity.CycleValidity.to_dict`; whether the model holds on the
-    cycle the controller is designed around).
+    cycle the controller is designed around); manifold (N, n - 4, 4): with aerodynamic states, the
+    slope of their quasi-steady manifold (the lag and separation states that a body state implies,
+    :meth:`birdocp.bird.model.BirdModel.complete_state`) at each interval start.
+
+    With aerodynamic states (``aero.unsteady = "wagner"`` or ``aero.section = "dynamic-stall"``) the
+    state has n = 4 + 16 n_z components (body first) and A, B, x_starts, x0 are over all of them.
     """
 
     controls: list
@@ -190,10 +195,15 @@ class WingbeatMap:
     A: np.ndarray
     B: np.ndarray
     cycle_validity: dict | None = None
+    manifold: np.ndarray | None = None
+
+    @property
+    def n_states(self) -> int:
+        return int(self.A.shape[1])
 
     @property
     def M(self) -> np.ndarray:
-        out = np.eye(4)
+        out = np.eye(self.n_states)
         for Ai in self.A:
             out = Ai @ out
         return out
@@ -202,7 +212,7 @@ class WingbeatMap:
     def B_lifted(self) -> np.ndarray:
         N, cols = self.updates_per_beat, []
         for i in range(N):
-            T = np.eye(4)
+            T = np.eye(self.n_states)
             for j in range(i + 1, N):
                 T = self.A[j] @ T
             cols.append(T @ self.B[i])
@@ -233,7 +243,6 @@ def wingbeat_map(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int 
         ``B_lifted``. State units: u, w [m/s], q [rad/s], theta [rad].
     """
     controls = resolve_controls(controls)
-    require_body_states(cycle_result.cfg, "the wingbeat map (control)")
     N = int(updates_per_beat)
     c = cycle_result.cycle
     steps = int(c.method["steps_per_period"])
@@ -259,8 +268,9 @@ def wingbeat_map(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int 
         dDs.append(lin.data_fwd(times, ca.DM(p), Dgrid, ca.DM.zeros(1, lin.n_times), ca.DM(ep))[:, idx])
         dps.append(ca.DM(ep))
     width = 3 * grid.n
-    x = ca.DM(np.asarray(c.x0, float))
-    xs, A, B = [], np.zeros((N, 4, 4)), np.zeros((N, 4, nm))
+    x = ca.DM(m.complete_state(np.asarray(c.x0, float), p))
+    nx = m.ode.nx
+    xs, A, B = [], np.zeros((N, nx, nx)), np.zeros((N, nx, nm))
     D = Dgrid[:, idx]
     for i in range(N):
         cols = slice(width * i, width * (i + 1))
@@ -271,8 +281,19 @@ def wingbeat_map(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int 
         A[i] = np.asarray(Jx)
         x = xe
     v = getattr(cycle_result, "validity", None)
-    return WingbeatMap(list(controls), N, steps, np.asarray(c.x0, float), p, np.array(xs), A, B,
-                       v.to_dict() if v is not None else None)
+    S = _manifold_slopes(m, np.array(xs), np.arange(N) * (m.period_s / N), p) if nx > 4 else None
+    return WingbeatMap(list(controls), N, steps, xs[0], p, np.array(xs), A, B,
+                       v.to_dict() if v is not None else None, S)
+
+
+def _manifold_slopes(m, x_starts, t_starts, p) -> np.ndarray:
+    """d(aerodynamic states)/d(body state) of the quasi-steady manifold at each (x_i, t_i): (N, n - 4, 4)."""
+    x4 = ca.MX.sym("x4", 4)
+    d = ca.MX.sym("d", m.ode.nd)
+    pp = ca.MX.sym("p", m.ode.np)
+    jac = ca.Function("aero_manifold_slope", [x4, d, pp], [ca.jacobian(m.aero_guess_d(x4, d, pp), x4)])
+    pd = ca.DM(np.asarray(p, float))
+    return np.array([np.asarray(jac(ca.DM(x[:4]), m.data(float(t), pd), pd)) for x, t in zip(x_starts, t_starts)])
 
 
 def periodic_lqr(A, B, Q, R):
@@ -328,10 +349,37 @@ def periodic_lqr(A, B, Q, R):
 
 
 def closed_loop_monodromy(A, B, K) -> np.ndarray:
-    """``prod_i (A_i - B_i K_i)`` (the beat map under periodic state feedback)."""
-    out = np.eye(np.asarray(A).shape[1])
+    """``prod_i (A_i - B_i K_i)`` (the beat map under periodic state feedback). A gain narrower than
+    the state (the body states' 4 columns of a model with aerodynamic states) feeds back the first
+    states only."""
+    n = np.asarray(A).shape[1]
+    out = np.eye(n)
     for Ai, Bi, Ki in zip(A, B, K):
+        Ki = np.asarray(Ki, float)
+        if Ki.shape[1] < n:
+            Ki = np.hstack([Ki, np.zeros((Ki.shape[0], n - Ki.shape[1]))])
         out = (Ai - Bi @ Ki) @ out
+    return out
+
+
+def body_gains(wm: WingbeatMap, K) -> np.ndarray:
+    """Gains (N, m, 4) on the body states alone from full-state gains (N, m, n): the aerodynamic
+    states' columns folded in through the slope of their quasi-steady manifold at each interval start
+    (``du = -(K_b + K_a S_i) dx_body``: the feedback a flier that senses only its flight state applies,
+    assuming its lag and separation states follow the body state). Unchanged without aerodynamic states."""
+    K = np.asarray(K, float)
+    if wm.manifold is None or K.shape[2] == 4:
+        return K
+    return K[:, :, :4] + np.einsum("imk,ikj->imj", K[:, :, 4:], wm.manifold)
+
+
+def _pad_weight(Q, n: int) -> np.ndarray:
+    """A body-state weight (4 x 4) extended by zeros over the aerodynamic states (n x n)."""
+    Q = np.asarray(Q, float)
+    if Q.shape[0] == n:
+        return Q
+    out = np.zeros((n, n))
+    out[:Q.shape[0], :Q.shape[1]] = Q
     return out
 
 
@@ -342,7 +390,7 @@ def _single_control(wm: WingbeatMap, j: int, Q, R) -> dict:
     unstable = np.abs(lam) >= 1.0
     Bl = wm.B_lifted[:, j::len(wm.controls)]  # this control's columns, one per interval
     scale = np.linalg.norm(wm.M, 2) + np.linalg.norm(Bl, 2)
-    pbh = [float(np.linalg.svd(np.hstack([lam[i] * np.eye(4) - wm.M, Bl]), compute_uv=False)[-1] / scale)
+    pbh = [float(np.linalg.svd(np.hstack([lam[i] * np.eye(wm.n_states) - wm.M, Bl]), compute_uv=False)[-1] / scale)
            for i in np.nonzero(unstable)[0]]
     stabilisable = bool(all(s > 1e-9 for s in pbh))
     modal = W[0] @ Bl  # input of the expanding mode (v normalised to unit 2-norm)
@@ -373,6 +421,7 @@ def _single_control(wm: WingbeatMap, j: int, Q, R) -> dict:
     try:
         Rj = R[j:j + 1, j:j + 1]
         _, K = periodic_lqr(wm.A, wm.B[:, :, j:j + 1], Q, Rj)
+        K = body_gains(wm, K)
         mult = sorted_eigs(closed_loop_monodromy(wm.A, wm.B[:, :, j:j + 1], K))[0]
         row.update(lqr_gain=K[:, 0, :].tolist(), lqr_gain_norm=float(np.max(np.linalg.norm(K[:, 0, :], axis=1))),
                    lqr_spectral_radius=float(np.max(np.abs(mult))), lqr_multipliers=complex_pairs(mult))
@@ -386,7 +435,9 @@ class Controller:
     """A periodic state-feedback controller of the wingbeat map and its analysis.
 
     ``du_i = -K_i (x - x_starts[i])`` at the start of interval i (units: each control's own unit per
-    state unit), saturated at ``limits`` (absolute, (m, 2)) by the simulation.
+    state unit), saturated at ``limits`` (absolute, (m, 2)) by the simulation. ``K`` and ``x_starts``
+    are over the 4 body states; with aerodynamic states ``K_full`` holds the full-state LQR gains the
+    body gains come from (:func:`body_gains`), and the closed loop is evaluated on the full map.
     """
 
     map: WingbeatMap = field(metadata=serial(skip=True))  # written through the keys of to_dict
@@ -396,6 +447,7 @@ class Controller:
     K: np.ndarray = field(metadata=serial(key="gains"))
     limits: np.ndarray
     per_control: list = field(default_factory=list)
+    K_full: np.ndarray | None = field(default=None, metadata=serial(skip=True))
 
     @property
     def controls(self) -> list:
@@ -403,7 +455,7 @@ class Controller:
 
     @property
     def x_starts(self) -> np.ndarray:
-        return self.map.x_starts
+        return self.map.x_starts[:, :4]
 
     @property
     def updates_per_beat(self) -> int:
@@ -427,6 +479,11 @@ class Controller:
         wm = self.map
         ol = wm.multipliers
         rho = self.spectral_radius
+        aero = {}
+        if wm.n_states > 4 and self.K_full is not None:  # the body-state feedback against full-state LQR
+            full = sorted_eigs(closed_loop_monodromy(wm.A, wm.B, self.K_full))[0]
+            aero = {"aero_states": wm.n_states - 4, "full_state_gains": self.K_full,
+                    "full_state_spectral_radius": np.max(np.abs(full))}
         stable = bool(rho < 1.0)
         return result_dict(self, extra={
             "success": stable, "status": "stabilised" if stable else "not_stabilised",
@@ -444,11 +501,12 @@ class Controller:
             "gain": self.K[0],
             "gain_units": "control unit (deg) per state unit (u, w: m/s; q: rad/s; theta: rad)",
             "controllable": {r["control"]: r["stabilisable"] for r in self.per_control},
-            "cycle_x0": wm.x0, "cycle_controls": [wm.p[PARAM_NAMES.index(k)] for k in wm.controls],
+            "cycle_x0": wm.x0[:4], "cycle_controls": [wm.p[PARAM_NAMES.index(k)] for k in wm.controls],
             "cycle_amplitude_deg": wm.p[PARAM_NAMES.index("gait.shoulder_flap.amplitude_deg")],
             "cycle_validity": wm.cycle_validity,
             "cycle_valid": None if wm.cycle_validity is None else bool(wm.cycle_validity.get("valid")),
-            "x_starts": wm.x_starts, "A": wm.A, "B": wm.B, "monodromy": wm.M, "B_lifted": wm.B_lifted})
+            "x_starts": wm.x_starts[:, :4], "A": wm.A, "B": wm.B, "monodromy": wm.M, "B_lifted": wm.B_lifted,
+            **aero})
 
 
 def design_controller(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int = 1, *,
@@ -483,16 +541,18 @@ def design_controller(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat:
     """
     wm = wingbeat_map(cycle_result, controls, updates_per_beat)
     Qd, Rd = bryson_weights(cycle_result.cfg, wm.controls)
-    Q = Qd if Q is None else np.asarray(Q, float)
+    Q = _pad_weight(Qd if Q is None else Q, wm.n_states)  # no weight on the aerodynamic states
     R = Rd if R is None else np.asarray(R, float)
     per = [_single_control(wm, j, Q, R) for j in range(len(wm.controls))]
     try:
-        P, K = periodic_lqr(wm.A, wm.B, Q, R)
+        P, K_full = periodic_lqr(wm.A, wm.B, Q, R)
     except (np.linalg.LinAlgError, ValueError) as exc:
         # the analysis survives the failure: the wingbeat map and each control alone
         exc.wingbeat_map, exc.per_control = wm, per
         raise
-    return Controller(wm, Q, R, P, K, default_limits(cycle_result.cfg, wm.controls, wm.p, limit_deg), per)
+    K = body_gains(wm, K_full)
+    return Controller(wm, Q, R, P, K, default_limits(cycle_result.cfg, wm.controls, wm.p, limit_deg), per,
+                      K_full if wm.n_states > 4 else None)
 
 
 def reference_cycle(cfg: Config, level: bool = False):
