@@ -37,23 +37,23 @@ def test_control_with_lag_states(lag_trim):
     multipliers; the LQR's body-state gains stabilise the full linearised map."""
     from birdocp.studies.control import closed_loop_monodromy, design_controller, sorted_eigs
 
-    ctl = design_controller(lag_trim, updates_per_beat=1)
+    ctl = design_controller(lag_trim, ["sweep"], updates_per_beat=1)
     wm = ctl.map
     assert wm.A.shape == (1, 36, 36) and wm.manifold.shape == (1, 32, 4)
     floquet = np.asarray(lag_trim.multipliers)
     ours = wm.multipliers[:len(floquet)]
     assert np.allclose(np.abs(ours[:3]), np.abs(floquet[:3]), rtol=1e-7)
     assert abs(ours[0]) > 1.3  # the ibis's expanding mode survives the lag
-    assert ctl.K.shape == (1, 3, 4) and ctl.x_starts.shape == (1, 4)  # what simulate feeds back
+    assert ctl.K.shape == (1, 1, 4) and ctl.x_starts.shape == (1, 4)  # what simulate feeds back
     rho = ctl.spectral_radius
     assert rho < 1.0
     # the closed loop evaluated by hand on the full map with the body gains padded by zeros
-    Kpad = np.concatenate([ctl.K, np.zeros((1, 3, 32))], axis=2)
+    Kpad = np.concatenate([ctl.K, np.zeros((1, 1, 32))], axis=2)
     by_hand = sorted_eigs(closed_loop_monodromy(wm.A, wm.B, Kpad))[0]
     assert math.isclose(np.max(np.abs(by_hand)), rho, rel_tol=1e-12)
     d = ctl.to_dict()
     assert d["aero_states"] == 32 and d["full_state_spectral_radius"] < 1.0
-    assert np.asarray(d["gains"]).shape == (1, 3, 4) and len(d["cycle_x0"]) == 4
+    assert np.asarray(d["gains"]).shape == (1, 1, 4) and len(d["cycle_x0"]) == 4
 
 
 def test_held_steady_lift_equals_quasi_steady():
@@ -108,9 +108,10 @@ def test_quasi_steady_limit_multipliers():
     assert t[-1] - t[0] > 0.99 * m.period_s
     L1 = np.array(lam1)
     integral = np.sum(0.5 * (L1[1:] + L1[:-1]) * np.diff(t)[:, None], axis=0)  # trapezoid
-    # the slow ones (h lambda1 small: RK4's own damping equals exp(-h lambda) there)
-    expected = np.sort(np.exp(-integral)[np.exp(-integral) > 1e-3])[::-1]
+    # the slow ones (> 1e-2 per beat; for faster ones the trapezoid and RK4's own damping differ from
+    # exp(-integral) by more: 1.6e-3 at 0.005 with 64 steps)
+    expected = np.sort(np.exp(-integral)[np.exp(-integral) > 1e-2])[::-1]
     aero = np.sort(np.abs([z for z in mult if np.min(np.abs(body - z)) > 1e-8]))[::-1]
-    assert len(expected) >= 3
+    assert len(expected) >= 6
     assert np.allclose(aero[:len(expected)], expected, rtol=1e-3)
-    assert aero[len(expected)] < 1e-3  # nothing else that slow
+    assert aero[len(expected)] < 1e-2  # nothing else that slow
