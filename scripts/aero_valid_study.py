@@ -81,13 +81,14 @@ def main(argv=None) -> int:
     ap = script_parser(__doc__, "results/aero/valid")
     ap.add_argument("--cases", nargs="*", default=["today", "wagner", "wagner_stall"],
                     help=f"aerodynamic models (default today wagner wagner_stall; also {', '.join(CASES)})")
+    ap.add_argument("--gaits", nargs="*", default=list(GAITS), help="optima to evaluate (default free_speed at_speed)")
     args, out = parse_with_out(ap, argv)
     from birdocp.io.files import atomic_write_json, atomic_write_text
 
     optima = json.loads(OPTIMA.read_text())
     (out / "cases").mkdir(exist_ok=True)
     rows = []
-    for gait in GAITS:
+    for gait in args.gaits:
         for name in args.cases:
             path = out / "cases" / f"{gait}_{name}.json"
             if path.exists():

@@ -56,6 +56,7 @@ def test_control_with_lag_states(lag_trim):
     assert np.asarray(d["gains"]).shape == (1, 1, 4) and len(d["cycle_x0"]) == 4
 
 
+@pytest.mark.slow
 def test_held_steady_lift_equals_quasi_steady():
     """Not flapping, body held: Wagner's lag states settle on the quasi-steady normalwash and the
     lift equals the quasi-steady model's (the UVLM comparison's held loads carry no added-mass
