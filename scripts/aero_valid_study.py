@@ -4,7 +4,8 @@
 The validity-constrained most stable gaits of the quasi-steady model (``results/stability_optimum/valid``:
 speed free, and at 18.53 m/s) are trimmed again at their gait and amplitude with each aerodynamic
 model -- today's, full ``wagner``, ``wagner`` + ``stall`` and (with ``--cases``) ``wagner`` +
-``dynamic-stall`` -- starting from the optimum's body state: |Lambda1|, the next multipliers, the mean
+``dynamic-stall`` -- starting from the optimum's body state (a stall section from the ``wagner`` cycle's
+at the same gait): |Lambda1|, the next multipliers, the mean
 vertical speed (the quasi-steady optimum is level; another model climbs or sinks at the same gait), the
 largest |alpha_E|, the stalled and separated fractions and the validity of every cycle.
 
@@ -41,13 +42,14 @@ def gait_values(optimum: dict) -> dict:
     return dict(optimum["free"]) | {"gait.shoulder_flap.amplitude_deg": optimum["amplitude_deg"]}
 
 
-def run_case(gait: str, optimum: dict, name: str) -> dict:
+def run_case(gait: str, optimum: dict, name: str, x_guess=None) -> dict:
+    """Trim of one model at one optimum's gait, from ``x_guess`` (default the optimum's body state)."""
     from birdocp.bird.config import Config, with_values
     from birdocp.studies.trim import trim
 
     cfg = with_values(Config(), gait_values(optimum) | CASES[name])
     t0 = time.perf_counter()
-    tr = trim(cfg, x_guess=optimum["x0"])
+    tr = trim(cfg, x_guess=optimum["x0"] if x_guess is None else x_guess)
     return {"gait": gait, "case": name, "values": gait_values(optimum), "overrides": CASES[name],
             "quasi_steady_radius": optimum.get("radius"), "trim": _summary(tr),
             "trim_wall_s": time.perf_counter() - t0}
@@ -95,7 +97,14 @@ def main(argv=None) -> int:
                 rows.append(json.loads(path.read_text()))
                 continue
             print(f"{gait} {name} ...", flush=True)
-            r = run_case(gait, optima[gait], name)
+            start = out / "cases" / f"{gait}_wagner.json"
+            guess = None
+            if "section" in str(CASES[name]) and start.exists():
+                # a stall section starts from the linear-section wagner cycle at the same gait (from the
+                # quasi-steady optimum's state IPOPT's trial points reach a singular Newton circulation)
+                t = json.loads(start.read_text())["trim"]
+                guess = t["x0_body"] if t.get("success") else None
+            r = run_case(gait, optima[gait], name, guess)
             atomic_write_json(path, r)
             rows.append(r)
             print(f"  |Lambda1| {r['trim'].get('lambda1')}, valid {r['trim'].get('valid')} "
