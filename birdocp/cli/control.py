@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from birdocp.bird.config import require_body_states
 import math
 import sys
 import time
@@ -47,7 +46,6 @@ def cmd_control(args: argparse.Namespace, command_line: list[str]) -> int:
     cfg = cli.resolve_config(args)
     if cfg.model.degrees_of_freedom == 6:  # per-side controls on the 8-state map
         return cmd_lateral_control(args, command_line, cfg, t0)
-    require_body_states(cfg, "control")  # before any computation: exit 2
     controls = resolve_controls(args.controls if args.controls is not None else DEFAULT_CONTROLS)
     N, limit = check_options(args, cfg)
     with cli.run_folder(args, "control", command_line) as run:

@@ -37,17 +37,18 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from birdocp.bird.config import require_body_states, PARAM_NAMES, Config, ConfigError, get_value, suggest
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest
 from birdocp.bird.model import get_model
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.floquet import complex_pairs, multiplier_order
 from birdocp.engine.integrate import RK4Grid
+from birdocp.studies.control_aero import body_gains, manifold_slopes, pad_weight
 from birdocp.engine.results import result_dict, serial
 
 __all__ = ["DEFAULT_CONTROLS", "ACCEPTABLE_STATE", "ACCEPTABLE_CONTROL_DEG", "DEFAULT_LIMIT_DEG",
            "WingbeatMap", "Controller", "wingbeat_map", "periodic_lqr", "design_controller",
            "resolve_controls", "bryson_weights", "default_limits", "sorted_eigs", "reference_cycle",
-           "closed_loop_monodromy", "CONTROL_ALIASES", "PerModel", "linearise", "controller_on_map"]
+           "closed_loop_monodromy", "body_gains", "CONTROL_ALIASES", "PerModel", "linearise", "controller_on_map"]
 
 DEFAULT_CONTROLS = ("gait.shoulder_incidence.offset_deg", "gait.shoulder_flap.amplitude_deg",
                     "gait.shoulder_sweep.offset_deg")
@@ -183,8 +184,13 @@ class WingbeatMap:
     to each interval's control (columns interval-major); cycle_validity: the exact validity of the
     cycle (:meth:`birdocp.bird.validity.CycleValidity.to_dict`; whether the model holds on the
     cycle the controller is designed around); param_names, state_names: the names of ``p`` and
-    of the n states (the planar model's 4 by default; the six-degree-of-freedom map of
-    :mod:`birdocp.studies.lateral_control` has 8).
+    of the body states (the planar model's 4 by default; the six-degree-of-freedom map of
+    :mod:`birdocp.studies.lateral_control` has 8); manifold (N, n - 4, 4): with aerodynamic states, the
+    slope of their quasi-steady manifold (the lag and separation states that a body state implies,
+    :meth:`birdocp.bird.model.BirdModel.complete_state`) at each interval start.
+
+    With aerodynamic states (``aero.unsteady = "wagner"`` or ``aero.section = "dynamic-stall"``) the
+    state has n = 4 + 16 n_z components (body first) and A, B, x_starts, x0 are over all of them.
     """
 
     controls: list
@@ -198,10 +204,16 @@ class WingbeatMap:
     cycle_validity: dict | None = None
     param_names: tuple = PARAM_NAMES
     state_names: tuple = ("u_mps", "w_mps", "q_radps", "theta_rad")
+    manifold: np.ndarray | None = None
 
     @property
     def n_states(self) -> int:
         return int(self.A.shape[1])
+
+    @property
+    def n_body(self) -> int:
+        """The number of body (flight) states: :attr:`state_names`; the rest are aerodynamic states."""
+        return len(self.state_names)
 
     @property
     def M(self) -> np.ndarray:
@@ -245,7 +257,6 @@ def wingbeat_map(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int 
         ``B_lifted``. State units: u, w [m/s], q [rad/s], theta [rad].
     """
     controls = resolve_controls(controls)
-    require_body_states(cycle_result.cfg, "the wingbeat map (control)")
     N = int(updates_per_beat)
     c = cycle_result.cycle
     steps = int(c.method["steps_per_period"])
@@ -256,11 +267,14 @@ def wingbeat_map(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int 
                           "change it or solve.steps_per_period")
     if not c.success:
         raise ValueError("the cycle did not converge: the wingbeat map needs a converged cycle")
-    xs, A, B = linearise(get_model(cycle_result.cfg), c.x0, c.p, steps, N,
-                         [PARAM_NAMES.index(k) for k in controls])
+    m = get_model(cycle_result.cfg)
+    p = np.asarray(c.p, float)
+    x0 = m.complete_state(np.asarray(c.x0, float), p)  # with aerodynamic states: the full state
+    xs, A, B = linearise(m, x0, p, steps, N, [PARAM_NAMES.index(k) for k in controls])
     v = getattr(cycle_result, "validity", None)
-    return WingbeatMap(list(controls), N, steps, np.asarray(c.x0, float), np.asarray(c.p, float), xs, A, B,
-                       v.to_dict() if v is not None else None)
+    S = manifold_slopes(m, xs, np.arange(N) * (m.period_s / N), p) if m.ode.nx > 4 else None
+    return WingbeatMap(list(controls), N, steps, np.asarray(x0, float), p, xs, A, B,
+                       v.to_dict() if v is not None else None, manifold=S)
 
 
 def linearise(model, x0, p, steps: int, updates_per_beat: int, control_index):
@@ -352,9 +366,15 @@ def periodic_lqr(A, B, Q, R):
 
 
 def closed_loop_monodromy(A, B, K) -> np.ndarray:
-    """``prod_i (A_i - B_i K_i)`` (the beat map under periodic state feedback)."""
-    out = np.eye(np.asarray(A).shape[1])
+    """``prod_i (A_i - B_i K_i)`` (the beat map under periodic state feedback). A gain narrower than
+    the state (the body states' 4 columns of a model with aerodynamic states) feeds back the first
+    states only."""
+    n = np.asarray(A).shape[1]
+    out = np.eye(n)
     for Ai, Bi, Ki in zip(A, B, K):
+        Ki = np.asarray(Ki, float)
+        if Ki.shape[1] < n:
+            Ki = np.hstack([Ki, np.zeros((Ki.shape[0], n - Ki.shape[1]))])
         out = (Ai - Bi @ Ki) @ out
     return out
 
@@ -397,6 +417,7 @@ def _single_control(wm: WingbeatMap, j: int, Q, R) -> dict:
     try:
         Rj = R[j:j + 1, j:j + 1]
         _, K = periodic_lqr(wm.A, wm.B[:, :, j:j + 1], Q, Rj)
+        K = body_gains(wm, K)
         mult = sorted_eigs(closed_loop_monodromy(wm.A, wm.B[:, :, j:j + 1], K))[0]
         row.update(lqr_gain=K[:, 0, :].tolist(), lqr_gain_norm=float(np.max(np.linalg.norm(K[:, 0, :], axis=1))),
                    lqr_spectral_radius=float(np.max(np.abs(mult))), lqr_multipliers=complex_pairs(mult))
@@ -410,7 +431,9 @@ class Controller:
     """A periodic state-feedback controller of the wingbeat map and its analysis.
 
     ``du_i = -K_i (x - x_starts[i])`` at the start of interval i (units: each control's own unit per
-    state unit), saturated at ``limits`` (absolute, (m, 2)) by the simulation.
+    state unit), saturated at ``limits`` (absolute, (m, 2)) by the simulation. ``K`` and ``x_starts``
+    are over the 4 body states; with aerodynamic states ``K_full`` holds the full-state LQR gains the
+    body gains come from (:func:`body_gains`), and the closed loop is evaluated on the full map.
     """
 
     map: WingbeatMap = field(metadata=serial(skip=True))  # written through the keys of to_dict
@@ -420,6 +443,7 @@ class Controller:
     K: np.ndarray = field(metadata=serial(key="gains"))
     limits: np.ndarray
     per_control: list = field(default_factory=list)
+    K_full: np.ndarray | None = field(default=None, metadata=serial(skip=True))
 
     @property
     def controls(self) -> list:
@@ -427,7 +451,7 @@ class Controller:
 
     @property
     def x_starts(self) -> np.ndarray:
-        return self.map.x_starts
+        return self.map.x_starts[:, :self.map.n_body]
 
     @property
     def updates_per_beat(self) -> int:
@@ -451,6 +475,11 @@ class Controller:
         wm = self.map
         ol = wm.multipliers
         rho = self.spectral_radius
+        aero, nb = {}, wm.n_body
+        if wm.n_states > nb and self.K_full is not None:  # the body-state feedback against full-state LQR
+            full = sorted_eigs(closed_loop_monodromy(wm.A, wm.B, self.K_full))[0]
+            aero = {"aero_states": wm.n_states - nb, "full_state_gains": self.K_full,
+                    "full_state_spectral_radius": np.max(np.abs(full))}
         stable = bool(rho < 1.0)
         return result_dict(self, extra={
             "success": stable, "status": "stabilised" if stable else "not_stabilised",
@@ -466,15 +495,16 @@ class Controller:
             "open_loop_spectral_radius": np.max(np.abs(ol)), "closed_loop_spectral_radius": rho,
             "beats_to_reduce_100x": (math.log(100.0) / -math.log(rho)) if 0 < rho < 1 else None,
             "gain": self.K[0],
-            "gain_units": ("control unit (deg) per state unit (u, w: m/s; q: rad/s; theta: rad)" if wm.n_states == 4 else
+            "gain_units": ("control unit (deg) per state unit (u, w: m/s; q: rad/s; theta: rad)" if nb == 4 else
                            "control unit (deg) per state unit (u, v, w: m/s; p, q, r: rad/s; phi, theta: rad)"),
             "state_names": list(wm.state_names),
             "controllable": {r["control"]: r["stabilisable"] for r in self.per_control},
-            "cycle_x0": wm.x0, "cycle_controls": [wm.p[list(wm.param_names).index(k)] for k in wm.controls],
+            "cycle_x0": wm.x0[:nb], "cycle_controls": [wm.p[list(wm.param_names).index(k)] for k in wm.controls],
             "cycle_amplitude_deg": wm.p[list(wm.param_names).index("gait.shoulder_flap.amplitude_deg")],
             "cycle_validity": wm.cycle_validity,
             "cycle_valid": None if wm.cycle_validity is None else bool(wm.cycle_validity.get("valid")),
-            "x_starts": wm.x_starts, "A": wm.A, "B": wm.B, "monodromy": wm.M, "B_lifted": wm.B_lifted})
+            "x_starts": wm.x_starts[:, :nb], "A": wm.A, "B": wm.B, "monodromy": wm.M, "B_lifted": wm.B_lifted,
+            **aero})
 
 
 def design_controller(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int = 1, *,
@@ -509,7 +539,7 @@ def design_controller(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat:
     """
     wm = wingbeat_map(cycle_result, controls, updates_per_beat)
     Qd, Rd = bryson_weights(cycle_result.cfg, wm.controls)
-    Q = Qd if Q is None else np.asarray(Q, float)
+    Q = pad_weight(Qd if Q is None else Q, wm.n_states)  # no weight on the aerodynamic states
     R = Rd if R is None else np.asarray(R, float)
     return controller_on_map(wm, Q, R, default_limits(cycle_result.cfg, wm.controls, wm.p, limit_deg))
 
@@ -521,12 +551,13 @@ def controller_on_map(wm: WingbeatMap, Q, R, limits) -> Controller:
     solution exists (:func:`design_controller`)."""
     per = [_single_control(wm, j, Q, R) for j in range(len(wm.controls))]
     try:
-        P, K = periodic_lqr(wm.A, wm.B, Q, R)
+        P, K_full = periodic_lqr(wm.A, wm.B, Q, R)
     except (np.linalg.LinAlgError, ValueError) as exc:
         # the analysis survives the failure: the wingbeat map and each control alone
         exc.wingbeat_map, exc.per_control = wm, per
         raise
-    return Controller(wm, Q, R, P, K, np.asarray(limits, float), per)
+    K = body_gains(wm, K_full)
+    return Controller(wm, Q, R, P, K, np.asarray(limits, float), per, K_full if wm.n_states > wm.n_body else None)
 
 
 def reference_cycle(cfg: Config, level: bool = False):

@@ -271,12 +271,26 @@ def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: Mu
     1.41
     """
     cfg = cfg or Config()
+    if x_guess is None and warm_start is None and cfg.aero.section != "linear":
+        x_guess = linear_section_start(cfg, compiled, **method_over)
     m = get_model(cfg)
     guess = m.complete_state(cfg.solve.initial_guess if x_guess is None else x_guess, m.p0)
     problem = LimitCycleProblem(ode=solver_ode(m, compiled), p=m.p0, x_guess=guess, outputs=flight_outputs(m.ode.nd, m.ode.nx))
     method = method or method_of(cfg, **method_over)
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
     return TrimResult(check_physical(solve(problem, method, warm_start=ws)), cfg)
+
+
+def linear_section_start(cfg: Config, compiled: bool | None = None, **method_over):
+    """The start of a stall section's trim (``aero.section = "stall"`` or ``"dynamic-stall"``): the
+    body state (u, w, q, theta) at t = 0 of the same model's cycle with the linear section, the first
+    step of a continuation from attached to separating flow. From ``cfg.solve.initial_guess`` directly,
+    IPOPT's first trial points reach angles where the stall circulation's Newton Jacobian is singular
+    (NaN). None when the linear-section trim fails (the configured guess is then used)."""
+    from birdocp.bird.config import with_values
+
+    lin = trim(with_values(cfg, {"aero.section": "linear"}), compiled=compiled, **method_over)
+    return np.asarray(lin.cycle.x0, float)[:4] if lin.success else None
 
 
 def check_physical(cycle: LimitCycleResult) -> LimitCycleResult:

@@ -1,0 +1,41 @@
+"""Control of a model with aerodynamic states (``aero.unsteady = "wagner"``, ``aero.section =
+"dynamic-stall"``): the quasi-steady manifold's slope, the body-state gains folded from full-state
+gains, and the body-state weights padded over the aerodynamic states (:mod:`birdocp.studies.control`)."""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+__all__ = ["manifold_slopes", "body_gains", "pad_weight"]
+
+
+def manifold_slopes(m, x_starts, t_starts, p) -> np.ndarray:
+    """d(aerodynamic states)/d(body state) of the quasi-steady manifold at each (x_i, t_i): (N, n - 4, 4)."""
+    x4 = ca.MX.sym("x4", 4)
+    d = ca.MX.sym("d", m.ode.nd)
+    pp = ca.MX.sym("p", m.ode.np)
+    jac = ca.Function("aero_manifold_slope", [x4, d, pp], [ca.jacobian(m.aero_guess_d(x4, d, pp), x4)])
+    pd = ca.DM(np.asarray(p, float))
+    return np.array([np.asarray(jac(ca.DM(x[:4]), m.data(float(t), pd), pd)) for x, t in zip(x_starts, t_starts)])
+
+
+def body_gains(wm, K) -> np.ndarray:
+    """Gains (N, m, 4) on the body states alone from full-state gains (N, m, n): the aerodynamic
+    states' columns folded in through the slope of their quasi-steady manifold at each interval start
+    (``du = -(K_b + K_a S_i) dx_body``: the feedback a flier that senses only its flight state applies,
+    assuming its lag and separation states follow the body state). Unchanged without aerodynamic states."""
+    K = np.asarray(K, float)
+    if wm.manifold is None or K.shape[2] == wm.n_body:
+        return K
+    return K[:, :, :4] + np.einsum("imk,ikj->imj", K[:, :, 4:], wm.manifold)
+
+
+def pad_weight(Q, n: int) -> np.ndarray:
+    """A body-state weight (4 x 4) extended by zeros over the aerodynamic states (n x n)."""
+    Q = np.asarray(Q, float)
+    if Q.shape[0] == n:
+        return Q
+    out = np.zeros((n, n))
+    out[:Q.shape[0], :Q.shape[1]] = Q
+    return out

@@ -1,0 +1,119 @@
+"""Do the quasi-steady model's most stable valid gaits hold with unsteady and stall-aware aerodynamics?
+(docs/model_unsteady.md, "The most stable valid gait with the full model")
+
+The validity-constrained most stable gaits of the quasi-steady model (``results/stability_optimum/valid``:
+speed free, and at 18.53 m/s) are trimmed again at their gait and amplitude with each aerodynamic
+model -- today's, full ``wagner``, ``wagner`` + ``stall`` and (with ``--cases``) ``wagner`` +
+``dynamic-stall`` -- starting from the optimum's body state (a stall section from the ``wagner`` cycle's
+at the same gait): |Lambda1|, the next multipliers, the mean
+vertical speed (the quasi-steady optimum is level; another model climbs or sinks at the same gait), the
+largest |alpha_E|, the stalled and separated fractions and the validity of every cycle.
+
+    python scripts/aero_valid_study.py --out results/aero/valid
+
+Writes DIR/cases/<gait>_<case>.json as each case finishes (a rerun skips finished cases), then
+DIR/table.json and DIR/table.md.
+"""
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from aero_study import _summary  # noqa: E402
+from script_common import parse_with_out, script_parser  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+OPTIMA = ROOT / "results" / "stability_optimum" / "valid" / "result.json"
+CASES = {
+    "today": {},
+    "wagner": {"aero.unsteady": "wagner"},
+    "wagner_stall": {"aero.unsteady": "wagner", "aero.section": "stall"},
+    "wagner_dynamic_stall": {"aero.unsteady": "wagner", "aero.section": "dynamic-stall"},
+}
+"""Configuration overrides of each aerodynamic model."""
+GAITS = ("free_speed", "at_speed")
+
+
+def gait_values(optimum: dict) -> dict:
+    """The configuration values of a committed optimum: its free gait keys and its amplitude."""
+    return dict(optimum["free"]) | {"gait.shoulder_flap.amplitude_deg": optimum["amplitude_deg"]}
+
+
+def run_case(gait: str, optimum: dict, name: str, x_guess=None) -> dict:
+    """Trim of one model at one optimum's gait, from ``x_guess`` (default the optimum's body state)."""
+    from birdocp.bird.config import Config, with_values
+    from birdocp.studies.trim import trim
+
+    cfg = with_values(Config(), gait_values(optimum) | CASES[name])
+    t0 = time.perf_counter()
+    tr = trim(cfg, x_guess=optimum["x0"] if x_guess is None else x_guess)
+    return {"gait": gait, "case": name, "values": gait_values(optimum), "overrides": CASES[name],
+            "quasi_steady_radius": optimum.get("radius"), "trim": _summary(tr),
+            "trim_wall_s": time.perf_counter() - t0}
+
+
+def _f(v, f="{:.4f}"):
+    return "—" if v is None else f.format(v)
+
+
+def table(rows: list[dict]) -> str:
+    lines = ["| gait | model | \\|Λ1\\| | next multipliers | stable | mean W (m/s) | max \\|α_E\\| (deg) | "
+             "stalled / separated | valid | reasons |", "|" + "---|" * 10]
+    for r in rows:
+        t = r["trim"]
+        ok = t.get("success")
+        nxt = ", ".join(f"{abs(complex(*z)):.4f}" for z in (t.get("multipliers") or [])[1:4]) if ok else "—"
+        lam = t.get("lambda1") if ok else None
+        v = t.get("validity") or {}
+        lines.append(f"| {r['gait']} | {r['case']} | {_f(lam)} | {nxt} | "
+                     f"{'—' if lam is None else ('yes' if lam < 1 else 'no')} | "
+                     f"{_f(t.get('mean_vertical_speed_mps') if ok else None, '{:+.3f}')} | "
+                     f"{_f(t.get('max_abs_alpha_E_deg') if ok else None, '{:.1f}')} | "
+                     f"{_f(t.get('stalled_fraction') if ok else None, '{:.3f}')} / "
+                     f"{_f(t.get('separated_fraction') if ok else None, '{:.3f}')} | "
+                     f"{t.get('valid') if ok else 'not converged: ' + str(t.get('status'))} | "
+                     f"{'; '.join(v.get('reasons') or []) or '—'} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    ap = script_parser(__doc__, "results/aero/valid")
+    ap.add_argument("--cases", nargs="*", default=["today", "wagner", "wagner_stall"],
+                    help=f"aerodynamic models (default today wagner wagner_stall; also {', '.join(CASES)})")
+    ap.add_argument("--gaits", nargs="*", default=list(GAITS), help="optima to evaluate (default free_speed at_speed)")
+    args, out = parse_with_out(ap, argv)
+    from birdocp.io.files import atomic_write_json, atomic_write_text
+
+    optima = json.loads(OPTIMA.read_text())
+    (out / "cases").mkdir(exist_ok=True)
+    rows = []
+    for gait in args.gaits:
+        for name in args.cases:
+            path = out / "cases" / f"{gait}_{name}.json"
+            if path.exists():
+                rows.append(json.loads(path.read_text()))
+                continue
+            print(f"{gait} {name} ...", flush=True)
+            start = out / "cases" / f"{gait}_wagner.json"
+            guess = None
+            if "section" in str(CASES[name]) and start.exists():
+                # a stall section starts from the linear-section wagner cycle at the same gait (from the
+                # quasi-steady optimum's state IPOPT's trial points reach a singular Newton circulation)
+                t = json.loads(start.read_text())["trim"]
+                guess = t["x0_body"] if t.get("success") else None
+            r = run_case(gait, optima[gait], name, guess)
+            atomic_write_json(path, r)
+            rows.append(r)
+            print(f"  |Lambda1| {r['trim'].get('lambda1')}, valid {r['trim'].get('valid')} "
+                  f"({r['trim_wall_s']:.0f} s)", flush=True)
+    atomic_write_json(out / "table.json", {"rows": rows, "optima": str(OPTIMA.relative_to(ROOT))})
+    atomic_write_text(out / "table.md", table(rows))
+    print(table(rows))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
