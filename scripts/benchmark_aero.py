@@ -106,8 +106,7 @@ def main(argv=None) -> int:
     ap.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES),
                     help="trim cases (default all; 'default' is always run: it is the denominator)")
     ap.add_argument("--max-elements", type=int, default=32, help="largest n of the element scaling (8, 16, 32, ...)")
-    ap.add_argument("--compiled", action="store_true", help="also time the trims with compiled=True (separate rows)")
-    args, out = parse_with_out(ap, argv)
+    args, out = parse_with_out(ap, argv)  # --compiled (script_parser): also the trims with compiled=True
     from birdocp.io.files import atomic_write_json
 
     cases = ["default"] + [c for c in args.cases if c != "default"]
