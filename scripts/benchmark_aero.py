@@ -5,8 +5,10 @@
    already built (each case is trimmed twice, the second time is measured), and the size of the state
    right-hand side and of one RK4 step of the variational equations (the state and its Jacobian: what
    the shooting evaluates 148 times per iterate; CasADi instructions). Targets: wagner <= 4x,
-   dynamic-stall <= 6x. ``--compiled`` adds the same trims with ``compiled=True`` (separate rows; the
-   targets are about the default, interpreted path).
+   dynamic-stall <= 6x. ``--compiled`` adds the same trims with ``compiled=True`` (separate rows
+   ``<case>_compiled``; ``ratios_compiled``: each against the compiled default; ``libraries``: the C
+   libraries of the first solve, their generate/compile seconds and whether the cache had them; the
+   first solve's wall time ``first_wall_s`` includes the builds).
 2. How the cost grows with the number of lifting-line elements n: instructions and evaluation time of
    the section model's right-hand side and of its Jacobian along the aerodynamic states (2n or 3n:
    the sensitivities), on the prescribed-kinematics wing of n elements (the same functions as the
@@ -42,11 +44,16 @@ def trim_cost(overrides: dict, repeats: int = 2, x_guess=None, compiled: bool = 
 
     cfg = with_values(Config(), overrides)
     m = get_model(cfg)
-    walls = []
+    from birdocp.export import compiled as comp
+
+    walls, builds = [], {}
     for _ in range(repeats):
+        comp.last_compile_s.clear()
         t0 = time.perf_counter()
         r = trim(cfg, x_guess=x_guess, compiled=compiled)
         walls.append(time.perf_counter() - t0)
+        builds = builds or {k: {"generate_s": v["generate"], "compile_s": v["compile"], "cached": v["cached"]}
+                            for k, v in comp.last_compile_s.items()}
     grid = RK4Grid(m.ode, cfg.solve.steps_per_period, cfg.solve.points - 1)
     s = m.structure
 
@@ -57,7 +64,8 @@ def trim_cost(overrides: dict, repeats: int = 2, x_guess=None, compiled: bool = 
             "wall_parts_s": {k: float(v) for k, v in r.wall_s.items()}, "iterations": int(r.iterations),
             "rhs_instructions": count(m.rhs, 1), "states": int(m.ode.nx),
             "variational_step_instructions": count(grid.variational_step(), 4),
-            "lambda1": float(abs(r.multipliers[0])) if r.success else None}
+            "lambda1": float(abs(r.multipliers[0])) if r.success else None,
+            **({"libraries": builds} if compiled else {})}
 
 
 def element_scaling(unsteady: str, section: str, n: int, evals: int = 200) -> dict:
@@ -98,8 +106,7 @@ def main(argv=None) -> int:
     ap.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES),
                     help="trim cases (default all; 'default' is always run: it is the denominator)")
     ap.add_argument("--max-elements", type=int, default=32, help="largest n of the element scaling (8, 16, 32, ...)")
-    ap.add_argument("--compiled", action="store_true", help="also time the trims with compiled=True (separate rows)")
-    args, out = parse_with_out(ap, argv)
+    args, out = parse_with_out(ap, argv)  # --compiled (script_parser): also the trims with compiled=True
     from birdocp.io.files import atomic_write_json
 
     cases = ["default"] + [c for c in args.cases if c != "default"]
@@ -112,6 +119,9 @@ def main(argv=None) -> int:
         res["trim"].update({f"{k}_compiled": trim_cost(CASES[k], x_guess=guess, compiled=True) for k in cases})
     base = res["trim"]["default"]["wall_s"]
     res["ratios"] = {k: v["wall_s"] / base for k, v in res["trim"].items()}
+    if args.compiled:  # both sides compiled: the compiled trims against the compiled default
+        cbase = res["trim"]["default_compiled"]["wall_s"]
+        res["ratios_compiled"] = {k: v["wall_s"] / cbase for k, v in res["trim"].items() if k.endswith("_compiled")}
     res["targets"] = TARGETS
     res["elements"] = {f"{u}+{s}": [element_scaling(u, s, n) for n in (8, 16, 32, 64) if n <= args.max_elements]
                        for u, s in (("wagner", "linear"), ("wagner", "stall"),
@@ -123,6 +133,9 @@ def main(argv=None) -> int:
         print(f"  {k:22s} {v['wall_s']:7.2f} s  x{res['ratios'][k]:5.2f}"
               + (f" (target <= {tgt:g}x)" if tgt else "") + f"  states {v['states']}, rhs {v['rhs_instructions']}, "
               f"variational step {v['variational_step_instructions']} instr., {v['iterations']} iterations")
+    for k, v in res.get("ratios_compiled", {}).items():
+        print(f"  {k:22s} x{v:5.2f} of default_compiled; first solve {res['trim'][k]['first_wall_s']:.1f} s, "
+              f"builds {res['trim'][k]['libraries']}")
     print("section right-hand side / its state Jacobian against the number of elements n (instructions, us per evaluation)")
     for k, rows in res["elements"].items():
         print(f"  {k:22s} " + "  ".join(f"n={r['n']}: {r['instructions']} / {r['eval_us']:.0f}, "

@@ -65,22 +65,31 @@ def test_export_builds_and_matches_python(tmp_path):
     assert bad.returncode == 2 and "not a number" in bad.stderr
 
 
+@pytest.fixture(scope="module")
+def shared_cache(tmp_path_factory):
+    """One library folder for the compiled solves of this module: the variational RK4 step (h an input:
+    one library for every grid; gcc ~50 s on a loaded 2-core machine) is compiled once."""
+    return tmp_path_factory.mktemp("compiled") / "cache"
+
+
 @pytest.mark.slow
 @needs_cc
-def test_compiled_trim_same_multipliers(tmp_path, monkeypatch):
+def test_compiled_trim_same_multipliers(shared_cache, monkeypatch):
     from birdocp.export import compiled
     from birdocp.studies.trim import trim
 
-    monkeypatch.setenv("BIRDOCP_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("BIRDOCP_CACHE", str(shared_cache))
     compiled._ODES.clear()
     a = trim()
     with warnings.catch_warnings():
         warnings.simplefilter("error", CompiledFallbackWarning)
         b = trim(compiled=True)
     assert a.success and b.success
-    assert list((tmp_path / "cache").glob("birdocp_rhs-*.so"))
-    assert np.max(np.abs(a.multipliers - b.multipliers)) < 1e-10
-    assert np.max(np.abs(a.x0 - b.x0)) < 1e-10
+    assert list(shared_cache.glob("birdocp_rhs-*.so"))
+    # the sensitivities came from the compiled variational step, and give the same numbers bit for bit
+    assert list(shared_cache.glob("birdocp_rk4_variational_step-*.so"))
+    assert np.array_equal(a.multipliers, b.multipliers)
+    assert np.array_equal(a.x0, b.x0)
     compiled._ODES.clear()  # the second build is a cache hit
     b2 = trim(compiled=True)
     assert compiled.last_compile_s["birdocp_rhs"]["cached"]
@@ -89,7 +98,7 @@ def test_compiled_trim_same_multipliers(tmp_path, monkeypatch):
 
 @pytest.mark.slow
 @needs_cc
-def test_compiled_level_bit_identical(tmp_path, monkeypatch, coarse, default_model):
+def test_compiled_level_bit_identical(shared_cache, monkeypatch, coarse, default_model):
     """Level flight (the amplitude free: post and its amplitude derivative evaluated on the stage grid
     at every iterate) with the compiled RHS and data gives the interpreted numbers bit for bit, and a
     second process finds the libraries by the graph key alone."""
@@ -97,7 +106,7 @@ def test_compiled_level_bit_identical(tmp_path, monkeypatch, coarse, default_mod
     from birdocp.export import compiled
     from birdocp.studies.level import level
 
-    monkeypatch.setenv("BIRDOCP_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("BIRDOCP_CACHE", str(shared_cache))
     compiled._ODES.clear()
     clear_stage_data()
     a = level(**coarse)
@@ -106,8 +115,9 @@ def test_compiled_level_bit_identical(tmp_path, monkeypatch, coarse, default_mod
         warnings.simplefilter("error", CompiledFallbackWarning)
         b = level(compiled=True, **coarse)
     assert a.success and b.success
-    names = {f.name.split("-")[0] for f in (tmp_path / "cache").glob("birdocp_*.so")}
-    assert {"birdocp_rhs", f"birdocp_{default_model.ode.post.name()}", "birdocp_post_dpf"} <= names
+    names = {f.name.split("-")[0] for f in shared_cache.glob("birdocp_*.so")}
+    assert {"birdocp_rhs", f"birdocp_{default_model.ode.post.name()}", "birdocp_post_dpf",
+            "birdocp_rk4_variational_step"} <= names
     assert np.array_equal(a.multipliers, b.multipliers)
     assert a.amplitude_deg == b.amplitude_deg
     assert np.array_equal(a.x0, b.x0)
@@ -170,3 +180,25 @@ def test_cli_export_c(tmp_path, capsys):
     assert main(["export-c", "--out", str(tmp_path / "other")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--out" in err
+
+
+@pytest.mark.slow
+@needs_cc
+def test_variational_step_over_the_size_limit_stays_interpreted(shared_cache, monkeypatch, coarse):
+    """A variational step larger than MAX_INSTRUCTIONS is not compiled: one CompiledFallbackWarning,
+    the step (h an input) evaluated by CasADi, and the trim's numbers those of the interpreted path."""
+    from birdocp.export import compiled
+    from birdocp.studies.trim import trim
+
+    monkeypatch.setenv("BIRDOCP_CACHE", str(shared_cache))
+    monkeypatch.setattr(compiled, "MAX_INSTRUCTIONS", 1000)
+    compiled._ODES.clear()
+    compiled._NUMERIC.clear()
+    a = trim(**coarse)
+    with pytest.warns(CompiledFallbackWarning, match="rk4_variational_step.*MAX_INSTRUCTIONS"):
+        b = trim(compiled=True, **coarse)
+    compiled._ODES.clear()
+    compiled._NUMERIC.clear()
+    assert a.success and b.success
+    assert np.max(np.abs(a.multipliers - b.multipliers)) < 1e-12
+    assert np.max(np.abs(a.x0 - b.x0)) < 1e-12

@@ -15,6 +15,7 @@ This is exactly RK4 on (x, q), so the means converge with the same 4th order as 
 from __future__ import annotations
 
 import functools
+import hashlib
 
 import casadi as ca
 import numpy as np
@@ -217,12 +218,13 @@ class RK4Grid:
         nx, nq = self.ode.nx, self.nq
         x, Dn, p = self._symbols(1, 3 * self.n)
         try:
-            var = self.variational_step()
+            var = self.variational_function()
         except Exception:  # noqa: BLE001 - any failure: the generic (slower) construction
             var = None
         if var is not None:
             s0 = ca.vertcat(x, ca.vec(ca.DM.eye(nx)), ca.DM.zeros(nq), ca.DM.zeros(nq * nx))
-            S = accumulate(var, self.n, s0, Dn, p, name="var_acc")[0][:, -1]
+            h = [self.h] if var.n_in() == 4 else []  # the compiled step takes h (one library per model)
+            S = accumulate(var, self.n, s0, Dn, p, *h, name="var_acc")[0][:, -1]
             k = nx + nx * nx
             outs = [S[:nx], S[k:k + nq], ca.reshape(S[nx:k], nx, nx), ca.reshape(S[k + nq:], nq, nx)]
         else:
@@ -231,13 +233,29 @@ class RK4Grid:
             outs = [xe, q, J[:nx, :], J[nx:, :]]
         return ca.Function("segment_jac", [x, Dn, p], outs, ["x", "D", "p"], ["x_end", "q", "J", "JQ"])
 
-    def variational_step(self) -> ca.Function:
+    def variational_function(self) -> ca.Function:
+        """The variational step the segments evaluate (numbers only, never differentiated):
+        :meth:`variational_step`, or, when the ODE's ``numeric`` hook names a ``source`` ODE (the
+        interpreted twin of a compiled ODE, :func:`birdocp.export.compiled.compiled_ode`), the same
+        step built from the source's SX right-hand side and handed to the hook (compiled C: the
+        whole step and its Jacobians in one library, not calls of the compiled RHS from the VM), with
+        the step h as a fourth input: one library serves every grid."""
+        ode = self.ode
+        src = getattr(ode.numeric, "source", None)
+        if src is None:
+            return self.variational_step()
+        twin = RK4Grid(src, self.N, self.S, self._outputs)
+        outs = hashlib.sha256("".join(g.serialize() for g in self._outputs).encode()).hexdigest()[:16]
+        return ode.fast(twin.variational_step(h_input=True), f"variational nq={self.nq} outputs={outs}")
+
+    def variational_step(self, h_input: bool = False) -> ca.Function:
         """One RK4 step of the state, its sensitivity Phi = dx/dx0, the output integrals q and their
         sensitivity dq/dx0, as one SX Function of s = [x; vec(Phi); q; vec(dq/dx0)]:
         Phi+ = A Phi, dq/dx0+ = dq/dx0 + B Phi with A, B the step's Jacobians (the chain rule through
         the same RK4 steps: the exact Jacobian of the discrete segment, as forward AD gives it).
         Measured on the bird (148 steps, 4 segments): 10 ms per segment against 25 ms for
-        ``casadi.jacobian`` of the MX segment (forward AD through ``mapaccum``)."""
+        ``casadi.jacobian`` of the MX segment (forward AD through ``mapaccum``). ``h_input``: the step
+        h is a fourth input (``s, D3, p, h``) instead of the grid's constant."""
         nx, nd, np_, nq = self.ode.nx, self.ode.nd, self.ode.np, self.nq
         s = ca.SX.sym("s", nx + nx * nx + nq + nq * nx)
         D3 = ca.SX.sym("D3", nd, 3)
@@ -247,12 +265,14 @@ class RK4Grid:
         k = nx + nx * nx
         q = s[k:k + nq]
         JQ = ca.reshape(s[k + nq:], nq, nx)
-        xn, qi = self.step(x, D3, p, self.h)
+        h = ca.SX.sym("h") if h_input else self.h
+        xn, qi = self.step(x, D3, p, h)
         A = ca.jacobian(xn, x)
         out = [xn, ca.vec(ca.mtimes(A, Phi)), q + qi]
         if nq:
             out.append(ca.vec(JQ + ca.mtimes(ca.jacobian(qi, x), Phi)))
-        return ca.Function("rk4_variational_step", [s, D3, p], [ca.vertcat(*out)], ["s", "D3", "p"], ["s_next"])
+        ins, names = ([s, D3, p, h], ["s", "D3", "p", "h"]) if h_input else ([s, D3, p], ["s", "D3", "p"])
+        return ca.Function("rk4_variational_step", ins, [ca.vertcat(*out)], names, ["s_next"])
 
     @functools.cached_property
     def segment_sensitivities(self) -> ca.Function:

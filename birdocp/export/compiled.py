@@ -9,7 +9,9 @@ the external with SX arguments makes a *call node* in the SX RK4 step, so
 :class:`birdocp.engine.integrate.RK4Grid` and the shooting code need no change. The Functions the engine
 evaluates only for numbers (``post`` on the stage grid, 35k instructions per time; ``post`` with its
 derivatives along the free parameters, 104k for two; gcc 7-9 s each, once) are compiled on first use
-through the ODE's ``numeric`` hook (:class:`NumericCompiler`). The arm-frame geometry ``pre`` (183k
+through the ODE's ``numeric`` hook (:class:`NumericCompiler`), and so is the RK4 step of the
+variational equations the shooting evaluates for its exact sensitivities, built from the interpreted
+SX right-hand side (the state and its nx directions in one piece of C; up to :data:`MAX_INSTRUCTIONS`). The arm-frame geometry ``pre`` (183k
 nodes) is never compiled (``docs/performance.md``): its values are kept on disk instead
 (:mod:`birdocp.engine.datastore`).
 
@@ -43,12 +45,18 @@ from birdocp.engine.cache import bounded_cache
 from birdocp.engine.problem import PeriodicODE
 
 __all__ = ["CompiledFallbackWarning", "cache_dir", "find_compiler", "compile_functions", "compiled_ode",
-           "NumericCompiler",
+           "NumericCompiler", "MAX_INSTRUCTIONS",
            "OPT_FLAGS", "last_compile_s"]
 
 OPT_FLAGS = ("-O1",)
 """-O1: measured best trade-off here (docs/performance.md: -O0 is slower than the interpreter; -O2/-O3 only
 lengthen the build of generated straight-line code)."""
+
+MAX_INSTRUCTIONS = 1_000_000
+"""Largest Function (CasADi instructions) the ``numeric`` hook compiles: gcc -O1 took 217 s and 3 GB for
+the 647k-instruction variational RK4 step of ``aero.unsteady = "wagner"`` (once, then cached) and grows
+faster than linearly; larger Functions (the 4.4M of ``dynamic-stall``) stay interpreted, with one
+:class:`CompiledFallbackWarning`."""
 
 last_compile_s: dict = {}
 """Wall times of the last build per library name: ``{"generate": s, "compile": s, "cached": bool}``."""
@@ -194,17 +202,25 @@ class NumericCompiler:
     numbers, 4-5x faster on the bird's ``post``: measured 17 -> 3.6 ms on 297 stage times). A Function
     that cannot be compiled is used as it is (with one :class:`CompiledFallbackWarning`). ``key``: what
     identifies ``f``'s graph exactly (the engine passes the ODE's ``graph_key`` and what it built;
-    :func:`compile_functions`' ``graph_key``), so a cached library is found without generating C."""
+    :func:`compile_functions`' ``graph_key``), so a cached library is found without generating C.
+    ``source``: the interpreted ODE the compiled one was made from; the engine builds the Functions
+    whose graphs hold the RHS (the RK4 step of the variational equations:
+    :meth:`birdocp.engine.integrate.RK4Grid.variational_function`) from its SX right-hand side, so they
+    compile as one piece of C."""
 
-    def __init__(self, key_extra: str = "", directory: Path | None = None):
+    def __init__(self, key_extra: str = "", directory: Path | None = None, source: PeriodicODE | None = None):
         self.key_extra = key_extra
         self.directory = directory
+        self.source = source
 
     def __call__(self, f: ca.Function, key: str = "") -> ca.Function:
         hit = _NUMERIC.get(id(f))
         if hit is not None and hit[0] is f:
             return hit[1]
         try:
+            if f.n_instructions() > MAX_INSTRUCTIONS:
+                raise RuntimeError(f"{f.n_instructions()} instructions, more than MAX_INSTRUCTIONS = "
+                                   f"{MAX_INSTRUCTIONS} (compiling would take too long)")
             lib = compile_functions(f"birdocp_{f.name()}", [f], self.key_extra, self.directory, graph_key=key)
             out = ca.external(f.name(), lib)
         except Exception as e:  # never fail the solve because of the compiler
@@ -245,7 +261,7 @@ def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None =
         # pre/post kept symbolic (the engine differentiates post); their numbers come from compiled C
         out = PeriodicODE(rhs=ext, data=ode.data, period_s=ode.period_s, state_names=ode.state_names,
                           param_names=ode.param_names, pre=ode.pre, post=ode.post, pre_params=ode.pre_params,
-                          graph_key=ode.graph_key, numeric=NumericCompiler(key_extra, directory))
+                          graph_key=ode.graph_key, numeric=NumericCompiler(key_extra, directory, source=ode))
     except Exception as e:  # never fail the solve because of the compiler
         warnings.warn(f"birdocp: compiled RHS unavailable, using the interpreted CasADi path ({e})",
                       CompiledFallbackWarning, stacklevel=2)
