@@ -27,22 +27,27 @@ def _joint_angles(t, p, frequency_hz):
     return kinematics.joint_angles(t, frequency_hz, joints)
 
 
-def _local_expr(t, p, frequency_hz):
+def _local_expr(t, p, frequency_hz, smooth=False):
     """The wing in the arm's frame (shoulder rotation R1 = I): every non-smooth step of the
     reference (resampling, corner smoothing, nearest points) happens here, and it depends on the
     elbow and wrist joints and the morphology only (docs/model.md §2-4; lengths and angles are invariant under
-    the shoulder rotation, so the wing in the wing frame is R1 times this shape)."""
+    the shoulder rotation, so the wing in the wing frame is R1 times this shape). ``smooth``: the
+    switch-free geometry of ``wing.smooth_geometry`` instead (:func:`birdocp.bird.wing.smooth_geometry`)."""
     q = _joint_angles(t, p, frequency_hz)
     l1, l2, l4 = (_p(p, f"wing.{k}") for k in ("arm_length_m", "forearm_length_m", "hand_length_m"))
     feathers = [_p(p, f"wing.feather_lengths_m.{i}") for i in range(7)]
     sk = kinematics.skeleton(q, l1, l2, l4, feathers, with_shoulder=False)
     LE, TE = kinematics.raw_edges(sk, l1, l2, l4, _p(p, "wing.section_half_thickness_m"))
     radius = _p(p, "wing.smoothing_radius_m")
-    LEs, dle = wing.smooth_line(LE, radius)
-    TEs, dte = wing.smooth_line(TE, radius)
-    P, E, T, Lr, change = wing.lifting_line(LEs, TEs)
+    if smooth:
+        LEs, TEs, P, E, T, diag = wing.smooth_geometry(LE, TE, radius)
+        Lr, change = P, ca.SX(0)
+    else:
+        LEs, dle = wing.smooth_line(LE, radius)
+        TEs, dte = wing.smooth_line(TE, radius)
+        P, E, T, Lr, change = wing.lifting_line(LEs, TEs)
+        diag = {k: dle[k] + dte[k] for k in dle}
     chord, c_hat, up = wing.sections(P, E, T, Lr)
-    diag = {k: dle[k] + dte[k] for k in dle}
     diag["improve_change"] = change
     return {
         "joint_angles_rad": ca.vertcat(*[q[j] for j in JOINT_NAMES]),
@@ -109,7 +114,7 @@ def _pre(s: Structure, t, p) -> dict:
     companion, the wing-mass points and, for an unsteady or stall section, the first and second time
     derivatives of the aerodynamic shape (AD in t). Returns ``ell`` (the column), ``loc``, the sizes
     ``n_aero`` (shape and companion) and ``n_before_deriv`` (before the time derivatives)."""
-    loc = _local_expr(t, p, s.frequency_hz)
+    loc = _local_expr(t, p, s.frequency_hz, s.smooth_geometry)
     P = loc["P"]
     if s.kinematic_velocity == "exact":
         aux = ca.jtimes(ca.vec(P), t, ca.SX(1))       # dP/dt in the arm frame

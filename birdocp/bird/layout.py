@@ -96,6 +96,7 @@ class Structure:
     unsteady: str = "none"
     section: str = "linear"
     newton_steps: int = 5
+    smooth_geometry: bool = False
 
     @property
     def aero_extra(self) -> bool:
@@ -121,5 +122,6 @@ class Structure:
                          bool(cfg.wing.inertial_terms or cfg.wing.mass_kg > 0),
                          drag=bool(dr.enabled or dr.body_drag_coefficient > 0 or dr.profile_drag_coefficient > 0),
                          unsteady=a.unsteady, section=a.section,
-                         newton_steps=int(a.newton_steps) if a.section != "linear" else 5)
+                         newton_steps=int(a.newton_steps) if a.section != "linear" else 5,
+                         smooth_geometry=bool(cfg.wing.smooth_geometry))
 

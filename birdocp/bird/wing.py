@@ -165,6 +165,56 @@ def smooth_line(P, radius_m):
     return out, diag
 
 
+def soft_ramp(x, width_m):
+    """C-infinity ramp ``width log(1 + exp(x / width))`` (m): max(x, 0) with its corner rounded over
+    ~``width_m``; evaluated as ``max(x, 0) + width log(1 + exp(-|x| / width))`` (no overflow, and the
+    two branches are one analytic function)."""
+    return ca.fmax(x, 0) + width_m * ca.log1p(ca.exp(-ca.fabs(x) / width_m))
+
+
+def soft_resample(P, width_m, carry=(), n_out=N_POINTS):
+    """Arc-length resampling of polyline P on its corner-rounded curve (``wing.smooth_geometry``).
+
+    The polyline as a function of arc length s is P_0 + sum_k u_k (ramp(s - cum_k) - ramp(s - cum_{k+1}))
+    with u_k = (P_{k+1} - P_k) / |P_{k+1} - P_k|; replacing ramp = max(., 0) by :func:`soft_ramp`
+    rounds every corner over ~``width_m`` and makes the samples at s_i = i L / (n_out - 1) C-infinity
+    functions of the vertices: no segment search, no switch. ``carry`` are carried with the same
+    weights (the chord end points). The end samples are the end vertices.
+    """
+    n = len(P)
+    seg = [ca.norm_2(P[k + 1] - P[k]) for k in range(n - 1)]
+    cum = [0.0]
+    for s in seg:
+        cum.append(cum[-1] + s)
+    delta = cum[-1] / (n_out - 1)
+    outs = [[P[0]]] + [[C[0]] for C in carry]
+    for i in range(1, n_out - 1):
+        target = i * delta
+        w = [(soft_ramp(target - cum[k], width_m) - soft_ramp(target - cum[k + 1], width_m)) / seg[k]
+             for k in range(n - 1)]
+        for a, Q in enumerate((P,) + tuple(carry)):
+            outs[a].append(Q[0] + sum(w[k] * (Q[k + 1] - Q[k]) for k in range(n - 1)))
+    outs[0].append(P[-1])
+    for a, C in enumerate(carry):
+        outs[a + 1].append(C[-1])
+    return outs[0] if not carry else tuple(outs)
+
+
+def smooth_geometry(LE, TE, radius_m):
+    """The switch-free wing (``wing.smooth_geometry = true``, docs/model.md §4.7): both edges resampled
+    on their corner-rounded curves (rounding width R_s / 4), the quarter-chord line resampled the same
+    way with its chord end points, no corner sweep and no improvement step. Every output is a
+    C-infinity function of the joint angles, hence of t. Returns (LEs, TEs, P, E, T, diagnostics);
+    the diagnostics are 0 (nothing is emulated)."""
+    width = 0.25 * radius_m
+    LEs = soft_resample(LE, width)
+    TEs = soft_resample(TE, width)
+    L0 = [0.75 * e + 0.25 * t for e, t in zip(LEs, TEs)]
+    P, E, T = soft_resample(L0, width, carry=(LEs, TEs))
+    diag = {k: ca.SX(0) for k in DIAGNOSTICS if k not in ("improve_change", "n_mid")}
+    return LEs, TEs, P, E, T, diag
+
+
 def _nearest_two(points, origin, direction):
     """The nearest and second-nearest of ``points`` to the infinite line {origin + s direction}
     (ties keep the lower index, as a stable argsort)."""
