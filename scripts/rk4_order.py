@@ -1,9 +1,9 @@
 """Observed order of the bird's RK4 grid: the multipliers of ``trim`` (reference case) on a sequence of
 steps per period, with the reference wing geometry (``wing.smooth_geometry = false``, the default) and
-the switch-free one (``true``, docs/model.md §4.7). Errors are taken against the finest grid of the
+the switch-free one (``true``, docs/model.md §4.8). Errors are taken against the finest grid of the
 same geometry; the observed order is log2(e_N / e_2N). Also the solver's own error estimate
 (``error_estimate=True``: a re-solve on 2N steps) at the default grid (148 steps) against that error.
-Numbers quoted in docs/model.md §4.7.
+Numbers quoted in docs/model.md §4.8.
 
     python scripts/rk4_order.py [--out results/engine/rk4_order]
 

@@ -1,4 +1,4 @@
-"""``wing.smooth_geometry``: the switch-free wing geometry (docs/model.md §4.7) makes the bird's RK4
+"""``wing.smooth_geometry``: the switch-free wing geometry (docs/model.md §4.8) makes the bird's RK4
 grid converge at order 4; off (the default), the model is today's, bit for bit."""
 from __future__ import annotations
 

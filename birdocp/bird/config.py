@@ -83,7 +83,7 @@ class Wing:
     """Corner-smoothing radius R_s of the edge resampling."""
     smooth_geometry: bool = False
     """Replace the wing geometry's switches (segment search, corner sweeps, nearest points) by the
-    switch-free, C-infinity formulation of docs/model.md §4.7 (corners rounded over R_s / 4), so that
+    switch-free, C-infinity formulation of docs/model.md §4.8 (corners rounded over R_s / 4), so that
     the RK4 grid converges at order 4. False: the reference geometry, bit for bit."""
     mass_kg: float = 0.0
     """Mass of ONE wing (bones, muscle, skin, feathers). 0 = massless wings, the paper's model bit for

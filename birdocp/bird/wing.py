@@ -201,7 +201,7 @@ def soft_resample(P, width_m, carry=(), n_out=N_POINTS):
 
 
 def smooth_geometry(LE, TE, radius_m):
-    """The switch-free wing (``wing.smooth_geometry = true``, docs/model.md §4.7): both edges resampled
+    """The switch-free wing (``wing.smooth_geometry = true``, docs/model.md §4.8): both edges resampled
     on their corner-rounded curves (rounding width R_s / 4), the quarter-chord line resampled the same
     way with its chord end points, no corner sweep and no improvement step. Every output is a
     C-infinity function of the joint angles, hence of t. Returns (LEs, TEs, P, E, T, diagnostics);
