@@ -190,8 +190,8 @@ def soft_resample(P, width_m, carry=(), n_out=N_POINTS):
     outs = [[P[0]]] + [[C[0]] for C in carry]
     for i in range(1, n_out - 1):
         target = i * delta
-        w = [(soft_ramp(target - cum[k], width_m) - soft_ramp(target - cum[k + 1], width_m)) / seg[k]
-             for k in range(n - 1)]
+        w = [(soft_ramp(target - cum[k], width_m) - soft_ramp(target - cum[k + 1], width_m))
+             / ca.if_else(seg[k] > 0, seg[k], 1.0) for k in range(n - 1)]  # a 0-length segment adds 0
         for a, Q in enumerate((P,) + tuple(carry)):
             outs[a].append(Q[0] + sum(w[k] * (Q[k + 1] - Q[k]) for k in range(n - 1)))
     outs[0].append(P[-1])
