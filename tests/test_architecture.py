@@ -59,6 +59,75 @@ def test_no_private_names_across_modules():
     assert not offenders, "\n".join(offenders)
 
 
+PRIVATE_WRITE_LAYERS = ("studies", "engine")
+"""The layers where no code writes another object's private attribute (``obj._name = ...``)."""
+
+
+def _written_attributes(node):
+    """The attribute targets (``a.b``) that an assignment, augmented/annotated assignment or ``del``
+    writes, through tuples, starred names and subscripts (``a._b[0] = ...`` writes ``a._b``)."""
+    if isinstance(node, ast.Assign):
+        stack = list(node.targets)
+    elif isinstance(node, (ast.AugAssign, ast.AnnAssign)):
+        stack = [node.target]
+    elif isinstance(node, ast.Delete):
+        stack = list(node.targets)
+    else:
+        return
+    while stack:
+        t = stack.pop()
+        if isinstance(t, (ast.Tuple, ast.List)):
+            stack.extend(t.elts)
+        elif isinstance(t, (ast.Starred, ast.Subscript)):
+            stack.append(t.value)
+        elif isinstance(t, ast.Attribute):
+            yield t
+
+
+def private_writes(paths) -> list:
+    """``"path:line target"`` of every write of a private attribute (one leading underscore, not a
+    dunder) of an object other than ``self``/``cls``, and every ``setattr``/``delattr`` of a private
+    name given as a literal, in ``paths``."""
+    out = []
+    for path in paths:
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            targets = [(t.value, t.attr) for t in _written_attributes(node)]
+            if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+                    and node.func.id in ("setattr", "delattr") and len(node.args) >= 2
+                    and isinstance(node.args[1], ast.Constant) and isinstance(node.args[1].value, str)):
+                targets.append((node.args[0], node.args[1].value))
+            for obj, attr in targets:
+                if (attr.startswith("_") and not (attr.startswith("__") and attr.endswith("__"))
+                        and not (isinstance(obj, ast.Name) and obj.id in ("self", "cls"))):
+                    out.append(f"{path.relative_to(ROOT)}:{node.lineno} {ast.unparse(obj)}.{attr}")
+    return out
+
+
+def test_private_writes_check_finds_outside_writes(tmp_path):
+    """The checker itself: writes of another object's private attribute are found (plain, tuple,
+    augmented, subscript, setattr); writes through self/cls, of public names and of dunders are not."""
+    (tmp_path / "a.py").write_text(
+        "class C:\n    def f(self, rc):\n        self._a = 1\n        cls._b = 2\n        rc.y = 3\n"
+        "        rc.__doc__ = ''\n        rc._y = 4\n        rc._t, x = 5, 6\n        rc._n += 1\n"
+        "        rc._v[0] = 7\n        setattr(rc, '_w', 8)\n")
+    global ROOT
+    root, ROOT = ROOT, tmp_path
+    try:
+        found = private_writes([tmp_path / "a.py"])
+    finally:
+        ROOT = root
+    assert sorted(found) == sorted(["a.py:7 rc._y", "a.py:8 rc._t", "a.py:9 rc._n", "a.py:10 rc._v",
+                                    "a.py:11 rc._w"])
+
+
+def test_no_private_writes_from_outside():
+    """No module of birdocp/studies or birdocp/engine writes a private attribute of another object:
+    state an object exposes for change has a method or an explicit object for it (a warm start:
+    :class:`birdocp.studies.gait_cycle.WarmStart`). Nothing is allowed."""
+    found = private_writes(sorted(p for layer in PRIVATE_WRITE_LAYERS for p in (PKG / layer).rglob("*.py")))
+    assert not found, "\n".join(found)
+
+
 def test_no_import_cycles():
     """No cycle among birdocp's modules, counting every import statement (function-level ones too)."""
     graph = {name: set() for name in MODULES}

@@ -236,9 +236,16 @@ def _model_for(structure: Structure) -> BirdModel:
 register_cache("bird.models", _model_for)
 
 
+def _from_model(name: str) -> property:
+    """A read-only property of :class:`ConfiguredModel`: the shared model's attribute ``name``."""
+    return property(lambda self: getattr(self.model, name),
+                    doc=f"The shared model's ``{name}`` (see :class:`BirdModel`).")
+
+
 class ConfiguredModel:
     """A (shared, cached) :class:`BirdModel` together with one configuration's parameter vector
-    ``p0``. Attribute access falls through to the model's Functions."""
+    ``p0``. The model's attributes that callers use are read-only properties here (listed below,
+    nothing else falls through: anything more is ``.model.<name>``)."""
 
     def __init__(self, model: BirdModel, cfg: Config):
         self.model = model
@@ -246,10 +253,41 @@ class ConfiguredModel:
         self.p0 = param_vector(cfg)
 
     def evaluate(self, state, t, p=None) -> dict:
+        """:meth:`BirdModel.evaluate` at this configuration's parameters (or ``p``)."""
         return self.model.evaluate(state, t, self.p0 if p is None else p)
 
-    def __getattr__(self, name):
-        return getattr(self.model, name)
+    def complete_state(self, x, p, t_s: float = 0.0) -> np.ndarray:
+        """:meth:`BirdModel.complete_state`."""
+        return self.model.complete_state(x, p, t_s)
+
+    def wing_power_history(self, t, X, p) -> dict:
+        """:meth:`BirdModel.wing_power_history`."""
+        return self.model.wing_power_history(t, X, p)
+
+    # what the model is and where its graphs came from
+    structure = _from_model("structure")
+    pre_params = _from_model("pre_params")
+    graph_source = _from_model("graph_source")
+    period_s = _from_model("period_s")
+    ode = _from_model("ode")
+    # its Functions (GRAPH_FUNCTIONS, OPTIONAL_FUNCTIONS, and the MX compositions f, loads, aero_detail)
+    pre = _from_model("pre")
+    post = _from_model("post")
+    rhs = _from_model("rhs")
+    data = _from_model("data")
+    geometry = _from_model("geometry")
+    loads_d = _from_model("loads_d")
+    detail_d = _from_model("detail_d")
+    rhs_wind = _from_model("rhs_wind")
+    loads_wind = _from_model("loads_wind")
+    mass_points = _from_model("mass_points")
+    wing_power_d = _from_model("wing_power_d")
+    section_d = _from_model("section_d")
+    aero_guess_d = _from_model("aero_guess_d")
+    held_d = _from_model("held_d")
+    f = _from_model("f")
+    loads = _from_model("loads")
+    aero_detail = _from_model("aero_detail")
 
 
 def get_model(cfg: Config) -> ConfiguredModel:

@@ -255,7 +255,8 @@ def _start_cycle(rc: ReducedLevelCycle, theta0, lo, hi, speed_mps):
     try:
         return rc.solve_speed(speed_mps, theta0, 0, (lo[0], hi[0])), ""
     except RuntimeError as e:  # the first key cannot reach the speed: IPOPT starts infeasible
-        return rc.evaluate(rc._theta if rc._theta is not None else theta0), f"; start not at the speed ({e})"
+        last = rc.warm_start.theta
+        return rc.evaluate(last if last is not None else theta0), f"; start not at the speed ({e})"
 
 
 def _nlp_solver(prob: ReducedProblem, opts: GaitSolverOptions):
@@ -301,9 +302,9 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
     t0 = time.perf_counter()
     rc = ReducedLevelCycle(cfg_start, keys, steps_per_period, climb_rate_mps,
                            second_order=objective == "stability" or max_multiplier is not None,
-                           valid=bool(valid_bounds))
+                           valid=bool(valid_bounds),
+                           amplitude_range_deg=(amplitude_bounds[0] - 10.0, amplitude_bounds[1] + 10.0))
     wall = {"build": time.perf_counter() - t0}
-    rc.amplitude_range_deg = (amplitude_bounds[0] - 10.0, amplitude_bounds[1] + 10.0)
     if x_guess is not None:
         rc.set_guess(x_guess)
     lo, hi = np.array([free[k][0] for k in keys]), np.array([free[k][1] for k in keys])

@@ -32,7 +32,7 @@ from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, sug
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.floquet import sort_multipliers
 
-__all__ = ["ReducedLevelCycle", "Evaluation", "jury_conditions", "check_free_bounds", "check_free_keys",
+__all__ = ["ReducedLevelCycle", "Evaluation", "WarmStart", "jury_conditions", "check_free_bounds", "check_free_keys",
            "AMPLITUDE_KEY", "JURY_MARGIN", "POSITIVE_EPS_W"]
 
 from birdocp.bird.keys import AMPLITUDE_KEY, JURY_MARGIN  # noqa: E402 (one definition of each)
@@ -99,6 +99,21 @@ def jury_function():
     M, r = ca.SX.sym("M", 4, 4), ca.SX.sym("r")
     j = jury_conditions(M / r)
     return ca.Function("jury", [M, r], [j, ca.jacobian(j, ca.vertcat(ca.vec(M), r))])
+
+
+@dataclass(frozen=True)
+class WarmStart:
+    """Where a :class:`ReducedLevelCycle`'s next Newton solve starts: read it with
+    :attr:`ReducedLevelCycle.warm_start`, set it with :meth:`ReducedLevelCycle.restart_from`.
+
+    y: the level cycle's unknowns (x0, A) [state units, deg]; theta: the free parameters it was solved
+    at (None: not yet solved with gradients); dy: d(x0, A)/d theta there (5 x n_theta), None for no
+    first-order prediction (Newton then starts from y itself).
+    """
+
+    y: np.ndarray
+    theta: np.ndarray | None = None
+    dy: np.ndarray | None = None
 
 
 @dataclass
@@ -199,11 +214,14 @@ class ReducedLevelCycle:
 
     cfg: configuration (every other value); keys: the free parameters theta; steps_per_period: RK4
     grid; climb_rate_mps: the mean vertical speed held by the amplitude; second_order: also the
-    monodromy's derivatives (for stability constraints).
+    monodromy's derivatives (for stability constraints); amplitude_range_deg: Newton solutions with
+    the flapping amplitude outside it are failures [deg]. The warm start of the Newton solves is
+    :attr:`warm_start` (a :class:`WarmStart`), replaced only through :meth:`restart_from`.
     """
 
     def __init__(self, cfg: Config, keys, steps_per_period: int | None = None, climb_rate_mps: float = 0.0,
-                 second_order: bool = False, amplitude_start_deg: float | None = None, valid: bool = False):
+                 second_order: bool = False, amplitude_start_deg: float | None = None, valid: bool = False,
+                 amplitude_range_deg: tuple[float, float] = (0.0, 90.0)):
         from birdocp.bird.model import get_model
 
         self.cfg = cfg
@@ -233,7 +251,7 @@ class ReducedLevelCycle:
         self._Ry = None
         self._cache: dict = {}
         self._anchor = None
-        self.amplitude_range_deg = (0.0, 90.0)
+        self.amplitude_range_deg = tuple(map(float, amplitude_range_deg))
         """Newton solutions with the flapping amplitude outside this range are failures [deg]."""
         self.n_full = self.n_resid = 0
         self._count_lock = threading.Lock()  # the counters (evaluate_near runs in threads)
@@ -275,6 +293,20 @@ class ReducedLevelCycle:
         return s, R, Ry, Rt, Jq, cy, ct, (D, cols, p)
 
     # -- the reduced map -------------------------------------------------------------------------
+    @property
+    def warm_start(self) -> WarmStart:
+        """Where the next Newton solve starts (copies: changing them changes nothing here)."""
+        return WarmStart(self._y.copy(), None if self._theta is None else self._theta.copy(),
+                         None if self._dy is None else self._dy.copy())
+
+    def restart_from(self, start: WarmStart) -> None:
+        """Start the next Newton solves from ``start`` (the only writer of the warm start besides
+        :meth:`evaluate` and :meth:`set_guess`); the cached evaluations, the last Jacobian and the
+        accepted point (:meth:`accept`) are kept."""
+        self._y = np.array(start.y, float)
+        self._theta = None if start.theta is None else np.array(start.theta, float)
+        self._dy = None if start.dy is None else np.array(start.dy, float)
+
     def set_guess(self, x0) -> None:
         """Start the first Newton solve from the state ``x0`` (at the configured amplitude)."""
         self._y[:4] = np.asarray(x0, float)

@@ -9,7 +9,7 @@ import numpy as np
 from birdocp.bird.config import require_body_states, Config, get_value, with_values
 from birdocp.bird.validity import periodic_validity
 from birdocp.io.progress import text_reporter
-from birdocp.studies.gait_cycle import AMPLITUDE_KEY, Evaluation, ReducedLevelCycle
+from birdocp.studies.gait_cycle import AMPLITUDE_KEY, Evaluation, ReducedLevelCycle, WarmStart
 
 __all__ = ["level_at_speed", "power_curve", "curve_optima", "SPEED_KEY"]
 
@@ -22,7 +22,8 @@ def level_at_speed(cfg: Config, speed_mps: float, key: str = SPEED_KEY, bounds=(
                    steps_per_period: int | None = None, rc: ReducedLevelCycle | None = None) -> Evaluation:
     """Level flight at mean forward speed ``speed_mps``: the amplitude and ``key`` solved."""
     rc = rc or ReducedLevelCycle(cfg, [key], steps_per_period)
-    theta = rc._theta if rc._theta is not None else np.array([float(get_value(cfg, key))])
+    theta = rc.warm_start.theta
+    theta = theta if theta is not None else np.array([float(get_value(cfg, key))])
     return rc.solve_speed(speed_mps, theta, 0, bounds)
 
 
@@ -71,9 +72,7 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
     down = [s for s in speeds[::-1] if s < U0]
     rows = []
     for branch in (up, down):
-        rc._y, rc._theta, rc._dy = ev0.x0.tolist() + [ev0.amplitude_deg], ev0.theta.copy(), None
-        rc._y = np.asarray(rc._y)
-        rc._dy = None
+        rc.restart_from(WarmStart(ev0.y, ev0.theta, None))  # each branch from the configured gait's cycle
         ev_prev = ev0
         for s in branch:
             row = {"speed_mps": float(s), "success": False}
