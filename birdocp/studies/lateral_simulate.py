@@ -32,7 +32,7 @@ from birdocp.bird.sixdof import HEADING, STATE_NAMES, rhs_expression
 from birdocp.engine.integrate import RK4Grid, rk4_update, stage_block_index
 from birdocp.engine.results import result_dict, serial
 from birdocp.studies.control import PerModel
-from birdocp.studies.simulate import MAX_SPEED_MPS, interval_data
+from birdocp.studies.simulate import MAX_SPEED_MPS, interval_data, parse_state_values
 
 __all__ = ["SideGust", "LateralSimulation", "simulate_lateral", "parse_side_gust", "parse_lateral_perturbation",
            "LATERAL_STATE_ALIASES"]
@@ -84,25 +84,16 @@ def parse_side_gust(text: str, start_beats: float = 1.0) -> SideGust:
         raise ConfigError("--side-gust", f"expected pulse|step=MPS[:BEATS], got '{text}'") from None
 
 
+def _check_lateral_deviation(key: str, i: int, v: float, val: str) -> None:
+    top = MAX_SPEED_MPS if i < 3 else MAX_RATE_RADPS if i < 6 else math.pi
+    if not (math.isfinite(v) and abs(v) <= top):
+        raise ConfigError("--perturb", f"'{key}' must lie within +-{top:g} (m/s, rad/s or rad), got {val}")
+
+
 def parse_lateral_perturbation(items) -> np.ndarray:
     """``KEY=VALUE`` deviations of the 9 states (u, v, w [m/s], p, q, r [rad/s], phi, theta, psi [rad])."""
-    dx = np.zeros(9)
-    for text in items or []:
-        try:
-            key, val = text.split("=", 1)
-            v = float(val)
-        except ValueError:
-            raise ConfigError("--perturb", f"expected KEY=VALUE, got '{text}'") from None
-        key = key.strip()
-        if key not in LATERAL_STATE_ALIASES:
-            raise ConfigError("--perturb", f"unknown state '{key}' (six degrees of freedom: u, v, w, p, q, r, phi, "
-                                           "theta, psi)")
-        i = LATERAL_STATE_ALIASES[key]
-        top = MAX_SPEED_MPS if i < 3 else MAX_RATE_RADPS if i < 6 else math.pi
-        if not (math.isfinite(v) and abs(v) <= top):
-            raise ConfigError("--perturb", f"'{key}' must lie within +-{top:g} (m/s, rad/s or rad), got {val}")
-        dx[i] += v
-    return dx
+    return parse_state_values(items, LATERAL_STATE_ALIASES, 9,
+                              "six degrees of freedom: u, v, w, p, q, r, phi, theta, psi", _check_lateral_deviation)
 
 
 def _dcm(phi, th, psi):

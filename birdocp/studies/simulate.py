@@ -144,9 +144,11 @@ def parse_gust(text: str) -> Gust:
         raise ConfigError("--gust", f"expected vertical|horizontal=MPS:BEATS (or MPS:METRESm), got '{text}'") from None
 
 
-def parse_perturbation(items) -> np.ndarray:
-    """``KEY=VALUE`` state perturbations (u, w [m/s], q [rad/s], theta [rad]; or the state names)."""
-    dx = np.zeros(4)
+def parse_state_values(items, aliases: dict, n: int, known: str, check) -> np.ndarray:
+    """The sum of ``KEY=VALUE`` state deviations (``--perturb``) as a vector of ``n`` states: each KEY
+    looked up in ``aliases`` (name -> index; ``known`` lists them in the error), each value checked by
+    ``check(key, index, value, text)`` (raises :class:`ConfigError` naming ``--perturb``)."""
+    dx = np.zeros(n)
     for text in items or []:
         try:
             key, val = text.split("=", 1)
@@ -154,18 +156,27 @@ def parse_perturbation(items) -> np.ndarray:
         except ValueError:
             raise ConfigError("--perturb", f"expected KEY=VALUE, got '{text}'") from None
         key = key.strip()
-        if key not in STATE_ALIASES:
-            raise ConfigError("--perturb", f"unknown state '{key}' (one of u, w, q, theta or {', '.join(STATE_NAMES)})")
-        i = STATE_ALIASES[key]
-        if i < 2:
-            check_speed("--perturb", f"'{key}'", v)
-        else:
-            top, unit, why = ((MAX_PITCH_RATE_RADPS, "rad/s", "the model's range of pitch rates") if i == 2 else
-                              (MAX_PITCH_PERTURBATION_RAD, "rad", "a larger pitch is the same attitude"))
-            if not (math.isfinite(v) and abs(v) <= top):
-                raise ConfigError("--perturb", f"'{key}' must lie within +-{top:g} {unit} ({why}), got {val}")
-        dx[i] += v
+        if key not in aliases:
+            raise ConfigError("--perturb", f"unknown state '{key}' ({known})")
+        check(key, aliases[key], v, val)
+        dx[aliases[key]] += v
     return dx
+
+
+def _check_planar_deviation(key: str, i: int, v: float, val: str) -> None:
+    if i < 2:
+        check_speed("--perturb", f"'{key}'", v)
+        return
+    top, unit, why = ((MAX_PITCH_RATE_RADPS, "rad/s", "the model's range of pitch rates") if i == 2 else
+                      (MAX_PITCH_PERTURBATION_RAD, "rad", "a larger pitch is the same attitude"))
+    if not (math.isfinite(v) and abs(v) <= top):
+        raise ConfigError("--perturb", f"'{key}' must lie within +-{top:g} {unit} ({why}), got {val}")
+
+
+def parse_perturbation(items) -> np.ndarray:
+    """``KEY=VALUE`` state perturbations (u, w [m/s], q [rad/s], theta [rad]; or the state names)."""
+    return parse_state_values(items, STATE_ALIASES, 4, f"one of u, w, q, theta or {', '.join(STATE_NAMES)}",
+                              _check_planar_deviation)
 
 
 class _Stepper(PerModel):
