@@ -72,18 +72,24 @@ def cmd_control(args: argparse.Namespace, command_line: list[str]) -> int:
                   "mean_forward_speed_mps": base.mean_forward_speed_mps,
                   "mean_vertical_speed_mps": base.mean_vertical_speed_mps,
                   "wall_s": {"total": time.perf_counter() - t0}}
-        if ctl is not None:
-            from birdocp.plots.control import plot_multipliers
+        return finish(args, run, base.cfg, result, ctl)
 
-            result["figure"] = str(plot_multipliers(result, run.dir / "multipliers.png"))
-        run.write(base.cfg, result)
-        if args.json:
-            run.output(result, None)
-        else:
-            print_table(result)
-        if not result["success"]:
-            print(f"{cli.PROG}: {result['message']}; result written to {run.dir}", file=sys.stderr)
-            return cli.EXIT_NOT_CONVERGED
+
+def finish(args, run, cfg, result: dict, ctl) -> int:
+    """Draw the multipliers (when a controller exists), write the run, print it (JSON or table) and
+    return the exit code: not converged when no stabilising feedback was found."""
+    if ctl is not None:
+        from birdocp.plots.control import plot_multipliers
+
+        result["figure"] = str(plot_multipliers(result, run.dir / "multipliers.png"))
+    run.write(cfg, result)
+    if args.json:
+        run.output(result, None)
+    else:
+        print_table(result)
+    if not result["success"]:
+        print(f"{cli.PROG}: {result['message']}; result written to {run.dir}", file=sys.stderr)
+        return cli.EXIT_NOT_CONVERGED
     return cli.EXIT_OK
 
 
@@ -187,16 +193,4 @@ def cmd_lateral_control(args: argparse.Namespace, command_line: list[str], cfg, 
                   "mean_forward_speed_mps": base.mean_forward_speed_mps,
                   "mean_vertical_speed_mps": base.mean_vertical_speed_mps, "cycle_symmetric": base.symmetric,
                   "cycle_multipliers": base.to_dict()["multipliers"], "wall_s": {"total": time.perf_counter() - t0}}
-        if ctl is not None:
-            from birdocp.plots.control import plot_multipliers
-
-            result["figure"] = str(plot_multipliers(result, run.dir / "multipliers.png"))
-        run.write(cycle_cfg, result)
-        if args.json:
-            run.output(result, None)
-        else:
-            print_table(result)
-        if not result["success"]:
-            print(f"{cli.PROG}: {result['message']}; result written to {run.dir}", file=sys.stderr)
-            return cli.EXIT_NOT_CONVERGED
-    return cli.EXIT_OK
+        return finish(args, run, cycle_cfg, result, ctl)
