@@ -66,17 +66,20 @@ CONTROL_ALIASES = {
 }
 
 
-def resolve_controls(keys) -> list[str]:
+GAIT_HINT = " (a gait key such as gait.shoulder_sweep.offset_deg, or incidence, amplitude, sweep)"
+
+
+def resolve_controls(keys, aliases: dict = CONTROL_ALIASES, allowed=None, hint: str = GAIT_HINT) -> list[str]:
     """Control keys (dotted :data:`PARAM_NAMES` entries of the gait, or an alias in
-    :data:`CONTROL_ALIASES`); ConfigError on an unknown, non-gait or repeated key."""
+    :data:`CONTROL_ALIASES`); ConfigError on an unknown, non-gait or repeated key. ``aliases``,
+    ``allowed`` (default: the gait keys of :data:`PARAM_NAMES`) and ``hint`` (appended to the error)
+    serve other maps, e.g. the six-degree-of-freedom per-side controls."""
+    allowed = [n for n in PARAM_NAMES if n.startswith("gait.")] if allowed is None else list(allowed)
     out = []
     for key in keys:
-        k = CONTROL_ALIASES.get(str(key).strip(), str(key).strip())
-        if k not in PARAM_NAMES or not k.startswith("gait."):
-            gait = [n for n in PARAM_NAMES if n.startswith("gait.")]
-            raise ConfigError("--controls", f"unknown control '{key}'" + suggest(k, gait + list(CONTROL_ALIASES))
-                              + " (a gait key such as gait.shoulder_sweep.offset_deg, or incidence, "
-                                "amplitude, sweep)")
+        k = aliases.get(str(key).strip(), str(key).strip())
+        if k not in allowed:
+            raise ConfigError("--controls", f"unknown control '{key}'" + suggest(k, allowed + list(aliases)) + hint)
         if k in out:
             raise ConfigError("--controls", f"control '{k}' given twice")
         out.append(k)

@@ -22,11 +22,11 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, param_vector, suggest, with_values
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, param_vector, with_values
 from birdocp.bird.sides import SIDE_PARAM_NAMES
 from birdocp.bird.sixdof import HEADING, STATE_NAMES, sixdof_model
 from birdocp.studies.control import (DEFAULT_LIMIT_DEG, Controller, WingbeatMap, bryson_weights,
-                                     controller_on_map, default_limits, linearise)
+                                     controller_on_map, default_limits, linearise, resolve_controls)
 
 __all__ = ["LATERAL_CONTROLS", "LATERAL_ALIASES", "ACCEPTABLE_STATE_6DOF", "resolve_lateral_controls",
            "lateral_wingbeat_map", "design_lateral_controller", "lateral_reference_cycle", "sides_parameters", "sides_parameter_vector"]
@@ -47,19 +47,9 @@ def resolve_lateral_controls(keys) -> list[str]:
     keys of :data:`PARAM_NAMES` or aliases (:data:`LATERAL_ALIASES`); ConfigError on ``--controls``
     for an unknown or repeated key."""
     allowed = list(SIDE_PARAM_NAMES) + [n for n in PARAM_NAMES if n.startswith("gait.")]
-    out = []
-    for key in keys:
-        k = LATERAL_ALIASES.get(str(key).strip(), str(key).strip())
-        if k not in allowed:
-            raise ConfigError("--controls", f"unknown control '{key}'" + suggest(k, allowed + list(LATERAL_ALIASES))
-                              + " (six degrees of freedom: a per-side key such as gait.right_offset.shoulder_flap."
-                                "amplitude_deg, a gait key, or right_amplitude, left_sweep, ...)")
-        if k in out:
-            raise ConfigError("--controls", f"control '{k}' given twice")
-        out.append(k)
-    if not out:
-        raise ConfigError("--controls", "give at least one control key")
-    return out
+    return resolve_controls(keys, LATERAL_ALIASES, allowed,
+                            " (six degrees of freedom: a per-side key such as gait.right_offset.shoulder_flap."
+                            "amplitude_deg, a gait key, or right_amplitude, left_sweep, ...)")
 
 
 def sides_parameters(cycle_p) -> np.ndarray:
