@@ -26,7 +26,7 @@ from typing import Iterator
 import casadi as ca
 import numpy as np
 
-from birdocp.engine.continuation.step import ContinuationStep
+from birdocp.engine.continuation.step import ContinuationStep, RunOnce
 from birdocp.engine.ode import ODE
 from birdocp.engine.orbits import OrbitMethod, OrbitProblem, PeriodicOrbit, solve_orbit_system
 from birdocp.engine.problem import finite_vector
@@ -318,7 +318,7 @@ class EquilibriumFold:
         return result_dict(self)
 
 
-class EquilibriumBranchIterator:
+class EquilibriumBranchIterator(RunOnce):
     """A branch of equilibria of ``ode``, followed as it is iterated (once).
 
     The arguments are those of :func:`birdocp.engine.equilibria.continue_equilibria`. After (or
@@ -382,12 +382,6 @@ class EquilibriumBranchIterator:
         pt = EquilibriumPoint(float(u[-1]), u[:nx].copy(), lam, bool(np.all(lam.real < 0)), float(h), float(t[-1]))
         self.points.append(pt)
         return ContinuationStep(len(self.points) - 1, pt, found)
-
-    def __iter__(self) -> Iterator[ContinuationStep]:
-        if self._started:
-            raise RuntimeError("a branch iterator runs once; make a new one to follow the branch again")
-        self._started = True
-        return self._run()
 
     def _run(self) -> Iterator[ContinuationStep]:
         e0 = find_equilibrium(self.ode, self.p, self.x_start)

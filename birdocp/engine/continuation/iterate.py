@@ -20,7 +20,7 @@ from birdocp.engine.continuation.branch import Branch, BranchPoint
 from birdocp.engine.continuation.corrector import Corrector
 from birdocp.engine.continuation.events import BranchEvents, event_crossings, locate, locate_event, sign_changes
 from birdocp.engine.continuation.options import ContinuationOptions
-from birdocp.engine.continuation.step import ContinuationStep
+from birdocp.engine.continuation.step import ContinuationStep, RunOnce
 from birdocp.engine.continuation.steps import StepController
 from birdocp.engine.continuation.system import Continuation, ContinuationState
 from birdocp.engine.floquet import complex_pairs, multipliers_info
@@ -40,7 +40,7 @@ def resolve_options(options: ContinuationOptions | None, settings: dict) -> Cont
     return ContinuationOptions(**{**opts.__dict__, **settings}) if settings else opts
 
 
-class OrbitBranchIterator:
+class OrbitBranchIterator(RunOnce):
     """A branch of periodic orbits, followed as it is iterated.
 
     Iterating it (once) runs the continuation and yields a :class:`ContinuationStep` per accepted
@@ -174,12 +174,6 @@ class OrbitBranchIterator:
             self.settings["error_estimate"] = True
 
     # --- the iteration ----------------------------------------------------------------------------
-    def __iter__(self) -> Iterator[ContinuationStep]:
-        if self._started:
-            raise RuntimeError("a branch iterator runs once; make a new one to follow the branch again")
-        self._started = True
-        return self._run()
-
     def _run(self) -> Iterator[ContinuationStep]:
         cur = self._first_state()
         if cur is None:

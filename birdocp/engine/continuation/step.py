@@ -2,10 +2,11 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Iterator
 
 import numpy as np
 
-__all__ = ["ContinuationStep"]
+__all__ = ["ContinuationStep", "RunOnce"]
 
 
 @dataclass
@@ -70,3 +71,19 @@ class ContinuationStep:
     def kinds(self) -> list:
         """The kinds of the special points of this step (e.g. ``["fold"]``)."""
         return [sp.kind for sp in self.special_points]
+
+
+class RunOnce:
+    """Base of the branch iterators: iterating runs ``_run()`` once (a second iteration is an
+    error: the branch state lives in the iterator). Subclasses set ``self._started = False``."""
+
+    _started = False
+
+    def __iter__(self) -> Iterator[ContinuationStep]:
+        if self._started:
+            raise RuntimeError("a branch iterator runs once; make a new one to follow the branch again")
+        self._started = True
+        return self._run()
+
+    def _run(self) -> Iterator[ContinuationStep]:
+        raise NotImplementedError
