@@ -371,12 +371,13 @@ def _grid_and_p(cfg: Config, n: int, p, ode=None):
     import numpy as np
 
     from birdocp.bird.model import get_model
-    from birdocp.engine.shooting import MultipleShooting, rk4_grid
+    from birdocp.engine.method import OrbitMethod
+    from birdocp.engine.shooting import rk4_grid
 
     m = get_model(cfg)
     ode = m.ode if ode is None else ode
     p = m.p0 if p is None else np.asarray(p, float).ravel()
-    return rk4_grid(ode, MultipleShooting(points=2, steps_per_period=n), ()), p
+    return rk4_grid(ode, OrbitMethod(points=2, steps_per_period=n), ()), p
 
 
 def grid_validity(cfg: Config, x, p=None, t0_s: float = 0.0, steps_per_period: int | None = None,

@@ -121,7 +121,7 @@ def _eig_condition(monodromy) -> float:
 
 
 def attach_error(res, fine, order: int, accuracy: float, e_solver: float) -> None:
-    """Fill ``res.error_estimate`` and ``res.accurate`` from the 2N re-solve ``fine`` (a PeriodicOrbit)
+    """Fill ``res.error_estimate`` and ``res.accurate`` from the 2N re-solve ``fine`` (an OrbitResult)
     and the solver error ``e_solver`` (see the module docstring)."""
     fac = 2.0 ** order / (2.0 ** order - 1.0)
     e_solver = float(e_solver) if np.isfinite(e_solver) else float("inf")

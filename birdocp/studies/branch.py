@@ -13,7 +13,7 @@ from birdocp.bird.flight import flight_outputs
 from birdocp.bird.keys import AMPLITUDE_KEY, resolve_key
 from birdocp.bird.model import get_model
 from birdocp.engine.continuation import Branch, continuation
-from birdocp.engine.problem import LimitCycleProblem, MeanCondition
+from birdocp.engine.problem import MeanCondition, OrbitProblem
 from birdocp.studies.level import default_bounds
 from birdocp.studies.trim import TrimResult, solver_ode
 
@@ -80,7 +80,7 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
         Shooting points (default ``cfg.solve.points``).
     steps_per_period : int, optional
         RK4 steps per period (default ``cfg.solve.steps_per_period``).
-    start : TrimResult or LimitCycleResult, optional
+    start : TrimResult or OrbitResult, optional
         A converged cycle at the start value (default: Newton from ``cfg.solve.initial_guess``).
     progress : callable, optional
         ``progress(text)``, one line per point.
@@ -159,19 +159,19 @@ def _model_units(display: str, a: float, b: float, options: dict, chord: float) 
     return root_of_sm(a, chord), root_of_sm(b, chord)
 
 
-def bird_problem(cfg, m, ode, model_key: str, level: bool, climb_rate_mps: float, bounds) -> LimitCycleProblem:
+def bird_problem(cfg, m, ode, model_key: str, level: bool, climb_rate_mps: float, bounds) -> OrbitProblem:
     """The bird's limit-cycle problem of a branch: at fixed gait, or (``level``) with the amplitude
     free (within ``bounds``, default the level-flight bounds) and the mean vertical speed held at
     ``climb_rate_mps``."""
     guess = m.complete_state(cfg.solve.initial_guess, m.p0)
     if not level:
-        return LimitCycleProblem(ode, m.p0, guess, outputs=flight_outputs(m.ode.nd, m.ode.nx))
+        return OrbitProblem(ode, m.p0, guess, outputs=flight_outputs(m.ode.nd, m.ode.nx))
     if model_key == AMPLITUDE_KEY:
         raise ValueError("with level flight held the amplitude is solved for: continue another parameter")
     lo, hi = bounds if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)
     outputs = flight_outputs(m.ode.nd, m.ode.nx)
     cond = MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")
-    return LimitCycleProblem(ode, m.p0, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
+    return OrbitProblem(ode, m.p0, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
                              outputs={"forward_speed_mps": outputs["forward_speed_mps"]})
 
 

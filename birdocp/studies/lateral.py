@@ -29,9 +29,11 @@ from birdocp.bird.sixdof import HEADING, LATERAL, LONGITUDINAL, STATE_NAMES, Lat
     sixdof_model
 from birdocp.bird.validity import CycleValidity, periodic_validity
 from birdocp.engine.floquet import multipliers_info, sort_multipliers
-from birdocp.engine.problem import LimitCycleProblem, MeanCondition
+from birdocp.engine.problem import MeanCondition, OrbitProblem
 from birdocp.engine.results import result_dict, serial
-from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
+from birdocp.engine.method import OrbitMethod
+from birdocp.engine.orbit_front import solve
+from birdocp.engine.orbit_result import OrbitResult
 from birdocp.studies.lateral_options import level_keywords
 from birdocp.studies.level import default_bounds
 from birdocp.studies.trim import check_physical
@@ -93,7 +95,7 @@ class LateralTrimResult:
     longitudinal and lateral ones and the lateral mode labels are left empty: the blocks couple,
     ``coupling_max`` says how much) and ``validity`` is None (the validity checks are planar)."""
 
-    cycle: LimitCycleResult = field(metadata=serial(skip=True))
+    cycle: OrbitResult = field(metadata=serial(skip=True))
     multipliers: np.ndarray = field(metadata=serial(complex=True))
     longitudinal_multipliers: np.ndarray = field(metadata=serial(complex=True))
     lateral_multipliers: np.ndarray = field(metadata=serial(complex=True))
@@ -153,7 +155,7 @@ class LateralTrimResult:
 
 
 def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = None, *, level: bool = False,
-                 climb_rate_mps: float = 0.0, bounds=None, method: MultipleShooting | None = None,
+                 climb_rate_mps: float = 0.0, bounds=None, method: OrbitMethod | None = None,
                  x_guess=None, warm_start=None, **method_over) -> LateralTrimResult:
     """Trim ``cfg``'s gait in six degrees of freedom and split its Floquet multipliers.
 
@@ -170,14 +172,14 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
         Target period-mean vertical speed [m/s] with ``level``.
     bounds : (float, float), optional
         Amplitude bounds [deg] with ``level`` (default: the planar level flight's).
-    method : MultipleShooting, optional
+    method : OrbitMethod, optional
         Shooting points and RK4 steps (default: ``cfg.solve``'s).
     x_guess : sequence of 9 floats, optional
         Start state (default: the planar guess ``cfg.solve.initial_guess`` with zero lateral states).
-    warm_start : LimitCycleResult, optional
+    warm_start : OrbitResult, optional
         A previous 6-DOF cycle (its shooting points and, with ``level``, its amplitude) to start from.
     **method_over
-        Overrides of the default :class:`~birdocp.engine.shooting.MultipleShooting` (``points``,
+        Overrides of the default :class:`~birdocp.engine.method.OrbitMethod` (``points``,
         ``steps_per_period``, ...) when ``method`` is not given.
 
     Returns
@@ -189,7 +191,7 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     inertia = inertia or LateralInertia.of(cfg)
     asym = six.sides  # per-side offsets: periodic up to the heading, the 8 states without psi solved
     p6 = six.params(param_vector(cfg), inertia, side_vector(cfg) if asym else None)
-    method = method or MultipleShooting(**{"points": cfg.solve.points, "steps_per_period": cfg.solve.steps_per_period,
+    method = method or OrbitMethod(**{"points": cfg.solve.points, "steps_per_period": cfg.solve.steps_per_period,
                                            "max_iter": cfg.solve.max_iter, "tol": cfg.solve.tol or None, **method_over})
     guess = embed_planar_state(cfg.solve.initial_guess) if x_guess is None else x_guess
     outputs = six.flight_outputs(8 if asym else 9)
@@ -197,7 +199,7 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     if level:
         free = {AMPLITUDE_KEY: tuple(bounds) if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)}
         means = [MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")]
-    problem = LimitCycleProblem(ode=six.ode_no_heading if asym else six.ode, p=p6,
+    problem = OrbitProblem(ode=six.ode_no_heading if asym else six.ode, p=p6,
                                 x_guess=list(guess)[:8] if asym else guess, free=free, means=means,
                                 outputs={k: f for k, f in outputs.items() if not (level and k == "vertical_speed_mps")})
     ws = getattr(warm_start, "cycle", warm_start)
@@ -222,7 +224,7 @@ def solve_point(cfg: Config, *, level: bool = False, level_options: dict | None 
         Solve the amplitude for the mean vertical speed.
     level_options : dict, optional
         The planar level's options (``free``, ``bounds``, ``climb_rate_mps``, ...).
-    warm_start : LimitCycleResult, optional
+    warm_start : OrbitResult, optional
         The neighbour's 6-DOF cycle.
     **method_over
         Overrides of the shooting method.
@@ -379,12 +381,12 @@ def branch_problem(cfg: Config, model_key: str, level: bool, climb_rate_mps: flo
     p6 = np.asarray(six.params(param_vector(cfg), LateralInertia.of(cfg)), float)
     guess = np.array(embed_planar_state(cfg.solve.initial_guess)[:HEADING])
     if not level:
-        return ode, LimitCycleProblem(ode, p6, guess, outputs=outs)
+        return ode, OrbitProblem(ode, p6, guess, outputs=outs)
     if model_key == AMPLITUDE_KEY:
         raise ValueError("with level flight held the amplitude is solved for: continue another parameter")
     lo, hi = bounds if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)
     cond = MeanCondition(outs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")
-    return ode, LimitCycleProblem(ode, p6, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
+    return ode, OrbitProblem(ode, p6, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
                                   outputs={"forward_speed_mps": outs["forward_speed_mps"]})
 
 
@@ -405,7 +407,7 @@ def add_lateral_split(cfg: Config, branch, steps_per_period: int, points: int) -
     ode = sixdof_model(cfg).ode_no_heading
     lon, lat = list(LONGITUDINAL), list(LATERAL)
     rows = {"longitudinal_multipliers": [], "lateral_multipliers": [], "lateral_stable": [], "coupling_max": []}
-    method = MultipleShooting(points=points, steps_per_period=steps_per_period)
+    method = OrbitMethod(points=points, steps_per_period=steps_per_period)
     for pt in branch.points:
         M = np.asarray(floquet(ode, pt.x0, pt.p, method).monodromy)
         L = {"longitudinal": sort_multipliers(np.linalg.eigvals(M[np.ix_(lon, lon)])),
