@@ -11,8 +11,9 @@ import pytest
 from birdocp.bird.config import Config, param_vector
 from birdocp.bird.sixdof import (HEADING, LATERAL, LONGITUDINAL, LateralInertia, embed_planar_state,
                                  sixdof_model)
-from birdocp.engine.problem import LimitCycleProblem
-from birdocp.engine.shooting import MultipleShooting, floquet, solve
+from birdocp.engine.problem import OrbitProblem
+from birdocp.engine import OrbitMethod, solve
+from birdocp.engine.shooting import floquet
 from birdocp.studies.lateral import lateral_trim
 
 LON, LAT = list(LONGITUDINAL), list(LATERAL) + [HEADING]
@@ -84,7 +85,7 @@ def test_frozen_wing_multipliers_are_the_glide_eigenvalues(default_config):
     assert np.abs(fv).max() < 1e-10
     lam = np.sort_complex(np.append(np.linalg.eigvals(J), 0.0))
     T = six.ode.period_s
-    fl = floquet(six.ode, np.append(xe, 0.0), p6, MultipleShooting(points=3, steps_per_period=600))
+    fl = floquet(six.ode, np.append(xe, 0.0), p6, OrbitMethod(points=3, steps_per_period=600))
     ln = np.sort_complex(np.log(fl.multipliers.astype(complex)) / T)
     np.testing.assert_allclose(ln.real, lam.real, rtol=1e-6, atol=1e-6)
     np.testing.assert_allclose(np.abs(ln.imag), np.abs(lam.imag), rtol=1e-6, atol=1e-6)
@@ -103,7 +104,7 @@ def test_solve_from_an_asymmetric_start_returns_to_the_symmetric_cycle(six, defa
     p6 = six.params(param_vector(default_config))
     guess = np.array(embed_planar_state(default_config.solve.initial_guess))
     guess[LATERAL[0]] = 0.3  # a sideslipping start: the periodic orbit is still the symmetric one
-    res = solve(LimitCycleProblem(ode=six.ode, p=p6, x_guess=guess), MultipleShooting(points=5, steps_per_period=148))
+    res = solve(OrbitProblem(ode=six.ode, p=p6, x_guess=guess), OrbitMethod(points=5, steps_per_period=148))
     assert res.success
     assert np.abs(res.x0[list(LATERAL)]).max() < 1e-8
 
@@ -111,7 +112,7 @@ def test_solve_from_an_asymmetric_start_returns_to_the_symmetric_cycle(six, defa
 def test_level_flight_in_six_dof_is_the_planar_level_flight(default_config, coarse):
     from birdocp.studies.level import level
 
-    method = MultipleShooting(**coarse)
+    method = OrbitMethod(**coarse)
     six = lateral_trim(default_config, level=True, method=method)
     planar = level(default_config, **coarse)
     assert six.success and planar.success
@@ -147,7 +148,7 @@ def test_lateral_sensitivity_against_central_differences(mass_tail_config, coars
     from birdocp.bird.config import get_value, with_values
     from birdocp.studies.lateral import lateral_sensitivities
 
-    method = MultipleShooting(**coarse)
+    method = OrbitMethod(**coarse)
     keys = ["gait.shoulder_flap.offset_deg", "tail.opening_angle_deg"]
     res = lateral_trim(mass_tail_config, method=method)
     rows = lateral_sensitivities(res, mass_tail_config, keys)
@@ -222,7 +223,7 @@ def test_one_heavy_wing_in_vacuum_conserves_momentum_and_angular_momentum(mass_t
 def test_symmetric_cycle_with_wing_masses_and_tail_is_the_planar_cycle(mass_tail_config, coarse):
     from birdocp.studies.trim import trim
 
-    res = lateral_trim(mass_tail_config, method=MultipleShooting(**coarse))
+    res = lateral_trim(mass_tail_config, method=OrbitMethod(**coarse))
     planar = trim(mass_tail_config, **coarse)
     assert res.success and planar.success
     assert res.coupling_max < 1e-12
@@ -279,7 +280,7 @@ def test_continue_cli_with_six_degrees_of_freedom(tmp_path):
     assert len(r["lateral_multipliers"]) == len(pts) == len(r["longitudinal_multipliers"])
     assert max(r["branch"]["settings"]["coupling_max"]) < 1e-12
     assert all(abs(abs(complex(*m)) - 1.0) > 1e-3 for m in pts[0]["multipliers"])
-    trim6 = lateral_trim(Config(), method=MultipleShooting(points=3, steps_per_period=48))
+    trim6 = lateral_trim(Config(), method=OrbitMethod(points=3, steps_per_period=48))
     np.testing.assert_allclose(sorted(abs(complex(*m)) for m in r["lateral_multipliers"][0]),
                                sorted(np.abs(trim6.lateral_multipliers)), rtol=0, atol=1e-8)
     assert set(_plot(tmp_path / "c")) == {"locus.png", "moduli.png"}
