@@ -299,6 +299,20 @@ class ReducedLevelCycle:
         return WarmStart(self._y.copy(), None if self._theta is None else self._theta.copy(),
                          None if self._dy is None else self._dy.copy())
 
+    @property
+    def last_jacobian(self) -> np.ndarray | None:
+        """dR/d(x0, A) of the last gradient evaluation (5 x 5), which chord Newton steps reuse; a copy,
+        None before the first."""
+        return None if self._Ry is None else self._Ry.copy()
+
+    def sensitivity_inputs(self, p) -> tuple:
+        """``(D, seeds, columns)``: the stage data at the parameters ``p``, the parameter directions and
+        the data's columns along them -- the inputs of a
+        :class:`~birdocp.engine.variational.PeriodSensitivities` pass on this cycle's grid
+        (``sens(x0, D, p, dp=seeds, columns=columns)``)."""
+        D, cols = self._data(ca.DM(np.asarray(p, float)))
+        return D, self._seeds, cols
+
     def restart_from(self, start: WarmStart) -> None:
         """Start the next Newton solves from ``start`` (the only writer of the warm start besides
         :meth:`evaluate` and :meth:`set_guess`); the cached evaluations, the last Jacobian and the
