@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from birdocp.engine import orbits, shooting
+from birdocp.engine import interrupts, orbits, shooting
 from birdocp.engine.method import SOLVER_NAMES, OrbitMethod
 from birdocp.engine.orbit_result import OrbitResult
 from birdocp.engine.problem import OrbitProblem
@@ -91,4 +91,5 @@ def solve(problem: OrbitProblem, method: OrbitMethod | None = None, *, solver: s
             raise ValueError(f"solve: solver must be one of {SOLVER_NAMES}, got {solver!r}")
         method = replace(method, solver=solver)
     formulation = "periodic_ode" if problem.data_split else "ode"
-    return FORMULATIONS[formulation](problem, method, warm_start)
+    with interrupts.interruptible():  # a Ctrl-C that CasADi caught inside a solver is raised, never a status
+        return FORMULATIONS[formulation](problem, method, warm_start)
