@@ -102,7 +102,7 @@ def one_example(name: str, accuracy: float) -> dict:
     ex = make(name)
     t, c = time.perf_counter(), time.process_time()
     r = solve(OrbitProblem(ex.ode, ex.p, ex.x, period_guess=ex.period),
-                    OrbitMethod(accuracy=accuracy, **ex.method))
+              OrbitMethod(accuracy=accuracy, **ex.method))
     wall, cpu = time.perf_counter() - t, time.process_time() - c
     out = {"example": name, "accuracy": accuracy, "status": r.status, "success": r.success, "accurate": r.accurate,
            "period": r.period, "covers": r.covers, "steps_per_period": r.method.get("steps_per_period"),

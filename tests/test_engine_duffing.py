@@ -88,7 +88,7 @@ def test_monodromy_against_finite_differences():
 
 @pytest.mark.parametrize("method", [OrbitMethod(points=3, steps_per_period=60, solver="lm", tol=1e-12),
                                     OrbitMethod(points=3, steps_per_period=60, solver="lm", derivatives="fd",
-                                                     tol=1e-12)], ids=["exact", "fd"])
+                                                tol=1e-12)], ids=["exact", "fd"])
 def test_lm_agrees_with_ipopt_on_nonlinear(method):
     ri = solve(PROB, OrbitMethod(points=3, steps_per_period=60))
     rl = solve(PROB, method)
@@ -117,7 +117,7 @@ def test_nan_rhs_is_a_failed_result(solver):
 @pytest.mark.parametrize("solver,fallback,iters", [("ipopt", False, 1), ("ipopt", True, 2), ("lm", True, 1)])
 def test_max_iter_is_a_failed_result(solver, fallback, iters):
     r = solve(PROB, OrbitMethod(points=3, steps_per_period=60, solver=solver, max_iter=1, tol=1e-14,
-                                     ipopt_fallback=fallback))
+                                ipopt_fallback=fallback))
     assert not r.success
     assert r.status in ("Maximum_Iterations_Exceeded", "max_iter")
     assert r.iterations == iters  # the ipopt fallback (filter line search) adds its own iteration

@@ -122,7 +122,7 @@ def test_linear_free_parameter_mean_condition():
     bias_secant = (target - means[0]) / (means[1] - means[0])
     bias_exact = target / exact_mean(A, [0, 1.0])[0]
     prob = OrbitProblem(ode, P, np.zeros(4), free={"bias": (-50.0, 50.0)},
-                             means=[MeanCondition(out, target, "x1")], outputs={"x1_again": out})
+                        means=[MeanCondition(out, target, "x1")], outputs={"x1_again": out})
     for m in (method, OrbitMethod(points=3, steps_per_period=300, solver="lm", tol=1e-11),
               OrbitMethod(points=3, steps_per_period=300, solver="lm", derivatives="fd", tol=1e-11)):
         r = solve(prob, m)

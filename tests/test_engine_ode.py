@@ -49,7 +49,7 @@ def test_stuart_landau_exact_orbit(integrator):
     mu, w = 0.5, 2.0
     T = 2 * np.pi / w
     r = solve(OrbitProblem(SL, [mu, w, 0.0], [0.9, 0.1], period_guess=3.0),
-                    OrbitMethod(points=4, steps_per_period=120, integrator=integrator))
+              OrbitMethod(points=4, steps_per_period=120, integrator=integrator))
     assert r.success, r.message
     assert abs(r.period - T) < 1e-6
     assert abs(np.hypot(*r.x0) - np.sqrt(mu)) < 1e-6
@@ -64,11 +64,11 @@ def test_stuart_landau_exact_orbit(integrator):
 
 def test_accuracy_request_chooses_the_steps():
     r = solve(OrbitProblem(SL, [0.5, 2.0, 0.0], [0.9, 0.1], period_guess=3.0),
-                    OrbitMethod(points=4, steps_per_period=None, accuracy=1e-10))
+              OrbitMethod(points=4, steps_per_period=None, accuracy=1e-10))
     assert r.success and r.accurate, r.message
     assert abs(r.period - np.pi) < 1e-9
     coarse = solve(OrbitProblem(SL, [0.5, 2.0, 0.0], [0.9, 0.1], period_guess=3.0),
-                         OrbitMethod(points=4, steps_per_period=24, accuracy=1e-10))
+                   OrbitMethod(points=4, steps_per_period=24, accuracy=1e-10))
     assert coarse.success and coarse.accurate is False and "INACCURATE" in coarse.message
 
 
@@ -105,7 +105,7 @@ def test_rossler_ipopt_and_lm_agree():
 def test_rossler_from_the_reference_start_for_any_number_of_points(points, solver):
     # the reference toolbox reported success on an equilibrium here with 30 points
     r = solve(OrbitProblem(ROSSLER, [0.2, 0.2, 5.7], [0.1, 5.0, 3.6], period_guess=5.0),
-                    OrbitMethod(points=points, solver=solver))
+              OrbitMethod(points=points, solver=solver))
     assert r.success and r.accurate, r.message
     # the committed example orbit (checked against scipy in test_example_result_against_scipy)
     ref = json.loads((ROOT / "results" / "engine" / "rossler" / "result.json").read_text())
@@ -122,7 +122,7 @@ def test_no_success_on_an_equilibrium(case, solver):
     ode, p, x, T = case
     for pts in (5, 31):
         r = solve(OrbitProblem(ode, p, x, period_guess=T),
-                        OrbitMethod(points=pts, steps_per_period=30 * (pts - 1), solver=solver, max_iter=30,
+                  OrbitMethod(points=pts, steps_per_period=30 * (pts - 1), solver=solver, max_iter=30,
                                     error_estimate=False))
         if r.success:  # allowed only when it found a true orbit
             assert r.amplitude > 1e-2, r.message
@@ -141,7 +141,7 @@ def test_equilibrium_amplitude_check_rejects_a_converged_constant(solver):
     # hold, any T); the amplitude check must turn that into a failure.
     pts = 1e-4 * np.array([[1, 2], [-1, 1], [0, -1], [1, 0], [1, 2]])
     r = solve(OrbitProblem(SL, [0.09, 1.0, 0.0], pts, period_guess=6.0, phase_point=[0.3, 0.0]),
-                    OrbitMethod(points=5, steps_per_period=40, solver=solver))
+              OrbitMethod(points=5, steps_per_period=40, solver=solver))
     assert r.max_residual <= 1e-10  # the equations are solved ...
     assert not r.success and r.status == "equilibrium"  # ... but by an equilibrium
 
@@ -224,7 +224,7 @@ def test_engine_solve_matches_scipy_on_redox_with_radau():
     ode = redox.make_ode()
     p = list(redox.PARAMS.values())
     r = solve(OrbitProblem(ode, p, [0.3, 0.29, 0.42, 0.0028], period_guess=25.0),
-                    OrbitMethod(points=5, steps_per_period=128, integrator="radau"))
+              OrbitMethod(points=5, steps_per_period=128, integrator="radau"))
     assert r.success, r.message
     xT, Mo = _scipy_monodromy(ode, r.x0, np.array(p), 0.0, r.period, "LSODA")
     assert np.max(np.abs(xT - r.x0)) < 1e-6
@@ -313,7 +313,7 @@ def test_continuation_locates_rossler_period_doubling_checked_by_scipy():
     from birdocp.engine.continuation.autonomous import continue_orbits
 
     o = solve(OrbitProblem(ROSSLER, [0.2, 0.2, 2.5], [3.0, 0.0, 0.1], period_guess=6.0),
-                    OrbitMethod(points=5, steps_per_period=200))
+              OrbitMethod(points=5, steps_per_period=200))
     assert o.success and o.stable
     br = continue_orbits(o, ROSSLER, "c", 3.5, step=0.2)
     pd = [sp for sp in br.special_points if sp.kind == "period_doubling"]

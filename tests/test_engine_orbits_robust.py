@@ -56,7 +56,7 @@ def _closes_under_scipy(ode, orbit, rtol=1e-12):
 @pytest.mark.parametrize("factor", [1.3, 0.7])
 def test_a_30_percent_period_error_from_a_point_on_the_orbit(factor):
     r = solve(OrbitProblem(HOPF, [], [1.0, 0.0], period_guess=2 * np.pi * factor),
-                    OrbitMethod(points=5, steps_per_period=200))
+              OrbitMethod(points=5, steps_per_period=200))
     assert r.success and r.covers == 1, r.message
     assert abs(r.period - 2 * np.pi) < 1e-6
     assert abs(np.linalg.norm(r.x0) - 1) < 1e-6
@@ -64,14 +64,14 @@ def test_a_30_percent_period_error_from_a_point_on_the_orbit(factor):
 
 def test_without_the_period_search_lm_alone_takes_a_30_percent_error():
     r = solve(OrbitProblem(HOPF, [], [1.0, 0.0], period_guess=2 * np.pi * 1.3),
-                    OrbitMethod(points=5, steps_per_period=200, period_search=False))
+              OrbitMethod(points=5, steps_per_period=200, period_search=False))
     assert r.success and abs(r.period - 2 * np.pi) < 1e-6, r.message
 
 
 @pytest.mark.parametrize("k", [2, 3])
 def test_a_multiple_of_the_period_is_reduced_to_the_minimal_period(k):
     r = solve(OrbitProblem(HOPF, [], [1.0, 0.0], period_guess=2 * np.pi * k),
-                    OrbitMethod(points=7, steps_per_period=420, period_search=False))
+              OrbitMethod(points=7, steps_per_period=420, period_search=False))
     assert r.success and r.covers == k and "loops" in r.message, r.message
     assert abs(r.reduced_from_period - k * 2 * np.pi) < 1e-4
     assert abs(r.period - 2 * np.pi) < 1e-6
@@ -100,7 +100,7 @@ def test_reference_examples_from_the_reference_guesses(ode, p, x, T, points):
 def test_unstable_lorenz_orbit_from_a_rounded_guess():
     # r = 21: the unstable orbit around C+ (multiplier ~1.26); the guess is a point of it rounded to 0.1
     r = solve(OrbitProblem(LORENZ, [10.0, 21.0, 8 / 3], [11.2, 8.5, 27.6], period_guess=0.82),
-                    OrbitMethod(points=9))
+              OrbitMethod(points=9))
     assert r.success and r.accurate, r.message
     assert not r.stable and abs(abs(r.nontrivial_multipliers[0]) - 1.2609) < 1e-3
     assert _closes_under_scipy(LORENZ, r) < 1e-5  # accuracy 1e-6 (the default)
@@ -113,7 +113,7 @@ def test_error_estimate_is_never_a_silent_zero():
     # started on the exact orbit: the 2N re-solve has next to nothing to do; the estimate still
     # holds the discretisation and solver errors and bounds the true error
     r = solve(OrbitProblem(HOPF, [], [1.0, 0.0], period_guess=2 * np.pi),
-                    OrbitMethod(points=5, steps_per_period=40, period_search=False))
+              OrbitMethod(points=5, steps_per_period=40, period_search=False))
     e = r.error_estimate
     assert r.success and all(e[k] > 0 for k in ("period", "x0", "multipliers", "solver")), e
     assert abs(r.period - 2 * np.pi) <= 3 * e["period"]
@@ -133,7 +133,7 @@ def test_a_fixed_section_that_misses_the_orbit_fails_and_says_why():
 def test_no_orbit_fails_early_without_refining_forever():
     # Lorenz at r = 10: both non-trivial equilibria are stable foci, there is no periodic orbit nearby
     r = solve(OrbitProblem(LORENZ, [10.0, 10.0, 8 / 3], [5.0, 5.0, 10.0], period_guess=0.8),
-                    OrbitMethod(points=9, phase="fixed"))
+              OrbitMethod(points=9, phase="fixed"))
     assert not r.success
     assert "not retried on finer grids" in r.message and r.method["steps_per_period"] <= 4 * 128, r.message
 

@@ -172,7 +172,7 @@ def bird_problem(cfg, m, ode, model_key: str, level: bool, climb_rate_mps: float
     outputs = flight_outputs(m.ode.nd, m.ode.nx)
     cond = MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")
     return OrbitProblem(ode, m.p0, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
-                             outputs={"forward_speed_mps": outputs["forward_speed_mps"]})
+                        outputs={"forward_speed_mps": outputs["forward_speed_mps"]})
 
 
 def forward_flight(pt) -> str | None:

@@ -200,8 +200,8 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
         free = {AMPLITUDE_KEY: tuple(bounds) if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)}
         means = [MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")]
     problem = OrbitProblem(ode=six.ode_no_heading if asym else six.ode, p=p6,
-                                x_guess=list(guess)[:8] if asym else guess, free=free, means=means,
-                                outputs={k: f for k, f in outputs.items() if not (level and k == "vertical_speed_mps")})
+                           x_guess=list(guess)[:8] if asym else guess, free=free, means=means,
+                           outputs={k: f for k, f in outputs.items() if not (level and k == "vertical_speed_mps")})
     ws = getattr(warm_start, "cycle", warm_start)
     cyc = check_physical(solve(problem, method, warm_start=ws))  # u <= 0 somewhere: not a forward flight, as the planar trim
     amplitude = float(cyc.free_values.get(AMPLITUDE_KEY, cfg.gait.shoulder_flap.amplitude_deg))
@@ -387,7 +387,7 @@ def branch_problem(cfg: Config, model_key: str, level: bool, climb_rate_mps: flo
     lo, hi = bounds if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)
     cond = MeanCondition(outs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")
     return ode, OrbitProblem(ode, p6, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
-                                  outputs={"forward_speed_mps": outs["forward_speed_mps"]})
+                             outputs={"forward_speed_mps": outs["forward_speed_mps"]})
 
 
 def planar_point(x0, p):

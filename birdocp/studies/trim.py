@@ -72,6 +72,7 @@ class TrimResult:
     max_residual = _of_cycle("max_residual")
     wall_s = _of_cycle("wall_s")
     period = _of_cycle("period")
+    autonomous = _of_cycle("autonomous")
     shooting_times = _of_cycle("shooting_times")
     shooting_points = _of_cycle("shooting_points")
     x0 = _of_cycle("x0")

@@ -35,7 +35,7 @@ def accurate_orbit(ode, p, x_guess, period_guess: float, points: int = 5, integr
     from birdocp.engine import OrbitMethod, OrbitProblem, solve
 
     return solve(OrbitProblem(ode, p, x_guess, period_guess=period_guess),
-                       OrbitMethod(points=points, steps_per_period=None, integrator=integrator, accuracy=1e-8))
+                 OrbitMethod(points=points, steps_per_period=None, integrator=integrator, accuracy=1e-8))
 
 
 def write_result(out: Path, system: str, source: str, params: dict, orbit, lyapunov=None, extra=None) -> dict:

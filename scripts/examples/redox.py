@@ -33,7 +33,7 @@ def main():
     orbit = accurate_orbit(ode, p, [0.3, 0.29, 0.42, 0.0028], 25.0, integrator="radau")
     # the same orbit with the explicit RK4 on 2000 steps per period, from the same guess (for comparison)
     rk4 = solve(OrbitProblem(ode, p, [0.3, 0.29, 0.42, 0.0028], period_guess=25.0),
-                      OrbitMethod(points=5, steps_per_period=2000, integrator="rk4", error_estimate=False))
+                OrbitMethod(points=5, steps_per_period=2000, integrator="rk4", error_estimate=False))
     res = write_result(out, "redox", __doc__.split("\n\n")[1], PARAMS, orbit,
                        extra={"rk4_2000_steps": {"success": rk4.success, "status": rk4.status}})
     plot_orbit(out, "Redox oscillator (del Olmo et al. 2019), Radau IIA", orbit, ("D1", "D2", "R", "A"),

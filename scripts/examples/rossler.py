@@ -33,7 +33,7 @@ def main():
     orbit = accurate_orbit(ode, p, [0.1, 5.0, 3.6], 5.0)
     ly = lyapunov_exponents(ode, orbit.x0, p, t_total=2000.0, dt=0.02, t_transient=100.0, renorm_time=2.0)
     start = solve(OrbitProblem(ode, [0.2, 0.2, 2.5], [3.0, 0.0, 0.1], period_guess=6.0),
-                        OrbitMethod(points=5, steps_per_period=400))
+                  OrbitMethod(points=5, steps_per_period=400))
     branch = continue_orbits(start, ode, "c", 5.7, step=0.2)
     cs = [pt.parameter for pt in branch.points]
     mods = [max(pt.moduli) for pt in branch.points]

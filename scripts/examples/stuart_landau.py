@@ -44,7 +44,7 @@ def main():
     first = orbit_from_hopf(ode, hopf, 0.02, OrbitMethod(points=5, steps_per_period=200))
     branch = continue_orbits(first, ode, "mu", 1.0, step=0.02, max_dparam=0.1)
     orbit = solve(OrbitProblem(ode, p, [0.5, 0.0], period_guess=5.0),
-                        OrbitMethod(points=5, steps_per_period=None, accuracy=1e-9))
+                  OrbitMethod(points=5, steps_per_period=None, accuracy=1e-9))
     mus = np.array([pt.parameter for pt in branch.points])
     radii = np.array([np.hypot(*pt.x0) for pt in branch.points])
 
