@@ -89,7 +89,8 @@ class OrbitResult:
         (:mod:`birdocp.engine.orbit_checks`); None or empty when not computed
         (``OrbitMethod.error_estimate``).
     solver_status : str
-        ``ODE``: what the solver said (IPOPT's return status or the LM's).
+        What the solver said (IPOPT's return status or the LM's), before the residual check that
+        decides ``status``.
     period : float
         The period (time units of the system): solved for autonomous orbits, the forcing period
         otherwise.

@@ -102,7 +102,8 @@ def _run_ipopt(solver, z0, method, lbx, ubx):
     return out.z, out.status, out.success, out.iterations, out.history, out.message
 
 
-def solve_periodic_ode(problem: OrbitProblem, method: OrbitMethod, warm_start: OrbitResult | None = None) -> OrbitResult:
+def solve_periodic_ode(problem: OrbitProblem, method: OrbitMethod,
+                       warm_start: OrbitResult | None = None) -> OrbitResult:
     """The PeriodicODE formulation of :func:`birdocp.engine.orbit_front.solve` (use that front).
 
     ``success`` means converged: the max residual of all equations at the result is finite and at
@@ -290,6 +291,7 @@ def _result(problem, method, b, z, p_init, D_init, outcome, wall):
     """The OrbitResult at z (status from the residual, whatever the solver said) and
     (g, X, Dn, pd) for the Floquet analysis."""
     status, success, message, iters, hist = outcome
+    solver_status = status
     nx, S, N, T, t0, free_idx, nf = problem.ode.nx, b.S, b.N, problem.ode.period_s, float(problem.t0), b.free_idx, b.nf
     nzx = nx * (S + 1)
     pfull = problem.p.copy() if nf else p_init.copy()
@@ -321,6 +323,7 @@ def _result(problem, method, b, z, p_init, D_init, outcome, wall):
     res = OrbitResult(
         success=bool(success), status=status, message=message, iterations=int(iters),
         residual_history=hist, wall_s=wall, formulation="periodic_ode", autonomous=False,
+        solver_status=solver_status,
         period=float(shooting_times[-1] - shooting_times[0]),
         shooting_times=shooting_times, shooting_points=X, x0=X[0].copy(), p=pfull,
         free_values={problem.free_name(i): float(pfull[i]) for i in free_idx},

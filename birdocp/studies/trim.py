@@ -311,7 +311,8 @@ def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: Or
         x_guess = linear_section_start(cfg, compiled, **method_over)
     m = get_model(cfg)
     guess = m.complete_state(cfg.solve.initial_guess if x_guess is None else x_guess, m.p0)
-    problem = OrbitProblem(ode=solver_ode(m, compiled), p=m.p0, x_guess=guess, outputs=flight_outputs(m.ode.nd, m.ode.nx))
+    problem = OrbitProblem(ode=solver_ode(m, compiled), p=m.p0, x_guess=guess,
+                           outputs=flight_outputs(m.ode.nd, m.ode.nx))
     method = method or method_of(cfg, **method_over)
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
     return TrimResult(check_physical(solve(problem, method, warm_start=ws)), cfg)
