@@ -51,7 +51,7 @@ import casadi as ca
 from birdocp.bird import aero, tail
 from birdocp.bird import sixdof_inertia as wing3
 from birdocp.bird.config import PARAM_NAMES, Config, asymmetric
-from birdocp.bird.model import BirdModel, Structure, get_model, unpack_data
+from birdocp.bird.model import N_DATA, BirdModel, Structure, get_model, unpack_data
 from birdocp.bird.sides import SIDE_PARAM_NAMES, side_data_functions
 from birdocp.engine.cache import register_cache
 from birdocp.engine.problem import PeriodicODE
@@ -202,10 +202,9 @@ class SixDofModel:
         n = len(PARAM_NAMES)
         names = tuple(PARAM_NAMES) + LATERAL_PARAM_NAMES + (SIDE_PARAM_NAMES if self.sides else ())
         x = ca.SX.sym("x", 9)
-        n_planar = planar.rhs.size1_in(1)
-        if structure.wing_mass and self.sides:
-            raise ValueError("six degrees of freedom: wing masses with per-side joint offsets (an asymmetric gait) "
-                             "are not written yet; use wing.mass_kg = 0 or a symmetric gait")
+        # per-side data: the aerodynamic blocks only (the planar model's in-plane mass sums, which the
+        # 3-D equations do not read, are not assembled for two differing wings)
+        n_planar = N_DATA if self.sides else planar.rhs.size1_in(1)
         d = ca.SX.sym("d", n_planar + (wing3.N_MASS3 if structure.wing_mass else 0))
         p6 = ca.SX.sym("p", len(names))
         self.structure = structure
