@@ -353,3 +353,29 @@ def test_export_c_with_six_degrees_of_freedom_matches_python(tmp_path):
     xT, J = grid.period_jacobian(ca.DM(x0), grid.blocks_numeric(0.0, np.asarray(p6).ravel()), p6)
     assert np.max(np.abs(rows[0] - np.asarray(xT).ravel())) < 1e-10
     assert np.max(np.abs(np.vstack(rows[1:]) - np.asarray(J))) < 1e-10
+
+
+def test_six_dof_validity_and_coupled_labels_of_a_symmetric_cycle_are_the_split_ones(default_config, coarse):
+    """Two independent routes on a symmetric cycle: the 6-DOF validity (both wings in 3-D flow) equals
+    the planar validity of its (u, w, q, theta) part, and the eigenvector-content labels of the
+    unsplit 8 x 8 monodromy (lateral share exactly 0 or 1) are the split monodromy's labels."""
+    from birdocp.bird.config import with_values
+    from birdocp.bird.validity import periodic_validity
+    from birdocp.studies.lateral import coupled_modes
+
+    cfg = with_values(default_config, {"model.degrees_of_freedom": 6})
+    res = lateral_trim(cfg, **coarse)
+    six = sixdof_model(cfg)
+    v6 = periodic_validity(cfg, res.cycle.x0, p=res.cycle.p, steps_per_period=coarse["steps_per_period"],
+                           ode=six.ode).to_dict()
+    v4 = res.validity.to_dict()
+    for k, v in v4.items():
+        if isinstance(v, float):
+            assert abs(v6[k] - v) < 1e-9 * max(1.0, abs(v)), k
+    assert v6["stalled_fraction_left"] == pytest.approx(v6["stalled_fraction_right"], abs=1e-14)
+    M8 = np.asarray(res.cycle.monodromy)[:HEADING, :HEADING]
+    modes = coupled_modes(M8, six.period_s, float(np.mean(res.cycle.trajectory_x[:, 0])))
+    lat = [m for m in modes if m["label"] != "longitudinal"]
+    assert all(m["lateral_share"] > 1 - 1e-12 or m["lateral_share"] < 1e-12 for m in modes)
+    assert sorted((m["label"], round(m["multiplier"].real, 9)) for m in lat) == \
+        sorted((m["label"], round(m["multiplier"].real, 9)) for m in res.lateral_modes)

@@ -13,6 +13,12 @@ mean forward speed, p and r by the wingbeat frequency, phi as is): a complex pai
 ``dutch_roll_like``; of the real modes the one with the smallest modulus is ``roll_subsidence``
 when its roll-rate share is the largest of the real modes, the one nearest 1 is ``spiral``, others
 ``lateral_real``. Every mode carries its time to double (positive) or halve (negative) in wingbeats.
+
+An asymmetric gait couples the blocks: its 8 x 8 monodromy (the heading left out) is not split.
+Each of its modes is then classified by its eigenvector's content (:func:`coupled_modes`): with the
+same scaling, its *lateral share* is the fraction of the squared norm in (v, p, r, phi); a mode with a
+share of at least :data:`LATERAL_SHARE_MIN` (one half) is lateral and gets a label by the rule above
+(the roll share taken over its lateral components), the others are ``longitudinal``.
 """
 
 from __future__ import annotations
@@ -36,7 +42,7 @@ from birdocp.studies.lateral_options import level_keywords
 from birdocp.studies.level import default_bounds
 from birdocp.studies.trim import check_physical
 
-__all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "beats_to_double", "lateral_sensitivities",
+__all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "coupled_modes", "LATERAL_SHARE_MIN", "beats_to_double", "lateral_sensitivities",
            "LATERAL_SENSITIVITY_KEYS", "heading_trajectory", "TAIL_SENSITIVITY_KEY", "level_keywords",
            "solve_point", "branch_problem", "planar_point", "add_lateral_split"]
 
@@ -51,31 +57,79 @@ def beats_to_double(multiplier: complex) -> float:
     return float("inf") if la == 0 else float(np.log(2.0) / la)
 
 
+LATERAL_SHARE_MIN = 0.5
+"""A mode of a coupled monodromy (an asymmetric gait) is lateral when at least this share of its scaled
+eigenvector's squared norm lies in (v, p, r, phi) (:func:`coupled_modes`)."""
+
+
+def _scales(names, period_s: float, speed_mps: float) -> np.ndarray:
+    """The eigenvector scaling of the module: velocities by the mean forward speed, rates by the
+    period, angles as they are."""
+    return np.array([1.0 / max(speed_mps, 1e-9) if k.endswith("_mps") else period_s if k.endswith("_radps")
+                     else 1.0 for k in names])
+
+
+def _mode(lam, vec, names, scale) -> dict:
+    v = vec * scale
+    v = v / np.max(np.abs(v))
+    return {"multiplier": complex(lam), "beats_to_double": beats_to_double(lam),
+            "eigenvector": {k: complex(v[j]) for j, k in enumerate(names)},
+            "dominant_state": names[int(np.argmax(np.abs(v)))], "label": "lateral_real"}
+
+
+def _label_lateral(modes: list, roll: list) -> None:
+    """The label rule of the module on lateral ``modes`` (``roll``: each one's |p| over its largest
+    lateral component): complex pairs ``dutch_roll_like``, the smallest real one ``roll_subsidence``
+    when its roll share is the largest of the real ones, the real one nearest 1 of the rest ``spiral``."""
+    real = [k for k, m in enumerate(modes) if abs(m["multiplier"].imag) <= 1e-12 * max(1.0, abs(m["multiplier"]))]
+    for k, m in enumerate(modes):
+        if k not in real:
+            m["label"] = "dutch_roll_like"
+    if real:
+        small = min(real, key=lambda k: abs(modes[k]["multiplier"]))
+        if roll[small] >= max(roll[k] for k in real) - 1e-12:
+            modes[small]["label"] = "roll_subsidence"
+        rest = [modes[k] for k in real if modes[k]["label"] == "lateral_real"]
+        if rest:
+            min(rest, key=lambda m: abs(abs(m["multiplier"]) - 1.0))["label"] = "spiral"
+
+
 def lateral_modes(monodromy, period_s: float, speed_mps: float) -> list[dict]:
     """The lateral multipliers of a 9 x 9 monodromy (its (v, p, r, phi) block), each with its label,
     beats to double/halve and its eigenvector over (v, p, r, phi) scaled as the module says."""
     idx = list(LATERAL)
+    names = [STATE_NAMES[i] for i in idx]
     lam, vec, _, _, _ = multipliers_info(np.asarray(monodromy)[np.ix_(idx, idx)], period_s)
-    scale = np.array([1.0 / max(speed_mps, 1e-9), period_s, period_s, 1.0])
-    modes = []
-    for k, lk in enumerate(lam):
-        v = vec[:, k] * scale
-        v = v / np.max(np.abs(v))
-        modes.append({"multiplier": complex(lk), "beats_to_double": beats_to_double(lk),
-                      "eigenvector": {STATE_NAMES[i]: complex(v[j]) for j, i in enumerate(idx)},
-                      "dominant_state": STATE_NAMES[idx[int(np.argmax(np.abs(v)))]], "label": "lateral_real"})
-    real = [m for m in modes if abs(m["multiplier"].imag) <= 1e-12 * max(1.0, abs(m["multiplier"]))]
+    modes = [_mode(lam[k], vec[:, k], names, _scales(names, period_s, speed_mps)) for k in range(len(lam))]
+    _label_lateral(modes, [abs(m["eigenvector"]["p_radps"]) for m in modes])
+    return modes
+
+
+def coupled_modes(monodromy, period_s: float, speed_mps: float) -> list[dict]:
+    """Every mode of a monodromy whose longitudinal and lateral blocks couple (an asymmetric gait: the
+    8 states without the heading, or all 9), labelled by its eigenvector's content.
+
+    The eigenvector over all states is scaled as the module says; ``lateral_share`` is the share of its
+    squared norm in (v, p, r, phi). Modes with ``lateral_share >= LATERAL_SHARE_MIN`` are lateral and
+    labelled by the rule of :func:`lateral_modes` (the roll share taken over their lateral components);
+    the others are ``longitudinal``. For a symmetric cycle the shares are exactly 0 or 1 and the labels
+    are those of the split monodromy."""
+    M = np.asarray(monodromy)
+    names = list(STATE_NAMES[:M.shape[0]])
+    lam, vec, _, _, _ = multipliers_info(M, period_s)
+    scale = _scales(names, period_s, speed_mps)
+    modes, lat = [], [i for i, k in enumerate(names) if STATE_NAMES.index(k) in LATERAL]
+    for k in range(len(lam)):
+        m = _mode(lam[k], vec[:, k], names, scale)
+        v = np.array(list(m["eigenvector"].values()))
+        m["lateral_share"] = float(np.sum(np.abs(v[lat]) ** 2) / np.sum(np.abs(v) ** 2))
+        m["roll"] = float(abs(v[names.index("p_radps")]) / np.max(np.abs(v[lat])))
+        m["label"] = "lateral_real" if m["lateral_share"] >= LATERAL_SHARE_MIN else "longitudinal"
+        modes.append(m)
+    lateral = [m for m in modes if m["label"] == "lateral_real"]
+    _label_lateral(lateral, [m.pop("roll") for m in lateral])
     for m in modes:
-        if m not in real:
-            m["label"] = "dutch_roll_like"
-    if real:
-        roll_share = [abs(m["eigenvector"]["p_radps"]) for m in real]
-        small = min(real, key=lambda m: abs(m["multiplier"]))
-        if abs(small["eigenvector"]["p_radps"]) >= max(roll_share) - 1e-12:
-            small["label"] = "roll_subsidence"
-        rest = [m for m in real if m["label"] == "lateral_real"]
-        if rest:
-            min(rest, key=lambda m: abs(abs(m["multiplier"]) - 1.0))["label"] = "spiral"
+        m.pop("roll", None)
     return modes
 
 
@@ -89,9 +143,12 @@ class LateralTrimResult:
 
     An asymmetric gait (per-side offsets, :mod:`birdocp.bird.sides`; ``symmetric`` False) flies a
     cycle periodic up to its heading: ``cycle`` then has the 8 states without psi, ``heading_change_deg``
-    is psi(T) - psi(0) over one beat, ``multipliers`` are its 8 and the heading's 1 (the split into
-    longitudinal and lateral ones and the lateral mode labels are left empty: the blocks couple,
-    ``coupling_max`` says how much) and ``validity`` is None (the validity checks are planar)."""
+    is psi(T) - psi(0) over one beat, ``multipliers`` are its 8 and the heading's 1. The blocks couple
+    (``coupling_max`` says how much), so the modes are classified by their eigenvectors
+    (:func:`coupled_modes`): ``lateral_modes`` are those with a lateral share of at least
+    :data:`LATERAL_SHARE_MIN` (labelled, each with its ``lateral_share``), ``lateral_multipliers`` their
+    multipliers and ``longitudinal_multipliers`` the others'. ``validity`` is the 6-DOF check over both
+    wings (:func:`birdocp.bird.validity.grid_validity` with the 6-DOF ODE: stall per wing, sideslip)."""
 
     cycle: LimitCycleResult = field(metadata=serial(skip=True))
     multipliers: np.ndarray = field(metadata=serial(complex=True))
@@ -204,7 +261,7 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     cyc = check_physical(solve(problem, method, warm_start=ws))  # u <= 0 somewhere: not a forward flight, as the planar trim
     amplitude = float(cyc.free_values.get(AMPLITUDE_KEY, cfg.gait.shoulder_flap.amplitude_deg))
     if asym:
-        return _split_asymmetric(six, cyc, method, inertia, amplitude)
+        return _split_asymmetric(cfg, six, cyc, method, inertia, amplitude)
     return _split(cfg, cyc, six.ode.period_s, method, inertia, amplitude)
 
 
@@ -245,7 +302,7 @@ def heading_trajectory(six, cycle, steps_per_period: int | None = None):
     return rk4(six.ode, x0, cycle.p, steps_per_period=steps)
 
 
-def _split_asymmetric(six, cyc, method, inertia, amplitude) -> LateralTrimResult:
+def _split_asymmetric(cfg, six, cyc, method, inertia, amplitude) -> LateralTrimResult:
     none = np.full(0, np.nan)
     if cyc.monodromy is None:
         return LateralTrimResult(cyc, none, none, none, float("nan"), float("nan"), [], _inertia_dict(inertia),
@@ -254,10 +311,15 @@ def _split_asymmetric(six, cyc, method, inertia, amplitude) -> LateralTrimResult
     lon, lat = list(LONGITUDINAL), list(LATERAL)
     coupling = float(max(np.abs(M[np.ix_(lon, lat)]).max(), np.abs(M[np.ix_(lat, lon)]).max()))
     _, X = heading_trajectory(six, cyc, method.steps_per_period)
+    modes = coupled_modes(M, six.period_s, float(np.mean(X[:, 0])))
+    validity = periodic_validity(cfg, cyc.x0, p=cyc.p, steps_per_period=method.steps_per_period,
+                                 ode=six.ode_no_heading)
     return LateralTrimResult(
-        cycle=cyc, multipliers=sort_multipliers(list(cyc.multipliers) + [1.0]), longitudinal_multipliers=none,
-        lateral_multipliers=none, heading_multiplier=1.0, coupling_max=coupling, lateral_modes=[],
-        inertia=_inertia_dict(inertia), amplitude_deg=amplitude, validity=None, symmetric=False,
+        cycle=cyc, multipliers=sort_multipliers(list(cyc.multipliers) + [1.0]),
+        longitudinal_multipliers=sort_multipliers([m["multiplier"] for m in modes if m["label"] == "longitudinal"]),
+        lateral_multipliers=sort_multipliers([m["multiplier"] for m in modes if m["label"] != "longitudinal"]),
+        heading_multiplier=1.0, coupling_max=coupling, lateral_modes=[m for m in modes if m["label"] != "longitudinal"],
+        inertia=_inertia_dict(inertia), amplitude_deg=amplitude, validity=validity, symmetric=False,
         heading_change_deg=float(np.degrees(X[-1, HEADING] - X[0, HEADING])))
 
 
