@@ -143,3 +143,37 @@ def test_an_asymmetric_cycle_has_its_validity_over_both_wings_and_labelled_modes
     assert len(a.longitudinal_multipliers) == 4 and len(a.multipliers) == 9
     np.testing.assert_allclose(np.sort_complex(np.concatenate([a.lateral_multipliers, a.longitudinal_multipliers,
                                                                [1.0]])), np.sort_complex(a.multipliers), atol=1e-12)
+
+
+def _cli(*args):
+    import json
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "birdocp", *args, "--json"], capture_output=True, text=True,
+                          timeout=300)
+    return proc.returncode, (json.loads(proc.stdout) if proc.stdout.strip() else None), proc.stderr
+
+
+def test_continue_in_a_per_side_offset(tmp_path):
+    """``continue`` in one wing's sweep offset from the symmetric gait: the symmetric cycle turns into a
+    banked turn (phi grows from round-off), every point has its 6-DOF validity (one stalled share per
+    wing) and its multipliers split by eigenvector content; the first point's are the symmetric trim's."""
+    key = "gait.right_offset.shoulder_sweep.offset_deg"
+    code, r, err = _cli("continue", key, "--from", "0", "--to", "-1", "--points", "3", "--steps", "48",
+                        "--max-points", "4", "--set", "model.degrees_of_freedom=6", "--out", str(tmp_path / "c"))
+    assert code in (0, 1), err
+    pts = r["branch"]["points"]
+    assert len(pts) >= 3 and r["degrees_of_freedom"] == 6 and r["parameter"] == key
+    assert abs(pts[0]["x0"][6]) < 1e-12 < 1e-3 < abs(pts[-1]["x0"][6])  # bank: none, then a turn
+    assert all("stalled_fraction_left" in p["validity"] for p in pts)
+    assert len(r["lateral_multipliers"][-1]) == 4 and len(r["longitudinal_multipliers"][-1]) == 4
+    sym = lateral_trim(_six(), points=3, steps_per_period=48)
+    np.testing.assert_allclose(sorted(abs(complex(*m)) for m in r["lateral_multipliers"][0]),
+                               sorted(np.abs(sym.lateral_multipliers)), rtol=0, atol=1e-8)
+
+
+def test_continue_in_a_per_side_offset_needs_six_degrees_of_freedom(tmp_path):
+    code, _, err = _cli("continue", "gait.left_offset.shoulder_flap.amplitude_deg", "--from", "0", "--to", "1",
+                        "--out", str(tmp_path / "c"))
+    assert code == 2 and "degrees_of_freedom" in err and not (tmp_path / "c").exists()

@@ -27,10 +27,10 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, param_vector
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, asymmetric, param_vector
 from birdocp.bird.flight import flight_path_angle_deg
 from birdocp.bird.keys import AMPLITUDE_KEY
-from birdocp.bird.sides import side_vector
+from birdocp.bird.sides import SIDE_PARAM_NAMES, side_vector
 from birdocp.bird.sixdof import HEADING, LATERAL, LONGITUDINAL, STATE_NAMES, LateralInertia, embed_planar_state, \
     sixdof_model
 from birdocp.bird.validity import CycleValidity, periodic_validity
@@ -44,7 +44,7 @@ from birdocp.studies.trim import check_physical
 
 __all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "coupled_modes", "LATERAL_SHARE_MIN", "beats_to_double", "lateral_sensitivities",
            "LATERAL_SENSITIVITY_KEYS", "heading_trajectory", "TAIL_SENSITIVITY_KEY", "level_keywords",
-           "solve_point", "branch_problem", "planar_point", "add_lateral_split"]
+           "solve_point", "branch_problem", "planar_point", "validity_point", "add_lateral_split"]
 
 
 def beats_to_double(multiplier: complex) -> float:
@@ -432,13 +432,13 @@ def branch_problem(cfg: Config, model_key: str, level: bool, climb_rate_mps: flo
     """``(ode, problem)`` of a 6-DOF continuation of ``cfg`` (:func:`birdocp.studies.branch.bird_branch`):
     the heading-free ODE ``ode_no_heading`` (8 states; nothing depends on psi, whose multiplier 1 would
     sit on every fold and branch-point test), at fixed gait or (``level``) with the amplitude free and
-    the mean vertical speed held at ``climb_rate_mps``."""
-    six = sixdof_model(cfg)
-    if six.sides:
-        raise ConfigError("model.degrees_of_freedom", "continue with an asymmetric gait (per-side offsets) is not "
-                                                      "written yet; continue the symmetric gait")
+    the mean vertical speed held at ``climb_rate_mps``. An asymmetric gait, or a continuation in a
+    per-side offset (``gait.right_offset.*``, ``gait.left_offset.*``), uses the model with per-side
+    joint laws: its cycles are turns, periodic up to the heading, which the 8 states leave out."""
+    six = sixdof_model(cfg, sides=asymmetric(cfg) or model_key in SIDE_PARAM_NAMES)
     ode, outs = six.ode_no_heading, six.flight_outputs(HEADING)
-    p6 = np.asarray(six.params(param_vector(cfg), LateralInertia.of(cfg)), float)
+    p6 = np.asarray(six.params(param_vector(cfg), LateralInertia.of(cfg), side_vector(cfg) if six.sides else None),
+                    float)
     guess = np.array(embed_planar_state(cfg.solve.initial_guess)[:HEADING])
     if not level:
         return ode, LimitCycleProblem(ode, p6, guess, outputs=outs)
@@ -457,21 +457,38 @@ def planar_point(x0, p):
     return x0[list(LONGITUDINAL)], (np.asarray(p, float)[:len(PARAM_NAMES)] if p is not None and len(p) else None)
 
 
-def add_lateral_split(cfg: Config, branch, steps_per_period: int, points: int) -> None:
+def validity_point(x0, p, ode):
+    """``(x0, p, ode)`` for the validity of a 6-DOF branch point on the heading-free ``ode``: with
+    per-side joint laws (an asymmetric gait, a per-side offset continued) the 6-DOF check over both
+    wings on ``ode`` itself; otherwise the planar cycle's (:func:`planar_point`, ode None)."""
+    if ode is not None and SIDE_PARAM_NAMES[0] in ode.param_names:
+        return np.asarray(x0, float), np.asarray(p, float), ode
+    return (*planar_point(x0, p), None)
+
+
+def add_lateral_split(cfg: Config, branch, steps_per_period: int, points: int, ode=None) -> None:
     """Give every point of a 6-DOF branch its split multipliers, in ``branch.settings``: the lists
     ``longitudinal_multipliers`` and ``lateral_multipliers`` ([re, im] pairs, largest modulus first),
     ``lateral_stable`` and ``coupling_max`` per point, from the point's monodromy (one variational
-    period of the heading-free ODE; the heading's multiplier 1 is not part of the branch)."""
+    period of the heading-free ODE ``ode``, default ``cfg``'s; the heading's multiplier 1 is not part
+    of the branch). With per-side joint laws the blocks couple and the multipliers are split by
+    eigenvector content (:func:`coupled_modes`)."""
     from birdocp.engine.shooting import floquet
 
-    ode = sixdof_model(cfg).ode_no_heading
+    ode = sixdof_model(cfg).ode_no_heading if ode is None else ode
+    sides = SIDE_PARAM_NAMES[0] in ode.param_names
     lon, lat = list(LONGITUDINAL), list(LATERAL)
     rows = {"longitudinal_multipliers": [], "lateral_multipliers": [], "lateral_stable": [], "coupling_max": []}
     method = MultipleShooting(points=points, steps_per_period=steps_per_period)
     for pt in branch.points:
         M = np.asarray(floquet(ode, pt.x0, pt.p, method).monodromy)
-        L = {"longitudinal": sort_multipliers(np.linalg.eigvals(M[np.ix_(lon, lon)])),
-             "lateral": sort_multipliers(np.linalg.eigvals(M[np.ix_(lat, lat)]))}
+        if sides:
+            modes = coupled_modes(M, ode.period_s, float(pt.x0[0]))
+            L = {"longitudinal": sort_multipliers([m["multiplier"] for m in modes if m["label"] == "longitudinal"]),
+                 "lateral": sort_multipliers([m["multiplier"] for m in modes if m["label"] != "longitudinal"])}
+        else:
+            L = {"longitudinal": sort_multipliers(np.linalg.eigvals(M[np.ix_(lon, lon)])),
+                 "lateral": sort_multipliers(np.linalg.eigvals(M[np.ix_(lat, lat)]))}
         for k, v in L.items():
             rows[f"{k}_multipliers"].append([[float(z.real), float(z.imag)] for z in np.asarray(v, complex)])
         rows["lateral_stable"].append(bool(np.all(np.abs(L["lateral"]) < 1.0)))
