@@ -27,7 +27,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, asymmetric, param_vector
+from birdocp.bird.config import PARAM_NAMES, Config, asymmetric, param_vector
 from birdocp.bird.flight import flight_path_angle_deg
 from birdocp.bird.keys import AMPLITUDE_KEY
 from birdocp.bird.sides import SIDE_PARAM_NAMES, side_vector

@@ -266,6 +266,18 @@ def _beat(st, z, k, N, p_cyc, idx, u_cyc, controller, gvec, T, stall_deg=None):
     return z, np.vstack(Zs), applied, sat, np.hstack(airs), (np.hstack(shares) if shares else np.zeros((2, 0)))
 
 
+def _wind_of(st, x0, N, p_cyc, side_gust, gusts, wind_mps):
+    """``(g, beat_m, spans)``: the stepper's wind numbers (side gust, then :func:`wind_vector`'s), the
+    distance flown in one calm beat of the cycle [m] (the gusts' beats) and the gusts' spans."""
+    T = st.model.period_s
+    side = side_gust.vector(T) if side_gust is not None else np.array([0.0, 0.0, 1.0, 0.0])
+    calm = np.concatenate([[0.0, 0.0, 1.0, 0.0], wind_vector((), (0.0, 0.0), 1.0)[0]])
+    zc = _beat(st, np.concatenate([x0, [0.0] * 4]), 0, N, p_cyc, [], np.zeros(0), None, calm, T)[0]
+    beat_m = float(np.hypot(zc[9], zc[10]))
+    planar, spans = wind_vector(gusts, wind_mps, beat_m)
+    return np.concatenate([side, planar]), beat_m, spans
+
+
 def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | None = None, perturbation=None,
                      side_gust: SideGust | None = None, gusts=(), wind_mps=(0.0, 0.0), controller=None,
                      progress=None) -> LateralSimulation:
@@ -289,9 +301,8 @@ def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | No
     side_gust : SideGust, optional
         The side wind.
     gusts : sequence of Gust
-        Vertical and horizontal 1 - cos gusts frozen in space along the cycle's initial heading
-        (:class:`birdocp.studies.simulate.Gust`: at most one of each, lengths and starts in beats of the
-        cycle's flight distance or in metres), met at the bird's position.
+        Vertical and horizontal 1 - cos gusts (:class:`birdocp.studies.simulate.Gust`, at most one of
+        each) frozen in space along the cycle's initial heading, met at the bird's position.
     wind_mps : (float, float)
         Constant wind (horizontal along the initial heading, vertical positive up) [m/s].
     controller : Controller, optional
@@ -317,12 +328,7 @@ def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | No
     names = list(six.ode.param_names)
     keys = list(controller.controls) if controller is not None else []
     idx = [names.index(k) for k in keys]
-    side = side_gust.vector(six.period_s) if side_gust is not None else np.array([0.0, 0.0, 1.0, 0.0])
-    calm = np.concatenate([[0.0, 0.0, 1.0, 0.0], wind_vector((), (0.0, 0.0), 1.0)[0]])
-    zc = _beat(st, np.concatenate([x0, [0.0] * 4]), 0, N, p_cyc, idx, p_cyc[idx], None, calm, six.period_s)[0]
-    beat_m = float(np.hypot(zc[9], zc[10]))
-    planar, spans = wind_vector(gusts, wind_mps, beat_m)
-    gvec = np.concatenate([side, planar])
+    gvec, beat_m, spans = _wind_of(st, x0, N, p_cyc, side_gust, gusts, wind_mps)
     z = np.concatenate([x0 + dx0, [0.0] * 4])
     traj, ctrl, dev = [z[None, :]], [], [float(np.linalg.norm(dx0[:HEADING]))]
     sat, status, message, diverged, airs, stall_max = False, "ok", f"{int(beats)} beats simulated", None, [], 0.0
@@ -331,8 +337,8 @@ def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | No
             progress(f"beat {k + 1}/{beats}")
         z, Zk, applied, s, air, shares = _beat(st, z, k, N, p_cyc, idx, p_cyc[idx], controller, gvec, six.period_s,
                                                cfg.validity.stall_angle_deg)
-        stalled = shares.mean(axis=1) if shares.shape[1] == Zk.shape[0] else None  # per wing, over the beat
-        stall_max = max(stall_max, float(stalled.max())) if stalled is not None else stall_max
+        stalled = shares.mean(axis=1) if shares.shape[1] == Zk.shape[0] else np.zeros(0)  # per wing, over the beat
+        stall_max = max([stall_max, *stalled])
         status, why = _limits_text(Zk, air, cfg.validity, stalled)
         sat, ctrl = sat or s, ctrl + applied
         traj.append(Zk)
