@@ -217,8 +217,8 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     Parameters
     ----------
     cfg : Config, optional
-        The configuration (default: the paper's reference case). Drag and the unsteady or stall sections are refused;
-        the tail and wing masses are taken in 3-D.
+        The configuration (default: the paper's reference case). The unsteady or stall sections are refused;
+        the tail, wing masses and the optional drag are taken in 3-D.
     inertia : LateralInertia, optional
         Roll and yaw inertia [kg m^2]; default ``cfg.model``'s.
     level : bool
