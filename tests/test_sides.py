@@ -141,6 +141,9 @@ def test_an_asymmetric_cycle_has_its_validity_over_both_wings_and_labelled_modes
     assert labels == ["dutch_roll_like", "dutch_roll_like", "roll_subsidence", "spiral"]
     assert all(m["lateral_share"] > 0.9 for m in a.lateral_modes)
     assert len(a.longitudinal_multipliers) == 4 and len(a.multipliers) == 9
+    d = a.to_dict()  # one exponent per listed multiplier (the heading's 1 included), in the same order
+    mu = np.array([complex(*z) for z in d["floquet_exponents"]])
+    assert len(mu) == 9 and np.abs(np.exp(mu[:8] * a.cycle.period) - a.multipliers[:8]).max() < 1e-12
     np.testing.assert_allclose(np.sort_complex(np.concatenate([a.lateral_multipliers, a.longitudinal_multipliers,
                                                                [1.0]])), np.sort_complex(a.multipliers), atol=1e-12)
 

@@ -37,7 +37,8 @@ def format_lateral_table(r: dict) -> str:
         re_, im = m["multiplier"] if isinstance(m["multiplier"], (list, tuple)) else (m["multiplier"], 0.0)
         mod = (re_ ** 2 + im ** 2) ** 0.5
         lines.append(f"    {m['label']:<17} {fmt_num(re_):>12} {fmt_num(im):>12} {fmt_num(mod, '.6f'):>10} "
-                     f"{fmt_num(m.get('beats_to_double'), '.4g'):>10}  {m.get('dominant_state')}")
+                     f"{fmt_num(m.get('beats_to_double'), '.4g'):>10}  {m.get('dominant_state')}"
+                     + (f"  lateral share {m['lateral_share']:.3f}" if "lateral_share" in m else ""))
     return "\n".join(lines)
 
 

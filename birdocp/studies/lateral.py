@@ -34,7 +34,7 @@ from birdocp.bird.sides import SIDE_PARAM_NAMES, side_vector
 from birdocp.bird.sixdof import HEADING, LATERAL, LONGITUDINAL, STATE_NAMES, LateralInertia, embed_planar_state, \
     sixdof_model
 from birdocp.bird.validity import CycleValidity, periodic_validity
-from birdocp.engine.floquet import multipliers_info, sort_multipliers
+from birdocp.engine.floquet import doubling_time_s, multipliers_info, sort_multipliers
 from birdocp.engine.problem import LimitCycleProblem, MeanCondition
 from birdocp.engine.results import result_dict, serial
 from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
@@ -190,6 +190,11 @@ class LateralTrimResult:
         and ``mean_forward_speed_mps``."""
         own = {f.name for f in fields(self)} | {"success", "stable", "lateral_stable"}
         extra = {k: v for k, v in self.cycle.to_dict().items() if k not in own}
+        if not self.symmetric and len(self.multipliers):  # the exponents of the nine, the heading's 1 included
+            with np.errstate(divide="ignore"):
+                mu = np.log(np.asarray(self.multipliers, complex)) / self.cycle.period
+            extra["floquet_exponents"] = [[float(z.real), float(z.imag)] for z in mu]
+            extra["doubling_times_s"] = [float(v) for v in np.atleast_1d(doubling_time_s(mu.real))]
         extra.update({
             "state_names": list(STATE_NAMES if self.symmetric else STATE_NAMES[:HEADING]), "degrees_of_freedom": 6,
             "moduli": [float(abs(z)) for z in self.multipliers],
