@@ -196,3 +196,20 @@ def test_swapping_the_wings_mirrors_the_solved_cycle_with_wing_masses(coarse):
     assert abs(a.heading_change_deg + b.heading_change_deg) < 1e-9
     assert b.validity.to_dict()["stalled_fraction_left"] == pytest.approx(
         a.validity.to_dict()["stalled_fraction_right"], abs=1e-12)
+
+
+@pytest.mark.slow
+def test_sensitivities_of_an_asymmetric_cycle_against_central_differences(coarse):
+    """Exact derivatives of the 8 multipliers of a turn (the heading-free ODE, cycle change included)
+    with respect to one wing's sweep offset, against central differences of re-solved cycles."""
+    from birdocp.studies.lateral import lateral_sensitivities
+
+    cfg = _six(**TURN)
+    res = lateral_trim(cfg, **coarse)
+    key, h = "gait.right_offset.shoulder_sweep.offset_deg", 1e-3
+    (row,) = lateral_sensitivities(res, cfg, [key])
+    assert sorted(row["labels"]).count("longitudinal") == 4 and "spiral" in row["labels"]
+    plus, minus = (lateral_trim(with_values(cfg, {key: -1.0 + s * h}), warm_start=res, **coarse) for s in (1, -1))
+    cd = (np.abs(plus.cycle.multipliers) - np.abs(minus.cycle.multipliers)) / (2 * h)
+    np.testing.assert_allclose(row["d_moduli"], cd, rtol=0, atol=1e-6)
+    assert np.abs(cd).max() > 1e-2

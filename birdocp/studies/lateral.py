@@ -23,6 +23,7 @@ share of at least :data:`LATERAL_SHARE_MIN` (one half) is lateral and gets a lab
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field, fields
 
 import numpy as np
@@ -372,7 +373,9 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
     to ``parameters`` (keys of :data:`birdocp.bird.config.PARAM_NAMES` or
     :data:`birdocp.bird.sixdof.LATERAL_PARAM_NAMES`), the change of the cycle included (second-order
     AD through the RK4 period map, :func:`birdocp.studies.sensitivity.cycle_derivatives`; the heading
-    is left out of the periodicity condition, its multiplier 1 being structural).
+    is left out of the periodicity condition, its multiplier 1 being structural). An asymmetric gait's
+    cycle (a turn) is differentiated in the heading-free 8 states it was solved in, and its parameters
+    include the per-side offsets (``gait.right_offset.*``, ``gait.left_offset.*``).
 
     Parameters
     ----------
@@ -391,7 +394,6 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
         ``res.multipliers``' labels: ``labels``), ``d_multipliers`` ([re, im] pairs), per unit of the
         parameter (deg, kg m^2).
     """
-    from birdocp.bird.sixdof import LATERAL_PARAM_NAMES
     from birdocp.studies.sensitivity import SecondOrderMaps, cycle_derivatives
 
     cfg = cfg or Config()
@@ -404,16 +406,39 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
     six = sixdof_model(cfg)
     if parameters is None:
         parameters = LATERAL_SENSITIVITY_KEYS + ((TAIL_SENSITIVITY_KEY,) if six.structure.tail else ())
-    names = list(PARAM_NAMES) + list(LATERAL_PARAM_NAMES)
+    names = list(six.ode.param_names)
     for k in parameters:
         if k not in names:
             raise ValueError(f"unknown parameter {k!r}")
-    so = SecondOrderMaps.get(six, int(c.method["steps_per_period"]), six.flight_outputs()["vertical_speed_mps"])
-    states = [i for i in range(9) if i != HEADING]
+    steps = int(c.method["steps_per_period"])
+    if six.sides:  # an asymmetric gait: the heading-free 8 states the cycle was solved in
+        so = SecondOrderMaps.get(_heading_free(six), steps, six.flight_outputs(HEADING)["vertical_speed_mps"])
+        states = list(range(HEADING))
+    else:
+        so = SecondOrderMaps.get(six, steps, six.flight_outputs()["vertical_speed_mps"])
+        states = [i for i in range(9) if i != HEADING]
     lam, dL, dmod, _, _ = cycle_derivatives(so, six.period_s, c.x0, c.p, [names.index(k) for k in parameters], states)
     labels = _labels(lam, res)
     return [{"parameter": k, "labels": labels, "multipliers": lam, "d_moduli": dmod[i], "d_multipliers": dL[i]}
             for i, k in enumerate(parameters)]
+
+
+class _HeadingFree:
+    """A per-side 6-DOF model seen through its heading-free ODE (the model interface of
+    :class:`birdocp.studies.sensitivity.SecondOrderMaps`: ``model``, ``ode``, ``data``)."""
+
+    def __init__(self, six):
+        self.ode, self.data = six.ode_no_heading, six.data
+
+    @property
+    def model(self) -> "_HeadingFree":
+        """The identity the maps are cached by."""
+        return self
+
+
+@functools.lru_cache(maxsize=4)
+def _heading_free(six) -> _HeadingFree:
+    return _HeadingFree(six)
 
 
 def _labels(lam, res: LateralTrimResult) -> list[str]:
@@ -421,7 +446,7 @@ def _labels(lam, res: LateralTrimResult) -> list[str]:
     out = []
     for z in lam:
         lab = "longitudinal"
-        if abs(z - res.heading_multiplier) < 1e-9 and abs(z.imag) < 1e-12:
+        if res.symmetric and abs(z - res.heading_multiplier) < 1e-9 and abs(z.imag) < 1e-12:
             lab = "heading"
         for m in res.lateral_modes:
             if abs(z - m["multiplier"]) < 1e-9 * max(1.0, abs(z)):
