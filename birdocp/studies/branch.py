@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from birdocp.bird.config import Config
+from birdocp.bird.config import SIDE_KEYS, Config, ConfigError
 from birdocp.bird.flight import flight_outputs
 from birdocp.bird.keys import AMPLITUDE_KEY, resolve_key
 from birdocp.bird.model import get_model
@@ -30,6 +30,8 @@ def resolve_parameter(key: str) -> tuple[str, str]:
     k = str(key).strip()
     if k in (STABILITY_MARGIN, "SM", "sm"):
         return "wing.root_ahead_m", STABILITY_MARGIN
+    if k in SIDE_KEYS:  # a per-side offset: six degrees of freedom only (the configuration check says so)
+        return k, k
     rk = resolve_key(k, "PARAM")
     return rk, rk
 
@@ -122,16 +124,16 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
         br.settings["stability_margin_percent"] = [sm_percent(p.parameter, chord) for p in br.points]
     if validity:
         add_validity(cfg, br, steps, ode)
-    return _with_lateral_split(cfg, br, steps, points)
+    return _with_lateral_split(cfg, br, steps, points, ode)
 
 
-def _with_lateral_split(cfg, br: Branch, steps: int, points: int) -> Branch:
+def _with_lateral_split(cfg, br: Branch, steps: int, points: int, ode=None) -> Branch:
     """``br``, with six degrees of freedom given its per-point longitudinal/lateral split
-    (:func:`birdocp.studies.lateral.add_lateral_split`)."""
+    (:func:`birdocp.studies.lateral.add_lateral_split` on the branch's ODE)."""
     if cfg.model.degrees_of_freedom == 6:
         from birdocp.studies.lateral import add_lateral_split
 
-        add_lateral_split(cfg, br, steps, points)
+        add_lateral_split(cfg, br, steps, points, ode)
     return br
 
 
@@ -142,6 +144,9 @@ def _problem(cfg, compiled, model_key: str, level: bool, climb_rate_mps: float, 
         from birdocp.studies.lateral import branch_problem
 
         return branch_problem(cfg, model_key, level, climb_rate_mps, bounds)
+    if model_key in SIDE_KEYS:
+        raise ConfigError(model_key, "a per-side offset (an asymmetric gait) needs six degrees of freedom; "
+                                     "set model.degrees_of_freedom = 6")
     m = get_model(cfg)
     ode = solver_ode(m, compiled)
     return ode, bird_problem(cfg, m, ode, model_key, level, climb_rate_mps, bounds)
@@ -223,12 +228,13 @@ def add_validity(cfg, br: Branch, steps_per_period: int | None = None, ode=None)
 
 
 def _planar_of(cfg, pt, ode):
-    """(x0, p, ode) for the validity of a branch point: as is, or for a 6-DOF point the planar cycle's
-    state and parameters with the planar model (:func:`birdocp.studies.lateral.planar_point`)."""
+    """(x0, p, ode) for the validity of a branch point: as is, or for a 6-DOF point
+    :func:`birdocp.studies.lateral.validity_point` (the planar cycle's, or with per-side joint laws the
+    6-DOF check over both wings)."""
     if cfg.model.degrees_of_freedom == 6:
-        from birdocp.studies.lateral import planar_point
+        from birdocp.studies.lateral import validity_point
 
-        return (*planar_point(pt.x0, pt.p), None)
+        return validity_point(pt.x0, pt.p, ode)
     return pt.x0, np.asarray(pt.p, float) if len(pt.p) else None, ode
 
 
