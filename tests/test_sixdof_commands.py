@@ -57,7 +57,7 @@ def test_forces_state_count_follows_the_model(capfd):
 
 @pytest.fixture(scope="module")
 def lateral_problem():
-    from birdocp.studies.gait_cycle import reduced_level_cycle
+    from birdocp.studies.lateral_optimize import reduced_level_cycle
     from birdocp.studies.gait_problem import ReducedProblem
 
     cfg = with_values(Config(), SIX)

@@ -32,7 +32,7 @@ from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, sug
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.floquet import sort_multipliers
 
-__all__ = ["ReducedLevelCycle", "reduced_level_cycle", "Evaluation", "WarmStart", "jury_conditions", "check_free_bounds", "check_free_keys",
+__all__ = ["ReducedLevelCycle", "Evaluation", "WarmStart", "jury_conditions", "check_free_bounds", "check_free_keys",
            "AMPLITUDE_KEY", "JURY_MARGIN", "POSITIVE_EPS_W"]
 
 from birdocp.bird.keys import AMPLITUDE_KEY, JURY_MARGIN  # noqa: E402 (one definition of each)
@@ -481,13 +481,3 @@ class ReducedLevelCycle:
         raise RuntimeError(f"speed {speed_mps} m/s not reached by {self.keys[k]} within its bounds (last U = "
                            f"{ev.means['forward_speed_mps']:.9g} m/s at {self.keys[k]} = {theta[k]:.6g})")
 
-
-def reduced_level_cycle(cfg: Config, keys, **options) -> ReducedLevelCycle:
-    """The :class:`ReducedLevelCycle` of ``cfg`` over the free ``keys`` (``options``: its other
-    arguments); with ``model.degrees_of_freedom = 6`` the one whose multipliers also count the lateral
-    ones (:class:`birdocp.studies.lateral_optimize.LateralLevelCycle`)."""
-    if cfg.model.degrees_of_freedom == 6:
-        from birdocp.studies.lateral_optimize import LateralLevelCycle
-
-        return LateralLevelCycle(cfg, keys, **options)
-    return ReducedLevelCycle(cfg, keys, **options)

@@ -24,7 +24,7 @@ from birdocp.bird.sixdof import LATERAL, LONGITUDINAL, LateralInertia, embed_pla
 from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.studies.gait_cycle import Evaluation, ReducedLevelCycle
 
-__all__ = ["LateralLevelCycle", "multiplier_split", "lateral_check"]
+__all__ = ["LateralLevelCycle", "reduced_level_cycle", "multiplier_split", "lateral_check"]
 
 
 def _pairs(lam) -> list:
@@ -120,3 +120,12 @@ def lateral_check(cfg_best: Config, x0, multipliers, steps_per_period: int) -> d
             "trim_heading_multiplier": float(tr.heading_multiplier), "trim_coupling_max": float(tr.coupling_max),
             "trim_lateral_modes": [{"label": m["label"], "multiplier": _pairs([m["multiplier"]])[0],
                                     "beats_to_double": float(m["beats_to_double"])} for m in tr.lateral_modes]}
+
+
+def reduced_level_cycle(cfg: Config, keys, **options) -> ReducedLevelCycle:
+    """The :class:`~birdocp.studies.gait_cycle.ReducedLevelCycle` of ``cfg`` over the free ``keys``
+    (``options``: its other arguments); with ``model.degrees_of_freedom = 6`` the
+    :class:`LateralLevelCycle`, whose multipliers also count the lateral ones."""
+    if cfg.model.degrees_of_freedom == 6:
+        return LateralLevelCycle(cfg, keys, **options)
+    return ReducedLevelCycle(cfg, keys, **options)

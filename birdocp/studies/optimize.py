@@ -286,10 +286,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
         The optimal gait, amplitude, cycle, multipliers, ``radius``, IPOPT's status and iterations, the
         verification, the optimum's validity and, with ``valid``, ``validity_constraints``.
     """
-    _check_options(method, threads, valid)
-    if method == "full" and cfg is not None and cfg.model.degrees_of_freedom == 6:
-        raise ConfigError("--method", "the full-space method is planar; with model.degrees_of_freedom = 6 use "
-                                      "--method reduced")
+    _check_options(method, threads, valid, cfg)
     if coarse_steps == "auto":
         coarse_steps = COARSE_STEPS[method]
     if method == "full":
@@ -300,8 +297,12 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
                              max_iter, tol, verify, progress, threads, valid)
 
 
-def _check_options(method: str, threads, valid: bool) -> None:
-    """ConfigError naming the option when ``method``, ``threads`` or ``valid`` is not allowed."""
+def _check_options(method: str, threads, valid: bool, cfg: Config | None = None) -> None:
+    """ConfigError naming the option when ``method``, ``threads`` or ``valid`` is not allowed (for ``cfg``:
+    the full-space method is planar)."""
+    if method == "full" and cfg is not None and cfg.model.degrees_of_freedom == 6:
+        raise ConfigError("--method", "the full-space method is planar; with model.degrees_of_freedom = 6 use "
+                                      "--method reduced")
     if method not in METHODS:
         raise ConfigError("--method", f"must be one of {', '.join(METHODS)}, got {method!r}")
     if int(threads) < 1:
