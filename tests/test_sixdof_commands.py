@@ -120,3 +120,35 @@ def test_six_dof_optimisers_refuse_what_they_cannot_solve(capfd):
     asym = with_values(Config(), SIX | {"gait.right_offset.shoulder_sweep.offset_deg": 2.0})
     with pytest.raises(ConfigError, match="symmetric gait"):
         LateralLevelCycle(asym, KEYS, steps_per_period=12)
+
+
+def test_lateral_block_two_ways(lateral_problem):
+    """The lateral block and its derivative from the SX variational equations on the planar data equal
+    those of forward AD through the 9-state period map (the path taken with wing masses)."""
+    import casadi as ca
+
+    from birdocp.studies.sensitivity import SecondOrderMaps
+
+    rc, _, theta = lateral_problem
+    ev = rc.evaluate(theta)
+    M, dM = rc._lateral(ev, True)
+    rc.so6 = SecondOrderMaps.get(rc.six, rc.N, rc.six.flight_outputs()["vertical_speed_mps"])
+    rc._times6 = ca.DM(rc.so6.grid.times(0.0)).reshape((1, -1))
+    M2, dM2 = rc._lateral_wing_masses(ev, True)
+    np.testing.assert_allclose(M, M2, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(dM, dM2, rtol=1e-9, atol=1e-10 * np.max(np.abs(dM)))
+
+
+def test_lateral_level_cycle_with_wing_masses():
+    """With wing masses (the 6-DOF data has 3-D mass sums) the lateral block is that of a 6-DOF trim."""
+    from birdocp.studies.lateral import lateral_trim
+    from birdocp.studies.lateral_optimize import reduced_level_cycle
+
+    cfg = with_values(Config(), SIX | {"wing.mass_kg": 0.05})
+    rc = reduced_level_cycle(cfg, KEYS[:1], steps_per_period=12)
+    assert not rc.shared_data
+    ev = rc.evaluate(np.array([float(get_value(cfg, KEYS[0]))]))
+    tr = lateral_trim(with_values(cfg, {"gait.shoulder_flap.amplitude_deg": ev.amplitude_deg}), steps_per_period=12,
+                      points=3, x_guess=[ev.x0[0], 0, ev.x0[1], 0, ev.x0[2], 0, 0, ev.x0[3], 0])
+    lat = np.array([complex(*p) for p in rc.multiplier_split(ev)["lateral_multipliers"]])
+    assert np.max(np.abs(np.sort_complex(lat) - np.sort_complex(tr.lateral_multipliers))) < 1e-8

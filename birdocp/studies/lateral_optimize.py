@@ -9,7 +9,10 @@ and add the lateral block as a second 4 x 4 block whose Jury conditions are cons
 monodromy's (:meth:`birdocp.studies.gait_cycle.ReducedLevelCycle.stability_blocks`). The lateral block and
 its exact derivative along each free parameter (the cycle's change x0(theta), A(theta) included, as the
 planar ``dy/dtheta``) come from the second-order variational equations of the 9-state ODE along the
-planar cycle (:class:`birdocp.studies.sensitivity.SecondOrderMaps` of :mod:`birdocp.bird.sixdof`).
+planar cycle: the SX variational equations of :class:`birdocp.engine.variational.PeriodSensitivities`
+on the planar cycle's own data and data directions (the 6-DOF data is the planar data; with wing masses,
+whose 3-D sums the planar data lacks, forward AD through the 9-state period map of
+:class:`birdocp.studies.sensitivity.SecondOrderMaps`).
 
 An asymmetric gait (per-side offsets) is refused: its cycle is not the planar one.
 """
@@ -21,6 +24,7 @@ import numpy as np
 
 from birdocp.bird.config import Config, ConfigError, asymmetric
 from birdocp.bird.sixdof import LATERAL, LONGITUDINAL, LateralInertia, embed_planar_state, sixdof_model
+from birdocp.engine.cache import bounded_cache
 from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.studies.gait_cycle import Evaluation, ReducedLevelCycle
 
@@ -60,13 +64,38 @@ class LateralLevelCycle(ReducedLevelCycle):
 
         self.six = six = sixdof_model(cfg)
         self.inertia = LateralInertia.of(cfg)
-        self.so6 = so = SecondOrderMaps.get(six, self.N, six.flight_outputs()["vertical_speed_mps"])
-        self._times6 = ca.DM(so.grid.times(0.0)).reshape((1, -1))
         self._lat = np.ix_(list(LATERAL), list(LATERAL))
+        self.shared_data = not six.structure.wing_mass  # the 6-DOF data is the planar data (else 3-D mass sums added)
+        if self.shared_data:
+            self.sens6 = _variational(six, self.N, self.nt, len(self.vidx), self.second)
+        else:
+            self.so6 = so = SecondOrderMaps.get(six, self.N, six.flight_outputs()["vertical_speed_mps"])
+            self._times6 = ca.DM(so.grid.times(0.0)).reshape((1, -1))
 
     def _lateral(self, ev: Evaluation, grads: bool):
         """(M, dM): the lateral block of the 9-state monodromy at ``ev`` and, with ``grads``, its
-        derivative along each free parameter with x0 and the amplitude following (16 x n_theta)."""
+        derivative along each free parameter with x0 and the amplitude following (16 x n_theta): the
+        SX variational equations on the planar data and its directions (without wing masses), else
+        forward AD through the period map (:meth:`_lateral_wing_masses`)."""
+        if not self.shared_data:
+            return self._lateral_wing_masses(ev, grads)
+        p = self.pfull(ev.theta, ev.amplitude_deg)
+        p6 = np.asarray(self.six.params(p, self.inertia), float)
+        D, cols = self._data(ca.DM(p))
+        x9 = embed_planar_state(np.asarray(ev.x0, float)[:4])
+        if not grads:
+            return np.asarray(self.sens6["mono"](x9, D, p6)["J"])[self._lat], None
+        seeds = np.vstack([self._seeds, np.zeros((len(p6) - len(p), self._seeds.shape[1]))])
+        dx0 = np.zeros((9, self.nt))
+        dx0[list(LONGITUDINAL)] = ev.dy[:4]
+        s = self.sens6["second"](x9, D, p6, dp=seeds, columns=cols, W=np.vstack([np.eye(self.nt), ev.dy[4]]), dx0=dx0)
+        dM = np.stack([s["dMon"][:, c].reshape(9, 9, order="F")[self._lat].ravel(order="F") for c in range(self.nt)],
+                      axis=1)
+        return np.asarray(s["Mon"])[self._lat], dM
+
+    def _lateral_wing_masses(self, ev: Evaluation, grads: bool):
+        """:meth:`_lateral` with wing masses (the 6-DOF data has the 3-D mass sums the planar data lacks):
+        forward-over-forward AD through the 9-state period map, one direction per free parameter."""
         so, times = self.so6, self._times6
         p6 = np.asarray(self.six.params(self.pfull(ev.theta, ev.amplitude_deg), self.inertia), float)
         Dg = so.grid.data_grid(times, ca.DM(p6))
@@ -100,6 +129,25 @@ class LateralLevelCycle(ReducedLevelCycle):
         """:func:`multiplier_split` of ``ev`` (None without its monodromy)."""
         self.fill_monodromy(ev)
         return multiplier_split(ev.monodromy, ev.blocks[0][0])
+
+
+_VARIATIONAL = bounded_cache("studies.lateral_optimize_variational", 4)
+
+
+def _variational(six, steps: int, n_theta: int, n_data: int, second: bool) -> dict:
+    """The 9-state period sensitivities of a :class:`LateralLevelCycle` (built once per model, grid and
+    number of free parameters): ``mono`` (the monodromy alone) and, with ``second``, ``second`` (the
+    monodromy and its derivative along the combined directions, as the planar cycle's ``sens2``)."""
+    from birdocp.engine.variational import PeriodSensitivities
+
+    key = (id(six), int(steps), int(n_theta), int(n_data), bool(second))
+    hit = _VARIATIONAL.get(key)
+    if hit is None or hit["six"] is not six:
+        hit = {"six": six, "mono": PeriodSensitivities(six.ode, steps, (), 0),
+               "second": PeriodSensitivities(six.ode, steps, (), n_theta, True, combined=True, n_data=n_data)
+               if second else None}
+        _VARIATIONAL.put(key, hit)
+    return hit
 
 
 def lateral_check(cfg_best: Config, x0, multipliers, steps_per_period: int) -> dict:
