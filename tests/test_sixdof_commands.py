@@ -93,6 +93,10 @@ def test_lateral_block_and_its_derivative(lateral_problem):
     assert np.max(np.abs(np.sort_complex(lat) - np.sort_complex(tr.lateral_multipliers))) < 1e-8
     assert split["lateral_radius"] == pytest.approx(np.max(np.abs(tr.lateral_multipliers)), rel=1e-8)
     assert len(ev.multipliers) == 8
+    from birdocp.studies.gait_problem import ReducedProblem
+
+    bounded = ReducedProblem(rc, "power", 18.0, 1.2, (20.0, 70.0))  # optimize-gait --max-multiplier 1.2
+    assert bounded.names[-5:] == [f"jury{i}_block1" for i in range(5)] and bounded.ng == 1 + 2 + 10
 
 
 def test_optimize_stability_six_dof_json_keys(tmp_path, capfd, monkeypatch):
