@@ -277,6 +277,21 @@ class SixDofModel:
             raise ValueError("per-side offsets need a model with sides=True (sixdof_model(cfg, sides=True))")
         return out
 
+    def evaluate(self, state, t, p) -> dict:
+        """Body-axis loads and the state derivative at one 9-state ``state`` (:data:`STATE_NAMES`) and
+        time ``t`` [s] for the parameter vector ``p`` (:meth:`params`): the aerodynamic (and tail) force
+        (X, Y, Z) [N] along (x' forward, y' right, z' down) and moment (L, M, N) [N m] about G (roll right
+        wing down, pitch nose up, yaw nose right positive) as ``Fx_N, Fy_N, Fz_N, Mx_Nm, My_Nm, Mz_Nm``,
+        and ``xdot`` (9). For a symmetric state the planar :meth:`BirdModel.evaluate`'s Fx, Fz, My."""
+        import numpy as np
+
+        x, pd = ca.DM(np.asarray(state, float)), ca.DM(np.asarray(p, float))
+        d = self.data(float(t), pd)
+        loads = np.asarray(self.loads_d(x, d, pd), float).ravel()
+        names = ("Fx_N", "Fy_N", "Fz_N", "Mx_Nm", "My_Nm", "Mz_Nm")
+        return {**{k: float(v) for k, v in zip(names, loads)},
+                "xdot": np.asarray(self.rhs(x, d, pd), float).ravel().tolist()}
+
     def flight_outputs(self, n_states: int = 9) -> dict:
         """``{"vertical_speed_mps": W, "forward_speed_mps": U}`` as Functions ``(x, d, p)`` of the
         9-state (or of the 8 states of ``ode_no_heading`` with ``n_states = 8``; built once per model):

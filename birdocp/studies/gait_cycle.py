@@ -131,6 +131,7 @@ class Evaluation:
     newton_iterations: int
     dy: np.ndarray | None = None    # d(x0, A)/d theta (5 x n_theta), with the gradients
     Ry: np.ndarray | None = None    # the level-cycle residual's Jacobian in (x0, A), with the gradients
+    blocks: list | None = None      # further 4 x 4 monodromy blocks that count, [(M, dM or None)] (6-DOF: lateral)
 
     @property
     def y(self) -> np.ndarray:
@@ -139,9 +140,11 @@ class Evaluation:
 
     @property
     def multipliers(self) -> np.ndarray:
-        if self.monodromy is None or not np.all(np.isfinite(self.monodromy)):
-            return np.full(4, np.nan, complex)
-        return sort_multipliers(np.linalg.eigvals(self.monodromy))
+        """The eigenvalues of the monodromy and of every further block (:attr:`blocks`), largest first."""
+        mats = [self.monodromy] + [b[0] for b in self.blocks or []]
+        if any(m is None or not np.all(np.isfinite(m)) for m in mats):
+            return np.full(4 * len(mats), np.nan, complex)
+        return sort_multipliers(np.concatenate([np.linalg.eigvals(m) for m in mats]))
 
 
 _GRAPHS = bounded_cache("studies.gait_graphs", 4)
@@ -255,6 +258,21 @@ class ReducedLevelCycle:
         """Newton solutions with the flapping amplitude outside this range are failures [deg]."""
         self.n_full = self.n_resid = 0
         self._count_lock = threading.Lock()  # the counters (evaluate_near runs in threads)
+
+    n_blocks = 1
+    """Number of 4 x 4 monodromy blocks whose multipliers count (:meth:`stability_blocks`)."""
+
+    def stability_blocks(self, ev: Evaluation) -> list:
+        """``[(M, dM)]``: the 4 x 4 monodromy blocks whose eigenvalues are the multipliers that count,
+        with their derivatives (16 x n_theta, column-major vec; None without the second order): the
+        planar monodromy, and the further :attr:`Evaluation.blocks` (the lateral block of a
+        six-degree-of-freedom cycle, :class:`birdocp.studies.lateral_optimize.LateralLevelCycle`)."""
+        return [(ev.monodromy, ev.d_monodromy)] + list(ev.blocks or [])
+
+    def multiplier_split(self, ev: Evaluation) -> dict | None:
+        """The multipliers of ``ev`` split by block for the JSON (None: one block, nothing to split;
+        six degrees of freedom: :func:`birdocp.studies.lateral_optimize.multiplier_split`)."""
+        return None
 
     # -- pieces ----------------------------------------------------------------------------------
     def pfull(self, theta, A):
@@ -476,3 +494,4 @@ class ReducedLevelCycle:
             theta[k] = new
         raise RuntimeError(f"speed {speed_mps} m/s not reached by {self.keys[k]} within its bounds (last U = "
                            f"{ev.means['forward_speed_mps']:.9g} m/s at {self.keys[k]} = {theta[k]:.6g})")
+
