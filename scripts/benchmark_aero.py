@@ -8,7 +8,11 @@
    dynamic-stall <= 6x. ``--compiled`` adds the same trims with ``compiled=True`` (separate rows
    ``<case>_compiled``; ``ratios_compiled``: each against the compiled default; ``libraries``: the C
    libraries of the first solve, their generate/compile seconds and whether the cache had them; the
-   first solve's wall time ``first_wall_s`` includes the builds).
+   first solve's wall time ``first_wall_s`` includes the builds; ``ratios_compiled_to_default``: each
+   against the interpreted default). A variational step over ``MAX_INSTRUCTIONS`` (stall sections) is
+   compiled as its piece ``rhs_tangent`` (the right-hand side with its nx tangents). The CPU time of
+   the process (``cpu_s``, ``ratios_cpu``) is recorded too: on a loaded machine it is the steadier
+   measure; ``load_average_start`` the 1, 5, 15 min load averages when the run started.
 2. How the cost grows with the number of lifting-line elements n: instructions and evaluation time of
    the section model's right-hand side and of its Jacobian along the aerodynamic states (2n or 3n:
    the sensitivities), on the prescribed-kinematics wing of n elements (the same functions as the
@@ -21,6 +25,7 @@ Writes DIR/benchmark.json and prints a table.
 from __future__ import annotations
 
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -46,12 +51,13 @@ def trim_cost(overrides: dict, repeats: int = 2, x_guess=None, compiled: bool = 
     m = get_model(cfg)
     from birdocp.export import compiled as comp
 
-    walls, builds = [], {}
+    walls, cpus, builds = [], [], {}
     for _ in range(repeats):
         comp.last_compile_s.clear()
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         r = trim(cfg, x_guess=x_guess, compiled=compiled)
         walls.append(time.perf_counter() - t0)
+        cpus.append(time.process_time() - c0)
         builds = builds or {k: {"generate_s": v["generate"], "compile_s": v["compile"], "cached": v["cached"]}
                             for k, v in comp.last_compile_s.items()}
     grid = RK4Grid(m.ode, cfg.solve.steps_per_period, cfg.solve.points - 1)
@@ -60,7 +66,7 @@ def trim_cost(overrides: dict, repeats: int = 2, x_guess=None, compiled: bool = 
     def count(f, evaluations):  # the detached Newton iterates counted as the instructions they run
         return expanded_instructions(f, s.section, N_EL, s.newton_steps, evaluations)
 
-    return {"wall_s": walls[-1], "first_wall_s": walls[0], "success": bool(r.success),
+    return {"wall_s": walls[-1], "cpu_s": cpus[-1], "first_wall_s": walls[0], "success": bool(r.success),
             "wall_parts_s": {k: float(v) for k, v in r.wall_s.items()}, "iterations": int(r.iterations),
             "rhs_instructions": count(m.rhs, 1), "states": int(m.ode.nx),
             "variational_step_instructions": count(grid.variational_step(), 4),
@@ -114,23 +120,28 @@ def main(argv=None) -> int:
     # stall sections' Newton circulation can be singular at the trial points of a far guess)
     start = out / "cases" / "wagner.json"
     guess = json.loads(start.read_text())["trim"]["x0_body"] if start.exists() else None
-    res = {"trim": {k: trim_cost(CASES[k], x_guess=guess) for k in cases}, "x_guess": guess}
+    res = {"load_average_start": list(os.getloadavg()), "cpu_count": os.cpu_count()}
+    res.update({"trim": {k: trim_cost(CASES[k], x_guess=guess) for k in cases}, "x_guess": guess})
     if args.compiled:
         res["trim"].update({f"{k}_compiled": trim_cost(CASES[k], x_guess=guess, compiled=True) for k in cases})
     base = res["trim"]["default"]["wall_s"]
     res["ratios"] = {k: v["wall_s"] / base for k, v in res["trim"].items()}
+    res["ratios_cpu"] = {k: v["cpu_s"] / res["trim"]["default"]["cpu_s"] for k, v in res["trim"].items()}
     if args.compiled:  # both sides compiled: the compiled trims against the compiled default
         cbase = res["trim"]["default_compiled"]["wall_s"]
         res["ratios_compiled"] = {k: v["wall_s"] / cbase for k, v in res["trim"].items() if k.endswith("_compiled")}
+        res["ratios_compiled_to_default"] = {k: v["wall_s"] / base for k, v in res["trim"].items()
+                                             if k.endswith("_compiled")}
     res["targets"] = TARGETS
     res["elements"] = {f"{u}+{s}": [element_scaling(u, s, n) for n in (8, 16, 32, 64) if n <= args.max_elements]
                        for u, s in (("wagner", "linear"), ("wagner", "stall"),
                                     ("wagner", "dynamic-stall"))}
     atomic_write_json(out / "benchmark.json", res)
-    print("trim of the paper's gait (graphs built; second solve timed)")
+    print(f"trim of the paper's gait (graphs built; second solve timed); load average at the start "
+          f"{res['load_average_start'][0]:.2f} on {res['cpu_count']} cores")
     for k, v in res["trim"].items():
         tgt = TARGETS.get(k)
-        print(f"  {k:22s} {v['wall_s']:7.2f} s  x{res['ratios'][k]:5.2f}"
+        print(f"  {k:22s} {v['wall_s']:7.2f} s  x{res['ratios'][k]:5.2f} (CPU x{res['ratios_cpu'][k]:5.2f})"
               + (f" (target <= {tgt:g}x)" if tgt else "") + f"  states {v['states']}, rhs {v['rhs_instructions']}, "
               f"variational step {v['variational_step_instructions']} instr., {v['iterations']} iterations")
     for k, v in res.get("ratios_compiled", {}).items():

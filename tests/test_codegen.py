@@ -185,7 +185,8 @@ def test_cli_export_c(tmp_path, capsys):
 @pytest.mark.slow
 @needs_cc
 def test_variational_step_over_the_size_limit_stays_interpreted(shared_cache, monkeypatch, coarse):
-    """A variational step larger than MAX_INSTRUCTIONS is not compiled: one CompiledFallbackWarning,
+    """A variational step larger than MAX_INSTRUCTIONS is built from the right-hand side with its
+    tangents (RK4Grid.staged_variational_step); that piece larger too: one CompiledFallbackWarning,
     the step (h an input) evaluated by CasADi, and the trim's numbers those of the interpreted path."""
     from birdocp.export import compiled
     from birdocp.studies.trim import trim
@@ -195,7 +196,7 @@ def test_variational_step_over_the_size_limit_stays_interpreted(shared_cache, mo
     compiled._ODES.clear()
     compiled._NUMERIC.clear()
     a = trim(**coarse)
-    with pytest.warns(CompiledFallbackWarning, match="rk4_variational_step.*MAX_INSTRUCTIONS"):
+    with pytest.warns(CompiledFallbackWarning, match="rhs_tangent.*MAX_INSTRUCTIONS"):
         b = trim(compiled=True, **coarse)
     compiled._ODES.clear()
     compiled._NUMERIC.clear()

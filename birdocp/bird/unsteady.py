@@ -173,6 +173,48 @@ def lu_solve(A, b):
     return ca.vertcat(*x)
 
 
+def _lu_factors(A) -> list:
+    """The elimination of :func:`lu_solve` on A alone: rows of U (upper triangle) with the multipliers
+    below the diagonal, as nested lists of expressions."""
+    n = A.shape[0]
+    a = [[A[i, j] for j in range(n)] for i in range(n)]
+    for k in range(n):
+        inv = 1.0 / a[k][k]
+        for i in range(k + 1, n):
+            m = a[i][k] * inv
+            for j in range(k + 1, n):
+                a[i][j] = a[i][j] - m * a[k][j]
+            a[i][k] = m
+    return a
+
+
+@functools.lru_cache(maxsize=8)
+def _frozen_factorization(n: int) -> ca.Function:
+    """A (n x n) -> its :func:`_lu_factors` (multipliers below the diagonal, U on and above), as a
+    Function called (never inlined) with its derivative declared zero: the Newton matrix held fixed."""
+    A = ca.SX.sym("A", n, n)
+    a = _lu_factors(A)
+    F = ca.vertcat(*[ca.horzcat(*row) for row in a])
+    return ca.Function(f"frozen_lu_{n}", [A], [F], {"never_inline": True, "is_diff_in": [False]})
+
+
+def factored_solve(F, b):
+    """x = A^-1 b from the factors F of :func:`_lu_factors` (the same operations, in the same order, as
+    :func:`lu_solve`; about n^2 multiply-adds)."""
+    n = F.shape[0]
+    y = [b[i] for i in range(n)]
+    for k in range(n):
+        for i in range(k + 1, n):
+            y[i] = y[i] - F[i, k] * y[k]
+    x = [None] * n
+    for i in reversed(range(n)):
+        acc = y[i]
+        for j in range(i + 1, n):
+            acc = acc - F[i, j] * x[j]
+        x[i] = acc / F[i, i]
+    return ca.vertcat(*x)
+
+
 INLINE_NEWTON_STEPS = 2
 """Newton steps of a stall circulation that carry the derivatives: the iterates before them are
 computed in a separate Function whose derivative is declared zero (``is_diff_in``), so AD sees only
@@ -181,10 +223,19 @@ step's derivative along its starting iterate vanishes, so first derivatives are 
 residual after N_N - 1 steps and second derivatives up to the residual after N_N - 2 steps
 (docs/model_unsteady.md, cost)."""
 
+FROZEN_NEWTON_MATRIX = True
+"""The differentiated Newton steps hold their matrix J = dR/dGamma fixed for AD (its factorization is
+a call with a zero derivative, :func:`_frozen_factorization`): a step's derivative is then
+-J^-1 (dR - J dGamma) instead of also carrying dJ J^-1 R, which the residual R makes vanish at the
+fixed point (first order) and, after a first step has made dGamma the implicit-function
+derivative, at second order too (docs/model_unsteady.md, cost). The values are unchanged; per
+direction a step costs two triangular solves (n^2) instead of the derivative of the elimination (n^3)."""
 
-def _newton(section, a0, cla, cd90, al1, q_t, zsum, Vn, chord, K, f_state, gam, steps):
-    """``steps`` Newton steps of R(Gamma) = Gamma - c |Vp| C_l(alpha_E(Gamma), f) / 2 = 0 from ``gam``;
-    returns the iterate and the last step's residual function."""
+
+def _newton(section, a0, cla, cd90, al1, q_t, zsum, Vn, chord, K, f_state, gam, steps, frozen=False):
+    """``steps`` Newton steps of R(Gamma) = Gamma - c |Vp| C_l(alpha_E(Gamma), f) / 2 = 0 from ``gam``
+    (``frozen``: the matrix held fixed for AD, :data:`FROZEN_NEWTON_MATRIX`); returns the iterate and
+    the last step's residual function."""
     n = chord.shape[0]
     dyn = section == "dynamic-stall"
 
@@ -197,7 +248,7 @@ def _newton(section, a0, cla, cd90, al1, q_t, zsum, Vn, chord, K, f_state, gam, 
         R, aE, f = resid(gam)
         slope = _lift_slope(aE, f, cla, cd90, al1, total=not dyn)
         J = ca.SX.eye(n) + a0 * ca.diag(0.5 * chord * slope) @ K
-        gam = gam - lu_solve(J, R)
+        gam = gam - (factored_solve(_frozen_factorization(n)(J), R) if frozen else lu_solve(J, R))
     return gam, resid
 
 
@@ -224,11 +275,16 @@ def _detached_newton(section: str, n: int, steps: int) -> ca.Function:
 
 def expanded_instructions(f: ca.Function, section: str, n: int, newton_steps: int, evaluations: int = 1) -> int:
     """CasADi instructions of an SX Function ``f`` that evaluates the section model ``evaluations``
-    times, with the call of :func:`_detached_newton` of each evaluation counted as the instructions it
-    runs (``n_instructions`` counts a call as one; the calls of its derivative, zero by declaration,
-    stay counted as one)."""
+    times, with the calls of :func:`_detached_newton` and of :func:`_frozen_factorization` of each
+    evaluation counted as the instructions they run (``n_instructions`` counts a call as one; their
+    derivatives are zero by declaration)."""
     total = int(f.n_instructions())
-    if section == "linear" or newton_steps <= INLINE_NEWTON_STEPS:
+    if section == "linear":
+        return total
+    inline = min(newton_steps, INLINE_NEWTON_STEPS)
+    if FROZEN_NEWTON_MATRIX and inline:
+        total += evaluations * inline * (_frozen_factorization(n).n_instructions() - 1)
+    if newton_steps <= INLINE_NEWTON_STEPS:
         return total
     inner = _detached_newton(section, n, newton_steps - INLINE_NEWTON_STEPS).n_instructions()
     return total + evaluations * (inner - 1)
@@ -250,7 +306,8 @@ def _circulation(opts, prm, q_t, zsum, Vn, chord, K, f_state):
         gam = _detached_newton(opts["section"], n, steps - inline)(a0, cla, cd90, al1, q_t, zsum, Vn, chord, K, f)
     else:
         gam = _linear_start(a0, cla, q_t, zsum, chord, K)
-    gam, resid = _newton(opts["section"], a0, cla, cd90, al1, q_t, zsum, Vn, chord, K, f_state, gam, inline)
+    gam, resid = _newton(opts["section"], a0, cla, cd90, al1, q_t, zsum, Vn, chord, K, f_state, gam, inline,
+                         frozen=FROZEN_NEWTON_MATRIX)
     R, _, _ = resid(gam)
     rel = ca.mmax(ca.fabs(R)) / ca.mmax(ca.fabs(gam))
     return gam, rel

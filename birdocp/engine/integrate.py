@@ -239,14 +239,57 @@ class RK4Grid:
         interpreted twin of a compiled ODE, :func:`birdocp.export.compiled.compiled_ode`), the same
         step built from the source's SX right-hand side and handed to the hook (compiled C: the
         whole step and its Jacobians in one library, not calls of the compiled RHS from the VM), with
-        the step h as a fourth input: one library serves every grid."""
+        the step h as a fourth input: one library serves every grid. When the whole step has more
+        instructions than the hook compiles (its ``max_instructions``), the step is built from four
+        calls of the compiled right-hand side with its nx tangents (:meth:`rhs_tangent`, a quarter of
+        the size): :meth:`staged_variational_step`."""
         ode = self.ode
         src = getattr(ode.numeric, "source", None)
         if src is None:
             return self.variational_step()
         twin = RK4Grid(src, self.N, self.S, self._outputs)
         outs = hashlib.sha256("".join(g.serialize() for g in self._outputs).encode()).hexdigest()[:16]
-        return ode.fast(twin.variational_step(h_input=True), f"variational nq={self.nq} outputs={outs}")
+        whole = twin.variational_step(h_input=True)
+        limit = getattr(ode.numeric, "max_instructions", None)
+        if limit is None or whole.n_instructions() <= limit:
+            return ode.fast(whole, f"variational nq={self.nq} outputs={outs}")
+        return twin.staged_variational_step(ode.fast(twin.rhs_tangent(), "rhs_tangent"))
+
+    def rhs_tangent(self) -> ca.Function:
+        """``(x, d, p, T) -> (f(x, d, p), df/dx T)`` with T nx x nx: the right-hand side and its
+        directional derivatives along the nx columns of T (SX, forward AD)."""
+        ode = self.ode
+        x, d, p = ca.SX.sym("x", ode.nx), ca.SX.sym("d", ode.nd), ca.SX.sym("p", ode.np)
+        T = ca.SX.sym("T", ode.nx, ode.nx)
+        f = ode.rhs(x, d, p)
+        return ca.Function("rhs_tangent", [x, d, p, T], [f, ca.jtimes(f, x, T)], ["x", "d", "p", "T"], ["f", "fT"])
+
+    def staged_variational_step(self, tangent: ca.Function) -> ca.Function:
+        """The step of :meth:`variational_step` (with h an input) as RK4 on the state and its
+        sensitivity together, [x; vec(Phi)]' = [f; vec(df/dx Phi)], each stage one call of
+        ``tangent`` (:meth:`rhs_tangent`, e.g. compiled): the same derivative (the stages' tangents
+        are those of the RK4 step), the sums in another order (equal to round-off)."""
+        nx, nd, np_, nq = self.ode.nx, self.ode.nd, self.ode.np, self.nq
+        s, D3 = ca.SX.sym("s", nx + nx * nx + nq + nq * nx), ca.SX.sym("D3", nd, 3)
+        p, h = ca.SX.sym("p", np_), ca.SX.sym("h")
+        k = nx + nx * nx
+
+        def f_aug(y, d, pp):
+            fx, fT = tangent(y[:nx], d, pp, ca.reshape(y[nx:], nx, nx))
+            return ca.vertcat(fx, ca.vec(fT))
+
+        yn, stages = rk4_update(f_aug, s[:k], D3, h, p)
+        out = [yn, s[k:k + nq]]
+        if nq:
+            xs, d, T = ca.SX.sym("x", nx), ca.SX.sym("d", nd), ca.SX.sym("T", nx, nx)
+            g = ca.vertcat(*[o(xs, d, p) for o in self._outputs])
+            gt = ca.Function("outputs_tangent", [xs, d, p, T], [g, ca.jtimes(g, xs, T)])
+            w = (1, 2, 2, 1)
+            parts = [gt(y[:nx], D3[:, c], p, ca.reshape(y[nx:], nx, nx)) for y, c in zip(stages, (0, 1, 1, 2))]
+            out[1] = out[1] + h / 6 * sum(wi * gi for wi, (gi, _) in zip(w, parts))
+            out.append(s[k + nq:] + h / 6 * sum(wi * ca.vec(Gi) for wi, (_, Gi) in zip(w, parts)))
+        return ca.Function("rk4_variational_step_staged", [s, D3, p, h], [ca.vertcat(*out)],
+                           ["s", "D3", "p", "h"], ["s_next"])
 
     def variational_step(self, h_input: bool = False) -> ca.Function:
         """One RK4 step of the state, its sensitivity Phi = dx/dx0, the output integrals q and their

@@ -55,8 +55,9 @@ lengthen the build of generated straight-line code)."""
 MAX_INSTRUCTIONS = 1_000_000
 """Largest Function (CasADi instructions) the ``numeric`` hook compiles: gcc -O1 took 217 s and 3 GB for
 the 647k-instruction variational RK4 step of ``aero.unsteady = "wagner"`` (once, then cached) and grows
-faster than linearly; larger Functions (the 4.4M of ``dynamic-stall``) stay interpreted, with one
-:class:`CompiledFallbackWarning`."""
+faster than linearly. A larger variational step (the 1.4M of ``stall``, 2.0M of ``dynamic-stall``) is
+built from four calls of the compiled right-hand side with its nx tangents instead (448k for
+``dynamic-stall``); a larger Function stays interpreted, with one :class:`CompiledFallbackWarning`."""
 
 last_compile_s: dict = {}
 """Wall times of the last build per library name: ``{"generate": s, "compile": s, "cached": bool}``."""
@@ -207,6 +208,12 @@ class NumericCompiler:
     whose graphs hold the RHS (the RK4 step of the variational equations:
     :meth:`birdocp.engine.integrate.RK4Grid.variational_function`) from its SX right-hand side, so they
     compile as one piece of C."""
+
+    @property
+    def max_instructions(self) -> int:
+        """:data:`MAX_INSTRUCTIONS`: the largest Function compiled (the engine builds a larger
+        variational step from compiled pieces, :meth:`birdocp.engine.integrate.RK4Grid.variational_function`)."""
+        return MAX_INSTRUCTIONS
 
     def __init__(self, key_extra: str = "", directory: Path | None = None, source: PeriodicODE | None = None):
         self.key_extra = key_extra
