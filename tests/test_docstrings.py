@@ -45,7 +45,36 @@ def _signature_names(obj) -> list[str]:
     return names
 
 
-@pytest.mark.parametrize("func", _face_functions())
+# Modules of birdocp.engine being restructured in this session ("one orbit engine", issue 27); their
+# functions are documented once the restructuring lands, and then leave this list.
+UNDER_RESTRUCTURING = ("birdocp.engine.problem", "birdocp.engine.orbit_types", "birdocp.engine.shooting",
+                       "birdocp.engine.shooting_graphs", "birdocp.engine.shooting_types", "birdocp.engine.orbits",
+                       "birdocp.engine.orbit_result")
+
+
+def _package_modules():
+    import pkgutil
+
+    import birdocp
+
+    for info in pkgutil.walk_packages(birdocp.__path__, "birdocp."):
+        if info.name not in UNDER_RESTRUCTURING:
+            yield importlib.import_module(info.name)
+
+
+def _module_functions():
+    """Every public (no leading underscore) function defined in a module of the package: a function only
+    its own module uses carries a leading underscore, so a public name is one a user or another module
+    calls."""
+    out = []
+    for mod in _package_modules():
+        for name, obj in vars(mod).items():
+            if not name.startswith("_") and inspect.isfunction(obj) and obj.__module__ == mod.__name__:
+                out.append(pytest.param(obj, id=f"{mod.__name__}.{name}"))
+    return out
+
+
+@pytest.mark.parametrize("func", _face_functions() + _module_functions())
 def test_parameters_documented(func):
     documented, has_returns = _documented(func)
     signature = _signature_names(func)
@@ -92,6 +121,11 @@ def test_constructor_parameters_documented(face, name):
 def test_face_is_not_empty():
     """Each face exports functions, so the test above checks something."""
     assert len(_face_functions()) >= 20
+
+
+def test_module_walk_is_not_empty():
+    """The walk finds the package's modules and their functions, so the test above checks them."""
+    assert len(_module_functions()) >= 300
 
 
 # The core functions whose Examples run here (kept to seconds: small grids).
