@@ -154,10 +154,6 @@ def plot_multipliers(mults_by_label: dict, path, reference=None, zoom: bool = Tr
                      title: str = "Floquet multipliers") -> Path:
     """Multipliers in the complex plane with the unit circle (equal aspect), one marker per variant.
 
-    ``reference``: the paper's values (array/pairs, drawn as black crosses labelled "paper"), or a
-    dict label -> values for several reference sets. With ``zoom`` a row of panels below magnifies
-    the neighbourhood of each multiplier in the upper half plane (variants differ by ~1e-3).
-
     Parameters
     ----------
     mults_by_label : dict
@@ -165,9 +161,9 @@ def plot_multipliers(mults_by_label: dict, path, reference=None, zoom: bool = Tr
     path : str or Path
         PNG file to write.
     reference : array_like or dict, optional
-        Reference multipliers.
+        The paper's values (drawn as black crosses labelled "paper"), or label -> values for several sets.
     zoom : bool
-        Add the magnified panels.
+        Add a row of panels magnifying each multiplier of the upper half plane (variants differ by ~1e-3).
     title : str
         Figure title.
 
