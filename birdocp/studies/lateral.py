@@ -43,7 +43,18 @@ __all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "beats_to_doubl
 
 def beats_to_double(multiplier: complex) -> float:
     """Wingbeats for a perturbation along a mode to double (positive, |Lambda| > 1) or halve
-    (negative, |Lambda| < 1): ``ln 2 / ln|Lambda|``; inf when |Lambda| = 1, 0 when Lambda = 0."""
+    (negative, |Lambda| < 1): ``ln 2 / ln|Lambda|``; inf when |Lambda| = 1, 0 when Lambda = 0.
+
+    Parameters
+    ----------
+    multiplier : complex
+        Floquet multiplier Lambda.
+
+    Returns
+    -------
+    float
+        Wingbeats [-].
+    """
     a = abs(complex(multiplier))
     if a == 0.0:
         return 0.0
@@ -53,7 +64,21 @@ def beats_to_double(multiplier: complex) -> float:
 
 def lateral_modes(monodromy, period_s: float, speed_mps: float) -> list[dict]:
     """The lateral multipliers of a 9 x 9 monodromy (its (v, p, r, phi) block), each with its label,
-    beats to double/halve and its eigenvector over (v, p, r, phi) scaled as the module says."""
+    beats to double/halve and its eigenvector over (v, p, r, phi) scaled as the module says.
+
+    Parameters
+    ----------
+    monodromy : array_like, shape (9, 9)
+        Monodromy of the 6-DOF cycle.
+    period_s : float
+        Period [s].
+    speed_mps : float
+        Mean forward speed [m/s] (scales the eigenvectors).
+
+    Returns
+    -------
+    list of dict
+    """
     idx = list(LATERAL)
     lam, vec, _, _, _ = multipliers_info(np.asarray(monodromy)[np.ix_(idx, idx)], period_s)
     scale = np.array([1.0 / max(speed_mps, 1e-9), period_s, period_s, 1.0])
@@ -237,7 +262,24 @@ def solve_point(cfg: Config, *, level: bool = False, level_options: dict | None 
 
 def heading_trajectory(six, cycle, steps_per_period: int | None = None):
     """``(t, X)``: the 9 states over one beat from a cycle's start with psi(0) = 0 (RK4 on the trim's
-    grid; the 8-state cycle of an asymmetric gait with its heading, or a 9-state cycle)."""
+    grid; the 8-state cycle of an asymmetric gait with its heading, or a 9-state cycle).
+
+    Parameters
+    ----------
+    six : model
+        The six-degree-of-freedom model (its 9-state ``ode``).
+    cycle : cycle result
+        With ``x0`` and ``p``.
+    steps_per_period : int, optional
+        RK4 steps (default: the trim's).
+
+    Returns
+    -------
+    t : ndarray
+        Times [s].
+    X : ndarray
+        States over (u, v, w, p, q, r, phi, theta, psi).
+    """
     from birdocp.engine.integrate import simulate as rk4
 
     x0 = list(np.asarray(cycle.x0, float))[:8] + [0.0]
@@ -370,7 +412,26 @@ def branch_problem(cfg: Config, model_key: str, level: bool, climb_rate_mps: flo
     """``(ode, problem)`` of a 6-DOF continuation of ``cfg`` (:func:`birdocp.studies.branch.bird_branch`):
     the heading-free ODE ``ode_no_heading`` (8 states; nothing depends on psi, whose multiplier 1 would
     sit on every fold and branch-point test), at fixed gait or (``level``) with the amplitude free and
-    the mean vertical speed held at ``climb_rate_mps``."""
+    the mean vertical speed held at ``climb_rate_mps``.
+
+    Parameters
+    ----------
+    cfg : Config
+        Six-degree-of-freedom configuration.
+    model_key : str
+        Dotted key of the continuation parameter.
+    level : bool
+        Amplitude free, mean vertical speed held.
+    climb_rate_mps : float
+        Mean vertical speed held with ``level`` [m/s].
+    bounds : (float, float)
+        Amplitude bounds [deg] with ``level``.
+
+    Returns
+    -------
+    ode : PeriodicODE
+    problem : LimitCycleProblem
+    """
     six = sixdof_model(cfg)
     if six.sides:
         raise ConfigError("model.degrees_of_freedom", "continue with an asymmetric gait (per-side offsets) is not "
@@ -390,7 +451,22 @@ def branch_problem(cfg: Config, model_key: str, level: bool, climb_rate_mps: flo
 
 def planar_point(x0, p):
     """The planar (u, w, q, theta) state and parameter vector of a 6-DOF point (its validity is the
-    planar cycle's: a symmetric cycle has v = p = r = phi = 0)."""
+    planar cycle's: a symmetric cycle has v = p = r = phi = 0).
+
+    Parameters
+    ----------
+    x0 : array_like
+        6-DOF state.
+    p : array_like or None
+        6-DOF parameter vector.
+
+    Returns
+    -------
+    x4 : ndarray
+        (u, w, q, theta).
+    p_planar : ndarray or None
+        The first ``len(PARAM_NAMES)`` parameters.
+    """
     x0 = np.asarray(x0, float)
     return x0[list(LONGITUDINAL)], (np.asarray(p, float)[:len(PARAM_NAMES)] if p is not None and len(p) else None)
 
@@ -399,7 +475,19 @@ def add_lateral_split(cfg: Config, branch, steps_per_period: int, points: int) -
     """Give every point of a 6-DOF branch its split multipliers, in ``branch.settings``: the lists
     ``longitudinal_multipliers`` and ``lateral_multipliers`` ([re, im] pairs, largest modulus first),
     ``lateral_stable`` and ``coupling_max`` per point, from the point's monodromy (one variational
-    period of the heading-free ODE; the heading's multiplier 1 is not part of the branch)."""
+    period of the heading-free ODE; the heading's multiplier 1 is not part of the branch).
+
+    Parameters
+    ----------
+    cfg : Config
+        Six-degree-of-freedom configuration.
+    branch : Branch
+        Branch, changed in place.
+    steps_per_period : int
+        RK4 steps of the variational period.
+    points : int
+        Shooting points of the branch.
+    """
     from birdocp.engine.shooting import floquet
 
     ode = sixdof_model(cfg).ode_no_heading

@@ -73,7 +73,19 @@ class SideGust:
 
 
 def parse_side_gust(text: str, start_beats: float = 1.0) -> SideGust:
-    """``pulse|step=MPS[:BEATS]`` (BEATS the pulse length, default 1)."""
+    """``pulse|step=MPS[:BEATS]`` (BEATS the pulse length, default 1).
+
+    Parameters
+    ----------
+    text : str
+        The gust's text.
+    start_beats : float
+        Start of the gust [beats].
+
+    Returns
+    -------
+    SideGust
+    """
     try:
         shape, rest = text.split("=", 1)
         amp, _, length = rest.partition(":")
@@ -91,7 +103,17 @@ def _check_lateral_deviation(key: str, i: int, v: float, val: str) -> None:
 
 
 def parse_lateral_perturbation(items) -> np.ndarray:
-    """``KEY=VALUE`` deviations of the 9 states (u, v, w [m/s], p, q, r [rad/s], phi, theta, psi [rad])."""
+    """``KEY=VALUE`` deviations of the 9 states (u, v, w [m/s], p, q, r [rad/s], phi, theta, psi [rad]).
+
+    Parameters
+    ----------
+    items : sequence of str
+        ``KEY=VALUE`` texts (``--perturb``).
+
+    Returns
+    -------
+    ndarray, shape (9,)
+    """
     return parse_state_values(items, LATERAL_STATE_ALIASES, 9,
                               "six degrees of freedom: u, v, w, p, q, r, phi, theta, psi", _check_lateral_deviation)
 

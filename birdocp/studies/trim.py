@@ -29,7 +29,19 @@ def solver_ode(m, compiled: bool = False):
     """The ODE the engine solves for the configured model ``m``: ``m.ode``, or with ``compiled`` its
     twin whose RHS and numeric data Functions are compiled C
     (:func:`birdocp.export.compiled.compiled_ode`, cached; bit-identical numbers). Falls back to
-    ``m.ode`` with a warning on stderr if compiling fails."""
+    ``m.ode`` with a warning on stderr if compiling fails.
+
+    Parameters
+    ----------
+    m : BirdModel
+        Configured model.
+    compiled : bool
+        Use the compiled twin.
+
+    Returns
+    -------
+    PeriodicODE
+    """
     if not compiled:
         return m.ode
     from birdocp.export.compiled import compiled_ode
@@ -38,7 +50,19 @@ def solver_ode(m, compiled: bool = False):
 
 
 def method_of(cfg: Config, **over) -> MultipleShooting:
-    """The :class:`MultipleShooting` method of ``cfg.solve`` (fields overridden by ``over``)."""
+    """The :class:`MultipleShooting` method of ``cfg.solve`` (fields overridden by ``over``).
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    **over
+        Fields of :class:`MultipleShooting` overridden.
+
+    Returns
+    -------
+    MultipleShooting
+    """
     s = cfg.solve
     kw = dict(points=s.points, steps_per_period=s.steps_per_period, solver=s.solver,
               derivatives=s.derivatives, max_iter=s.max_iter, tol=s.tol if s.tol > 0 else None)
@@ -286,7 +310,22 @@ def linear_section_start(cfg: Config, compiled: bool | None = None, **method_ove
     body state (u, w, q, theta) at t = 0 of the same model's cycle with the linear section, the first
     step of a continuation from attached to separating flow. From ``cfg.solve.initial_guess`` directly,
     IPOPT's first trial points reach angles where the stall circulation's Newton Jacobian is singular
-    (NaN). None when the linear-section trim fails (the configured guess is then used)."""
+    (NaN). None when the linear-section trim fails (the configured guess is then used).
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration with a stall section.
+    compiled : bool, optional
+        Use the compiled twin of the ODE.
+    **method_over
+        Fields of the method overridden.
+
+    Returns
+    -------
+    ndarray or None
+        (u, w, q, theta) at t = 0; None when the linear-section trim fails.
+    """
     from birdocp.bird.config import with_values
 
     lin = trim(with_values(cfg, {"aero.section": "linear"}), compiled=compiled, **method_over)
@@ -295,7 +334,18 @@ def linear_section_start(cfg: Config, compiled: bool | None = None, **method_ove
 
 def check_physical(cycle: LimitCycleResult) -> LimitCycleResult:
     """A converged cycle with u <= 0 somewhere is not a forward flight (the aerodynamic model assumes
-    air coming from ahead): mark it failed with status ``non_physical``."""
+    air coming from ahead): mark it failed with status ``non_physical``.
+
+    Parameters
+    ----------
+    cycle : LimitCycleResult
+        Solved cycle, changed in place.
+
+    Returns
+    -------
+    LimitCycleResult
+        ``cycle``.
+    """
     if cycle.success:
         u = np.asarray(cycle.trajectory_x)[:, 0]
         if not np.all(u > 0):
