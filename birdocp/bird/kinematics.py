@@ -26,7 +26,7 @@ def rot_y(a):
     return ca.vertcat(ca.horzcat(c, 0, s), ca.horzcat(0, 1, 0), ca.horzcat(-s, 0, c))
 
 
-def rot_z(a):
+def _rot_z(a):
     c, s = ca.cos(a), ca.sin(a)
     return ca.vertcat(ca.horzcat(c, -s, 0), ca.horzcat(s, c, 0), ca.horzcat(0, 0, 1))
 
@@ -66,7 +66,7 @@ class Skeleton:
 
 def shoulder_rotation(q: dict):
     """R1 = R_x(incidence) R_z(flap) R_y(sweep): the arm's rotation (docs/model.md §2.2)."""
-    return rot_x(q["shoulder_incidence"]) @ rot_z(q["shoulder_flap"]) @ rot_y(q["shoulder_sweep"])
+    return rot_x(q["shoulder_incidence"]) @ _rot_z(q["shoulder_flap"]) @ rot_y(q["shoulder_sweep"])
 
 
 def skeleton(q: dict, arm_m, forearm_m, hand_m, feather_lengths_m, with_shoulder: bool = True) -> Skeleton:
@@ -82,7 +82,7 @@ def skeleton(q: dict, arm_m, forearm_m, hand_m, feather_lengths_m, with_shoulder
     R1 = shoulder_rotation(q) if with_shoulder else ca.SX.eye(3)
     R2a = R1 @ rot_y(e_y)
     R2b = R2a @ rot_x(e_x)
-    R4 = R2b @ rot_y(w_y) @ rot_z(w_z)
+    R4 = R2b @ rot_y(w_y) @ _rot_z(w_z)
 
     E1 = R1 @ vec(arm_m, 0, 0)
     E2 = E1 + R2a @ vec(forearm_m, 0, 0)

@@ -73,7 +73,7 @@ class PrescribedWing:
         if unknown:
             raise ValueError(f"PrescribedWing: unknown parameters {sorted(unknown)}")
         d.update(params)
-        self.prm = dict(d, alpha1=math.radians(d["alpha1_deg"]), a0=1.0 - d["eps"] * (unsteady_sum()))
+        self.prm = dict(d, alpha1=math.radians(d["alpha1_deg"]), a0=1.0 - d["eps"] * (_unsteady_sum()))
         span = self.c * (aspect_ratio if aspect_ratio else 1.0)
         y = np.linspace(-span / 2, span / 2, self.n + 1)
         self.ds = np.diff(y)
@@ -83,7 +83,7 @@ class PrescribedWing:
             self.wake = {k: ca.DM(ca.evalf(v)) for k, v in (("K", K), ("Vx", Vx), ("Vy", Vy))}
         else:
             self.wake = {k: ca.DM.zeros(self.n, self.n) for k in ("K", "Vx", "Vy")}
-        self.nz = unsteady_states(unsteady, section, self.n)
+        self.nz = _unsteady_states(unsteady, section, self.n)
         self.mid = self.n // 2 - 1
 
     def functions(self, kin):
@@ -178,11 +178,11 @@ class PrescribedWing:
         return {"t_s": ts, **{k: O[i] for i, k in enumerate(self.OUTPUTS)}, "z": Z, "periodicity_residual": res}
 
 
-def unsteady_sum() -> float:
+def _unsteady_sum() -> float:
     return unsteady.A1 + unsteady.A2
 
 
-def unsteady_states(unsteady_mode: str, section: str, n: int) -> int:
+def _unsteady_states(unsteady_mode: str, section: str, n: int) -> int:
     return unsteady.n_aero_states(unsteady_mode, section, n)
 
 

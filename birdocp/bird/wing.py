@@ -31,7 +31,7 @@ DIAGNOSTICS = (
 )
 
 
-def safe_norm(v):
+def _safe_norm(v):
     """Euclidean norm with a finite derivative (0) at exactly zero."""
     s = ca.dot(v, v)
     pos = s > 0
@@ -84,7 +84,7 @@ def resample(P, carry=(), n_out=N_POINTS):
     return outs[0] if not carry else tuple(outs)
 
 
-def resample_aliased(B, n_out=N_POINTS, steps=ALIASED_WALK_STEPS):
+def _resample_aliased(B, n_out=N_POINTS, steps=ALIASED_WALK_STEPS):
     """The reference's second-pass resampling, which reads its input vertices from the buffer it
     is writing into (in place). Literal walk with a symbolic segment counter and masked advances.
 
@@ -95,29 +95,29 @@ def resample_aliased(B, n_out=N_POINTS, steps=ALIASED_WALK_STEPS):
     n = len(buf)
     length = 0
     for k in range(n - 1):
-        length = length + safe_norm(buf[k + 1] - buf[k])
+        length = length + _safe_norm(buf[k + 1] - buf[k])
     delta = length / (n_out - 1)
     j = ca.SX(0)
     unfinished = 0
     for i in range(1, n_out):
-        acc = safe_norm(_select(buf, j + 1) - buf[i - 1])
+        acc = _safe_norm(_select(buf, j + 1) - buf[i - 1])
         for _ in range(steps):
             cond = acc < delta
             jn = j + cond
             within = jn <= n - 2
-            seglen = safe_norm(_select(buf, jn + 1) - _select(buf, jn))
+            seglen = _safe_norm(_select(buf, jn + 1) - _select(buf, jn))
             acc = ca.if_else(cond, ca.if_else(within, acc + seglen, delta + 1), acc)
             j = jn
         unfinished = unfinished + (acc < delta)
         within = j <= n - 2
-        seglen = safe_norm(_select(buf, j + 1) - _select(buf, j))
+        seglen = _safe_norm(_select(buf, j + 1) - _select(buf, j))
         phi = (acc - delta) / ca.if_else(seglen > 0, seglen, 1.0)
         inner = (1 - phi) * _select(buf, j + 1) + phi * _select(buf, j)
         buf[i] = ca.if_else(within, inner, buf[n - 1])
     return buf, unfinished
 
 
-def corner_sweep(B, radius_m, halvings=CORNER_HALVINGS):
+def _corner_sweep(B, radius_m, halvings=CORNER_HALVINGS):
     """Sequential corner smoothing (docs/model.md §4.2 step 2): while the turning angle at B_i exceeds
     |B_i - B_{i-1}| / R_s, move B_i halfway towards the midpoint of its neighbours.
 
@@ -151,10 +151,10 @@ def smooth_line(P, radius_m):
     buffer in place (aliased) and sweeps again. Returns (points, diagnostics dict).
     """
     B1 = resample(P)
-    B1c, h1, left1 = corner_sweep(B1, radius_m)
+    B1c, h1, left1 = _corner_sweep(B1, radius_m)
     modified = h1 > 0
-    B2, unfinished = resample_aliased(B1c)
-    B2c, h2, left2 = corner_sweep(B2, radius_m)
+    B2, unfinished = _resample_aliased(B1c)
+    B2c, h2, left2 = _corner_sweep(B2, radius_m)
     out = [ca.if_else(modified, b2, b1) for b1, b2 in zip(B1c, B2c)]
     diag = {
         "halvings_pass1": h1,
@@ -165,18 +165,18 @@ def smooth_line(P, radius_m):
     return out, diag
 
 
-def soft_ramp(x, width_m):
+def _soft_ramp(x, width_m):
     """C-infinity ramp ``width log(1 + exp(x / width))`` (m): max(x, 0) with its corner rounded over
     ~``width_m``; evaluated as ``max(x, 0) + width log(1 + exp(-|x| / width))`` (no overflow, and the
     two branches are one analytic function)."""
     return ca.fmax(x, 0) + width_m * ca.log1p(ca.exp(-ca.fabs(x) / width_m))
 
 
-def soft_resample(P, width_m, carry=(), n_out=N_POINTS):
+def _soft_resample(P, width_m, carry=(), n_out=N_POINTS):
     """Arc-length resampling of polyline P on its corner-rounded curve (``wing.smooth_geometry``).
 
     The polyline as a function of arc length s is P_0 + sum_k u_k (ramp(s - cum_k) - ramp(s - cum_{k+1}))
-    with u_k = (P_{k+1} - P_k) / |P_{k+1} - P_k|; replacing ramp = max(., 0) by :func:`soft_ramp`
+    with u_k = (P_{k+1} - P_k) / |P_{k+1} - P_k|; replacing ramp = max(., 0) by :func:`_soft_ramp`
     rounds every corner over ~``width_m`` and makes the samples at s_i = i L / (n_out - 1) C-infinity
     functions of the vertices: no segment search, no switch. ``carry`` are carried with the same
     weights (the chord end points). The end samples are the end vertices.
@@ -190,7 +190,7 @@ def soft_resample(P, width_m, carry=(), n_out=N_POINTS):
     outs = [[P[0]]] + [[C[0]] for C in carry]
     for i in range(1, n_out - 1):
         target = i * delta
-        w = [(soft_ramp(target - cum[k], width_m) - soft_ramp(target - cum[k + 1], width_m))
+        w = [(_soft_ramp(target - cum[k], width_m) - _soft_ramp(target - cum[k + 1], width_m))
              / ca.if_else(seg[k] > 0, seg[k], 1.0) for k in range(n - 1)]  # a 0-length segment adds 0
         for a, Q in enumerate((P,) + tuple(carry)):
             outs[a].append(Q[0] + sum(w[k] * (Q[k + 1] - Q[k]) for k in range(n - 1)))
@@ -207,10 +207,10 @@ def smooth_geometry(LE, TE, radius_m):
     C-infinity function of the joint angles, hence of t. Returns (LEs, TEs, P, E, T, diagnostics);
     the diagnostics are 0 (nothing is emulated)."""
     width = 0.25 * radius_m
-    LEs = soft_resample(LE, width)
-    TEs = soft_resample(TE, width)
+    LEs = _soft_resample(LE, width)
+    TEs = _soft_resample(TE, width)
     L0 = [0.75 * e + 0.25 * t for e, t in zip(LEs, TEs)]
-    P, E, T = soft_resample(L0, width, carry=(LEs, TEs))
+    P, E, T = _soft_resample(L0, width, carry=(LEs, TEs))
     diag = {k: ca.SX(0) for k in DIAGNOSTICS if k not in ("improve_change", "n_mid")}
     return LEs, TEs, P, E, T, diag
 
