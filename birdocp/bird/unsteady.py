@@ -33,29 +33,85 @@ __all__ = ["A1", "A2", "B1", "B2", "jones_transfer", "wagner_indicial_jones", "s
 
 def jones_transfer(k: float, weight: float = 1.0) -> complex:
     """Jones's approximation C_J(k) = A0 + sum_i eps A_i b_i / (i k + b_i) of Theodorsen's function at
-    reduced frequency k = omega c / (2 U); ``weight`` = eps (0: quasi-steady, C_J = 1)."""
+    reduced frequency k = omega c / (2 U); ``weight`` = eps (0: quasi-steady, C_J = 1).
+
+    Parameters
+    ----------
+    k : float
+        Reduced frequency [-].
+    weight : float
+        eps [-].
+
+    Returns
+    -------
+    complex
+    """
     a0 = 1.0 - weight * (A1 + A2)
     return a0 + weight * (A1 * B1 / (1j * k + B1) + A2 * B2 / (1j * k + B2))
 
 
 def wagner_indicial_jones(s: float) -> float:
-    """Jones's phi(s) = 1 - A1 exp(-B1 s) - A2 exp(-B2 s), s in semichords."""
+    """Jones's phi(s) = 1 - A1 exp(-B1 s) - A2 exp(-B2 s), s in semichords.
+
+    Parameters
+    ----------
+    s : float
+        Distance travelled [semichords].
+
+    Returns
+    -------
+    float
+    """
     return 1.0 - A1 * math.exp(-B1 * s) - A2 * math.exp(-B2 * s)
 
 
 def separation_point(alpha, alpha1):
-    """Static separation point f0(alpha) = 1 / (1 + (alpha/alpha1)^4) (1 = attached; alpha, alpha1 in rad)."""
+    """Static separation point f0(alpha) = 1 / (1 + (alpha/alpha1)^4) (1 = attached; alpha, alpha1 in rad).
+
+    Parameters
+    ----------
+    alpha, alpha1 : casadi.SX or float
+        Angle of attack and angle of half separation [rad].
+
+    Returns
+    -------
+    casadi.SX or float
+    """
     r2 = (alpha / alpha1) ** 2
     return 1.0 / (1.0 + r2 * r2)
 
 
 def lift_coefficient(alpha, f, cla, cd90):
-    """C_l(alpha, f) = f C_la alpha + (1 - f) C_D90 sin(2 alpha) / 2."""
+    """C_l(alpha, f) = f C_la alpha + (1 - f) C_D90 sin(2 alpha) / 2.
+
+    Parameters
+    ----------
+    alpha, f : casadi.SX
+        Angle of attack [rad] and separation point [-].
+    cla, cd90 : float
+        Lift slope [1/rad] and drag coefficient at 90 deg [-].
+
+    Returns
+    -------
+    casadi.SX
+    """
     return f * cla * alpha + (1.0 - f) * 0.5 * cd90 * ca.sin(2 * alpha)
 
 
 def separated_drag_coefficient(alpha, f, cd90):
-    """Pressure drag of the separated part C_d,sep = (1 - f) C_D90 sin^2(alpha)."""
+    """Pressure drag of the separated part C_d,sep = (1 - f) C_D90 sin^2(alpha).
+
+    Parameters
+    ----------
+    alpha, f : casadi.SX
+        Angle of attack [rad] and separation point [-].
+    cd90 : float
+        Drag coefficient at 90 deg [-].
+
+    Returns
+    -------
+    casadi.SX
+    """
     return (1.0 - f) * cd90 * ca.sin(alpha) ** 2
 
 
@@ -79,17 +135,51 @@ unit air density [m^3, m^3/s, m^5]: the density is a number of the state right-h
 
 
 def block_sizes(n: int) -> list[tuple[str, int, int]]:
-    """(name, rows, cols) of :data:`DATA_BLOCKS` for n elements."""
+    """(name, rows, cols) of :data:`DATA_BLOCKS` for n elements.
+
+    Parameters
+    ----------
+    n : int
+        Number of elements.
+
+    Returns
+    -------
+    list of (str, int, int)
+    """
     return [(k, n, n) if r < 0 else (k, r, n) for k, r in DATA_BLOCKS]
 
 
 def pack(blocks: dict, n: int):
-    """The data blocks as one column (layout :func:`block_sizes`)."""
+    """The data blocks as one column (layout :func:`block_sizes`).
+
+    Parameters
+    ----------
+    blocks : dict
+        Block name to matrix.
+    n : int
+        Number of elements.
+
+    Returns
+    -------
+    casadi.SX or MX
+    """
     return ca.vertcat(*[ca.vec(blocks[k]) for k, _, _ in block_sizes(n)])
 
 
 def unpack(d, n: int) -> dict:
-    """Inverse of :func:`pack` on a column (SX/MX/DM)."""
+    """Inverse of :func:`pack` on a column (SX/MX/DM).
+
+    Parameters
+    ----------
+    d : casadi.SX, MX or DM
+        Packed column.
+    n : int
+        Number of elements.
+
+    Returns
+    -------
+    dict
+    """
     out, k = {}, 0
     for name, r, c in block_sizes(n):
         out[name] = ca.reshape(d[k:k + r * c], r, c)
@@ -98,6 +188,17 @@ def unpack(d, n: int) -> dict:
 
 
 def data_size(n: int) -> int:
+    """Length of the packed data column for n elements.
+
+    Parameters
+    ----------
+    n : int
+        Number of elements.
+
+    Returns
+    -------
+    int
+    """
     return sum(r * c for _, r, c in block_sizes(n))
 
 
@@ -112,6 +213,20 @@ def element_data(r, v_kin, c_hat, up, tau, chord, ds, ddt) -> dict:
     kinematic velocity [m/s], chord direction, up normal, spanwise vector; code frame); ``chord``,
     ``ds`` n x 1 [m]; ``ddt(e)`` the time derivative of an expression (AD in t). Geometry only: no
     parameter of the state right-hand side enters (the C export keeps the two apart).
+
+    Parameters
+    ----------
+    r, v_kin, c_hat, up, tau : casadi.SX, shape (3, n)
+        See above.
+    chord, ds : casadi.SX, shape (n, 1)
+        Chords and element lengths [m].
+    ddt : callable
+        Time derivative of an expression.
+
+    Returns
+    -------
+    dict
+        Block name to expression.
     """
     n_hat, tau_hat = _unit_columns(up), _unit_columns(tau)
     c_dot = ddt(c_hat)
@@ -130,12 +245,36 @@ def element_data(r, v_kin, c_hat, up, tau, chord, ds, ddt) -> dict:
 
 def n_aero_states(unsteady: str, section: str, n: int = 16) -> int:
     """Number of aerodynamic states: 2 n lag states with ``wagner``, n separation states with
-    ``dynamic-stall``."""
+    ``dynamic-stall``.
+
+    Parameters
+    ----------
+    unsteady, section : str
+        ``aero.unsteady`` and ``aero.section``.
+    n : int
+        Number of elements.
+
+    Returns
+    -------
+    int
+    """
     return n * ((2 if unsteady == "wagner" else 0) + (1 if section == "dynamic-stall" else 0))
 
 
 def aero_state_names(unsteady: str, section: str, n: int = 16) -> tuple[str, ...]:
-    """``z1_mps_j``, ``z2_mps_j`` (wagner), ``f_sep_j`` (dynamic-stall), j = 0..n-1."""
+    """``z1_mps_j``, ``z2_mps_j`` (wagner), ``f_sep_j`` (dynamic-stall), j = 0..n-1.
+
+    Parameters
+    ----------
+    unsteady, section : str
+        ``aero.unsteady`` and ``aero.section``.
+    n : int
+        Number of elements.
+
+    Returns
+    -------
+    tuple of str
+    """
     names = []
     if unsteady == "wagner":
         names += [f"z1_mps_{j}" for j in range(n)] + [f"z2_mps_{j}" for j in range(n)]
@@ -153,7 +292,19 @@ def _cross(W, tau):
 def lu_solve(A, b):
     """x = A^-1 b by Gaussian elimination without pivoting, written out in SX (about n^3/3
     multiply-adds: a third of a symbolic QR). For the lifting-line matrices I + D K, whose eigenvalues
-    keep a positive real part (docs/model_unsteady.md, well-posedness); no branches on the values."""
+    keep a positive real part (docs/model_unsteady.md, well-posedness); no branches on the values.
+
+    Parameters
+    ----------
+    A : casadi.SX, shape (n, n)
+        Matrix.
+    b : casadi.SX
+        Right-hand side.
+
+    Returns
+    -------
+    casadi.SX
+    """
     n = A.shape[0]
     a = [[A[i, j] for j in range(n)] for i in range(n)]
     y = [b[i] for i in range(n)]
@@ -226,7 +377,25 @@ def expanded_instructions(f: ca.Function, section: str, n: int, newton_steps: in
     """CasADi instructions of an SX Function ``f`` that evaluates the section model ``evaluations``
     times, with the call of :func:`_detached_newton` of each evaluation counted as the instructions it
     runs (``n_instructions`` counts a call as one; the calls of its derivative, zero by declaration,
-    stay counted as one)."""
+    stay counted as one).
+
+    Parameters
+    ----------
+    f : casadi.Function
+        SX Function.
+    section : str
+        ``aero.section``.
+    n : int
+        Number of elements.
+    newton_steps : int
+        Newton steps of the section model.
+    evaluations : int
+        Evaluations of the section model in ``f``.
+
+    Returns
+    -------
+    int
+    """
     total = int(f.n_instructions())
     if section == "linear" or newton_steps <= INLINE_NEWTON_STEPS:
         return total
@@ -272,6 +441,16 @@ def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dic
     ``nc_coef`` (per element: dF_nc = (nc_coef + m_a a . nu') n_hat) and ``couple0`` (couple with
     q' = 0); ``zdot``; ``Gamma``, ``alpha_E`` (n x 1), ``f`` (1 x n), ``vind``, ``v_s``, ``V``, ``Vp``,
     ``Vp_norm``, ``alpha``, ``omega``, ``newton_residual``.
+
+    Parameters
+    ----------
+    opts, nu, zs, base, ud, wake, prm
+        See above.
+
+    Returns
+    -------
+    dict
+        The keys listed above.
     """
     from birdocp.bird import aero
 
@@ -393,7 +572,19 @@ def _non_circulatory(nu, ud, prm, Vn, crow, ds, omega) -> dict:
 
 
 def solve_sym3(M, b):
-    """x = M^-1 b for a 3 x 3 symmetric positive-definite M, in closed form (adjugate; no branches)."""
+    """x = M^-1 b for a 3 x 3 symmetric positive-definite M, in closed form (adjugate; no branches).
+
+    Parameters
+    ----------
+    M : casadi.SX, shape (3, 3)
+        Symmetric positive-definite matrix.
+    b : casadi.SX, shape (3, 1)
+        Right-hand side.
+
+    Returns
+    -------
+    casadi.SX, shape (3, 1)
+    """
     a, bb, c, d, e, f = M[0, 0], M[0, 1], M[0, 2], M[1, 1], M[1, 2], M[2, 2]
     A = d * f - e * e
     B = c * e - bb * f

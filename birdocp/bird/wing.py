@@ -39,6 +39,17 @@ def _safe_norm(v):
 
 
 def unit(v):
+    """``v`` divided by its 2-norm.
+
+    Parameters
+    ----------
+    v : casadi.SX
+        Vector.
+
+    Returns
+    -------
+    casadi.SX
+    """
     return v / ca.norm_2(v)
 
 
@@ -56,6 +67,20 @@ def resample(P, carry=(), n_out=N_POINTS):
     Closed form of the reference walk: sample i lies at arc length i L/(n_out-1) on the segment j
     with cum[j] < s_i <= cum[j+1]; ``carry`` are lists of points carried along with the same segment
     and fraction (the chord end points of the quarter-chord line). The last sample is the last vertex.
+
+    Parameters
+    ----------
+    P : list
+        Polyline points.
+    carry : sequence of list
+        Points carried along.
+    n_out : int
+        Number of samples.
+
+    Returns
+    -------
+    list or tuple
+        The samples; with ``carry`` a tuple (samples, carried points...).
     """
     n = len(P)
     seg = [ca.norm_2(P[k + 1] - P[k]) for k in range(n - 1)]
@@ -149,6 +174,18 @@ def smooth_line(P, radius_m):
 
     Pass 1 resamples the raw polyline and sweeps the corners; if anything moved, pass 2 resamples the
     buffer in place (aliased) and sweeps again. Returns (points, diagnostics dict).
+
+    Parameters
+    ----------
+    P : list
+        Raw polyline.
+    radius_m : float
+        Smoothing radius R_s [m].
+
+    Returns
+    -------
+    points : list
+    diag : dict
     """
     B1 = resample(P)
     B1c, h1, left1 = _corner_sweep(B1, radius_m)
@@ -205,7 +242,19 @@ def smooth_geometry(LE, TE, radius_m):
     on their corner-rounded curves (rounding width R_s / 4), the quarter-chord line resampled the same
     way with its chord end points, no corner sweep and no improvement step. Every output is a
     C-infinity function of the joint angles, hence of t. Returns (LEs, TEs, P, E, T, diagnostics);
-    the diagnostics are 0 (nothing is emulated)."""
+    the diagnostics are 0 (nothing is emulated).
+
+    Parameters
+    ----------
+    LE, TE : list
+        Raw leading and trailing edges.
+    radius_m : float
+        Smoothing radius R_s [m].
+
+    Returns
+    -------
+    tuple
+    """
     width = 0.25 * radius_m
     LEs = _soft_resample(LE, width)
     TEs = _soft_resample(TE, width)
@@ -256,6 +305,15 @@ def lifting_line(LEs, TEs):
 
     Returns (P, E, T, L_relaxed, change): line points, chord end points (leading, trailing), the
     relaxed line before the final resampling (used for tangents) and the change measure.
+
+    Parameters
+    ----------
+    LEs, TEs : list
+        Smoothed leading and trailing edges.
+
+    Returns
+    -------
+    tuple
     """
     L0 = [0.75 * e + 0.25 * t for e, t in zip(LEs, TEs)]
     L, E, T = resample(L0, carry=(LEs, TEs))
@@ -280,7 +338,21 @@ def lifting_line(LEs, TEs):
 
 
 def sections(P, E, T, L_relaxed):
-    """Chords (m), chord directions (LE -> TE) and 'up' normals of the 16 line points (docs/model.md §4.5)."""
+    """Chords (m), chord directions (LE -> TE) and 'up' normals of the 16 line points (docs/model.md §4.5).
+
+    Parameters
+    ----------
+    P : list
+        Line points.
+    E, T : list
+        Chord end points (leading, trailing).
+    L_relaxed : list
+        Relaxed line (tangents).
+
+    Returns
+    -------
+    chord, c_hat, up : list
+    """
     n = len(P)
     chord, c_hat, up = [], [], []
     for i in range(n):
@@ -309,6 +381,19 @@ def merge(P, chord, c_hat, up, half_separation_m, left=None):
 
     Returns (Q, chord, c_hat, up): 33 points (wing frame shifted to the body centre line) with their
     chords, chord directions and normals. Even indices are element nodes, odd indices centres.
+
+    Parameters
+    ----------
+    P, chord, c_hat, up : list
+        The right wing's points, chords, chord directions and normals.
+    half_separation_m : float
+        Shift of the wing frame to the body centre line (half the root separation) [m].
+    left : tuple, optional
+        A differing left wing.
+
+    Returns
+    -------
+    tuple
     """
     flip = ca.DM([-1.0, 1.0, 1.0])
     shift = ca.DM([half_separation_m, 0, 0]) if not isinstance(half_separation_m, ca.SX) else ca.vertcat(half_separation_m, 0, 0)
@@ -327,7 +412,18 @@ def merge(P, chord, c_hat, up, half_separation_m, left=None):
 
 
 def mean_spacing(P):
-    """dx of docs/model.md §4.5: mean point spacing of one wing line, used for the body-section point count."""
+    """dx of docs/model.md §4.5: mean point spacing of one wing line, used for the body-section point count.
+
+    Parameters
+    ----------
+    P : list
+        Line points.
+
+    Returns
+    -------
+    casadi.SX or float
+        Mean spacing [m].
+    """
     n = len(P)
     total = 0
     for i in range(n - 1):
