@@ -107,13 +107,41 @@ class EquilibriumBranch:
 
 
 def ode_jacobians(ode: ODE, x, p, t=0.0):
-    """(df/dx, df/dp) at (x, t, p) as numpy arrays."""
+    """(df/dx, df/dp) at (x, t, p) as numpy arrays.
+
+    Parameters
+    ----------
+    ode : ODE
+        System.
+    x : array_like
+        State.
+    p : array_like
+        Parameters.
+    t : float
+        Time.
+
+    Returns
+    -------
+    fx, fp : ndarray
+    """
     fx, fp = ode.jacobian_function()(ca.DM(x), t, ca.DM(p))
     return np.asarray(fx), np.asarray(fp)
 
 
 def sorted_eig(J):
-    """Eigenvalues and eigenvectors of J, largest real part first (then largest imaginary part)."""
+    """Eigenvalues and eigenvectors of J, largest real part first (then largest imaginary part).
+
+    Parameters
+    ----------
+    J : array_like, shape (n, n)
+        Matrix.
+
+    Returns
+    -------
+    lam : ndarray
+    V : ndarray
+        Eigenvectors as columns.
+    """
     lam, V = np.linalg.eig(J)
     order = np.lexsort((-lam.imag, -lam.real))
     return lam[order].astype(complex), V[:, order].astype(complex)
@@ -177,7 +205,19 @@ def find_equilibrium(ode: ODE, p, x_guess, *, tol: float = 1e-12, max_iter: int 
 
 
 def critical_pair(lam, tol_imag=1e-8):
-    """Index of the complex eigenvalue (Im > 0) with the real part closest to 0, or None."""
+    """Index of the complex eigenvalue (Im > 0) with the real part closest to 0, or None.
+
+    Parameters
+    ----------
+    lam : array_like
+        Eigenvalues.
+    tol_imag : float
+        Smallest imaginary part of a complex eigenvalue.
+
+    Returns
+    -------
+    int or None
+    """
     idx = [i for i, v in enumerate(lam) if v.imag > tol_imag]
     if not idx:
         return None
@@ -187,7 +227,29 @@ def critical_pair(lam, tol_imag=1e-8):
 def locate_hopf(ode: ODE, p, param, x_guess, bracket, *, tol: float = 1e-12, max_iter: int = 60) -> HopfPoint | None:
     """Hopf point in ``bracket = (a, b)`` of parameter ``param``: the real part of the critical complex
     pair changes sign in the bracket; secant steps safeguarded by bisection (Illinois), the
-    equilibrium re-solved by Newton at each trial value."""
+    equilibrium re-solved by Newton at each trial value.
+
+    Parameters
+    ----------
+    ode : ODE
+        System.
+    p : array_like
+        Parameters.
+    param : int or str
+        The parameter varied.
+    x_guess : array_like
+        Equilibrium guess.
+    bracket : (float, float)
+        Parameter interval.
+    tol : float
+        Tolerance on the parameter.
+    max_iter : int
+        Largest number of steps.
+
+    Returns
+    -------
+    HopfPoint or None
+    """
     j = ode.param_index(param)
     p = np.asarray(p, float).ravel().copy()
     xg = np.asarray(x_guess, float).ravel()
@@ -499,7 +561,24 @@ def orbit_from_hopf(ode: ODE, hopf: HopfPoint, amplitude: float, method: OrbitMe
 
 
 def hopf_branch(ode: ODE, hopf: HopfPoint, amplitudes, method: OrbitMethod = OrbitMethod(points=5, steps_per_period=100)) -> list:
-    """Orbits at increasing amplitudes from a Hopf point, each warm-started from the previous one."""
+    """Orbits at increasing amplitudes from a Hopf point, each warm-started from the previous one.
+
+    Parameters
+    ----------
+    ode : ODE
+        System.
+    hopf : HopfPoint
+        Start.
+    amplitudes : sequence of float
+        Amplitudes of the orbits.
+    method : OrbitMethod
+        Method of the orbit solves.
+
+    Returns
+    -------
+    list
+        The orbits.
+    """
     out, prev = [], None
     for a in amplitudes:
         r = orbit_from_hopf(ode, hopf, float(a), method, warm_start=prev)

@@ -35,7 +35,19 @@ __all__ = ["AutonomousContinuation", "continue_orbits", "autonomous_branch_itera
 
 def poincare_map_jacobian(monodromy: np.ndarray, f0: np.ndarray) -> np.ndarray:
     """(nx-1) x (nx-1) Jacobian of the Poincare map on the hyperplane through x0 orthogonal to
-    f0 = f(x0): its eigenvalues are the non-trivial Floquet multipliers."""
+    f0 = f(x0): its eigenvalues are the non-trivial Floquet multipliers.
+
+    Parameters
+    ----------
+    monodromy : ndarray, shape (nx, nx)
+        Monodromy matrix of the orbit at x0.
+    f0 : ndarray, shape (nx,)
+        Vector field at x0.
+
+    Returns
+    -------
+    ndarray, shape (nx - 1, nx - 1)
+    """
     nx = f0.size
     n = f0 / np.linalg.norm(f0)
     Q, _ = np.linalg.qr(np.column_stack([n, np.eye(nx)]))

@@ -32,7 +32,19 @@ __all__ = ["OrbitBranchIterator", "resolve_options"]
 
 def resolve_options(options: ContinuationOptions | None, settings: dict) -> ContinuationOptions:
     """``options`` (default :class:`ContinuationOptions`) with the keyword ``settings`` named like its
-    fields replacing them; a TypeError names unknown settings."""
+    fields replacing them; a TypeError names unknown settings.
+
+    Parameters
+    ----------
+    options : ContinuationOptions or None
+        Base options.
+    settings : dict
+        Field name to value.
+
+    Returns
+    -------
+    ContinuationOptions
+    """
     opts = options or ContinuationOptions()
     unknown = set(settings) - {f.name for f in fields(ContinuationOptions)}
     if unknown:

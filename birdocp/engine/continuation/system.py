@@ -125,7 +125,19 @@ class ContinuationState:
 
 
 def tangent(Ju, t_prev):
-    """Unit null vector of ``Ju`` (n x n+1), oriented along ``t_prev`` (or by SVD when ``None``)."""
+    """Unit null vector of ``Ju`` (n x n+1), oriented along ``t_prev`` (or by SVD when ``None``).
+
+    Parameters
+    ----------
+    Ju : ndarray, shape (n, n + 1)
+        Jacobian of the extended system.
+    t_prev : ndarray or None
+        Previous tangent.
+
+    Returns
+    -------
+    ndarray, shape (n + 1,)
+    """
     if t_prev is None:
         _, _, Vt = np.linalg.svd(Ju)
         t = Vt[-1]
@@ -141,7 +153,22 @@ def tangent(Ju, t_prev):
 
 
 def test_functions(t, Mon, lam_index) -> dict:
-    """Special-point test functions at a point (see :mod:`birdocp.engine.continuation`)."""
+    """Special-point test functions at a point (see :mod:`birdocp.engine.continuation`).
+
+    Parameters
+    ----------
+    t : ndarray
+        Tangent at the point.
+    Mon : ndarray, shape (nx, nx)
+        Monodromy matrix.
+    lam_index : int
+        Index of the parameter in ``t`` (its component is the fold test).
+
+    Returns
+    -------
+    dict
+        ``fold``, ``branch_point`` (det(I - Mon)), ``period_doubling`` (det(I + Mon)), ``neimark_sacker``.
+    """
     nx = Mon.shape[0]
     L = np.linalg.eigvals(Mon)
     ns = 1.0
