@@ -206,6 +206,9 @@ def atomic_folder(path: str | Path, *, replace: bool = True,
     """Yield a new temporary folder beside ``path``; when the body ends normally its files are
     flushed to disk and the folder takes ``path``'s place as a whole.
 
+    On any exception (also ``KeyboardInterrupt`` or a full disk) the temporary folder is removed
+    and ``path`` is left as it was: absent, or the earlier folder, complete.
+
     Parameters
     ----------
     path : str or Path
@@ -216,9 +219,6 @@ def atomic_folder(path: str | Path, *, replace: bool = True,
     carry : callable, optional
         ``carry(name) -> bool`` for each entry of the earlier folder: True to keep it in the new one
         (hard-linked, or copied across file systems, before the swap), e.g. a user's own files.
-
-    On any exception (also ``KeyboardInterrupt`` or a full disk) the temporary folder is removed
-    and ``path`` is left as it was: absent, or the earlier folder, complete.
 
     Yields
     ------

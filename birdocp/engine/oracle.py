@@ -31,6 +31,15 @@ def ipopt_options(**over) -> dict:
 
     Quasi-Newton Hessian (the exact Hessian through the integrator was 10x slower for the same
     iterations), MUMPS (the linear solver shipped in the casadi wheels), no banner or timing output.
+
+    Parameters
+    ----------
+    **over
+        Options replacing the defaults (``ipopt.*`` keys included).
+
+    Returns
+    -------
+    dict
     """
     opts = {"ipopt.hessian_approximation": "limited-memory", "ipopt.sb": "yes", "ipopt.print_level": 0,
             "print_time": False, "ipopt.linear_solver": "mumps"}

@@ -59,7 +59,23 @@ def _cached(cache, key, make):
 
 
 def orbit_graphs(ode: ODE, N: int, S: int, integrator: str) -> OrbitGraphs:
-    """The cached :class:`OrbitGraphs` of (ode, N steps, S segments, integrator)."""
+    """The cached :class:`OrbitGraphs` of (ode, N steps, S segments, integrator).
+
+    Parameters
+    ----------
+    ode : ODE
+        System.
+    N : int
+        Integration steps per period.
+    S : int
+        Shooting segments.
+    integrator : str
+        Integrator name.
+
+    Returns
+    -------
+    OrbitGraphs
+    """
     return _cached(_GRAPHS, (id(ode), N, S, integrator), lambda: OrbitGraphs(ode, N, S, integrator))
 
 
@@ -206,7 +222,23 @@ class OrbitSystem(Evaluator):
 
 
 def orbit_system(graphs, period_free, free_idx, n_lin) -> OrbitSystem:
-    """The cached :class:`OrbitSystem` over ``graphs`` for one layout of unknowns and linear rows."""
+    """The cached :class:`OrbitSystem` over ``graphs`` for one layout of unknowns and linear rows.
+
+    Parameters
+    ----------
+    graphs : OrbitGraphs
+        Graphs of the system.
+    period_free : bool
+        The period is an unknown.
+    free_idx : sequence of int
+        Indices of the free parameters.
+    n_lin : int
+        Number of linear rows.
+
+    Returns
+    -------
+    OrbitSystem
+    """
     return _cached(_EVALS, (id(graphs), bool(period_free), tuple(free_idx), int(n_lin)),
                    lambda: OrbitSystem(graphs, period_free, free_idx, n_lin))
 
@@ -217,7 +249,27 @@ def orbit_residual_system(ode: ODE, method: OrbitMethod, *, period_free: bool, f
     ``blocks(z)``, ``nz``, ``ng``, ``points(z)``, ``q_of(z)``) for continuation and Hopf starts.
 
     The graphs are always cached; ``cached=False`` gives an evaluator of its own (its context -- the
-    parameters and linear rows -- is then not changed by other solves)."""
+    parameters and linear rows -- is then not changed by other solves).
+
+    Parameters
+    ----------
+    ode : ODE
+        System.
+    method : OrbitMethod
+        Method (points, steps, integrator).
+    period_free : bool
+        The period is an unknown.
+    free_idx : sequence of int
+        Indices of the free parameters.
+    n_lin : int
+        Number of linear rows.
+    cached : bool
+        Share the cached evaluator.
+
+    Returns
+    -------
+    OrbitSystem
+    """
     method.validate()
     if method.steps_per_period is None:
         raise ValueError("orbit_residual_system: give steps_per_period (a number)")
@@ -230,7 +282,25 @@ def orbit_residual_system(ode: ODE, method: OrbitMethod, *, period_free: bool, f
 
 def initial_points(graphs: OrbitGraphs, x_guess, p, T, t0) -> np.ndarray:
     """Shooting points (nx x (S+1)) from a guess: a single point is integrated forward over T; a
-    list of M or M-1 points is used as is (closed with the first)."""
+    list of M or M-1 points is used as is (closed with the first).
+
+    Parameters
+    ----------
+    graphs : OrbitGraphs
+        Graphs of the system.
+    x_guess : array_like
+        One point or a list of points.
+    p : array_like
+        Parameters.
+    T : float
+        Period.
+    t0 : float
+        Start time.
+
+    Returns
+    -------
+    ndarray, shape (nx, S + 1)
+    """
     S = graphs.S
     xg = np.asarray(x_guess, float)
     if xg.ndim == 2:
@@ -244,7 +314,25 @@ def initial_points(graphs: OrbitGraphs, x_guess, p, T, t0) -> np.ndarray:
 
 
 def forward_points(graphs: OrbitGraphs, x, p, T, t0) -> np.ndarray:
-    """Points along the trajectory from x at the shooting times (nx x (S+1))."""
+    """Points along the trajectory from x at the shooting times (nx x (S+1)).
+
+    Parameters
+    ----------
+    graphs : OrbitGraphs
+        Graphs of the system.
+    x : array_like
+        Start point.
+    p : array_like
+        Parameters.
+    T : float
+        Period.
+    t0 : float
+        Start time.
+
+    Returns
+    -------
+    ndarray, shape (nx, S + 1)
+    """
     q = ca.DM(np.concatenate([p, [T, t0]]))
     pts = [np.asarray(x, float)]
     for i in range(graphs.S):
@@ -261,7 +349,26 @@ def first_return_period(graphs: OrbitGraphs, x, p, T_guess: float, t0: float = 0
     through x orthogonal to f(x) (in the direction of the flow) between T_guess/1.6 and 1.6 T_guess.
 
     Returns ``(T, distance)`` (None, inf when there is no such crossing). The trajectory is the
-    graphs' grid stretched to 1.6 T_guess (steps 1.6 times longer)."""
+    graphs' grid stretched to 1.6 T_guess (steps 1.6 times longer).
+
+    Parameters
+    ----------
+    graphs : OrbitGraphs
+        Graphs of the system.
+    x : array_like
+        Start point.
+    p : array_like
+        Parameters.
+    T_guess : float
+        Period guess.
+    t0 : float
+        Start time.
+
+    Returns
+    -------
+    T : float or None
+    distance : float
+    """
     ode = graphs.ode
     x = np.asarray(x, float)
     f = ode.evaluate(x, t0, p)
@@ -286,7 +393,25 @@ def first_return_period(graphs: OrbitGraphs, x, p, T_guess: float, t0: float = 0
 
 def trajectory(graphs: OrbitGraphs, X, p, T: float, t0: float = 0.0):
     """The states at the N+1 grid times of the period from the shooting points X (nx x (S+1)), or
-    None when an evaluation fails or is not finite."""
+    None when an evaluation fails or is not finite.
+
+    Parameters
+    ----------
+    graphs : OrbitGraphs
+        Graphs of the system.
+    X : array_like, shape (nx, S + 1)
+        Shooting points.
+    p : array_like
+        Parameters.
+    T : float
+        Period.
+    t0 : float
+        Start time.
+
+    Returns
+    -------
+    ndarray, shape (N + 1, nx) or None
+    """
     q = ca.DM(np.concatenate([p, [T, t0]]))
     try:
         Xt = np.asarray(graphs.segments(ca.DM(X[:, :graphs.S]), q)[1])

@@ -98,7 +98,12 @@ class NoiseFilter:
 
 
 def install_from_env() -> NoiseFilter | None:
-    """In a worker process: if :data:`LOG_ENV` names a file, route CasADi's warnings there."""
+    """In a worker process: if :data:`LOG_ENV` names a file, route CasADi's warnings there.
+
+    Returns
+    -------
+    NoiseFilter or None
+    """
     path = os.environ.get(LOG_ENV)
     if not path:
         return None
