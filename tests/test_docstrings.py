@@ -1,11 +1,14 @@
-"""The public face is documented: every function exported by ``birdocp`` and ``birdocp.engine``
-documents each of its parameters (numpydoc ``Parameters``; no missing, no misspelt name) and what it
-returns, as python-control's docstring test does; the core functions' ``Examples`` run (doctest)."""
+"""The package is documented: every function exported by ``birdocp`` and ``birdocp.engine``, every
+public function defined in any module of the package (the modules are walked) and the public methods
+of the result types document each of their parameters (numpydoc ``Parameters``; no missing, no misspelt
+name) and what they return, as python-control's docstring test does; the core functions' ``Examples``
+run (doctest)."""
 from __future__ import annotations
 
 import doctest
 import importlib
 import inspect
+import re
 
 import pytest
 
@@ -74,16 +77,22 @@ def _module_functions():
     return out
 
 
-@pytest.mark.parametrize("func", _face_functions() + _module_functions())
-def test_parameters_documented(func):
+def _check_documented(func, skip_first: bool = False) -> None:
+    """Every parameter of ``func`` documented (no missing, no misspelt name; ``skip_first``: a method's
+    self or cls left out) and a Returns (or Yields) section unless it is annotated to return None."""
     documented, has_returns = _documented(func)
-    signature = _signature_names(func)
+    signature = _signature_names(func)[1 if skip_first else 0:]
     missing = [n for n in signature if n not in documented]
     unknown = [n for n in documented if n not in signature]
     assert not missing, f"{func.__module__}.{func.__qualname__}: parameters not documented: {missing}"
     assert not unknown, f"{func.__module__}.{func.__qualname__}: documented but not parameters: {unknown}"
     returns_none = inspect.signature(func).return_annotation in (None, "None")
     assert has_returns or returns_none, f"{func.__module__}.{func.__qualname__}: no Returns section"
+
+
+@pytest.mark.parametrize("func", _face_functions() + _module_functions())
+def test_parameters_documented(func):
+    _check_documented(func)
 
 
 # The classes of the faces that a user constructs (the result types are returned, not constructed):
@@ -116,6 +125,83 @@ def test_constructor_parameters_documented(face, name):
     params = [p for p in _signature_names(cls) if p != "self"]
     missing = [p for p in params if p.lstrip("*") not in documented and p not in documented]
     assert not missing, f"{face}.{name}: constructor parameters not documented: {missing}"
+
+
+# The result types of the engine and the studies (what a user gets back and reads): their public methods
+# are documented like the functions (the first parameter of a method, self or cls, excluded).
+RESULT_TYPES = {
+    "birdocp.engine.continuation.branch": ["BranchPoint", "SpecialPoint", "Branch"],
+    "birdocp.engine.equilibria": ["Equilibrium", "HopfPoint", "EquilibriumBranch", "EquilibriumPoint", "EquilibriumFold"],
+    "birdocp.engine.floquet": ["FloquetResult"], "birdocp.engine.lyapunov": ["LyapunovResult"],
+    "birdocp.studies.control": ["Controller"], "birdocp.studies.gait": ["GaitOptimum"],
+    "birdocp.studies.lateral": ["LateralTrimResult"], "birdocp.studies.lateral_simulate": ["LateralSimulation", "SideGust"],
+    "birdocp.studies.optimize": ["StabilityOptimum"], "birdocp.studies.sensitivity": ["SensitivityResult"],
+    "birdocp.studies.simulate": ["SimulationResult"], "birdocp.studies.simulate_inputs": ["Gust"],
+    "birdocp.studies.trim": ["TrimResult"],
+}
+
+
+def _result_methods():
+    out = []
+    for module, names in RESULT_TYPES.items():
+        mod = importlib.import_module(module)
+        for cname in names:
+            cls = getattr(mod, cname)
+            for name, attr in vars(cls).items():
+                func = attr.__func__ if isinstance(attr, (staticmethod, classmethod)) else attr
+                if not name.startswith("_") and inspect.isfunction(func):
+                    out.append(pytest.param(func, not isinstance(attr, staticmethod), id=f"{module}.{cname}.{name}"))
+    return out
+
+
+@pytest.mark.parametrize("func,bound", _result_methods())
+def test_result_methods_documented(func, bound):
+    _check_documented(func, skip_first=bound)
+
+
+def test_the_check_catches_a_missing_parameter_a_stale_one_and_a_missing_returns():
+    """The checker itself fails on each kind of gap, so a passing run means something."""
+    def undocumented(speed_mps, mass_kg):
+        """Kinetic energy.
+
+        Parameters
+        ----------
+        speed_mps : float
+            Speed [m/s].
+
+        Returns
+        -------
+        float
+        """
+
+    def stale(speed_mps):
+        """Kinetic energy.
+
+        Parameters
+        ----------
+        speed_mps : float
+            Speed [m/s].
+        mass_kg : float
+            Mass [kg] (no longer a parameter).
+
+        Returns
+        -------
+        float
+        """
+
+    def no_returns(speed_mps):
+        """Kinetic energy.
+
+        Parameters
+        ----------
+        speed_mps : float
+            Speed [m/s].
+        """
+
+    for func, words in ((undocumented, "not documented: ['mass_kg']"), (stale, "not parameters: ['mass_kg']"),
+                        (no_returns, "no Returns")):
+        with pytest.raises(AssertionError, match=re.escape(words)):
+            _check_documented(func)
 
 
 def test_face_is_not_empty():

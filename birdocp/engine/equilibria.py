@@ -53,7 +53,13 @@ class Equilibrium:
     stable: bool
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; eigenvectors left out)."""
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; eigenvectors left out).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self)
 
 
@@ -80,7 +86,13 @@ class HopfPoint:
         return "hopf"
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`, with the period)."""
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`, with the period).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self, derived=("period",))
 
 
@@ -102,7 +114,13 @@ class EquilibriumBranch:
     message: str = ""
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; the Hopf points nested)."""
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; the Hopf points nested).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self)
 
 
@@ -361,7 +379,13 @@ class EquilibriumPoint:
         return self.eigenvalues
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`)."""
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self)
 
 
@@ -376,7 +400,13 @@ class EquilibriumFold:
     kind: str = "fold"
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`)."""
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self)
 
 

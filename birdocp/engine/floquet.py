@@ -45,7 +45,13 @@ class FloquetResult:
 
     def to_dict(self) -> dict:
         """JSON-ready dict (:func:`birdocp.engine.results.result_dict`: complex numbers as [re, im]
-        pairs, non-finite numbers as null)."""
+        pairs, non-finite numbers as null).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self)
 
 

@@ -57,7 +57,13 @@ class LyapunovResult:
         return float(np.sum(self.exponents))
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; the histories are left out)."""
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; the histories are left out).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self, derived=("sum",), extra={"wall_s": {"total": self.wall_s}})
 
 

@@ -441,7 +441,13 @@ class Controller:
 
     def to_dict(self) -> dict:
         """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): the design, its verdict and
-        the linearised map it was designed on."""
+        the linearised map it was designed on.
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         wm = self.map
         ol = wm.multipliers
         rho = self.spectral_radius

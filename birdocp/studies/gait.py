@@ -87,7 +87,13 @@ class GaitOptimum:
         return float(np.max(np.abs(self.multipliers)))
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): the documented keys."""
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): the documented keys.
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self, exclude=("cfg", "start_x0", "means", "second_derivatives"), derived=("largest_modulus",), extra={
             "active_bounds": [k for k, v in self.free.items()
                               if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6],

@@ -155,7 +155,13 @@ class LateralTrimResult:
         """JSON of the result: the engine cycle's keys (status, residuals, x0 of 9 states, ...) with
         ``multipliers`` (all nine) and ``stable`` (the heading's 1 excluded), then this result's
         fields, ``state_names``, ``moduli`` (of ``multipliers``), ``lateral_stable`` and the period means ``mean_vertical_speed_mps``
-        and ``mean_forward_speed_mps``."""
+        and ``mean_forward_speed_mps``.
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         own = {f.name for f in fields(self)} | {"success", "stable", "lateral_stable"}
         extra = {k: v for k, v in self.cycle.to_dict().items() if k not in own}
         extra.update({

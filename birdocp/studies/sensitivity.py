@@ -95,7 +95,17 @@ class SensitivityResult:
         return None if self.validity is None else bool(self.validity.get("valid"))
 
     def ranked(self, mode: int = 0) -> list[dict]:
-        """Rows sorted by |d modulus of multiplier `mode`| per display unit (deg or cm)."""
+        """Rows sorted by |d modulus of multiplier `mode`| per display unit (deg or cm).
+
+        Parameters
+        ----------
+        mode : int
+            Index of the multiplier (largest modulus first).
+
+        Returns
+        -------
+        list of dict
+        """
         rows = []
         for k, key in enumerate(self.parameters):
             unit, f = unit_of(key)
@@ -112,7 +122,13 @@ class SensitivityResult:
 
     def to_dict(self) -> dict:
         """JSON-ready dict (:func:`birdocp.engine.results.result_dict`, with the ranking of the
-        expanding multiplier's sensitivities, each row with ``valid``: the model holds on the cycle)."""
+        expanding multiplier's sensitivities, each row with ``valid``: the model holds on the cycle).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self, extra={"ranked_expanding": self.ranked(0), "valid": self.valid})
 
 

@@ -215,7 +215,13 @@ class SimulationResult:
 
     def to_dict(self) -> dict:
         """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): the fields but the time
-        histories, and the per-beat summary derived from them."""
+        histories, and the per-beat summary derived from them.
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         peak, k = self.peak_deviation
         some = len(self.states) > 0
         return result_dict(self, derived=("final_deviation", "beats_to_recover"), extra={
@@ -226,6 +232,13 @@ class SimulationResult:
             "final_position_m": [self.X_m[-1], self.Z_m[-1]] if len(self.X_m) else None})
 
     def arrays(self) -> dict:
+        """The histories (arrays.npz): times [s], states, position X, Z [m], pitch [deg], the controls and the
+        deviation per beat.
+
+        Returns
+        -------
+        dict of str to ndarray
+        """
         return {"t_s": self.t_s, "states": self.states, "X_m": self.X_m, "Z_m": self.Z_m,
                 "pitch_deg": np.degrees(self.states[:, 3]), "control_t_s": self.control_t_s,
                 "controls": self.controls, "control_cycle": self.control_cycle,

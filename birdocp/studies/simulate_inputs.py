@@ -99,7 +99,17 @@ class Gust:
             raise ConfigError("--gust-start", f"must lie in 0..{top:g} (no simulation flies farther), got {start}")
 
     def span_m(self, beat_m: float) -> tuple[float, float]:
-        """(start, length) in metres given the distance flown per beat."""
+        """(start, length) in metres given the distance flown per beat.
+
+        Parameters
+        ----------
+        beat_m : float
+            Distance flown per beat [m].
+
+        Returns
+        -------
+        start_m, length_m : float
+        """
         start = self.start_m if self.start_m is not None else self.start_beats * beat_m
         length = self.length_m if self.length_m is not None else self.length_beats * beat_m
         return float(start), float(length)

@@ -128,7 +128,12 @@ class TrimResult:
 
     def wing_power_summary(self) -> dict:
         """JSON part of :attr:`wing_power`: the wing mass, the period means and peaks (W, J) and the
-        time histories (lists)."""
+        time histories (lists).
+
+        Returns
+        -------
+        dict
+        """
         from birdocp.bird.model import WING_POWER_NAMES
 
         wp = self.wing_power if self.cycle.trajectory_x is not None else None
@@ -174,7 +179,12 @@ class TrimResult:
 
     def energetics_dict(self) -> dict:
         """The scalar power outputs (keys :data:`birdocp.bird.energetics.ENERGETICS_KEYS`) and their
-        definitions, JSON-able; computed if needed."""
+        definitions, JSON-able; computed if needed.
+
+        Returns
+        -------
+        dict
+        """
         from birdocp.bird.energetics import ENERGETICS_KEYS
 
         e = self.energetics
@@ -186,7 +196,13 @@ class TrimResult:
 
     def to_dict(self) -> dict:
         """Plain JSON-able dict; complex numbers as [re, im] pairs, multipliers largest first. The
-        power outputs are included when they were computed (:attr:`energetics`)."""
+        power outputs are included when they were computed (:attr:`energetics`).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         c = self.cycle
         flight = {"amplitude_deg": self.amplitude_deg,
                   "root_ahead_m": float(c.p[PARAM_NAMES.index("wing.root_ahead_m")]),
@@ -205,6 +221,13 @@ class TrimResult:
                                    "shooting_times": "shooting_times_s"})
 
     def arrays(self) -> dict:
+        """The arrays of the run folder (arrays.npz): trajectory, shooting points, parameters, residual history
+        and, when computed, the monodromy and multipliers.
+
+        Returns
+        -------
+        dict of str to ndarray
+        """
         c = self.cycle
         out = {"trajectory_t_s": np.asarray(c.trajectory_t), "trajectory_x": np.asarray(c.trajectory_x),
                "shooting_points": np.asarray(c.shooting_points), "p": np.asarray(c.p),
@@ -218,7 +241,12 @@ class TrimResult:
         return out
 
     def table(self) -> str:
-        """Human-readable summary."""
+        """Human-readable summary.
+
+        Returns
+        -------
+        str
+        """
         c = self.cycle
         lines = [f"trim: {'converged' if c.success else 'NOT converged'} ({c.status}), "
                  f"{c.iterations} iterations, max residual {c.max_residual:.2e}, {c.wall_s.get('total', 0):.2f} s",
