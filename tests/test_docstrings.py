@@ -1,6 +1,6 @@
 """The package is documented: every function exported by ``birdocp`` and ``birdocp.engine``, every
 public function defined in any module of the package (the modules are walked) and the public methods
-of the result types document each of their parameters (numpydoc ``Parameters``; no missing, no misspelt
+of the engine's and the studies' classes document each of their parameters (numpydoc ``Parameters``; no missing, no misspelt
 name) and what they return, as python-control's docstring test does; the core functions' ``Examples``
 run (doctest)."""
 from __future__ import annotations
@@ -127,35 +127,43 @@ def test_constructor_parameters_documented(face, name):
     assert not missing, f"{face}.{name}: constructor parameters not documented: {missing}"
 
 
-# The result types of the engine and the studies (what a user gets back and reads): their public methods
-# are documented like the functions (the first parameter of a method, self or cls, excluded).
-RESULT_TYPES = {
-    "birdocp.engine.continuation.branch": ["BranchPoint", "SpecialPoint", "Branch"],
-    "birdocp.engine.equilibria": ["Equilibrium", "HopfPoint", "EquilibriumBranch", "EquilibriumPoint", "EquilibriumFold"],
-    "birdocp.engine.floquet": ["FloquetResult"], "birdocp.engine.lyapunov": ["LyapunovResult"],
-    "birdocp.studies.control": ["Controller"], "birdocp.studies.gait": ["GaitOptimum"],
-    "birdocp.studies.lateral": ["LateralTrimResult"], "birdocp.studies.lateral_simulate": ["LateralSimulation", "SideGust"],
-    "birdocp.studies.optimize": ["StabilityOptimum"], "birdocp.studies.sensitivity": ["SensitivityResult"],
-    "birdocp.studies.simulate": ["SimulationResult"], "birdocp.studies.simulate_inputs": ["Gust"],
-    "birdocp.studies.trim": ["TrimResult"],
+# The public methods of the public classes of the engine and the studies (their result types, systems,
+# executors, caches) are documented like the functions (a method's self or cls left out). Overrides of
+# an interface from outside the package (a CasADi Callback's get_n_in, ...) are documented there.
+# Classes whose modules other work of this session is rewriting are listed until they are documented:
+METHODS_PENDING = {
+    "birdocp.engine.continuation.autonomous.AutonomousContinuation",  # the one-orbit-engine restructuring
+    "birdocp.engine.continuation.iterate.OrbitBranchIterator",
+    "birdocp.engine.continuation.system.Continuation",
+    "birdocp.engine.orbit_system.OrbitSystem",
+    "birdocp.engine.integrate.RK4Grid",  # dynamic-stall work on the grid
+    "birdocp.studies.gait_cycle.ReducedLevelCycle",  # six-degree-of-freedom gait optimisation
+    "birdocp.studies.gait_problem.ReducedProblem",
 }
 
 
-def _result_methods():
+def _foreign_override(cls, name: str) -> bool:
+    return any(name in vars(base) for base in cls.__mro__[1:] if not base.__module__.startswith("birdocp"))
+
+
+def _class_methods():
     out = []
-    for module, names in RESULT_TYPES.items():
-        mod = importlib.import_module(module)
-        for cname in names:
-            cls = getattr(mod, cname)
+    for mod in _package_modules():
+        if not mod.__name__.startswith(("birdocp.engine", "birdocp.studies")):
+            continue
+        for cname, cls in vars(mod).items():
+            if (cname.startswith("_") or not inspect.isclass(cls) or cls.__module__ != mod.__name__
+                    or f"{mod.__name__}.{cname}" in METHODS_PENDING):
+                continue
             for name, attr in vars(cls).items():
                 func = attr.__func__ if isinstance(attr, (staticmethod, classmethod)) else attr
-                if not name.startswith("_") and inspect.isfunction(func):
-                    out.append(pytest.param(func, not isinstance(attr, staticmethod), id=f"{module}.{cname}.{name}"))
+                if not name.startswith("_") and inspect.isfunction(func) and not _foreign_override(cls, name):
+                    out.append(pytest.param(func, not isinstance(attr, staticmethod), id=f"{mod.__name__}.{cname}.{name}"))
     return out
 
 
-@pytest.mark.parametrize("func,bound", _result_methods())
-def test_result_methods_documented(func, bound):
+@pytest.mark.parametrize("func,bound", _class_methods())
+def test_methods_documented(func, bound):
     _check_documented(func, skip_first=bound)
 
 
@@ -210,8 +218,9 @@ def test_face_is_not_empty():
 
 
 def test_module_walk_is_not_empty():
-    """The walk finds the package's modules and their functions, so the test above checks them."""
-    assert len(_module_functions()) >= 300
+    """The walk finds the package's modules, their functions and the classes' methods, so the tests
+    above check them."""
+    assert len(_module_functions()) >= 300 and len(_class_methods()) >= 60
 
 
 # The core functions whose Examples run here (kept to seconds: small grids).

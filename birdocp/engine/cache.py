@@ -31,7 +31,19 @@ class BoundedCache:
         self._data: OrderedDict = OrderedDict()
 
     def get(self, key: Hashable, default=None):
-        """The entry of ``key`` (now the most recently used), else ``default``."""
+        """The entry of ``key`` (now the most recently used), else ``default``.
+
+        Parameters
+        ----------
+        key : hashable
+            Key of the entry.
+        default : Any
+            Returned when there is no entry.
+
+        Returns
+        -------
+        Any
+        """
         try:
             self._data.move_to_end(key)
         except KeyError:
@@ -39,7 +51,15 @@ class BoundedCache:
         return self._data[key]
 
     def put(self, key: Hashable, value) -> None:
-        """Store ``value`` under ``key``, evicting the least recently used entries beyond ``maxsize``."""
+        """Store ``value`` under ``key``, evicting the least recently used entries beyond ``maxsize``.
+
+        Parameters
+        ----------
+        key : hashable
+            Key of the entry.
+        value : Any
+            Value stored.
+        """
         self._data[key] = value
         self._data.move_to_end(key)
         while len(self._data) > self.maxsize:

@@ -520,7 +520,12 @@ class EquilibriumBranchIterator(RunOnce):
         return found
 
     def branch(self) -> EquilibriumBranch:
-        """The branch followed so far (all of it after the iteration ended)."""
+        """The branch followed so far (all of it after the iteration ended).
+
+        Returns
+        -------
+        EquilibriumBranch
+        """
         nx = self.ode.nx
         if not self.points:
             return EquilibriumBranch(self.j, np.zeros(0), np.zeros((0, nx)), np.zeros((0, nx)), np.zeros(0, bool),

@@ -147,14 +147,34 @@ class Entry:
         return tuple(self.manifest["files"])
 
     def signature(self, name: str) -> dict | None:
-        """The stored signature of ``name`` (:func:`birdocp.engine.lazy.signature`), or None."""
+        """The stored signature of ``name`` (:func:`birdocp.engine.lazy.signature`), or None.
+
+        Parameters
+        ----------
+        name : str
+            Function name.
+
+        Returns
+        -------
+        dict or None
+        """
         info = self.manifest["files"].get(name) or {}
         sig = info.get("signature")
         return sig if isinstance(sig, dict) and {"name", "size_in", "size_out"} <= set(sig) else None
 
     def function(self, name: str) -> ca.Function:
         """The Function ``name``; raises :class:`CacheMiss` (and removes the entry) if its file is
-        missing, has the wrong size or checksum, or does not deserialise."""
+        missing, has the wrong size or checksum, or does not deserialise.
+
+        Parameters
+        ----------
+        name : str
+            Function name.
+
+        Returns
+        -------
+        casadi.Function
+        """
         t = time.perf_counter()
         info = self.manifest["files"].get(name)
         if info is None:

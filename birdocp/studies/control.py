@@ -85,7 +85,19 @@ class PerModel:
 
     @classmethod
     def get(cls, model, *settings):
-        """The cached instance for (model, settings), built on first use."""
+        """The cached instance for (model, settings), built on first use.
+
+        Parameters
+        ----------
+        model : object
+            Model (identity part of the key).
+        *settings
+            Further parts of the key.
+
+        Returns
+        -------
+        PerModel
+        """
         key = (id(model.model), *settings)
         hit = cls._cache.get(key)
         if hit is None or hit.model is not model.model:

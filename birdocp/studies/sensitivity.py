@@ -143,7 +143,21 @@ class SecondOrderMaps:
     def get(cls, model, steps: int, w_output=None):
         """The cached maps of (model, steps) (``model``: a configured planar model, or any object with
         ``model`` (its identity), ``ode`` and ``data``; ``w_output``: the ``(x, d, p)`` Function of the
-        mean vertical speed, default the planar model's)."""
+        mean vertical speed, default the planar model's).
+
+        Parameters
+        ----------
+        model : object
+            Configured planar model or an object with ``model``, ``ode`` and ``data``.
+        steps : int
+            RK4 steps per period.
+        w_output : casadi.Function, optional
+            ``(x, d, p)`` Function of the mean vertical speed.
+
+        Returns
+        -------
+        SecondOrderMaps
+        """
         key = (id(model.model), steps)
         hit = _SECOND_ORDER.get(key)
         if hit is None or hit.model is not model.model:

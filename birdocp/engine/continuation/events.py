@@ -61,13 +61,37 @@ class BranchEvents:
     describe: Callable[[str, int, BranchPoint], str] | None = None
 
     def values(self, point: BranchPoint) -> dict:
-        """The test functions at ``point`` (floats), also stored in ``point.event_values``."""
+        """The test functions at ``point`` (floats), also stored in ``point.event_values``.
+
+        Parameters
+        ----------
+        point : BranchPoint
+            Point, changed in place.
+
+        Returns
+        -------
+        dict of str to float
+        """
         vals = {str(k): float(v) for k, v in dict(self.evaluate(point)).items()}
         point.event_values = vals
         return vals
 
     def message(self, name: str, direction: int, point: BranchPoint) -> str:
-        """The special point's message."""
+        """The special point's message.
+
+        Parameters
+        ----------
+        name : str
+            Test function.
+        direction : int
+            Sign of the crossing (< 0: falls below 0).
+        point : BranchPoint
+            Point of the crossing.
+
+        Returns
+        -------
+        str
+        """
         if self.describe is not None:
             return self.describe(name, direction, point)
         return f"{name} {'falls below 0' if direction < 0 else 'rises to 0'} along the branch"
