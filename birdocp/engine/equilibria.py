@@ -23,11 +23,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from typing import Iterator
 
-import casadi as ca
 import numpy as np
 
 from birdocp.engine.continuation.step import ContinuationStep, RunOnce
 from birdocp.engine.ode import ODE
+from birdocp.engine.equilibria_linear import critical_pair, ode_jacobians, sorted_eig  # noqa: F401
 from birdocp.engine.orbits import OrbitMethod, OrbitProblem, PeriodicOrbit, solve_orbit_system
 from birdocp.engine.problem import finite_vector
 from birdocp.engine.results import result_dict, serial
@@ -124,47 +124,6 @@ class EquilibriumBranch:
         return result_dict(self)
 
 
-def ode_jacobians(ode: ODE, x, p, t=0.0):
-    """(df/dx, df/dp) at (x, t, p) as numpy arrays.
-
-    Parameters
-    ----------
-    ode : ODE
-        System.
-    x : array_like
-        State.
-    p : array_like
-        Parameters.
-    t : float
-        Time.
-
-    Returns
-    -------
-    fx, fp : ndarray
-    """
-    fx, fp = ode.jacobian_function()(ca.DM(x), t, ca.DM(p))
-    return np.asarray(fx), np.asarray(fp)
-
-
-def sorted_eig(J):
-    """Eigenvalues and eigenvectors of J, largest real part first (then largest imaginary part).
-
-    Parameters
-    ----------
-    J : array_like, shape (n, n)
-        Matrix.
-
-    Returns
-    -------
-    lam : ndarray
-    V : ndarray
-        Eigenvectors as columns.
-    """
-    lam, V = np.linalg.eig(J)
-    order = np.lexsort((-lam.imag, -lam.real))
-    return lam[order].astype(complex), V[:, order].astype(complex)
-
-
 def find_equilibrium(ode: ODE, p, x_guess, *, tol: float = 1e-12, max_iter: int = 50, t: float = 0.0) -> Equilibrium:
     """Damped Newton on f(x, p) = 0 (exact Jacobian); eigenvalues of df/dx at the result.
 
@@ -220,26 +179,6 @@ def find_equilibrium(ode: ODE, p, x_guess, *, tol: float = 1e-12, max_iter: int 
     J, _ = ode_jacobians(ode, x, p, t)
     lam, V = sorted_eig(J) if np.all(np.isfinite(J)) else (np.full(ode.nx, np.nan + 0j), np.eye(ode.nx, dtype=complex))
     return Equilibrium(status == "converged", status, x, p, r, it, lam, V, bool(np.all(lam.real < 0)))
-
-
-def critical_pair(lam, tol_imag=1e-8):
-    """Index of the complex eigenvalue (Im > 0) with the real part closest to 0, or None.
-
-    Parameters
-    ----------
-    lam : array_like
-        Eigenvalues.
-    tol_imag : float
-        Smallest imaginary part of a complex eigenvalue.
-
-    Returns
-    -------
-    int or None
-    """
-    idx = [i for i, v in enumerate(lam) if v.imag > tol_imag]
-    if not idx:
-        return None
-    return min(idx, key=lambda i: abs(lam[i].real))
 
 
 def locate_hopf(ode: ODE, p, param, x_guess, bracket, *, tol: float = 1e-12, max_iter: int = 60) -> HopfPoint | None:
