@@ -109,7 +109,7 @@ def in_process(repeats: int) -> dict:
     from birdocp.bird.model import get_model
     from birdocp.engine import shooting
     from birdocp.engine.integrate import clear_stage_data
-    from birdocp.engine.problem import LimitCycleProblem
+    from birdocp.engine.problem import OrbitProblem
     from birdocp.studies.trim import method_of, trim
 
     out: dict = {}
@@ -118,7 +118,7 @@ def in_process(repeats: int) -> dict:
     out["first_trim_in_process_s"] = time.perf_counter() - t
     cfg = Config()
     m = get_model(cfg)
-    problem = LimitCycleProblem(ode=m.ode, p=m.p0, x_guess=cfg.solve.initial_guess, outputs=flight_outputs())
+    problem = OrbitProblem(ode=m.ode, p=m.p0, x_guess=cfg.solve.initial_guess, outputs=flight_outputs())
     b, _ = shooting.shooting_graphs(problem, method_of(cfg))  # the trim's graphs (cached)
     # would caching the shooting graphs on disk pay? their build (first trim) against reading them back
     text = b.sens.serialize()

@@ -33,7 +33,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.engine.ode import ODE
-from birdocp.engine.orbits import OrbitMethod, OrbitProblem, solve_orbit
+from birdocp.engine import OrbitMethod, OrbitProblem, solve
 from script_common import parse_with_out, script_parser
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -101,8 +101,8 @@ def one_example(name: str, accuracy: float) -> dict:
 
     ex = make(name)
     t, c = time.perf_counter(), time.process_time()
-    r = solve_orbit(OrbitProblem(ex.ode, ex.p, ex.x, period_guess=ex.period),
-                    OrbitMethod(accuracy=accuracy, **ex.method))
+    r = solve(OrbitProblem(ex.ode, ex.p, ex.x, period_guess=ex.period),
+              OrbitMethod(accuracy=accuracy, **ex.method))
     wall, cpu = time.perf_counter() - t, time.process_time() - c
     out = {"example": name, "accuracy": accuracy, "status": r.status, "success": r.success, "accurate": r.accurate,
            "period": r.period, "covers": r.covers, "steps_per_period": r.method.get("steps_per_period"),
@@ -204,15 +204,15 @@ def rossler(out_dir: Path):
     prob = OrbitProblem(ode, P, X_START, period_guess=T_GUESS)
     method = OrbitMethod(points=POINTS, steps_per_period=STEPS, tol=TOL, error_estimate=False)
     t = time.perf_counter()
-    cold = solve_orbit(prob, method)
+    cold = solve(prob, method)
     t_cold = time.perf_counter() - t
     reps = 5
     t = time.perf_counter()
     for _ in range(reps):
-        warm = solve_orbit(prob, method)
+        warm = solve(prob, method)
     t_warm = (time.perf_counter() - t) / reps
     t = time.perf_counter()
-    solve_orbit(prob, OrbitMethod(points=POINTS, steps_per_period=STEPS, tol=TOL))
+    solve(prob, OrbitMethod(points=POINTS, steps_per_period=STEPS, tol=TOL))
     t_full = time.perf_counter() - t
     t = time.perf_counter()
     T_fd, x_fd, it_fd, r_fd = baseline()

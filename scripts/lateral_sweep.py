@@ -9,7 +9,11 @@ to 6.5 cm (level flight: to 5.7 cm; the planar level branch reaches the 70 deg a
 the configuration's shooting method (as ``birdocp sweep``); ``run`` is timed by
 scripts/benchmark_sixdof.py (target: under 2 minutes on the 2-core machine). The four lines
 are independent jobs (``--jobs``, default 2 processes). Writes result.json (every row), sweep.csv,
-table.md and margin.png (the moduli against SM; invalid points grey) to --out.
+table.md and margin.png (the moduli against SM; invalid points grey) to --out. The mode labels of the
+figure and of the table's spiral column are carried from the reference root along each family by the
+continuity of the eigenvectors (:func:`birdocp.studies.lateral_modes.track_modes`): where the
+Dutch-roll-like pair splits into two real modes and one of them meets the roll subsidence (between
+SM -15 % and -12.5 %), the modes keep their lineage instead of being renamed by the per-point rule.
 
     python scripts/lateral_sweep.py --out results/lateral/sweep
 """
@@ -87,16 +91,19 @@ def table(res: dict) -> str:
     lines = ["# Experiment 3 with the lateral multipliers (6 DOF)", "",
              "Stability margin SM = -root_ahead / c (c = 0.2 m). Moduli of the lateral (v, p, r, phi) and "
              "longitudinal (u, w, q, theta) multipliers; the heading's multiplier 1 is left out. "
-             "`valid`: the model's validity on the cycle (docs/studies/validity.md).", ""]
+             "`valid`: the model's validity on the cycle (docs/studies/validity.md). `spiral`: the mode "
+             "followed by eigenvector continuity from the reference root (5 cm), not relabelled at each point.", ""]
     for fam, title in (("fixed", "A = 42 deg"), ("level", "level flight")):
         lines += [f"## {title}", "", "| root [cm] | SM [%] | ok | valid | A [deg] | lateral moduli | spiral | "
                   "longitudinal moduli | lateral stable |", "|---|---|---|---|---|---|---|---|---|"]
-        for r in res["families"][fam]:
+        rows = res["families"][fam]
+        spiral = _mode_series(rows)["spiral"]
+        for r, sp in zip(rows, spiral):
             lat = ", ".join(_f(r.get(f"lateral_modulus{k}")) for k in range(4))
             lon = ", ".join(_f(r.get(f"longitudinal_modulus{k}")) for k in range(4))
             lines.append(f"| {r['root_ahead_cm']:.2f} | {r['sm_percent']:.2f} | {'yes' if r['success'] else 'NO'} | "
                          f"{'yes' if r.get('valid') else 'no'} | {_f(r.get('amplitude_deg'), '.3f')} | {lat} | "
-                         f"{_f(r.get('spiral_modulus'))} | {lon} | {r.get('lateral_stable')} |")
+                         f"{_f(None if np.isnan(sp) else float(sp))} | {lon} | {r.get('lateral_stable')} |")
         lines.append("")
     lw = res["line_wall_s"]
     lines.append(f"Wall time {res['wall_s']:.1f} s with {res['jobs']} processes (lines: "
@@ -104,13 +111,27 @@ def table(res: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+REFERENCE_ROOT_M = 0.05
+"""The reference root (the paper's gait, SM -25 %): the point whose mode labels are carried along."""
+COUPLED = "dutch_roll_like+roll_subsidence"
+
+
+def tracked_modes(rows: list[dict]) -> list[list[dict]]:
+    """The lateral modes of a family's rows with their labels carried by eigenvector continuity from the
+    reference root (:func:`birdocp.studies.lateral_modes.track_modes`), not relabelled point by point."""
+    from birdocp.studies.lateral_modes import track_modes
+
+    start = min(range(len(rows)), key=lambda i: abs(rows[i]["value"] - REFERENCE_ROOT_M))
+    return track_modes([r.get("lateral_modes") or [] for r in rows], start)
+
+
 def _mode_series(rows: list[dict]) -> dict:
-    """Per row: the moduli of the labelled lateral modes, the largest lateral and longitudinal ones."""
-    out = {k: [] for k in ("spiral", "dutch_roll_like", "roll_subsidence", "lateral_max", "longitudinal_max")}
-    for r in rows:
-        by = {m["label"]: float(np.hypot(*m["multiplier"])) for m in r.get("lateral_modes") or []}
-        for k in ("spiral", "dutch_roll_like", "roll_subsidence"):
-            out[k].append(by.get(k, np.nan))
+    """Per row: the largest modulus of each tracked mode label, the largest lateral and longitudinal ones."""
+    names = ("spiral", "dutch_roll_like", "roll_subsidence", COUPLED)
+    out = {k: [] for k in names + ("lateral_max", "longitudinal_max")}
+    for r, modes in zip(rows, tracked_modes(rows)):
+        for k in names:
+            out[k].append(max([float(np.hypot(*m["multiplier"])) for m in modes if m["label"] == k], default=np.nan))
         out["lateral_max"].append(r.get("lateral_modulus0") or np.nan)
         out["longitudinal_max"].append(r.get("longitudinal_modulus0") or np.nan)
     return {k: np.array(v, float) for k, v in out.items()}
@@ -124,16 +145,17 @@ def figure(res: dict, path) -> None:
 
     fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True, height_ratios=(3, 2))
     styles = {"lateral_max": ("C3", "--", "lateral, largest"), "spiral": ("C0", "-", "spiral"),
-              "dutch_roll_like": ("C1", "-", "Dutch-roll-like pair"),
+              "dutch_roll_like": ("C1", "-", "Dutch-roll-like (pair; one real branch after it splits)"),
               "longitudinal_max": ("k", "-", "longitudinal, largest"),
-              "roll_subsidence": ("C2", "-", "roll subsidence")}
+              "roll_subsidence": ("C2", "-", "roll subsidence"),
+              COUPLED: ("C4", "-", "roll subsidence + Dutch-roll branch (complex pair)")}
     for col, (fam, title) in enumerate((("fixed", "A = 42 deg"), ("level", "level flight"))):
         rows = [r for r in res["families"][fam] if r["success"]]
         sm = np.array([r["sm_percent"] for r in rows])
         valid = np.array([bool(r.get("valid")) for r in rows])
         series = _mode_series(rows)
         for k, (c, ls, lab) in styles.items():
-            ax = axes[1 if k == "roll_subsidence" else 0, col]
+            ax = axes[1 if k in ("roll_subsidence", COUPLED) else 0, col]
             y = series[k]
             ax.plot(sm, y, ls, color=c, lw=1.2, label=lab)
             ax.scatter(sm[valid], y[valid], color=c, s=14, zorder=3)
@@ -149,8 +171,8 @@ def figure(res: dict, path) -> None:
     axes[0, 0].scatter([], [], color="0.75", edgecolor="0.35", s=24, label="model not valid")
     axes[0, 0].legend(loc="upper right", fontsize=8)
     axes[1, 0].legend(loc="upper left", fontsize=8)
-    fig.suptitle("6 DOF: Floquet multipliers over the stability margin (shaded: the paper's range; grey "
-                 "points: model not valid there)", fontsize=10)
+    fig.suptitle("6 DOF: Floquet multipliers over the stability margin, modes followed by eigenvector continuity "
+                 "from SM -25 % (shaded: the paper's range;\ngrey points: model not valid there)", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -17,7 +17,7 @@ multipliers are within ~1e-3 of the fine grid's)."""
 
 @pytest.fixture(scope="session")
 def coarse() -> dict:
-    """Keyword arguments of a coarse :class:`~birdocp.engine.shooting.MultipleShooting` (a copy per use
+    """Keyword arguments of a coarse :class:`~birdocp.engine.shooting.OrbitMethod` (a copy per use
     is not needed: treat it as read-only)."""
     return dict(COARSE_METHOD)
 

@@ -207,6 +207,36 @@ def test_engine_has_one_levenberg_marquardt_and_one_ipopt_front():
     assert not fronts, f"IPOPT run outside engine/nlp.py: {fronts}"
 
 
+def _engine_classes():
+    """(class name, annotated field names, module path) of every class defined in engine/."""
+    for p in (PKG / "engine").rglob("*.py"):
+        for node in ast.walk(ast.parse(p.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ClassDef):
+                names = {n.target.id for n in node.body if isinstance(n, ast.AnnAssign) and isinstance(n.target, ast.Name)}
+                yield node.name, names, p.relative_to(ROOT)
+
+
+def test_engine_has_one_orbit_problem_method_front_and_result():
+    """One periodic-orbit engine: one problem class (``*Problem``), one method class (``*Method`` or
+    ``*Shooting``, or any class with both ``steps_per_period`` and ``solver`` fields), one result class
+    (any class with both ``shooting_points`` and ``multipliers`` fields; a branch's point, which has a
+    ``parameter``, is the continuation's record) defined in engine/, and one ``solve*`` front on the
+    engine's face."""
+    import birdocp.engine as engine
+
+    classes = list(_engine_classes())
+    problems = [f"{path}:{name}" for name, _, path in classes if name.endswith("Problem")]
+    methods = [f"{path}:{name}" for name, fields, path in classes
+               if name.endswith(("Method", "Shooting")) or {"steps_per_period", "solver"} <= fields]
+    results = [f"{path}:{name}" for name, fields, path in classes
+               if {"shooting_points", "multipliers"} <= fields and "parameter" not in fields]
+    assert problems == ["birdocp/engine/problem.py:OrbitProblem"], problems
+    assert methods == ["birdocp/engine/method.py:OrbitMethod"], methods
+    assert results == ["birdocp/engine/orbit_result.py:OrbitResult"], results
+    assert [n for n in engine.__all__ if n.startswith("solve")] == ["solve"]
+    assert engine.API["orbits"]["solve"] == "birdocp.engine.orbit_front"
+
+
 def test_modules_are_small():
     """No module of the package over 600 lines (split by concern instead)."""
     long = [f"{p.relative_to(ROOT)}: {n}" for p in PKG.rglob("*.py")

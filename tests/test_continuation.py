@@ -8,7 +8,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.engine.continuation import Branch, continuation
-from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
+from birdocp.engine.problem import OrbitProblem, PeriodicODE
 
 T = 1.0
 
@@ -49,7 +49,7 @@ def ns_ode():
 
 
 def test_fold_located_to_1e_minus_6_and_branch_turns_back():
-    prob = LimitCycleProblem(fold_ode(), [1.0], [1.0, 0.0])
+    prob = OrbitProblem(fold_ode(), [1.0], [1.0, 0.0])
     br = continuation(prob, "lam", 1.0, -1.0, points=3, steps_per_period=40)
     folds = [s for s in br.special_points if s.kind == "fold"]
     assert len(folds) == 1 and folds[0].located
@@ -72,7 +72,7 @@ def test_fold_located_to_1e_minus_6_and_branch_turns_back():
 
 def _one_special_point(ode, lam_from: float, lam_to: float, steps: int, kind: str):
     """The branch of ``ode`` from lam_from to lam_to (reached) and its only special point, of ``kind``."""
-    prob = LimitCycleProblem(ode, [lam_from], [0.0, 0.0])
+    prob = OrbitProblem(ode, [lam_from], [0.0, 0.0])
     br = continuation(prob, "lam", lam_from, lam_to, points=3, steps_per_period=steps)
     assert br.end_reason == "reached_to"
     kinds = [s.kind for s in br.special_points]
@@ -157,7 +157,7 @@ def test_user_event_located_exactly_and_branch_goes_on_or_stops():
     """On x = +sqrt(lam) (exact for RK4 too) the test x0 - 0.5 crosses zero at lam = 0.25 exactly: the
     event is located there (falling, direction -1); the branch goes on through it (and the fold at 0),
     and with ``stop`` it ends at the located point."""
-    prob = LimitCycleProblem(fold_ode(), [1.0], [1.0, 0.0])
+    prob = OrbitProblem(fold_ode(), [1.0], [1.0, 0.0])
     make = _x_margin(0.5)
     br = continuation(prob, "lam", 1.0, -1.0, points=3, steps_per_period=40, events=make(False))
     ev = [s for s in br.special_points if s.kind == "threshold"]

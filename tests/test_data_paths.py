@@ -17,7 +17,8 @@ from birdocp.engine import shooting_graphs
 from birdocp.bird.config import Config
 from birdocp.engine.integrate import RK4Grid
 from birdocp.bird.model import get_model
-from birdocp.engine.shooting import MultipleShooting, ShootingGraphs
+from birdocp.engine import OrbitMethod
+from birdocp.engine.shooting import ShootingGraphs
 from birdocp.bird.flight import flight_outputs
 
 ROOT = "wing.root_ahead_m"
@@ -42,7 +43,7 @@ def _builder(m, general: bool, monkeypatch):
     if general:
         monkeypatch.setattr(shooting_graphs, "_affine_columns", lambda ode, free_idx: None)
     j = m.ode.param_names.index(ROOT)
-    b = ShootingGraphs(m.ode, MultipleShooting(points=3, steps_per_period=48), (j,), (),
+    b = ShootingGraphs(m.ode, OrbitMethod(points=3, steps_per_period=48), (j,), (),
                  (flight_outputs()["forward_speed_mps"],))
     b.set_context(b.symbolic_context(0.0, m.p0), m.p0, np.zeros(0))
     return b

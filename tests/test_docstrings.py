@@ -99,8 +99,8 @@ def test_parameters_documented(func):
 # each of their constructor's parameters is documented (numpydoc Parameters or Attributes, or an
 # attribute docstring under a dataclass field, as birdocp.bird.config does).
 INPUT_CLASSES = {"birdocp": ["Config", "Gust", "BirdModel"],
-                 "birdocp.engine": ["PeriodicODE", "LimitCycleProblem", "MeanCondition", "ODE", "MultipleShooting",
-                                    "OrbitProblem", "OrbitMethod", "ContinuationOptions"]}
+                 "birdocp.engine": ["PeriodicODE", "OrbitProblem", "MeanCondition", "ODE", "OrbitMethod",
+                                    "ContinuationOptions"]}
 
 
 def _attribute_docstrings(cls) -> set[str]:

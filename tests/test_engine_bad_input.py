@@ -9,8 +9,8 @@ from birdocp.engine.continuation import continuation
 from birdocp.engine.equilibria import find_equilibrium
 from birdocp.engine.lyapunov import lyapunov_exponents
 from birdocp.engine.ode import ODE
-from birdocp.engine.orbits import OrbitMethod, OrbitProblem, solve_orbit
-from birdocp.engine.problem import LimitCycleProblem, MeanCondition, PeriodicODE
+from birdocp.engine import OrbitMethod, OrbitProblem, solve
+from birdocp.engine.problem import MeanCondition, PeriodicODE
 
 x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 1)
 FORCED = PeriodicODE.from_rhs(ca.Function("f", [x, t, p], [ca.vertcat(x[1], -0.3 * x[1] - x[0] + p * ca.cos(t))]),
@@ -19,19 +19,19 @@ VDP = ODE.from_function(lambda x, t, p: ca.vertcat(x[1], p[0] * (1 - x[0] ** 2) 
 
 
 @pytest.mark.parametrize("kwargs, match", [
-    ({"x_guess": [np.nan, 0.0]}, r"LimitCycleProblem\.x_guess must be finite"),
-    ({"x_guess": [np.inf, 0.0]}, r"LimitCycleProblem\.x_guess must be finite"),
-    ({"p": [np.nan]}, r"LimitCycleProblem\.p must be finite"),
-    ({"x_guess": ["a", 0.0]}, r"LimitCycleProblem\.x_guess: expected numbers"),
-    ({"t0": np.nan}, r"LimitCycleProblem\.t0 must be finite"),
-    ({"free": {"F": (2.0, 0.0)}}, r"LimitCycleProblem\.free\['F'\]: lower bound 2.0 above upper bound"),
-    ({"free": {"F": (0.0, np.nan)}}, r"LimitCycleProblem\.free\['F'\]"),
-    ({"free": {"F": 3.0}}, r"LimitCycleProblem\.free\['F'\]: expected \(lower, upper\)"),
+    ({"x_guess": [np.nan, 0.0]}, r"OrbitProblem\.x_guess must be finite"),
+    ({"x_guess": [np.inf, 0.0]}, r"OrbitProblem\.x_guess must be finite"),
+    ({"p": [np.nan]}, r"OrbitProblem\.p must be finite"),
+    ({"x_guess": ["a", 0.0]}, r"OrbitProblem\.x_guess: expected numbers"),
+    ({"t0": np.nan}, r"OrbitProblem\.t0 must be finite"),
+    ({"free": {"F": (2.0, 0.0)}}, r"OrbitProblem\.free\['F'\]: lower bound 2.0 above upper bound"),
+    ({"free": {"F": (0.0, np.nan)}}, r"OrbitProblem\.free\['F'\]"),
+    ({"free": {"F": 3.0}}, r"OrbitProblem\.free\['F'\]: expected \(lower, upper\)"),
 ])
 def test_limit_cycle_problem_refuses_bad_input(kwargs, match):
     args = {"ode": FORCED, "p": [0.5], "x_guess": [0.0, 0.0], **kwargs}
     with pytest.raises(ValueError, match=match):
-        LimitCycleProblem(**args)
+        OrbitProblem(**args)
 
 
 @pytest.mark.parametrize("kwargs, match", [
@@ -54,7 +54,7 @@ def test_orbit_problem_refuses_bad_input(kwargs, match):
 def test_orbit_method_refuses_bad_settings(kwargs, match):
     problem = OrbitProblem(VDP, [1.0], [2.0, 0.0], period_guess=6.6)
     with pytest.raises(ValueError, match=match):
-        solve_orbit(problem, OrbitMethod(points=5, steps_per_period=100, **kwargs))
+        solve(problem, OrbitMethod(points=5, steps_per_period=100, **kwargs))
 
 
 def test_ode_sizes_are_checked_not_broadcast():
@@ -88,7 +88,7 @@ def test_lyapunov_refuses_bad_input(kwargs, match):
 
 
 def test_continuation_refuses_a_nan_end():
-    problem = LimitCycleProblem(FORCED, [0.5], [0.0, 0.0])
+    problem = OrbitProblem(FORCED, [0.5], [0.0, 0.0])
     with pytest.raises(ValueError, match="start_value and stop_value must be finite"):
         continuation(problem, "F", 0.5, float("nan"), points=3, steps_per_period=60)
 
@@ -99,19 +99,20 @@ def test_free_parameters_need_one_mean_condition_each():
     # IPOPT's Not_Enough_Degrees_Of_Freedom or the LM's max_iter
     xs, ds, ps = ca.SX.sym("x", 2), ca.SX.sym("d", 1), ca.SX.sym("p", 1)
     cond = MeanCondition(ca.Function("x2", [xs, ds, ps], [xs[0] ** 2]), 0.5, "x2")
-    with pytest.raises(ValueError, match=r"LimitCycleProblem\.means: 0 mean condition\(s\) for 1 free"):
-        LimitCycleProblem(FORCED, [0.5], [0.0, 0.0], free={"F": (0.0, 5.0)})
-    with pytest.raises(ValueError, match=r"LimitCycleProblem\.means: 1 mean condition\(s\) for 0 free"):
-        LimitCycleProblem(FORCED, [0.5], [0.0, 0.0], means=[cond])
-    LimitCycleProblem(FORCED, [0.5], [0.0, 0.0], free={"F": (0.0, 5.0)}, means=[cond])  # square: accepted
+    with pytest.raises(ValueError, match=r"OrbitProblem\.means: 0 mean condition\(s\) for 1 free"):
+        OrbitProblem(FORCED, [0.5], [0.0, 0.0], free={"F": (0.0, 5.0)})
+    with pytest.raises(ValueError, match=r"OrbitProblem\.means: 1 mean condition\(s\) for 0 free"):
+        OrbitProblem(FORCED, [0.5], [0.0, 0.0], means=[cond])
+    OrbitProblem(FORCED, [0.5], [0.0, 0.0], free={"F": (0.0, 5.0)}, means=[cond])  # square: accepted
 
 
 def test_floquet_hopf_and_branch_starts_refuse_bad_input():
     from birdocp.engine.continuation.autonomous import continue_orbits
     from birdocp.engine.equilibria import continue_equilibria, orbit_from_hopf
-    from birdocp.engine.shooting import MultipleShooting, floquet
+    from birdocp.engine import OrbitMethod
+    from birdocp.engine.shooting import floquet
 
-    m = MultipleShooting(points=3, steps_per_period=60)
+    m = OrbitMethod(points=3, steps_per_period=60)
     with pytest.raises(ValueError, match=r"floquet x0: size 1, the ODE has nx=2"):  # was a numpy concat error
         floquet(FORCED, [0.0], [0.5], m)
     with pytest.raises(ValueError, match=r"floquet p: size 2, the ODE has np=1"):  # was a CasADi call error
@@ -126,7 +127,7 @@ def test_floquet_hopf_and_branch_starts_refuse_bad_input():
         orbit_from_hopf(sl, hopf, 0.0)
     with pytest.raises(ValueError, match="stop must be a finite"):  # was a 'corrector_failed' branch
         continue_equilibria(sl, [-0.5], "mu", [0.0, 0.0], float("nan"))
-    failed = solve_orbit(OrbitProblem(sl, [0.5], [0.0, 0.0], period_guess=6.0), OrbitMethod(points=5, steps_per_period=100))
+    failed = solve(OrbitProblem(sl, [0.5], [0.0, 0.0], period_guess=6.0), OrbitMethod(points=5, steps_per_period=100))
     assert not failed.success
     with pytest.raises(ValueError, match="the start orbit did not converge"):  # was KeyError: 'points'
         continue_orbits(failed, sl, "mu", 1.0)

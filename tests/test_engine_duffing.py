@@ -7,8 +7,8 @@ import pytest
 
 from birdocp.engine.shooting import floquet
 from birdocp.engine.integrate import RK4Grid, simulate
-from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
-from birdocp.engine.shooting import MultipleShooting, solve
+from birdocp.engine.problem import OrbitProblem, PeriodicODE
+from birdocp.engine import OrbitMethod, solve
 
 OMEGA = 1.3
 T = 2 * np.pi / OMEGA
@@ -25,16 +25,16 @@ def duffing():
 
 ODE = duffing()
 P = np.array([0.25, 1.0, 0.8, 0.6])
-PROB = LimitCycleProblem(ODE, P, np.array([0.5, 0.0]))
+PROB = OrbitProblem(ODE, P, np.array([0.5, 0.0]))
 
 
 def test_rk4_order_of_multipliers():
-    ref = solve(PROB, MultipleShooting(points=5, steps_per_period=2048))
+    ref = solve(PROB, OrbitMethod(points=5, steps_per_period=2048))
     assert ref.success, ref.message
     errs, xerrs = [], []
     Ns = (32, 64, 128)
     for N in Ns:
-        r = solve(PROB, MultipleShooting(points=5, steps_per_period=N), warm_start=ref)
+        r = solve(PROB, OrbitMethod(points=5, steps_per_period=N), warm_start=ref)
         assert r.success, r.message
         errs.append(np.max(np.abs(r.multipliers - ref.multipliers)))
         xerrs.append(np.max(np.abs(r.x0 - ref.x0)))
@@ -50,7 +50,7 @@ def test_invariance_to_number_of_shooting_points():
     N = 144
     # tol 1e-12 (one Newton iteration more than the default 1e-10) puts the differences at round-off;
     # at the default tol they are ~3e-11 (x0) and ~1.5e-11 (multipliers)
-    res = {M: solve(PROB, MultipleShooting(points=M, steps_per_period=N, tol=1e-12)) for M in (2, 3, 5, 9)}
+    res = {M: solve(PROB, OrbitMethod(points=M, steps_per_period=N, tol=1e-12)) for M in (2, 3, 5, 9)}
     assert all(r.success for r in res.values()), {M: r.status for M, r in res.items()}
     base = res[2]
     for M, r in res.items():
@@ -62,7 +62,7 @@ def test_invariance_to_number_of_shooting_points():
 
 
 def test_monodromy_against_finite_differences():
-    m = MultipleShooting(points=5, steps_per_period=200, tol=1e-12)
+    m = OrbitMethod(points=5, steps_per_period=200, tol=1e-12)
     r = solve(PROB, m)
     assert r.success
     grid = RK4Grid(ODE, 200, 1)
@@ -86,11 +86,11 @@ def test_monodromy_against_finite_differences():
     assert np.max(np.abs(fr.monodromy - r.monodromy)) < 1e-9
 
 
-@pytest.mark.parametrize("method", [MultipleShooting(points=3, steps_per_period=60, solver="lm", tol=1e-12),
-                                    MultipleShooting(points=3, steps_per_period=60, solver="lm", derivatives="fd",
-                                                     tol=1e-12)], ids=["exact", "fd"])
+@pytest.mark.parametrize("method", [OrbitMethod(points=3, steps_per_period=60, solver="lm", tol=1e-12),
+                                    OrbitMethod(points=3, steps_per_period=60, solver="lm", derivatives="fd",
+                                                tol=1e-12)], ids=["exact", "fd"])
 def test_lm_agrees_with_ipopt_on_nonlinear(method):
-    ri = solve(PROB, MultipleShooting(points=3, steps_per_period=60))
+    ri = solve(PROB, OrbitMethod(points=3, steps_per_period=60))
     rl = solve(PROB, method)
     assert ri.success and rl.success, (ri.message, rl.message)
     assert np.max(np.abs(ri.x0 - rl.x0)) < 1e-9
@@ -107,8 +107,8 @@ def _nan_ode():
 
 @pytest.mark.parametrize("solver", ["ipopt", "lm"])
 def test_nan_rhs_is_a_failed_result(solver):
-    prob = LimitCycleProblem(_nan_ode(), np.zeros(1), np.array([-1.0, 0.0]))
-    r = solve(prob, MultipleShooting(points=3, steps_per_period=30, solver=solver))
+    prob = OrbitProblem(_nan_ode(), np.zeros(1), np.array([-1.0, 0.0]))
+    r = solve(prob, OrbitMethod(points=3, steps_per_period=30, solver=solver))
     assert not r.success
     assert isinstance(r.status, str) and r.status
     assert r.message
@@ -116,8 +116,8 @@ def test_nan_rhs_is_a_failed_result(solver):
 
 @pytest.mark.parametrize("solver,fallback,iters", [("ipopt", False, 1), ("ipopt", True, 2), ("lm", True, 1)])
 def test_max_iter_is_a_failed_result(solver, fallback, iters):
-    r = solve(PROB, MultipleShooting(points=3, steps_per_period=60, solver=solver, max_iter=1, tol=1e-14,
-                                     ipopt_fallback=fallback))
+    r = solve(PROB, OrbitMethod(points=3, steps_per_period=60, solver=solver, max_iter=1, tol=1e-14,
+                                ipopt_fallback=fallback))
     assert not r.success
     assert r.status in ("Maximum_Iterations_Exceeded", "max_iter")
     assert r.iterations == iters  # the ipopt fallback (filter line search) adds its own iteration
@@ -127,13 +127,13 @@ def test_max_iter_is_a_failed_result(solver, fallback, iters):
 
 def test_error_estimate_of_a_forced_orbit_tracks_the_true_error():
     # estimate at N = 64 (Richardson from 128 steps + solver error) against a 2048-step reference
-    ref = solve(PROB, MultipleShooting(points=5, steps_per_period=2048))
-    r = solve(PROB, MultipleShooting(points=5, steps_per_period=64, error_estimate=True), warm_start=ref)
+    ref = solve(PROB, OrbitMethod(points=5, steps_per_period=2048))
+    r = solve(PROB, OrbitMethod(points=5, steps_per_period=64, error_estimate=True), warm_start=ref)
     e = r.error_estimate
     assert r.success and e["fine_status"] == "converged" and e["steps_per_period_fine"] == 128, e
     true_lam = np.max(np.abs(np.sort_complex(r.multipliers) - np.sort_complex(ref.multipliers)))
     assert 0.3 * true_lam <= e["multipliers"] <= 3 * true_lam, (true_lam, e)
     assert 0.3 * np.max(np.abs(r.x0 - ref.x0)) <= e["x0"] <= 3 * np.max(np.abs(r.x0 - ref.x0)) + 1e-12, e
-    plain = solve(PROB, MultipleShooting(points=5, steps_per_period=64), warm_start=ref)
+    plain = solve(PROB, OrbitMethod(points=5, steps_per_period=64), warm_start=ref)
     assert plain.error_estimate is None and np.array_equal(plain.multipliers, r.multipliers)
     assert "error_estimate" not in r.to_dict()  # the caller adds it (birdocp trim)

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from birdocp.engine import interrupts, oracle, shooting
-from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
-from birdocp.engine.shooting import MultipleShooting, solve
+from birdocp.engine.problem import OrbitProblem, PeriodicODE
+from birdocp.engine import OrbitMethod, solve
 
 T = 1.0
 
@@ -26,7 +26,7 @@ def stiff_ode(k: float = 50.0):
 
 
 ODE, P = stiff_ode()
-PROBLEM = LimitCycleProblem(ODE, P, np.array([0.3]))
+PROBLEM = OrbitProblem(ODE, P, np.array([0.3]))
 
 
 def test_loose_ipopt_success_with_a_large_residual_is_not_converged():
@@ -35,7 +35,7 @@ def test_loose_ipopt_success_with_a_large_residual_is_not_converged():
     # because converged means the shooting residual is below the method's tolerance (1e-10)
     loose = {"ipopt.tol": 10.0, "ipopt.constr_viol_tol": 10.0, "ipopt.dual_inf_tol": 1e3,
              "ipopt.compl_inf_tol": 1e3}
-    method = MultipleShooting(points=3, steps_per_period=60, ipopt_options=loose)
+    method = OrbitMethod(points=3, steps_per_period=60, ipopt_options=loose)
     off_orbit = SimpleNamespace(p=P, shooting_points=np.array([[0.3], [-0.6], [0.9]]), x0=np.array([0.3]))
     r = solve(PROBLEM, method, warm_start=off_orbit)
     assert r.max_residual > 0.1  # far from the tolerance
@@ -43,7 +43,7 @@ def test_loose_ipopt_success_with_a_large_residual_is_not_converged():
     assert r.status == "residual_above_tol"
     assert "Solve_Succeeded" in r.message and "not converged" in r.message
     # the same problem with the default options converges, below the tolerance
-    good = solve(PROBLEM, MultipleShooting(points=3, steps_per_period=60))
+    good = solve(PROBLEM, OrbitMethod(points=3, steps_per_period=60))
     assert good.success and good.max_residual <= 1e-10 and np.all(np.isfinite(good.multipliers))
     # the orbit is stable (the flow contracts: d/dx (-k x^3) < 0 except at x = 0)
     assert good.stable is True
@@ -51,11 +51,11 @@ def test_loose_ipopt_success_with_a_large_residual_is_not_converged():
 
 def test_non_finite_problem_is_never_success():
     # a non-finite parameter is bad input, refused before any solve ...
-    with pytest.raises(ValueError, match=r"LimitCycleProblem\.p must be finite"):
-        LimitCycleProblem(ODE, np.array([np.inf]), np.array([0.3]))
+    with pytest.raises(ValueError, match=r"OrbitProblem\.p must be finite"):
+        OrbitProblem(ODE, np.array([np.inf]), np.array([0.3]))
     # ... and a problem whose flow blows up within the period (x' = 50 x^3 - ..., from x = 3) is a
     # failure, never a success
-    r = solve(LimitCycleProblem(ODE, np.array([-50.0]), np.array([3.0])), MultipleShooting(points=3, steps_per_period=60))
+    r = solve(OrbitProblem(ODE, np.array([-50.0]), np.array([3.0])), OrbitMethod(points=3, steps_per_period=60))
     assert r.success is False and r.status != "Solve_Succeeded"
 
 
@@ -82,7 +82,7 @@ def test_sigint_inside_the_solver_raises_and_is_not_retried(monkeypatch, solver,
     orig_run = shooting._run_ipopt
     monkeypatch.setattr(shooting, "_run_ipopt", lambda *a: runs.append(1) or orig_run(*a))
     with pytest.raises(KeyboardInterrupt):
-        solve(PROBLEM, MultipleShooting(points=3, steps_per_period=60, solver=solver))
+        solve(PROBLEM, OrbitMethod(points=3, steps_per_period=60, solver=solver))
     assert calls["n"] >= 2
     assert len(runs) <= 1  # IPOPT never retried after the interrupt (fallback attempt not started)
     assert not interrupts.pending()

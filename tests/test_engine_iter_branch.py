@@ -7,7 +7,7 @@ import pytest
 from birdocp.engine import ODE, iter_branch
 from birdocp.engine.continuation import continuation
 from birdocp.engine.equilibria import continue_equilibria
-from birdocp.engine.problem import LimitCycleProblem
+from birdocp.engine.problem import OrbitProblem
 from test_continuation import fold_ode, ns_ode
 
 SL = ODE.from_function(lambda x, t, p: [p[0] * x[0] - p[1] * x[1] - (x[0] ** 2 + x[1] ** 2) * x[0],
@@ -18,7 +18,7 @@ def test_orbit_steps_are_the_points_continuation_collects():
     """On x' = (1 + y/2)(lam - x^2) the cycles fold at lam = 0 exactly: the iterator's steps carry the
     same points as continuation()'s branch, the fold arrives with the step after it, and the branch
     the iterator returns is the collector's."""
-    prob = LimitCycleProblem(fold_ode(), [1.0], [1.0, 0.0])
+    prob = OrbitProblem(fold_ode(), [1.0], [1.0, 0.0])
     it = iter_branch(prob, "lam", 1.0, -1.0, points=3, steps_per_period=40)
     steps = list(it)
     br = continuation(prob, "lam", 1.0, -1.0, points=3, steps_per_period=40)
@@ -36,7 +36,7 @@ def test_orbit_steps_are_the_points_continuation_collects():
 
 
 def test_an_iterator_left_early_keeps_its_points_and_says_so():
-    prob = LimitCycleProblem(fold_ode(), [1.0], [1.0, 0.0])
+    prob = OrbitProblem(fold_ode(), [1.0], [1.0, 0.0])
     it = iter_branch(prob, "lam", 1.0, -1.0, points=3, steps_per_period=40)
     for step in it:
         if step.index == 2:
@@ -65,7 +65,7 @@ def test_equilibria_through_the_same_front_hopf_at_zero():
 
 
 def test_iter_branch_refuses_what_it_cannot_follow():
-    with pytest.raises(TypeError, match="LimitCycleProblem or an ODE"):
+    with pytest.raises(TypeError, match="OrbitProblem of a PeriodicODE or an ODE"):
         iter_branch("not a problem", "mu", 0.0, 1.0)
     with pytest.raises(ValueError, match="start="):
         iter_branch(SL, "mu", 0.0, 1.0)
@@ -77,7 +77,7 @@ def test_error_estimates_of_continuation_points_track_the_true_error():
     """x' = lam x - 2y + sin(2 pi t), y' = 2x + lam y: the multipliers are exp((lam +- 2i) T) exactly;
     on a coarse RK4 grid (20 steps) every point's estimate is within 5 % of the true error of its
     multipliers, and the key is in the JSON only when asked for."""
-    prob = LimitCycleProblem(ns_ode(), [-0.5], [0.0, 0.0])
+    prob = OrbitProblem(ns_ode(), [-0.5], [0.0, 0.0])
     it = iter_branch(prob, "lam", -0.5, 0.5, points=3, steps_per_period=20, error_estimate=True)
     ratios = []
     for step in it:
@@ -118,42 +118,43 @@ def test_bird_branch_and_trim_carry_the_same_error_estimate_through_the_cli(tmp_
                                                                             for p in pts)
 
 
-def test_forced_and_any_ode_results_share_one_base_with_the_same_names():
-    """x'' + x'/2 + x = cos t solved by both engines (multiple shooting with mean conditions, and the
-    orbit solver for any ODE): both results are OrbitResults, every shared name is there, and the
-    shared names agree (x = 2 sin t exactly; period 2 pi; multipliers exp(eig(A) 2 pi))."""
+def test_forced_and_any_ode_problems_give_the_one_result_type_with_the_same_names():
+    """x'' + x'/2 + x = cos t posed both ways (a PeriodicODE: data-split multiple shooting with mean
+    conditions; an ODE: time scaled by the period) through the one front: both results are
+    OrbitResults of their formulation, and the shared names agree (x = 2 sin t exactly; period 2 pi;
+    multipliers exp(eig(A) 2 pi)); each JSON leaves out what its formulation does not compute."""
     import casadi as ca
 
-    from birdocp.engine import (LimitCycleResult, MultipleShooting, OrbitMethod, OrbitProblem, OrbitResult,
-                                PeriodicODE, PeriodicOrbit, solve, solve_orbit)
-    from birdocp.engine.orbit_result import ORBIT_RESULT_NAMES
+    from birdocp.engine import OrbitMethod, OrbitProblem, OrbitResult, PeriodicODE, solve
+    from birdocp.engine.orbit_result import JSON_OMITS
 
     x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 1)
     f = ca.Function("f", [x, t, p], [ca.vertcat(x[1], -p[0] * x[1] - x[0] + ca.cos(t))])
-    forced = solve(LimitCycleProblem(PeriodicODE.from_rhs(f, 2 * np.pi), p=[0.5], x_guess=[0, 0]),
-                   MultipleShooting(points=3, steps_per_period=120))
+    forced = solve(OrbitProblem(PeriodicODE.from_rhs(f, 2 * np.pi), p=[0.5], x_guess=[0, 0]),
+                   OrbitMethod(points=3, steps_per_period=120))
     ode = ODE.from_function(lambda x, t, p: [x[1], -p[0] * x[1] - x[0] + ca.cos(t)], 2, ("c",),
                             forcing_period=2 * np.pi)
-    anyode = solve_orbit(OrbitProblem(ode, [0.5], [0.0, 1.5]), OrbitMethod(points=3, steps_per_period=120))
-    assert isinstance(forced, LimitCycleResult) and isinstance(anyode, PeriodicOrbit)
+    anyode = solve(OrbitProblem(ode, [0.5], [0.0, 1.5]), OrbitMethod(points=3, steps_per_period=120))
+    assert (forced.formulation, anyode.formulation) == ("periodic_ode", "ode")
     assert forced.success and anyode.success
     lam_exact = np.exp(np.linalg.eigvals(np.array([[0.0, 1.0], [-1.0, -0.5]])) * 2 * np.pi)
     for r in (forced, anyode):
-        assert isinstance(r, OrbitResult)
-        assert all(hasattr(r, name) for name in ORBIT_RESULT_NAMES)
+        assert type(r) is OrbitResult
         assert r.autonomous is False and abs(r.period - 2 * np.pi) < 1e-12
         assert np.allclose(r.x0, [0.0, 2.0], atol=1e-4)
         assert np.allclose(np.sort_complex(r.multipliers), np.sort_complex(lam_exact), atol=1e-6)
+        assert not set(JSON_OMITS[r.formulation]) & set(r.to_dict())
     assert anyode.means == {} and forced.free_values == anyode.free_values == {}
+    assert forced.method["solver"] == "ipopt" and anyode.method["solver"] == "lm"  # each formulation's default
 
 
 def test_error_estimates_of_autonomous_orbit_points_track_the_true_error():
     """Stuart-Landau orbits (r = sqrt(mu), T = 2 pi / omega, non-trivial multiplier exp(-2 mu T)) on 20
-    RK4 steps, continued through iter_branch from a PeriodicOrbit: the period's estimate
+    RK4 steps, continued through iter_branch from an OrbitResult: the period's estimate
     (``free_values["period"]``) and the multiplier's track their true errors within 10 %."""
-    from birdocp.engine import OrbitMethod, OrbitProblem, solve_orbit
+    from birdocp.engine import OrbitMethod, OrbitProblem, solve
 
-    o = solve_orbit(OrbitProblem(SL, [0.25, 2.0], [0.5, 0.0], period_guess=3.0), OrbitMethod(points=3, steps_per_period=20))
+    o = solve(OrbitProblem(SL, [0.25, 2.0], [0.5, 0.0], period_guess=3.0), OrbitMethod(points=3, steps_per_period=20))
     n = 0
     for step in iter_branch(SL, "mu", 0.25, 1.0, start=o, step=0.25, error_estimate=True):
         if step.point is None:

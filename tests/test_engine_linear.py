@@ -11,8 +11,8 @@ import pytest
 import scipy.linalg as sl
 
 from birdocp.engine.shooting import floquet
-from birdocp.engine.problem import LimitCycleProblem, MeanCondition, PeriodicODE
-from birdocp.engine.shooting import MultipleShooting, solve
+from birdocp.engine.problem import OrbitProblem, MeanCondition, PeriodicODE
+from birdocp.engine import OrbitMethod, solve
 
 T = 1.7
 W = 2 * np.pi / T
@@ -68,9 +68,9 @@ ODES = {u: linear_ode_plain(make_A(u)) for u in (False, True)}
 P = np.array([1.3, 0.7])
 
 METHODS = [
-    MultipleShooting(points=5, steps_per_period=400),
-    MultipleShooting(points=5, steps_per_period=400, solver="lm", tol=1e-11),
-    MultipleShooting(points=5, steps_per_period=400, solver="lm", derivatives="fd", tol=1e-11),
+    OrbitMethod(points=5, steps_per_period=400),
+    OrbitMethod(points=5, steps_per_period=400, solver="lm", tol=1e-11),
+    OrbitMethod(points=5, steps_per_period=400, solver="lm", derivatives="fd", tol=1e-11),
 ]
 
 
@@ -78,7 +78,7 @@ METHODS = [
 @pytest.mark.parametrize("method", METHODS, ids=["ipopt", "lm-exact", "lm-fd"])
 def test_linear_monodromy_and_orbit_exact(unstable, method):
     A = make_A(unstable)
-    prob = LimitCycleProblem(ODES[unstable], P, np.zeros(4))
+    prob = OrbitProblem(ODES[unstable], P, np.zeros(4))
     r = solve(prob, method)
     assert r.success, r.message
     assert r.max_residual < 1e-10
@@ -113,18 +113,18 @@ def test_linear_free_parameter_mean_condition():
     pp = ca.SX.sym("p", 2)
     out = ca.Function("x1", [x1, dd, pp], [x1[0]])
     target = 0.25
-    method = MultipleShooting(points=3, steps_per_period=300)
+    method = OrbitMethod(points=3, steps_per_period=300)
     means = []
     for bias in (0.0, 1.0):
-        r = solve(LimitCycleProblem(ode, np.array([P[0], bias]), np.zeros(4), outputs={"x1": out}), method)
+        r = solve(OrbitProblem(ode, np.array([P[0], bias]), np.zeros(4), outputs={"x1": out}), method)
         assert r.success
         means.append(r.means["x1"])
     bias_secant = (target - means[0]) / (means[1] - means[0])
     bias_exact = target / exact_mean(A, [0, 1.0])[0]
-    prob = LimitCycleProblem(ode, P, np.zeros(4), free={"bias": (-50.0, 50.0)},
-                             means=[MeanCondition(out, target, "x1")], outputs={"x1_again": out})
-    for m in (method, MultipleShooting(points=3, steps_per_period=300, solver="lm", tol=1e-11),
-              MultipleShooting(points=3, steps_per_period=300, solver="lm", derivatives="fd", tol=1e-11)):
+    prob = OrbitProblem(ode, P, np.zeros(4), free={"bias": (-50.0, 50.0)},
+                        means=[MeanCondition(out, target, "x1")], outputs={"x1_again": out})
+    for m in (method, OrbitMethod(points=3, steps_per_period=300, solver="lm", tol=1e-11),
+              OrbitMethod(points=3, steps_per_period=300, solver="lm", derivatives="fd", tol=1e-11)):
         r = solve(prob, m)
         assert r.success, r.message
         assert abs(r.free_values["bias"] - bias_secant) < 1e-9
@@ -134,7 +134,7 @@ def test_linear_free_parameter_mean_condition():
         assert r.p[1] == r.free_values["bias"] and r.p[0] == P[0]
         assert np.max(np.abs(r.x0 - exact_x0(A, r.p))) < 1e-7
     # index key works as well as the name
-    r2 = solve(LimitCycleProblem(ode, P, np.zeros(4), free={1: (-50.0, 50.0)}, means=[MeanCondition(out, target)]),
+    r2 = solve(OrbitProblem(ode, P, np.zeros(4), free={1: (-50.0, 50.0)}, means=[MeanCondition(out, target)]),
                method)
     assert abs(r2.p[1] - bias_secant) < 1e-9
 
@@ -142,10 +142,10 @@ def test_linear_free_parameter_mean_condition():
 def test_data_split_identical():
     A = make_A(False)
     plain, split = ODES[False], linear_ode_split(A)
-    for m in (MultipleShooting(points=5, steps_per_period=200),
-              MultipleShooting(points=5, steps_per_period=200, solver="lm", tol=1e-11)):
-        ra = solve(LimitCycleProblem(plain, P, np.zeros(4)), m)
-        rb = solve(LimitCycleProblem(split, P, np.zeros(4)), m)
+    for m in (OrbitMethod(points=5, steps_per_period=200),
+              OrbitMethod(points=5, steps_per_period=200, solver="lm", tol=1e-11)):
+        ra = solve(OrbitProblem(plain, P, np.zeros(4)), m)
+        rb = solve(OrbitProblem(split, P, np.zeros(4)), m)
         assert ra.success and rb.success
         assert np.max(np.abs(ra.x0 - rb.x0)) < 1e-12
         assert np.max(np.abs(ra.monodromy - rb.monodromy)) < 1e-13
@@ -155,9 +155,9 @@ def test_data_split_identical():
     pp = ca.SX.sym("p", 2)
     cond_a = MeanCondition(ca.Function("g", [x, ca.SX.sym("d", 1), pp], [x[0]]), 0.1)
     cond_b = MeanCondition(ca.Function("g", [x, ca.SX.sym("d", 3), pp], [x[0]]), 0.1)
-    m = MultipleShooting(points=3, steps_per_period=120)
-    ra = solve(LimitCycleProblem(plain, P, np.zeros(4), free={"bias": (-9, 9)}, means=[cond_a]), m)
-    rb = solve(LimitCycleProblem(split, P, np.zeros(4), free={"bias": (-9, 9)}, means=[cond_b]), m)
+    m = OrbitMethod(points=3, steps_per_period=120)
+    ra = solve(OrbitProblem(plain, P, np.zeros(4), free={"bias": (-9, 9)}, means=[cond_a]), m)
+    rb = solve(OrbitProblem(split, P, np.zeros(4), free={"bias": (-9, 9)}, means=[cond_b]), m)
     assert ra.success and rb.success
     assert abs(ra.p[1] - rb.p[1]) < 1e-11
     assert np.max(np.abs(ra.multipliers - rb.multipliers)) < 1e-12
@@ -165,8 +165,8 @@ def test_data_split_identical():
 
 def test_floquet_standalone_matches_solve():
     make_A(True)
-    prob = LimitCycleProblem(ODES[True], P, np.zeros(4))
-    m = MultipleShooting(points=3, steps_per_period=200)
+    prob = OrbitProblem(ODES[True], P, np.zeros(4))
+    m = OrbitMethod(points=3, steps_per_period=200)
     r = solve(prob, m)
     fr = floquet(ODES[True], r.x0, r.p, m)
     assert np.max(np.abs(fr.monodromy - r.monodromy)) < 1e-12
@@ -176,27 +176,27 @@ def test_floquet_standalone_matches_solve():
 
 def test_warm_start_and_graph_reuse():
     ode = ODES[False]
-    m = MultipleShooting(points=5, steps_per_period=200)
-    r1 = solve(LimitCycleProblem(ode, P, np.zeros(4)), m)
-    r2 = solve(LimitCycleProblem(ode, P * 1.01, np.zeros(4)), m, warm_start=r1)
+    m = OrbitMethod(points=5, steps_per_period=200)
+    r1 = solve(OrbitProblem(ode, P, np.zeros(4)), m)
+    r2 = solve(OrbitProblem(ode, P * 1.01, np.zeros(4)), m, warm_start=r1)
     assert r2.success and r2.wall_s["build"] == 0.0  # cached graphs
     assert np.max(np.abs(r2.x0 - exact_x0(make_A(False), P * 1.01))) < 1e-8
 
 
 def test_invalid_fields_raise_valueerror():
-    prob = LimitCycleProblem(ODES[False], P, np.zeros(4))
+    prob = OrbitProblem(ODES[False], P, np.zeros(4))
     with pytest.raises(ValueError, match="steps_per_period"):
-        solve(prob, MultipleShooting(points=4, steps_per_period=100))
+        solve(prob, OrbitMethod(points=4, steps_per_period=100))
     with pytest.raises(ValueError, match="solver"):
-        solve(prob, MultipleShooting(solver="newton"))
+        solve(prob, OrbitMethod(solver="newton"))
     with pytest.raises(ValueError, match="derivatives"):
-        solve(prob, MultipleShooting(derivatives="fd"))
+        solve(prob, OrbitMethod(derivatives="fd"))
     with pytest.raises(ValueError, match="points"):
-        solve(prob, MultipleShooting(points=1))
+        solve(prob, OrbitMethod(points=1))
     with pytest.raises(ValueError, match="free"):
-        LimitCycleProblem(ODES[False], P, np.zeros(4), free={"nope": (0, 1)})
+        OrbitProblem(ODES[False], P, np.zeros(4), free={"nope": (0, 1)})
     with pytest.raises(ValueError, match="x_guess"):
-        LimitCycleProblem(ODES[False], P, np.zeros(3))
+        OrbitProblem(ODES[False], P, np.zeros(3))
 
 
 def test_doubling_time_is_ln2_over_rate_not_e_folding():

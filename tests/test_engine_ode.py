@@ -15,7 +15,8 @@ from scipy.integrate import solve_ivp
 from birdocp.engine.equilibria import continue_equilibria, find_equilibrium, orbit_from_hopf
 from birdocp.engine.lyapunov import largest_lyapunov_exponent, lyapunov_exponents
 from birdocp.engine.ode import ODE
-from birdocp.engine.orbits import OrbitMethod, OrbitProblem, orbit_residual_system, solve_orbit
+from birdocp.engine import OrbitMethod, OrbitProblem, solve
+from birdocp.engine.orbits import orbit_residual_system
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "scripts" / "examples"))
@@ -47,8 +48,8 @@ def test_autonomy_is_detected_from_the_expression():
 def test_stuart_landau_exact_orbit(integrator):
     mu, w = 0.5, 2.0
     T = 2 * np.pi / w
-    r = solve_orbit(OrbitProblem(SL, [mu, w, 0.0], [0.9, 0.1], period_guess=3.0),
-                    OrbitMethod(points=4, steps_per_period=120, integrator=integrator))
+    r = solve(OrbitProblem(SL, [mu, w, 0.0], [0.9, 0.1], period_guess=3.0),
+              OrbitMethod(points=4, steps_per_period=120, integrator=integrator))
     assert r.success, r.message
     assert abs(r.period - T) < 1e-6
     assert abs(np.hypot(*r.x0) - np.sqrt(mu)) < 1e-6
@@ -62,12 +63,12 @@ def test_stuart_landau_exact_orbit(integrator):
 
 
 def test_accuracy_request_chooses_the_steps():
-    r = solve_orbit(OrbitProblem(SL, [0.5, 2.0, 0.0], [0.9, 0.1], period_guess=3.0),
-                    OrbitMethod(points=4, steps_per_period=None, accuracy=1e-10))
+    r = solve(OrbitProblem(SL, [0.5, 2.0, 0.0], [0.9, 0.1], period_guess=3.0),
+              OrbitMethod(points=4, steps_per_period=None, accuracy=1e-10))
     assert r.success and r.accurate, r.message
     assert abs(r.period - np.pi) < 1e-9
-    coarse = solve_orbit(OrbitProblem(SL, [0.5, 2.0, 0.0], [0.9, 0.1], period_guess=3.0),
-                         OrbitMethod(points=4, steps_per_period=24, accuracy=1e-10))
+    coarse = solve(OrbitProblem(SL, [0.5, 2.0, 0.0], [0.9, 0.1], period_guess=3.0),
+                   OrbitMethod(points=4, steps_per_period=24, accuracy=1e-10))
     assert coarse.success and coarse.accurate is False and "INACCURATE" in coarse.message
 
 
@@ -92,8 +93,8 @@ def test_shooting_jacobian_including_period_against_finite_differences():
 def test_rossler_ipopt_and_lm_agree():
     pr = OrbitProblem(ROSSLER, [0.2, 0.2, 5.7], [0.1, 5.0, 3.6], period_guess=5.0)
     # one fixed section for both: the same equations (a moving section ends where each solver's path does)
-    a = solve_orbit(pr, OrbitMethod(points=5, steps_per_period=200, solver="lm", phase="fixed"))
-    b = solve_orbit(pr, OrbitMethod(points=5, steps_per_period=200, solver="ipopt", phase="fixed"))
+    a = solve(pr, OrbitMethod(points=5, steps_per_period=200, solver="lm", phase="fixed"))
+    b = solve(pr, OrbitMethod(points=5, steps_per_period=200, solver="ipopt", phase="fixed"))
     assert a.success and b.success, (a.message, b.message)
     assert abs(a.period - b.period) < 1e-9 and np.max(np.abs(a.x0 - b.x0)) < 1e-8
     assert not a.stable  # the period-1 orbit of the chaotic attractor is unstable (multiplier ~ -2.4)
@@ -103,8 +104,8 @@ def test_rossler_ipopt_and_lm_agree():
 @pytest.mark.parametrize("solver", ["lm", "ipopt"])
 def test_rossler_from_the_reference_start_for_any_number_of_points(points, solver):
     # the reference toolbox reported success on an equilibrium here with 30 points
-    r = solve_orbit(OrbitProblem(ROSSLER, [0.2, 0.2, 5.7], [0.1, 5.0, 3.6], period_guess=5.0),
-                    OrbitMethod(points=points, solver=solver))
+    r = solve(OrbitProblem(ROSSLER, [0.2, 0.2, 5.7], [0.1, 5.0, 3.6], period_guess=5.0),
+              OrbitMethod(points=points, solver=solver))
     assert r.success and r.accurate, r.message
     # the committed example orbit (checked against scipy in test_example_result_against_scipy)
     ref = json.loads((ROOT / "results" / "engine" / "rossler" / "result.json").read_text())
@@ -120,15 +121,15 @@ def test_rossler_from_the_reference_start_for_any_number_of_points(points, solve
 def test_no_success_on_an_equilibrium(case, solver):
     ode, p, x, T = case
     for pts in (5, 31):
-        r = solve_orbit(OrbitProblem(ode, p, x, period_guess=T),
-                        OrbitMethod(points=pts, steps_per_period=30 * (pts - 1), solver=solver, max_iter=30,
+        r = solve(OrbitProblem(ode, p, x, period_guess=T),
+                  OrbitMethod(points=pts, steps_per_period=30 * (pts - 1), solver=solver, max_iter=30,
                                     error_estimate=False))
         if r.success:  # allowed only when it found a true orbit
             assert r.amplitude > 1e-2, r.message
         else:
             assert r.status != "converged"
     e = find_equilibrium(ode, p, x)
-    r = solve_orbit(OrbitProblem(ode, p, e.x, period_guess=T), OrbitMethod(points=5, steps_per_period=100))
+    r = solve(OrbitProblem(ode, p, e.x, period_guess=T), OrbitMethod(points=5, steps_per_period=100))
     assert not r.success and r.status in ("bad_phase_point", "equilibrium")
 
 
@@ -139,8 +140,8 @@ def test_equilibrium_amplitude_check_rejects_a_converged_constant(solver):
     # through the origin. From near-constant points the solvers converge to the origin (all equations
     # hold, any T); the amplitude check must turn that into a failure.
     pts = 1e-4 * np.array([[1, 2], [-1, 1], [0, -1], [1, 0], [1, 2]])
-    r = solve_orbit(OrbitProblem(SL, [0.09, 1.0, 0.0], pts, period_guess=6.0, phase_point=[0.3, 0.0]),
-                    OrbitMethod(points=5, steps_per_period=40, solver=solver))
+    r = solve(OrbitProblem(SL, [0.09, 1.0, 0.0], pts, period_guess=6.0, phase_point=[0.3, 0.0]),
+              OrbitMethod(points=5, steps_per_period=40, solver=solver))
     assert r.max_residual <= 1e-10  # the equations are solved ...
     assert not r.success and r.status == "equilibrium"  # ... but by an equilibrium
 
@@ -222,8 +223,8 @@ def test_engine_solve_matches_scipy_on_redox_with_radau():
 
     ode = redox.make_ode()
     p = list(redox.PARAMS.values())
-    r = solve_orbit(OrbitProblem(ode, p, [0.3, 0.29, 0.42, 0.0028], period_guess=25.0),
-                    OrbitMethod(points=5, steps_per_period=128, integrator="radau"))
+    r = solve(OrbitProblem(ode, p, [0.3, 0.29, 0.42, 0.0028], period_guess=25.0),
+              OrbitMethod(points=5, steps_per_period=128, integrator="radau"))
     assert r.success, r.message
     xT, Mo = _scipy_monodromy(ode, r.x0, np.array(p), 0.0, r.period, "LSODA")
     assert np.max(np.abs(xT - r.x0)) < 1e-6
@@ -274,7 +275,7 @@ def test_continuation_period_varies_as_exact():
     from birdocp.engine.continuation.autonomous import continue_orbits
 
     p = [0.2, 2.0, 0.5]  # b = 0.5: angular frequency omega - b mu, radius sqrt(mu)
-    o = solve_orbit(OrbitProblem(SL, p, [0.45, 0.0], period_guess=3.3), OrbitMethod(points=5, steps_per_period=200))
+    o = solve(OrbitProblem(SL, p, [0.45, 0.0], period_guess=3.3), OrbitMethod(points=5, steps_per_period=200))
     br = continue_orbits(o, SL, "mu", 1.0, step=0.1)
     assert br.end_reason == "reached_to" and len(br.points) >= 4
     for pt in br.points:
@@ -297,7 +298,7 @@ def test_continuation_locates_the_fold_of_a_subcritical_hopf_branch():
 
     ode = ODE.from_function(sub, 2, ("mu", "omega"))
     r0 = np.sqrt((1 + np.sqrt(1 + 4 * 0.2)) / 2)
-    o = solve_orbit(OrbitProblem(ode, [0.2, 1.0], [r0, 0.0], period_guess=6.0), OrbitMethod(points=5, steps_per_period=200))
+    o = solve(OrbitProblem(ode, [0.2, 1.0], [r0, 0.0], period_guess=6.0), OrbitMethod(points=5, steps_per_period=200))
     assert o.success and o.stable
     br = continue_orbits(o, ode, "mu", -0.5, step=0.05, max_points=8)
     folds = [sp for sp in br.special_points if sp.kind == "fold"]
@@ -311,8 +312,8 @@ def test_continuation_locates_the_fold_of_a_subcritical_hopf_branch():
 def test_continuation_locates_rossler_period_doubling_checked_by_scipy():
     from birdocp.engine.continuation.autonomous import continue_orbits
 
-    o = solve_orbit(OrbitProblem(ROSSLER, [0.2, 0.2, 2.5], [3.0, 0.0, 0.1], period_guess=6.0),
-                    OrbitMethod(points=5, steps_per_period=200))
+    o = solve(OrbitProblem(ROSSLER, [0.2, 0.2, 2.5], [3.0, 0.0, 0.1], period_guess=6.0),
+              OrbitMethod(points=5, steps_per_period=200))
     assert o.success and o.stable
     br = continue_orbits(o, ROSSLER, "c", 3.5, step=0.2)
     pd = [sp for sp in br.special_points if sp.kind == "period_doubling"]
@@ -354,19 +355,19 @@ def test_example_script_writes_the_documented_keys(tmp_path):
 def test_shooting_success_is_the_residual_not_ipopts_status():
     # IPOPT told to accept almost anything returns Solved_To_Acceptable_Level (a CasADi "success")
     # at a residual of ~1: the forced shooting engine must not call that converged
-    from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
-    from birdocp.engine.shooting import MultipleShooting, solve
+    from birdocp.engine.problem import OrbitProblem, PeriodicODE
+    from birdocp.engine import OrbitMethod, solve
 
     x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 0)
     duffing = ca.Function("duffing", [x, t, p], [ca.vertcat(x[1], -0.25 * x[1] - x[0] - 0.8 * x[0] ** 3
                                                             + 0.6 * ca.cos(1.3 * t))])
-    prob = LimitCycleProblem(PeriodicODE.from_rhs(duffing, 2 * np.pi / 1.3), [], [0.5, 0.0])
+    prob = OrbitProblem(PeriodicODE.from_rhs(duffing, 2 * np.pi / 1.3), [], [0.5, 0.0])
     loose = {f"ipopt.acceptable_{k}": 1e10 for k in ("tol", "constr_viol_tol", "dual_inf_tol", "compl_inf_tol")}
     loose.update({"ipopt.acceptable_iter": 1, "ipopt.acceptable_obj_change_tol": 1e20})
-    r = solve(prob, MultipleShooting(points=5, steps_per_period=148, ipopt_options=loose))
+    r = solve(prob, OrbitMethod(points=5, steps_per_period=148, ipopt_options=loose))
     assert r.status == "Solved_To_Acceptable_Level" and r.max_residual > 1e-3
     assert not r.success and "not converged" in r.message
-    good = solve(prob, MultipleShooting(points=5, steps_per_period=148))
+    good = solve(prob, OrbitMethod(points=5, steps_per_period=148))
     assert good.success and good.max_residual <= 1e-9
 
 
@@ -387,7 +388,7 @@ def test_continuation_locates_the_torus_bifurcation_of_langfords_system():
     ode = ODE.from_function(langford, 3, ("lambda",))
     z = (1 - np.sqrt(1 - 0.8)) / 0.4  # lam = 1.8: 0.2 z^2 - z + 1 = 0
     r = np.sqrt(1.8 * z - z ** 2)
-    o = solve_orbit(OrbitProblem(ode, [1.8], [r * 0.9, 0.1, z * 1.05], period_guess=25.0), OrbitMethod(points=5))
+    o = solve(OrbitProblem(ode, [1.8], [r * 0.9, 0.1, z * 1.05], period_guess=25.0), OrbitMethod(points=5))
     assert o.success and o.stable, o.message
     # within the requested (default) relative accuracy 1e-6, and within 3x the error estimate
     assert abs(o.period - 8 * np.pi) < 1e-6 * 8 * np.pi and abs(o.x0[2] - z) < 3e-6

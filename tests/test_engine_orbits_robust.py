@@ -14,7 +14,7 @@ from scipy.integrate import solve_ivp
 
 from birdocp.engine.lm import levenberg_marquardt
 from birdocp.engine.ode import ODE
-from birdocp.engine.orbits import OrbitMethod, OrbitProblem, solve_orbit
+from birdocp.engine import OrbitMethod, OrbitProblem, solve
 
 HOPF = ODE.from_function(lambda x, t, p: ca.vertcat(x[0] - x[1] - x[0] * (x[0] ** 2 + x[1] ** 2),
                                                     x[0] + x[1] - x[1] * (x[0] ** 2 + x[1] ** 2)), 2)
@@ -55,23 +55,23 @@ def _closes_under_scipy(ode, orbit, rtol=1e-12):
 
 @pytest.mark.parametrize("factor", [1.3, 0.7])
 def test_a_30_percent_period_error_from_a_point_on_the_orbit(factor):
-    r = solve_orbit(OrbitProblem(HOPF, [], [1.0, 0.0], period_guess=2 * np.pi * factor),
-                    OrbitMethod(points=5, steps_per_period=200))
+    r = solve(OrbitProblem(HOPF, [], [1.0, 0.0], period_guess=2 * np.pi * factor),
+              OrbitMethod(points=5, steps_per_period=200))
     assert r.success and r.covers == 1, r.message
     assert abs(r.period - 2 * np.pi) < 1e-6
     assert abs(np.linalg.norm(r.x0) - 1) < 1e-6
 
 
 def test_without_the_period_search_lm_alone_takes_a_30_percent_error():
-    r = solve_orbit(OrbitProblem(HOPF, [], [1.0, 0.0], period_guess=2 * np.pi * 1.3),
-                    OrbitMethod(points=5, steps_per_period=200, period_search=False))
+    r = solve(OrbitProblem(HOPF, [], [1.0, 0.0], period_guess=2 * np.pi * 1.3),
+              OrbitMethod(points=5, steps_per_period=200, period_search=False))
     assert r.success and abs(r.period - 2 * np.pi) < 1e-6, r.message
 
 
 @pytest.mark.parametrize("k", [2, 3])
 def test_a_multiple_of_the_period_is_reduced_to_the_minimal_period(k):
-    r = solve_orbit(OrbitProblem(HOPF, [], [1.0, 0.0], period_guess=2 * np.pi * k),
-                    OrbitMethod(points=7, steps_per_period=420, period_search=False))
+    r = solve(OrbitProblem(HOPF, [], [1.0, 0.0], period_guess=2 * np.pi * k),
+              OrbitMethod(points=7, steps_per_period=420, period_search=False))
     assert r.success and r.covers == k and "loops" in r.message, r.message
     assert abs(r.reduced_from_period - k * 2 * np.pi) < 1e-4
     assert abs(r.period - 2 * np.pi) < 1e-6
@@ -80,7 +80,7 @@ def test_a_multiple_of_the_period_is_reduced_to_the_minimal_period(k):
 
 
 def test_torus_example_from_the_reference_guess_is_one_loop_not_eight():
-    r = solve_orbit(OrbitProblem(TORUS, [2.0], [0.9, 0.9, 0.9], period_guess=200.0), OrbitMethod(points=5))
+    r = solve(OrbitProblem(TORUS, [2.0], [0.9, 0.9, 0.9], period_guess=200.0), OrbitMethod(points=5))
     assert r.success and r.covers == 8, r.message
     assert abs(r.period - 8 * np.pi) < 1e-6 and r.error_estimate["period"] < 1e-6
     assert abs(r.period - 8 * np.pi) <= 3 * r.error_estimate["period"]  # the estimate bounds the true error
@@ -92,15 +92,15 @@ def test_torus_example_from_the_reference_guess_is_one_loop_not_eight():
     (GOODWIN, [], [0.1, 1.0, 1.0], 23.0, 5),
 ], ids=["isothermal", "goodwin"])
 def test_reference_examples_from_the_reference_guesses(ode, p, x, T, points):
-    r = solve_orbit(OrbitProblem(ode, p, x, period_guess=T), OrbitMethod(points=points))
+    r = solve(OrbitProblem(ode, p, x, period_guess=T), OrbitMethod(points=points))
     assert r.success and r.accurate and r.covers == 1, r.message
     assert _closes_under_scipy(ode, r) < 1e-6  # the default accuracy (relative)
 
 
 def test_unstable_lorenz_orbit_from_a_rounded_guess():
     # r = 21: the unstable orbit around C+ (multiplier ~1.26); the guess is a point of it rounded to 0.1
-    r = solve_orbit(OrbitProblem(LORENZ, [10.0, 21.0, 8 / 3], [11.2, 8.5, 27.6], period_guess=0.82),
-                    OrbitMethod(points=9))
+    r = solve(OrbitProblem(LORENZ, [10.0, 21.0, 8 / 3], [11.2, 8.5, 27.6], period_guess=0.82),
+              OrbitMethod(points=9))
     assert r.success and r.accurate, r.message
     assert not r.stable and abs(abs(r.nontrivial_multipliers[0]) - 1.2609) < 1e-3
     assert _closes_under_scipy(LORENZ, r) < 1e-5  # accuracy 1e-6 (the default)
@@ -112,8 +112,8 @@ def test_unstable_lorenz_orbit_from_a_rounded_guess():
 def test_error_estimate_is_never_a_silent_zero():
     # started on the exact orbit: the 2N re-solve has next to nothing to do; the estimate still
     # holds the discretisation and solver errors and bounds the true error
-    r = solve_orbit(OrbitProblem(HOPF, [], [1.0, 0.0], period_guess=2 * np.pi),
-                    OrbitMethod(points=5, steps_per_period=40, period_search=False))
+    r = solve(OrbitProblem(HOPF, [], [1.0, 0.0], period_guess=2 * np.pi),
+              OrbitMethod(points=5, steps_per_period=40, period_search=False))
     e = r.error_estimate
     assert r.success and all(e[k] > 0 for k in ("period", "x0", "multipliers", "solver")), e
     assert abs(r.period - 2 * np.pi) <= 3 * e["period"]
@@ -124,16 +124,16 @@ def test_a_fixed_section_that_misses_the_orbit_fails_and_says_why():
     # the section through (3, 0) orthogonal to the flow there is the line x = 3 + y/8: it never
     # meets the unit circle, so no solution exists; the moving section converges from the same point
     pr = OrbitProblem(HOPF, [], [3.0, 0.0], period_guess=6.0, phase_point=[3.0, 0.0])
-    r = solve_orbit(pr, OrbitMethod(points=5, steps_per_period=100))
+    r = solve(pr, OrbitMethod(points=5, steps_per_period=100))
     assert not r.success and "does not meet" in r.message, r.message
-    ok = solve_orbit(OrbitProblem(HOPF, [], [3.0, 0.0], period_guess=6.0), OrbitMethod(points=5, steps_per_period=100))
+    ok = solve(OrbitProblem(HOPF, [], [3.0, 0.0], period_guess=6.0), OrbitMethod(points=5, steps_per_period=100))
     assert ok.success and abs(ok.period - 2 * np.pi) < 1e-5, ok.message
 
 
 def test_no_orbit_fails_early_without_refining_forever():
     # Lorenz at r = 10: both non-trivial equilibria are stable foci, there is no periodic orbit nearby
-    r = solve_orbit(OrbitProblem(LORENZ, [10.0, 10.0, 8 / 3], [5.0, 5.0, 10.0], period_guess=0.8),
-                    OrbitMethod(points=9, phase="fixed"))
+    r = solve(OrbitProblem(LORENZ, [10.0, 10.0, 8 / 3], [5.0, 5.0, 10.0], period_guess=0.8),
+              OrbitMethod(points=9, phase="fixed"))
     assert not r.success
     assert "not retried on finer grids" in r.message and r.method["steps_per_period"] <= 4 * 128, r.message
 
@@ -149,9 +149,8 @@ def test_one_levenberg_marquardt_with_two_rules():
         levenberg_marquardt(Rosenbrock(), [0.0, 0.0], tol=1e-9, max_iter=5, accept="sometimes")
 
 
-def test_free_values_is_the_one_name_and_free_params_a_deprecated_alias():
-    r = solve_orbit(OrbitProblem(HOPF, [], [1.0, 0.0], period_guess=2 * np.pi),
-                    OrbitMethod(points=3, steps_per_period=60, error_estimate=False))
+def test_free_values_is_the_one_name():
+    r = solve(OrbitProblem(HOPF, [], [1.0, 0.0], period_guess=2 * np.pi),
+              OrbitMethod(points=3, steps_per_period=60, error_estimate=False))
     assert "free_values" in r.to_dict() and "free_params" not in r.to_dict()
-    with pytest.warns(DeprecationWarning, match="free_values"):
-        assert r.free_params is r.free_values
+    assert not hasattr(r, "free_params")  # the deprecated alias was removed with PeriodicOrbit

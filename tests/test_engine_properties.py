@@ -6,8 +6,8 @@ import scipy.linalg as sl
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
-from birdocp.engine.shooting import MultipleShooting, solve
+from birdocp.engine.problem import OrbitProblem, PeriodicODE
+from birdocp.engine import OrbitMethod, solve
 
 T = 1.0
 W = 2 * np.pi / T
@@ -31,8 +31,8 @@ def test_random_linear_system(eig, seed, M, solver):
     p = ca.SX.sym("p", 0)
     f = ca.Function("f", [x, t, p], [ca.mtimes(ca.DM(A), x) + ca.DM(c) * ca.sin(W * t) + ca.DM(b0)])
     ode = PeriodicODE.from_rhs(f, T)
-    r = solve(LimitCycleProblem(ode, np.zeros(0), np.zeros(3)),
-              MultipleShooting(points=M, steps_per_period=240, solver=solver, tol=1e-11))
+    r = solve(OrbitProblem(ode, np.zeros(0), np.zeros(3)),
+              OrbitMethod(points=M, steps_per_period=240, solver=solver, tol=1e-11))
     assert r.success, r.message
     assert np.max(np.abs(r.monodromy - sl.expm(A * T))) < 1e-7 * max(1.0, np.max(np.abs(sl.expm(A * T))))
     x0 = -np.linalg.solve(A, b0) + (np.linalg.solve(1j * W * np.eye(3) - A, c)).imag

@@ -158,12 +158,14 @@ def test_threaded_fd_hessian_of_the_reduced_problem():
     prob.set_scale(ev0)
     z = np.append(ev0.theta * prob.sigma[:2], 1.5)
     J0 = prob.jacobian(z)
-    state = (rc._y.copy(), rc._theta.copy(), rc._dy.copy(), rc._Ry.copy())
+    ws = rc.warm_start
+    state = (ws.y, ws.theta, ws.dy, rc.last_jacobian)
     h = 1e-6
     c1 = StencilHessian(h, threads=1).columns(prob, z)
     c2 = StencilHessian(h, threads=2).columns(prob, z)
     assert np.array_equal(c1, c2)
-    for a, b in zip(state, (rc._y, rc._theta, rc._dy, rc._Ry)):
+    ws = rc.warm_start
+    for a, b in zip(state, (ws.y, ws.theta, ws.dy, rc.last_jacobian)):
         assert np.array_equal(a, b)
     assert np.all(c1[2][:2] == 0) and np.any(c1[2] != 0)  # r enters the Jury rows only (objective r: linear)
     scale = np.max(np.abs(c1))
@@ -187,8 +189,8 @@ def test_combined_second_order_pass_equals_all_directions():
     ev = rc.evaluate(np.array([14.0, -19.0]))
     full = PeriodSensitivities(rc.m.ode, STEPS, (rc.outputs,), rc.nt + 1, True)
     p = rc.pfull(ev.theta, ev.amplitude_deg)
-    D, cols = rc._data(ca.DM(p))
-    s = full(ev.x0, D, p, dp=rc._seeds, columns=cols)
+    D, seeds, cols = rc.sensitivity_inputs(p)
+    s = full(ev.x0, D, p, dp=seeds, columns=cols)
     ct, cy = [4, 5], [0, 1, 2, 3, 6]
     dMon = s["dMon"][:, ct] + s["dMon"][:, cy] @ ev.dy
     assert np.allclose(ev.d_monodromy, dMon, rtol=0, atol=1e-12 * np.max(np.abs(dMon)))

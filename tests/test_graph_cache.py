@@ -144,8 +144,8 @@ def bird_cache(tmp_path_factory):
 def test_bird_model_from_cache_gives_bit_identical_trim(bird_cache):
     from birdocp.bird.config import Config, param_vector
     from birdocp.bird.model import BirdModel
-    from birdocp.engine.problem import LimitCycleProblem
-    from birdocp.engine.shooting import MultipleShooting, solve
+    from birdocp.engine.problem import OrbitProblem
+    from birdocp.engine import OrbitMethod, solve
 
     root, s, built = bird_cache
     assert built.graph_source == "built+stored"
@@ -153,8 +153,8 @@ def test_bird_model_from_cache_gives_bit_identical_trim(bird_cache):
     assert loaded.graph_source == "cache"
     cfg = Config()
     p0 = param_vector(cfg)
-    method = MultipleShooting(points=5, steps_per_period=148)
-    res = [solve(LimitCycleProblem(ode=m.ode, p=p0, x_guess=cfg.solve.initial_guess), method)
+    method = OrbitMethod(points=5, steps_per_period=148)
+    res = [solve(OrbitProblem(ode=m.ode, p=p0, x_guess=cfg.solve.initial_guess), method)
            for m in (built, loaded)]
     assert res[0].success and res[1].success
     for name in ("x0", "shooting_points", "multipliers", "monodromy"):
@@ -174,19 +174,19 @@ def test_pre_is_read_only_when_evaluated(bird_cache):
     from birdocp.bird.model import BirdModel
     from birdocp.engine.integrate import clear_stage_data
     from birdocp.engine.lazy import LazyFunction
-    from birdocp.engine.problem import LimitCycleProblem
-    from birdocp.engine.shooting import MultipleShooting, solve
+    from birdocp.engine.problem import OrbitProblem
+    from birdocp.engine import OrbitMethod, solve
 
     root, s, built = bird_cache
     cfg = Config()
     p0 = param_vector(cfg)
-    method = MultipleShooting(points=5, steps_per_period=148)
-    a = solve(LimitCycleProblem(ode=built.ode, p=p0, x_guess=cfg.solve.initial_guess), method)  # stores pre's values
+    method = OrbitMethod(points=5, steps_per_period=148)
+    a = solve(OrbitProblem(ode=built.ode, p=p0, x_guess=cfg.solve.initial_guess), method)  # stores pre's values
     clear_stage_data()
     m = BirdModel(s)
     assert m.graph_source == "cache"
     assert isinstance(m.ode.pre, LazyFunction) and not m.ode.pre.loaded and not m.ode.data.loaded
-    b = solve(LimitCycleProblem(ode=m.ode, p=p0, x_guess=cfg.solve.initial_guess), method)
+    b = solve(OrbitProblem(ode=m.ode, p=p0, x_guess=cfg.solve.initial_guess), method)
     assert not m.ode.pre.loaded  # read from disk, not evaluated
     assert np.array_equal(a.multipliers, b.multipliers) and np.array_equal(a.x0, b.x0)
     t = 0.0123

@@ -110,7 +110,8 @@ def test_control_and_simulate_cli_in_six_degrees_of_freedom(tmp_path):
 
 @pytest.mark.parametrize("argv, flag", [
     (["simulate", "--beats", "2", "--side-gust", "pulse=1:1"], "--side-gust"),
-    (["simulate", *SIX, "--beats", "2", "--gust", "vertical=1:1"], "--gust"),
+    (["simulate", *SIX, "--beats", "2", "--gust", "vertical=1:1", "--gust", "vertical=2:1"], "--gust"),
+    (["simulate", *SIX, "--beats", "2", "--wind", "sideways=1"], "--wind"),
     (["simulate", *SIX, "--beats", "2", "--perturb", "yaw=1"], "--perturb"),
     (["control", *SIX, "--controls", "right_amplitude", "right_amplitude"], "--controls"),
 ])

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from birdocp.bird.config import Config
-from birdocp.engine.shooting import MultipleShooting
+from birdocp.engine import OrbitMethod
 from birdocp.studies.lateral import lateral_trim
 from birdocp.studies.lateral_modes import lateral_mode_histories
 
@@ -15,7 +15,7 @@ from birdocp.studies.lateral_modes import lateral_mode_histories
 @pytest.fixture(scope="module")
 def coarse_six():
     cfg = Config()
-    res = lateral_trim(cfg, method=MultipleShooting(points=3, steps_per_period=48))
+    res = lateral_trim(cfg, method=OrbitMethod(points=3, steps_per_period=48))
     assert res.success
     return cfg, res
 

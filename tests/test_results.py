@@ -112,8 +112,7 @@ def _tiny_instances() -> dict:
     from birdocp.engine.equilibria import Equilibrium, EquilibriumBranch, EquilibriumFold, EquilibriumPoint, HopfPoint
     from birdocp.engine.floquet import FloquetResult
     from birdocp.engine.lyapunov import LyapunovResult
-    from birdocp.engine.orbits import PeriodicOrbit
-    from birdocp.engine.shooting import LimitCycleResult
+    from birdocp.engine.orbit_result import OrbitResult
     from birdocp.export.codegen import ExportInfo
     from birdocp.studies.control import Controller, WingbeatMap
     from birdocp.studies.gait import GaitOptimum
@@ -127,12 +126,12 @@ def _tiny_instances() -> dict:
     nan, lam = float("nan"), np.array([2.0 + 0.0j, 0.5 + 0.1j, 0.5 - 0.1j, 0.01 + 0.0j])
     x4, p = np.array([18.0, 0.5, 0.0, 0.01]), np.zeros(len(PARAM_NAMES))
     validity = CycleValidity(True, [], {"alpha_eff_max_deg": 9.0, "stalled_fraction": nan}, {"stall_deg": 15.0})
-    cycle = LimitCycleResult(True, "converged", "ok", 3, np.array([1.0, 1e-12]), {"total": 0.1},
-                             np.array([0.0, 0.125]), np.vstack([x4, x4]), x4, p, {}, np.array([0.0, 0.25]),
-                             None, 1e-12, {"vertical_speed_mps": 0.0, "forward_speed_mps": 18.0},
-                             monodromy=np.eye(4), multipliers=lam, eigenvectors=np.eye(4, dtype=complex),
-                             floquet_exponents=np.log(lam) / 0.25, doubling_times_s=np.array([0.1, -1, -1, np.inf]),
-                             stable=False)
+    cycle = OrbitResult(True, "converged", "ok", 3, np.array([1.0, 1e-12]), {"total": 0.1},
+                        np.array([0.0, 0.125]), np.vstack([x4, x4]), x4, p, {}, np.array([0.0, 0.25]),
+                        None, 1e-12, {"vertical_speed_mps": 0.0, "forward_speed_mps": 18.0},
+                        monodromy=np.eye(4), multipliers=lam, eigenvectors=np.eye(4, dtype=complex),
+                        floquet_exponents=np.log(lam) / 0.25, doubling_times_s=np.array([0.1, -1, -1, np.inf]),
+                        stable=False, period=0.125, formulation="periodic_ode")
     trim = TrimResult(cycle, Config())
     trim.__dict__["_validity"] = validity
     point = BranchPoint(0.1, [1.0, 2.0], [[1.0, 2.0]], {}, [[0.5, 0.0]], [0.5], True, {}, 0.0, 1.0, 2, 1e-12,
@@ -161,11 +160,7 @@ def _tiny_instances() -> dict:
         "birdocp.engine.equilibria.EquilibriumBranch": EquilibriumBranch(
             0, np.array([0.0, 1.0]), np.zeros((2, 2)), np.array([[1j, -1j], [1 + 1j, 1 - 1j]]),
             np.array([True, False]), [hopf], []),
-        "birdocp.engine.orbit_types.PeriodicOrbit": PeriodicOrbit(
-            True, "converged", "", "converged", 2, np.array([1.0, 1e-12]), 1e-12, 6.28, np.ones(2), np.ones(3),
-            np.ones((3, 2)), np.arange(3.0), np.ones((3, 2)), 1.0, 6.28, True, multipliers=np.array([1.0, 0.01]),
-            trivial_multiplier=1.0, trivial_multiplier_error=0.0, nontrivial_multipliers=np.array([0.01])),
-        "birdocp.engine.shooting_types.LimitCycleResult": cycle,
+        "birdocp.engine.orbit_result.OrbitResult": cycle,
         "birdocp.export.codegen.ExportInfo": ExportInfo(Path("/tmp/c"), ["a.c"], 48, 0.25, 0.25 / 48, 3, ["x"],
                                                         [1.0], {"y": 2.0}),
         "birdocp.studies.optimize.StabilityOptimum": StabilityOptimum(

@@ -11,8 +11,9 @@ import pytest
 from birdocp.bird.config import Config, param_vector
 from birdocp.bird.sixdof import (HEADING, LATERAL, LONGITUDINAL, LateralInertia, embed_planar_state,
                                  sixdof_model)
-from birdocp.engine.problem import LimitCycleProblem
-from birdocp.engine.shooting import MultipleShooting, floquet, solve
+from birdocp.engine.problem import OrbitProblem
+from birdocp.engine import OrbitMethod, solve
+from birdocp.engine.shooting import floquet
 from birdocp.studies.lateral import lateral_trim
 
 LON, LAT = list(LONGITUDINAL), list(LATERAL) + [HEADING]
@@ -84,7 +85,7 @@ def test_frozen_wing_multipliers_are_the_glide_eigenvalues(default_config):
     assert np.abs(fv).max() < 1e-10
     lam = np.sort_complex(np.append(np.linalg.eigvals(J), 0.0))
     T = six.ode.period_s
-    fl = floquet(six.ode, np.append(xe, 0.0), p6, MultipleShooting(points=3, steps_per_period=600))
+    fl = floquet(six.ode, np.append(xe, 0.0), p6, OrbitMethod(points=3, steps_per_period=600))
     ln = np.sort_complex(np.log(fl.multipliers.astype(complex)) / T)
     np.testing.assert_allclose(ln.real, lam.real, rtol=1e-6, atol=1e-6)
     np.testing.assert_allclose(np.abs(ln.imag), np.abs(lam.imag), rtol=1e-6, atol=1e-6)
@@ -93,8 +94,8 @@ def test_frozen_wing_multipliers_are_the_glide_eigenvalues(default_config):
 def test_planar_terms_not_in_3d_are_refused():
     from birdocp.bird.config import with_values
 
-    with pytest.raises(ValueError, match="drag"):
-        sixdof_model(with_values(Config(), {"drag.body_drag_coefficient": 0.1}))
+    with pytest.raises(ValueError, match="aero.unsteady"):
+        with_values(Config(), {"model.degrees_of_freedom": 6, "aero.unsteady": "wagner"})
     with pytest.raises(ValueError, match="roll_inertia_kgm2"):
         LateralInertia(roll_inertia_kgm2=0.0)
 
@@ -103,7 +104,7 @@ def test_solve_from_an_asymmetric_start_returns_to_the_symmetric_cycle(six, defa
     p6 = six.params(param_vector(default_config))
     guess = np.array(embed_planar_state(default_config.solve.initial_guess))
     guess[LATERAL[0]] = 0.3  # a sideslipping start: the periodic orbit is still the symmetric one
-    res = solve(LimitCycleProblem(ode=six.ode, p=p6, x_guess=guess), MultipleShooting(points=5, steps_per_period=148))
+    res = solve(OrbitProblem(ode=six.ode, p=p6, x_guess=guess), OrbitMethod(points=5, steps_per_period=148))
     assert res.success
     assert np.abs(res.x0[list(LATERAL)]).max() < 1e-8
 
@@ -111,7 +112,7 @@ def test_solve_from_an_asymmetric_start_returns_to_the_symmetric_cycle(six, defa
 def test_level_flight_in_six_dof_is_the_planar_level_flight(default_config, coarse):
     from birdocp.studies.level import level
 
-    method = MultipleShooting(**coarse)
+    method = OrbitMethod(**coarse)
     six = lateral_trim(default_config, level=True, method=method)
     planar = level(default_config, **coarse)
     assert six.success and planar.success
@@ -147,7 +148,7 @@ def test_lateral_sensitivity_against_central_differences(mass_tail_config, coars
     from birdocp.bird.config import get_value, with_values
     from birdocp.studies.lateral import lateral_sensitivities
 
-    method = MultipleShooting(**coarse)
+    method = OrbitMethod(**coarse)
     keys = ["gait.shoulder_flap.offset_deg", "tail.opening_angle_deg"]
     res = lateral_trim(mass_tail_config, method=method)
     rows = lateral_sensitivities(res, mass_tail_config, keys)
@@ -222,7 +223,7 @@ def test_one_heavy_wing_in_vacuum_conserves_momentum_and_angular_momentum(mass_t
 def test_symmetric_cycle_with_wing_masses_and_tail_is_the_planar_cycle(mass_tail_config, coarse):
     from birdocp.studies.trim import trim
 
-    res = lateral_trim(mass_tail_config, method=MultipleShooting(**coarse))
+    res = lateral_trim(mass_tail_config, method=OrbitMethod(**coarse))
     planar = trim(mass_tail_config, **coarse)
     assert res.success and planar.success
     assert res.coupling_max < 1e-12
@@ -279,7 +280,7 @@ def test_continue_cli_with_six_degrees_of_freedom(tmp_path):
     assert len(r["lateral_multipliers"]) == len(pts) == len(r["longitudinal_multipliers"])
     assert max(r["branch"]["settings"]["coupling_max"]) < 1e-12
     assert all(abs(abs(complex(*m)) - 1.0) > 1e-3 for m in pts[0]["multipliers"])
-    trim6 = lateral_trim(Config(), method=MultipleShooting(points=3, steps_per_period=48))
+    trim6 = lateral_trim(Config(), method=OrbitMethod(points=3, steps_per_period=48))
     np.testing.assert_allclose(sorted(abs(complex(*m)) for m in r["lateral_multipliers"][0]),
                                sorted(np.abs(trim6.lateral_multipliers)), rtol=0, atol=1e-8)
     assert set(_plot(tmp_path / "c")) == {"locus.png", "moduli.png"}
@@ -353,3 +354,77 @@ def test_export_c_with_six_degrees_of_freedom_matches_python(tmp_path):
     xT, J = grid.period_jacobian(ca.DM(x0), grid.blocks_numeric(0.0, np.asarray(p6).ravel()), p6)
     assert np.max(np.abs(rows[0] - np.asarray(xT).ravel())) < 1e-10
     assert np.max(np.abs(np.vstack(rows[1:]) - np.asarray(J))) < 1e-10
+
+
+def test_six_dof_validity_and_coupled_labels_of_a_symmetric_cycle_are_the_split_ones(default_config, coarse):
+    """Two independent routes on a symmetric cycle: the 6-DOF validity (both wings in 3-D flow) equals
+    the planar validity of its (u, w, q, theta) part, and the eigenvector-content labels of the
+    unsplit 8 x 8 monodromy (lateral share exactly 0 or 1) are the split monodromy's labels."""
+    from birdocp.bird.config import with_values
+    from birdocp.bird.validity import periodic_validity
+    from birdocp.studies.lateral import coupled_modes
+
+    cfg = with_values(default_config, {"model.degrees_of_freedom": 6})
+    res = lateral_trim(cfg, **coarse)
+    six = sixdof_model(cfg)
+    v6 = periodic_validity(cfg, res.cycle.x0, p=res.cycle.p, steps_per_period=coarse["steps_per_period"],
+                           ode=six.ode).to_dict()
+    v4 = res.validity.to_dict()
+    for k, v in v4.items():
+        if isinstance(v, float):
+            assert abs(v6[k] - v) < 1e-9 * max(1.0, abs(v)), k
+    assert v6["stalled_fraction_left"] == pytest.approx(v6["stalled_fraction_right"], abs=1e-14)
+    M8 = np.asarray(res.cycle.monodromy)[:HEADING, :HEADING]
+    modes = coupled_modes(M8, six.period_s, float(np.mean(res.cycle.trajectory_x[:, 0])))
+    lat = [m for m in modes if m["label"] != "longitudinal"]
+    assert all(m["lateral_share"] > 1 - 1e-12 or m["lateral_share"] < 1e-12 for m in modes)
+    assert sorted((m["label"], round(m["multiplier"].real, 9)) for m in lat) == \
+        sorted((m["label"], round(m["multiplier"].real, 9)) for m in res.lateral_modes)
+
+
+DRAG = {"drag.body_drag_coefficient": 0.1, "drag.profile_drag_coefficient": 0.014}
+
+
+def test_drag_in_six_dof_at_a_symmetric_state_is_the_planar_drag(default_config):
+    """Body and profile drag on: the 6-DOF right-hand side at a symmetric state (v = p = r = phi = 0)
+    is the planar model's with drag, and the lateral rates vanish; drag coefficients 0 give the
+    drag-free 6-DOF model bit for bit."""
+    from birdocp.bird.config import PARAM_NAMES, with_values
+    from birdocp.bird.model import get_model
+
+    cfg = with_values(default_config, DRAG)
+    six, planar = sixdof_model(cfg), get_model(cfg)
+    assert six.structure.drag
+    p = param_vector(cfg)
+    for t in (0.0, 0.031, 0.17):
+        d = planar.data(t, p)
+        x4 = [17.8, -1.9, -0.1, -0.11]
+        f4 = np.asarray(planar.rhs(x4, d, p)).ravel()
+        f9 = np.asarray(six.rhs(embed_planar_state(x4), d, six.params(p))).ravel()
+        np.testing.assert_allclose(f9[LON], f4, rtol=0, atol=1e-12)
+        assert np.abs(f9[LAT]).max() < 1e-10
+    p0 = np.array(p)
+    p0[[PARAM_NAMES.index(k) for k in DRAG]] = 0.0
+    plain = sixdof_model(default_config)
+    x = [17.5, 0.8, -1.0, 0.3, 0.2, -0.4, 0.15, -0.1, 0.7]
+    f_drag0 = np.asarray(six.rhs(x, six.data(0.07, six.params(p0)), six.params(p0))).ravel()
+    f_plain = np.asarray(plain.rhs(x, plain.data(0.07, plain.params(p0)), plain.params(p0))).ravel()
+    assert np.array_equal(f_drag0, f_plain)
+    f_drag = np.asarray(six.rhs(x, six.data(0.07, six.params(p)), six.params(p))).ravel()
+    assert np.abs(f_drag - f_plain).max() > 1e-3  # the drag does act
+    np.testing.assert_allclose(np.asarray(six.rhs(MIRROR @ x, six.data(0.07, six.params(p)), six.params(p))).ravel(),
+                               MIRROR @ f_drag, rtol=1e-12, atol=1e-11)
+
+
+def test_symmetric_cycle_with_drag_is_the_planar_cycle_with_drag(default_config, coarse):
+    from birdocp.bird.config import with_values
+    from birdocp.studies.trim import trim
+
+    cfg = with_values(default_config, DRAG)
+    res = lateral_trim(with_values(cfg, {"model.degrees_of_freedom": 6}), method=OrbitMethod(**coarse))
+    ref = trim(cfg, **coarse)
+    assert res.success and ref.success and res.coupling_max < 1e-12
+    np.testing.assert_allclose(np.asarray(res.cycle.x0)[LON], ref.cycle.x0, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(np.sort_complex(res.longitudinal_multipliers), np.sort_complex(ref.multipliers),
+                               rtol=0, atol=1e-8)
+    assert res.validity.valid == ref.validity.valid

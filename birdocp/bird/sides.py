@@ -20,6 +20,7 @@ import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, SIDE_KEYS, Config, get_value
 from birdocp.bird.model import DATA_BLOCKS, BirdModel, Structure, aero_blocks
+from birdocp.bird.sixdof_inertia import sums_function
 
 __all__ = ["SIDE_PARAM_NAMES", "side_vector", "side_parameters", "side_data_functions", "swap_sides"]
 
@@ -110,7 +111,9 @@ def side_data_functions(planar: BirdModel, n_params: int, first_offset: int):
     """``(pre, post, data, pre_params)`` of a model whose parameter vector (``n_params`` values)
     starts with :data:`PARAM_NAMES` and holds :data:`SIDE_PARAM_NAMES` from index ``first_offset``:
     ``pre(t, p)`` stacks the planar ``pre`` of the right and of the left wing, ``post(local, t, p)``
-    assembles both; ``pre_params`` adds the offsets of the joints ``pre`` depends on (elbow, wrist).
+    assembles both (:data:`birdocp.bird.model.DATA_BLOCKS`, then, with wing masses, the 3-D sums
+    :data:`birdocp.bird.sixdof_inertia.MASS3_BLOCK` of the two wings); ``pre_params`` adds the offsets of
+    the joints ``pre`` depends on (elbow, wrist).
 
     Parameters
     ----------
@@ -127,8 +130,8 @@ def side_data_functions(planar: BirdModel, n_params: int, first_offset: int):
         ``(pre, post, data, pre_params)``.
     """
     n = len(PARAM_NAMES)
-    if planar.structure.wing_mass or planar.structure.aero_extra:
-        raise ValueError("asymmetric gaits: wing masses and unsteady or stall sections are not written per side")
+    if planar.structure.aero_extra:
+        raise ValueError("asymmetric gaits: the unsteady or stall sections are not written per side")
     nl = planar.pre.size1_out(0)
     post2 = _sides_post(planar.structure, nl)
     tm, pm = ca.MX.sym("t"), ca.MX.sym("p", n_params)
@@ -136,8 +139,10 @@ def side_data_functions(planar: BirdModel, n_params: int, first_offset: int):
     pre = ca.Function("pre_sides", [tm, pm], [ca.vertcat(planar.pre(tm, pr), planar.pre(tm, pl))], ["t", "p"],
                       ["local"])
     loc = ca.MX.sym("local", 2 * nl)
-    post = ca.Function("post_sides", [loc, tm, pm], [post2(loc[:nl], loc[nl:], tm, pr, pl)], ["local", "t", "p"],
-                       ["d"])
+    d_post = post2(loc[:nl], loc[nl:], tm, pr, pl)
+    if planar.structure.wing_mass:  # the 3-D sums of the two differing wings after the aerodynamic blocks
+        d_post = ca.vertcat(d_post, sums_function(planar.mass_points, sides=True)(tm, pr, pl))
+    post = ca.Function("post_sides", [loc, tm, pm], [d_post], ["local", "t", "p"], ["d"])
     data = ca.Function("data_sides", [tm, pm], [post(pre(tm, pm), tm, pm)], ["t", "p"], ["d"])
     base = set(planar.pre_params)
     extra = [first_offset + i + s * _N_SIDE for s in (0, 1) for i, b in enumerate(_BASE_INDEX) if b in base]

@@ -37,7 +37,8 @@ I_yy). With ``wing.mass_kg`` > 0 the wings' mass points move with the gait and t
 terms (momentum, angular momentum, products of inertia) are added by
 :mod:`birdocp.bird.sixdof_inertia`; ``body.mass_kg`` is then the whole bird and the inertias are the
 body's own about its centre of mass G_b, as in the planar model with wing masses. With the tail
-(``tail.opening_angle_deg`` > 0) its planar loads are added (:func:`tail_body_loads`). For a symmetric
+(``tail.opening_angle_deg`` > 0) its planar loads are added (:func:`tail_body_loads`); with the optional
+drag (``[drag]``) the profile drag of every element and the body's parasite drag (:func:`drag_terms`). For a symmetric
 cycle (v = p = r = phi = 0) the longitudinal equations are the planar model's.
 """
 
@@ -51,13 +52,13 @@ import casadi as ca
 from birdocp.bird import aero, tail
 from birdocp.bird import sixdof_inertia as wing3
 from birdocp.bird.config import PARAM_NAMES, Config, asymmetric
-from birdocp.bird.model import BirdModel, Structure, get_model, unpack_data
+from birdocp.bird.model import N_DATA, BirdModel, Structure, get_model, unpack_data
 from birdocp.bird.sides import SIDE_PARAM_NAMES, side_data_functions
 from birdocp.engine.cache import register_cache
 from birdocp.engine.problem import PeriodicODE
 
 __all__ = ["rhs_expression", "STATE_NAMES", "LONGITUDINAL", "LATERAL", "HEADING", "LATERAL_PARAM_NAMES", "LateralInertia",
-           "SixDofModel", "sixdof_model", "embed_planar_state", "body_loads"]
+           "SixDofModel", "sixdof_model", "embed_planar_state", "body_loads", "drag_terms"]
 
 STATE_NAMES = ("u_mps", "v_mps", "w_mps", "p_radps", "q_radps", "r_radps", "phi_rad", "theta_rad", "psi_rad")
 LONGITUDINAL = (0, 2, 4, 7)
@@ -102,14 +103,16 @@ def _p(p, name):
     return p[PARAM_NAMES.index(name)]
 
 
-def body_loads(x, d, p, with_tail=False):
+def body_loads(x, d, p, with_tail=False, with_drag=False):
     """Body-axis aerodynamic force (X, Y, Z) [N] and moment (L, M, N) [N m] about G at the 9-state
     ``x``, planar data ``d`` and parameters ``p`` (SX), with the per-element terms.
 
-    ``with_tail``: add the tail's loads (:func:`tail_body_loads`).
+    ``with_tail``: add the tail's loads (:func:`tail_body_loads`). ``with_drag``: add the optional drag
+    terms of the planar model in 3-D (:func:`drag_terms`).
 
     Returns ``(F_body 3x1, M_body 3x1, terms)``; ``terms`` is the dict of
-    :func:`birdocp.bird.aero.forces_from_velocity` (code frame).
+    :func:`birdocp.bird.aero.forces_from_velocity` (code frame), with ``dD`` and ``F_par`` when
+    ``with_drag``.
 
     Parameters
     ----------
@@ -121,6 +124,8 @@ def body_loads(x, d, p, with_tail=False):
         Parameter vector.
     with_tail : bool
         Add the tail's loads.
+    with_drag : bool
+        Add the optional drag terms.
 
     Returns
     -------
@@ -139,7 +144,10 @@ def body_loads(x, d, p, with_tail=False):
     e = aero.forces_from_velocity(V, b["c_hat"], b["up"], b["tau"], b["ds_m"], b["G"], b["Wx"], b["Wy"],
                                   _p(p, "aero.air_density_kgm3"))
     dF = e["dF"]
-    F = ca.sum2(dF)
+    if with_drag:
+        e.update(drag_terms(e, b, u, v, w, p))
+        dF = dF + e["dD"]  # the profile drag acts at the element centres, as the lifting-line force
+    F = ca.sum2(dF) + (e["F_par"] if with_drag else 0)
     Mc = ca.sum2(ca.vertcat(r[1, :] * dF[2, :] - r[2, :] * dF[1, :],
                             r[2, :] * dF[0, :] - r[0, :] * dF[2, :],
                             r[0, :] * dF[1, :] - r[1, :] * dF[0, :]))
@@ -148,6 +156,38 @@ def body_loads(x, d, p, with_tail=False):
         Lt, Dt, Mt = tail_body_loads(x, b, e["Gamma"], p)
         Fb, Mb = Fb - ca.vertcat(Dt, 0, Lt), Mb + ca.vertcat(0, Mt, 0)
     return Fb, Mb, e
+
+
+def drag_terms(e: dict, b: dict, u, v, w, p) -> dict:
+    """The optional drag of the planar model (``[drag]``; docs/studies/energetics.md) in asymmetric
+    flow, code frame: ``dD`` (3 x 16) the profile drag of every element along its section velocity
+    ``Vp`` (sideslip and roll and yaw rates included, :func:`birdocp.bird.aero.profile_drag`), acting at
+    the element centre (it adds roll and yaw moments where the wings meet the air differently), and
+    ``F_par`` (3 x 1) the body's parasite drag at G along the free stream ``U_inf = (-v, w, u)``,
+    ``1/2 rho S_b C_Db |U_inf| U_inf`` (no moment). For v = 0 both are the planar model's.
+
+    Parameters
+    ----------
+    e : dict
+        Element terms (:func:`birdocp.bird.aero.forces_from_velocity`).
+    b : dict
+        Data blocks.
+    u, v, w : casadi.SX
+        Body velocities (forward, right, down) [m/s].
+    p : casadi.SX
+        Parameter vector.
+
+    Returns
+    -------
+    dict
+        ``dD`` and ``F_par`` [N].
+    """
+    rho = _p(p, "aero.air_density_kgm3")
+    dD = aero.profile_drag(e["Vp"], e["Vp_norm"], b["chord_m"], b["ds_m"], rho, _p(p, "drag.profile_drag_coefficient"))
+    U_inf = ca.vertcat(-v, w, u)
+    F_par = 0.5 * rho * _p(p, "drag.body_frontal_area_m2") * _p(p, "drag.body_drag_coefficient") \
+        * ca.norm_2(U_inf) * U_inf
+    return {"dD": dD, "F_par": F_par}
 
 
 def tail_body_loads(x, b, gamma, p):
@@ -207,7 +247,8 @@ def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None):
     ixx, izz, ixz = (p6[len(PARAM_NAMES) + i] for i in range(3))
     m, iyy, g = _p(p, "body.mass_kg"), _p(p, "body.pitch_inertia_kgm2"), _p(p, "body.gravity_mps2")
     u, v, w, pr, q, rr, phi, th = (x[i] for i in range(8))
-    Fb, Mb, _ = body_loads(x if x_air is None else x_air, d, p, with_tail=bool(structure and structure.tail))
+    Fb, Mb, _ = body_loads(x if x_air is None else x_air, d, p, with_tail=bool(structure and structure.tail),
+                           with_drag=bool(structure and structure.drag))
     X, Y, Z = Fb[0], Fb[1], Fb[2]
     L, M, N = Mb[0], Mb[1], Mb[2]
     cth, sth, cph, sph = ca.cos(th), ca.sin(th), ca.cos(phi), ca.sin(phi)
@@ -245,25 +286,23 @@ class SixDofModel:
 
     def __init__(self, planar: BirdModel, sides: bool = False):
         structure = planar.structure
-        if structure.drag or getattr(structure, "aero_extra", False):
-            raise ValueError("six degrees of freedom: the drag terms and the unsteady or "
-                             "stall-aware sections are planar terms not yet written in 3-D; use "
-                             "drag off, aero.unsteady = 'none' and aero.section = 'linear'")
+        if getattr(structure, "aero_extra", False):
+            raise ValueError("six degrees of freedom: the unsteady or stall-aware sections are planar terms not yet "
+                             "written in 3-D; use aero.unsteady = 'none' and aero.section = 'linear'")
         self.planar = planar
         self.sides = bool(sides)
         n = len(PARAM_NAMES)
         names = tuple(PARAM_NAMES) + LATERAL_PARAM_NAMES + (SIDE_PARAM_NAMES if self.sides else ())
         x = ca.SX.sym("x", 9)
-        n_planar = planar.rhs.size1_in(1)
-        if structure.wing_mass and self.sides:
-            raise ValueError("six degrees of freedom: wing masses with per-side joint offsets (an asymmetric gait) "
-                             "are not written yet; use wing.mass_kg = 0 or a symmetric gait")
+        # per-side data: the aerodynamic blocks only (the planar model's in-plane mass sums, which the
+        # 3-D equations do not read, are not assembled for two differing wings)
+        n_planar = N_DATA if self.sides else planar.rhs.size1_in(1)
         d = ca.SX.sym("d", n_planar + (wing3.N_MASS3 if structure.wing_mass else 0))
         p6 = ca.SX.sym("p", len(names))
         self.structure = structure
         self.rhs = ca.Function("rhs6", [x, d, p6], [rhs_expression(x, d, p6, structure=structure)], ["x", "d", "p"],
                                ["xdot"])
-        Fb, Mb, _ = body_loads(x, d, p6[:n], with_tail=structure.tail)
+        Fb, Mb, _ = body_loads(x, d, p6[:n], with_tail=structure.tail, with_drag=structure.drag)
         self.loads_d = ca.Function("loads6", [x, d, p6], [ca.vertcat(Fb, Mb)], ["x", "d", "p"], ["loads"])
         self.wing_sums = None
         if self.sides:
@@ -308,6 +347,21 @@ class SixDofModel:
         elif offsets is not None and any(float(v) != 0 for v in offsets):
             raise ValueError("per-side offsets need a model with sides=True (sixdof_model(cfg, sides=True))")
         return out
+
+    def evaluate(self, state, t, p) -> dict:
+        """Body-axis loads and the state derivative at one 9-state ``state`` (:data:`STATE_NAMES`) and
+        time ``t`` [s] for the parameter vector ``p`` (:meth:`params`): the aerodynamic (and tail) force
+        (X, Y, Z) [N] along (x' forward, y' right, z' down) and moment (L, M, N) [N m] about G (roll right
+        wing down, pitch nose up, yaw nose right positive) as ``Fx_N, Fy_N, Fz_N, Mx_Nm, My_Nm, Mz_Nm``,
+        and ``xdot`` (9). For a symmetric state the planar :meth:`BirdModel.evaluate`'s Fx, Fz, My."""
+        import numpy as np
+
+        x, pd = ca.DM(np.asarray(state, float)), ca.DM(np.asarray(p, float))
+        d = self.data(float(t), pd)
+        loads = np.asarray(self.loads_d(x, d, pd), float).ravel()
+        names = ("Fx_N", "Fy_N", "Fz_N", "Mx_Nm", "My_Nm", "Mz_Nm")
+        return {**{k: float(v) for k, v in zip(names, loads)},
+                "xdot": np.asarray(self.rhs(x, d, pd), float).ravel().tolist()}
 
     def flight_outputs(self, n_states: int = 9) -> dict:
         """``{"vertical_speed_mps": W, "forward_speed_mps": U}`` as Functions ``(x, d, p)`` of the

@@ -95,14 +95,19 @@ def mass_sums_3d(m, r, v, a) -> dict:
     return out
 
 
-def sums_function(mass_points: ca.Function) -> ca.Function:
+def sums_function(mass_points: ca.Function, sides: bool = False) -> ca.Function:
     """``(t, p) -> the 3-D sums`` (one vector laid out as :data:`MASS3_BLOCK`) from a planar model's
-    ``mass_points(t, p) -> (r, v, a, m)`` (both wings, body frame about G_b).
+    ``mass_points(t, p) -> (r, v, a, m)`` (both wings, body frame about G_b, the right wing's points
+    first). ``sides``: ``(t, p_right, p_left) -> the sums`` of two wings with their own joint laws (an
+    asymmetric gait, :mod:`birdocp.bird.sides`): the right wing's points from ``mass_points`` at
+    ``p_right``, the left wing's (its mirrored half) at ``p_left``.
 
     Parameters
     ----------
     mass_points : casadi.Function
         ``mass_points(t, p) -> (r, v, a, m)`` of a planar model.
+    sides : bool
+        Two wings with their own joint laws.
 
     Returns
     -------
@@ -111,9 +116,16 @@ def sums_function(mass_points: ca.Function) -> ca.Function:
     t = ca.SX.sym("t")
     p = ca.SX.sym("p", mass_points.size1_in(1))
     r, v, a, m = mass_points(t, p)
+    inputs, names = [t, p], ["t", "p"]
+    if sides:
+        pl = ca.SX.sym("p_left", mass_points.size1_in(1))
+        rl, vl, al, ml = mass_points(t, pl)
+        h = r.shape[1] // 2
+        r, v, a = (ca.horzcat(z[:, :h], zl[:, h:]) for z, zl in ((r, rl), (v, vl), (a, al)))
+        m = ca.vertcat(m[:h], ml[h:])
+        inputs, names = [t, p, pl], ["t", "p_right", "p_left"]
     s = mass_sums_3d(m, r, v, a)
-    return ca.Function("wing_sums_3d", [t, p], [ca.vertcat(*[s[k] for k, _ in MASS3_BLOCK])], ["t", "p"],
-                       ["sums"])
+    return ca.Function("wing_sums_3d", inputs, [ca.vertcat(*[s[k] for k, _ in MASS3_BLOCK])], names, ["sums"])
 
 
 def unpack_mass3(block) -> dict:

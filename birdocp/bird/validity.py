@@ -39,9 +39,11 @@ if TYPE_CHECKING:
 # casadi, numpy and the model are imported inside the functions that compute: the verdict helpers for
 # tables (validity_text, validity_columns) stay light to import.
 
+from birdocp.bird.validity_report import VALIDITY_COLUMNS, validity_columns, validity_text  # noqa: F401
+
 __all__ = ["CycleValidity", "cycle_validity", "model_angles", "grid_validity", "periodic_validity",
            "element_angles_function", "effective_angles", "invalid", "validity_text", "VALIDITY_COLUMNS",
-           "validity_columns", "validity_margins", "LIMIT_NAMES"]
+           "validity_columns", "validity_margins", "LIMIT_NAMES", "SIDE_ELEMENTS", "sixdof_angles"]
 
 
 def effective_angles(n_data: int | None = None) -> "ca.Function":
@@ -180,32 +182,6 @@ class CycleValidity:
         return validity_text(self.to_dict())
 
 
-def validity_text(v: dict | None) -> str:
-    """One line for a ``validity`` dict (:meth:`CycleValidity.to_dict`): the verdict and the reasons,
-    or the key numbers when valid.
-
-    Parameters
-    ----------
-    v : dict or None
-        Validity dict.
-
-    Returns
-    -------
-    str
-    """
-    if not v:
-        return "not checked"
-    if not v.get("valid"):
-        return "NOT VALID: " + "; ".join(v.get("reasons") or ["(no reason given)"])
-    try:
-        return ("valid (effective angle of attack {:.1f}..{:.1f} deg, {:.1%} of span-time beyond stall, "
-                "min u {:.2f} m/s, theta {:.1f}..{:.1f} deg, airflow-body angle <= {:.1f} deg)").format(
-            v["alpha_eff_min_deg"], v["alpha_eff_max_deg"], v["stalled_fraction"], v["min_forward_speed_mps"],
-            v["pitch_min_deg"], v["pitch_max_deg"], v["max_airflow_body_angle_deg"])
-    except (KeyError, TypeError, ValueError):
-        return "valid"
-
-
 def _thresholds(cfg: Config) -> dict:
     v = cfg.validity
     return {"stall_angle_deg": v.stall_angle_deg, "max_stalled_fraction": v.max_stalled_fraction,
@@ -332,7 +308,11 @@ def _section_measures(cfg: Config, aq, fs, ds, nr) -> dict:
             **({"max_newton_residual": float(np.max(nr))} if cfg.aero.section != "linear" else {})}
 
 
-def _verdict(cfg: Config, t, X, ae_deg, ag_deg, ds, extra: dict | None = None) -> CycleValidity:
+def _verdict(cfg: Config, t, X, ae_deg, ag_deg, ds, extra: dict | None = None, airflow_deg=None,
+             sides: dict | None = None) -> CycleValidity:
+    """The measures and the verdict; ``X`` the (u, w, q, theta) columns; ``airflow_deg``: the angle of
+    the airflow to the body axis per time (default the planar ``|atan2(w, u)|``); ``sides``: element
+    index slices per wing, whose stalled shares are reported and whose largest is ``stalled_fraction``."""
     import numpy as np
 
     th = _thresholds(cfg)
@@ -340,8 +320,10 @@ def _verdict(cfg: Config, t, X, ae_deg, ag_deg, ds, extra: dict | None = None) -
     stalled = np.abs(ae_deg) > stall                       # 16 x n
     span = ds.sum(axis=0)                                   # n
     stalled_span = (stalled * ds).sum(axis=0) / span        # n: stalled share of the span at each time
+    per_side = {f"stalled_fraction_{k}": float(((stalled[j] * ds[j]).sum(axis=0) / ds[j].sum(axis=0)).mean())
+                for k, j in (sides or {}).items()}
     u, w, theta = X[:, 0], X[:, 1], X[:, 3]
-    airflow_deg = np.degrees(np.abs(np.arctan2(w, u)))
+    airflow_deg = np.degrees(np.abs(np.arctan2(w, u))) if airflow_deg is None else np.asarray(airflow_deg)
     # the two wings are mirror images: their angles agree to round-off (1e-14 deg), so every element
     # within 1e-9 deg of the largest is a tie and the first one (element index, then time) is reported,
     # the same whatever the last bits (rounding to 1e-9 instead flipped between the wings where a
@@ -354,7 +336,7 @@ def _verdict(cfg: Config, t, X, ae_deg, ag_deg, ds, extra: dict | None = None) -
         "alpha_eff_max_abs_element": int(i_max[0]),
         "alpha_eff_max_abs_time_s": float(t[i_max[1]]),
         "alpha_geometric_min_deg": float(ag_deg.min()), "alpha_geometric_max_deg": float(ag_deg.max()),
-        "stalled_fraction": float(stalled_span.mean()),
+        "stalled_fraction": max(per_side.values()) if per_side else float(stalled_span.mean()), **per_side,
         "stalled_span_fraction_max": float(stalled_span.max()),
         "stalled_time_fraction": float(np.mean(stalled.any(axis=0))),
         "min_forward_speed_mps": float(u.min()),
@@ -367,7 +349,8 @@ def _verdict(cfg: Config, t, X, ae_deg, ag_deg, ds, extra: dict | None = None) -
     }
     reasons = []
     if m["stalled_fraction"] > th["max_stalled_fraction"]:
-        reasons.append(f"stall: {m['stalled_fraction']:.1%} of the span-time area beyond the stall angle "
+        worst = f" of the {max(per_side, key=per_side.get)[17:]} wing" if per_side else ""
+        reasons.append(f"stall: {m['stalled_fraction']:.1%} of the span-time area{worst} beyond the stall angle "
                        f"{stall:g} deg (limit {th['max_stalled_fraction']:.0%}; effective angle of attack "
                        f"{m['alpha_eff_min_deg']:.1f}..{m['alpha_eff_max_deg']:.1f} deg)")
     if not m["min_forward_speed_mps"] >= th["min_forward_speed_mps"]:
@@ -437,12 +420,13 @@ def _grid_and_p(cfg: Config, n: int, p, ode=None):
     import numpy as np
 
     from birdocp.bird.model import get_model
-    from birdocp.engine.shooting import MultipleShooting, rk4_grid
+    from birdocp.engine.method import OrbitMethod
+    from birdocp.engine.shooting import rk4_grid
 
     m = get_model(cfg)
     ode = m.ode if ode is None else ode
     p = m.p0 if p is None else np.asarray(p, float).ravel()
-    return rk4_grid(ode, MultipleShooting(points=2, steps_per_period=n), ()), p
+    return rk4_grid(ode, OrbitMethod(points=2, steps_per_period=n), ()), p
 
 
 def grid_validity(cfg: Config, x, p=None, t0_s: float = 0.0, steps_per_period: int | None = None,
@@ -491,6 +475,8 @@ def grid_validity(cfg: Config, x, p=None, t0_s: float = 0.0, steps_per_period: i
     # the data at the step starts t0 + k h are the first columns of the stage blocks (no second
     # evaluation of the wing on the time grid)
     D = grid.blocks_numeric(float(t0_s), p)
+    if grid.ode.state_names[:2] == ("u_mps", "v_mps"):  # the six-degree-of-freedom ODE (9 or 8 states)
+        return _sixdof_verdict(cfg, grid, X, t, D, p)
     from birdocp.bird.model import Structure, get_model
 
     key = (n, Structure.of(cfg))
@@ -504,29 +490,73 @@ def grid_validity(cfg: Config, x, p=None, t0_s: float = 0.0, steps_per_period: i
 
 _ANGLE_MAPS = bounded_cache("bird.validity_angle_maps", 8)
 
-
-VALIDITY_COLUMNS = ("valid", "invalid_reasons", "stalled_fraction", "alpha_eff_max_abs_deg",
-                    "min_forward_speed_mps_in_cycle", "max_abs_pitch_deg", "max_airflow_body_angle_deg")
-"""Columns of a table row (sweeps, branches) taken from a ``validity`` dict by :func:`validity_columns`."""
+SIDE_ELEMENTS = {"left": slice(0, 8), "right": slice(8, 16)}
+"""The lifting-line elements of each wing (left 0..7, right 8..15: the code frame's e1 points right)."""
 
 
-def validity_columns(v: dict | None) -> dict:
-    """The flat table columns :data:`VALIDITY_COLUMNS` of a ``validity`` dict (``to_dict()``).
+@functools.lru_cache(maxsize=8)
+def sixdof_angles(nx: int, nd: int, n_times: int) -> "ca.Function":
+    """``(X nx x n, D nd x n, p6) -> (alpha_eff_rad 16 x n, alpha_geo_rad 16 x n, ds_m 16 x n)`` of the
+    six-degree-of-freedom model (:func:`birdocp.bird.sixdof.body_loads`: sideslip and roll and yaw
+    rates in every element's velocity, both wings apart) for ``nx`` = 9 or 8 (the heading dropped)
+    states and data vectors of ``nd`` values, mapped over ``n_times`` times (built once)."""
+    import casadi as ca
+
+    from birdocp.bird import aero
+    from birdocp.bird.sixdof import body_loads
+
+    x, d, p = ca.SX.sym("x", nx), ca.SX.sym("d", nd), ca.SX.sym("p", len(PARAM_NAMES))
+    _, _, e = body_loads(x, d, p)
+    ae, _ = aero.section_angle(e["V"] + e["vind"], *(unpack_blocks(d, ("c_hat", "up", "tau"))))
+    b = unpack_blocks(d, ("ds_m",))[0]
+    one = ca.Function("angles6", [x, d, p], [ae.T, e["alpha"].T, b])
+    X, D = ca.MX.sym("X", nx, n_times), ca.MX.sym("D", nd, n_times)
+    pm = ca.MX.sym("p", len(PARAM_NAMES))
+    return ca.Function("angles6_map", [X, D, pm], list(one.map(n_times)(X, D, pm)))
+
+
+register_cache("bird.validity_angles_6dof", sixdof_angles)
+
+
+def unpack_blocks(d, names):
+    """The data blocks ``names`` (:data:`birdocp.bird.model.DATA_BLOCKS`) of a data vector.
 
     Parameters
     ----------
-    v : dict or None
-        Validity dict.
+    d : casadi.SX, MX or DM
+        Data vector.
+    names : sequence of str
+        Block names.
 
     Returns
     -------
     dict
+        Block name to matrix.
     """
-    v = v or {}
-    amin, amax = v.get("alpha_eff_min_deg"), v.get("alpha_eff_max_deg")
-    return {"valid": v.get("valid"), "invalid_reasons": " | ".join(v.get("reasons") or []) or None,
-            "stalled_fraction": v.get("stalled_fraction"),
-            "alpha_eff_max_abs_deg": max(abs(amin), abs(amax)) if amin is not None and amax is not None else None,
-            "min_forward_speed_mps_in_cycle": v.get("min_forward_speed_mps"),
-            "max_abs_pitch_deg": v.get("max_abs_pitch_deg"),
-            "max_airflow_body_angle_deg": v.get("max_airflow_body_angle_deg")}
+    from birdocp.bird.model import unpack_data
+
+    b = unpack_data(d)
+    return [b[k] for k in names]
+
+
+def _sixdof_verdict(cfg: Config, grid, X, t, D, p6) -> CycleValidity:
+    """The validity measures of a six-degree-of-freedom cycle (states ``X`` n x 9 or 8 at the step
+    starts): the effective angles of both wings in the asymmetric flow, the stalled share of each wing
+    (the larger one is ``stalled_fraction``), the 3-D angle between the airflow and the body axis
+    ``atan2(sqrt(v^2 + w^2), u)`` (the modelled wake direction: sideslip included), the largest sideslip
+    ``|atan2(v, sqrt(u^2 + w^2))|`` and bank ``|phi|``."""
+    import casadi as ca
+    import numpy as np
+
+    from birdocp.bird.sixdof import LONGITUDINAL
+
+    n = X.shape[0]
+    f = sixdof_angles(int(grid.ode.nx), int(grid.ode.nd), n)
+    ae, ag, ds = (np.asarray(v) for v in f(ca.DM(X.T), grid.step_start_data(D), ca.DM(p6[:len(PARAM_NAMES)])))
+    u, v, w = X[:, 0], X[:, 1], X[:, 2]
+    extra = {"max_sideslip_deg": float(np.degrees(np.abs(np.arctan2(v, np.hypot(u, w)))).max()),
+             "max_abs_bank_deg": float(np.degrees(np.abs(X[:, 6])).max()),
+             "min_airspeed_mps": float(np.sqrt(u * u + v * v + w * w).min())}
+    airflow = np.degrees(np.arctan2(np.hypot(v, w), u))
+    return _verdict(cfg, t, X[:, list(LONGITUDINAL)], np.degrees(ae), np.degrees(ag), ds, extra, airflow_deg=airflow,
+                    sides=SIDE_ELEMENTS)

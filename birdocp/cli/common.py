@@ -326,22 +326,7 @@ def resolve_config(args: argparse.Namespace) -> C.Config:
             if exc.key in by_key:
                 raise ConfigError(exc.key, f"{config_message(exc)} (from {by_key[exc.key]})") from None
             raise
-    if getattr(args, "command", None):
-        _check_six_dof(args.command, cfg)
     return cfg
-
-
-SIX_DOF_COMMANDS = ("trim", "level", "control", "simulate", "sweep", "sensitivity", "export-c", "continue")
-"""Commands that solve the six-degree-of-freedom model (:mod:`birdocp.cli.six_dof`; control and simulate
-in their own modules); the others
-refuse model.degrees_of_freedom = 6."""
-
-
-def _check_six_dof(command: str, cfg) -> None:
-    """ConfigError naming ``model.degrees_of_freedom`` when ``command`` has no 6-DOF path."""
-    if cfg.model.degrees_of_freedom == 6 and command not in SIX_DOF_COMMANDS:
-        raise ConfigError("model.degrees_of_freedom", f"6 is solved by {', '.join(SIX_DOF_COMMANDS)} so far; "
-                                                      f"'{command}' needs 4 (--set model.degrees_of_freedom=4)")
 
 
 def finite_values(name: str, values: Sequence[float]) -> list[float]:

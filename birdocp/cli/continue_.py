@@ -154,7 +154,7 @@ def _finish(run, args, br, cfg, display: str, a: float, b: float, resumed: int, 
                "run_dir": str(run.dir)}
     if args.error_estimate:
         summary["error_estimate"] = _branch_error_summary(br)
-    # six degrees of freedom: the per-point split of the multipliers (birdocp.studies.lateral.add_lateral_split)
+    # six degrees of freedom: the per-point split of the multipliers (birdocp.studies.lateral_branch.add_lateral_split)
     summary.update({k: br.settings[k] for k in ("degrees_of_freedom", "longitudinal_multipliers",
                                                  "lateral_multipliers", "lateral_stable") if k in br.settings})
     run.write(cfg, summary)

@@ -8,6 +8,7 @@ import sys
 
 from birdocp.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, PROG, context_of, finite_values, noise_summary, print_json,
                                 resolve_config, solver_noise)
+from birdocp.io.errors import ConfigError
 
 
 def register(sub, common) -> None:
@@ -24,8 +25,10 @@ def register(sub, common) -> None:
                        description="Evaluate the model once: body-frame loads (x' forward, z' down, "
                                    "pitching moment nose-up positive) and the state derivative. Non-finite "
                                    "loads (the model is singular there) are a failure: exit 1.")
-    p.add_argument("--state", nargs=4, type=float, required=True, metavar=("U", "W", "Q", "THETA"),
-                   help="body-frame velocities u, w [m/s], pitch rate q [rad/s], pitch angle theta [rad]")
+    p.add_argument("--state", nargs="+", type=float, required=True, metavar="X",
+                   help="the state: u w q theta (body-frame velocities u, w [m/s], pitch rate q [rad/s], pitch "
+                        "angle theta [rad]); with model.degrees_of_freedom = 6 the nine u v w p q r phi theta psi "
+                        "(v [m/s] right, roll and yaw rates p, r [rad/s], bank phi and heading psi [rad])")
     p.add_argument("--time", type=float, required=True, metavar="T", help="time in the flapping cycle [s]")
     p.set_defaults(func=cmd_forces)
 
@@ -48,6 +51,12 @@ def cmd_forces(args: argparse.Namespace, command_line: list[str]) -> int:
     state = finite_values("--state", args.state)
     (t,) = finite_values("--time", [args.time])
     cfg = resolve_config(args)
+    six = cfg.model.degrees_of_freedom == 6
+    if len(state) != (9 if six else 4):
+        raise ConfigError("--state", f"takes {'9 values u v w p q r phi theta psi' if six else '4 values u w q theta'}"
+                                     f" (model.degrees_of_freedom = {6 if six else 4}), got {len(state)}")
+    if six:
+        return _six_dof(args, state, t, cfg)
 
     import numpy as np
 
@@ -94,6 +103,46 @@ def cmd_forces(args: argparse.Namespace, command_line: list[str]) -> int:
         ("  dq/dt", f"{xd[2]: .6g} rad/s^2"),
         ("  dtheta/dt", f"{xd[3]: .6g} rad/s"),
     ]
+    width = max(len(k) for k, _ in rows)
+    print("\n".join(f"{k:<{width}}  {v}".rstrip() for k, v in rows))
+    return EXIT_OK
+
+
+SIX_DOF_ROWS = (("  Fx", "Fx_N", "N"), ("  Fy", "Fy_N", "N"), ("  Fz", "Fz_N", "N"), ("  Mx (roll L)", "Mx_Nm", "N m"),
+                ("  My (pitch M)", "My_Nm", "N m"), ("  Mz (yaw N)", "Mz_Nm", "N m"))
+SIX_DOF_RATES = (("du/dt", "m/s^2"), ("dv/dt", "m/s^2"), ("dw/dt", "m/s^2"), ("dp/dt", "rad/s^2"), ("dq/dt", "rad/s^2"),
+                 ("dr/dt", "rad/s^2"), ("dphi/dt", "rad/s"), ("dtheta/dt", "rad/s"), ("dpsi/dt", "rad/s"))
+
+
+def _six_dof(args: argparse.Namespace, state: list[float], t: float, cfg) -> int:
+    """``forces`` with ``model.degrees_of_freedom = 6``: the six body-axis loads and the 9-state derivative
+    (:meth:`birdocp.bird.sixdof.SixDofModel.evaluate`); JSON keys Fx_N, Fy_N, Fz_N, Mx_Nm, My_Nm, Mz_Nm,
+    xdot (9), state_names, degrees_of_freedom, success, status."""
+    from birdocp.bird.config import param_vector
+    from birdocp.bird.sides import side_vector
+    from birdocp.bird.sixdof import STATE_NAMES, LateralInertia, sixdof_model
+
+    with solver_noise(None, getattr(args, "verbose", False)) as noise:
+        six = sixdof_model(cfg)
+        p6 = six.params(param_vector(cfg), LateralInertia.of(cfg), side_vector(cfg) if six.sides else None)
+        res = six.evaluate(state, t, p6)
+    res |= {"state_names": list(STATE_NAMES), "degrees_of_freedom": 6}
+    loads = [res[k] for _, k, _ in SIX_DOF_ROWS]
+    if not all(math.isfinite(v) for v in loads + res["xdot"]):
+        message = (f"non-finite loads or state derivative at the state ({', '.join(f'{v:g}' for v in state)}), "
+                   f"t = {t:g} s (overflow or a singular state of the model)")
+        if args.json:
+            print_json(dict(res, success=False, status="non_finite", message=message), context_of(args))
+        print(f"{PROG}: forces: {message}{noise_summary(noise)}", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    if args.json:
+        print_json(dict(res, success=True, status="ok"), context_of(args))
+        return EXIT_OK
+    rows = [("state", ", ".join(f"{n} = {v:g}" for n, v in zip(STATE_NAMES, state))), ("time", f"t = {t:g} s"),
+            ("", ""), ("body-axis loads", "(x' forward, y' right, z' down; about G: roll right wing down, pitch "
+                                          "nose up, yaw nose right positive)")]
+    rows += [(label, f"{res[k]: .6g} {unit}") for label, k, unit in SIX_DOF_ROWS]
+    rows += [("state derivative", "")] + [(f"  {n}", f"{v: .6g} {u}") for (n, u), v in zip(SIX_DOF_RATES, res["xdot"])]
     width = max(len(k) for k, _ in rows)
     print("\n".join(f"{k:<{width}}  {v}".rstrip() for k, v in rows))
     return EXIT_OK

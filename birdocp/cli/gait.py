@@ -66,7 +66,7 @@ def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
         Exit code: 0 success, 1 the computation failed or its output could not be written, 2 bad input.
     """
     from birdocp.bird.validity import validity_text
-    from birdocp.cli.optimize_stability import checked_free, invalid_failure, residuals, validity_lines
+    from birdocp.cli.optimize_stability import checked_free, invalid_failure, residuals, six_dof_lines, validity_lines
     from birdocp.studies.gait import DEFAULT_GAIT_FREE, optimize_gait
 
     cfg = cli.resolve_config(args)
@@ -105,6 +105,8 @@ def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
             print("  multipliers: " + ", ".join(f"{z.real:.5f}{z.imag:+.5f}j" for z in res.multipliers)
                   + f"  ({'STABLE' if res.largest_modulus < 1 else 'UNSTABLE'}"
                   + ("" if valid else "; the model is NOT VALID on this cycle") + ")")
+            for line in six_dof_lines(result):
+                print(line)
             print(f"  model validity of the optimal cycle: {validity_text(result.get('validity'))}")
             for line in validity_lines(result):
                 print(line)

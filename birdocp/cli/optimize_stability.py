@@ -87,6 +87,33 @@ def validity_lines(result: dict) -> list[str]:
     return lines
 
 
+def six_dof_lines(result: dict) -> list[str]:
+    """Table lines of a six-degree-of-freedom optimum: the longitudinal and lateral multipliers and
+    radii (none for a planar one).
+
+    Parameters
+    ----------
+    result : dict
+        JSON-able result of the optimisation.
+
+    Returns
+    -------
+    list of str
+    """
+    if result.get("degrees_of_freedom") != 6:
+        return []
+    pairs = lambda z: ", ".join(f"{a:.5f}{b:+.5f}j" for a, b in z)  # noqa: E731
+    check = result.get("verification") or {}
+    return [f"  six degrees of freedom (symmetric gait; the heading's multiplier 1 left out): longitudinal radius "
+            f"{cli.fmt_num(result.get('longitudinal_radius'), '.6f')}, lateral radius "
+            f"{cli.fmt_num(result.get('lateral_radius'), '.6f')}",
+            "    longitudinal: " + pairs(result.get("longitudinal_multipliers") or []),
+            "    lateral:      " + pairs(result.get("lateral_multipliers") or [])] + \
+        (["    lateral modes (6-DOF trim at the optimum): " + ", ".join(
+            f"{m['label']} {abs(complex(*m['multiplier'])):.5f}" for m in check["trim_lateral_modes"])]
+         if check.get("trim_lateral_modes") else [])
+
+
 def invalid_failure(res, result: dict, run_dir) -> str | None:
     """The failure line when ``--valid`` was asked for and the optimum's exact verdict is not valid.
 
@@ -246,6 +273,8 @@ def _print_table(res, result: dict, run_dir) -> None:
         at = " (at a bound)" if min(abs(v - lo), abs(v - hi)) < 1e-6 else ""
         print(f"  {k:40s} {v:+10.4f}   in [{lo:g}, {hi:g}]{at}")
     print("  multipliers: " + ", ".join(f"{z.real:.5f}{z.imag:+.5f}j" for z in res.multipliers))
+    for line in six_dof_lines(result):
+        print(line)
     v = res.verification
     if v:
         print(f"  check: trim at the optimum {'converged' if v.get('trim_success') else 'FAILED'}, "

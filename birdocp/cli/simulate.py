@@ -20,7 +20,8 @@ DESCRIPTION = """Integrate the full model from the cycle for K beats (state augm
 forward, Z down). Perturbations add to the cycle's state at t = 0; gusts are 1 - cos, frozen in space, starting one
 beat ahead; with --controller the feedback of a 'birdocp control' run is applied at each update, saturated at its
 joint limits. Writes the time histories (arrays.npz), result.json and simulation.png. With model.degrees_of_freedom =
-6 the 6-DOF bird is simulated (--side-gust, --perturb on any of the 9 states, a 6-DOF controller)."""
+6 the 6-DOF bird is simulated (--side-gust besides --gust and --wind, --perturb on any of the 9 states, a 6-DOF
+controller) and the stall of each wing is checked every beat."""
 """The text of ``birdocp simulate --help`` (argparse joins the lines)."""
 
 
@@ -159,16 +160,38 @@ def _run_simulation(args, sim_cfg, x0, steps, dx0, gusts, wind, ctl):
 
 def _parse_inputs(args: argparse.Namespace):
     """(perturbation, gusts, wind) of the planar ``simulate``'s options, checked (ConfigError, exit 2)."""
-    from birdocp.studies.simulate import DIRECTIONS, check_speed, parse_gust, parse_perturbation
+    from birdocp.studies.simulate import parse_perturbation
 
     if args.side_gust is not None:
         raise ConfigError("--side-gust", "a side gust needs model.degrees_of_freedom = 6 (--set "
                                          "model.degrees_of_freedom=6); the planar bird has --gust")
     dx0 = parse_perturbation(args.perturb)
+    return (dx0, *gusts_and_wind(args))
+
+
+def gusts_and_wind(args: argparse.Namespace, side_gust: bool = False):
+    """(gusts, wind) of ``--gust``, ``--gust-start`` and ``--wind``, checked (ConfigError, exit 2);
+    ``side_gust``: a ``--side-gust`` is given too (``--gust-start`` places it).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments.
+    side_gust : bool
+        A ``--side-gust`` is given too.
+
+    Returns
+    -------
+    gusts : list of Gust
+    wind : tuple of float
+        (horizontal, vertical) [m/s].
+    """
+    from birdocp.studies.simulate import DIRECTIONS, check_speed, parse_gust
+
     gusts = [parse_gust(g) for g in args.gust]
     if len({g.direction for g in gusts}) < len(gusts):
         raise ConfigError("--gust", "at most one vertical and one horizontal gust")
-    if args.gust_start is not None and not gusts:  # refused, not ignored
+    if args.gust_start is not None and not gusts and not side_gust:  # refused, not ignored
         raise ConfigError("--gust-start", "places a gust: add --gust DIR=MPS:BEATS (or drop --gust-start)")
     gust_start = _check_gust_start(args)
     gusts = [type(g)(g.direction, g.amplitude_mps, g.length_beats, g.length_m, gust_start) for g in gusts]
@@ -182,7 +205,7 @@ def _parse_inputs(args: argparse.Namespace):
         if d.strip() not in DIRECTIONS or not math.isfinite(val):
             raise ConfigError("--wind", f"expected vertical|horizontal=MPS with a finite value, got '{text}'")
         wind[0 if d.strip() == "horizontal" else 1] = check_speed("--wind", "the wind", val)
-    return dx0, gusts, wind
+    return gusts, wind
 
 
 def _check_gust_start(args: argparse.Namespace) -> float:
@@ -305,24 +328,19 @@ def report(args: argparse.Namespace, result: dict, sim, closed: bool, run_dir) -
 
 
 def _six_dof_inputs(args: argparse.Namespace):
-    """(perturbation (9), side gust or None), checked; --gust and --wind refused (planar options)."""
+    """(perturbation (9), side gust or None, gusts, wind), checked."""
     from birdocp.studies.lateral_simulate import parse_lateral_perturbation, parse_side_gust
 
-    for flag, given in (("--gust", args.gust), ("--wind", args.wind)):
-        if given:
-            raise ConfigError(flag, "with model.degrees_of_freedom = 6 the wind is a side gust: use --side-gust "
-                                    "pulse|step=MPS[:BEATS]")
-    if args.gust_start is not None and args.side_gust is None:
-        raise ConfigError("--gust-start", "places a gust: add --side-gust SHAPE=MPS[:BEATS] (or drop --gust-start)")
+    gusts, wind = gusts_and_wind(args, side_gust=args.side_gust is not None)
     dx0 = parse_lateral_perturbation(args.perturb)
     gust = parse_side_gust(args.side_gust, _check_gust_start(args)) if args.side_gust is not None else None
-    return dx0, gust
+    return dx0, gust, gusts, wind
 
 
 def _cmd_lateral_simulate(args: argparse.Namespace, command_line: list[str], cfg, t0: float) -> int:
     """``birdocp simulate`` with a 6-DOF configuration: one run folder (result.json, arrays.npz,
     simulation.png); the exit code."""
-    dx0, gust = _six_dof_inputs(args)
+    dx0, gust, gusts, wind = _six_dof_inputs(args)
     ctl, sim_cfg, ctl_result = _check_beats_and_controller(args, cfg)
     with cli.run_folder(args, "simulate", command_line) as run:
         head = {"controller": str(args.controller) if args.controller else None, "run_dir": str(run.dir)}
@@ -344,7 +362,7 @@ def _cmd_lateral_simulate(args: argparse.Namespace, command_line: list[str], cfg
                     return run.fail("the cycle did not converge", c.status, c.max_residual, c.message)
                 x0, steps, p = c.x0, int(c.method["steps_per_period"]), sides_parameters(c.p)
             sim = simulate_lateral(sim_cfg, x0, p, args.beats, steps_per_period=steps, perturbation=dx0,
-                                   side_gust=gust, controller=ctl)
+                                   side_gust=gust, gusts=gusts, wind_mps=wind, controller=ctl)
         result = {**sim.to_dict(), **head, "cycle_x0": [float(v) for v in x0],
                   "wall_s": {"total": time.perf_counter() - t0}}
         arrays = sim.arrays()

@@ -39,14 +39,16 @@ def _format_lateral_table(r: dict) -> str:
              + ("" if r.get("symmetric", True) else
                 f"\n  asymmetric gait: periodic up to its heading, which changes by "
                 f"{fmt_num(r.get('heading_change_deg'), '.6g')} deg per beat (a turn); the 8 multipliers without "
-                "psi and the heading's 1 above, no longitudinal/lateral split"),
+                "psi and the heading's 1 above; no block split: the modes are lateral when at least half of "
+                "their scaled eigenvector lies in (v, p, r, phi) (lateral_share)"),
              "  lateral modes (beats: wingbeats to double, negative: to halve)",
              f"    {'label':<17} {'re':>12} {'im':>12} {'modulus':>10} {'beats':>10}  dominant"]
     for m in r.get("lateral_modes") or []:
         re_, im = m["multiplier"] if isinstance(m["multiplier"], (list, tuple)) else (m["multiplier"], 0.0)
         mod = (re_ ** 2 + im ** 2) ** 0.5
         lines.append(f"    {m['label']:<17} {fmt_num(re_):>12} {fmt_num(im):>12} {fmt_num(mod, '.6f'):>10} "
-                     f"{fmt_num(m.get('beats_to_double'), '.4g'):>10}  {m.get('dominant_state')}")
+                     f"{fmt_num(m.get('beats_to_double'), '.4g'):>10}  {m.get('dominant_state')}"
+                     + (f"  lateral share {m['lateral_share']:.3f}" if "lateral_share" in m else ""))
     return "\n".join(lines)
 
 

@@ -1,8 +1,10 @@
 """The engine: periodic orbits of any ODE, their Floquet multipliers, branches and equilibria.
 
 It knows nothing of birds (casadi, numpy and the standard library only). The names below are
-importable from here (``from birdocp.engine import PeriodicODE, solve``), loaded on first use
-(PEP 562), so importing the package costs nothing.
+importable from here (``from birdocp.engine import OrbitProblem, solve``), loaded on first use
+(PEP 562), so importing the package costs nothing. One problem type (:class:`OrbitProblem`, of a
+:class:`PeriodicODE` or an :class:`ODE`), one method type (:class:`OrbitMethod`), one front
+(:func:`solve`), one result type (:class:`OrbitResult`).
 
 Examples
 --------
@@ -10,11 +12,11 @@ A forced linear oscillator ``x'' + c x' + x = cos(t)``: its periodic orbit is kn
 and its multipliers are ``exp(eig(A) T)``.
 
 >>> import casadi as ca, numpy as np
->>> from birdocp.engine import LimitCycleProblem, MultipleShooting, PeriodicODE, solve
+>>> from birdocp.engine import OrbitMethod, OrbitProblem, PeriodicODE, solve
 >>> x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 1)
 >>> f = ca.Function("f", [x, t, p], [ca.vertcat(x[1], -p[0] * x[1] - x[0] + ca.cos(t))])
->>> res = solve(LimitCycleProblem(PeriodicODE.from_rhs(f, 2 * np.pi), p=[0.5], x_guess=[0, 0]),
-...             MultipleShooting(points=3, steps_per_period=60))
+>>> res = solve(OrbitProblem(PeriodicODE.from_rhs(f, 2 * np.pi), p=[0.5], x_guess=[0, 0]),
+...             OrbitMethod(points=3, steps_per_period=60))
 >>> bool(res.success), bool(res.stable)
 (True, True)
 >>> bool(np.allclose(res.x0, [0.0, 2.0], atol=1e-4))   # x = 2 sin t when c = 0.5
@@ -26,13 +28,10 @@ True
 # like one of the engine's modules cannot be a face name (the module attribute that the import system
 # sets would shadow it): shooting.floquet and continuation.continuation stay in their modules.
 API = {
-    "problems": {"PeriodicODE": "birdocp.engine.problem", "LimitCycleProblem": "birdocp.engine.problem",
-                 "MeanCondition": "birdocp.engine.problem", "ODE": "birdocp.engine.ode"},
-    "forced orbits": {"MultipleShooting": "birdocp.engine.shooting_types", "solve": "birdocp.engine.shooting",
-                      "LimitCycleResult": "birdocp.engine.shooting_types", "FloquetResult": "birdocp.engine.floquet"},
-    "orbits of any ODE": {"OrbitProblem": "birdocp.engine.orbit_types", "OrbitMethod": "birdocp.engine.orbit_types",
-                          "PeriodicOrbit": "birdocp.engine.orbit_types", "solve_orbit": "birdocp.engine.orbits",
-                          "OrbitResult": "birdocp.engine.orbit_result"},
+    "problems": {"OrbitProblem": "birdocp.engine.problem", "PeriodicODE": "birdocp.engine.problem",
+                 "ODE": "birdocp.engine.ode", "MeanCondition": "birdocp.engine.problem"},
+    "orbits": {"solve": "birdocp.engine.orbit_front", "OrbitMethod": "birdocp.engine.method",
+               "OrbitResult": "birdocp.engine.orbit_result", "FloquetResult": "birdocp.engine.floquet"},
     "solvers": {"levenberg_marquardt": "birdocp.engine.lm", "run_ipopt": "birdocp.engine.nlp"},
     "continuation": {"ContinuationOptions": "birdocp.engine.continuation.options",
                      "Branch": "birdocp.engine.continuation.branch",

@@ -28,7 +28,10 @@ import numpy as np
 from birdocp.engine.continuation.step import ContinuationStep, RunOnce
 from birdocp.engine.ode import ODE
 from birdocp.engine.equilibria_linear import critical_pair, ode_jacobians, sorted_eig  # noqa: F401
-from birdocp.engine.orbits import OrbitMethod, OrbitProblem, PeriodicOrbit, solve_orbit_system
+from birdocp.engine.method import OrbitMethod
+from birdocp.engine.orbit_result import OrbitResult
+from birdocp.engine.orbits import solve_orbit_system
+from birdocp.engine.problem import OrbitProblem
 from birdocp.engine.problem import finite_vector
 from birdocp.engine.results import result_dict, serial
 
@@ -476,7 +479,7 @@ class EquilibriumBranchIterator(RunOnce):
 
 
 def orbit_from_hopf(ode: ODE, hopf: HopfPoint, amplitude: float, method: OrbitMethod = OrbitMethod(points=5, steps_per_period=100),
-                    warm_start: PeriodicOrbit | None = None) -> PeriodicOrbit:
+                    warm_start: OrbitResult | None = None) -> OrbitResult:
     """The periodic orbit of amplitude ``amplitude`` (along Re v) born at ``hopf``; the continued
     parameter is an unknown (``result.p[hopf.param]``, also in ``result.free_values``). A method
     without steps_per_period gets 128 (rounded to the segments); the result's error estimate says
@@ -492,12 +495,12 @@ def orbit_from_hopf(ode: ODE, hopf: HopfPoint, amplitude: float, method: OrbitMe
         The orbit's amplitude along Re v (small: the orbit near the Hopf point).
     method : OrbitMethod
         Shooting points, steps, integrator and solver.
-    warm_start : PeriodicOrbit, optional
+    warm_start : OrbitResult, optional
         A previous orbit that starts the solve.
 
     Returns
     -------
-    PeriodicOrbit
+    OrbitResult
         The orbit, the parameter solved (its sign tells super- from subcritical).
     """
     if not ode.autonomous:

@@ -165,14 +165,14 @@ def _eig_condition(monodromy) -> float:
 
 
 def attach_error(res, fine, order: int, accuracy: float, e_solver: float) -> None:
-    """Fill ``res.error_estimate`` and ``res.accurate`` from the 2N re-solve ``fine`` (a PeriodicOrbit)
+    """Fill ``res.error_estimate`` and ``res.accurate`` from the 2N re-solve ``fine`` (an OrbitResult)
     and the solver error ``e_solver`` (see the module docstring).
 
     Parameters
     ----------
-    res : result
+    res : OrbitResult
         Result, changed in place.
-    fine : result
+    fine : OrbitResult
         The re-solve on 2N steps.
     order : int
         Order of the integrator.

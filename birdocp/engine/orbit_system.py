@@ -8,7 +8,7 @@ import numpy as np
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.ode import ODE
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
-from birdocp.engine.orbit_types import OrbitMethod
+from birdocp.engine.method import OrbitMethod
 from birdocp.engine.steppers import make_step
 
 __all__ = ["OrbitGraphs", "OrbitSystem", "orbit_graphs", "orbit_system", "orbit_residual_system", "initial_points",

@@ -1,4 +1,5 @@
-"""Periodic orbits of any ODE by multiple shooting: autonomous (unknown period) or forced.
+"""The ODE formulation of :func:`birdocp.engine.orbit_front.solve`: periodic orbits of any
+:class:`~birdocp.engine.ode.ODE` by multiple shooting, autonomous (unknown period) or forced.
 
 Formulation
 -----------
@@ -67,45 +68,37 @@ from birdocp.engine.orbit_checks import attach_error, cover_multiple, failure_re
 from birdocp.engine.orbit_system import (OrbitGraphs, OrbitSystem, first_return_period, forward_points,
                                          initial_points, orbit_graphs, orbit_residual_system, orbit_system,
                                          trajectory)
-from birdocp.engine.orbit_types import OrbitMethod, OrbitProblem, PeriodicOrbit
+from birdocp.engine.method import OrbitMethod
+from birdocp.engine.orbit_result import OrbitResult
+from birdocp.engine.problem import OrbitProblem
 from birdocp.engine.steppers import METHOD_ORDER
 
-__all__ = ["OrbitMethod", "OrbitProblem", "PeriodicOrbit", "solve_orbit", "solve_orbit_system",
-           "orbit_residual_system"]
+__all__ = ["solve_ode", "solve_orbit_system", "orbit_residual_system"]
 
 
-def solve_orbit(problem: OrbitProblem, method: OrbitMethod = OrbitMethod(),
-                warm_start: "PeriodicOrbit | None" = None) -> PeriodicOrbit:
-    """Find the periodic orbit of ``problem`` (period too when autonomous) and its multipliers.
+def solve_ode(problem: OrbitProblem, method: OrbitMethod, warm_start: OrbitResult | None = None) -> OrbitResult:
+    """The ODE formulation of :func:`birdocp.engine.orbit_front.solve` (use that front).
 
     Parameters
     ----------
     problem : OrbitProblem
-        The ODE, its parameters, a guess point (or shooting points) and a period guess.
+        A problem of an :class:`~birdocp.engine.ode.ODE`: parameters, a guess point (or shooting
+        points) and a period guess.
     method : OrbitMethod
-        Grid, integrator, solver, tolerances. With ``steps_per_period=None`` the steps are doubled
-        from ``min_steps`` until the error estimate is below ``accuracy`` (a failed solve is retried
-        on at most ``max_refinements_after_failure`` finer grids).
-    warm_start : PeriodicOrbit, optional
+        Grid, integrator, solver, tolerances (``None`` settings resolved for an ODE). With
+        ``steps_per_period=None`` the steps are doubled from ``min_steps`` until the error estimate
+        is below ``accuracy`` (a failed solve is retried on at most
+        ``max_refinements_after_failure`` finer grids).
+    warm_start : OrbitResult, optional
         A previous orbit (its period and shooting points are the start).
 
     Returns
     -------
-    PeriodicOrbit
-        ``success`` means the residual is below ``method.tol``, the orbit is not an equilibrium and
-        its period is minimal (or was reduced to it).
-
-    Examples
-    --------
-    >>> import casadi as ca
-    >>> from birdocp.engine.ode import ODE
-    >>> ode = ODE.from_function(lambda x, t, p: ca.vertcat(x[0] - x[1] - x[0] * (x[0]**2 + x[1]**2),
-    ...                                                    x[0] + x[1] - x[1] * (x[0]**2 + x[1]**2)), 2)
-    >>> orbit = solve_orbit(OrbitProblem(ode, [], [1.0, 0.0], period_guess=8.0))
-    >>> orbit.status, round(orbit.period, 5), orbit.covers
-    ('converged', 6.28319, 1)
+    OrbitResult
+        ``formulation="ode"``; ``success`` means the residual is below ``method.tol``, the orbit is
+        not an equilibrium and its period is minimal (or was reduced to it).
     """
-    method.validate()
+    method = method.resolved(False)
     deadline = None if method.time_limit_s is None else time.perf_counter() + method.time_limit_s
     if method.steps_per_period is None:
         return _solve_refining(problem, method, warm_start, deadline)
@@ -166,14 +159,14 @@ def _next_steps(N: int, S: int, res, method) -> int:
 
 
 def solve_orbit_system(problem: OrbitProblem, method: OrbitMethod, warm_start=None, *, free_idx=(), lin=None,
-                       z_start=None, x_ref=None, estimate=True, deadline=None) -> PeriodicOrbit:
-    """:func:`solve_orbit` at a fixed number of steps, with extra unknowns and rows (Hopf starts,
+                       z_start=None, x_ref=None, estimate=True, deadline=None) -> OrbitResult:
+    """:func:`solve_ode` at a fixed number of steps, with extra unknowns and rows (Hopf starts,
     continuation).
 
     Parameters
     ----------
     problem, method, warm_start
-        As :func:`solve_orbit` (``method.steps_per_period`` a number).
+        As :func:`solve_ode` (``method.steps_per_period`` a number).
     free_idx : tuple of int
         Parameters that become unknowns (after T).
     lin : (A, b), optional
@@ -190,11 +183,12 @@ def solve_orbit_system(problem: OrbitProblem, method: OrbitMethod, warm_start=No
 
     Returns
     -------
-    PeriodicOrbit
+    OrbitResult
     """
     t_all = time.perf_counter()
+    method = method.resolved(False)
     setup = _setup(problem, method, warm_start, tuple(free_idx), lin, x_ref)
-    if isinstance(setup, PeriodicOrbit):
+    if isinstance(setup, OrbitResult):
         return setup
     G, ev, p, T, x_ref, moving = setup
     build_s = time.perf_counter() - t_all
@@ -223,7 +217,7 @@ def solve_orbit_system(problem: OrbitProblem, method: OrbitMethod, warm_start=No
 
 
 def _setup(problem, method, warm_start, free_idx, lin, x_ref):
-    """Graphs, system and linear rows of a solve; a failed PeriodicOrbit if the phase point is bad."""
+    """Graphs, system and linear rows of a solve; a failed OrbitResult if the phase point is bad."""
     ode = problem.ode
     nx, S, N = ode.nx, method.points - 1, int(method.steps_per_period)
     auto = ode.autonomous
@@ -296,30 +290,44 @@ def _search_period(G, problem, p, T, X0):
 
 
 def _run_solver(ev, z0, method, lo, hi, moving, deadline):
-    """(z, solver status, message, iterations, history): IPOPT (then an LM polish, or LM from the start
-    when IPOPT fails) or LM."""
+    """(z, solver status, message, iterations, history) of the method's solver (:data:`SOLVERS`)."""
+    return SOLVERS[method.solver](ev, z0, method, lo, hi, moving, deadline)
+
+
+def _run_ipopt_then_lm(ev, z0, method, lo, hi, moving, deadline):
+    """IPOPT, then an LM polish (or LM from the start when IPOPT fails)."""
     prepare = ev.anchor_phase if moving else None
-    pre, iters0, hist0 = "", 0, []
-    if method.solver == "ipopt":
-        z, sstat, iters, hist = _run_ipopt(ev, z0, method, lo, hi)
-        g = ev.g(z) if np.all(np.isfinite(z)) else np.full(ev.ng, np.nan)
-        r = float(np.max(np.abs(g))) if np.all(np.isfinite(g)) else float("nan")
-        if np.isfinite(r) and method.tol < r < 1e-3:
-            # polish: IPOPT stops on scaled criteria; a few exact Newton steps reach the tolerance
-            out = levenberg_marquardt(ev, z, tol=method.tol, max_iter=5, lo=lo, hi=hi, prepare=prepare,
-                                      deadline=deadline)
-            z, iters, hist, r = out.z, iters + out.iterations, hist + out.history[1:], out.history[-1]
-        if np.isfinite(r) and r <= method.tol:
-            return z, sstat, f"IPOPT: {sstat}", iters, hist
-        pre, iters0, hist0 = f"IPOPT: {sstat} (max|g| {r:.1e}); retried with LM: ", iters, hist
-        if moving:
-            ev.anchor_phase(z0)
+    z, sstat, iters, hist = _run_ipopt(ev, z0, method, lo, hi)
+    g = ev.g(z) if np.all(np.isfinite(z)) else np.full(ev.ng, np.nan)
+    r = float(np.max(np.abs(g))) if np.all(np.isfinite(g)) else float("nan")
+    if np.isfinite(r) and method.tol < r < 1e-3:
+        # polish: IPOPT stops on scaled criteria; a few exact Newton steps reach the tolerance
+        out = levenberg_marquardt(ev, z, tol=method.tol, max_iter=5, lo=lo, hi=hi, prepare=prepare,
+                                  deadline=deadline)
+        z, iters, hist, r = out.z, iters + out.iterations, hist + out.history[1:], out.history[-1]
+    if np.isfinite(r) and r <= method.tol:
+        return z, sstat, f"IPOPT: {sstat}", iters, hist
+    if moving:
+        ev.anchor_phase(z0)
+    z, status, message, its, hist_lm = _run_lm(ev, z0, method, lo, hi, moving, deadline)
+    return (z, status, f"IPOPT: {sstat} (max|g| {r:.1e}); retried with LM: " + message, iters + its,
+            hist + hist_lm)
+
+
+def _run_lm(ev, z0, method, lo, hi, moving, deadline):
+    """The engine's Levenberg-Marquardt (steps that do not lower the residual rejected), then a
+    Newton polish."""
+    prepare = ev.anchor_phase if moving else None
     out = levenberg_marquardt(ev, z0, tol=method.tol, max_iter=method.max_iter, lo=lo, hi=hi, prepare=prepare,
                               deadline=deadline, residual=ev.residual)
     z, hist = out.z, list(out.history)
     if out.status == "converged":
         z, hist = _polish(ev, z, hist, prepare)
-    return z, out.status, pre + out.message, iters0 + out.iterations, hist0 + hist
+    return z, out.status, out.message, out.iterations, hist
+
+
+SOLVERS = {"ipopt": _run_ipopt_then_lm, "lm": _run_lm}
+"""The solver table of the ODE formulation: name -> run(system, z0, method, lo, hi, moving, deadline)."""
 
 
 def _polish(ev, z, hist, prepare, steps: int = 3):
@@ -410,13 +418,15 @@ def _estimate_error(res, problem, method, ev, z, lo, hi, free_idx):
 def _failed(problem, method, status, message, x_ref, p, T):
     nx = problem.ode.nx
     nan = np.full(nx, np.nan)
-    return PeriodicOrbit(False, status, message, status, 0, np.zeros(0), float("nan"), float(T), nan, p,
-                         np.full((method.points, nx), np.nan), np.zeros(0), np.zeros((0, nx)), float("nan"),
-                         float("nan"), problem.ode.autonomous, phase_point=np.asarray(x_ref, float))
+    return OrbitResult(success=False, status=status, message=message, solver_status=status, iterations=0,
+                       residual_history=np.zeros(0), max_residual=float("nan"), period=float(T), x0=nan, p=p,
+                       shooting_points=np.full((method.points, nx), np.nan), trajectory_t=np.zeros(0),
+                       trajectory_x=np.zeros((0, nx)), autonomous=problem.ode.autonomous, error_estimate={},
+                       phase_point=np.asarray(x_ref, float), formulation="ode")
 
 
-def _assemble(problem, method, ev: OrbitSystem, G: OrbitGraphs, z, sstat, message, iters, hist, x_ref) -> PeriodicOrbit:
-    """The PeriodicOrbit at the solver's last iterate z: status from the residual, trajectory, multipliers."""
+def _assemble(problem, method, ev: OrbitSystem, G: OrbitGraphs, z, sstat, message, iters, hist, x_ref) -> OrbitResult:
+    """The OrbitResult at the solver's last iterate z: status from the residual, trajectory, multipliers."""
     ode = problem.ode
     nx = ode.nx
     z = np.asarray(z, float).ravel()
@@ -446,11 +456,14 @@ def _assemble(problem, method, ev: OrbitSystem, G: OrbitGraphs, z, sstat, messag
         status, success = "bad_period", False
     else:
         status, success = "converged", True
-    res = PeriodicOrbit(success, status, message, str(sstat), int(iters), np.asarray(hist, float), r, T,
-                        X[:, 0].copy(), p, X.T.copy(), tt, traj, amp, arc, ode.autonomous,
-                        method={"points": method.points, "steps_per_period": G.N, "integrator": method.integrator,
-                                "solver": method.solver, "tol": method.tol, "accuracy": method.accuracy},
-                        phase_point=np.asarray(x_ref, float).copy())
+    res = OrbitResult(success=success, status=status, message=message, solver_status=str(sstat),
+                      iterations=int(iters), residual_history=np.asarray(hist, float), max_residual=r, period=T,
+                      x0=X[:, 0].copy(), p=p, shooting_points=X.T.copy(), trajectory_t=tt, trajectory_x=traj,
+                      amplitude=amp, arc_length=arc, autonomous=ode.autonomous, error_estimate={}, formulation="ode",
+                      shooting_times=problem.t0 + T * np.arange(G.S + 1) / G.S,
+                      method={"points": method.points, "steps_per_period": G.N, "integrator": method.integrator,
+                              "solver": method.solver, "tol": method.tol, "accuracy": method.accuracy},
+                      phase_point=np.asarray(x_ref, float).copy())
     if finite and np.all(np.isfinite(g)):
         try:
             Mo = monodromy_of(ev.blocks(z))

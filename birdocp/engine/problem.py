@@ -6,9 +6,10 @@ data vector ``d(t, p)``.  Splitting the time-only part ``d`` from the state righ
 expensive time-only computation be evaluated once per RK4 stage time instead of inside every RHS
 call (and, when no parameter is a decision variable, once per solve as plain numbers).
 
-A :class:`LimitCycleProblem` says *what* is wanted (a periodic orbit of the ODE, optionally with
-some parameters free and as many period-mean conditions); the *how* lives in
-:class:`birdocp.engine.shooting.MultipleShooting`.
+An :class:`OrbitProblem` says *what* is wanted (a periodic orbit of an ODE -- a :class:`PeriodicODE`
+or any :class:`~birdocp.engine.ode.ODE`, forced or autonomous -- optionally with some parameters
+free and as many period-mean conditions); the *how* lives in
+:class:`birdocp.engine.method.OrbitMethod`, the front is :func:`birdocp.engine.orbit_front.solve`.
 """
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-__all__ = ["RhsDimensions", "PeriodicODE", "MeanCondition", "LimitCycleProblem", "finite_vector"]
+__all__ = ["RhsDimensions", "PeriodicODE", "MeanCondition", "OrbitProblem", "finite_vector"]
 
 
 def finite_vector(value, name: str, size: int | None = None, what: str = "") -> np.ndarray:
@@ -141,6 +142,16 @@ class PeriodicODE(RhsDimensions):
         return self.numeric(f, f"{self.graph_key}:{what}" if self.graph_key else "")
 
     @property
+    def autonomous(self) -> bool:
+        """``False``: a PeriodicODE is forced (its period is the forcing's)."""
+        return False
+
+    @property
+    def forcing_period(self) -> float:
+        """The period of the forcing, ``period_s`` (the name :class:`~birdocp.engine.ode.ODE` uses)."""
+        return self.period_s
+
+    @property
     def nd(self) -> int:
         """Size of the per-time data vector."""
         return self.rhs.size1_in(1)
@@ -188,87 +199,156 @@ class MeanCondition:
 
 
 @dataclass(eq=False)
-class LimitCycleProblem:
-    """Find x0 (and the free parameters) such that the flow over one period returns to x0.
+class OrbitProblem:
+    """A periodic orbit of ``ode`` at parameters ``p``: the one problem type of the engine.
+
+    The ODE decides the formulation (:func:`birdocp.engine.orbit_front.solve`):
+
+    * a :class:`PeriodicODE` (forced, data-split ``x' = f(x, d(t, p), p)``): the period is the
+      forcing's, free parameters each held by a period-mean condition, extra period-mean outputs;
+    * an :class:`~birdocp.engine.ode.ODE`, autonomous (the period is an unknown, a phase condition
+      fixes the time origin) or forced (the period is ``period_guess``, by default the forcing's; a
+      multiple for subharmonic orbits). Free parameters and mean conditions need a PeriodicODE
+      (:meth:`birdocp.engine.ode.ODE.to_periodic_ode`).
 
     Attributes
     ----------
     ode
-        the time-periodic ODE (:class:`PeriodicODE`).
+        The system: :class:`PeriodicODE` or :class:`~birdocp.engine.ode.ODE`.
     p
-        full parameter vector (initial values for the free ones).
+        Full parameter vector (np,) (initial values of the free ones).
     x_guess
-        initial guess of the state at ``t0``.
-    free
-        free parameters, by index or name -> (lower, upper) bounds.
-    means
-        period-mean conditions, one per free parameter (the shooting system is square: with fewer
-        conditions the free values would be whatever the solver stops at, with more there is
-        generically no solution; both are refused).
-    outputs
-        extra scalar outputs ``(x, d, p) -> scalar`` whose period means are reported in
-        ``result.means`` (no condition imposed).
+        A point near the orbit at ``t0`` (nx,), or (an ``ODE``) guesses of the shooting points
+        (M or M-1, nx).
+    period_guess
+        ``ODE``: the period guess (autonomous: an unknown; forced: the period itself, default
+        ``ode.forcing_period``). ``PeriodicODE``: the forcing period ``period_s`` (set from it).
     t0
-        phase of the initial time; shooting points are at ``t0 + k T/(M-1)``.
+        The start time of the period (forced systems: it fixes the phase).
+    free
+        Free parameters, by index or name -> (lower, upper) bounds (``PeriodicODE``).
+    means
+        Period-mean conditions (:class:`MeanCondition`), one per free parameter (the shooting system
+        is square: with fewer the free values would be whatever the solver stops at, with more there
+        is generically no solution; both are refused).
+    outputs
+        Extra scalar outputs ``(x, d, p) -> scalar`` whose period means are reported in
+        ``result.means`` (no condition imposed; ``PeriodicODE``).
+    phase_point
+        ``ODE``, autonomous: the point a *fixed* Poincare section passes through (orthogonal to f
+        there) for the whole solve; None: the section moves with the iterate (``OrbitMethod.phase``).
     """
 
-    ode: PeriodicODE
+    ode: object
     p: np.ndarray
     x_guess: np.ndarray
+    period_guess: float | None = None
+    t0: float = 0.0
     free: dict = field(default_factory=dict)
     means: list = field(default_factory=list)
-    t0: float = 0.0
     outputs: dict = field(default_factory=dict)
+    phase_point: np.ndarray | None = None
 
     def __post_init__(self):
-        self.p = finite_vector(self.p, "LimitCycleProblem.p", self.ode.np, f"the ODE has np={self.ode.np}")
-        self.x_guess = finite_vector(self.x_guess, "LimitCycleProblem.x_guess", self.ode.nx,
-                                     f"the ODE has nx={self.ode.nx}")
-        self.t0 = float(finite_vector(self.t0, "LimitCycleProblem.t0", 1)[0])
+        ode = self.ode
+        if not isinstance(ode, PeriodicODE) and not hasattr(ode, "autonomous"):
+            raise ValueError(f"OrbitProblem.ode: expected a PeriodicODE or an ODE, got {type(ode).__name__}")
+        self.p = finite_vector(self.p, "OrbitProblem.p", ode.np, f"the ODE has np={ode.np}")
+        self.t0 = float(finite_vector(self.t0, "OrbitProblem.t0", 1)[0])
+        if self.phase_point is not None:
+            self.phase_point = finite_vector(self.phase_point, "OrbitProblem.phase_point", ode.nx,
+                                             f"the ODE has nx={ode.nx}")
+        if self.data_split:
+            self._check_forced()
+        else:
+            self._check_ode()
+
+    @property
+    def data_split(self) -> bool:
+        """Whether the ODE is a :class:`PeriodicODE` (the forced, data-split formulation)."""
+        return isinstance(self.ode, PeriodicODE)
+
+    @property
+    def autonomous(self) -> bool:
+        """Whether the period is an unknown (the ODE does not depend on time)."""
+        return bool(self.ode.autonomous)
+
+    def _check_forced(self) -> None:
+        """A PeriodicODE problem: the guess point, the free parameters, one mean condition each."""
+        ode = self.ode
+        self.x_guess = finite_vector(self.x_guess, "OrbitProblem.x_guess", ode.nx, f"the ODE has nx={ode.nx}")
+        if self.period_guess is not None and float(self.period_guess) != ode.period_s:
+            raise ValueError(f"OrbitProblem.period_guess: a PeriodicODE's period is its period_s={ode.period_s}; "
+                             f"leave period_guess out (got {self.period_guess!r})")
+        self.period_guess = float(ode.period_s)
         for m in self.means:
             if not isinstance(m, MeanCondition):
-                raise ValueError("LimitCycleProblem.means: items must be MeanCondition")
+                raise ValueError("OrbitProblem.means: items must be MeanCondition")
         for k, g in self.outputs.items():
-            _check_function(g, f"LimitCycleProblem.outputs[{k!r}]", 3)
+            _check_function(g, f"OrbitProblem.outputs[{k!r}]", 3)
             if g.numel_out(0) != 1:
-                raise ValueError(f"LimitCycleProblem.outputs[{k!r}] must return a scalar")
+                raise ValueError(f"OrbitProblem.outputs[{k!r}] must return a scalar")
         self.free_indices()  # validates
         for key, b in self.free.items():
             try:
                 lo, hi = (float(v) for v in b)
             except (TypeError, ValueError):
-                raise ValueError(f"LimitCycleProblem.free[{key!r}]: expected (lower, upper) bounds, got {b!r}") from None
+                raise ValueError(f"OrbitProblem.free[{key!r}]: expected (lower, upper) bounds, got {b!r}") from None
             if not lo <= hi:  # also False for NaN
-                raise ValueError(f"LimitCycleProblem.free[{key!r}]: lower bound {lo} above upper bound {hi} (or NaN)")
+                raise ValueError(f"OrbitProblem.free[{key!r}]: lower bound {lo} above upper bound {hi} (or NaN)")
         if len(self.means) != len(self.free):
-            raise ValueError(f"LimitCycleProblem.means: {len(self.means)} mean condition(s) for {len(self.free)} free "
+            raise ValueError(f"OrbitProblem.means: {len(self.means)} mean condition(s) for {len(self.free)} free "
                              "parameter(s); give one condition per free parameter (report other means as outputs)")
 
+    def _check_ode(self) -> None:
+        """An ODE problem: the guess point(s) and the period guess; no free parameters or means."""
+        ode = self.ode
+        if self.free or self.means or self.outputs:
+            raise ValueError("OrbitProblem.free/means/outputs need a PeriodicODE (ODE.to_periodic_ode(period_s))")
+        self.x_guess = np.asarray(self.x_guess, float)
+        if self.x_guess.shape[-1:] != (ode.nx,) or self.x_guess.ndim > 2:
+            raise ValueError(f"OrbitProblem.x_guess: shape {self.x_guess.shape}, expected ({ode.nx},) or (M, {ode.nx})")
+        finite_vector(self.x_guess, "OrbitProblem.x_guess")
+        if self.period_guess is None:
+            if ode.autonomous or ode.forcing_period is None:
+                raise ValueError("OrbitProblem.period_guess is required (autonomous system or no forcing_period)")
+            self.period_guess = float(ode.forcing_period)
+        if not (np.isfinite(self.period_guess) and self.period_guess > 0):
+            raise ValueError(f"OrbitProblem.period_guess must be positive, got {self.period_guess!r}")
+
     def free_indices(self) -> tuple[int, ...]:
-        """Indices of the free parameters, in the order of ``free``."""
+        """Indices of the free parameters, in the order of ``free``.
+
+        Returns
+        -------
+        tuple of int
+        """
         out = []
         for key in self.free:
             if isinstance(key, str):
                 if key not in self.ode.param_names:
-                    raise ValueError(f"LimitCycleProblem.free: unknown parameter name {key!r}")
+                    raise ValueError(f"OrbitProblem.free: unknown parameter name {key!r}")
                 i = self.ode.param_names.index(key)
             else:
                 i = int(key)
                 if not 0 <= i < self.ode.np:
-                    raise ValueError(f"LimitCycleProblem.free: index {i} out of range (np={self.ode.np})")
+                    raise ValueError(f"OrbitProblem.free: index {i} out of range (np={self.ode.np})")
             if i in out:
-                raise ValueError(f"LimitCycleProblem.free: parameter {key!r} given twice")
+                raise ValueError(f"OrbitProblem.free: parameter {key!r} given twice")
             out.append(i)
         return tuple(out)
 
     def free_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) bounds of the free parameters, in the order of ``free``."""
         lo = np.array([float(b[0]) for b in self.free.values()])
         hi = np.array([float(b[1]) for b in self.free.values()])
         return lo, hi
 
     def free_name(self, i: int) -> str:
+        """The name of parameter ``i`` (``p<i>`` when the ODE has no names)."""
         return self.ode.param_names[i] if self.ode.param_names else f"p{i}"
 
     def mean_names(self) -> list[str]:
+        """Names of the period means a result reports: the conditions', then the outputs'."""
         names = [m.name or f"mean{k}" for k, m in enumerate(self.means)]
         return names + [str(k) for k in self.outputs]

@@ -1,4 +1,6 @@
-"""Multiple shooting for periodic orbits of a forced PeriodicODE (IPOPT or Levenberg-Marquardt).
+"""The PeriodicODE formulation of :func:`birdocp.engine.orbit_front.solve`: multiple shooting for the
+periodic orbits of a forced, data-split :class:`~birdocp.engine.problem.PeriodicODE` (IPOPT or
+Levenberg-Marquardt), with free parameters held by period-mean conditions.
 
 Unknowns: the shooting points X_0 .. X_{M-1} at t0 + i T/(M-1) (M counts the closing point, as in
 the paper, so there are M-1 segments) and the free parameters.  Equations:
@@ -7,12 +9,15 @@ the paper, so there are M-1 segments) and the free parameters.  Equations:
 * periodicity  X_{M-1} - X_0 = 0
 * mean conditions  (1/T) integral over the period of output_k  - target_k = 0
 
-``solver='ipopt'``: a pure feasibility NLP (objective 0; the system is square when there is one mean
-condition per free parameter), limited-memory Hessian, MUMPS.  ``solver='lm'``: the paper's
-Algorithm 1 (Levenberg-Marquardt on the shooting matrix, every step accepted, lambda /10 or x10).
+The solver table :data:`SOLVERS`: ``"ipopt"``, a pure feasibility NLP (objective 0; the system is
+square when there is one mean condition per free parameter), limited-memory Hessian, MUMPS;
+``"lm"``, the paper's Algorithm 1 (Levenberg-Marquardt on the shooting matrix, every step accepted,
+lambda /10 or x10).
 
-The method and result types live in :mod:`birdocp.engine.shooting_types`, the graphs in
-:mod:`birdocp.engine.shooting_graphs` (all importable from here). CasADi graphs are built once per (ode, steps_per_period, points, solver, derivatives, free set,
+The problem, method and result types are the engine's one of each
+(:class:`~birdocp.engine.problem.OrbitProblem`, :class:`~birdocp.engine.method.OrbitMethod`,
+:class:`~birdocp.engine.orbit_result.OrbitResult`), the graphs live in
+:mod:`birdocp.engine.shooting_graphs`. CasADi graphs are built once per (ode, steps_per_period, points, solver, derivatives, free set,
 mean/extra output Functions) and cached in this module (:mod:`birdocp.engine.cache` registry); a sweep that
 re-solves with new parameter values, targets, t0 or guesses reuses them (only numbers change: the
 data grid and the parameter vector are NLP parameters, not constants baked into the graph).
@@ -29,11 +34,12 @@ from birdocp.engine.cache import clear_caches
 from birdocp.engine.floquet import FloquetResult, floquet_from_jacobians
 from birdocp.engine.lm import levenberg_marquardt
 from birdocp.engine.nlp import run_ipopt
-from birdocp.engine.problem import LimitCycleProblem, PeriodicODE, finite_vector
+from birdocp.engine.method import OrbitMethod
+from birdocp.engine.orbit_result import OrbitResult
+from birdocp.engine.problem import OrbitProblem, PeriodicODE, finite_vector
 from birdocp.engine.shooting_graphs import ShootingGraphs, initial_points, rk4_grid, shooting_graphs
-from birdocp.engine.shooting_types import LimitCycleResult, MultipleShooting, ShootingGrid
 
-__all__ = ["ShootingGrid", "MultipleShooting", "LimitCycleResult", "solve", "clear_cache", "floquet", "ShootingGraphs",
+__all__ = ["solve_periodic_ode", "SOLVERS", "estimate_error", "clear_cache", "floquet", "ShootingGraphs",
            "shooting_graphs", "initial_points", "rk4_grid"]
 
 def clear_cache() -> None:
@@ -53,7 +59,7 @@ def _lm(b: ShootingGraphs, method, problem, z, lo, hi, fd):
     lo_z = np.concatenate([np.full(nzx, -np.inf), lo]) if nf else None
     hi_z = np.concatenate([np.full(nzx, np.inf), hi]) if nf else None
     jac = (lambda zz, r: _fd_jacobian(b, problem, zz, r, method.fd_floor)) if fd else None
-    out = levenberg_marquardt(b, z, tol=method.resolved_tol, max_iter=method.max_iter, lo=lo_z, hi=hi_z,
+    out = levenberg_marquardt(b, z, tol=method.tol, max_iter=method.max_iter, lo=lo_z, hi=hi_z,
                               accept="always", lam0=1.0, stall_window=0, jacobian=jac, symbol="E")
     return out.z, out.status, out.message, out.iterations, out.history
 
@@ -96,9 +102,9 @@ def _run_ipopt(solver, z0, method, lbx, ubx):
     return out.z, out.status, out.success, out.iterations, out.history, out.message
 
 
-def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShooting(),
-          warm_start: "LimitCycleResult | None" = None) -> LimitCycleResult:
-    """Find the periodic orbit (and free parameters) of ``problem`` and its Floquet multipliers.
+def solve_periodic_ode(problem: OrbitProblem, method: OrbitMethod,
+                       warm_start: OrbitResult | None = None) -> OrbitResult:
+    """The PeriodicODE formulation of :func:`birdocp.engine.orbit_front.solve` (use that front).
 
     ``success`` means converged: the max residual of all equations at the result is finite and at
     most the method's tolerance (10 x tol for IPOPT), whatever the solver's status says (IPOPT's
@@ -109,38 +115,23 @@ def solve(problem: LimitCycleProblem, method: MultipleShooting = MultipleShootin
 
     Parameters
     ----------
-    problem : LimitCycleProblem
-        The ODE, its parameters, the guess, free parameters and mean conditions.
-    method : MultipleShooting
-        Shooting points, RK4 steps per period, solver (``ipopt`` or ``lm``), derivatives, tolerances.
-    warm_start : LimitCycleResult, optional
+    problem : OrbitProblem
+        A problem of a :class:`~birdocp.engine.problem.PeriodicODE`.
+    method : OrbitMethod
+        Shooting points, RK4 steps per period, solver, derivatives, tolerances (``None`` settings
+        resolved for a PeriodicODE: :meth:`~birdocp.engine.method.OrbitMethod.resolved`).
+    warm_start : OrbitResult, optional
         A previous result on the same grid whose shooting points (and free values) start the solve.
 
     Returns
     -------
-    LimitCycleResult
-        ``success``, ``status``, ``x0``, ``shooting_points``, the trajectory, ``monodromy``,
-        ``multipliers`` (largest modulus first), ``floquet_exponents``, ``stable``, ``means`` and
-        ``free_values``.
-
-    Examples
-    --------
-    A forced linear oscillator ``x'' + 0.5 x' + x = cos t``: the orbit is ``x = 2 sin t``, and the
-    multipliers are ``exp(2 pi eig(A))``, of modulus ``exp(-0.5 pi)`` (Liouville).
-
-    >>> import casadi as ca, numpy as np
-    >>> from birdocp.engine import LimitCycleProblem, MultipleShooting, PeriodicODE, solve
-    >>> x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 1)
-    >>> f = ca.Function("f", [x, t, p], [ca.vertcat(x[1], -p[0] * x[1] - x[0] + ca.cos(t))])
-    >>> res = solve(LimitCycleProblem(PeriodicODE.from_rhs(f, 2 * np.pi), p=[0.5], x_guess=[0, 0]),
-    ...             MultipleShooting(points=3, steps_per_period=200))
-    >>> res.success, bool(np.allclose(res.x0, [0.0, 2.0], atol=1e-4))
-    (True, True)
-    >>> bool(np.allclose(np.abs(res.multipliers), np.exp(-0.5 * np.pi), rtol=1e-6))
-    True
+    OrbitResult
+        ``formulation="periodic_ode"``: ``success``, ``status``, ``x0``, ``shooting_points``, the
+        trajectory, ``monodromy``, ``multipliers`` (largest modulus first), ``eigenvectors``,
+        ``floquet_exponents``, ``stable``, ``means`` and ``free_values``.
     """
     with interrupts.interruptible():
-        return _solve(problem, method, warm_start)
+        return _solve(problem, method.resolved(True), warm_start)
 
 
 def _converged(max_res: float, tol: float) -> bool:
@@ -149,7 +140,6 @@ def _converged(max_res: float, tol: float) -> bool:
 
 def _solve(problem, method, warm_start):
     t_total = time.perf_counter()
-    method.validate()
     b, build_s = shooting_graphs(problem, method)
     nf = len(b.free_idx)
     lo, hi = problem.free_bounds() if nf else (np.zeros(0), np.zeros(0))
@@ -169,7 +159,7 @@ def _solve(problem, method, warm_start):
     return res
 
 
-def estimate_error(problem: LimitCycleProblem, method: MultipleShooting, result: LimitCycleResult, graphs=None,
+def estimate_error(problem: OrbitProblem, method: OrbitMethod, result: OrbitResult, graphs=None,
                    z=None) -> dict:
     """Error estimate of a converged forced orbit: discretisation (Richardson) plus solver tolerance.
 
@@ -199,14 +189,15 @@ def estimate_error(problem: LimitCycleProblem, method: MultipleShooting, result:
     from birdocp.engine.orbit_checks import richardson_errors, solver_error
 
     t = time.perf_counter()
+    method = method.resolved(True)
     b = graphs if graphs is not None else shooting_graphs(problem, method)[0]
     if z is None:
         z = np.concatenate([np.asarray(result.shooting_points).ravel(), result.p[list(b.free_idx)]])
     g, J = b.evaluate(z)
     e_solver = solver_error(J, g)
     fine_m = replace(method, steps_per_period=2 * int(method.steps_per_period), solver="lm", error_estimate=False,
-                     tol=min(method.resolved_tol, 1e-10), max_iter=20)
-    fine = solve(problem, fine_m, warm_start=result)
+                     tol=min(method.tol, 1e-10), max_iter=20)
+    fine = solve_periodic_ode(problem, fine_m, result)
     lam = np.asarray(result.multipliers)
     out = {"solver": e_solver, "steps_per_period_fine": fine_m.steps_per_period, "fine_status": fine.status}
     if fine.success and fine.multipliers is not None:
@@ -247,11 +238,19 @@ def _start(problem, b, warm_start, lo, hi, wall):
 
 
 def _run(problem, method, b, z0, lo, hi):
-    """IPOPT (full steps, then once with the filter line search if that fails) or the paper's LM.
-    Returns (z, status, success, message, iterations, history)."""
-    if method.solver != "ipopt":
-        z, status, message, iters, hist = _lm(b, method, problem, z0.copy(), lo, hi, method.derivatives == "fd")
-        return z, status, status == "converged", message, iters, np.asarray(hist, float)
+    """The method's solver from the table :data:`SOLVERS`. Returns (z, status, success, message,
+    iterations, history)."""
+    return SOLVERS[method.solver](problem, method, b, z0, lo, hi)
+
+
+def _run_lm(problem, method, b, z0, lo, hi):
+    """The paper's LM (:func:`_lm`)."""
+    z, status, message, iters, hist = _lm(b, method, problem, z0.copy(), lo, hi, method.derivatives == "fd")
+    return z, status, status == "converged", message, iters, np.asarray(hist, float)
+
+
+def _run_ipopt_attempts(problem, method, b, z0, lo, hi):
+    """IPOPT with full steps, then once with the filter line search if that fails."""
     nzx = problem.ode.nx * (b.S + 1)
     lbx = np.concatenate([np.full(nzx, -np.inf), lo])
     ubx = np.concatenate([np.full(nzx, np.inf), hi])
@@ -262,13 +261,17 @@ def _run(problem, method, b, z0, lo, hi):
         z, status, success, it, h, msg = _run_ipopt(b.ipopt(method, fallback), z0, method, lbx, ubx)
         if np.all(np.isfinite(z)):  # the status alone is not convergence: the residual decides
             r_try = b.evaluate(z)[0]  # IPOPT's last evaluation (kept), or one more
-            success = _converged(float(np.max(np.abs(r_try))) if r_try.size else 0.0, 10 * method.resolved_tol)
+            success = _converged(float(np.max(np.abs(r_try))) if r_try.size else 0.0, 10 * method.tol)
         iters += it
         hists.append(h)
         msgs.append(("filter line search: " if fallback else "") + msg)
         if success:
             break
     return z, status, success, "; retried: ".join(msgs), iters, np.concatenate(hists)
+
+
+SOLVERS = {"ipopt": _run_ipopt_attempts, "lm": _run_lm}
+"""The solver table of the PeriodicODE formulation: name -> run(problem, method, graphs, z0, lo, hi)."""
 
 
 def _residual_at(problem, b, z, pfull, Dn):
@@ -285,9 +288,10 @@ def _residual_at(problem, b, z, pfull, Dn):
 
 
 def _result(problem, method, b, z, p_init, D_init, outcome, wall):
-    """The LimitCycleResult at z (status from the residual, whatever the solver said) and
+    """The OrbitResult at z (status from the residual, whatever the solver said) and
     (g, X, Dn, pd) for the Floquet analysis."""
     status, success, message, iters, hist = outcome
+    solver_status = status
     nx, S, N, T, t0, free_idx, nf = problem.ode.nx, b.S, b.N, problem.ode.period_s, float(problem.t0), b.free_idx, b.nf
     nzx = nx * (S + 1)
     pfull = problem.p.copy() if nf else p_init.copy()
@@ -302,7 +306,7 @@ def _result(problem, method, b, z, p_init, D_init, outcome, wall):
         Dn = None
     g, Xt, means_v = _residual_at(problem, b, z, pfull, Dn)
     max_res = float(np.max(np.abs(g))) if np.all(np.isfinite(g)) else float("nan")
-    tol_ok = method.resolved_tol * (10 if method.solver == "ipopt" else 1)
+    tol_ok = method.tol * (10 if method.solver == "ipopt" else 1)
     if not _converged(max_res, tol_ok):
         message += (f" (max residual {max_res:.2e} > tol {tol_ok:.1e}: not converged)"
                     if np.isfinite(max_res) else " (non-finite residual: not converged)")
@@ -315,16 +319,19 @@ def _result(problem, method, b, z, p_init, D_init, outcome, wall):
         success = True
     X = z[:nzx].reshape(S + 1, nx)
     means = {n: float(v) for n, v in zip(problem.mean_names(), means_v.ravel())}
-    res = LimitCycleResult(
+    shooting_times = t0 + T / S * np.arange(S + 1)
+    res = OrbitResult(
         success=bool(success), status=status, message=message, iterations=int(iters),
-        residual_history=hist, wall_s=wall,
-        shooting_times=t0 + T / S * np.arange(S + 1), shooting_points=X, x0=X[0].copy(), p=pfull,
+        residual_history=hist, wall_s=wall, formulation="periodic_ode", autonomous=False,
+        solver_status=solver_status,
+        period=float(shooting_times[-1] - shooting_times[0]),
+        shooting_times=shooting_times, shooting_points=X, x0=X[0].copy(), p=pfull,
         free_values={problem.free_name(i): float(pfull[i]) for i in free_idx},
         trajectory_t=t0 + b.grid.h * np.arange(N + 1), trajectory_x=np.vstack([X[0][None, :], Xt.T]),
         max_residual=max_res, means=means,
         method={"points": method.points, "steps_per_period": method.steps_per_period,
                 "solver": method.solver, "derivatives": method.derivatives,
-                "tol": method.resolved_tol, "max_iter": method.max_iter},
+                "tol": method.tol, "max_iter": method.max_iter},
     )
     return res, (g, X, Dn, ca.DM(pfull))
 
@@ -363,8 +370,8 @@ def floquet(ode: PeriodicODE, x0, p, method=None, *, t0: float = 0.0, points=Non
         A state on the periodic orbit at ``t0``.
     p : array_like (np,)
         The parameters.
-    method : MultipleShooting, optional
-        Points and RK4 steps per period (default ``MultipleShooting()``).
+    method : OrbitMethod, optional
+        Points and RK4 steps per period (default ``OrbitMethod()``: 5 points, 148 steps).
     t0 : float
         The time of ``x0``.
     points : array_like, optional
@@ -387,16 +394,15 @@ def floquet(ode: PeriodicODE, x0, p, method=None, *, t0: float = 0.0, points=Non
     monodromy is ``exp(2 pi A)``, whose determinant is ``exp(-0.5 * 2 pi)`` (Liouville's formula).
 
     >>> import casadi as ca, numpy as np
-    >>> from birdocp.engine import MultipleShooting, PeriodicODE
+    >>> from birdocp.engine import OrbitMethod, PeriodicODE
     >>> from birdocp.engine.shooting import floquet
     >>> x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 1)
     >>> f = ca.Function("f", [x, t, p], [ca.vertcat(x[1], -p[0] * x[1] - x[0] + ca.cos(t))])
-    >>> fl = floquet(PeriodicODE.from_rhs(f, 2 * np.pi), [0.0, 2.0], [0.5], MultipleShooting(points=3, steps_per_period=200))
+    >>> fl = floquet(PeriodicODE.from_rhs(f, 2 * np.pi), [0.0, 2.0], [0.5], OrbitMethod(points=3, steps_per_period=200))
     >>> bool(fl.stable), bool(np.isclose(np.linalg.det(fl.monodromy), np.exp(-np.pi), rtol=1e-8))
     (True, True)
     """
-    method = method or MultipleShooting()
-    method.validate()
+    method = (method or OrbitMethod()).resolved(True)
     grid = grid or rk4_grid(ode, method, ())
     x0 = finite_vector(x0, "floquet x0", ode.nx, f"the ODE has nx={ode.nx}")
     p = finite_vector(p, "floquet p", ode.np, f"the ODE has np={ode.np}")

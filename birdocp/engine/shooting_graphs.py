@@ -11,8 +11,8 @@ import numpy as np
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.integrate import RK4Grid, column_blocks
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
-from birdocp.engine.problem import LimitCycleProblem
-from birdocp.engine.shooting_types import IPOPT_DEFAULTS, MultipleShooting
+from birdocp.engine.method import IPOPT_DEFAULTS, OrbitMethod
+from birdocp.engine.problem import OrbitProblem
 
 __all__ = ["ShootingGraphs", "shooting_graphs", "rk4_grid", "initial_points"]
 
@@ -20,8 +20,9 @@ _GRIDS = bounded_cache("engine.rk4_grids", 32)
 _GRAPHS = bounded_cache("engine.shooting_graphs", 32)
 
 
-def rk4_grid(ode, method: MultipleShooting, outputs) -> RK4Grid:
+def rk4_grid(ode, method: OrbitMethod, outputs) -> RK4Grid:
     """The cached :class:`~birdocp.engine.integrate.RK4Grid` of (ode, method's grid, outputs)."""
+    method = method.resolved(True)
     outputs = tuple(outputs)
     key = (id(ode), int(method.steps_per_period), int(method.points) - 1, tuple(id(g) for g in outputs))
     hit = _GRIDS.get(key)
@@ -47,7 +48,7 @@ class ShootingGraphs(Evaluator):
     with 8 forward directions through the segments; this needs 4 and builds in ~0.2 s.
     """
 
-    def __init__(self, ode, method: MultipleShooting, free_idx, mean_fns, extra_fns):
+    def __init__(self, ode, method: OrbitMethod, free_idx, mean_fns, extra_fns):
         self.ode = ode
         self.refs = (tuple(mean_fns), tuple(extra_fns))
         outputs = tuple(mean_fns) + tuple(extra_fns)
@@ -272,8 +273,8 @@ class ShootingGraphs(Evaluator):
         return np.asarray(self._resid(ca.DM(z[:n].reshape(self.S + 1, self.nx).T), ca.DM(z[n:]),
                                       *self._ctx)).ravel()
 
-    def ipopt(self, method: MultipleShooting, fallback: bool = False):
-        tol = method.resolved_tol
+    def ipopt(self, method: OrbitMethod, fallback: bool = False):
+        tol = method.tol
         opts = ipopt_options(**IPOPT_DEFAULTS)
         opts.update({"ipopt.max_iter": int(method.max_iter), "ipopt.tol": tol, "ipopt.constr_viol_tol": tol})
         opts.update(method.ipopt_options)
@@ -312,9 +313,10 @@ def _affine_columns(ode, free_idx):
     return ca.horzcat(*cols) if cols else None
 
 
-def shooting_graphs(problem: LimitCycleProblem, method: MultipleShooting, free_idx=None):
+def shooting_graphs(problem: OrbitProblem, method: OrbitMethod, free_idx=None):
     """The cached graphs of (problem's ode, outputs, method) with the problem's free parameters, or
     ``free_idx`` instead (the continuation adds its parameter: one unknown more than equations)."""
+    method = method.resolved(True)
     ode = problem.ode
     mean_fns = tuple(m.output for m in problem.means)
     extra_fns = tuple(problem.outputs.values())

@@ -5,7 +5,7 @@ The module leaves the matplotlib backend to the caller (the command line uses Ag
 Inputs are result objects or their plain forms, so the functions serve both scripts (holding
 :class:`~birdocp.studies.trim.TrimResult` objects) and a CLI that reads ``result.json``/``arrays.npz``:
 
-* a *trim result*: a :class:`~birdocp.studies.trim.TrimResult` / :class:`~birdocp.engine.shooting.LimitCycleResult`,
+* a *trim result*: a :class:`~birdocp.studies.trim.TrimResult` / :class:`~birdocp.engine.orbit_result.OrbitResult`,
   or a dict with ``trajectory_t_s`` (or ``trajectory_t``) and ``trajectory_x`` (``TrimResult.arrays()``);
 * *multipliers*: complex arrays, or lists of ``[re, im]`` pairs (``TrimResult.to_dict()["multipliers"]``);
 * a *residual history*: an array, a dict with ``residual_history``, or a result object.

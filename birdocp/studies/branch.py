@@ -8,12 +8,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from birdocp.bird.config import Config
+from birdocp.bird.config import SIDE_KEYS, Config, ConfigError
 from birdocp.bird.flight import flight_outputs
 from birdocp.bird.keys import AMPLITUDE_KEY, resolve_key
 from birdocp.bird.model import get_model
 from birdocp.engine.continuation import Branch, continuation
-from birdocp.engine.problem import LimitCycleProblem, MeanCondition
+from birdocp.engine.problem import MeanCondition, OrbitProblem
 from birdocp.studies.level import default_bounds
 from birdocp.studies.trim import TrimResult, solver_ode
 
@@ -40,6 +40,8 @@ def resolve_parameter(key: str) -> tuple[str, str]:
     k = str(key).strip()
     if k in (STABILITY_MARGIN, "SM", "sm"):
         return "wing.root_ahead_m", STABILITY_MARGIN
+    if k in SIDE_KEYS:  # a per-side offset: six degrees of freedom only (the configuration check says so)
+        return k, k
     rk = resolve_key(k, "PARAM")
     return rk, rk
 
@@ -116,7 +118,7 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
         Shooting points (default ``cfg.solve.points``).
     steps_per_period : int, optional
         RK4 steps per period (default ``cfg.solve.steps_per_period``).
-    start : TrimResult or LimitCycleResult, optional
+    start : TrimResult or OrbitResult, optional
         A converged cycle at the start value (default: Newton from ``cfg.solve.initial_guess``).
     progress : callable, optional
         ``progress(text)``, one line per point.
@@ -158,26 +160,29 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
         br.settings["stability_margin_percent"] = [sm_percent(p.parameter, chord) for p in br.points]
     if validity:
         add_validity(cfg, br, steps, ode)
-    return _with_lateral_split(cfg, br, steps, points)
+    return _with_lateral_split(cfg, br, steps, points, ode)
 
 
-def _with_lateral_split(cfg, br: Branch, steps: int, points: int) -> Branch:
+def _with_lateral_split(cfg, br: Branch, steps: int, points: int, ode=None) -> Branch:
     """``br``, with six degrees of freedom given its per-point longitudinal/lateral split
-    (:func:`birdocp.studies.lateral.add_lateral_split`)."""
+    (:func:`birdocp.studies.lateral_branch.add_lateral_split` on the branch's ODE)."""
     if cfg.model.degrees_of_freedom == 6:
-        from birdocp.studies.lateral import add_lateral_split
+        from birdocp.studies.lateral_branch import add_lateral_split
 
-        add_lateral_split(cfg, br, steps, points)
+        add_lateral_split(cfg, br, steps, points, ode)
     return br
 
 
 def _problem(cfg, compiled, model_key: str, level: bool, climb_rate_mps: float, bounds):
     """``(ode, problem)`` of a branch: the planar bird's (:func:`bird_problem`) or, with six degrees of
-    freedom, the heading-free 6-DOF model's (:func:`birdocp.studies.lateral.branch_problem`)."""
+    freedom, the heading-free 6-DOF model's (:func:`birdocp.studies.lateral_branch.branch_problem`)."""
     if cfg.model.degrees_of_freedom == 6:
-        from birdocp.studies.lateral import branch_problem
+        from birdocp.studies.lateral_branch import branch_problem
 
         return branch_problem(cfg, model_key, level, climb_rate_mps, bounds)
+    if model_key in SIDE_KEYS:
+        raise ConfigError(model_key, "a per-side offset (an asymmetric gait) needs six degrees of freedom; "
+                                     "set model.degrees_of_freedom = 6")
     m = get_model(cfg)
     ode = solver_ode(m, compiled)
     return ode, bird_problem(cfg, m, ode, model_key, level, climb_rate_mps, bounds)
@@ -195,7 +200,7 @@ def _model_units(display: str, a: float, b: float, options: dict, chord: float) 
     return root_of_sm(a, chord), root_of_sm(b, chord)
 
 
-def bird_problem(cfg, m, ode, model_key: str, level: bool, climb_rate_mps: float, bounds) -> LimitCycleProblem:
+def bird_problem(cfg, m, ode, model_key: str, level: bool, climb_rate_mps: float, bounds) -> OrbitProblem:
     """The bird's limit-cycle problem of a branch: at fixed gait, or (``level``) with the amplitude
     free (within ``bounds``, default the level-flight bounds) and the mean vertical speed held at
     ``climb_rate_mps``.
@@ -223,14 +228,14 @@ def bird_problem(cfg, m, ode, model_key: str, level: bool, climb_rate_mps: float
     """
     guess = m.complete_state(cfg.solve.initial_guess, m.p0)
     if not level:
-        return LimitCycleProblem(ode, m.p0, guess, outputs=flight_outputs(m.ode.nd, m.ode.nx))
+        return OrbitProblem(ode, m.p0, guess, outputs=flight_outputs(m.ode.nd, m.ode.nx))
     if model_key == AMPLITUDE_KEY:
         raise ValueError("with level flight held the amplitude is solved for: continue another parameter")
     lo, hi = bounds if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)
     outputs = flight_outputs(m.ode.nd, m.ode.nx)
     cond = MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")
-    return LimitCycleProblem(ode, m.p0, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
-                             outputs={"forward_speed_mps": outputs["forward_speed_mps"]})
+    return OrbitProblem(ode, m.p0, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
+                        outputs={"forward_speed_mps": outputs["forward_speed_mps"]})
 
 
 def forward_flight(pt) -> str | None:
@@ -324,12 +329,13 @@ def add_validity(cfg, br: Branch, steps_per_period: int | None = None, ode=None)
 
 
 def _planar_of(cfg, pt, ode):
-    """(x0, p, ode) for the validity of a branch point: as is, or for a 6-DOF point the planar cycle's
-    state and parameters with the planar model (:func:`birdocp.studies.lateral.planar_point`)."""
+    """(x0, p, ode) for the validity of a branch point: as is, or for a 6-DOF point
+    :func:`birdocp.studies.lateral_branch.validity_point` (the planar cycle's, or with per-side joint laws the
+    6-DOF check over both wings)."""
     if cfg.model.degrees_of_freedom == 6:
-        from birdocp.studies.lateral import planar_point
+        from birdocp.studies.lateral_branch import validity_point
 
-        return (*planar_point(pt.x0, pt.p), None)
+        return validity_point(pt.x0, pt.p, ode)
     return pt.x0, np.asarray(pt.p, float) if len(pt.p) else None, ode
 
 

@@ -21,6 +21,7 @@ from birdocp.engine.results import result_dict, serial
 from birdocp.studies.gait_cycle import (AMPLITUDE_KEY, JURY_MARGIN, POSITIVE_EPS_W, Evaluation,  # noqa: F401
                                         ReducedLevelCycle, check_free_bounds, check_free_keys, jury_conditions)
 from birdocp.studies.gait_problem import ReducedProblem
+from birdocp.studies.lateral_optimize import reduced_level_cycle
 from birdocp.studies.power_curves import SPEED_KEY, curve_optima, level_at_speed, power_curve  # noqa: F401
 
 __all__ = ["ReducedLevelCycle", "ReducedProblem", "GaitOptimum", "GaitSolverOptions", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
@@ -77,6 +78,9 @@ class GaitOptimum:
     (:func:`birdocp.studies.gait_validity.constraint_report`)."""
     validity_rounds: list | None = None
     """With ``valid=True``: one entry per solve (bounds used, status, exact verdict, iterations)."""
+    six_dof: dict | None = None
+    """With ``model.degrees_of_freedom = 6``: the multipliers split into longitudinal and lateral ones
+    and their radii (:func:`birdocp.studies.lateral_optimize.multiplier_split`; top-level JSON keys)."""
     second_derivatives: np.ndarray | None = None
     """With ``hessian="fd"``: the last finite-difference second derivatives, ``[k, i, j] =
     d^2 G_i / dz_j dz_k`` (G = objective and constraints, z = free values and r, unscaled); what a
@@ -94,7 +98,8 @@ class GaitOptimum:
         dict
             Plain JSON types only.
         """
-        return result_dict(self, exclude=("cfg", "start_x0", "means", "second_derivatives"), derived=("largest_modulus",), extra={
+        return result_dict(self, exclude=("cfg", "start_x0", "means", "second_derivatives", "six_dof"),
+                           derived=("largest_modulus",), extra=dict(self.six_dof or {}) | {
             "active_bounds": [k for k, v in self.free.items()
                               if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6],
             "moduli": np.abs(self.multipliers), "stable": bool(self.largest_modulus < 1),
@@ -306,10 +311,10 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
     t_all, cpu_all = time.perf_counter(), time.process_time()
     keys = list(free)
     t0 = time.perf_counter()
-    rc = ReducedLevelCycle(cfg_start, keys, steps_per_period, climb_rate_mps,
-                           second_order=objective == "stability" or max_multiplier is not None,
-                           valid=bool(valid_bounds),
-                           amplitude_range_deg=(amplitude_bounds[0] - 10.0, amplitude_bounds[1] + 10.0))
+    rc = reduced_level_cycle(cfg_start, keys, steps_per_period=steps_per_period, climb_rate_mps=climb_rate_mps,
+                             second_order=objective == "stability" or max_multiplier is not None,
+                             valid=bool(valid_bounds),
+                             amplitude_range_deg=(amplitude_bounds[0] - 10.0, amplitude_bounds[1] + 10.0))
     wall = {"build": time.perf_counter() - t0}
     if x_guess is not None:
         rc.set_guess(x_guess)
@@ -389,6 +394,7 @@ def _optimum(prob: ReducedProblem, sol, st, msg, gbounds, ev0, start_value, free
                       ev0.multipliers, ev.means["forward_speed_mps"], speed_mps, max_multiplier, dict(ev.means),
                       float(np.max(np.abs(kkt))), viol, cfg=cfg)
     out.evaluations = {"full": rc.n_full, "residual": rc.n_resid, "no_level_cycle": len(prob.failures)}
+    out.six_dof = rc.multiplier_split(ev)
     from birdocp.studies.gait_validity import attach_validity
 
     attach_validity(out, prob, ev, lam_g, cfg)
@@ -420,11 +426,16 @@ def _verify_gait(opt: GaitOptimum, cfg: Config, steps: int) -> dict:
             "trim_mean_vertical_speed_mps": float(tr.mean_vertical_speed_mps),
             "trim_multipliers": [[float(v.real), float(v.imag)] for v in tr.multipliers],
             "max_multiplier_difference": float(np.max(np.abs(np.sort_complex(tr.multipliers)
-                                                             - np.sort_complex(opt.multipliers)))),
+                                                             - np.sort_complex(opt.multipliers))))
+            if len(tr.multipliers) == len(opt.multipliers) else None,
             "trim_mean_positive_power_W": e["mean_positive_power_W"],
             "trim_cost_of_transport": e["cost_of_transport"],
             "trim_strouhal_number": e["strouhal_number"],
         })
+        if cfg.model.degrees_of_freedom == 6:  # all eight multipliers from a 6-DOF trim
+            from birdocp.studies.lateral_optimize import lateral_check
+
+            out.update(lateral_check(cfg_best, tr.x0, opt.multipliers, steps))
     return out
 
 

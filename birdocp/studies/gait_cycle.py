@@ -165,6 +165,7 @@ class Evaluation:
     newton_iterations: int
     dy: np.ndarray | None = None    # d(x0, A)/d theta (5 x n_theta), with the gradients
     Ry: np.ndarray | None = None    # the level-cycle residual's Jacobian in (x0, A), with the gradients
+    blocks: list | None = None      # further 4 x 4 monodromy blocks that count, [(M, dM or None)] (6-DOF: lateral)
 
     @property
     def y(self) -> np.ndarray:
@@ -173,9 +174,11 @@ class Evaluation:
 
     @property
     def multipliers(self) -> np.ndarray:
-        if self.monodromy is None or not np.all(np.isfinite(self.monodromy)):
-            return np.full(4, np.nan, complex)
-        return sort_multipliers(np.linalg.eigvals(self.monodromy))
+        """The eigenvalues of the monodromy and of every further block (:attr:`blocks`), largest first."""
+        mats = [self.monodromy] + [b[0] for b in self.blocks or []]
+        if any(m is None or not np.all(np.isfinite(m)) for m in mats):
+            return np.full(4 * len(mats), np.nan, complex)
+        return sort_multipliers(np.concatenate([np.linalg.eigvals(m) for m in mats]))
 
 
 _GRAPHS = bounded_cache("studies.gait_graphs", 4)
@@ -290,6 +293,21 @@ class ReducedLevelCycle:
         self.n_full = self.n_resid = 0
         self._count_lock = threading.Lock()  # the counters (evaluate_near runs in threads)
 
+    n_blocks = 1
+    """Number of 4 x 4 monodromy blocks whose multipliers count (:meth:`stability_blocks`)."""
+
+    def stability_blocks(self, ev: Evaluation) -> list:
+        """``[(M, dM)]``: the 4 x 4 monodromy blocks whose eigenvalues are the multipliers that count,
+        with their derivatives (16 x n_theta, column-major vec; None without the second order): the
+        planar monodromy, and the further :attr:`Evaluation.blocks` (the lateral block of a
+        six-degree-of-freedom cycle, :class:`birdocp.studies.lateral_optimize.LateralLevelCycle`)."""
+        return [(ev.monodromy, ev.d_monodromy)] + list(ev.blocks or [])
+
+    def multiplier_split(self, ev: Evaluation) -> dict | None:
+        """The multipliers of ``ev`` split by block for the JSON (None: one block, nothing to split;
+        six degrees of freedom: :func:`birdocp.studies.lateral_optimize.multiplier_split`)."""
+        return None
+
     # -- pieces ----------------------------------------------------------------------------------
     def pfull(self, theta, A):
         p = self.p0.copy()
@@ -332,6 +350,20 @@ class ReducedLevelCycle:
         """Where the next Newton solve starts (copies: changing them changes nothing here)."""
         return WarmStart(self._y.copy(), None if self._theta is None else self._theta.copy(),
                          None if self._dy is None else self._dy.copy())
+
+    @property
+    def last_jacobian(self) -> np.ndarray | None:
+        """dR/d(x0, A) of the last gradient evaluation (5 x 5), which chord Newton steps reuse; a copy,
+        None before the first."""
+        return None if self._Ry is None else self._Ry.copy()
+
+    def sensitivity_inputs(self, p) -> tuple:
+        """``(D, seeds, columns)``: the stage data at the parameters ``p``, the parameter directions and
+        the data's columns along them -- the inputs of a
+        :class:`~birdocp.engine.variational.PeriodSensitivities` pass on this cycle's grid
+        (``sens(x0, D, p, dp=seeds, columns=columns)``)."""
+        D, cols = self._data(ca.DM(np.asarray(p, float)))
+        return D, self._seeds, cols
 
     def restart_from(self, start: WarmStart) -> None:
         """Start the next Newton solves from ``start`` (the only writer of the warm start besides
@@ -496,3 +528,4 @@ class ReducedLevelCycle:
             theta[k] = new
         raise RuntimeError(f"speed {speed_mps} m/s not reached by {self.keys[k]} within its bounds (last U = "
                            f"{ev.means['forward_speed_mps']:.9g} m/s at {self.keys[k]} = {theta[k]:.6g})")
+

@@ -29,7 +29,8 @@ class ReducedProblem:
         self.valid_bounds = dict(valid_bounds or {})
         """limit -> (bound used, 'max' or 'min') of the smooth validity constraints (empty: none)."""
         self.names = ["amplitude_deg"] + (["forward_speed_mps"] if speed is not None else []) \
-            + ([f"jury{i}" for i in range(5)] if self.jury is not None else []) \
+            + ([f"jury{i}" + (f"_block{b}" if b else "") for b in range(rc.n_blocks) for i in range(5)]
+               if self.jury is not None else []) \
             + ["valid_" + k for k in self.valid_bounds]
         self.ng = 1 + len(self.names)
         self.jac_sparsity = ca.Sparsity.dense(self.ng, self.nz)
@@ -45,8 +46,8 @@ class ReducedProblem:
             lo.append(self.speed)
             hi.append(self.speed)
         if self.jury is not None:
-            lo += [JURY_MARGIN] * 5
-            hi += [np.inf] * 5
+            lo += [JURY_MARGIN] * 5 * self.rc.n_blocks
+            hi += [np.inf] * 5 * self.rc.n_blocks
         for b, kind in self.valid_bounds.values():
             lo.append(b if kind == "min" else -np.inf)
             hi.append(b if kind == "max" else np.inf)
@@ -97,7 +98,8 @@ class ReducedProblem:
             if self.jury is not None:  # the monodromy alone: no gradients at a trial point
                 self.rc.fill_monodromy(ev)
                 r = z[-1] if self.with_r else self.R
-                G = np.concatenate([G, np.asarray(self.jury(ca.DM(ev.monodromy), r)[0]).ravel()])
+                G = np.concatenate([G] + [np.asarray(self.jury(ca.DM(M), r)[0]).ravel()
+                                          for M, _ in self.rc.stability_blocks(ev)])
             if self.valid_bounds:
                 vals = self.smooth_validity(ev, grads=False)[0]
                 G = np.concatenate([G, [vals[k] for k in self.valid_bounds]])
@@ -123,12 +125,13 @@ class ReducedProblem:
             i += 1
         if self.jury is not None:
             r = z[-1] if self.with_r else self.R
-            jv, jj = (np.asarray(v) for v in self.jury(ca.DM(ev.monodromy), r))
-            G[i:i + 5] = jv.ravel()
-            J[i:i + 5, :nt] = jj[:, :16] @ ev.d_monodromy
-            if self.with_r:
-                J[i:i + 5, -1] = jj[:, 16]
-            i += 5
+            for M, dM in self.rc.stability_blocks(ev):  # the planar monodromy (and the lateral block)
+                jv, jj = (np.asarray(v) for v in self.jury(ca.DM(M), r))
+                G[i:i + 5] = jv.ravel()
+                J[i:i + 5, :nt] = jj[:, :16] @ dM
+                if self.with_r:
+                    J[i:i + 5, -1] = jj[:, 16]
+                i += 5
         if self.valid_bounds:
             vals, der = self.smooth_validity(ev)
             for k in self.valid_bounds:

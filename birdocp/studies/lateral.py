@@ -13,32 +13,41 @@ mean forward speed, p and r by the wingbeat frequency, phi as is): a complex pai
 ``dutch_roll_like``; of the real modes the one with the smallest modulus is ``roll_subsidence``
 when its roll-rate share is the largest of the real modes, the one nearest 1 is ``spiral``, others
 ``lateral_real``. Every mode carries its time to double (positive) or halve (negative) in wingbeats.
+
+An asymmetric gait couples the blocks: its 8 x 8 monodromy (the heading left out) is not split.
+Each of its modes is then classified by its eigenvector's content (:func:`coupled_modes`): with the
+same scaling, its *lateral share* is the fraction of the squared norm in (v, p, r, phi); a mode with a
+share of at least :data:`LATERAL_SHARE_MIN` (one half) is lateral and gets a label by the rule above
+(the roll share taken over its lateral components), the others are ``longitudinal``.
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, param_vector
+from birdocp.bird.config import PARAM_NAMES, Config, param_vector
 from birdocp.bird.flight import flight_path_angle_deg
 from birdocp.bird.keys import AMPLITUDE_KEY
 from birdocp.bird.sides import side_vector
 from birdocp.bird.sixdof import HEADING, LATERAL, LONGITUDINAL, STATE_NAMES, LateralInertia, embed_planar_state, \
     sixdof_model
 from birdocp.bird.validity import CycleValidity, periodic_validity
-from birdocp.engine.floquet import multipliers_info, sort_multipliers
-from birdocp.engine.problem import LimitCycleProblem, MeanCondition
+from birdocp.engine.floquet import doubling_time_s, multipliers_info, sort_multipliers
+from birdocp.engine.problem import MeanCondition, OrbitProblem
 from birdocp.engine.results import result_dict, serial
-from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
+from birdocp.engine.method import OrbitMethod
+from birdocp.engine.orbit_front import solve
+from birdocp.engine.orbit_result import OrbitResult
 from birdocp.studies.lateral_options import level_keywords
 from birdocp.studies.level import default_bounds
 from birdocp.studies.trim import check_physical
 
-__all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "beats_to_double", "lateral_sensitivities",
+__all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "coupled_modes", "LATERAL_SHARE_MIN", "beats_to_double", "lateral_sensitivities",
            "LATERAL_SENSITIVITY_KEYS", "heading_trajectory", "TAIL_SENSITIVITY_KEY", "level_keywords",
-           "solve_point", "branch_problem", "planar_point", "add_lateral_split"]
+           "solve_point"]
 
 
 def beats_to_double(multiplier: complex) -> float:
@@ -62,6 +71,43 @@ def beats_to_double(multiplier: complex) -> float:
     return float("inf") if la == 0 else float(np.log(2.0) / la)
 
 
+LATERAL_SHARE_MIN = 0.5
+"""A mode of a coupled monodromy (an asymmetric gait) is lateral when at least this share of its scaled
+eigenvector's squared norm lies in (v, p, r, phi) (:func:`coupled_modes`)."""
+
+
+def _scales(names, period_s: float, speed_mps: float) -> np.ndarray:
+    """The eigenvector scaling of the module: velocities by the mean forward speed, rates by the
+    period, angles as they are."""
+    return np.array([1.0 / max(speed_mps, 1e-9) if k.endswith("_mps") else period_s if k.endswith("_radps")
+                     else 1.0 for k in names])
+
+
+def _mode(lam, vec, names, scale) -> dict:
+    v = vec * scale
+    v = v / np.max(np.abs(v))
+    return {"multiplier": complex(lam), "beats_to_double": beats_to_double(lam),
+            "eigenvector": {k: complex(v[j]) for j, k in enumerate(names)},
+            "dominant_state": names[int(np.argmax(np.abs(v)))], "label": "lateral_real"}
+
+
+def _label_lateral(modes: list, roll: list) -> None:
+    """The label rule of the module on lateral ``modes`` (``roll``: each one's |p| over its largest
+    lateral component): complex pairs ``dutch_roll_like``, the smallest real one ``roll_subsidence``
+    when its roll share is the largest of the real ones, the real one nearest 1 of the rest ``spiral``."""
+    real = [k for k, m in enumerate(modes) if abs(m["multiplier"].imag) <= 1e-12 * max(1.0, abs(m["multiplier"]))]
+    for k, m in enumerate(modes):
+        if k not in real:
+            m["label"] = "dutch_roll_like"
+    if real:
+        small = min(real, key=lambda k: abs(modes[k]["multiplier"]))
+        if roll[small] >= max(roll[k] for k in real) - 1e-12:
+            modes[small]["label"] = "roll_subsidence"
+        rest = [modes[k] for k in real if modes[k]["label"] == "lateral_real"]
+        if rest:
+            min(rest, key=lambda m: abs(abs(m["multiplier"]) - 1.0))["label"] = "spiral"
+
+
 def lateral_modes(monodromy, period_s: float, speed_mps: float) -> list[dict]:
     """The lateral multipliers of a 9 x 9 monodromy (its (v, p, r, phi) block), each with its label,
     beats to double/halve and its eigenvector over (v, p, r, phi) scaled as the module says.
@@ -80,27 +126,52 @@ def lateral_modes(monodromy, period_s: float, speed_mps: float) -> list[dict]:
     list of dict
     """
     idx = list(LATERAL)
+    names = [STATE_NAMES[i] for i in idx]
     lam, vec, _, _, _ = multipliers_info(np.asarray(monodromy)[np.ix_(idx, idx)], period_s)
-    scale = np.array([1.0 / max(speed_mps, 1e-9), period_s, period_s, 1.0])
-    modes = []
-    for k, lk in enumerate(lam):
-        v = vec[:, k] * scale
-        v = v / np.max(np.abs(v))
-        modes.append({"multiplier": complex(lk), "beats_to_double": beats_to_double(lk),
-                      "eigenvector": {STATE_NAMES[i]: complex(v[j]) for j, i in enumerate(idx)},
-                      "dominant_state": STATE_NAMES[idx[int(np.argmax(np.abs(v)))]], "label": "lateral_real"})
-    real = [m for m in modes if abs(m["multiplier"].imag) <= 1e-12 * max(1.0, abs(m["multiplier"]))]
+    modes = [_mode(lam[k], vec[:, k], names, _scales(names, period_s, speed_mps)) for k in range(len(lam))]
+    _label_lateral(modes, [abs(m["eigenvector"]["p_radps"]) for m in modes])
+    return modes
+
+
+def coupled_modes(monodromy, period_s: float, speed_mps: float) -> list[dict]:
+    """Every mode of a monodromy whose longitudinal and lateral blocks couple (an asymmetric gait: the
+    8 states without the heading, or all 9), labelled by its eigenvector's content.
+
+    The eigenvector over all states is scaled as the module says; ``lateral_share`` is the share of its
+    squared norm in (v, p, r, phi). Modes with ``lateral_share >= LATERAL_SHARE_MIN`` are lateral and
+    labelled by the rule of :func:`lateral_modes` (the roll share taken over their lateral components);
+    the others are ``longitudinal``. For a symmetric cycle the shares are exactly 0 or 1 and the labels
+    are those of the split monodromy.
+
+    Parameters
+    ----------
+    monodromy : array_like
+        Monodromy (8 x 8 or 9 x 9).
+    period_s : float
+        Period [s].
+    speed_mps : float
+        Mean forward speed [m/s].
+
+    Returns
+    -------
+    list of dict
+    """
+    M = np.asarray(monodromy)
+    names = list(STATE_NAMES[:M.shape[0]])
+    lam, vec, _, _, _ = multipliers_info(M, period_s)
+    scale = _scales(names, period_s, speed_mps)
+    modes, lat = [], [i for i, k in enumerate(names) if STATE_NAMES.index(k) in LATERAL]
+    for k in range(len(lam)):
+        m = _mode(lam[k], vec[:, k], names, scale)
+        v = np.array(list(m["eigenvector"].values()))
+        m["lateral_share"] = float(np.sum(np.abs(v[lat]) ** 2) / np.sum(np.abs(v) ** 2))
+        m["roll"] = float(abs(v[names.index("p_radps")]) / np.max(np.abs(v[lat])))
+        m["label"] = "lateral_real" if m["lateral_share"] >= LATERAL_SHARE_MIN else "longitudinal"
+        modes.append(m)
+    lateral = [m for m in modes if m["label"] == "lateral_real"]
+    _label_lateral(lateral, [m.pop("roll") for m in lateral])
     for m in modes:
-        if m not in real:
-            m["label"] = "dutch_roll_like"
-    if real:
-        roll_share = [abs(m["eigenvector"]["p_radps"]) for m in real]
-        small = min(real, key=lambda m: abs(m["multiplier"]))
-        if abs(small["eigenvector"]["p_radps"]) >= max(roll_share) - 1e-12:
-            small["label"] = "roll_subsidence"
-        rest = [m for m in real if m["label"] == "lateral_real"]
-        if rest:
-            min(rest, key=lambda m: abs(abs(m["multiplier"]) - 1.0))["label"] = "spiral"
+        m.pop("roll", None)
     return modes
 
 
@@ -114,11 +185,14 @@ class LateralTrimResult:
 
     An asymmetric gait (per-side offsets, :mod:`birdocp.bird.sides`; ``symmetric`` False) flies a
     cycle periodic up to its heading: ``cycle`` then has the 8 states without psi, ``heading_change_deg``
-    is psi(T) - psi(0) over one beat, ``multipliers`` are its 8 and the heading's 1 (the split into
-    longitudinal and lateral ones and the lateral mode labels are left empty: the blocks couple,
-    ``coupling_max`` says how much) and ``validity`` is None (the validity checks are planar)."""
+    is psi(T) - psi(0) over one beat, ``multipliers`` are its 8 and the heading's 1. The blocks couple
+    (``coupling_max`` says how much), so the modes are classified by their eigenvectors
+    (:func:`coupled_modes`): ``lateral_modes`` are those with a lateral share of at least
+    :data:`LATERAL_SHARE_MIN` (labelled, each with its ``lateral_share``), ``lateral_multipliers`` their
+    multipliers and ``longitudinal_multipliers`` the others'. ``validity`` is the 6-DOF check over both
+    wings (:func:`birdocp.bird.validity.grid_validity` with the 6-DOF ODE: stall per wing, sideslip)."""
 
-    cycle: LimitCycleResult = field(metadata=serial(skip=True))
+    cycle: OrbitResult = field(metadata=serial(skip=True))
     multipliers: np.ndarray = field(metadata=serial(complex=True))
     longitudinal_multipliers: np.ndarray = field(metadata=serial(complex=True))
     lateral_multipliers: np.ndarray = field(metadata=serial(complex=True))
@@ -164,6 +238,11 @@ class LateralTrimResult:
         """
         own = {f.name for f in fields(self)} | {"success", "stable", "lateral_stable"}
         extra = {k: v for k, v in self.cycle.to_dict().items() if k not in own}
+        if not self.symmetric and len(self.multipliers):  # the exponents of the nine, the heading's 1 included
+            with np.errstate(divide="ignore"):
+                mu = np.log(np.asarray(self.multipliers, complex)) / self.cycle.period
+            extra["floquet_exponents"] = [[float(z.real), float(z.imag)] for z in mu]
+            extra["doubling_times_s"] = [float(v) for v in np.atleast_1d(doubling_time_s(mu.real))]
         extra.update({
             "state_names": list(STATE_NAMES if self.symmetric else STATE_NAMES[:HEADING]), "degrees_of_freedom": 6,
             "moduli": [float(abs(z)) for z in self.multipliers],
@@ -184,15 +263,15 @@ class LateralTrimResult:
 
 
 def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = None, *, level: bool = False,
-                 climb_rate_mps: float = 0.0, bounds=None, method: MultipleShooting | None = None,
+                 climb_rate_mps: float = 0.0, bounds=None, method: OrbitMethod | None = None,
                  x_guess=None, warm_start=None, **method_over) -> LateralTrimResult:
     """Trim ``cfg``'s gait in six degrees of freedom and split its Floquet multipliers.
 
     Parameters
     ----------
     cfg : Config, optional
-        The configuration (default: the paper's reference case). Drag and the unsteady or stall sections are refused;
-        the tail and wing masses are taken in 3-D.
+        The configuration (default: the paper's reference case). The unsteady or stall sections are refused;
+        the tail, wing masses and the optional drag are taken in 3-D.
     inertia : LateralInertia, optional
         Roll and yaw inertia [kg m^2]; default ``cfg.model``'s.
     level : bool
@@ -201,14 +280,14 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
         Target period-mean vertical speed [m/s] with ``level``.
     bounds : (float, float), optional
         Amplitude bounds [deg] with ``level`` (default: the planar level flight's).
-    method : MultipleShooting, optional
+    method : OrbitMethod, optional
         Shooting points and RK4 steps (default: ``cfg.solve``'s).
     x_guess : sequence of 9 floats, optional
         Start state (default: the planar guess ``cfg.solve.initial_guess`` with zero lateral states).
-    warm_start : LimitCycleResult, optional
+    warm_start : OrbitResult, optional
         A previous 6-DOF cycle (its shooting points and, with ``level``, its amplitude) to start from.
     **method_over
-        Overrides of the default :class:`~birdocp.engine.shooting.MultipleShooting` (``points``,
+        Overrides of the default :class:`~birdocp.engine.method.OrbitMethod` (``points``,
         ``steps_per_period``, ...) when ``method`` is not given.
 
     Returns
@@ -220,7 +299,7 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     inertia = inertia or LateralInertia.of(cfg)
     asym = six.sides  # per-side offsets: periodic up to the heading, the 8 states without psi solved
     p6 = six.params(param_vector(cfg), inertia, side_vector(cfg) if asym else None)
-    method = method or MultipleShooting(**{"points": cfg.solve.points, "steps_per_period": cfg.solve.steps_per_period,
+    method = method or OrbitMethod(**{"points": cfg.solve.points, "steps_per_period": cfg.solve.steps_per_period,
                                            "max_iter": cfg.solve.max_iter, "tol": cfg.solve.tol or None, **method_over})
     guess = embed_planar_state(cfg.solve.initial_guess) if x_guess is None else x_guess
     outputs = six.flight_outputs(8 if asym else 9)
@@ -228,14 +307,14 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     if level:
         free = {AMPLITUDE_KEY: tuple(bounds) if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)}
         means = [MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")]
-    problem = LimitCycleProblem(ode=six.ode_no_heading if asym else six.ode, p=p6,
-                                x_guess=list(guess)[:8] if asym else guess, free=free, means=means,
-                                outputs={k: f for k, f in outputs.items() if not (level and k == "vertical_speed_mps")})
+    problem = OrbitProblem(ode=six.ode_no_heading if asym else six.ode, p=p6,
+                           x_guess=list(guess)[:8] if asym else guess, free=free, means=means,
+                           outputs={k: f for k, f in outputs.items() if not (level and k == "vertical_speed_mps")})
     ws = getattr(warm_start, "cycle", warm_start)
     cyc = check_physical(solve(problem, method, warm_start=ws))  # u <= 0 somewhere: not a forward flight, as the planar trim
     amplitude = float(cyc.free_values.get(AMPLITUDE_KEY, cfg.gait.shoulder_flap.amplitude_deg))
     if asym:
-        return _split_asymmetric(six, cyc, method, inertia, amplitude)
+        return _split_asymmetric(cfg, six, cyc, method, inertia, amplitude)
     return _split(cfg, cyc, six.ode.period_s, method, inertia, amplitude)
 
 
@@ -253,7 +332,7 @@ def solve_point(cfg: Config, *, level: bool = False, level_options: dict | None 
         Solve the amplitude for the mean vertical speed.
     level_options : dict, optional
         The planar level's options (``free``, ``bounds``, ``climb_rate_mps``, ...).
-    warm_start : LimitCycleResult, optional
+    warm_start : OrbitResult, optional
         The neighbour's 6-DOF cycle.
     **method_over
         Overrides of the shooting method.
@@ -293,7 +372,7 @@ def heading_trajectory(six, cycle, steps_per_period: int | None = None):
     return rk4(six.ode, x0, cycle.p, steps_per_period=steps)
 
 
-def _split_asymmetric(six, cyc, method, inertia, amplitude) -> LateralTrimResult:
+def _split_asymmetric(cfg, six, cyc, method, inertia, amplitude) -> LateralTrimResult:
     none = np.full(0, np.nan)
     if cyc.monodromy is None:
         return LateralTrimResult(cyc, none, none, none, float("nan"), float("nan"), [], _inertia_dict(inertia),
@@ -302,10 +381,15 @@ def _split_asymmetric(six, cyc, method, inertia, amplitude) -> LateralTrimResult
     lon, lat = list(LONGITUDINAL), list(LATERAL)
     coupling = float(max(np.abs(M[np.ix_(lon, lat)]).max(), np.abs(M[np.ix_(lat, lon)]).max()))
     _, X = heading_trajectory(six, cyc, method.steps_per_period)
+    modes = coupled_modes(M, six.period_s, float(np.mean(X[:, 0])))
+    validity = periodic_validity(cfg, cyc.x0, p=cyc.p, steps_per_period=method.steps_per_period,
+                                 ode=six.ode_no_heading)
     return LateralTrimResult(
-        cycle=cyc, multipliers=sort_multipliers(list(cyc.multipliers) + [1.0]), longitudinal_multipliers=none,
-        lateral_multipliers=none, heading_multiplier=1.0, coupling_max=coupling, lateral_modes=[],
-        inertia=_inertia_dict(inertia), amplitude_deg=amplitude, validity=None, symmetric=False,
+        cycle=cyc, multipliers=sort_multipliers(list(cyc.multipliers) + [1.0]),
+        longitudinal_multipliers=sort_multipliers([m["multiplier"] for m in modes if m["label"] == "longitudinal"]),
+        lateral_multipliers=sort_multipliers([m["multiplier"] for m in modes if m["label"] != "longitudinal"]),
+        heading_multiplier=1.0, coupling_max=coupling, lateral_modes=[m for m in modes if m["label"] != "longitudinal"],
+        inertia=_inertia_dict(inertia), amplitude_deg=amplitude, validity=validity, symmetric=False,
         heading_change_deg=float(np.degrees(X[-1, HEADING] - X[0, HEADING])))
 
 
@@ -353,7 +437,9 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
     to ``parameters`` (keys of :data:`birdocp.bird.config.PARAM_NAMES` or
     :data:`birdocp.bird.sixdof.LATERAL_PARAM_NAMES`), the change of the cycle included (second-order
     AD through the RK4 period map, :func:`birdocp.studies.sensitivity.cycle_derivatives`; the heading
-    is left out of the periodicity condition, its multiplier 1 being structural).
+    is left out of the periodicity condition, its multiplier 1 being structural). An asymmetric gait's
+    cycle (a turn) is differentiated in the heading-free 8 states it was solved in, and its parameters
+    include the per-side offsets (``gait.right_offset.*``, ``gait.left_offset.*``).
 
     Parameters
     ----------
@@ -372,7 +458,6 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
         ``res.multipliers``' labels: ``labels``), ``d_multipliers`` ([re, im] pairs), per unit of the
         parameter (deg, kg m^2).
     """
-    from birdocp.bird.sixdof import LATERAL_PARAM_NAMES
     from birdocp.studies.sensitivity import SecondOrderMaps, cycle_derivatives
 
     cfg = cfg or Config()
@@ -385,16 +470,39 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
     six = sixdof_model(cfg)
     if parameters is None:
         parameters = LATERAL_SENSITIVITY_KEYS + ((TAIL_SENSITIVITY_KEY,) if six.structure.tail else ())
-    names = list(PARAM_NAMES) + list(LATERAL_PARAM_NAMES)
+    names = list(six.ode.param_names)
     for k in parameters:
         if k not in names:
             raise ValueError(f"unknown parameter {k!r}")
-    so = SecondOrderMaps.get(six, int(c.method["steps_per_period"]), six.flight_outputs()["vertical_speed_mps"])
-    states = [i for i in range(9) if i != HEADING]
+    steps = int(c.method["steps_per_period"])
+    if six.sides:  # an asymmetric gait: the heading-free 8 states the cycle was solved in
+        so = SecondOrderMaps.get(_heading_free(six), steps, six.flight_outputs(HEADING)["vertical_speed_mps"])
+        states = list(range(HEADING))
+    else:
+        so = SecondOrderMaps.get(six, steps, six.flight_outputs()["vertical_speed_mps"])
+        states = [i for i in range(9) if i != HEADING]
     lam, dL, dmod, _, _ = cycle_derivatives(so, six.period_s, c.x0, c.p, [names.index(k) for k in parameters], states)
     labels = _labels(lam, res)
     return [{"parameter": k, "labels": labels, "multipliers": lam, "d_moduli": dmod[i], "d_multipliers": dL[i]}
             for i, k in enumerate(parameters)]
+
+
+class _HeadingFree:
+    """A per-side 6-DOF model seen through its heading-free ODE (the model interface of
+    :class:`birdocp.studies.sensitivity.SecondOrderMaps`: ``model``, ``ode``, ``data``)."""
+
+    def __init__(self, six):
+        self.ode, self.data = six.ode_no_heading, six.data
+
+    @property
+    def model(self) -> "_HeadingFree":
+        """The identity the maps are cached by."""
+        return self
+
+
+@functools.lru_cache(maxsize=4)
+def _heading_free(six) -> _HeadingFree:
+    return _HeadingFree(six)
 
 
 def _labels(lam, res: LateralTrimResult) -> list[str]:
@@ -402,111 +510,10 @@ def _labels(lam, res: LateralTrimResult) -> list[str]:
     out = []
     for z in lam:
         lab = "longitudinal"
-        if abs(z - res.heading_multiplier) < 1e-9 and abs(z.imag) < 1e-12:
+        if res.symmetric and abs(z - res.heading_multiplier) < 1e-9 and abs(z.imag) < 1e-12:
             lab = "heading"
         for m in res.lateral_modes:
             if abs(z - m["multiplier"]) < 1e-9 * max(1.0, abs(z)):
                 lab = m["label"]
         out.append(lab)
     return out
-
-
-# ----------------------------------------------------------------------------------------------
-# Continuation in six degrees of freedom: the heading dropped (nothing depends on it)
-
-def branch_problem(cfg: Config, model_key: str, level: bool, climb_rate_mps: float, bounds):
-    """``(ode, problem)`` of a 6-DOF continuation of ``cfg`` (:func:`birdocp.studies.branch.bird_branch`):
-    the heading-free ODE ``ode_no_heading`` (8 states; nothing depends on psi, whose multiplier 1 would
-    sit on every fold and branch-point test), at fixed gait or (``level``) with the amplitude free and
-    the mean vertical speed held at ``climb_rate_mps``.
-
-    Parameters
-    ----------
-    cfg : Config
-        Six-degree-of-freedom configuration.
-    model_key : str
-        Dotted key of the continuation parameter.
-    level : bool
-        Amplitude free, mean vertical speed held.
-    climb_rate_mps : float
-        Mean vertical speed held with ``level`` [m/s].
-    bounds : (float, float)
-        Amplitude bounds [deg] with ``level``.
-
-    Returns
-    -------
-    ode : PeriodicODE
-    problem : LimitCycleProblem
-    """
-    six = sixdof_model(cfg)
-    if six.sides:
-        raise ConfigError("model.degrees_of_freedom", "continue with an asymmetric gait (per-side offsets) is not "
-                                                      "written yet; continue the symmetric gait")
-    ode, outs = six.ode_no_heading, six.flight_outputs(HEADING)
-    p6 = np.asarray(six.params(param_vector(cfg), LateralInertia.of(cfg)), float)
-    guess = np.array(embed_planar_state(cfg.solve.initial_guess)[:HEADING])
-    if not level:
-        return ode, LimitCycleProblem(ode, p6, guess, outputs=outs)
-    if model_key == AMPLITUDE_KEY:
-        raise ValueError("with level flight held the amplitude is solved for: continue another parameter")
-    lo, hi = bounds if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)
-    cond = MeanCondition(outs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")
-    return ode, LimitCycleProblem(ode, p6, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
-                                  outputs={"forward_speed_mps": outs["forward_speed_mps"]})
-
-
-def planar_point(x0, p):
-    """The planar (u, w, q, theta) state and parameter vector of a 6-DOF point (its validity is the
-    planar cycle's: a symmetric cycle has v = p = r = phi = 0).
-
-    Parameters
-    ----------
-    x0 : array_like
-        6-DOF state.
-    p : array_like or None
-        6-DOF parameter vector.
-
-    Returns
-    -------
-    x4 : ndarray
-        (u, w, q, theta).
-    p_planar : ndarray or None
-        The first ``len(PARAM_NAMES)`` parameters.
-    """
-    x0 = np.asarray(x0, float)
-    return x0[list(LONGITUDINAL)], (np.asarray(p, float)[:len(PARAM_NAMES)] if p is not None and len(p) else None)
-
-
-def add_lateral_split(cfg: Config, branch, steps_per_period: int, points: int) -> None:
-    """Give every point of a 6-DOF branch its split multipliers, in ``branch.settings``: the lists
-    ``longitudinal_multipliers`` and ``lateral_multipliers`` ([re, im] pairs, largest modulus first),
-    ``lateral_stable`` and ``coupling_max`` per point, from the point's monodromy (one variational
-    period of the heading-free ODE; the heading's multiplier 1 is not part of the branch).
-
-    Parameters
-    ----------
-    cfg : Config
-        Six-degree-of-freedom configuration.
-    branch : Branch
-        Branch, changed in place.
-    steps_per_period : int
-        RK4 steps of the variational period.
-    points : int
-        Shooting points of the branch.
-    """
-    from birdocp.engine.shooting import floquet
-
-    ode = sixdof_model(cfg).ode_no_heading
-    lon, lat = list(LONGITUDINAL), list(LATERAL)
-    rows = {"longitudinal_multipliers": [], "lateral_multipliers": [], "lateral_stable": [], "coupling_max": []}
-    method = MultipleShooting(points=points, steps_per_period=steps_per_period)
-    for pt in branch.points:
-        M = np.asarray(floquet(ode, pt.x0, pt.p, method).monodromy)
-        L = {"longitudinal": sort_multipliers(np.linalg.eigvals(M[np.ix_(lon, lon)])),
-             "lateral": sort_multipliers(np.linalg.eigvals(M[np.ix_(lat, lat)]))}
-        for k, v in L.items():
-            rows[f"{k}_multipliers"].append([[float(z.real), float(z.imag)] for z in np.asarray(v, complex)])
-        rows["lateral_stable"].append(bool(np.all(np.abs(L["lateral"]) < 1.0)))
-        rows["coupling_max"].append(float(max(np.abs(M[np.ix_(lon, lat)]).max(), np.abs(M[np.ix_(lat, lon)]).max())))
-    branch.settings.update(rows)
-    branch.settings["degrees_of_freedom"] = 6

@@ -1,7 +1,7 @@
 """Exact checks of the six-degree-of-freedom model with wing masses: a bird in vacuum (no air, no
 gravity) conserves the momentum and the angular momentum of body plus wings (docs/studies/lateral.md,
-wing masses). One wing may carry all the mass: the wing motion is then asymmetric and loads roll, yaw
-and the products of inertia."""
+wing masses). One wing may carry all the mass, or the gait itself may be asymmetric (per-side joint
+offsets): the wing motion then loads roll, yaw and the products of inertia."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import numpy as np
 
 from birdocp.bird import sixdof_inertia as w3
 from birdocp.bird.config import PARAM_NAMES, Config, param_vector
+from birdocp.bird.sides import side_vector
 from birdocp.bird.sixdof import LateralInertia, sixdof_model
 
 __all__ = ["VACUUM_START", "vacuum_drift"]
@@ -26,6 +27,15 @@ def _rotation(phi, th, psi):
                         [ct * sp, sf * st * sp + cf * cp, cf * st * sp - sf * cp], [-st, sf * ct, cf * ct]])
 
 
+def _one_wing_sums(six) -> ca.Function:
+    """``(t, p) -> the 3-D sums`` with only the right wing's mass points weighted (a symmetric gait)."""
+    t, ps = ca.SX.sym("t"), ca.SX.sym("p", len(PARAM_NAMES))
+    r, v, a, m = six.planar.mass_points(t, ps)
+    half = r.shape[1] // 2
+    s = w3.mass_sums_3d(m * ca.vertcat(ca.DM.ones(half), ca.DM.zeros(half)), r, v, a)
+    return ca.Function("sums_one_wing", [t, ps], [ca.vertcat(*[s[k] for k, _ in w3.MASS3_BLOCK])])
+
+
 def vacuum_drift(cfg: Config, steps_per_beat=(50, 100, 200), *, one_wing: bool = True,
                  product_inertia_xz_kgm2: float = 0.004, x0=VACUUM_START) -> dict:
     """Integrate one wingbeat of ``cfg``'s 6-DOF model with wing masses in vacuum (air density and
@@ -40,7 +50,8 @@ def vacuum_drift(cfg: Config, steps_per_beat=(50, 100, 200), *, one_wing: bool =
     steps_per_beat : sequence of int
         RK4 step counts, each dividing the largest.
     one_wing : bool
-        Only the right wing has mass (asymmetric wing motion).
+        Only the right wing has mass (asymmetric wing motion from a symmetric gait). With an asymmetric
+        gait (per-side offsets) pass False: both wings have mass and move differently.
     product_inertia_xz_kgm2 : float
         The body's I_xz for the check (the configuration's roll and yaw inertias otherwise).
     x0 : sequence of 9 floats
@@ -56,17 +67,13 @@ def vacuum_drift(cfg: Config, steps_per_beat=(50, 100, 200), *, one_wing: bool =
     six = sixdof_model(cfg)
     if not six.structure.wing_mass:
         raise ValueError("vacuum_drift needs a configuration with wing masses (wing.mass_kg > 0)")
+    if one_wing and six.sides:
+        raise ValueError("vacuum_drift: one_wing is for a symmetric gait; an asymmetric gait moves its wings "
+                         "differently by itself (one_wing=False)")
     p = np.array(param_vector(cfg), float)
     p[[PARAM_NAMES.index("aero.air_density_kgm3"), PARAM_NAMES.index("body.gravity_mps2")]] = 0.0
     inertia = LateralInertia(cfg.model.roll_inertia_kgm2, cfg.model.yaw_inertia_kgm2, product_inertia_xz_kgm2)
-    p6 = six.params(p, inertia)
-    t, ps = ca.SX.sym("t"), ca.SX.sym("p", len(PARAM_NAMES))
-    r, v, a, m = six.planar.mass_points(t, ps)
-    half = r.shape[1] // 2
-    if one_wing:
-        m = m * ca.vertcat(ca.DM.ones(half), ca.DM.zeros(half))
-    s = w3.mass_sums_3d(m, r, v, a)
-    sums = ca.Function("sums", [t, ps], [ca.vertcat(*[s[k] for k, _ in w3.MASS3_BLOCK])])
+    p6 = six.params(p, inertia, side_vector(cfg) if six.sides else None)
     x = ca.SX.sym("x", 12)
     d = ca.SX.sym("d", six.rhs.size1_in(1))
     R = _rotation(x[6], x[7], x[8])
@@ -78,7 +85,9 @@ def vacuum_drift(cfg: Config, steps_per_beat=(50, 100, 200), *, one_wing: bool =
     cons = ca.Function("cons", [x, d], [ca.vertcat(R @ P, ca.cross(x[9:], R @ P) + R @ H)])
     T, n_fine = six.period_s, max(steps_per_beat)
     ts = np.linspace(0.0, T, 2 * n_fine + 1)
-    dd = np.vstack([np.array(six.planar.data.map(len(ts))(ts, p)), np.array(sums.map(len(ts))(ts, p))])
+    dd = np.array(six.data.map(len(ts))(ts, p6))  # the model's own data: aerodynamic blocks, then the 3-D sums
+    if one_wing:
+        dd[-w3.N_MASS3:, :] = np.array(_one_wing_sums(six).map(len(ts))(ts, p))
     xs0 = np.append(np.asarray(x0, float), np.zeros(3))
     c0 = np.array(cons(xs0, dd[:, 0])).ravel()
     drift, finals = [], []

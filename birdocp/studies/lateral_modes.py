@@ -23,7 +23,7 @@ from birdocp.bird.config import Config
 from birdocp.bird.sixdof import LATERAL, LATERAL_PARAM_NAMES, STATE_NAMES, sixdof_model
 from birdocp.engine.integrate import RK4Grid
 
-__all__ = ["lateral_mode_histories", "state_transition_history"]
+__all__ = ["lateral_mode_histories", "state_transition_history", "track_modes"]
 
 
 def state_transition_history(ode, x0, p, steps_per_period: int):
@@ -126,3 +126,82 @@ def _flap_angles(six, t, p6) -> np.ndarray:
     k = GEOMETRY_OUTPUTS.index("joint_angles_rad")
     pp = np.asarray(p6, float)[:six.ode.np - len(LATERAL_PARAM_NAMES)]
     return np.array([float(np.asarray(six.planar.geometry(float(tk), pp)[k]).ravel()[1]) for tk in t])
+
+
+def _complex(z) -> complex:
+    """A complex number from a complex, a float or a JSON ``[re, im]`` pair."""
+    return complex(*z) if isinstance(z, (list, tuple)) else complex(z)
+
+
+def _unit_vector(mode: dict) -> np.ndarray:
+    v = np.array([_complex(z) for z in mode["eigenvector"].values()])
+    return v / np.linalg.norm(v)
+
+
+def _best_match(prev: list, cur: list) -> tuple:
+    """(perm, overlaps): ``cur[perm[k]]`` continues ``prev[k]``; the permutation with the largest
+    summed eigenvector overlap ``|<a, b>|`` (unit vectors; a conjugate pair matches either way round),
+    ties broken by the smaller summed eigenvalue distance."""
+    from itertools import permutations
+
+    A = [_unit_vector(m) for m in prev]
+    B = [_unit_vector(m) for m in cur]
+    ov = np.array([[abs(np.vdot(a, b)) for b in B] for a in A])
+    dl = np.array([[abs(_complex(a["multiplier"]) - _complex(b["multiplier"])) for b in cur] for a in prev])
+    best = max(permutations(range(len(cur))),
+               key=lambda q: (round(sum(ov[k, j] for k, j in enumerate(q)), 9), -sum(dl[k, j] for k, j in enumerate(q))))
+    return best, [float(ov[k, j]) for k, j in enumerate(best)]
+
+
+def track_modes(mode_lists, start: int) -> list[list[dict]]:
+    """The labels of a family's lateral modes carried by continuity from point ``start`` outwards.
+
+    Labelling every point on its own (:func:`birdocp.studies.lateral.lateral_modes`) can swap names
+    where modes move past each other (e.g. the real mode nearest 1 changes). Here each point's modes
+    are matched to its neighbour's (towards ``start``) by the largest overlap ``|<a, b>|`` of their
+    unit eigenvectors (scaled as the labels are; a conjugate pair matches either way round), and
+    inherit the neighbour's labels; ``start`` keeps its own. Where a complex pair splits into two real
+    modes both keep the pair's label; where two real modes of different labels meet and become a
+    complex pair, both members get the two labels joined by '+' (e.g.
+    ``dutch_roll_like+roll_subsidence``).
+
+    Parameters
+    ----------
+    mode_lists : sequence of list of dict
+        Per point of the family, in parameter order, its lateral modes (``multiplier``, ``eigenvector``,
+        ``label``; complex numbers or JSON ``[re, im]`` pairs); the points must have equally many.
+    start : int
+        The point whose labels are carried (e.g. the reference gait).
+
+    Returns
+    -------
+    list of list of dict
+        Copies of the modes with ``label`` carried, ``point_label`` (the point's own label) and
+        ``tracking_overlap`` (the eigenvector overlap with the matched neighbour mode, 1 at ``start``;
+        a low value says the step between the two points was too coarse to follow the mode).
+    """
+    out = [[dict(m, point_label=m["label"], tracking_overlap=1.0) for m in modes] for modes in mode_lists]
+    if any(len(m) != len(out[start]) for m in out):
+        raise ValueError("track_modes: every point needs the same number of modes")
+    for step in (1, -1):
+        i = start + step
+        while 0 <= i < len(out):
+            perm, ov = _best_match(out[i - step], out[i])
+            for k, j in enumerate(perm):
+                out[i][j]["label"], out[i][j]["tracking_overlap"] = out[i - step][k]["label"], ov[k]
+            _merge_pair_labels(out[i])
+            i += step
+    return out
+
+
+def _merge_pair_labels(modes: list) -> None:
+    """A complex-conjugate pair whose two members descend from differently labelled modes (two real
+    modes met on the real axis and became a pair) gets both labels joined by '+' on both members."""
+    for a in modes:
+        za = _complex(a["multiplier"])
+        if za.imag == 0:
+            continue
+        for b in modes:
+            if b is not a and abs(_complex(b["multiplier"]) - za.conjugate()) <= 1e-9 * max(1.0, abs(za)) \
+                    and b["label"] != a["label"]:
+                a["label"] = b["label"] = "+".join(sorted(set(a["label"].split("+")) | set(b["label"].split("+"))))

@@ -15,8 +15,15 @@ length (beats). Equivalently a gust frozen in space along the cycle's path: the 
 A run stops with status ``diverged`` when the state leaves the model's range (non-finite, a speed
 above :data:`birdocp.studies.simulate.MAX_SPEED_MPS`, a rate above 1000 rad/s), with
 ``left_validity`` when the air-relative forward speed falls below ``validity.min_forward_speed_mps``,
-|pitch| exceeds ``validity.max_abs_pitch_deg`` or the air meets the body axis at more than
-``validity.max_airflow_body_angle_deg``; the planar stall-fraction check is not evaluated here.
+|pitch| exceeds ``validity.max_abs_pitch_deg``, the air meets the body axis at more than
+``validity.max_airflow_body_angle_deg`` or, over a beat, more than ``validity.max_stalled_fraction`` of
+one wing's span-time area is beyond ``validity.stall_angle_deg`` (the effective angles of attack of
+both wings in the asymmetric air-relative flow at every RK4 step end, :func:`birdocp.bird.validity.sixdof_angles`).
+
+Vertical and horizontal gusts and a constant wind (the planar simulation's ``--gust`` and ``--wind``,
+:class:`birdocp.studies.simulate.Gust`): the 1 - cos gust frozen in space along the cycle's initial
+heading (north), met at the bird's north position; horizontal positive along that heading, vertical
+positive up. They add to the side gust.
 """
 
 from __future__ import annotations
@@ -27,12 +34,12 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from birdocp.bird.config import ConfigError
+from birdocp.bird.config import PARAM_NAMES, ConfigError
 from birdocp.bird.sixdof import HEADING, STATE_NAMES, rhs_expression
 from birdocp.engine.integrate import RK4Grid, rk4_update, stage_block_index
 from birdocp.engine.results import result_dict, serial
 from birdocp.studies.control import PerModel
-from birdocp.studies.simulate import MAX_SPEED_MPS, interval_data, parse_state_values
+from birdocp.studies.simulate import MAX_SPEED_MPS, wind_vector, interval_data, parse_state_values
 
 __all__ = ["SideGust", "LateralSimulation", "simulate_lateral", "parse_side_gust", "parse_lateral_perturbation",
            "LATERAL_STATE_ALIASES"]
@@ -136,21 +143,34 @@ def _dcm(phi, th, psi):
                       ca.horzcat(cf * st * cp + sf * sp, cf * st * sp - sf * cp, cf * ct))
 
 
+def _space_pulse(x_m, start_m, length_m):
+    """The 1 - cos shape (0..1) of a gust frozen in space along the cycle's initial heading, as the
+    planar simulation's (:mod:`birdocp.studies.simulate`)."""
+    s = (x_m - start_m) / length_m
+    return ca.if_else(ca.logic_and(s > 0, s < 1), 0.5 * (1 - ca.cos(2 * math.pi * s)), 0)
+
+
 class _SixStepper(PerModel):
-    """RK4 of the 9 states + position (N, E, D) + time with a side wind, for (model, steps, N)."""
+    """RK4 of the 9 states + position (N, E, D) + time with a side wind and the planar winds and gusts
+    (along the initial heading and vertical), for (model, steps, N)."""
 
     def __init__(self, six, steps: int, n_intervals: int):
         self.model = six
         self.grid = grid = RK4Grid(six.ode, steps, n_intervals)
         n, nd, np_ = grid.n, six.ode.nd, six.ode.np
         z = ca.SX.sym("z", 13)
-        d, p, g = ca.SX.sym("d", nd), ca.SX.sym("p", np_), ca.SX.sym("g", 4)
-        x, t = z[:9], z[12]
+        # g: the side gust (A, t_s, L, step flag) then the planar wind layout of
+        # birdocp.studies.simulate (constant horizontal, vertical; gust amplitudes; start/length of each)
+        d, p, g = ca.SX.sym("d", nd), ca.SX.sym("p", np_), ca.SX.sym("g", 4 + 8)
+        x, t, north = z[:9], z[12], z[9]
         s = (t - g[1]) / g[2]
         pulse = ca.if_else(ca.logic_and(s > 0, s < 1), 0.5 * (1 - ca.cos(2 * math.pi * s)), 0)
         east = g[0] * ca.if_else(g[3] > 0, ca.if_else(t >= g[1], 1, 0), pulse)
+        w8 = g[4:]
+        forward = w8[0] + w8[2] * _space_pulse(north, w8[4], w8[5])
+        up = w8[1] + w8[3] * _space_pulse(north, w8[6], w8[7])
         C = _dcm(x[6], x[7], x[8])
-        wind_b = C @ ca.vertcat(0, east, 0)
+        wind_b = C @ ca.vertcat(forward, east, -up)
         x_air = ca.vertcat(x[:3] - wind_b, x[3:])
         zdot = ca.vertcat(rhs_expression(x, d, p, x_air, structure=six.structure), C.T @ x[:3], 1)
         f = ca.Function("f_sim6", [z, d, p, g], [zdot])
@@ -190,6 +210,10 @@ class LateralSimulation:
     max_airflow_body_angle_deg: float = float("nan")
     diverged_beat: int | None = None
     control_cycle: np.ndarray = field(default_factory=lambda: np.zeros(0), metadata=serial(skip=True))
+    gusts: list = field(default_factory=list)  # the vertical/horizontal gusts met (start_m, length_m, ...)
+    wind_mps: list = field(default_factory=lambda: [0.0, 0.0])  # constant (horizontal, vertical up)
+    # largest stalled share of one wing's span-time area over a beat (checked every beat)
+    max_stalled_fraction: float = field(default=0.0, metadata=serial(key="max_stalled_fraction_per_beat"))
 
     def to_dict(self) -> dict:
         """JSON-ready dict: the fields but the histories, with the peak bank and the final heading [deg],
@@ -212,7 +236,7 @@ class LateralSimulation:
             "final_heading_deg": np.degrees(self.states[-1, HEADING]) if some else None,
             "max_abs_east_drift_m": np.max(np.abs(self.position_m[:, 1])) if some else None,
             "control_range": [[np.min(c), np.max(c)] for c in self.controls.T] if self.controls.size else [],
-            "stall_fraction_checked": False})
+            "stall_fraction_checked": True})
 
     def arrays(self) -> dict:
         """The histories (arrays.npz).
@@ -226,8 +250,9 @@ class LateralSimulation:
                 "deviation_per_beat": self.deviation_per_beat}
 
 
-def _limits_text(status_z, air, lim):
-    """The reasons a step range leaves the model's range or validity (empty: none)."""
+def _limits_text(status_z, air, lim, stalled=None):
+    """The reasons a step range leaves the model's range or validity (empty: none); ``stalled``: the
+    beat's stalled share of the span-time area of each wing (left, right)."""
     z = status_z
     speed = np.linalg.norm(z[:, :3], axis=1)
     if not np.all(np.isfinite(z)) or np.any(speed > MAX_SPEED_MPS) or np.any(np.abs(z[:, 3:6]) > MAX_RATE_RADPS):
@@ -240,13 +265,29 @@ def _limits_text(status_z, air, lim):
         (pitch > lim.max_abs_pitch_deg, f"|pitch| {pitch:.3g} > {lim.max_abs_pitch_deg:g} deg"),
         (np.max(np.abs(inflow)) > lim.max_airflow_body_angle_deg,
          f"airflow at {np.max(np.abs(inflow)):.3g} deg to the body axis > {lim.max_airflow_body_angle_deg:g} deg"),
-    ) if bad]
+    ) + tuple((v > lim.max_stalled_fraction, f"{v:.1%} of the {side} wing's span-time area beyond the stall angle "
+                                            f"{lim.stall_angle_deg:g} deg > {lim.max_stalled_fraction:.0%}")
+              for side, v in zip(("left", "right"), [] if stalled is None else stalled)) if bad]
     return ("left_validity", ", ".join(reasons)) if reasons else ("ok", "")
 
 
-def _beat(st, z, k, N, p_cyc, idx, u_cyc, controller, gvec, T):
-    """One beat of :func:`simulate_lateral`: (z, Zs, controls applied, saturated, air velocities)."""
-    Zs, applied, sat, airs = [], [], False, []
+def _stalled_shares(st, Zi, air, D, pk, stall_deg: float) -> np.ndarray:
+    """(2, n): the stalled share of each wing's span (left, right) at the n step ends of an interval,
+    from the effective angles of the air-relative state (:func:`birdocp.bird.validity.sixdof_angles`)."""
+    from birdocp.bird.validity import SIDE_ELEMENTS, sixdof_angles
+
+    n = Zi.shape[0]
+    f = sixdof_angles(9, st.model.ode.nd, n)
+    X_air = np.vstack([air, Zi[:, 3:9].T])
+    ae, _, ds = (np.asarray(v) for v in f(ca.DM(X_air), D[:, 2::3], ca.DM(pk[:len(PARAM_NAMES)])))
+    stalled = np.degrees(np.abs(ae)) > stall_deg
+    return np.array([(stalled[j] * ds[j]).sum(axis=0) / ds[j].sum(axis=0) for j in SIDE_ELEMENTS.values()])
+
+
+def _beat(st, z, k, N, p_cyc, idx, u_cyc, controller, gvec, T, stall_deg=None):
+    """One beat of :func:`simulate_lateral`: (z, Zs, controls applied, saturated, air velocities,
+    stalled shares (2, steps): left and right wing at each step end)."""
+    Zs, applied, sat, airs, shares = [], [], False, [], []
     for i in range(N):
         pk = p_cyc
         if controller is not None:
@@ -257,16 +298,32 @@ def _beat(st, z, k, N, p_cyc, idx, u_cyc, controller, gvec, T):
             pk = p_cyc.copy()
             pk[idx] = uc
             applied.append(((k + i / N) * T, uc))
+        D = st.data(i, pk)
         with np.errstate(all="ignore"):
-            Zi = np.asarray(st.interval(z, st.data(i, pk), ca.DM(pk), ca.DM(gvec))).T
+            Zi = np.asarray(st.interval(z, D, ca.DM(pk), ca.DM(gvec))).T
         Zs.append(Zi)
         airs.append(np.asarray(st.air(Zi.T, ca.DM(gvec))))
+        if stall_deg is not None and np.all(np.isfinite(Zi)):
+            shares.append(_stalled_shares(st, Zi, airs[-1], D, pk, stall_deg))
         z = Zi[-1]
-    return z, np.vstack(Zs), applied, sat, np.hstack(airs)
+    return z, np.vstack(Zs), applied, sat, np.hstack(airs), (np.hstack(shares) if shares else np.zeros((2, 0)))
+
+
+def _wind_of(st, x0, N, p_cyc, side_gust, gusts, wind_mps):
+    """``(g, beat_m, spans)``: the stepper's wind numbers (side gust, then :func:`wind_vector`'s), the
+    distance flown in one calm beat of the cycle [m] (the gusts' beats) and the gusts' spans."""
+    T = st.model.period_s
+    side = side_gust.vector(T) if side_gust is not None else np.array([0.0, 0.0, 1.0, 0.0])
+    calm = np.concatenate([[0.0, 0.0, 1.0, 0.0], wind_vector((), (0.0, 0.0), 1.0)[0]])
+    zc = _beat(st, np.concatenate([x0, [0.0] * 4]), 0, N, p_cyc, [], np.zeros(0), None, calm, T)[0]
+    beat_m = float(np.hypot(zc[9], zc[10]))
+    planar, spans = wind_vector(gusts, wind_mps, beat_m)
+    return np.concatenate([side, planar]), beat_m, spans
 
 
 def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | None = None, perturbation=None,
-                     side_gust: SideGust | None = None, controller=None, progress=None) -> LateralSimulation:
+                     side_gust: SideGust | None = None, gusts=(), wind_mps=(0.0, 0.0), controller=None,
+                     progress=None) -> LateralSimulation:
     """Integrate the 6-DOF bird ``beats`` wingbeats from ``x0_cycle + perturbation``.
 
     Parameters
@@ -286,6 +343,11 @@ def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | No
         State deviation at t = 0 (:func:`parse_lateral_perturbation`).
     side_gust : SideGust, optional
         The side wind.
+    gusts : sequence of Gust
+        Vertical and horizontal 1 - cos gusts (:class:`birdocp.studies.simulate.Gust`, at most one of
+        each) frozen in space along the cycle's initial heading, met at the bird's position.
+    wind_mps : (float, float)
+        Constant wind (horizontal along the initial heading, vertical positive up) [m/s].
     controller : Controller, optional
         A 6-DOF controller (gains (N, m, 8)); None = open loop.
     progress : callable, optional
@@ -309,18 +371,18 @@ def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | No
     names = list(six.ode.param_names)
     keys = list(controller.controls) if controller is not None else []
     idx = [names.index(k) for k in keys]
-    gvec = side_gust.vector(six.period_s) if side_gust is not None else np.array([0.0, 0.0, 1.0, 0.0])
-    zc, _, _, _, _ = _beat(st, np.concatenate([x0, [0.0] * 4]), 0, N, p_cyc, idx, p_cyc[idx], None,
-                           np.array([0.0, 0.0, 1.0, 0.0]), six.period_s)
-    beat_m = float(np.hypot(zc[9], zc[10]))
+    gvec, beat_m, spans = _wind_of(st, x0, N, p_cyc, side_gust, gusts, wind_mps)
     z = np.concatenate([x0 + dx0, [0.0] * 4])
     traj, ctrl, dev = [z[None, :]], [], [float(np.linalg.norm(dx0[:HEADING]))]
-    sat, status, message, diverged, airs = False, "ok", f"{int(beats)} beats simulated", None, []
+    sat, status, message, diverged, airs, stall_max = False, "ok", f"{int(beats)} beats simulated", None, [], 0.0
     for k in range(int(beats)):
         if progress is not None:
             progress(f"beat {k + 1}/{beats}")
-        z, Zk, applied, s, air = _beat(st, z, k, N, p_cyc, idx, p_cyc[idx], controller, gvec, six.period_s)
-        status, why = _limits_text(Zk, air, cfg.validity)
+        z, Zk, applied, s, air, shares = _beat(st, z, k, N, p_cyc, idx, p_cyc[idx], controller, gvec, six.period_s,
+                                               cfg.validity.stall_angle_deg)
+        stalled = shares.mean(axis=1) if shares.shape[1] == Zk.shape[0] else np.zeros(0)  # per wing, over the beat
+        stall_max = max([stall_max, *stalled])
+        status, why = _limits_text(Zk, air, cfg.validity, stalled)
         sat, ctrl = sat or s, ctrl + applied
         traj.append(Zk)
         airs.append(air)
@@ -337,4 +399,5 @@ def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | No
         keys, np.array(dev), sat, None if side_gust is None else {
             "amplitude_mps": side_gust.amplitude_mps, "shape": side_gust.shape, "length_beats": side_gust.length_beats,
             "start_beats": side_gust.start_beats}, dx0.tolist(), beat_m, float(np.nanmin(A[0])),
-        float(np.nanmax(np.degrees(np.arctan2(np.hypot(A[1], A[2]), A[0])))), diverged, p_cyc[idx])
+        float(np.nanmax(np.degrees(np.arctan2(np.hypot(A[1], A[2]), A[0])))), diverged, p_cyc[idx],
+        gusts=spans, wind_mps=[float(v) for v in wind_mps], max_stalled_fraction=stall_max)

@@ -158,7 +158,7 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
         ``flight_path_angle_deg``.
     x_guess : array_like (4,), optional
         State at t = 0 to start from (default ``cfg.solve.initial_guess``).
-    warm_start : TrimResult or LimitCycleResult, optional
+    warm_start : TrimResult or OrbitResult, optional
         A previous result (shooting points and free value).
     target : float, optional
         Target of the condition for the other constraints (forward speed in m/s, flight path angle in
@@ -167,7 +167,7 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
         Use the RHS and data compiled to C (:func:`birdocp.studies.trim.solver_ode`; the same
         numbers, faster).
     **method_over
-        Overrides of :class:`~birdocp.engine.shooting.MultipleShooting` (default ``cfg.solve``).
+        Overrides of :class:`~birdocp.engine.method.OrbitMethod` (default ``cfg.solve``).
 
     Returns
     -------
@@ -188,18 +188,18 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
     lo, hi = default_bounds(cfg, key) if bounds is None else _checked_bounds(bounds)
 
     from birdocp.bird.model import get_model
-    from birdocp.engine.problem import LimitCycleProblem
-    from birdocp.engine.shooting import solve as _solve
+    from birdocp.engine.problem import OrbitProblem
+    from birdocp.engine.orbit_front import solve as _solve
     from birdocp.studies.trim import TrimResult, method_of, solver_ode
 
     m = get_model(cfg)
     cond, outputs = _condition(c, target, m.ode.nd, m.ode.nx)
     guess = m.complete_state(cfg.solve.initial_guess if x_guess is None else x_guess, m.p0)
-    problem = LimitCycleProblem(ode=solver_ode(m, compiled), p=m.p0, x_guess=guess, free={key: (lo, hi)}, means=[cond],
-                                outputs=outputs)
+    problem = OrbitProblem(ode=solver_ode(m, compiled), p=m.p0, x_guess=guess, free={key: (lo, hi)}, means=[cond],
+                           outputs=outputs)
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
     if ws is not None and not all(hasattr(ws, a) for a in ("p", "shooting_points", "x0")):
-        raise TypeError(f"warm_start must be a TrimResult or LimitCycleResult, got {type(ws).__name__}")
+        raise TypeError(f"warm_start must be a TrimResult or OrbitResult, got {type(ws).__name__}")
     res = _solve(problem, method_of(cfg, **method_over), warm_start=ws)
     return TrimResult(res, cfg)
 

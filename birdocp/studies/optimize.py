@@ -90,6 +90,10 @@ class StabilityOptimum:
     active (:func:`birdocp.studies.gait_validity.constraint_report`)."""
     validity_rounds: list | None = None
     """With ``valid=True``: the solves of the last stage (bounds used, exact verdict)."""
+    six_dof: dict | None = None
+    """With ``model.degrees_of_freedom = 6``: ``multipliers`` are the longitudinal and the lateral ones
+    (the heading's 1 left out), split here with their radii (top-level JSON keys,
+    :func:`birdocp.studies.lateral_optimize.multiplier_split`)."""
 
     @property
     def stable(self) -> bool:
@@ -103,7 +107,7 @@ class StabilityOptimum:
         dict
             Plain JSON types only.
         """
-        return result_dict(self, exclude=("cfg",), derived=("stable",), extra={
+        return result_dict(self, exclude=("cfg", "six_dof"), derived=("stable",), extra=dict(self.six_dof or {}) | {
             "moduli": np.abs(self.multipliers),
             "validity": self.validity or invalid(self.cfg, "not checked (no optimal cycle)"),
             "active_bounds": [k for k, v in self.free.items()
@@ -288,7 +292,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
         The optimal gait, amplitude, cycle, multipliers, ``radius``, IPOPT's status and iterations, the
         verification, the optimum's validity and, with ``valid``, ``validity_constraints``.
     """
-    _check_options(method, threads, valid)
+    _check_options(method, threads, valid, cfg)
     if coarse_steps == "auto":
         coarse_steps = COARSE_STEPS[method]
     if method == "full":
@@ -299,8 +303,12 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
                              max_iter, tol, verify, progress, threads, valid)
 
 
-def _check_options(method: str, threads, valid: bool) -> None:
-    """ConfigError naming the option when ``method``, ``threads`` or ``valid`` is not allowed."""
+def _check_options(method: str, threads, valid: bool, cfg: Config | None = None) -> None:
+    """ConfigError naming the option when ``method``, ``threads`` or ``valid`` is not allowed (for ``cfg``:
+    the full-space method is planar)."""
+    if method == "full" and cfg is not None and cfg.model.degrees_of_freedom == 6:
+        raise ConfigError("--method", "the full-space method is planar; with model.degrees_of_freedom = 6 use "
+                                      "--method reduced")
     if method not in METHODS:
         raise ConfigError("--method", f"must be one of {', '.join(METHODS)}, got {method!r}")
     if int(threads) < 1:
@@ -367,6 +375,7 @@ def _stability_result(cfg, free, opt, first, iterations, wall, notes, N, verify,
     out.constraint_violation, out.evaluations = opt.constraint_violation, dict(opt.evaluations)
     out.valid_constrained, out.validity_constraints, out.validity_rounds = bool(valid), opt.validity_constraints, \
         opt.validity_rounds
+    out.six_dof = opt.six_dof
     cfg_best = with_values(cfg, dict(opt.free) | {AMPLITUDE_KEY: opt.amplitude_deg})
     if verify and finite:
         t0 = time.perf_counter()
@@ -431,7 +440,7 @@ def _verify(out: StabilityOptimum, cfg: Config, N: int, jury=None) -> None:
     out.verification = {
         "trim_success": bool(check.success),
         "trim_multipliers": pairs(check.multipliers) if check.success else None,
-        "max_multiplier_difference": dist(check.multipliers, lam) if check.success else None,
+        "max_multiplier_difference": dist(check.multipliers, lam) if check.success and len(lam) == 4 else None,
         "trim_mean_vertical_speed_mps": float(check.mean_vertical_speed_mps) if check.success else None,
         "trim_x0_difference": float(np.max(np.abs(check.x0 - xs))) if check.success else None,
         "scratch_trim_success": bool(scratch.success),
@@ -443,6 +452,10 @@ def _verify(out: StabilityOptimum, cfg: Config, N: int, jury=None) -> None:
         "kkt_residual": out.kkt_residual,
         "evaluations": dict(out.evaluations),
     }
+    if cfg.model.degrees_of_freedom == 6 and check.success:  # all eight multipliers from a 6-DOF trim
+        from birdocp.studies.lateral_optimize import lateral_check
+
+        out.verification.update(lateral_check(cfg_best, check.x0, lam, N))
 
 
 def _full_two_grids(cfg, free, climb_rate_mps, amplitude_bounds, coarse_steps, N_full, max_iter, tol, verify,

@@ -245,7 +245,25 @@ class SimulationResult:
                 "deviation_per_beat": self.deviation_per_beat}
 
 
-def _wind_vector(gusts, wind_mps, beat_m) -> tuple[np.ndarray, list]:
+def wind_vector(gusts, wind_mps, beat_m) -> tuple[np.ndarray, list]:
+    """``(g, spans)``: the 8 wind numbers of the simulation steppers (constant horizontal and vertical
+    wind [m/s], the gusts' amplitudes [m/s] and (start, length) [m] of the horizontal then the vertical
+    gust) and one dict per gust, for ``beat_m`` metres flown per beat.
+
+    Parameters
+    ----------
+    gusts : sequence of Gust
+        Gusts.
+    wind_mps : sequence of float
+        Constant wind (horizontal, vertical) [m/s].
+    beat_m : float
+        Distance flown per beat [m].
+
+    Returns
+    -------
+    g : ndarray, shape (8,)
+    spans : list of dict
+    """
     g = np.array([float(wind_mps[0]), float(wind_mps[1]), 0.0, 0.0, 0.0, 1.0, 0.0, 1.0])
     spans = []
     for gust in gusts:
@@ -307,7 +325,7 @@ def simulate(cfg, x0_cycle, beats: int, *, steps_per_period: int | None = None, 
     for i in range(r.N):
         zc = np.asarray(r.st.interval(zc, r.st.data(i, r.p_cyc), r.pd, np.zeros(8)))[:, -1]
     beat_m = float(zc[4])
-    g, spans = _wind_vector(gusts, wind_mps, beat_m)
+    g, spans = wind_vector(gusts, wind_mps, beat_m)
     r.gd = ca.DM(g)
     r.z = np.concatenate([r.x0_cycle + r.dx0, [0.0, 0.0], r.x_full[4:]])
     r.traj, r.dev = [r.z[None, :]], [float(np.linalg.norm(r.dx0))]

@@ -113,7 +113,7 @@ def sweep_values(start: float, stop: float, step: float) -> list[float]:
 
 @dataclass
 class _WarmStart:
-    """The part of a LimitCycleResult the engine reads for a warm start (rebuilt from a point file)."""
+    """The part of a OrbitResult the engine reads for a warm start (rebuilt from a point file)."""
 
     p: np.ndarray
     shooting_points: np.ndarray
@@ -289,7 +289,7 @@ def sweep(cfg: Config | None, key: str, values: Sequence[float], *, level: bool 
         Solve with the RHS and data compiled to C (:func:`birdocp.studies.trim.solver_ode`; the same
         numbers, faster).
     **method_over
-        Overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
+        Overrides of :class:`~birdocp.engine.method.OrbitMethod`.
 
     Returns
     -------
@@ -474,7 +474,7 @@ def grid_sweep(cfg: Config | None, key: str, values: Sequence[float], row_key: s
     compiled : bool
         Solve with the RHS and data compiled to C in every job (the same numbers, faster).
     **method_over
-        Overrides of :class:`~birdocp.engine.shooting.MultipleShooting`.
+        Overrides of :class:`~birdocp.engine.method.OrbitMethod`.
 
     Returns
     -------

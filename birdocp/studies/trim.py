@@ -19,11 +19,13 @@ from birdocp.bird.config import PARAM_NAMES, Config
 from birdocp.bird.flight import flight_outputs, flight_path_angle_deg
 from birdocp.bird.model import get_model
 from birdocp.bird.validity import CycleValidity, cycle_validity, grid_validity
-from birdocp.engine.problem import LimitCycleProblem
+from birdocp.engine.method import OrbitMethod
+from birdocp.engine.orbit_front import solve
+from birdocp.engine.orbit_result import JSON_OMITS, OrbitResult
+from birdocp.engine.problem import OrbitProblem
 from birdocp.engine.results import finite_or_none, result_dict
-from birdocp.engine.shooting import LimitCycleResult, MultipleShooting, solve
 
-__all__ = ["TrimResult", "trim", "method_of", "solver_ode"]
+__all__ = ["TrimResult", "CYCLE_FIELDS", "trim", "method_of", "solver_ode"]
 
 def solver_ode(m, compiled: bool = False):
     """The ODE the engine solves for the configured model ``m``: ``m.ode``, or with ``compiled`` its
@@ -49,40 +51,69 @@ def solver_ode(m, compiled: bool = False):
     return compiled_ode(m.ode, key_extra=repr(m.structure)) or m.ode
 
 
-def method_of(cfg: Config, **over) -> MultipleShooting:
-    """The :class:`MultipleShooting` method of ``cfg.solve`` (fields overridden by ``over``).
+def method_of(cfg: Config, **over) -> OrbitMethod:
+    """The :class:`~birdocp.engine.method.OrbitMethod` of ``cfg.solve`` (fields overridden by ``over``).
 
     Parameters
     ----------
     cfg : Config
         Configuration.
     **over
-        Fields of :class:`MultipleShooting` overridden.
+        Fields of :class:`~birdocp.engine.method.OrbitMethod` overridden.
 
     Returns
     -------
-    MultipleShooting
+    OrbitMethod
     """
     s = cfg.solve
     kw = dict(points=s.points, steps_per_period=s.steps_per_period, solver=s.solver,
               derivatives=s.derivatives, max_iter=s.max_iter, tol=s.tol if s.tol > 0 else None)
     kw.update(over)
-    return MultipleShooting(**kw)
+    return OrbitMethod(**kw)
+
+
+def _of_cycle(name: str):
+    """A read-only property that reads ``self.cycle.<name>``."""
+    return property(lambda self: getattr(self.cycle, name),
+                    doc=f"``cycle.{name}`` (:class:`~birdocp.engine.orbit_result.OrbitResult`).")
 
 
 @dataclass
 class TrimResult:
-    """A trimmed flight: the engine's :class:`~birdocp.engine.shooting.LimitCycleResult` (``cycle``; its
-    fields are also readable here directly) plus the flight quantities of the paper."""
+    """A trimmed flight: the engine's :class:`~birdocp.engine.orbit_result.OrbitResult` (``cycle``) plus
+    the flight quantities of the paper. The cycle's fields listed in :data:`CYCLE_FIELDS` are also
+    readable here (read-only properties); everything else of the cycle is ``result.cycle.<name>``."""
 
-    cycle: LimitCycleResult
+    cycle: OrbitResult
     cfg: Config
     _wing_power: dict | None = field(default=None, repr=False)
 
-    def __getattr__(self, name):
-        if name in ("cycle", "cfg", "_wing_power"):
-            raise AttributeError(name)
-        return getattr(self.cycle, name)
+    success = _of_cycle("success")
+    status = _of_cycle("status")
+    message = _of_cycle("message")
+    iterations = _of_cycle("iterations")
+    residual_history = _of_cycle("residual_history")
+    max_residual = _of_cycle("max_residual")
+    wall_s = _of_cycle("wall_s")
+    period = _of_cycle("period")
+    autonomous = _of_cycle("autonomous")
+    shooting_times = _of_cycle("shooting_times")
+    shooting_points = _of_cycle("shooting_points")
+    x0 = _of_cycle("x0")
+    p = _of_cycle("p")
+    free_values = _of_cycle("free_values")
+    trajectory_t = _of_cycle("trajectory_t")
+    trajectory_x = _of_cycle("trajectory_x")
+    means = _of_cycle("means")
+    monodromy = _of_cycle("monodromy")
+    multipliers = _of_cycle("multipliers")
+    eigenvectors = _of_cycle("eigenvectors")
+    floquet_exponents = _of_cycle("floquet_exponents")
+    doubling_times_s = _of_cycle("doubling_times_s")
+    stable = _of_cycle("stable")
+    monodromy_vs_full_period_jacobian = _of_cycle("monodromy_vs_full_period_jacobian")
+    method = _of_cycle("method")
+    error_estimate = _of_cycle("error_estimate")
 
     @property
     def validity(self) -> "CycleValidity":
@@ -216,7 +247,7 @@ class TrimResult:
         if c.error_estimate is not None:  # trim(..., error_estimate=True): the 2N re-solve's estimate
             flight["error_estimate"] = c.error_estimate
         # the engine cycle's fields (the trajectory and p go to arrays.npz), then the flight's
-        return result_dict(c, exclude=("p", "trajectory_t", "trajectory_x"), extra=flight,
+        return result_dict(c, exclude=("p", "trajectory_t", "trajectory_x") + JSON_OMITS[c.formulation], extra=flight,
                            rename={"floquet_exponents": "floquet_exponents_per_s",
                                    "shooting_times": "shooting_times_s"})
 
@@ -283,7 +314,12 @@ class TrimResult:
         return "\n".join(lines)
 
 
-def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: MultipleShooting | None = None,
+CYCLE_FIELDS = tuple(k for k, v in vars(TrimResult).items() if isinstance(v, property) and v.__doc__
+                     and v.__doc__.startswith("``cycle."))
+"""The cycle's fields a :class:`TrimResult` forwards (read-only)."""
+
+
+def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: OrbitMethod | None = None,
          compiled: bool = False, **method_over) -> TrimResult:
     """Trimmed flight of ``cfg`` (default: the paper's reference case).
 
@@ -297,14 +333,14 @@ def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: Mu
         start on the quasi-steady manifold), or a full state.
     warm_start : TrimResult, optional
         A previous result whose cycle starts the solve.
-    method : MultipleShooting, optional
+    method : OrbitMethod, optional
         The shooting method (default from ``cfg.solve``).
     compiled : bool
         Use the state right-hand side and data compiled to C (:func:`solver_ode`; the same numbers,
         faster; compiled once and cached; falls back to the interpreted path with a warning on stderr
         if compilation fails). The CLI's ``--compiled`` (or ``BIRDOCP_COMPILED=1``) sets it.
     **method_over
-        Overrides of :class:`~birdocp.engine.shooting.MultipleShooting`'s fields (``points``,
+        Overrides of :class:`~birdocp.engine.method.OrbitMethod`'s fields (``points``,
         ``steps_per_period``, ``solver``, ``tol``, ...).
 
     Returns
@@ -327,7 +363,8 @@ def trim(cfg: Config | None = None, *, x_guess=None, warm_start=None, method: Mu
         x_guess = linear_section_start(cfg, compiled, **method_over)
     m = get_model(cfg)
     guess = m.complete_state(cfg.solve.initial_guess if x_guess is None else x_guess, m.p0)
-    problem = LimitCycleProblem(ode=solver_ode(m, compiled), p=m.p0, x_guess=guess, outputs=flight_outputs(m.ode.nd, m.ode.nx))
+    problem = OrbitProblem(ode=solver_ode(m, compiled), p=m.p0, x_guess=guess,
+                           outputs=flight_outputs(m.ode.nd, m.ode.nx))
     method = method or method_of(cfg, **method_over)
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
     return TrimResult(check_physical(solve(problem, method, warm_start=ws)), cfg)
@@ -360,7 +397,7 @@ def linear_section_start(cfg: Config, compiled: bool | None = None, **method_ove
     return np.asarray(lin.cycle.x0, float)[:4] if lin.success else None
 
 
-def check_physical(cycle: LimitCycleResult) -> LimitCycleResult:
+def check_physical(cycle: OrbitResult) -> OrbitResult:
     """A converged cycle with u <= 0 somewhere is not a forward flight (the aerodynamic model assumes
     air coming from ahead): mark it failed with status ``non_physical``.
 

@@ -16,14 +16,14 @@ resonance curve).
 # Pose the problem
 # ----------------
 # ``PeriodicODE.from_rhs(f, T, state_names, param_names)`` wraps ``f(x, t, p)``; the period T is the
-# forcing's. ``LimitCycleProblem`` adds the parameter values and a guess of the state at t = 0.
+# forcing's. ``OrbitProblem`` adds the parameter values and a guess of the state at t = 0.
 import casadi as ca
 import matplotlib.pyplot as plt
 import numpy as np
 
 from birdocp.engine.integrate import simulate
-from birdocp.engine.problem import LimitCycleProblem, PeriodicODE
-from birdocp.engine.shooting import MultipleShooting, solve
+from birdocp.engine.problem import OrbitProblem, PeriodicODE
+from birdocp.engine import OrbitMethod, solve
 
 omega = 1.3
 T = 2 * np.pi / omega
@@ -40,13 +40,13 @@ params = np.array([0.1, 1.0, 0.2, 0.3])   # c, k, beta, F
 # --------------------------
 # A guess for each: the state after 30 periods of plain RK4 (:func:`~birdocp.engine.integrate.simulate`)
 # from rest and from x = -3. Then multiple shooting with 5 points and 200 RK4 steps per period
-# (``MultipleShooting`` holds the method's settings; IPOPT by default, ``solver="lm"`` for
+# (``OrbitMethod`` holds the method's settings; IPOPT by default, ``solver="lm"`` for
 # Levenberg-Marquardt).
-method = MultipleShooting(points=5, steps_per_period=200)
+method = OrbitMethod(points=5, steps_per_period=200)
 cycles = {}
 for name, start in (("small", [0.0, 0.0]), ("large", [-3.0, 0.0])):
     guess = simulate(ode, start, params, steps_per_period=200, n_periods=30)[1][-1]
-    r = solve(LimitCycleProblem(ode, params, guess), method)
+    r = solve(OrbitProblem(ode, params, guess), method)
     amp = np.ptp(r.trajectory_x[:, 0]) / 2
     print(f"{name:5s}: success {r.success}, x(0) = {np.round(r.x0, 5)}, amplitude {amp:.4f}, "
           f"|L| = {np.round(np.abs(r.multipliers), 5)}, {'stable' if r.stable else 'unstable'}")

@@ -32,10 +32,10 @@ def begin(system: str, doc: str, make_ode, params: dict):
 def accurate_orbit(ode, p, x_guess, period_guess: float, points: int = 5, integrator: str = "rk4"):
     """The example's orbit from a guess: steps per period chosen by doubling until the error estimate of
     the period, x0 and the multipliers is below 1e-8 (relative)."""
-    from birdocp.engine.orbits import OrbitMethod, OrbitProblem, solve_orbit
+    from birdocp.engine import OrbitMethod, OrbitProblem, solve
 
-    return solve_orbit(OrbitProblem(ode, p, x_guess, period_guess=period_guess),
-                       OrbitMethod(points=points, steps_per_period=None, integrator=integrator, accuracy=1e-8))
+    return solve(OrbitProblem(ode, p, x_guess, period_guess=period_guess),
+                 OrbitMethod(points=points, steps_per_period=None, integrator=integrator, accuracy=1e-8))
 
 
 def write_result(out: Path, system: str, source: str, params: dict, orbit, lyapunov=None, extra=None) -> dict:

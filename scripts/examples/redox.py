@@ -12,7 +12,7 @@ Start: a point on the attractor after a transient (rounded), period guess 25.
 import casadi as ca
 
 from birdocp.engine.ode import ODE
-from birdocp.engine.orbits import OrbitMethod, OrbitProblem, solve_orbit
+from birdocp.engine import OrbitMethod, OrbitProblem, solve
 from example_common import accurate_orbit, begin, plot_orbit, write_result
 
 PARAMS = {"a": 1000.0, "b": 2.0, "d": 0.2, "e": 0.1, "q": 0.1, "p": 1.0}
@@ -32,8 +32,8 @@ def main():
     out, ode, p = begin("redox", __doc__, make_ode, PARAMS)
     orbit = accurate_orbit(ode, p, [0.3, 0.29, 0.42, 0.0028], 25.0, integrator="radau")
     # the same orbit with the explicit RK4 on 2000 steps per period, from the same guess (for comparison)
-    rk4 = solve_orbit(OrbitProblem(ode, p, [0.3, 0.29, 0.42, 0.0028], period_guess=25.0),
-                      OrbitMethod(points=5, steps_per_period=2000, integrator="rk4", error_estimate=False))
+    rk4 = solve(OrbitProblem(ode, p, [0.3, 0.29, 0.42, 0.0028], period_guess=25.0),
+                OrbitMethod(points=5, steps_per_period=2000, integrator="rk4", error_estimate=False))
     res = write_result(out, "redox", __doc__.split("\n\n")[1], PARAMS, orbit,
                        extra={"rk4_2000_steps": {"success": rk4.success, "status": rk4.status}})
     plot_orbit(out, "Redox oscillator (del Olmo et al. 2019), Radau IIA", orbit, ("D1", "D2", "R", "A"),

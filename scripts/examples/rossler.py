@@ -13,7 +13,7 @@ import casadi as ca
 from birdocp.engine.continuation.autonomous import continue_orbits
 from birdocp.engine.lyapunov import lyapunov_exponents
 from birdocp.engine.ode import ODE
-from birdocp.engine.orbits import OrbitMethod, OrbitProblem, solve_orbit
+from birdocp.engine import OrbitMethod, OrbitProblem, solve
 from example_common import accurate_orbit, begin, plot_orbit, write_result
 
 PARAMS = {"a": 0.2, "b": 0.2, "c": 5.7}
@@ -32,8 +32,8 @@ def main():
     out, ode, p = begin("rossler", __doc__, make_ode, PARAMS)
     orbit = accurate_orbit(ode, p, [0.1, 5.0, 3.6], 5.0)
     ly = lyapunov_exponents(ode, orbit.x0, p, t_total=2000.0, dt=0.02, t_transient=100.0, renorm_time=2.0)
-    start = solve_orbit(OrbitProblem(ode, [0.2, 0.2, 2.5], [3.0, 0.0, 0.1], period_guess=6.0),
-                        OrbitMethod(points=5, steps_per_period=400))
+    start = solve(OrbitProblem(ode, [0.2, 0.2, 2.5], [3.0, 0.0, 0.1], period_guess=6.0),
+                  OrbitMethod(points=5, steps_per_period=400))
     branch = continue_orbits(start, ode, "c", 5.7, step=0.2)
     cs = [pt.parameter for pt in branch.points]
     mods = [max(pt.moduli) for pt in branch.points]

@@ -18,7 +18,7 @@ import numpy as np
 from birdocp.engine.continuation.autonomous import continue_orbits
 from birdocp.engine.equilibria import continue_equilibria, orbit_from_hopf
 from birdocp.engine.ode import ODE
-from birdocp.engine.orbits import OrbitMethod, OrbitProblem, solve_orbit
+from birdocp.engine import OrbitMethod, OrbitProblem, solve
 from example_common import out_dir, plot_orbit, write_result
 
 PARAMS = {"mu": 1.0, "omega": 1.0, "b": 0.0}
@@ -43,8 +43,8 @@ def main():
     hopf = eq.hopf[0]
     first = orbit_from_hopf(ode, hopf, 0.02, OrbitMethod(points=5, steps_per_period=200))
     branch = continue_orbits(first, ode, "mu", 1.0, step=0.02, max_dparam=0.1)
-    orbit = solve_orbit(OrbitProblem(ode, p, [0.5, 0.0], period_guess=5.0),
-                        OrbitMethod(points=5, steps_per_period=None, accuracy=1e-9))
+    orbit = solve(OrbitProblem(ode, p, [0.5, 0.0], period_guess=5.0),
+                  OrbitMethod(points=5, steps_per_period=None, accuracy=1e-9))
     mus = np.array([pt.parameter for pt in branch.points])
     radii = np.array([np.hypot(*pt.x0) for pt in branch.points])
 

@@ -1,6 +1,6 @@
 """Pseudo-arclength continuation of periodic orbits in one parameter, with special-point detection.
 
-Works for any :class:`~birdocp.engine.problem.LimitCycleProblem`: the unknowns are the shooting points
+Works for any :class:`~birdocp.engine.problem.OrbitProblem` of a :class:`~birdocp.engine.problem.PeriodicODE`: the unknowns are the shooting points
 ``X_0 .. X_{M-1}``, the problem's free parameters (each held by one of its period-mean conditions,
 e.g. the flapping amplitude held by mean W = 0 for level flight) and the continuation parameter
 ``lam``. The equations ``G = [continuity; periodicity; mean conditions]`` are one fewer than the
@@ -68,7 +68,7 @@ from birdocp.engine.continuation.iterate import OrbitBranchIterator
 from birdocp.engine.continuation.options import SPECIAL_POINT_KINDS, ContinuationOptions
 from birdocp.engine.continuation.step import ContinuationStep
 from birdocp.engine.continuation.system import Continuation
-from birdocp.engine.problem import LimitCycleProblem
+from birdocp.engine.problem import OrbitProblem
 
 __all__ = ["Branch", "BranchPoint", "SpecialPoint", "Continuation", "ContinuationOptions", "SPECIAL_POINT_KINDS",
            "BranchEvents", "ContinuationStep", "continuation", "collect"]
@@ -100,7 +100,7 @@ def collect(steps, on_point: Callable | None = None, on_special: Callable | None
     return steps.branch()
 
 
-def continuation(problem: LimitCycleProblem, param, start_value: float, stop_value: float, *,
+def continuation(problem: OrbitProblem, param, start_value: float, stop_value: float, *,
                  options: ContinuationOptions | None = None, start=None, accept: Callable | None = None,
                  progress: Callable | None = None, system: Continuation | None = None,
                  on_point: Callable | None = None, on_special: Callable | None = None, orient: float | None = None,
@@ -112,7 +112,7 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
 
     Parameters
     ----------
-    problem : LimitCycleProblem
+    problem : OrbitProblem
         The limit-cycle problem; its ``free`` parameters (held by its ``means``) are unknowns too.
     param : str or int
         The continuation parameter (a name in ``ode.param_names`` or an index).
@@ -124,7 +124,7 @@ def continuation(problem: LimitCycleProblem, param, start_value: float, stop_val
     start : object, optional
         A converged cycle at ``start_value`` (anything with ``shooting_points`` on the same grid, and
         ``p``); default: Newton from the problem's guess integrated forward, else
-        :func:`birdocp.engine.shooting.solve` (IPOPT).
+        :func:`birdocp.engine.orbit_front.solve` (IPOPT).
     accept : callable, optional
         ``accept(point) -> str | None`` with the :class:`BranchPoint`; a returned string rejects the
         point and ends the branch (``rejected``).

@@ -28,7 +28,10 @@ from birdocp.engine.continuation.iterate import OrbitBranchIterator
 from birdocp.engine.floquet import monodromy_of
 from birdocp.engine.ode import ODE
 from birdocp.engine.steppers import METHOD_ORDER
-from birdocp.engine.orbits import OrbitMethod, OrbitProblem, PeriodicOrbit, orbit_residual_system
+from birdocp.engine.method import OrbitMethod
+from birdocp.engine.orbit_result import OrbitResult
+from birdocp.engine.orbits import orbit_residual_system
+from birdocp.engine.problem import OrbitProblem
 
 __all__ = ["AutonomousContinuation", "continue_orbits", "autonomous_branch_iterator", "poincare_map_jacobian"]
 
@@ -66,13 +69,13 @@ class AutonomousContinuation:
         An autonomous ODE.
     param : str or int
         The continuation parameter.
-    start : PeriodicOrbit
+    start : OrbitResult
         A converged orbit (its x0 and f(x0) define the phase section; its period is the start T).
     method : OrbitMethod
         Points, steps per period and integrator of the shooting.
     """
 
-    def __init__(self, ode: ODE, param, start: PeriodicOrbit, method: OrbitMethod):
+    def __init__(self, ode: ODE, param, start: OrbitResult, method: OrbitMethod):
         if not ode.autonomous:
             raise ValueError("AutonomousContinuation: the ODE must be autonomous")
         self.ode = ode
@@ -149,10 +152,10 @@ class AutonomousContinuation:
         return g, J, np.zeros(0), poincare_map_jacobian(Mon, f0)
 
 
-def continue_orbits(orbit: PeriodicOrbit, ode: ODE, param, stop_value: float, *,
+def continue_orbits(orbit: OrbitResult, ode: ODE, param, stop_value: float, *,
                     method: OrbitMethod | None = None, options: ContinuationOptions | None = None,
                     **settings) -> Branch:
-    """Follow the autonomous orbit ``orbit`` (converged, e.g. by :func:`~birdocp.engine.orbits.solve_orbit`)
+    """Follow the autonomous orbit ``orbit`` (converged, e.g. by :func:`~birdocp.engine.orbit_front.solve`)
     as ``param`` goes from its value in ``orbit.p`` to ``stop_value``.
 
     ``method`` (points, steps_per_period, integrator) defaults to the orbit's own; ``options`` and
@@ -163,7 +166,7 @@ def continue_orbits(orbit: PeriodicOrbit, ode: ODE, param, stop_value: float, *,
 
     Parameters
     ----------
-    orbit : PeriodicOrbit
+    orbit : OrbitResult
         A converged orbit (the start of the branch).
     ode : ODE
         Its ODE.
@@ -187,7 +190,7 @@ def continue_orbits(orbit: PeriodicOrbit, ode: ODE, param, stop_value: float, *,
                                               **settings))
 
 
-def autonomous_branch_iterator(orbit: PeriodicOrbit, ode: ODE, param, start_value: float | None, stop_value: float, *,
+def autonomous_branch_iterator(orbit: OrbitResult, ode: ODE, param, start_value: float | None, stop_value: float, *,
                                method: OrbitMethod | None = None, options: ContinuationOptions | None = None,
                                **settings) -> OrbitBranchIterator:
     """The branch of autonomous orbits through ``orbit`` as an iterator (:func:`continue_orbits`
@@ -195,7 +198,7 @@ def autonomous_branch_iterator(orbit: PeriodicOrbit, ode: ODE, param, start_valu
 
     Parameters
     ----------
-    orbit : PeriodicOrbit
+    orbit : OrbitResult
         A converged orbit near ``start_value`` (its x0 and f(x0) define the phase section).
     ode : ODE
         Its ODE (autonomous).

@@ -4,7 +4,8 @@ from __future__ import annotations
 import numpy as np
 
 from birdocp.engine.ode import ODE
-from birdocp.engine.problem import LimitCycleProblem
+from birdocp.engine.orbit_result import OrbitResult
+from birdocp.engine.problem import OrbitProblem
 
 __all__ = ["iter_branch"]
 
@@ -16,11 +17,11 @@ def iter_branch(problem, param, start_value: float, stop_value: float, *, start=
 
     One front for the three kinds of branch; what is followed depends on ``problem`` and ``start``:
 
-    * a :class:`~birdocp.engine.problem.LimitCycleProblem`: its forced periodic orbits
+    * an :class:`~birdocp.engine.problem.OrbitProblem` of a ``PeriodicODE``: its forced periodic orbits
       (:class:`~birdocp.engine.continuation.iterate.OrbitBranchIterator`; ``start`` an optional
       converged cycle);
     * an :class:`~birdocp.engine.ode.ODE` with ``start`` a converged
-      :class:`~birdocp.engine.orbit_types.PeriodicOrbit`: the autonomous orbits through it (the period
+      :class:`~birdocp.engine.orbit_result.OrbitResult`: the autonomous orbits through it (the period
       varies; :func:`~birdocp.engine.continuation.autonomous.autonomous_branch_iterator`);
     * an :class:`~birdocp.engine.ode.ODE` with ``start`` an
       :class:`~birdocp.engine.equilibria.Equilibrium` or a state: its equilibria
@@ -28,7 +29,7 @@ def iter_branch(problem, param, start_value: float, stop_value: float, *, start=
 
     Parameters
     ----------
-    problem : LimitCycleProblem or ODE
+    problem : OrbitProblem or ODE
         The system.
     param : str or int
         The continuation parameter (a name or an index of the parameters).
@@ -36,8 +37,8 @@ def iter_branch(problem, param, start_value: float, stop_value: float, *, start=
         The parameter interval: the branch starts at ``start_value`` (the start is corrected there)
         and ends at ``stop_value`` or earlier (the iterator's ``end_reason`` / ``status`` says why).
     start : object, optional
-        A cycle (``LimitCycleResult``, ``TrimResult.cycle``), a ``PeriodicOrbit`` or an ``Equilibrium``
-        / a state near the start, as above.
+        A cycle (an ``OrbitResult``, ``TrimResult.cycle``), an ``OrbitResult`` of the ODE or an
+        ``Equilibrium`` / a state near the start, as above.
     **settings
         For orbits: the fields of :class:`~birdocp.engine.continuation.options.ContinuationOptions`
         (``step``, ``max_points``, ``error_estimate``, ...; or ``options=``) and ``accept``,
@@ -65,15 +66,14 @@ def iter_branch(problem, param, start_value: float, stop_value: float, *, start=
     """
     from birdocp.engine.continuation.iterate import OrbitBranchIterator
 
-    if isinstance(problem, LimitCycleProblem):
+    if isinstance(problem, OrbitProblem) and problem.data_split:
         return OrbitBranchIterator(problem, param, start_value, stop_value, start=start, **settings)
     if not isinstance(problem, ODE):
-        raise TypeError(f"iter_branch: problem must be a LimitCycleProblem or an ODE, got {type(problem).__name__}")
+        raise TypeError(f"iter_branch: problem must be an OrbitProblem of a PeriodicODE or an ODE, "
+                        f"got {type(problem).__name__}")
     if start is None:
-        raise ValueError("iter_branch: an ODE needs start= (a PeriodicOrbit, an Equilibrium or a state)")
-    from birdocp.engine.orbit_types import PeriodicOrbit
-
-    if isinstance(start, PeriodicOrbit):
+        raise ValueError("iter_branch: an ODE needs start= (an OrbitResult, an Equilibrium or a state)")
+    if isinstance(start, OrbitResult):
         from birdocp.engine.continuation.autonomous import autonomous_branch_iterator
 
         return autonomous_branch_iterator(start, problem, param, start_value, stop_value, **settings)

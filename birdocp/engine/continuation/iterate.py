@@ -24,8 +24,10 @@ from birdocp.engine.continuation.step import ContinuationStep, RunOnce
 from birdocp.engine.continuation.steps import StepController
 from birdocp.engine.continuation.system import Continuation, ContinuationState
 from birdocp.engine.floquet import complex_pairs, multipliers_info
-from birdocp.engine.problem import LimitCycleProblem
-from birdocp.engine.shooting import MultipleShooting, initial_points, solve
+from birdocp.engine.method import OrbitMethod
+from birdocp.engine.orbit_front import solve
+from birdocp.engine.problem import OrbitProblem
+from birdocp.engine.shooting import initial_points
 
 __all__ = ["OrbitBranchIterator", "resolve_options"]
 
@@ -63,7 +65,7 @@ class OrbitBranchIterator(RunOnce):
     :func:`birdocp.engine.continuation.continuation` (without its callbacks).
     """
 
-    def __init__(self, problem: LimitCycleProblem, param, start_value: float, stop_value: float, *,
+    def __init__(self, problem: OrbitProblem, param, start_value: float, stop_value: float, *,
                  options: ContinuationOptions | None = None, start=None, accept: Callable | None = None,
                  progress: Callable | None = None, system: Continuation | None = None,
                  orient: float | None = None, events: BranchEvents | None = None, **settings):
@@ -156,9 +158,9 @@ class OrbitBranchIterator(RunOnce):
         e_l[self.li] = 1.0
         out = self.corr.newton(z0 / s, e_l, self.start_value / self.s_lam)
         if out is None and start is None:
-            prob0 = LimitCycleProblem(problem.ode, p_start, problem.x_guess, problem.free, problem.means,
-                                      problem.t0, problem.outputs)
-            eng = solve(prob0, MultipleShooting(points=opts.points, steps_per_period=opts.steps_per_period))
+            prob0 = OrbitProblem(problem.ode, p_start, problem.x_guess, t0=problem.t0, free=problem.free,
+                                 means=problem.means, outputs=problem.outputs)
+            eng = solve(prob0, OrbitMethod(points=opts.points, steps_per_period=opts.steps_per_period))
             if eng.success:
                 out = self.corr.newton(sysm.z_of(eng.shooting_points, p_start) / s, e_l, self.start_value / self.s_lam)
         if out is None:

@@ -6,8 +6,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from birdocp.engine.floquet import monodromy_of
-from birdocp.engine.problem import LimitCycleProblem
-from birdocp.engine.shooting import MultipleShooting, shooting_graphs
+from birdocp.engine.method import OrbitMethod
+from birdocp.engine.problem import OrbitProblem
+from birdocp.engine.shooting import shooting_graphs
 
 __all__ = ["Continuation", "ContinuationState", "tangent", "test_functions"]
 
@@ -23,7 +24,7 @@ class Continuation:
     conditions: the segment Jacobians by forward AD in nx directions and one forward direction per
     parameter unknown through the data."""
 
-    def __init__(self, problem: LimitCycleProblem, param, points: int = 5, steps_per_period: int = 148):
+    def __init__(self, problem: OrbitProblem, param, points: int = 5, steps_per_period: int = 148):
         ode = problem.ode
         self.problem = problem
         self.ode = ode
@@ -47,7 +48,7 @@ class Continuation:
         self.mean_names = problem.mean_names()
         self.targets = np.array([m.target for m in problem.means], float)
         self.pidx = self.free_idx + [self.j]   # parameter unknowns, in the order of z
-        self.method = MultipleShooting(points=points, steps_per_period=steps_per_period)
+        self.method = OrbitMethod(points=points, steps_per_period=steps_per_period).resolved(True)
         self.builder, _ = shooting_graphs(problem, self.method, self.pidx)
         self.grid = self.builder.grid
         self.nx, self.S, self.nm = ode.nx, self.grid.S, nm
