@@ -48,21 +48,13 @@ def _signature_names(obj) -> list[str]:
     return names
 
 
-# Modules of birdocp.engine being restructured in this session ("one orbit engine", issue 27); their
-# functions are documented once the restructuring lands, and then leave this list.
-UNDER_RESTRUCTURING = ("birdocp.engine.problem", "birdocp.engine.orbit_types", "birdocp.engine.shooting",
-                       "birdocp.engine.shooting_graphs", "birdocp.engine.shooting_types", "birdocp.engine.orbits",
-                       "birdocp.engine.orbit_result")
-
-
 def _package_modules():
     import pkgutil
 
     import birdocp
 
     for info in pkgutil.walk_packages(birdocp.__path__, "birdocp."):
-        if info.name not in UNDER_RESTRUCTURING:
-            yield importlib.import_module(info.name)
+        yield importlib.import_module(info.name)
 
 
 def _module_functions():
