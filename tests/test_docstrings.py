@@ -129,8 +129,7 @@ METHODS_PENDING = {
     "birdocp.engine.continuation.system.Continuation",
     "birdocp.engine.orbit_system.OrbitSystem",
     "birdocp.engine.integrate.RK4Grid",  # dynamic-stall work on the grid
-    "birdocp.studies.gait_cycle.ReducedLevelCycle",  # six-degree-of-freedom gait optimisation
-    "birdocp.studies.gait_problem.ReducedProblem",
+    "birdocp.studies.gait_cycle.ReducedLevelCycle",  # its module is near the 600-line limit: split it first
 }
 
 
