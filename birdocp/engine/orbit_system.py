@@ -110,7 +110,25 @@ class OrbitSystem(Evaluator):
         self._oracle = None
 
     def set_context(self, p, T, t0, lin_A, lin_b):
-        """The numbers of a solve: parameters, period, start time and the linear rows ``A z = b``."""
+        """The numbers of a solve: parameters, period, start time and the linear rows ``A z = b``.
+
+        Parameters
+        ----------
+        p : array_like
+            Parameters.
+        T : float
+            Period.
+        t0 : float
+            Start time.
+        lin_A : ndarray
+            Matrix of the linear rows.
+        lin_b : ndarray
+            Their right-hand side.
+
+        Returns
+        -------
+        None
+        """
         self._ctx = (np.asarray(p, float).copy(), float(T), float(t0),
                      np.array(lin_A, float).reshape(self.n_lin, self.nz), np.array(lin_b, float).ravel())
         self._last = None
@@ -121,7 +139,17 @@ class OrbitSystem(Evaluator):
         return self._ctx
 
     def q_of(self, z) -> np.ndarray:
-        """(p, T, t0) at z."""
+        """(p, T, t0) at z.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray
+        """
         p, T, t0 = self._ctx[0].copy(), self._ctx[1], self._ctx[2]
         k = self.nX
         if self.period_free:
@@ -132,7 +160,17 @@ class OrbitSystem(Evaluator):
         return np.concatenate([p, [T, t0]])
 
     def points(self, z) -> np.ndarray:
-        """The shooting points at z (nx x (S+1))."""
+        """The shooting points at z (nx x (S+1)).
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray, shape (nx, S + 1)
+        """
         return np.asarray(z[:self.nX]).reshape(self.S + 1, self.nx).T
 
     def _core(self, z):
@@ -150,7 +188,17 @@ class OrbitSystem(Evaluator):
 
     def residual(self, z):
         """The residual g alone (no Jacobian: about nx+1 times cheaper than :meth:`evaluate` when z is
-        not the point of the last evaluation)."""
+        not the point of the last evaluation).
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray
+        """
         z = np.asarray(z, float).ravel()
         if self._last is not None and self._last[0] == z.tobytes():
             return self.evaluate(z)[0]
@@ -164,7 +212,17 @@ class OrbitSystem(Evaluator):
         return np.concatenate([(Xe - X[:, 1:]).T.ravel(), X[:, S] - X[:, 0], A @ z - b])
 
     def evaluate(self, z):
-        """Residual g (continuity, periodicity, linear rows) and its exact Jacobian at z."""
+        """Residual g (continuity, periodicity, linear rows) and its exact Jacobian at z.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        g, J : ndarray
+        """
         z = np.asarray(z, float).ravel()
         Xe, Jx, Jq = self._core(z)
         nx, S = self.nx, self.S
@@ -189,7 +247,15 @@ class OrbitSystem(Evaluator):
 
     def anchor_phase(self, z, row: int = 0) -> None:
         """Re-anchor linear row ``row`` as the Poincare section through X_0(z) orthogonal to the flow
-        there (the row then reads 0 at z); no change where f(X_0) is zero or not finite."""
+        there (the row then reads 0 at z); no change where f(X_0) is zero or not finite.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+        row : int
+            Linear row re-anchored.
+        """
         x0 = np.asarray(z[:self.nx], float)
         q = self.q_of(z)
         f = self.G.ode.evaluate(x0, q[-1], q[:self.G.ode.np])
@@ -202,12 +268,32 @@ class OrbitSystem(Evaluator):
         b[row] = float(A[row] @ z)
 
     def blocks(self, z):
-        """The segment Jacobians (monodromy factors) at z."""
+        """The segment Jacobians (monodromy factors) at z.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        list of ndarray
+        """
         Jx = self._core(np.asarray(z, float).ravel())[1]
         return [Jx[:, i * self.nx:(i + 1) * self.nx] for i in range(self.S)]
 
     def ipopt(self, method: OrbitMethod):
-        """The IPOPT feasibility solver of this system (built once per option set)."""
+        """The IPOPT feasibility solver of this system (built once per option set).
+
+        Parameters
+        ----------
+        method : OrbitMethod
+            Method (its IPOPT options).
+
+        Returns
+        -------
+        casadi.Function
+        """
         if self._solver is None or self._solver[0] != repr(sorted(method.ipopt_options.items())) + str(
                 (method.tol, method.max_iter)):
             if self._oracle is None:

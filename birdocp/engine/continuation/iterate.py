@@ -102,7 +102,21 @@ class OrbitBranchIterator(RunOnce):
 
     # --- the points -----------------------------------------------------------------------------
     def make_point(self, st: ContinuationState, arclen: float, ds_used: float) -> BranchPoint:
-        """The :class:`BranchPoint` of a corrected state."""
+        """The :class:`BranchPoint` of a corrected state.
+
+        Parameters
+        ----------
+        st : ContinuationState
+            Corrected state.
+        arclen : float
+            Arclength at the point.
+        ds_used : float
+            Step that reached it.
+
+        Returns
+        -------
+        BranchPoint
+        """
         sysm, li = self.sysm, self.li
         z = self.s * st.u
         lam_m, _, _, _, stable = multipliers_info(st.Mon, sysm.period_of(z))
@@ -118,7 +132,17 @@ class OrbitBranchIterator(RunOnce):
             tests=dict(st.tests), p=p.tolist(), period=sysm.period_of(z))
 
     def rejection(self, pt: BranchPoint) -> str | None:
-        """Why ``pt`` is not accepted (a free parameter out of its bounds, ``accept``), or None."""
+        """Why ``pt`` is not accepted (a free parameter out of its bounds, ``accept``), or None.
+
+        Parameters
+        ----------
+        pt : BranchPoint
+            Point.
+
+        Returns
+        -------
+        str or None
+        """
         sysm = self.sysm
         if self.nf:
             fv = np.array([pt.p[i] for i in sysm.free_idx])
@@ -325,7 +349,12 @@ class OrbitBranchIterator(RunOnce):
 
     # --- the result -------------------------------------------------------------------------------
     def branch(self) -> Branch:
-        """The branch followed so far (all of it after the iteration ended)."""
+        """The branch followed so far (all of it after the iteration ended).
+
+        Returns
+        -------
+        Branch
+        """
         settings = dict(self.settings)
         if self.steps is not None:
             settings.update(evaluations=self.sysm.evaluations, residual_evaluations=self.sysm.residual_evaluations,
