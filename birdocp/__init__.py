@@ -45,7 +45,7 @@ API = {
     "control": {"design_controller": "birdocp.studies.control", "Controller": "birdocp.studies.control",
                 "wingbeat_map": "birdocp.studies.control"},
     "simulation": {"simulate": "birdocp.studies.simulate", "SimulationResult": "birdocp.studies.simulate",
-                   "Gust": "birdocp.studies.simulate", "gust_envelope": "birdocp.studies.simulate"},
+                   "Gust": "birdocp.studies.simulate_inputs", "gust_envelope": "birdocp.studies.simulate"},
     "six degrees of freedom": {"lateral_trim": "birdocp.studies.lateral", "LateralTrimResult": "birdocp.studies.lateral",
                                "lateral_sensitivities": "birdocp.studies.lateral",
                                "design_lateral_controller": "birdocp.studies.lateral_control",

@@ -306,7 +306,7 @@ def test_a_bad_plotting_backend_and_an_ascii_terminal_do_not_fail_a_command(tmp_
 def test_a_second_ctrl_c_during_the_clean_up_exits_130_quietly(tmp_path):
     runner = (
         "import os, signal, sys, time, runpy\n"
-        "import birdocp.studies.trim as T, birdocp.cli.common as C\n"
+        "import birdocp.studies.trim as T, birdocp.cli.output as C\n"
         "def trim(cfg, **kw):\n"
         "    os.kill(os.getpid(), signal.SIGINT); time.sleep(5)\n"
         "T.trim = trim\n"

@@ -11,7 +11,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from birdocp.bird import unsteady
+from birdocp.bird import stall_section, unsteady
 from birdocp.bird.config import Config, ConfigError, param_vector, with_values
 from birdocp.bird.model import BirdModel, Structure, graph_key
 from birdocp.bird.unsteady_harness import PrescribedWing, first_harmonic, harmonic
@@ -149,7 +149,7 @@ def test_stall_newton_converges_on_a_twisted_wing():
 
 def test_detached_newton_iterates_keep_values_and_derivatives(monkeypatch):
     """The stall circulation with the Newton iterates before the last two detached from AD
-    (unsteady.INLINE_NEWTON_STEPS) and the last two steps' matrix held fixed (FROZEN_NEWTON_MATRIX)
+    (stall_section.INLINE_NEWTON_STEPS) and the last two steps' matrix held fixed (FROZEN_NEWTON_MATRIX)
     against every step inline and differentiated: the same circulation, first and second derivatives
     along the body velocities equal to round-off, a smaller derivative graph (each saving alone too).
     A wing twisted from 2 to 30 deg (stalled tips) at 18 m/s."""
@@ -170,9 +170,9 @@ def test_detached_newton_iterates_keep_values_and_derivatives(monkeypatch):
         return [np.asarray(v) for v in f(ca.DM([U, 0.5, 0.3]))], ca.Function("j", [nu], [J]).n_instructions()
 
     (g, J, H), cost = gamma_and_derivatives()
-    monkeypatch.setattr(unsteady, "FROZEN_NEWTON_MATRIX", False)
+    monkeypatch.setattr(stall_section, "FROZEN_NEWTON_MATRIX", False)
     (g1, J1, H1), cost1 = gamma_and_derivatives()
-    monkeypatch.setattr(unsteady, "INLINE_NEWTON_STEPS", 99)
+    monkeypatch.setattr(stall_section, "INLINE_NEWTON_STEPS", 99)
     (g0, J0, H0), cost0 = gamma_and_derivatives()
     # the same operations: equal to the last bit up to the strip's constant chords, which fold differently
     # (on the bird, whose chords and wake are data, bit for bit)

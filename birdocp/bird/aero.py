@@ -6,7 +6,7 @@ Two halves, following the data/right-hand-side split of ``docs/model.md``:
   influence matrix of the straight semi-infinite vortex tubes and the solve of the lifting-line
   equation, folded into matrices that map ``|Vp| * alpha`` per element to the circulation and to the
   induced velocity;
-* :func:`element_loads` depends on the flight state: relative velocity, angle of attack,
+* :func:`_element_loads` depends on the flight state: relative velocity, angle of attack,
   Kutta-Joukowski forces and the pitching moment about the centre of mass.
 
 Vectors are in the code frame (e1 span to the right, e2 up, e3 backwards), forces in N, moments N m.
@@ -27,6 +27,18 @@ def induced_matrices(centres, nodes):
     Returns (Vx, Vy, K) (16 x 16 SX): e1 and e2 components of the induced velocity at centre j per
     unit Gamma_m, and the downwash per unit circulation K = v . d_j (docs/model.md §5.6). Only the (e1, e2)
     coordinates are used: the wake filaments are straight and parallel to e3.
+
+    Parameters
+    ----------
+    centres : sequence of 3-vectors
+        The 16 element centres (code frame) [m].
+    nodes : sequence of 3-vectors
+        The 17 element end nodes (code frame) [m].
+
+    Returns
+    -------
+    tuple of casadi.SX
+        ``(Vx, Vy, K)``, see above.
     """
     n_c, n_n = len(centres), len(nodes)
     # Tube strengths from circulations: gamma = D Gamma (17 x 16).
@@ -66,6 +78,25 @@ def circulation_matrices(centres, nodes, chord, lift_slope_per_rad, mode="exact"
     ``Gamma <- 0.1 Gamma_hat + 0.9 Gamma`` with a fixed count n of evaluations from zero, whose closed
     form is ``Gamma_n = (I - Mr^n) Gamma*`` with ``Mr = 0.9 I - 0.1 H K``; the induced velocity kept for
     the forces is the one of the last evaluation, computed from ``Gamma_{n-1}``.
+
+    Parameters
+    ----------
+    centres : sequence of 3-vectors
+        The 16 element centres (code frame) [m].
+    nodes : sequence of 3-vectors
+        The 17 element end nodes (code frame) [m].
+    chord : sequence
+        Chord c_j of each element [m].
+    lift_slope_per_rad : float
+        Section lift slope C_la [1/rad].
+    mode : {"exact", "relaxed"}
+        Solution of the lifting-line equation.
+    relaxed_evaluations : int
+        n, the evaluations of the relaxed iteration.
+
+    Returns
+    -------
+    G, Wx, Wy : casadi.SX, shape (16, 16)
     """
     Vx, Vy, K = induced_matrices(centres, nodes)
     n = len(centres)
@@ -99,21 +130,62 @@ def _matrix_power(M, k):
 
 
 def element_forces(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho) -> dict:
-    """Per-element velocities and Kutta-Joukowski forces (code frame), the terms of :func:`element_loads`.
+    """Per-element velocities and Kutta-Joukowski forces (code frame), the terms of :func:`_element_loads`.
 
     Returns a dict of 3 x 16 matrices ``V`` (relative air velocity U_inf - Omega x r - v_kin, m/s,
     no induced part), ``Vp`` (its section part, without the spanwise component), ``vind`` (induced
     velocity used in the force, m/s), ``dF`` (force of the air on each element, N), and the 1 x 16 rows
     ``Vp_norm`` (m/s), ``alpha`` (rad) and the 16 x 1 column ``Gamma`` (m^2/s).
+
+    Parameters
+    ----------
+    state : casadi.SX
+        Body state (u, w, q, theta).
+    r : casadi.SX, shape (3, 16)
+        Element centres relative to G (code frame) [m].
+    v_kin : casadi.SX, shape (3, 16)
+        Kinematic velocity of the centres relative to the body [m/s].
+    c_hat, up, tau : casadi.SX, shape (3, 16)
+        Chordwise, section-normal and spanwise unit vectors.
+    ds : casadi.SX, shape (16, 1)
+        Element lengths [m].
+    G, Wx, Wy : casadi.SX, shape (16, 16)
+        Lifting-line matrices (:func:`circulation_matrices`).
+    rho : float
+        Air density [kg/m^3].
+
+    Returns
+    -------
+    dict
+        The matrices and rows above.
     """
-    return forces_from_velocity(body_velocity(state, r, v_kin), c_hat, up, tau, ds, G, Wx, Wy, rho)
+    return forces_from_velocity(_body_velocity(state, r, v_kin), c_hat, up, tau, ds, G, Wx, Wy, rho)
 
 
 def forces_from_velocity(V, c_hat, up, tau, ds, G, Wx, Wy, rho) -> dict:
     """:func:`element_forces` from the relative air velocity ``V`` (3 x n, code frame, m/s, without
     the induced part) of every element centre, whatever motion of the body made it (the planar
-    state of :func:`body_velocity` or the six-degree-of-freedom one of :mod:`birdocp.bird.sixdof`)."""
-    Vp_norm, alpha, vind = inflow_from_velocity(V, c_hat, up, tau, Wx, Wy)
+    state of :func:`_body_velocity` or the six-degree-of-freedom one of :mod:`birdocp.bird.sixdof`).
+
+    Parameters
+    ----------
+    V : casadi.SX, shape (3, n)
+        Relative air velocity without the induced part [m/s].
+    c_hat, up, tau : casadi.SX, shape (3, n)
+        Chordwise, section-normal and spanwise unit vectors.
+    ds : casadi.SX, shape (n, 1)
+        Element lengths [m].
+    G, Wx, Wy : casadi.SX, shape (n, n)
+        Lifting-line matrices (:func:`circulation_matrices`).
+    rho : float
+        Air density [kg/m^3].
+
+    Returns
+    -------
+    dict
+        As :func:`element_forces`.
+    """
+    Vp_norm, alpha, vind = _inflow_from_velocity(V, c_hat, up, tau, Wx, Wy)
     Gamma = G @ (Vp_norm * alpha).T
     W = V + vind
     # (V + v) x tau
@@ -126,17 +198,48 @@ def forces_from_velocity(V, c_hat, up, tau, ds, G, Wx, Wy, rho) -> dict:
 
 
 def moment_about_G(r, dF):
-    """Pitching moment (r x dF)_1 summed over the elements (N m, nose-up positive)."""
+    """Pitching moment (r x dF)_1 summed over the elements (N m, nose-up positive).
+
+    Parameters
+    ----------
+    r : casadi.SX, shape (3, n)
+        Element centres relative to G (code frame) [m].
+    dF : casadi.SX, shape (3, n)
+        Element forces [N].
+
+    Returns
+    -------
+    casadi.SX
+        Moment [N m].
+    """
     return ca.sum2(r[1, :] * dF[2, :] - r[2, :] * dF[1, :])
 
 
 def profile_drag(Vp, Vp_norm, chord, ds, rho, cd_profile):
     """Wing profile drag per element (docs/studies/energetics.md, the optional drag), 3 x 16 in N, code frame (``chord``, ``ds`` 16 x 1):
-    ``dD_j = 1/2 rho C_Dpro c_j ds_j |Vp_j| Vp_j`` along the section's relative wind."""
+    ``dD_j = 1/2 rho C_Dpro c_j ds_j |Vp_j| Vp_j`` along the section's relative wind.
+
+    Parameters
+    ----------
+    Vp : casadi.SX, shape (3, 16)
+        Section part of the relative air velocity [m/s].
+    Vp_norm : casadi.SX, shape (1, 16)
+        Its magnitude [m/s].
+    chord, ds : casadi.SX, shape (16, 1)
+        Chords and element lengths [m].
+    rho : float
+        Air density [kg/m^3].
+    cd_profile : float
+        Profile-drag coefficient C_Dpro [-].
+
+    Returns
+    -------
+    casadi.SX, shape (3, 16)
+    """
     return 0.5 * rho * cd_profile * Vp * ca.repmat(Vp_norm * (chord * ds).T, 3, 1)
 
 
-def element_loads(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho):
+def _element_loads(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho):
     """Total aerodynamic force (code frame, N) and pitching moment about G (N m, nose-up positive).
 
     ``state`` = (u, w, q, theta); ``r``, ``v_kin``, ``c_hat``, ``up``, ``tau`` are 3 x 16 (element centres
@@ -151,12 +254,24 @@ def element_loads(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho):
 
 def section_angle(V, c_hat, up, tau):
     """Angle of attack [rad] (1 x n) of the velocities V (3 x n) in each element's section plane:
-    ``atan2(Vp . up, Vp . c_hat)`` with ``Vp`` = V without its spanwise component along ``tau``."""
+    ``atan2(Vp . up, Vp . c_hat)`` with ``Vp`` = V without its spanwise component along ``tau``.
+
+    Parameters
+    ----------
+    V : casadi.SX, shape (3, n)
+        Velocities [m/s].
+    c_hat, up, tau : casadi.SX, shape (3, n)
+        Chordwise, section-normal and spanwise unit vectors.
+
+    Returns
+    -------
+    casadi.SX, shape (1, n)
+    """
     Vp = V - tau * ca.repmat(ca.sum1(tau * V), 3, 1)
     return ca.atan2(ca.sum1(Vp * up), ca.sum1(Vp * c_hat)), ca.sqrt(ca.sum1(Vp * Vp))
 
 
-def body_velocity(state, r, v_kin):
+def _body_velocity(state, r, v_kin):
     """Relative air velocity ``V = U_inf - Omega x r - v_kin`` (3 x n, code frame, m/s) of the element
     centres ``r`` (3 x n, from G) for the planar state (u, w, q, ...): ``U_inf = (0, w, u)``,
     ``Omega = (q, 0, 0)``."""
@@ -167,7 +282,7 @@ def body_velocity(state, r, v_kin):
                       u * ones - q * r[1, :] - v_kin[2, :])
 
 
-def inflow_from_velocity(V, c_hat, up, tau, Wx, Wy):
+def _inflow_from_velocity(V, c_hat, up, tau, Wx, Wy):
     """``(|Vp| 1xn, alpha 1xn [rad], vind 3xn)`` of the relative air velocity ``V`` (3 x n): the
     section speed, the geometric angle of attack and the induced velocity ``(Wx q, Wy q, 0)`` of the
     lifting line with ``q = |Vp| alpha``."""
@@ -181,10 +296,28 @@ def inflow(state, r, v_kin, c_hat, up, tau, Wx, Wy):
     """Relative air velocity at the element centres (code frame) and its angles.
 
     Returns ``(V 3xn, |Vp| 1xn, alpha 1xn [rad], vind 3xn)``: ``V = U_inf - Omega x r - v_kin`` without
-    the induced velocity (:func:`body_velocity`), ``alpha`` its (geometric) angle of attack,
+    the induced velocity (:func:`_body_velocity`), ``alpha`` its (geometric) angle of attack,
     ``vind = (Wx q, Wy q, 0)`` the induced velocity of the lifting line with ``q = |Vp| alpha``. The
     *effective* angle of attack of a section is :func:`section_angle` of ``V + vind``.
+
+    Parameters
+    ----------
+    state : casadi.SX
+        Body state (u, w, q, theta).
+    r : casadi.SX, shape (3, n)
+        Element centres relative to G (code frame) [m].
+    v_kin : casadi.SX, shape (3, n)
+        Kinematic velocity of the centres relative to the body [m/s].
+    c_hat, up, tau : casadi.SX, shape (3, n)
+        Chordwise, section-normal and spanwise unit vectors.
+    Wx, Wy : casadi.SX, shape (n, n)
+        Induced-velocity matrices (:func:`circulation_matrices`).
+
+    Returns
+    -------
+    tuple of casadi.SX
+        ``(V, |Vp|, alpha, vind)``, see above.
     """
-    V = body_velocity(state, r, v_kin)
-    Vp_norm, alpha, vind = inflow_from_velocity(V, c_hat, up, tau, Wx, Wy)
+    V = _body_velocity(state, r, v_kin)
+    Vp_norm, alpha, vind = _inflow_from_velocity(V, c_hat, up, tau, Wx, Wy)
     return V, Vp_norm, alpha, vind

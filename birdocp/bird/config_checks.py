@@ -48,7 +48,19 @@ gaits and the optional drag terms are written in 3-D; the unsteady and stall-awa
 refused by their own check)."""
 
 def get_value(cfg: Any, key: str) -> Any:
-    """The value of a dotted key (``"gait.shoulder_flap.amplitude_deg"``, ``"wing.feather_lengths_m.3"``)."""
+    """The value of a dotted key (``"gait.shoulder_flap.amplitude_deg"``, ``"wing.feather_lengths_m.3"``).
+
+    Parameters
+    ----------
+    cfg : Config or section
+        Configuration.
+    key : str
+        Dotted key.
+
+    Returns
+    -------
+    Any
+    """
     obj = cfg
     for part in key.split("."):
         if isinstance(obj, tuple):
@@ -58,7 +70,19 @@ def get_value(cfg: Any, key: str) -> Any:
     return obj
 
 def flat_keys(obj: Any, prefix: str = "") -> list[str]:
-    """The dotted keys of every leaf value of a configuration or section (``prefix`` prepended)."""
+    """The dotted keys of every leaf value of a configuration or section (``prefix`` prepended).
+
+    Parameters
+    ----------
+    obj : Config or section
+        Configuration.
+    prefix : str
+        Text prepended to each key.
+
+    Returns
+    -------
+    list of str
+    """
     keys = []
     for f in fields(obj):
         v = getattr(obj, f.name)
@@ -70,13 +94,39 @@ def flat_keys(obj: Any, prefix: str = "") -> list[str]:
     return keys
 
 def suggest(key: str, candidates) -> str:
-    """``"; did you mean 'X'?"`` for the closest of ``candidates``, else ``""``."""
+    """``"; did you mean 'X'?"`` for the closest of ``candidates``, else ``""``.
+
+    Parameters
+    ----------
+    key : str
+        The unknown name.
+    candidates : iterable of str
+        Known names.
+
+    Returns
+    -------
+    str
+    """
     match = difflib.get_close_matches(key, list(candidates), n=1, cutoff=0.6)
     return f"; did you mean '{match[0]}'?" if match else ""
 
 
 def coerce(key: str, default: Any, value: Any) -> Any:
-    """Check ``value`` against the type of ``default``; return the converted value."""
+    """Check ``value`` against the type of ``default``; return the converted value.
+
+    Parameters
+    ----------
+    key : str
+        Dotted key, named by the error.
+    default : Any
+        Default value (its type is the one wanted).
+    value : Any
+        Value given.
+
+    Returns
+    -------
+    Any
+    """
     if isinstance(default, bool):
         if not isinstance(value, bool):
             raise ConfigError(key, f"expected true or false, got {value!r}")
@@ -101,7 +151,17 @@ def coerce(key: str, default: Any, value: Any) -> Any:
 
 
 def parse_scalar(text: str) -> Any:
-    """Parse a ``--set`` value as a TOML value; bare words are strings."""
+    """Parse a ``--set`` value as a TOML value; bare words are strings.
+
+    Parameters
+    ----------
+    text : str
+        The value's text.
+
+    Returns
+    -------
+    Any
+    """
     try:
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
@@ -154,7 +214,19 @@ MAX_GUESS_SPEED_MPS = 340.0
 
 
 def check_number(key: str, value: Any) -> float:
-    """``value`` as a finite float, else a ConfigError on ``key``."""
+    """``value`` as a finite float, else a ConfigError on ``key``.
+
+    Parameters
+    ----------
+    key : str
+        Dotted key, named by the error.
+    value : Any
+        Value given.
+
+    Returns
+    -------
+    float
+    """
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ConfigError(key, f"expected a number, got {value!r}")
     try:
@@ -178,8 +250,48 @@ def _check_range(key: str, value: float) -> None:
         raise ConfigError(key, f"must be at most {hi:g} {unit}".rstrip() + f", got {value!r}")
 
 
+def _validate_solve(cfg: Any) -> None:
+    """The checks of ``[solve]`` (part of :func:`validate`)."""
+    s = cfg.solve
+    if s.points < 2:
+        raise ConfigError("solve.points", f"must be >= 2 (the closing point included), got {s.points!r}")
+    if s.points > MAX_POINTS:
+        raise ConfigError("solve.points", f"must be <= {MAX_POINTS}, got {s.points!r}")
+    if s.steps_per_period > MAX_STEPS_PER_PERIOD:
+        raise ConfigError("solve.steps_per_period",
+                          f"must be <= {MAX_STEPS_PER_PERIOD} (the reference uses 148), got {s.steps_per_period!r}")
+    if s.steps_per_period < 1 or s.steps_per_period % (s.points - 1):
+        raise ConfigError("solve.steps_per_period",
+                          f"must be a positive multiple of points - 1 = {s.points - 1}, got {s.steps_per_period!r}")
+    if s.solver not in ("ipopt", "lm"):
+        raise ConfigError("solve.solver", f"must be 'ipopt' or 'lm', got {s.solver!r}")
+    if s.derivatives not in ("exact", "fd"):
+        raise ConfigError("solve.derivatives", f"must be 'exact' or 'fd', got {s.derivatives!r}")
+    if s.derivatives == "fd" and s.solver != "lm":
+        raise ConfigError("solve.derivatives", "'fd' (finite-difference Jacobians) needs solve.solver = 'lm' "
+                                               "(--solver lm); IPOPT runs on exact derivatives")
+    if isinstance(s.max_iter, bool) or not 1 <= s.max_iter <= MAX_SOLVE_ITERATIONS:
+        raise ConfigError("solve.max_iter", f"must be an integer in [1, {MAX_SOLVE_ITERATIONS}], got {s.max_iter!r}")
+    if not 0.0 <= s.tol < 1.0:
+        raise ConfigError("solve.tol", f"must lie in [0, 1) (0: the solver's default, 1e-10 for ipopt, 1e-5 for "
+                                       f"lm), got {s.tol!r}")
+    if len(s.initial_guess) != 4:
+        raise ConfigError("solve.initial_guess", f"needs 4 numbers (u, w, q, theta), got {len(s.initial_guess)}")
+    for i, v in enumerate(s.initial_guess):
+        v = check_number(f"solve.initial_guess.{i}", v)
+        if i < 2 and abs(v) > MAX_GUESS_SPEED_MPS:
+            raise ConfigError(f"solve.initial_guess.{i}", f"must lie within +-{MAX_GUESS_SPEED_MPS:g} m/s (the speed "
+                                                          f"of sound: the model's air is incompressible), got {v!r}")
+
+
 def validate(cfg: Any) -> None:
-    """Raise :class:`ConfigError` on the first non-physical value."""
+    """Raise :class:`ConfigError` on the first non-physical value.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    """
     for key in flat_keys(cfg):
         value = get_value(cfg, key)
         if isinstance(value, (str, tuple, bool)):
@@ -226,36 +338,7 @@ def validate(cfg: Any) -> None:
         val = getattr(v, name)
         if not lo < val <= hi if name != "max_stalled_fraction" else not lo <= val <= hi:
             raise ConfigError(f"validity.{name}", f"must lie in ({lo:g}, {hi:g}], got {val!r}")
-    s = cfg.solve
-    if s.points < 2:
-        raise ConfigError("solve.points", f"must be >= 2 (the closing point included), got {s.points!r}")
-    if s.points > MAX_POINTS:
-        raise ConfigError("solve.points", f"must be <= {MAX_POINTS}, got {s.points!r}")
-    if s.steps_per_period > MAX_STEPS_PER_PERIOD:
-        raise ConfigError("solve.steps_per_period",
-                          f"must be <= {MAX_STEPS_PER_PERIOD} (the reference uses 148), got {s.steps_per_period!r}")
-    if s.steps_per_period < 1 or s.steps_per_period % (s.points - 1):
-        raise ConfigError("solve.steps_per_period",
-                          f"must be a positive multiple of points - 1 = {s.points - 1}, got {s.steps_per_period!r}")
-    if s.solver not in ("ipopt", "lm"):
-        raise ConfigError("solve.solver", f"must be 'ipopt' or 'lm', got {s.solver!r}")
-    if s.derivatives not in ("exact", "fd"):
-        raise ConfigError("solve.derivatives", f"must be 'exact' or 'fd', got {s.derivatives!r}")
-    if s.derivatives == "fd" and s.solver != "lm":
-        raise ConfigError("solve.derivatives", "'fd' (finite-difference Jacobians) needs solve.solver = 'lm' "
-                                               "(--solver lm); IPOPT runs on exact derivatives")
-    if isinstance(s.max_iter, bool) or not 1 <= s.max_iter <= MAX_SOLVE_ITERATIONS:
-        raise ConfigError("solve.max_iter", f"must be an integer in [1, {MAX_SOLVE_ITERATIONS}], got {s.max_iter!r}")
-    if not 0.0 <= s.tol < 1.0:
-        raise ConfigError("solve.tol", f"must lie in [0, 1) (0: the solver's default, 1e-10 for ipopt, 1e-5 for "
-                                       f"lm), got {s.tol!r}")
-    if len(s.initial_guess) != 4:
-        raise ConfigError("solve.initial_guess", f"needs 4 numbers (u, w, q, theta), got {len(s.initial_guess)}")
-    for i, v in enumerate(s.initial_guess):
-        v = check_number(f"solve.initial_guess.{i}", v)
-        if i < 2 and abs(v) > MAX_GUESS_SPEED_MPS:
-            raise ConfigError(f"solve.initial_guess.{i}", f"must lie within +-{MAX_GUESS_SPEED_MPS:g} m/s (the speed "
-                                                          f"of sound: the model's air is incompressible), got {v!r}")
+    _validate_solve(cfg)
     _validate_model(cfg)
 
 
@@ -265,7 +348,17 @@ SIDE_KEYS = tuple(f"gait.{side}.{j}.{field}" for side in ("right_offset", "left_
 
 
 def asymmetric(cfg: Any) -> bool:
-    """True when a per-side offset (:data:`SIDE_KEYS`) is not zero."""
+    """True when a per-side offset (:data:`SIDE_KEYS`) is not zero.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+
+    Returns
+    -------
+    bool
+    """
     return any(get_value(cfg, k) != 0 for k in SIDE_KEYS)
 
 
@@ -309,7 +402,15 @@ def _validate_model(cfg: Any) -> None:
 def require_body_states(cfg: Any, what: str) -> None:
     """Raise :class:`ConfigError` when ``cfg``'s model has aerodynamic states (``aero.unsteady =
     "wagner"`` or ``aero.section = "dynamic-stall"``) and ``what`` (a study) works on the 4 body
-    states only."""
+    states only.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    what : str
+        The study, named by the error.
+    """
     if cfg.aero.unsteady != "none" or cfg.aero.section == "dynamic-stall":
         raise ConfigError("aero.unsteady" if cfg.aero.unsteady != "none" else "aero.section",
                           f"{what} works on the 4 body states only (no lag or separation states yet): use "

@@ -160,7 +160,20 @@ def shoulder_power_W(flapping_power_W, inertial_power_W=0.0):
     """The power the shoulder joints supply, P_sh = P_flap + inertial part (docs/studies/energetics.md).
 
     The one place where power terms are combined: with massless wings (the paper's model) the inertial
-    part is 0 and P_sh = P_flap. Works on floats and numpy arrays (W)."""
+    part is 0 and P_sh = P_flap. Works on floats and numpy arrays (W).
+
+    Parameters
+    ----------
+    flapping_power_W : float or ndarray
+        Aerodynamic flapping power P_flap [W].
+    inertial_power_W : float or ndarray
+        Inertial part [W].
+
+    Returns
+    -------
+    float or ndarray
+        P_sh [W].
+    """
     return np.add(flapping_power_W, inertial_power_W)
 
 
@@ -173,15 +186,30 @@ def cycle_energetics(model, p, x0, steps_per_period: int, t0: float = 0.0, inert
                      mean_inertial_power_W: float = 0.0) -> dict:
     """Powers and derived outputs of the periodic cycle through ``x0`` (state at ``t0``).
 
-    model:    a BirdModel or ConfiguredModel; p: parameter vector; steps_per_period: RK4 steps (the
-              trim's grid, so the means are those of the solved cycle).
-    inertial_power_W, mean_inertial_power_W: the wings' inertial power at the N sample times
-              t0 + (k+1) T/N and its mean; by default the model's own (the shoulders' inertial
-              power when the wings have mass, else 0).
+    Parameters
+    ----------
+    model : BirdModel or ConfiguredModel
+        Model.
+    p : array_like
+        Parameter vector.
+    x0 : array_like
+        State at ``t0``.
+    steps_per_period : int
+        RK4 steps (the trim's grid, so the means are those of the solved cycle).
+    t0 : float
+        Start time [s].
+    inertial_power_W : array_like, optional
+        The wings' inertial power at the N sample times t0 + (k+1) T/N [W] (default: the model's own:
+        the shoulders' inertial power when the wings have mass, else 0).
+    mean_inertial_power_W : float
+        Its mean [W].
 
-    Returns a dict with the scalars of :data:`ENERGETICS_KEYS` (SI units, each named with its unit),
-    ``means`` (every row of the power vector), ``samples`` (``t_s`` and each power in W at the N step
-    times) and ``definitions`` (text).
+    Returns
+    -------
+    dict
+        The scalars of :data:`ENERGETICS_KEYS` (SI units, each named with its unit), ``means`` (every
+        row of the power vector), ``samples`` (``t_s`` and each power in W at the N step times) and
+        ``definitions`` (text).
     """
     pf = power_functions(model)
     grid = pf.grid(steps_per_period)

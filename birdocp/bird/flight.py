@@ -23,7 +23,18 @@ __all__ = ["inertial_velocities", "flight_outputs", "path_angle_output", "flight
 
 
 def inertial_velocities(x):
-    """(W, U) in m/s of the body state ``x = (u, w, q, theta)`` (symbolic or numeric)."""
+    """(W, U) in m/s of the body state ``x = (u, w, q, theta)`` (symbolic or numeric).
+
+    Parameters
+    ----------
+    x : array_like or casadi.SX
+        Body state (u, w, q, theta).
+
+    Returns
+    -------
+    W, U
+        Vertical (up) and horizontal (forward) inertial velocity [m/s].
+    """
     u, w, th = x[0], x[1], x[3]
     return u * ca.sin(th) - w * ca.cos(th), u * ca.cos(th) + w * ca.sin(th)
 
@@ -62,5 +73,17 @@ register_cache("bird.path_angle_outputs", path_angle_output)
 
 
 def flight_path_angle_deg(mean_vertical_speed_mps: float, mean_forward_speed_mps: float) -> float:
-    """The flight-path angle in degrees from the period-mean inertial velocities."""
+    """The flight-path angle in degrees from the period-mean inertial velocities.
+
+    Parameters
+    ----------
+    mean_vertical_speed_mps : float
+        Mean vertical speed (up) [m/s].
+    mean_forward_speed_mps : float
+        Mean horizontal speed [m/s].
+
+    Returns
+    -------
+    float
+    """
     return math.degrees(math.atan2(mean_vertical_speed_mps, mean_forward_speed_mps))

@@ -184,7 +184,25 @@ def aero_blocks(s: Structure, L, t, p, left=None) -> dict:
     """The aerodynamic data blocks (:data:`DATA_BLOCKS`, SX) from the arm-frame wing ``L`` (a ``pre``
     output) at time ``t`` and parameters ``p``: shoulder rotation, merge, kinematic velocity,
     lifting-line matrices. ``left`` = (L, p) of a left wing with its own joint laws (an asymmetric
-    gait, :mod:`birdocp.bird.sides`); None: the mirror image of the right wing (the planar model)."""
+    gait, :mod:`birdocp.bird.sides`); None: the mirror image of the right wing (the planar model).
+
+    Parameters
+    ----------
+    s : Structure
+        Structure of the model.
+    L : casadi.SX
+        Arm-frame wing (a ``pre`` output).
+    t : casadi.SX
+        Time [s].
+    p : casadi.SX
+        Parameter vector.
+    left : tuple, optional
+        ``(L, p)`` of a left wing with its own joint laws.
+
+    Returns
+    -------
+    dict of str to casadi.SX
+    """
     x_ep = _p(p, "wing.shoulder_half_separation_m")
     R1 = _shoulder(t, p, s.frequency_hz)
     arm = _arm_blocks(L)
@@ -258,7 +276,19 @@ def _unsteady_data(pre: dict, L, blocks: dict, t) -> ca.SX:
 
 def build(s: Structure) -> tuple[dict, tuple]:
     """The SX Functions of structure ``s`` (:data:`GRAPH_FUNCTIONS`, and
-    :data:`OPTIONAL_FUNCTIONS` or None) and ``pre_params``."""
+    :data:`OPTIONAL_FUNCTIONS` or None) and ``pre_params``.
+
+    Parameters
+    ----------
+    s : Structure
+        Structure of the model.
+
+    Returns
+    -------
+    functions : dict
+        Name to casadi.Function.
+    pre_params : tuple
+    """
     t = ca.SX.sym("t")
     p = ca.SX.sym("p", len(PARAM_NAMES))
     x_ep = _p(p, "wing.shoulder_half_separation_m")

@@ -54,6 +54,22 @@ def local_mass_points(q: dict, arm_m, forearm_m, hand_m, feather_lengths_m):
     Segments: 0 arm, 1 forearm, 2 hand, 3+i feather i (i = 0..6). Feathers as in docs/model.md §3 (all seven,
     with their pre-rotations); bases: f_0 at E4, f_1 mid-hand, f_2 at E2, f_3 mid-forearm, f_4 at E1,
     f_5 mid-arm, f_6 at the shoulder. The world position is R1 times each point.
+
+    Parameters
+    ----------
+    q : dict
+        Joint angles by name (``elbow_flex``, ``wrist_flex``, ...) [rad].
+    arm_m, forearm_m, hand_m : float
+        Bone lengths [m].
+    feather_lengths_m : sequence of float
+        The seven feather lengths [m].
+
+    Returns
+    -------
+    points : list
+        The 20 points (3-vectors) [m].
+    seg : list of int
+        Segment index of each point.
     """
     sk = kinematics.skeleton(q, arm_m, forearm_m, hand_m, feather_lengths_m, with_shoulder=False)
     e_y, e_x = q["elbow_flex"], q["hand_twist"]
@@ -82,7 +98,20 @@ def local_mass_points(q: dict, arm_m, forearm_m, hand_m, feather_lengths_m):
 
 def segment_masses(wing_mass_kg, shares):
     """Mass [kg] of each of the 10 segments of one wing (arm, forearm, hand, feathers 0..6) from the
-    wing mass and the shares (arm, forearm, hand, primaries, secondaries)."""
+    wing mass and the shares (arm, forearm, hand, primaries, secondaries).
+
+    Parameters
+    ----------
+    wing_mass_kg : float
+        Mass of one wing [kg].
+    shares : sequence of float
+        Shares of (arm, forearm, hand, primaries, secondaries).
+
+    Returns
+    -------
+    list
+        The 10 masses [kg].
+    """
     arm, forearm, hand, prim, sec = shares
     out = [wing_mass_kg * arm, wing_mass_kg * forearm, wing_mass_kg * hand]
     out += [wing_mass_kg * prim * s for s in PRIMARY_SPLIT]
@@ -91,11 +120,21 @@ def segment_masses(wing_mass_kg, shares):
 
 
 def mass_sums(masses, r, v, a):
-    """The sums of :data:`MASS_BLOCK` (both wings) from the right wing's points.
+    """The sums of :data:`MASS_BLOCK` (both wings) from the right wing's points. The left wing is the
+    mirror image in y', which doubles every in-plane sum and the kinetic energy.
 
-    masses: list of point masses [kg]; r, v, a: lists of body-frame 3-vectors (x', y', z') of the
-    positions [m], velocities [m/s] and accelerations [m/s^2] relative to the body. The left wing is
-    the mirror image in y', which doubles every in-plane sum and the kinetic energy.
+    Parameters
+    ----------
+    masses : list
+        Point masses [kg].
+    r, v, a : list
+        Body-frame 3-vectors (x', y', z') of the positions [m], velocities [m/s] and accelerations
+        [m/s^2] relative to the body.
+
+    Returns
+    -------
+    dict
+        Name to sum (both wings).
     """
     tot = {k: 0 for k in MASS_BLOCK}
     for m, ri, vi, ai in zip(masses, r, v, a):
@@ -131,6 +170,26 @@ def accelerations(x, f_today, sums, total_mass_kg, body_inertia_kgm2, gravity_mp
 
     in closed form (Schur complement, det 𝕄 = M^2 I_G). With all masses zero every wing term is an
     exact zero, delta = 0.0 and the result is f_today bit for bit.
+
+    Parameters
+    ----------
+    x : casadi.SX
+        Body state (u, w, q, theta).
+    f_today : casadi.SX
+        (u', w', q') of the massless model.
+    sums : dict
+        Mass sums (:func:`mass_sums`).
+    total_mass_kg : float
+        M [kg].
+    body_inertia_kgm2 : float
+        I_b [kg m^2].
+    gravity_mps2 : float
+        g [m/s^2].
+
+    Returns
+    -------
+    casadi.SX
+        (u', w', q').
     """
     u, w, q, th = x[0], x[1], x[2], x[3]
     M, Ib, g = total_mass_kg, body_inertia_kgm2, gravity_mps2
@@ -163,6 +222,21 @@ def wing_powers(x, nudot, sums, gravity_mps2):
       gravity. The shoulder power of the whole wing is this plus the aerodynamic flapping power
       -sum F_j . r'_j (:func:`total_shoulder_power_W`).
     * ``wing_relative_kinetic_energy_J`` = T_rel.
+
+    Parameters
+    ----------
+    x : casadi.SX
+        Body state (u, w, q, theta).
+    nudot : casadi.SX
+        (u', w', q') of the body.
+    sums : dict
+        Mass sums (:func:`mass_sums`).
+    gravity_mps2 : float
+        g [m/s^2].
+
+    Returns
+    -------
+    dict
     """
     u, w, q, th = x[0], x[1], x[2], x[3]
     du, dw, dq = nudot[0], nudot[1], nudot[2]
@@ -180,5 +254,17 @@ def wing_powers(x, nudot, sums, gravity_mps2):
 def total_shoulder_power_W(shoulder_inertial_power_W, flapping_aerodynamic_power_W):
     """Shoulder power of both wings [W] = inertial part (:func:`wing_powers`, key
     ``shoulder_inertial_power_W``) + aerodynamic flapping part -sum F_j . r'_j (docs/studies/energetics.md);
-    works on numbers, arrays and CasADi expressions alike (time histories or period means)."""
+    works on numbers, arrays and CasADi expressions alike (time histories or period means).
+
+    Parameters
+    ----------
+    shoulder_inertial_power_W : float, array or casadi.SX
+        Inertial part [W].
+    flapping_aerodynamic_power_W : float, array or casadi.SX
+        Aerodynamic flapping part [W].
+
+    Returns
+    -------
+    float, array or casadi.SX
+    """
     return shoulder_inertial_power_W + flapping_aerodynamic_power_W

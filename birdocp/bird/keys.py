@@ -29,6 +29,18 @@ KEY_ALIASES = {
 def resolve_key(key: str, what: str = "free") -> str:
     """A :data:`~birdocp.bird.config.PARAM_NAMES` entry from a dotted key or an alias.
 
+    Parameters
+    ----------
+    key : str
+        Dotted key or alias (e.g. ``amplitude``, ``root_ahead_m``).
+    what : str
+        Key named by the error.
+
+    Returns
+    -------
+    str
+        The dotted key.
+
     Raises
     ------
     ConfigError

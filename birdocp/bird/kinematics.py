@@ -17,29 +17,74 @@ from birdocp.bird.config import JOINT_NAMES
 
 
 def rot_x(a):
+    """Rotation matrix about x by the angle ``a`` [rad].
+
+    Parameters
+    ----------
+    a : casadi.SX or float
+        Angle [rad].
+
+    Returns
+    -------
+    casadi.SX, shape (3, 3)
+    """
     c, s = ca.cos(a), ca.sin(a)
     return ca.vertcat(ca.horzcat(1, 0, 0), ca.horzcat(0, c, -s), ca.horzcat(0, s, c))
 
 
 def rot_y(a):
+    """Rotation matrix about y by the angle ``a`` [rad].
+
+    Parameters
+    ----------
+    a : casadi.SX or float
+        Angle [rad].
+
+    Returns
+    -------
+    casadi.SX, shape (3, 3)
+    """
     c, s = ca.cos(a), ca.sin(a)
     return ca.vertcat(ca.horzcat(c, 0, s), ca.horzcat(0, 1, 0), ca.horzcat(-s, 0, c))
 
 
-def rot_z(a):
+def _rot_z(a):
     c, s = ca.cos(a), ca.sin(a)
     return ca.vertcat(ca.horzcat(c, -s, 0), ca.horzcat(s, c, 0), ca.horzcat(0, 0, 1))
 
 
 def vec(x, y, z):
+    """The column 3-vector (x, y, z).
+
+    Parameters
+    ----------
+    x, y, z : casadi.SX or float
+        Components.
+
+    Returns
+    -------
+    casadi.SX, shape (3, 1)
+    """
     return ca.vertcat(x, y, z)
 
 
 def joint_angles(t, frequency_hz: float, joints: dict) -> dict:
     """Joint angles [rad] at time t [s]: ``q = offset + amplitude sin(2 pi f t + phase)``.
 
-    ``joints`` maps each name of :data:`~birdocp.bird.config.JOINT_NAMES` to (offset_deg, amplitude_deg,
-    phase_deg), numbers or SX.
+    Parameters
+    ----------
+    t : casadi.SX or float
+        Time [s].
+    frequency_hz : float
+        Flapping frequency f [Hz].
+    joints : dict
+        Each name of :data:`~birdocp.bird.config.JOINT_NAMES` to (offset_deg, amplitude_deg, phase_deg),
+        numbers or SX.
+
+    Returns
+    -------
+    dict
+        Joint name to angle [rad].
     """
     omega = 2.0 * math.pi * frequency_hz
     deg = math.pi / 180.0
@@ -65,8 +110,18 @@ class Skeleton:
 
 
 def shoulder_rotation(q: dict):
-    """R1 = R_x(incidence) R_z(flap) R_y(sweep): the arm's rotation (docs/model.md §2.2)."""
-    return rot_x(q["shoulder_incidence"]) @ rot_z(q["shoulder_flap"]) @ rot_y(q["shoulder_sweep"])
+    """R1 = R_x(incidence) R_z(flap) R_y(sweep): the arm's rotation (docs/model.md §2.2).
+
+    Parameters
+    ----------
+    q : dict
+        Joint angles [rad] (``shoulder_incidence``, ``shoulder_flap``, ``shoulder_sweep``).
+
+    Returns
+    -------
+    casadi.SX, shape (3, 3)
+    """
+    return rot_x(q["shoulder_incidence"]) @ _rot_z(q["shoulder_flap"]) @ rot_y(q["shoulder_sweep"])
 
 
 def skeleton(q: dict, arm_m, forearm_m, hand_m, feather_lengths_m, with_shoulder: bool = True) -> Skeleton:
@@ -75,6 +130,21 @@ def skeleton(q: dict, arm_m, forearm_m, hand_m, feather_lengths_m, with_shoulder
     Every bone, feather and skin point is the shoulder rotation R1 applied to a shape in the arm's
     frame; ``with_shoulder=False`` returns that shape (R1 = I), which depends on the elbow and wrist
     joints and the morphology only.
+
+    Parameters
+    ----------
+    q : dict
+        Joint angles [rad] by joint name.
+    arm_m, forearm_m, hand_m : float
+        Bone lengths [m].
+    feather_lengths_m : sequence of float
+        The seven feather lengths [m].
+    with_shoulder : bool
+        Apply the shoulder rotation R1.
+
+    Returns
+    -------
+    Skeleton
     """
     e_y, e_x = q["elbow_flex"], q["hand_twist"]
     w_y, w_z = q["wrist_flex"], q["wrist_spread"]
@@ -82,7 +152,7 @@ def skeleton(q: dict, arm_m, forearm_m, hand_m, feather_lengths_m, with_shoulder
     R1 = shoulder_rotation(q) if with_shoulder else ca.SX.eye(3)
     R2a = R1 @ rot_y(e_y)
     R2b = R2a @ rot_x(e_x)
-    R4 = R2b @ rot_y(w_y) @ rot_z(w_z)
+    R4 = R2b @ rot_y(w_y) @ _rot_z(w_z)
 
     E1 = R1 @ vec(arm_m, 0, 0)
     E2 = E1 + R2a @ vec(forearm_m, 0, 0)
@@ -106,7 +176,24 @@ def skeleton(q: dict, arm_m, forearm_m, hand_m, feather_lengths_m, with_shoulder
 
 
 def raw_edges(sk: Skeleton, arm_m, forearm_m, hand_m, half_thickness_m):
-    """Raw leading edge (5 points) and trailing edge (4 points) of the right wing (docs/model.md §4.1)."""
+    """Raw leading edge (5 points) and trailing edge (4 points) of the right wing (docs/model.md §4.1).
+
+    Parameters
+    ----------
+    sk : Skeleton
+        Bones and feathers (:func:`skeleton`).
+    arm_m, forearm_m, hand_m : float
+        Bone lengths [m].
+    half_thickness_m : float
+        Half-thickness of the wing section [m].
+
+    Returns
+    -------
+    LE : list
+        Leading-edge points.
+    TE : list
+        Trailing-edge points.
+    """
     h = half_thickness_m
     l1, l2, l4 = arm_m, forearm_m, hand_m
     LE = [

@@ -53,12 +53,33 @@ vector: its data has N_DATA + N_MASS values, the first N_DATA laid out as :data:
 
 
 def unpack_mass(d):
-    """The wing-mass sums of a data vector of a model with wing masses, as a dict of scalars."""
+    """The wing-mass sums of a data vector of a model with wing masses, as a dict of scalars.
+
+    Parameters
+    ----------
+    d : casadi.SX, MX or DM
+        Data vector.
+
+    Returns
+    -------
+    dict
+    """
     return {k: d[N_DATA + i] for i, k in enumerate(inertia.MASS_BLOCK)}
 
 
 def unpack_data(d):
-    """Blocks of a data vector (SX/MX/DM) as a dict of matrices."""
+    """Blocks of a data vector (SX/MX/DM) as a dict of matrices.
+
+    Parameters
+    ----------
+    d : casadi.SX, MX or DM
+        Data vector.
+
+    Returns
+    -------
+    dict
+        Block name (:data:`DATA_OFFSETS`) to matrix.
+    """
     return {name: ca.reshape(d[k:k + r * c], r, c) for name, (k, r, c) in DATA_OFFSETS.items()}
 
 
@@ -69,7 +90,19 @@ def air_state(x, wind_mps):
     m/s), uniform over the bird; rotated into the body frame (x' forward, z' down) by the pitch angle
     theta: ``wind_u = cos(theta) W_X - sin(theta) W_Z``, ``wind_w = sin(theta) W_X + cos(theta) W_Z``.
     The state's u, w stay the inertial velocity of G in the body frame (the equations of motion are
-    unchanged); a zero wind gives back x exactly."""
+    unchanged); a zero wind gives back x exactly.
+
+    Parameters
+    ----------
+    x : casadi.SX
+        Body state (u, w, q, theta, ...).
+    wind_mps : sequence
+        (W_X, W_Z) [m/s].
+
+    Returns
+    -------
+    casadi.SX
+    """
     th = x[3]
     c, s = ca.cos(th), ca.sin(th)
     return ca.vertcat(x[0] - (c * wind_mps[0] - s * wind_mps[1]),
@@ -77,7 +110,19 @@ def air_state(x, wind_mps):
 
 
 def param(p, name):
-    """The entry ``name`` (:data:`birdocp.bird.config.PARAM_NAMES`) of the parameter vector p."""
+    """The entry ``name`` (:data:`birdocp.bird.config.PARAM_NAMES`) of the parameter vector p.
+
+    Parameters
+    ----------
+    p : casadi.SX or array_like
+        Parameter vector.
+    name : str
+        Dotted key.
+
+    Returns
+    -------
+    casadi.SX or float
+    """
     return p[PARAM_NAMES.index(name)]
 
 

@@ -16,7 +16,17 @@ from birdocp.bird import unsteady
 from birdocp.bird.layout import N_DATA, N_EL, N_MASS, Structure, param as _p, unpack_data
 
 def unsteady_params(p) -> dict:
-    """The numbers of :func:`birdocp.bird.unsteady.section_loads` (``prm``) from the parameter vector p."""
+    """The numbers of :func:`birdocp.bird.unsteady.section_loads` (``prm``) from the parameter vector p.
+
+    Parameters
+    ----------
+    p : casadi.SX
+        Parameter vector.
+
+    Returns
+    -------
+    dict
+    """
     a0 = 1.0 - _p(p, "aero.wagner_weight") * (unsteady.A1 + unsteady.A2)
     return {"rho": _p(p, "aero.air_density_kgm3"), "cla": _p(p, "aero.lift_slope_per_rad"),
             "eps": _p(p, "aero.wagner_weight"), "a0": a0, "kappa": _p(p, "aero.wagner_time_scale"),
@@ -30,13 +40,39 @@ def _opts(structure: Structure) -> dict:
 
 
 def unsteady_data_offset(structure: Structure) -> int:
-    """Where the unsteady data blocks start in the data vector (after the wing-mass sums)."""
+    """Where the unsteady data blocks start in the data vector (after the wing-mass sums).
+
+    Parameters
+    ----------
+    structure : Structure
+        Structure of the model.
+
+    Returns
+    -------
+    int
+    """
     return N_DATA + (N_MASS if structure.wing_mass else 0)
 
 
 def section_terms(structure: Structure, x, d, p) -> dict:
     """:func:`birdocp.bird.unsteady.section_loads` of an unsteady/stall structure at the air-relative
-    state x (4 + aerodynamic states) and data d."""
+    state x (4 + aerodynamic states) and data d.
+
+    Parameters
+    ----------
+    structure : Structure
+        Structure of the model.
+    x : casadi.SX
+        Air-relative state.
+    d : casadi.SX
+        Data vector.
+    p : casadi.SX
+        Parameter vector.
+
+    Returns
+    -------
+    dict
+    """
     b = unpack_data(d)
     k0 = unsteady_data_offset(structure)
     ud = unsteady.unpack(d[k0:k0 + unsteady.data_size(N_EL)], N_EL)
@@ -62,6 +98,24 @@ def load_terms(structure: Structure, x, d, p, x_inertial=None) -> dict:
     :func:`birdocp.bird.unsteady.section_loads`), ``dF_mid`` (separated + added-mass force at mid-chord,
     3 x 16), ``couple`` (1 x 16 added-mass couples about tau_hat, N m), ``nudot`` (u', w', q' with the
     added mass on the left) and ``xdot_aero``; the body loads include the added-mass reaction.
+
+    Parameters
+    ----------
+    structure : Structure
+        Structure of the model.
+    x : casadi.SX
+        State (air-relative with a wind).
+    d : casadi.SX
+        Data vector.
+    p : casadi.SX
+        Parameter vector.
+    x_inertial : casadi.SX, optional
+        Inertial body state (default ``x``).
+
+    Returns
+    -------
+    dict
+        Name to expression.
     """
     b = unpack_data(d)
     rho = _p(p, "aero.air_density_kgm3")

@@ -45,7 +45,17 @@ def graph_key(structure: Structure) -> dict:
     evaluations, kinematic velocity, its backward step, tail on/off, wing masses on/off; every other
     configuration value
     is a number in ``p``), the parameter layout and the birdocp version (CasADi's version and the
-    cache format are added by :mod:`birdocp.engine.graphcache`)."""
+    cache format are added by :mod:`birdocp.engine.graphcache`).
+
+    Parameters
+    ----------
+    structure : Structure
+        Structure of the model.
+
+    Returns
+    -------
+    dict
+    """
     from pathlib import Path
 
     from birdocp import __version__

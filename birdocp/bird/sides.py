@@ -35,19 +35,51 @@ _BASE_INDEX = [PARAM_NAMES.index(k.replace(".right_offset", "")) for k in SIDE_P
 
 
 def side_vector(cfg: Config) -> list[float]:
-    """The values of :data:`SIDE_PARAM_NAMES` in ``cfg``."""
+    """The values of :data:`SIDE_PARAM_NAMES` in ``cfg``.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+
+    Returns
+    -------
+    list of float
+    """
     return [float(get_value(cfg, k)) for k in SIDE_PARAM_NAMES]
 
 
 def swap_sides(offsets) -> list[float]:
-    """The side vector with the right and left wings' offsets exchanged (the mirrored gait)."""
+    """The side vector with the right and left wings' offsets exchanged (the mirrored gait).
+
+    Parameters
+    ----------
+    offsets : sequence of float
+        Side vector (right wing's offsets, then the left's).
+
+    Returns
+    -------
+    list of float
+    """
     o = [float(v) for v in offsets]
     return o[_N_SIDE:] + o[:_N_SIDE]
 
 
 def side_parameters(p, offsets):
     """(p_right, p_left): the planar parameter vector ``p`` (:data:`PARAM_NAMES`) with the right and
-    the left wing's offsets added to the joint keys (CasADi MX/SX or numpy)."""
+    the left wing's offsets added to the joint keys (CasADi MX/SX or numpy).
+
+    Parameters
+    ----------
+    p : casadi.MX, SX or ndarray
+        Planar parameter vector.
+    offsets : casadi.MX, SX or ndarray
+        Side vector (:data:`SIDE_PARAM_NAMES`).
+
+    Returns
+    -------
+    p_right, p_left
+    """
     n = len(PARAM_NAMES)
     if isinstance(p, (ca.MX, ca.SX)):
         sel = np.zeros((n, _N_SIDE))
@@ -80,7 +112,23 @@ def side_data_functions(planar: BirdModel, n_params: int, first_offset: int):
     starts with :data:`PARAM_NAMES` and holds :data:`SIDE_PARAM_NAMES` from index ``first_offset``:
     ``pre(t, p)`` stacks the planar ``pre`` of the right and of the left wing, ``post(local, t, p)``
     assembles both (:data:`birdocp.bird.model.DATA_BLOCKS`, then, with wing masses, the 3-D sums
-    :data:`birdocp.bird.sixdof_inertia.MASS3_BLOCK` of the two wings); ``pre_params`` adds the offsets of the joints ``pre`` depends on (elbow, wrist)."""
+    :data:`birdocp.bird.sixdof_inertia.MASS3_BLOCK` of the two wings); ``pre_params`` adds the offsets of
+    the joints ``pre`` depends on (elbow, wrist).
+
+    Parameters
+    ----------
+    planar : BirdModel
+        Planar model.
+    n_params : int
+        Length of the parameter vector.
+    first_offset : int
+        Index of the first side offset.
+
+    Returns
+    -------
+    tuple
+        ``(pre, post, data, pre_params)``.
+    """
     n = len(PARAM_NAMES)
     if planar.structure.aero_extra:
         raise ValueError("asymmetric gaits: the unsteady or stall sections are not written per side")

@@ -112,7 +112,26 @@ def body_loads(x, d, p, with_tail=False, with_drag=False):
 
     Returns ``(F_body 3x1, M_body 3x1, terms)``; ``terms`` is the dict of
     :func:`birdocp.bird.aero.forces_from_velocity` (code frame), with ``dD`` and ``F_par`` when
-    ``with_drag``."""
+    ``with_drag``.
+
+    Parameters
+    ----------
+    x : casadi.SX
+        9-state.
+    d : casadi.SX
+        Planar data vector.
+    p : casadi.SX
+        Parameter vector.
+    with_tail : bool
+        Add the tail's loads.
+    with_drag : bool
+        Add the optional drag terms.
+
+    Returns
+    -------
+    tuple
+        ``(F_body, M_body, terms)``.
+    """
     u, v, w, pr, q, rr = (x[i] for i in range(6))
     b = unpack_data(d)
     r, v_kin = b["r_m"], b["v_kin_mps"]
@@ -145,7 +164,24 @@ def drag_terms(e: dict, b: dict, u, v, w, p) -> dict:
     ``Vp`` (sideslip and roll and yaw rates included, :func:`birdocp.bird.aero.profile_drag`), acting at
     the element centre (it adds roll and yaw moments where the wings meet the air differently), and
     ``F_par`` (3 x 1) the body's parasite drag at G along the free stream ``U_inf = (-v, w, u)``,
-    ``1/2 rho S_b C_Db |U_inf| U_inf`` (no moment). For v = 0 both are the planar model's."""
+    ``1/2 rho S_b C_Db |U_inf| U_inf`` (no moment). For v = 0 both are the planar model's.
+
+    Parameters
+    ----------
+    e : dict
+        Element terms (:func:`birdocp.bird.aero.forces_from_velocity`).
+    b : dict
+        Data blocks.
+    u, v, w : casadi.SX
+        Body velocities (forward, right, down) [m/s].
+    p : casadi.SX
+        Parameter vector.
+
+    Returns
+    -------
+    dict
+        ``dD`` and ``F_par`` [N].
+    """
     rho = _p(p, "aero.air_density_kgm3")
     dD = aero.profile_drag(e["Vp"], e["Vp_norm"], b["chord_m"], b["ds_m"], rho, _p(p, "drag.profile_drag_coefficient"))
     U_inf = ca.vertcat(-v, w, u)
@@ -160,7 +196,24 @@ def tail_body_loads(x, b, gamma, p):
     induced velocity of the whole (possibly asymmetric) wake at its neutral point. The flat tail in
     the plane x'y' carries no side force; the crossflow of sideslip and yaw rate (v - r x_tail along
     y') and the roll rate are not seen by it (its loads are even in sideslip and it adds no roll or
-    yaw moment: slender-wing theory to first order, docs/studies/lateral.md)."""
+    yaw moment: slender-wing theory to first order, docs/studies/lateral.md).
+
+    Parameters
+    ----------
+    x : casadi.SX
+        9-state.
+    b : dict
+        Data blocks (:func:`birdocp.bird.layout.unpack_data`).
+    gamma : casadi.SX
+        The 16 circulations [m^2/s].
+    p : casadi.SX
+        Parameter vector.
+
+    Returns
+    -------
+    tuple
+        As :func:`birdocp.bird.tail.tail_loads`.
+    """
     return tail.tail_loads(ca.vertcat(x[0], x[2], x[4]), b["nodes_m"], gamma, _p(p, "aero.air_density_kgm3"),
                            *[_p(p, f"tail.{k}") for k in ("opening_angle_deg", "root_behind_m", "length_m",
                                                           "kinematic_viscosity_m2ps", "reynolds_speed_mps",
@@ -171,7 +224,25 @@ def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None):
     """The state derivative (9) of the rigid body with the aerodynamic loads of :func:`body_loads` at
     ``x_air`` (the state as the air sees it, with a wind; default ``x``) and, with
     ``structure.wing_mass``, the wing masses of :mod:`birdocp.bird.sixdof_inertia` (whose sums follow
-    the planar data in ``d``); ``structure.tail`` adds the tail."""
+    the planar data in ``d``); ``structure.tail`` adds the tail.
+
+    Parameters
+    ----------
+    x : casadi.SX
+        9-state.
+    d : casadi.SX
+        Data vector.
+    p6 : casadi.SX
+        6-DOF parameter vector.
+    x_air : casadi.SX, optional
+        State as the air sees it (default ``x``).
+    structure : Structure, optional
+        Structure of the model.
+
+    Returns
+    -------
+    casadi.SX, shape (9, 1)
+    """
     p = p6[:len(PARAM_NAMES)]
     ixx, izz, ixz = (p6[len(PARAM_NAMES) + i] for i in range(3))
     m, iyy, g = _p(p, "body.mass_kg"), _p(p, "body.pitch_inertia_kgm2"), _p(p, "body.gravity_mps2")
@@ -323,12 +394,34 @@ register_cache("bird.sixdof_models", _sixdof_for)
 def sixdof_model(cfg: Config, sides: bool | None = None) -> SixDofModel:
     """The (cached) :class:`SixDofModel` of ``cfg``'s structure; its numbers come from
     ``SixDofModel.params(param_vector(cfg), inertia, offsets)``. ``sides``: a model with per-side
-    joint laws (default: when ``cfg``'s gait is asymmetric, :func:`birdocp.bird.config.asymmetric`)."""
+    joint laws (default: when ``cfg``'s gait is asymmetric, :func:`birdocp.bird.config.asymmetric`).
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    sides : bool, optional
+        Per-side joint laws.
+
+    Returns
+    -------
+    SixDofModel
+    """
     sides = asymmetric(cfg) if sides is None else bool(sides)
     return _sixdof_for(Structure.of(cfg), get_model(cfg).model, sides)
 
 
 def embed_planar_state(x4) -> list[float]:
-    """The 9-state of a planar state (u, w, q, theta): v = p = r = phi = psi = 0."""
+    """The 9-state of a planar state (u, w, q, theta): v = p = r = phi = psi = 0.
+
+    Parameters
+    ----------
+    x4 : sequence of float
+        (u, w, q, theta).
+
+    Returns
+    -------
+    list of float
+    """
     u, w, q, th = (float(v) for v in x4)
     return [u, 0.0, w, 0.0, q, 0.0, 0.0, th, 0.0]

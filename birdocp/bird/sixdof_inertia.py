@@ -58,7 +58,23 @@ def _sym(tri):
 def mass_sums_3d(m, r, v, a) -> dict:
     """The sums of :data:`MASS3_BLOCK` of the points ``m`` (n masses [kg]) at body-frame positions
     ``r`` (3 x n [m], relative to G_b), relative velocities ``v`` [m/s] and accelerations ``a``
-    [m/s^2] (both wings, every point listed once)."""
+    [m/s^2] (both wings, every point listed once).
+
+    Parameters
+    ----------
+    m : sequence
+        Point masses [kg].
+    r : casadi.SX, shape (3, n)
+        Positions [m].
+    v : casadi.SX, shape (3, n)
+        Relative velocities [m/s].
+    a : casadi.SX, shape (3, n)
+        Relative accelerations [m/s^2].
+
+    Returns
+    -------
+    dict
+    """
     n = r.shape[1]
     out = {"m_w_kg": ca.sum1(m)}
     mr = r * ca.repmat(m.T, 3, 1)
@@ -84,7 +100,19 @@ def sums_function(mass_points: ca.Function, sides: bool = False) -> ca.Function:
     ``mass_points(t, p) -> (r, v, a, m)`` (both wings, body frame about G_b, the right wing's points
     first). ``sides``: ``(t, p_right, p_left) -> the sums`` of two wings with their own joint laws (an
     asymmetric gait, :mod:`birdocp.bird.sides`): the right wing's points from ``mass_points`` at
-    ``p_right``, the left wing's (its mirrored half) at ``p_left``."""
+    ``p_right``, the left wing's (its mirrored half) at ``p_left``.
+
+    Parameters
+    ----------
+    mass_points : casadi.Function
+        ``mass_points(t, p) -> (r, v, a, m)`` of a planar model.
+    sides : bool
+        Two wings with their own joint laws.
+
+    Returns
+    -------
+    casadi.Function
+    """
     t = ca.SX.sym("t")
     p = ca.SX.sym("p", mass_points.size1_in(1))
     r, v, a, m = mass_points(t, p)
@@ -102,7 +130,17 @@ def sums_function(mass_points: ca.Function, sides: bool = False) -> ca.Function:
 
 def unpack_mass3(block) -> dict:
     """The sums of a data block laid out as :data:`MASS3_BLOCK`: a dict of column vectors, with the
-    tensors ``I_w`` and ``dI_w`` as 3 x 3 matrices."""
+    tensors ``I_w`` and ``dI_w`` as 3 x 3 matrices.
+
+    Parameters
+    ----------
+    block : casadi.SX
+        Data block.
+
+    Returns
+    -------
+    dict
+    """
     out, k = {}, 0
     for name, n in MASS3_BLOCK:
         out[name] = block[k:k + n]
@@ -125,7 +163,27 @@ def wing_corrected_accelerations(f0, x, s: dict, total_mass_kg, body_inertia, gr
     """(u', v', w', p', q', r') with moving wing masses: ``f0`` (6) is the rigid body's with mass M and
     the body's inertia tensor ``body_inertia`` (3 x 3, about G_b) under the same loads; ``x`` the
     9-state; ``s`` the sums (:func:`unpack_mass3`); ``gravity_b`` the gravity vector in body axes
-    [m/s^2]. Returns ``f0 + delta`` (the module's equations)."""
+    [m/s^2]. Returns ``f0 + delta`` (the module's equations).
+
+    Parameters
+    ----------
+    f0 : casadi.SX
+        Rigid body's (u', v', w', p', q', r').
+    x : casadi.SX
+        9-state.
+    s : dict
+        Mass sums.
+    total_mass_kg : float
+        M [kg].
+    body_inertia : casadi.SX, shape (3, 3)
+        Body's inertia tensor about G_b [kg m^2].
+    gravity_b : casadi.SX
+        Gravity vector in body axes [m/s^2].
+
+    Returns
+    -------
+    casadi.SX, shape (6, 1)
+    """
     vel, om = ca.vertcat(x[0], x[1], x[2]), ca.vertcat(x[3], x[4], x[5])
     M = total_mass_kg
     S, dS, ddS = s["S_kgm"], s["dS_kgmps"], s["ddS_kgmps2"]
@@ -147,7 +205,23 @@ def wing_corrected_accelerations(f0, x, s: dict, total_mass_kg, body_inertia, gr
 def momenta(x, s: dict, total_mass_kg, body_inertia):
     """Linear momentum ``P = M v + omega x S + S'`` [kg m/s] and the angular momentum about G_b with
     absolute velocities ``H_abs = (J_b + I_w) omega + h + S x v`` [kg m^2/s] of body plus wings, in body
-    axes (the conserved quantities, rotated to the inertial frame, of a bird in vacuum)."""
+    axes (the conserved quantities, rotated to the inertial frame, of a bird in vacuum).
+
+    Parameters
+    ----------
+    x : casadi.SX
+        9-state.
+    s : dict
+        Mass sums.
+    total_mass_kg : float
+        M [kg].
+    body_inertia : casadi.SX, shape (3, 3)
+        Body's inertia tensor about G_b [kg m^2].
+
+    Returns
+    -------
+    P, H : casadi.SX
+    """
     vel, om = ca.vertcat(x[0], x[1], x[2]), ca.vertcat(x[3], x[4], x[5])
     S = s["S_kgm"]
     P = total_mass_kg * vel + _cross(om, S) + s["dS_kgmps"]

@@ -58,6 +58,20 @@ def induced_velocity(P, nodes, gamma):
     ``nodes`` 3 x 17 element end nodes (relative to G), ``gamma`` 16 circulations: bound segment j
     from node j to node j+1 carries Gamma_j; the trailing leg from node m along +e3 carries
     Gamma_{m-1} - Gamma_m (Helmholtz).
+
+    Parameters
+    ----------
+    P : casadi.SX
+        Point [m].
+    nodes : casadi.SX, shape (3, 17)
+        Element end nodes relative to G [m].
+    gamma : casadi.SX
+        The 16 circulations [m^2/s].
+
+    Returns
+    -------
+    casadi.SX
+        Velocity [m/s].
     """
     n = gamma.shape[0]
     v = ca.DM.zeros(3, 1)
@@ -76,7 +90,35 @@ def tail_loads(state, nodes, gamma, rho, opening_angle_deg, root_behind_m, lengt
     """(lift L_t [N, up], drag D_t [N, backwards], pitching moment about G [N m, nose-up positive]).
 
     ``incidence_deg``: the tail's own incidence, added to the flow angle (at 0 the sum is the flow
-    angle exactly: the reference model bit for bit)."""
+    angle exactly: the reference model bit for bit).
+
+    Parameters
+    ----------
+    state : casadi.SX
+        Planar state (u, w, q, ...): the first three entries are used.
+    nodes : casadi.SX, shape (3, 17)
+        Element end nodes relative to G [m].
+    gamma : casadi.SX
+        The 16 circulations [m^2/s].
+    rho : float
+        Air density [kg/m^3].
+    opening_angle_deg : float
+        Tail opening angle [deg].
+    root_behind_m : float
+        Tail root behind G [m].
+    length_m : float
+        Tail length [m].
+    kinematic_viscosity_m2ps : float
+        Kinematic viscosity of the air [m^2/s].
+    reynolds_speed_mps : float
+        Speed of the Reynolds number [m/s].
+    incidence_deg : float
+        The tail's own incidence [deg].
+
+    Returns
+    -------
+    tuple of casadi.SX
+    """
     u, w, q = state[0], state[1], state[2]
     beta = opening_angle_deg * math.pi / 180
     span = 2 * length_m * ca.tan(beta / 2)

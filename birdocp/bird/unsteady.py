@@ -17,10 +17,13 @@ harness (:mod:`birdocp.bird.unsteady_harness`). Units SI, angles in rad.
 
 from __future__ import annotations
 
-import functools
 import math
 
 import casadi as ca
+
+from birdocp.bird.stall_section import (FROZEN_NEWTON_MATRIX, INLINE_NEWTON_STEPS, circulation,  # noqa: F401
+    expanded_instructions, factored_solve, lift_coefficient, lu_solve, separated_drag_coefficient,
+    separation_point)
 
 A1, A2, B1, B2 = 0.165, 0.335, 0.0455, 0.3
 """Jones's two-exponential approximation of Wagner's function: phi(s) = 1 - A1 e^(-B1 s) - A2 e^(-B2 s)
@@ -33,43 +36,38 @@ __all__ = ["A1", "A2", "B1", "B2", "jones_transfer", "wagner_indicial_jones", "s
 
 def jones_transfer(k: float, weight: float = 1.0) -> complex:
     """Jones's approximation C_J(k) = A0 + sum_i eps A_i b_i / (i k + b_i) of Theodorsen's function at
-    reduced frequency k = omega c / (2 U); ``weight`` = eps (0: quasi-steady, C_J = 1)."""
+    reduced frequency k = omega c / (2 U); ``weight`` = eps (0: quasi-steady, C_J = 1).
+
+    Parameters
+    ----------
+    k : float
+        Reduced frequency [-].
+    weight : float
+        eps [-].
+
+    Returns
+    -------
+    complex
+    """
     a0 = 1.0 - weight * (A1 + A2)
     return a0 + weight * (A1 * B1 / (1j * k + B1) + A2 * B2 / (1j * k + B2))
 
 
 def wagner_indicial_jones(s: float) -> float:
-    """Jones's phi(s) = 1 - A1 exp(-B1 s) - A2 exp(-B2 s), s in semichords."""
+    """Jones's phi(s) = 1 - A1 exp(-B1 s) - A2 exp(-B2 s), s in semichords.
+
+    Parameters
+    ----------
+    s : float
+        Distance travelled [semichords].
+
+    Returns
+    -------
+    float
+    """
     return 1.0 - A1 * math.exp(-B1 * s) - A2 * math.exp(-B2 * s)
 
 
-def separation_point(alpha, alpha1):
-    """Static separation point f0(alpha) = 1 / (1 + (alpha/alpha1)^4) (1 = attached; alpha, alpha1 in rad)."""
-    r2 = (alpha / alpha1) ** 2
-    return 1.0 / (1.0 + r2 * r2)
-
-
-def lift_coefficient(alpha, f, cla, cd90):
-    """C_l(alpha, f) = f C_la alpha + (1 - f) C_D90 sin(2 alpha) / 2."""
-    return f * cla * alpha + (1.0 - f) * 0.5 * cd90 * ca.sin(2 * alpha)
-
-
-def separated_drag_coefficient(alpha, f, cd90):
-    """Pressure drag of the separated part C_d,sep = (1 - f) C_D90 sin^2(alpha)."""
-    return (1.0 - f) * cd90 * ca.sin(alpha) ** 2
-
-
-def _lift_slope(alpha, f, cla, cd90, alpha1, total):
-    """dC_l/dalpha at fixed f, plus f0'(alpha) (C_la alpha - C_D90 sin 2alpha / 2) when ``total``."""
-    s = f * cla + (1.0 - f) * cd90 * ca.cos(2 * alpha)
-    if total:
-        f0 = separation_point(alpha, alpha1)
-        df0 = -4.0 * alpha ** 3 / alpha1 ** 4 * f0 * f0
-        s = s + df0 * (cla * alpha - 0.5 * cd90 * ca.sin(2 * alpha))
-    return s
-
-
-# Time-only data of the unsteady terms (per element; appended to the bird's data vector).
 DATA_BLOCKS = (
     ("n_hat", 3), ("tau_hat", 3), ("omega_k", 1), ("omega_k_dot", 1), ("r_mid_dot", 3), ("a", 3),
     ("a_dot", 3), ("w0", 1), ("w0_dot", 1), ("m_a", 1), ("m_a_dot", 1), ("m_theta", 1), ("tau_hat1_dot", 1),
@@ -79,17 +77,51 @@ unit air density [m^3, m^3/s, m^5]: the density is a number of the state right-h
 
 
 def block_sizes(n: int) -> list[tuple[str, int, int]]:
-    """(name, rows, cols) of :data:`DATA_BLOCKS` for n elements."""
+    """(name, rows, cols) of :data:`DATA_BLOCKS` for n elements.
+
+    Parameters
+    ----------
+    n : int
+        Number of elements.
+
+    Returns
+    -------
+    list of (str, int, int)
+    """
     return [(k, n, n) if r < 0 else (k, r, n) for k, r in DATA_BLOCKS]
 
 
 def pack(blocks: dict, n: int):
-    """The data blocks as one column (layout :func:`block_sizes`)."""
+    """The data blocks as one column (layout :func:`block_sizes`).
+
+    Parameters
+    ----------
+    blocks : dict
+        Block name to matrix.
+    n : int
+        Number of elements.
+
+    Returns
+    -------
+    casadi.SX or MX
+    """
     return ca.vertcat(*[ca.vec(blocks[k]) for k, _, _ in block_sizes(n)])
 
 
 def unpack(d, n: int) -> dict:
-    """Inverse of :func:`pack` on a column (SX/MX/DM)."""
+    """Inverse of :func:`pack` on a column (SX/MX/DM).
+
+    Parameters
+    ----------
+    d : casadi.SX, MX or DM
+        Packed column.
+    n : int
+        Number of elements.
+
+    Returns
+    -------
+    dict
+    """
     out, k = {}, 0
     for name, r, c in block_sizes(n):
         out[name] = ca.reshape(d[k:k + r * c], r, c)
@@ -98,6 +130,17 @@ def unpack(d, n: int) -> dict:
 
 
 def data_size(n: int) -> int:
+    """Length of the packed data column for n elements.
+
+    Parameters
+    ----------
+    n : int
+        Number of elements.
+
+    Returns
+    -------
+    int
+    """
     return sum(r * c for _, r, c in block_sizes(n))
 
 
@@ -112,6 +155,20 @@ def element_data(r, v_kin, c_hat, up, tau, chord, ds, ddt) -> dict:
     kinematic velocity [m/s], chord direction, up normal, spanwise vector; code frame); ``chord``,
     ``ds`` n x 1 [m]; ``ddt(e)`` the time derivative of an expression (AD in t). Geometry only: no
     parameter of the state right-hand side enters (the C export keeps the two apart).
+
+    Parameters
+    ----------
+    r, v_kin, c_hat, up, tau : casadi.SX, shape (3, n)
+        See above.
+    chord, ds : casadi.SX, shape (n, 1)
+        Chords and element lengths [m].
+    ddt : callable
+        Time derivative of an expression.
+
+    Returns
+    -------
+    dict
+        Block name to expression.
     """
     n_hat, tau_hat = _unit_columns(up), _unit_columns(tau)
     c_dot = ddt(c_hat)
@@ -130,12 +187,36 @@ def element_data(r, v_kin, c_hat, up, tau, chord, ds, ddt) -> dict:
 
 def n_aero_states(unsteady: str, section: str, n: int = 16) -> int:
     """Number of aerodynamic states: 2 n lag states with ``wagner``, n separation states with
-    ``dynamic-stall``."""
+    ``dynamic-stall``.
+
+    Parameters
+    ----------
+    unsteady, section : str
+        ``aero.unsteady`` and ``aero.section``.
+    n : int
+        Number of elements.
+
+    Returns
+    -------
+    int
+    """
     return n * ((2 if unsteady == "wagner" else 0) + (1 if section == "dynamic-stall" else 0))
 
 
 def aero_state_names(unsteady: str, section: str, n: int = 16) -> tuple[str, ...]:
-    """``z1_mps_j``, ``z2_mps_j`` (wagner), ``f_sep_j`` (dynamic-stall), j = 0..n-1."""
+    """``z1_mps_j``, ``z2_mps_j`` (wagner), ``f_sep_j`` (dynamic-stall), j = 0..n-1.
+
+    Parameters
+    ----------
+    unsteady, section : str
+        ``aero.unsteady`` and ``aero.section``.
+    n : int
+        Number of elements.
+
+    Returns
+    -------
+    tuple of str
+    """
     names = []
     if unsteady == "wagner":
         names += [f"z1_mps_{j}" for j in range(n)] + [f"z2_mps_{j}" for j in range(n)]
@@ -148,169 +229,6 @@ def _cross(W, tau):
     return ca.vertcat(W[1, :] * tau[2, :] - W[2, :] * tau[1, :],
                       W[2, :] * tau[0, :] - W[0, :] * tau[2, :],
                       W[0, :] * tau[1, :] - W[1, :] * tau[0, :])
-
-
-def lu_solve(A, b):
-    """x = A^-1 b by Gaussian elimination without pivoting, written out in SX (about n^3/3
-    multiply-adds: a third of a symbolic QR). For the lifting-line matrices I + D K, whose eigenvalues
-    keep a positive real part (docs/model_unsteady.md, well-posedness); no branches on the values."""
-    n = A.shape[0]
-    a = [[A[i, j] for j in range(n)] for i in range(n)]
-    y = [b[i] for i in range(n)]
-    for k in range(n):
-        inv = 1.0 / a[k][k]
-        for i in range(k + 1, n):
-            m = a[i][k] * inv
-            for j in range(k + 1, n):
-                a[i][j] = a[i][j] - m * a[k][j]
-            y[i] = y[i] - m * y[k]
-    x = [None] * n
-    for i in reversed(range(n)):
-        acc = y[i]
-        for j in range(i + 1, n):
-            acc = acc - a[i][j] * x[j]
-        x[i] = acc / a[i][i]
-    return ca.vertcat(*x)
-
-
-def _lu_factors(A) -> list:
-    """The elimination of :func:`lu_solve` on A alone: rows of U (upper triangle) with the multipliers
-    below the diagonal, as nested lists of expressions."""
-    n = A.shape[0]
-    a = [[A[i, j] for j in range(n)] for i in range(n)]
-    for k in range(n):
-        inv = 1.0 / a[k][k]
-        for i in range(k + 1, n):
-            m = a[i][k] * inv
-            for j in range(k + 1, n):
-                a[i][j] = a[i][j] - m * a[k][j]
-            a[i][k] = m
-    return a
-
-
-@functools.lru_cache(maxsize=8)
-def _frozen_factorization(n: int) -> ca.Function:
-    """A (n x n) -> its :func:`_lu_factors` (multipliers below the diagonal, U on and above), as a
-    Function called (never inlined) with its derivative declared zero: the Newton matrix held fixed."""
-    A = ca.SX.sym("A", n, n)
-    a = _lu_factors(A)
-    F = ca.vertcat(*[ca.horzcat(*row) for row in a])
-    return ca.Function(f"frozen_lu_{n}", [A], [F], {"never_inline": True, "is_diff_in": [False]})
-
-
-def factored_solve(F, b):
-    """x = A^-1 b from the factors F of :func:`_lu_factors` (the same operations, in the same order, as
-    :func:`lu_solve`; about n^2 multiply-adds)."""
-    n = F.shape[0]
-    y = [b[i] for i in range(n)]
-    for k in range(n):
-        for i in range(k + 1, n):
-            y[i] = y[i] - F[i, k] * y[k]
-    x = [None] * n
-    for i in reversed(range(n)):
-        acc = y[i]
-        for j in range(i + 1, n):
-            acc = acc - F[i, j] * x[j]
-        x[i] = acc / F[i, i]
-    return ca.vertcat(*x)
-
-
-INLINE_NEWTON_STEPS = 2
-"""Newton steps of a stall circulation that carry the derivatives: the iterates before them are
-computed in a separate Function whose derivative is declared zero (``is_diff_in``), so AD sees only
-the last two steps. The values are those of all the steps, bit for bit; at the fixed point a Newton
-step's derivative along its starting iterate vanishes, so first derivatives are exact up to the
-residual after N_N - 1 steps and second derivatives up to the residual after N_N - 2 steps
-(docs/model_unsteady.md, cost)."""
-
-FROZEN_NEWTON_MATRIX = True
-"""The differentiated Newton steps hold their matrix J = dR/dGamma fixed for AD (its factorization is
-a call with a zero derivative, :func:`_frozen_factorization`): a step's derivative is then
--J^-1 (dR - J dGamma) instead of also carrying dJ J^-1 R, which the residual R makes vanish at the
-fixed point (first order) and, after a first step has made dGamma the implicit-function
-derivative, at second order too (docs/model_unsteady.md, cost). The values are unchanged; per
-direction a step costs two triangular solves (n^2) instead of the derivative of the elimination (n^3)."""
-
-
-def _newton(section, a0, cla, cd90, al1, q_t, zsum, Vn, chord, K, f_state, gam, steps, frozen=False):
-    """``steps`` Newton steps of R(Gamma) = Gamma - c |Vp| C_l(alpha_E(Gamma), f) / 2 = 0 from ``gam``
-    (``frozen``: the matrix held fixed for AD, :data:`FROZEN_NEWTON_MATRIX`); returns the iterate and
-    the last step's residual function."""
-    n = chord.shape[0]
-    dyn = section == "dynamic-stall"
-
-    def resid(g):
-        aE = (a0 * (q_t - K @ g) + zsum) / Vn
-        f = f_state if dyn else separation_point(aE, al1)
-        return g - 0.5 * chord * Vn * lift_coefficient(aE, f, cla, cd90), aE, f
-
-    for _ in range(steps):
-        R, aE, f = resid(gam)
-        slope = _lift_slope(aE, f, cla, cd90, al1, total=not dyn)
-        J = ca.SX.eye(n) + a0 * ca.diag(0.5 * chord * slope) @ K
-        gam = gam - (factored_solve(_frozen_factorization(n)(J), R) if frozen else lu_solve(J, R))
-    return gam, resid
-
-
-def _linear_start(a0, cla, q_t, zsum, chord, K):
-    """The linear lifting-line solve (I + A0 H K) Gamma = H (A0 q~ + z1 + z2), H = diag(c C_la / 2)."""
-    h = 0.5 * chord * cla
-    return lu_solve(ca.SX.eye(chord.shape[0]) + a0 * ca.diag(h) @ K, h * (a0 * q_t + zsum))
-
-
-@functools.lru_cache(maxsize=16)
-def _detached_newton(section: str, n: int, steps: int) -> ca.Function:
-    """(a0, cla, cd90, alpha1, q~, z1 + z2, |Vp|, c, K, f) -> the linear start and ``steps`` Newton
-    steps, as a Function called (never inlined) with its derivative declared zero."""
-    sc = [ca.SX.sym(k) for k in ("a0", "cla", "cd90", "alpha1")]
-    cols = [ca.SX.sym(k, n) for k in ("q_t", "zsum", "Vn", "chord", "f")]
-    K = ca.SX.sym("K", n, n)
-    q_t, zsum, Vn, chord, f = cols
-    gam = _linear_start(sc[0], sc[1], q_t, zsum, chord, K)
-    gam, _ = _newton(section, *sc, q_t, zsum, Vn, chord, K, f, gam, steps)
-    args = sc + cols[:4] + [K, f]
-    return ca.Function(f"newton_start_{section.replace('-', '_')}_{steps}", args, [gam],
-                       {"never_inline": True, "is_diff_in": [False] * len(args)})
-
-
-def expanded_instructions(f: ca.Function, section: str, n: int, newton_steps: int, evaluations: int = 1) -> int:
-    """CasADi instructions of an SX Function ``f`` that evaluates the section model ``evaluations``
-    times, with the calls of :func:`_detached_newton` and of :func:`_frozen_factorization` of each
-    evaluation counted as the instructions they run (``n_instructions`` counts a call as one; their
-    derivatives are zero by declaration)."""
-    total = int(f.n_instructions())
-    if section == "linear":
-        return total
-    inline = min(newton_steps, INLINE_NEWTON_STEPS)
-    if FROZEN_NEWTON_MATRIX and inline:
-        total += evaluations * inline * (_frozen_factorization(n).n_instructions() - 1)
-    if newton_steps <= INLINE_NEWTON_STEPS:
-        return total
-    inner = _detached_newton(section, n, newton_steps - INLINE_NEWTON_STEPS).n_instructions()
-    return total + evaluations * (inner - 1)
-
-
-def _circulation(opts, prm, q_t, zsum, Vn, chord, K, f_state):
-    """Gamma (n x 1) and the final relative Newton residual (0 for a linear section): the linear
-    lifting-line solve, then for a stall section a fixed count of Newton steps (the ones before the
-    last :data:`INLINE_NEWTON_STEPS` in :func:`_detached_newton`)."""
-    a0, cla = prm["a0"], prm["cla"]
-    n = chord.shape[0]
-    if opts["section"] == "linear":
-        return _linear_start(a0, cla, q_t, zsum, chord, K), ca.SX(0)
-    cd90, al1 = prm["cd90"], prm["alpha1"]
-    steps = int(opts["newton_steps"])
-    inline = min(steps, INLINE_NEWTON_STEPS)
-    f = f_state if f_state is not None else ca.SX.zeros(n, 1)
-    if steps > inline:
-        gam = _detached_newton(opts["section"], n, steps - inline)(a0, cla, cd90, al1, q_t, zsum, Vn, chord, K, f)
-    else:
-        gam = _linear_start(a0, cla, q_t, zsum, chord, K)
-    gam, resid = _newton(opts["section"], a0, cla, cd90, al1, q_t, zsum, Vn, chord, K, f_state, gam, inline,
-                         frozen=FROZEN_NEWTON_MATRIX)
-    R, _, _ = resid(gam)
-    rel = ca.mmax(ca.fabs(R)) / ca.mmax(ca.fabs(gam))
-    return gam, rel
 
 
 def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dict) -> dict:
@@ -329,6 +247,16 @@ def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dic
     ``nc_coef`` (per element: dF_nc = (nc_coef + m_a a . nu') n_hat) and ``couple0`` (couple with
     q' = 0); ``zdot``; ``Gamma``, ``alpha_E`` (n x 1), ``f`` (1 x n), ``vind``, ``v_s``, ``V``, ``Vp``,
     ``Vp_norm``, ``alpha``, ``omega``, ``newton_residual``.
+
+    Parameters
+    ----------
+    opts, nu, zs, base, ud, wake, prm
+        See above.
+
+    Returns
+    -------
+    dict
+        The keys listed above.
     """
     from birdocp.bird import aero
 
@@ -344,7 +272,7 @@ def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dic
     prm = dict(prm, a0=a0)
     zsum = z1 + z2
     K = wake["K"]
-    Gamma, rel = _circulation(opts, prm, kin["q_t"], zsum, Vn.T, chord, K, None if f_state is None else f_state.T)
+    Gamma, rel = circulation(opts, prm, kin["q_t"], zsum, Vn.T, chord, K, None if f_state is None else f_state.T)
     g = kin["q_t"] - K @ Gamma
     gE = a0 * g + zsum
     aE = gE / Vn.T
@@ -450,7 +378,19 @@ def _non_circulatory(nu, ud, prm, Vn, crow, ds, omega) -> dict:
 
 
 def solve_sym3(M, b):
-    """x = M^-1 b for a 3 x 3 symmetric positive-definite M, in closed form (adjugate; no branches)."""
+    """x = M^-1 b for a 3 x 3 symmetric positive-definite M, in closed form (adjugate; no branches).
+
+    Parameters
+    ----------
+    M : casadi.SX, shape (3, 3)
+        Symmetric positive-definite matrix.
+    b : casadi.SX, shape (3, 1)
+        Right-hand side.
+
+    Returns
+    -------
+    casadi.SX, shape (3, 1)
+    """
     a, bb, c, d, e, f = M[0, 0], M[0, 1], M[0, 2], M[1, 1], M[1, 2], M[2, 2]
     A = d * f - e * e
     B = c * e - bb * f

@@ -30,7 +30,28 @@ def harmonic(k: float, speed_mps: float, chord_m: float, plunge_m: float = 0.0, 
              mean_pitch_rad: float = 0.0):
     """Kinematics ``t -> (h, theta)`` of a harmonic plunge h = h0 sin(omega t) (up) and pitch theta =
     theta_m + theta0 sin(omega t) (nose-up) at reduced frequency k = omega c / (2 U); returns
-    (kinematics, omega [rad/s], period [s])."""
+    (kinematics, omega [rad/s], period [s]).
+
+    Parameters
+    ----------
+    k : float
+        Reduced frequency [-].
+    speed_mps : float
+        U [m/s].
+    chord_m : float
+        c [m].
+    plunge_m : float
+        h0 [m].
+    pitch_rad : float
+        theta0 [rad].
+    mean_pitch_rad : float
+        theta_m [rad].
+
+    Returns
+    -------
+    tuple
+        ``(kinematics, omega, period)``.
+    """
     om = 2.0 * k * speed_mps / chord_m
 
     def kin(t):
@@ -40,7 +61,21 @@ def harmonic(k: float, speed_mps: float, chord_m: float, plunge_m: float = 0.0, 
 
 
 def first_harmonic(t, y, omega):
-    """Complex amplitude a of y ~ Re(a exp(i omega t)) over whole periods of uniform samples."""
+    """Complex amplitude a of y ~ Re(a exp(i omega t)) over whole periods of uniform samples.
+
+    Parameters
+    ----------
+    t : array_like
+        Uniform sample times [s].
+    y : array_like
+        Samples.
+    omega : float
+        Angular frequency [rad/s].
+
+    Returns
+    -------
+    complex
+    """
     t, y = np.asarray(t, float), np.asarray(y, float)
     return 2.0 * np.mean(y * np.exp(-1j * omega * t))
 
@@ -73,7 +108,7 @@ class PrescribedWing:
         if unknown:
             raise ValueError(f"PrescribedWing: unknown parameters {sorted(unknown)}")
         d.update(params)
-        self.prm = dict(d, alpha1=math.radians(d["alpha1_deg"]), a0=1.0 - d["eps"] * (unsteady_sum()))
+        self.prm = dict(d, alpha1=math.radians(d["alpha1_deg"]), a0=1.0 - d["eps"] * (_unsteady_sum()))
         span = self.c * (aspect_ratio if aspect_ratio else 1.0)
         y = np.linspace(-span / 2, span / 2, self.n + 1)
         self.ds = np.diff(y)
@@ -83,7 +118,7 @@ class PrescribedWing:
             self.wake = {k: ca.DM(ca.evalf(v)) for k, v in (("K", K), ("Vx", Vx), ("Vy", Vy))}
         else:
             self.wake = {k: ca.DM.zeros(self.n, self.n) for k in ("K", "Vx", "Vy")}
-        self.nz = unsteady_states(unsteady, section, self.n)
+        self.nz = _unsteady_states(unsteady, section, self.n)
         self.mid = self.n // 2 - 1
 
     def functions(self, kin):
@@ -178,11 +213,11 @@ class PrescribedWing:
         return {"t_s": ts, **{k: O[i] for i, k in enumerate(self.OUTPUTS)}, "z": Z, "periodicity_residual": res}
 
 
-def unsteady_sum() -> float:
+def _unsteady_sum() -> float:
     return unsteady.A1 + unsteady.A2
 
 
-def unsteady_states(unsteady_mode: str, section: str, n: int) -> int:
+def _unsteady_states(unsteady_mode: str, section: str, n: int) -> int:
     return unsteady.n_aero_states(unsteady_mode, section, n)
 
 
@@ -197,6 +232,19 @@ def held_bird_cycle(cfg, body_state=None, steps: int | None = None) -> dict:
     forward), ``My_Nm`` at each step time; ``mean_lift_N``, ``mean_thrust_N``, ``lift_peak_phase_deg``
     (phase of the largest lift in the wingbeat, 0..360 deg from t = 0), ``periodicity_residual``, and
     ``cpu_s`` (process time of the computation, graphs included).
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    body_state : sequence of float, optional
+        Held body state.
+    steps : int, optional
+        RK4 steps per period.
+
+    Returns
+    -------
+    dict
     """
     import time
 

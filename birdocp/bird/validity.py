@@ -39,6 +39,8 @@ if TYPE_CHECKING:
 # casadi, numpy and the model are imported inside the functions that compute: the verdict helpers for
 # tables (validity_text, validity_columns) stay light to import.
 
+from birdocp.bird.validity_report import VALIDITY_COLUMNS, validity_columns, validity_text  # noqa: F401
+
 __all__ = ["CycleValidity", "cycle_validity", "model_angles", "grid_validity", "periodic_validity",
            "element_angles_function", "effective_angles", "invalid", "validity_text", "VALIDITY_COLUMNS",
            "validity_columns", "validity_margins", "LIMIT_NAMES", "SIDE_ELEMENTS", "sixdof_angles"]
@@ -51,7 +53,17 @@ def effective_angles(n_data: int | None = None) -> "ca.Function":
     section plane; ``alpha_geo``: the same without the induced velocity (the model's ``alpha``);
     ``ds_m``: the element lengths (span weights). ``n_data``: the size of the model's data vector
     (default: the massless model's; wing masses append their terms after the aerodynamic blocks).
-    Built once per size (cached)."""
+    Built once per size (cached).
+
+    Parameters
+    ----------
+    n_data : int, optional
+        Length of the data vector.
+
+    Returns
+    -------
+    casadi.Function
+    """
     from birdocp.bird.model import N_DATA
 
     return _effective_angles(int(n_data or N_DATA))
@@ -83,7 +95,17 @@ def model_angles(model) -> "ca.Function":
     :class:`~birdocp.bird.model.BirdModel`: with an unsteady or stall section ``alpha_eff`` is the angle
     the section law sees (alpha_E: lag and 3/4-chord term included) and ``f_sep`` the separation point;
     otherwise alpha_eff_quasi_steady = alpha_eff, f_sep = 1 and the residual 0 (the relative residual
-    max|R| / max|Gamma| of the stall circulation after its Newton steps)."""
+    max|R| / max|Gamma| of the stall circulation after its Newton steps).
+
+    Parameters
+    ----------
+    model : BirdModel
+        Model.
+
+    Returns
+    -------
+    casadi.Function
+    """
     import casadi as ca
 
     if not model.structure.aero_extra:
@@ -102,7 +124,21 @@ def element_angles_function(cfg: Config, n_times: int, extended: bool = False) -
     """``f(X[nx x n], T[1 x n], p) -> (alpha_eff 16 x n, alpha_geo 16 x n, ds 16 x n)`` (rad, m) for
     the model of ``cfg``; built once per (model structure, n) and reused. ``extended``: also
     ``alpha_eff_quasi_steady`` (16 x n), ``f_sep`` (16 x n) and ``newton_residual`` (1 x n) of
-    :func:`model_angles`."""
+    :func:`model_angles`.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    n_times : int
+        Number of times n.
+    extended : bool
+        Also the quasi-steady angle, the separation point and the Newton residual.
+
+    Returns
+    -------
+    casadi.Function
+    """
     import casadi as ca
 
     from birdocp.bird.model import Structure, get_model
@@ -146,22 +182,6 @@ class CycleValidity:
         return validity_text(self.to_dict())
 
 
-def validity_text(v: dict | None) -> str:
-    """One line for a ``validity`` dict (:meth:`CycleValidity.to_dict`): the verdict and the reasons,
-    or the key numbers when valid."""
-    if not v:
-        return "not checked"
-    if not v.get("valid"):
-        return "NOT VALID: " + "; ".join(v.get("reasons") or ["(no reason given)"])
-    try:
-        return ("valid (effective angle of attack {:.1f}..{:.1f} deg, {:.1%} of span-time beyond stall, "
-                "min u {:.2f} m/s, theta {:.1f}..{:.1f} deg, airflow-body angle <= {:.1f} deg)").format(
-            v["alpha_eff_min_deg"], v["alpha_eff_max_deg"], v["stalled_fraction"], v["min_forward_speed_mps"],
-            v["pitch_min_deg"], v["pitch_max_deg"], v["max_airflow_body_angle_deg"])
-    except (KeyError, TypeError, ValueError):
-        return "valid"
-
-
 def _thresholds(cfg: Config) -> dict:
     v = cfg.validity
     return {"stall_angle_deg": v.stall_angle_deg, "max_stalled_fraction": v.max_stalled_fraction,
@@ -184,7 +204,17 @@ def validity_margins(v: "CycleValidity | dict") -> dict:
 
     The cycle is valid exactly when every margin is >= 0 (the verdict of :func:`cycle_validity`);
     NaN when the cycle was not measured. The stall margin is piecewise constant (a share of the
-    grid's element-times), the others are continuous in the cycle."""
+    grid's element-times), the others are continuous in the cycle.
+
+    Parameters
+    ----------
+    v : CycleValidity or dict
+        Verdict with its measurements.
+
+    Returns
+    -------
+    dict
+    """
     d = v.to_dict() if isinstance(v, CycleValidity) else dict(v or {})
     th = d.get("thresholds") or {}
 
@@ -203,7 +233,19 @@ def validity_margins(v: "CycleValidity | dict") -> dict:
 
 
 def invalid(cfg: Config | None, reason: str) -> CycleValidity:
-    """A verdict without measurements (e.g. no finite cycle to measure)."""
+    """A verdict without measurements (e.g. no finite cycle to measure).
+
+    Parameters
+    ----------
+    cfg : Config or None
+        Configuration (its thresholds; default the reference case).
+    reason : str
+        Why the cycle is not valid.
+
+    Returns
+    -------
+    CycleValidity
+    """
     return CycleValidity(False, [reason], {}, _thresholds(cfg or Config()))
 
 
@@ -395,7 +437,27 @@ def grid_validity(cfg: Config, x, p=None, t0_s: float = 0.0, steps_per_period: i
     The same measures as :func:`cycle_validity`, with the data at those times taken from the stage
     data of the solver's grid (:meth:`birdocp.engine.integrate.RK4Grid.blocks_numeric`, memoised:
     after a solve of the same gait the wing is not evaluated again; ``ode`` as in
-    :func:`periodic_validity`)."""
+    :func:`periodic_validity`).
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    x : array_like, shape (N, nx) or (N + 1, nx)
+        States at the step times.
+    p : array_like, optional
+        Parameter vector.
+    t0_s : float
+        Time of the first state [s].
+    steps_per_period : int, optional
+        N.
+    ode : PeriodicODE, optional
+        The ODE (the model's or its compiled twin).
+
+    Returns
+    -------
+    CycleValidity
+    """
     import casadi as ca
     import numpy as np
 
@@ -457,7 +519,20 @@ register_cache("bird.validity_angles_6dof", sixdof_angles)
 
 
 def unpack_blocks(d, names):
-    """The data blocks ``names`` (:data:`birdocp.bird.model.DATA_BLOCKS`) of a data vector."""
+    """The data blocks ``names`` (:data:`birdocp.bird.model.DATA_BLOCKS`) of a data vector.
+
+    Parameters
+    ----------
+    d : casadi.SX, MX or DM
+        Data vector.
+    names : sequence of str
+        Block names.
+
+    Returns
+    -------
+    dict
+        Block name to matrix.
+    """
     from birdocp.bird.model import unpack_data
 
     b = unpack_data(d)
@@ -485,20 +560,3 @@ def _sixdof_verdict(cfg: Config, grid, X, t, D, p6) -> CycleValidity:
     airflow = np.degrees(np.arctan2(np.hypot(v, w), u))
     return _verdict(cfg, t, X[:, list(LONGITUDINAL)], np.degrees(ae), np.degrees(ag), ds, extra, airflow_deg=airflow,
                     sides=SIDE_ELEMENTS)
-
-
-VALIDITY_COLUMNS = ("valid", "invalid_reasons", "stalled_fraction", "alpha_eff_max_abs_deg",
-                    "min_forward_speed_mps_in_cycle", "max_abs_pitch_deg", "max_airflow_body_angle_deg")
-"""Columns of a table row (sweeps, branches) taken from a ``validity`` dict by :func:`validity_columns`."""
-
-
-def validity_columns(v: dict | None) -> dict:
-    """The flat table columns :data:`VALIDITY_COLUMNS` of a ``validity`` dict (``to_dict()``)."""
-    v = v or {}
-    amin, amax = v.get("alpha_eff_min_deg"), v.get("alpha_eff_max_deg")
-    return {"valid": v.get("valid"), "invalid_reasons": " | ".join(v.get("reasons") or []) or None,
-            "stalled_fraction": v.get("stalled_fraction"),
-            "alpha_eff_max_abs_deg": max(abs(amin), abs(amax)) if amin is not None and amax is not None else None,
-            "min_forward_speed_mps_in_cycle": v.get("min_forward_speed_mps"),
-            "max_abs_pitch_deg": v.get("max_abs_pitch_deg"),
-            "max_airflow_body_angle_deg": v.get("max_airflow_body_angle_deg")}

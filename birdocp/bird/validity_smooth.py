@@ -59,12 +59,27 @@ _UPPER = {"stalled_fraction": True, "min_forward_speed_mps": False, "max_abs_pit
 
 
 def integrand_names() -> tuple:
-    """Names of the rows of :func:`smooth_integrands`' output (``valid_<limit>``)."""
+    """Names of the rows of :func:`smooth_integrands`' output (``valid_<limit>``).
+
+    Returns
+    -------
+    tuple of str
+    """
     return tuple("valid_" + k for k in SMOOTH_LIMITS)
 
 
 def limit_bounds(cfg: Config) -> dict:
-    """limit -> (configured bound, 'max' or 'min') from ``cfg.validity``."""
+    """limit -> (configured bound, 'max' or 'min') from ``cfg.validity``.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+
+    Returns
+    -------
+    dict
+    """
     v = cfg.validity
     return {"stalled_fraction": (v.max_stalled_fraction, "max"),
             "min_forward_speed_mps": (v.min_forward_speed_mps, "min"),
@@ -73,7 +88,12 @@ def limit_bounds(cfg: Config) -> dict:
 
 
 def smoothing_info() -> dict:
-    """The smoothing parameters, for a result's ``validity_constraints``."""
+    """The smoothing parameters, for a result's ``validity_constraints``.
+
+    Returns
+    -------
+    dict
+    """
     return {"stall_width_deg": STALL_WIDTH_DEG, "ks_rho": dict(KS_RHO), "ks_form": "integral (period mean)",
             "quadrature": "RK4 stages of the cycle's grid"}
 
@@ -81,7 +101,19 @@ def smoothing_info() -> dict:
 def smooth_integrands(cfg: Config, n_data: int):
     """``g(x, d, p) -> 4 x 1``: the integrands of :data:`SMOOTH_LIMITS` (see the module) for the
     thresholds of ``cfg.validity``, for a model with data of size ``n_data``; built once per
-    (thresholds, size) and reused."""
+    (thresholds, size) and reused.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration (its ``[validity]`` thresholds).
+    n_data : int
+        Length of the data vector.
+
+    Returns
+    -------
+    casadi.Function
+    """
     v = cfg.validity
     return _integrands(float(v.stall_angle_deg), float(v.min_forward_speed_mps), float(v.max_abs_pitch_deg),
                        float(v.max_airflow_body_angle_deg), int(n_data))
@@ -113,7 +145,21 @@ def _integrands(stall_deg, umin, pitch_deg, airflow_deg, n_data):
 def smooth_measures(cfg: Config, means, grads=None):
     """(values, gradients) of the smooth measures from the period means of the integrands (``means``:
     4 numbers in the order of :data:`SMOOTH_LIMITS`; ``grads``: their gradients, 4 x n, or None).
-    Returns ``({limit: value}, {limit: gradient or None})``."""
+    Returns ``({limit: value}, {limit: gradient or None})``.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    means : sequence of float
+        Period means of the integrands.
+    grads : array_like, optional
+        Their gradients.
+
+    Returns
+    -------
+    values, gradients : dict
+    """
     import numpy as np
 
     m = np.asarray(means, float).ravel()
@@ -135,7 +181,23 @@ def smooth_measures(cfg: Config, means, grads=None):
 def cycle_smooth_measures(cfg: Config, x0, p=None, steps_per_period: int | None = None) -> dict:
     """{limit: smooth value} of the periodic cycle through ``x0`` at t = 0 (one RK4 period on the
     solver's grid, ``cfg.solve.steps_per_period`` by default, with the integrands as quadrature
-    outputs): the values an optimiser with ``valid=True`` constrains, for a cycle found otherwise."""
+    outputs): the values an optimiser with ``valid=True`` constrains, for a cycle found otherwise.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    x0 : array_like
+        State at t = 0.
+    p : array_like, optional
+        Parameter vector.
+    steps_per_period : int, optional
+        RK4 steps per period.
+
+    Returns
+    -------
+    dict
+    """
     import casadi as ca
     import numpy as np
 

@@ -31,7 +31,7 @@ DIAGNOSTICS = (
 )
 
 
-def safe_norm(v):
+def _safe_norm(v):
     """Euclidean norm with a finite derivative (0) at exactly zero."""
     s = ca.dot(v, v)
     pos = s > 0
@@ -39,6 +39,17 @@ def safe_norm(v):
 
 
 def unit(v):
+    """``v`` divided by its 2-norm.
+
+    Parameters
+    ----------
+    v : casadi.SX
+        Vector.
+
+    Returns
+    -------
+    casadi.SX
+    """
     return v / ca.norm_2(v)
 
 
@@ -56,6 +67,20 @@ def resample(P, carry=(), n_out=N_POINTS):
     Closed form of the reference walk: sample i lies at arc length i L/(n_out-1) on the segment j
     with cum[j] < s_i <= cum[j+1]; ``carry`` are lists of points carried along with the same segment
     and fraction (the chord end points of the quarter-chord line). The last sample is the last vertex.
+
+    Parameters
+    ----------
+    P : list
+        Polyline points.
+    carry : sequence of list
+        Points carried along.
+    n_out : int
+        Number of samples.
+
+    Returns
+    -------
+    list or tuple
+        The samples; with ``carry`` a tuple (samples, carried points...).
     """
     n = len(P)
     seg = [ca.norm_2(P[k + 1] - P[k]) for k in range(n - 1)]
@@ -84,7 +109,7 @@ def resample(P, carry=(), n_out=N_POINTS):
     return outs[0] if not carry else tuple(outs)
 
 
-def resample_aliased(B, n_out=N_POINTS, steps=ALIASED_WALK_STEPS):
+def _resample_aliased(B, n_out=N_POINTS, steps=ALIASED_WALK_STEPS):
     """The reference's second-pass resampling, which reads its input vertices from the buffer it
     is writing into (in place). Literal walk with a symbolic segment counter and masked advances.
 
@@ -95,29 +120,29 @@ def resample_aliased(B, n_out=N_POINTS, steps=ALIASED_WALK_STEPS):
     n = len(buf)
     length = 0
     for k in range(n - 1):
-        length = length + safe_norm(buf[k + 1] - buf[k])
+        length = length + _safe_norm(buf[k + 1] - buf[k])
     delta = length / (n_out - 1)
     j = ca.SX(0)
     unfinished = 0
     for i in range(1, n_out):
-        acc = safe_norm(_select(buf, j + 1) - buf[i - 1])
+        acc = _safe_norm(_select(buf, j + 1) - buf[i - 1])
         for _ in range(steps):
             cond = acc < delta
             jn = j + cond
             within = jn <= n - 2
-            seglen = safe_norm(_select(buf, jn + 1) - _select(buf, jn))
+            seglen = _safe_norm(_select(buf, jn + 1) - _select(buf, jn))
             acc = ca.if_else(cond, ca.if_else(within, acc + seglen, delta + 1), acc)
             j = jn
         unfinished = unfinished + (acc < delta)
         within = j <= n - 2
-        seglen = safe_norm(_select(buf, j + 1) - _select(buf, j))
+        seglen = _safe_norm(_select(buf, j + 1) - _select(buf, j))
         phi = (acc - delta) / ca.if_else(seglen > 0, seglen, 1.0)
         inner = (1 - phi) * _select(buf, j + 1) + phi * _select(buf, j)
         buf[i] = ca.if_else(within, inner, buf[n - 1])
     return buf, unfinished
 
 
-def corner_sweep(B, radius_m, halvings=CORNER_HALVINGS):
+def _corner_sweep(B, radius_m, halvings=CORNER_HALVINGS):
     """Sequential corner smoothing (docs/model.md §4.2 step 2): while the turning angle at B_i exceeds
     |B_i - B_{i-1}| / R_s, move B_i halfway towards the midpoint of its neighbours.
 
@@ -149,12 +174,24 @@ def smooth_line(P, radius_m):
 
     Pass 1 resamples the raw polyline and sweeps the corners; if anything moved, pass 2 resamples the
     buffer in place (aliased) and sweeps again. Returns (points, diagnostics dict).
+
+    Parameters
+    ----------
+    P : list
+        Raw polyline.
+    radius_m : float
+        Smoothing radius R_s [m].
+
+    Returns
+    -------
+    points : list
+    diag : dict
     """
     B1 = resample(P)
-    B1c, h1, left1 = corner_sweep(B1, radius_m)
+    B1c, h1, left1 = _corner_sweep(B1, radius_m)
     modified = h1 > 0
-    B2, unfinished = resample_aliased(B1c)
-    B2c, h2, left2 = corner_sweep(B2, radius_m)
+    B2, unfinished = _resample_aliased(B1c)
+    B2c, h2, left2 = _corner_sweep(B2, radius_m)
     out = [ca.if_else(modified, b2, b1) for b1, b2 in zip(B1c, B2c)]
     diag = {
         "halvings_pass1": h1,
@@ -165,18 +202,18 @@ def smooth_line(P, radius_m):
     return out, diag
 
 
-def soft_ramp(x, width_m):
+def _soft_ramp(x, width_m):
     """C-infinity ramp ``width log(1 + exp(x / width))`` (m): max(x, 0) with its corner rounded over
     ~``width_m``; evaluated as ``max(x, 0) + width log(1 + exp(-|x| / width))`` (no overflow, and the
     two branches are one analytic function)."""
     return ca.fmax(x, 0) + width_m * ca.log1p(ca.exp(-ca.fabs(x) / width_m))
 
 
-def soft_resample(P, width_m, carry=(), n_out=N_POINTS):
+def _soft_resample(P, width_m, carry=(), n_out=N_POINTS):
     """Arc-length resampling of polyline P on its corner-rounded curve (``wing.smooth_geometry``).
 
     The polyline as a function of arc length s is P_0 + sum_k u_k (ramp(s - cum_k) - ramp(s - cum_{k+1}))
-    with u_k = (P_{k+1} - P_k) / |P_{k+1} - P_k|; replacing ramp = max(., 0) by :func:`soft_ramp`
+    with u_k = (P_{k+1} - P_k) / |P_{k+1} - P_k|; replacing ramp = max(., 0) by :func:`_soft_ramp`
     rounds every corner over ~``width_m`` and makes the samples at s_i = i L / (n_out - 1) C-infinity
     functions of the vertices: no segment search, no switch. ``carry`` are carried with the same
     weights (the chord end points). The end samples are the end vertices.
@@ -190,7 +227,7 @@ def soft_resample(P, width_m, carry=(), n_out=N_POINTS):
     outs = [[P[0]]] + [[C[0]] for C in carry]
     for i in range(1, n_out - 1):
         target = i * delta
-        w = [(soft_ramp(target - cum[k], width_m) - soft_ramp(target - cum[k + 1], width_m))
+        w = [(_soft_ramp(target - cum[k], width_m) - _soft_ramp(target - cum[k + 1], width_m))
              / ca.if_else(seg[k] > 0, seg[k], 1.0) for k in range(n - 1)]  # a 0-length segment adds 0
         for a, Q in enumerate((P,) + tuple(carry)):
             outs[a].append(Q[0] + sum(w[k] * (Q[k + 1] - Q[k]) for k in range(n - 1)))
@@ -205,12 +242,24 @@ def smooth_geometry(LE, TE, radius_m):
     on their corner-rounded curves (rounding width R_s / 4), the quarter-chord line resampled the same
     way with its chord end points, no corner sweep and no improvement step. Every output is a
     C-infinity function of the joint angles, hence of t. Returns (LEs, TEs, P, E, T, diagnostics);
-    the diagnostics are 0 (nothing is emulated)."""
+    the diagnostics are 0 (nothing is emulated).
+
+    Parameters
+    ----------
+    LE, TE : list
+        Raw leading and trailing edges.
+    radius_m : float
+        Smoothing radius R_s [m].
+
+    Returns
+    -------
+    tuple
+    """
     width = 0.25 * radius_m
-    LEs = soft_resample(LE, width)
-    TEs = soft_resample(TE, width)
+    LEs = _soft_resample(LE, width)
+    TEs = _soft_resample(TE, width)
     L0 = [0.75 * e + 0.25 * t for e, t in zip(LEs, TEs)]
-    P, E, T = soft_resample(L0, width, carry=(LEs, TEs))
+    P, E, T = _soft_resample(L0, width, carry=(LEs, TEs))
     diag = {k: ca.SX(0) for k in DIAGNOSTICS if k not in ("improve_change", "n_mid")}
     return LEs, TEs, P, E, T, diag
 
@@ -256,6 +305,15 @@ def lifting_line(LEs, TEs):
 
     Returns (P, E, T, L_relaxed, change): line points, chord end points (leading, trailing), the
     relaxed line before the final resampling (used for tangents) and the change measure.
+
+    Parameters
+    ----------
+    LEs, TEs : list
+        Smoothed leading and trailing edges.
+
+    Returns
+    -------
+    tuple
     """
     L0 = [0.75 * e + 0.25 * t for e, t in zip(LEs, TEs)]
     L, E, T = resample(L0, carry=(LEs, TEs))
@@ -280,7 +338,21 @@ def lifting_line(LEs, TEs):
 
 
 def sections(P, E, T, L_relaxed):
-    """Chords (m), chord directions (LE -> TE) and 'up' normals of the 16 line points (docs/model.md §4.5)."""
+    """Chords (m), chord directions (LE -> TE) and 'up' normals of the 16 line points (docs/model.md §4.5).
+
+    Parameters
+    ----------
+    P : list
+        Line points.
+    E, T : list
+        Chord end points (leading, trailing).
+    L_relaxed : list
+        Relaxed line (tangents).
+
+    Returns
+    -------
+    chord, c_hat, up : list
+    """
     n = len(P)
     chord, c_hat, up = [], [], []
     for i in range(n):
@@ -309,6 +381,19 @@ def merge(P, chord, c_hat, up, half_separation_m, left=None):
 
     Returns (Q, chord, c_hat, up): 33 points (wing frame shifted to the body centre line) with their
     chords, chord directions and normals. Even indices are element nodes, odd indices centres.
+
+    Parameters
+    ----------
+    P, chord, c_hat, up : list
+        The right wing's points, chords, chord directions and normals.
+    half_separation_m : float
+        Shift of the wing frame to the body centre line (half the root separation) [m].
+    left : tuple, optional
+        A differing left wing.
+
+    Returns
+    -------
+    tuple
     """
     flip = ca.DM([-1.0, 1.0, 1.0])
     shift = ca.DM([half_separation_m, 0, 0]) if not isinstance(half_separation_m, ca.SX) else ca.vertcat(half_separation_m, 0, 0)
@@ -327,7 +412,18 @@ def merge(P, chord, c_hat, up, half_separation_m, left=None):
 
 
 def mean_spacing(P):
-    """dx of docs/model.md §4.5: mean point spacing of one wing line, used for the body-section point count."""
+    """dx of docs/model.md §4.5: mean point spacing of one wing line, used for the body-section point count.
+
+    Parameters
+    ----------
+    P : list
+        Line points.
+
+    Returns
+    -------
+    casadi.SX or float
+        Mean spacing [m].
+    """
     n = len(P)
     total = 0
     for i in range(n - 1):

@@ -36,7 +36,15 @@ FPS_RANGE = (0.1, 100.0)
 
 
 def register(sub, common) -> None:
-    """Add ``animate`` to the CLI's subparsers (no configuration options: the run folder has them)."""
+    """Add ``animate`` to the CLI's subparsers (no configuration options: the run folder has them).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        Subparsers of the ``birdocp`` parser.
+    common : argparse.ArgumentParser
+        Parent parser of the common options.
+    """
     p = sub.add_parser("animate", help="animate a trimmed cycle: the bird flapping, its path and pitch (GIF/MP4)",
                        description="Draw the bird over one cycle of a trim or level run: schematic body, both "
                                    "wings' bones, master feathers, leading and trailing edges, the lifting line "
@@ -71,7 +79,7 @@ CYCLE_COMMANDS = ("trim", "level")
 """The commands whose run folders hold a cycle that animate draws."""
 
 
-def load_cycle(run_dir: str | Path):
+def _load_cycle(run_dir: str | Path):
     """``(cfg, arrays, result)`` of a run folder holding a cycle, read and checked by
     :func:`birdocp.cli.inputs.read_run_folder`; a :class:`ConfigError` on RUN_DIR otherwise."""
     import numpy as np
@@ -92,9 +100,23 @@ def load_cycle(run_dir: str | Path):
 
 
 def cmd_animate(args: argparse.Namespace, command_line: list[str]) -> int:
+    """Run ``birdocp animate``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of the command.
+    command_line : list of str
+        The command line, recorded in the provenance of the result.
+
+    Returns
+    -------
+    int
+        Exit code: 0 success, 1 the computation failed or its output could not be written, 2 bad input.
+    """
     t_start = time.perf_counter()
     run = Path(args.run_dir)
-    cfg, arrays, result = load_cycle(run)
+    cfg, arrays, result = _load_cycle(run)
     from birdocp.io.runs import check_out_file
 
     # a read-only or special target is refused now, not after drawing every frame

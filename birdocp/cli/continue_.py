@@ -18,6 +18,15 @@ from birdocp.cli.trim import solve_shortcuts
 
 
 def register(sub, common) -> None:
+    """Add ``continue`` to the CLI's subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        Subparsers of the ``birdocp`` parser.
+    common : argparse.ArgumentParser
+        Parent parser of the common options.
+    """
     par = argparse.ArgumentParser(add_help=False)
     par.add_argument("param", metavar="PARAM", help="root_ahead_m | stability_margin (percent) | amplitude_deg | KEY")
     p = sub.add_parser("continue", parents=[par, common], help="follow a branch of periodic flights in one parameter "
@@ -59,6 +68,20 @@ def register(sub, common) -> None:
 
 
 def cmd_continue(args: argparse.Namespace, command_line: list[str]) -> int:
+    """Run ``birdocp continue``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of the command.
+    command_line : list of str
+        The command line, recorded in the provenance of the result.
+
+    Returns
+    -------
+    int
+        Exit code: 0 success, 1 the computation failed or its output could not be written, 2 bad input.
+    """
     from birdocp.studies.branch import resolve_parameter, root_of_sm
 
     t_start = time.perf_counter()
@@ -130,8 +153,8 @@ def _finish(run, args, br, cfg, display: str, a: float, b: float, resumed: int, 
                "resumed_points": resumed, "wall_s": {"total": time.perf_counter() - t_start},
                "run_dir": str(run.dir)}
     if args.error_estimate:
-        summary["error_estimate"] = branch_error_summary(br)
-    # six degrees of freedom: the per-point split of the multipliers (birdocp.studies.lateral.add_lateral_split)
+        summary["error_estimate"] = _branch_error_summary(br)
+    # six degrees of freedom: the per-point split of the multipliers (birdocp.studies.lateral_branch.add_lateral_split)
     summary.update({k: br.settings[k] for k in ("degrees_of_freedom", "longitudinal_multipliers",
                                                  "lateral_multipliers", "lateral_stable") if k in br.settings})
     run.write(cfg, summary)
@@ -147,7 +170,7 @@ def _finish(run, args, br, cfg, display: str, a: float, b: float, resumed: int, 
     return EXIT_OK
 
 
-def branch_error_summary(br) -> dict:
+def _branch_error_summary(br) -> dict:
     """The largest error estimates over the points of ``br`` that have one (``points``: how many;
     ``failed``: how many 2N re-solves failed, their estimates NaN and left out of the maxima)."""
     ests = [p.error_estimate for p in br.points if p.error_estimate]
@@ -311,7 +334,7 @@ def _table(br, cfg, display: str, level: bool, figs, run_dir) -> str:
     for sp in br.special_points:
         v = -100 * sp.parameter / cfg.body.reference_chord_m if sm else sp.parameter
         lines.append(f"special point: {sp.kind} at {v:.8g} ({sp.message})")
-    est = branch_error_summary(br)
+    est = _branch_error_summary(br)
     if est["points"]:
         lines.append(f"error estimate (largest over {est['points']} points): multipliers {est['multipliers']:.2g}, "
                      f"x0 {est['x0']:.2g}, solver {est['solver']:.2g}"

@@ -22,7 +22,15 @@ control's ability to stabilise the cycle alone. Needs scipy (pip install 'birdoc
 
 
 def register(sub, common) -> None:
-    """Add ``control`` to the CLI's subparsers."""
+    """Add ``control`` to the CLI's subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        Subparsers of the ``birdocp`` parser.
+    common : argparse.ArgumentParser
+        Parent parser of the common options.
+    """
     p = cli.add_run_command(sub, common, "control", cmd_control, help=HELP,
                             description=DESCRIPTION)
     p.add_argument("--level", action="store_true", help="control the level-flight cycle (amplitude solved first)")
@@ -39,15 +47,29 @@ def register(sub, common) -> None:
 
 
 def cmd_control(args: argparse.Namespace, command_line: list[str]) -> int:
+    """Run ``birdocp control``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of the command.
+    command_line : list of str
+        The command line, recorded in the provenance of the result.
+
+    Returns
+    -------
+    int
+        Exit code: 0 success, 1 the computation failed or its output could not be written, 2 bad input.
+    """
     from birdocp.bird.config import dumps
     from birdocp.studies.control import DEFAULT_CONTROLS, resolve_controls
 
     t0 = time.perf_counter()
     cfg = cli.resolve_config(args)
     if cfg.model.degrees_of_freedom == 6:  # per-side controls on the 8-state map
-        return cmd_lateral_control(args, command_line, cfg, t0)
+        return _cmd_lateral_control(args, command_line, cfg, t0)
     controls = resolve_controls(args.controls if args.controls is not None else DEFAULT_CONTROLS)
-    N, limit = check_options(args, cfg)
+    N, limit = _check_options(args, cfg)
     with cli.run_folder(args, "control", command_line) as run:
         with run.solving():
             from birdocp.studies.control import design_controller, reference_cycle
@@ -67,7 +89,7 @@ def cmd_control(args: argparse.Namespace, command_line: list[str]) -> int:
                 ctl = design_controller(base, controls, N, limit_deg=limit)
                 body, message = ctl.to_dict(), ""
             except (np.linalg.LinAlgError, ValueError) as exc:
-                ctl, (body, message) = None, failure_body(exc, controls)
+                ctl, (body, message) = None, _failure_body(exc, controls)
         result = {**head, **body, "message": message or body["message"], "amplitude_deg": base.amplitude_deg,
                   "mean_forward_speed_mps": base.mean_forward_speed_mps,
                   "mean_vertical_speed_mps": base.mean_vertical_speed_mps,
@@ -77,7 +99,26 @@ def cmd_control(args: argparse.Namespace, command_line: list[str]) -> int:
 
 def finish(args, run, cfg, result: dict, ctl) -> int:
     """Draw the multipliers (when a controller exists), write the run, print it (JSON or table) and
-    return the exit code: not converged when no stabilising feedback was found."""
+    return the exit code: not converged when no stabilising feedback was found.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments (``json``).
+    run : Run
+        The run folder.
+    cfg : Config
+        Resolved configuration.
+    result : dict
+        JSON-able result.
+    ctl : controller or None
+        The feedback found (None: none).
+
+    Returns
+    -------
+    int
+        Exit code.
+    """
     if ctl is not None:
         from birdocp.plots.control import plot_multipliers
 
@@ -86,14 +127,14 @@ def finish(args, run, cfg, result: dict, ctl) -> int:
     if args.json:
         run.output(result, None)
     else:
-        print_table(result)
+        _print_table(result)
     if not result["success"]:
         print(f"{cli.PROG}: {result['message']}; result written to {run.dir}", file=sys.stderr)
         return cli.EXIT_NOT_CONVERGED
     return cli.EXIT_OK
 
 
-def failure_body(exc: Exception, controls) -> tuple[dict, str]:
+def _failure_body(exc: Exception, controls) -> tuple[dict, str]:
     """(result body, message) when no stabilising feedback exists: the closed loop is the open loop,
     with each control's analysis when the design got that far."""
     body = {"success": False, "status": "not_stabilised"}
@@ -108,7 +149,7 @@ def failure_body(exc: Exception, controls) -> tuple[dict, str]:
     return body, message
 
 
-def check_options(args: argparse.Namespace, cfg) -> tuple[int, float]:
+def _check_options(args: argparse.Namespace, cfg) -> tuple[int, float]:
     """(N, limit_deg) of ``--updates-per-beat`` and ``--limit-deg``, checked before any computation
     (with scipy's presence): ConfigError naming the option."""
     from birdocp.studies.control import DEFAULT_LIMIT_DEG
@@ -130,7 +171,7 @@ def check_options(args: argparse.Namespace, cfg) -> tuple[int, float]:
     return N, limit
 
 
-def print_table(r: dict) -> None:
+def _print_table(r: dict) -> None:
     """The human-readable summary of a control result (planar or six degrees of freedom)."""
     if "gain" not in r:  # no controller (a failure carries the multipliers and per-control analysis only)
         print(f"control: {r['status']}: {r['message']}")
@@ -160,7 +201,7 @@ def print_table(r: dict) -> None:
     print(f"  written to {r['run_dir']}")
 
 
-def cmd_lateral_control(args: argparse.Namespace, command_line: list[str], cfg, t0: float) -> int:
+def _cmd_lateral_control(args: argparse.Namespace, command_line: list[str], cfg, t0: float) -> int:
     """``birdocp control`` with a 6-DOF configuration: one run folder (result.json with the gains
     (N, m, 8), multipliers.png); the exit code."""
     import numpy as np
@@ -169,7 +210,7 @@ def cmd_lateral_control(args: argparse.Namespace, command_line: list[str], cfg, 
     from birdocp.studies.lateral_control import LATERAL_CONTROLS, resolve_lateral_controls
 
     controls = resolve_lateral_controls(args.controls if args.controls is not None else LATERAL_CONTROLS)
-    N, limit = check_options(args, cfg)
+    N, limit = _check_options(args, cfg)
     with cli.run_folder(args, "control", command_line) as run:
         with run.solving():
             from birdocp.studies.lateral_control import design_lateral_controller, lateral_reference_cycle
@@ -188,7 +229,7 @@ def cmd_lateral_control(args: argparse.Namespace, command_line: list[str], cfg, 
                 ctl = design_lateral_controller(base, cycle_cfg, controls, N, limit_deg=limit)
                 body, message = ctl.to_dict(), ""
             except (np.linalg.LinAlgError, ValueError) as exc:
-                ctl, (body, message) = None, failure_body(exc, controls)
+                ctl, (body, message) = None, _failure_body(exc, controls)
         result = {**head, **body, "message": message or body["message"], "amplitude_deg": base.amplitude_deg,
                   "mean_forward_speed_mps": base.mean_forward_speed_mps,
                   "mean_vertical_speed_mps": base.mean_vertical_speed_mps, "cycle_symmetric": base.symmetric,

@@ -11,6 +11,15 @@ from birdocp.cli.common import EXIT_OK, context_of, print_json, resolve_config, 
 
 
 def register(sub, common) -> None:
+    """Add ``export-c`` to the CLI's subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        Subparsers of the ``birdocp`` parser.
+    common : argparse.ArgumentParser
+        Parent parser of the common options.
+    """
     p = sub.add_parser("export-c", parents=[common], help="export the model as a self-contained C folder",
                        description="Write C code for the configured gait: the state equations and their "
                                    "Jacobian, one RK4 step, the period map with its monodromy, the wing data "
@@ -22,6 +31,20 @@ def register(sub, common) -> None:
 
 
 def cmd_export_c(args: argparse.Namespace, command_line: list[str]) -> int:
+    """Run ``birdocp export-c``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of the command.
+    command_line : list of str
+        The command line, recorded in the provenance of the result.
+
+    Returns
+    -------
+    int
+        Exit code: 0 success, 1 the computation failed or its output could not be written, 2 bad input.
+    """
     from birdocp.io.runs import check_out_path, lock_folder
 
     cfg = resolve_config(args)

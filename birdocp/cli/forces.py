@@ -12,6 +12,15 @@ from birdocp.io.errors import ConfigError
 
 
 def register(sub, common) -> None:
+    """Add ``forces`` to the CLI's subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        Subparsers of the ``birdocp`` parser.
+    common : argparse.ArgumentParser
+        Parent parser of the common options.
+    """
     p = sub.add_parser("forces", parents=[common], help="body-frame loads and state derivative at one state and time",
                        description="Evaluate the model once: body-frame loads (x' forward, z' down, "
                                    "pitching moment nose-up positive) and the state derivative. Non-finite "
@@ -25,6 +34,20 @@ def register(sub, common) -> None:
 
 
 def cmd_forces(args: argparse.Namespace, command_line: list[str]) -> int:
+    """Run ``birdocp forces``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of the command.
+    command_line : list of str
+        The command line, recorded in the provenance of the result.
+
+    Returns
+    -------
+    int
+        Exit code: 0 success, 1 the computation failed or its output could not be written, 2 bad input.
+    """
     state = finite_values("--state", args.state)
     (t,) = finite_values("--time", [args.time])
     cfg = resolve_config(args)

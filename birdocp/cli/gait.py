@@ -23,7 +23,15 @@ trim at the optimum."""
 
 
 def register(sub, common) -> None:
-    """Add ``optimize-gait`` to the CLI's subparsers."""
+    """Add ``optimize-gait`` to the CLI's subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        Subparsers of the ``birdocp`` parser.
+    common : argparse.ArgumentParser
+        Parent parser of the common options.
+    """
     p = cli.add_run_command(sub, common, "optimize-gait", cmd_optimize_gait, help=HELP,
                             description=DESCRIPTION)
     p.add_argument("--objective", choices=("power", "cost-of-transport", "positive-power"), default="power",
@@ -43,6 +51,20 @@ def register(sub, common) -> None:
 
 
 def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
+    """Run ``birdocp optimize-gait``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of the command.
+    command_line : list of str
+        The command line, recorded in the provenance of the result.
+
+    Returns
+    -------
+    int
+        Exit code: 0 success, 1 the computation failed or its output could not be written, 2 bad input.
+    """
     from birdocp.bird.validity import validity_text
     from birdocp.cli.optimize_stability import checked_free, invalid_failure, residuals, six_dof_lines, validity_lines
     from birdocp.studies.gait import DEFAULT_GAIT_FREE, optimize_gait

@@ -19,7 +19,28 @@ N_STATES = 4
 def read_run_folder(path: str | Path, key: str = "RUN_DIR", *, commands: Sequence[str] | None = None,
                     kind: str = "a run folder", arrays: str | None = "optional", hint: str | None = None):
     """``(run, cfg)``: the checked :class:`~birdocp.io.inputs.RunFolder` and its configuration (a
-    :class:`~birdocp.bird.config.Config`); its warnings are printed on stderr, one line each."""
+    :class:`~birdocp.bird.config.Config`); its warnings are printed on stderr, one line each.
+
+    Parameters
+    ----------
+    path : str or Path
+        The run folder.
+    key : str
+        The flag that named it (key of every error).
+    commands : sequence of str, optional
+        The commands whose folders are accepted (None: any).
+    kind : str
+        What the caller wants, for the messages.
+    arrays : {"required", "optional", None}
+        Read arrays.npz: it must exist; when it exists; not at all.
+    hint : str, optional
+        The fix named when the command is not one of ``commands``.
+
+    Returns
+    -------
+    run : RunFolder
+    cfg : Config
+    """
     from birdocp.io.inputs import read_run
 
     run = read_run(path, key, commands=commands, arrays=arrays, kind=kind, hint=hint)
@@ -30,11 +51,11 @@ def read_run_folder(path: str | Path, key: str = "RUN_DIR", *, commands: Sequenc
     for line in run.warnings:
         print(f"{PROG}: warning: {one_line(line)}", file=sys.stderr)
     if run.arrays is not None:
-        check_cycle_arrays(run, cfg)
+        _check_cycle_arrays(run, cfg)
     return run, cfg
 
 
-def check_cycle_arrays(run, cfg) -> None:
+def _check_cycle_arrays(run, cfg) -> None:
     """The cycle arrays of a trim-like run folder fit its configuration: the parameter vector ``p`` has
     one entry per :data:`birdocp.bird.config.PARAM_NAMES`, the trajectory N x 4 states at N times,
     the shooting points and the monodromy 4 columns (arrays that are absent are not checked)."""

@@ -14,7 +14,15 @@ from birdocp.cli.trim import solve_shortcuts
 
 
 def level_options(p: argparse.ArgumentParser, in_sweep: bool) -> None:
-    """--free, --climb-rate, --constrain, --target, --bounds."""
+    """--free, --climb-rate, --constrain, --target, --bounds.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        Parser of the command.
+    in_sweep : bool
+        The options belong to ``sweep --level`` (the group's title says so).
+    """
     g = p.add_argument_group("level flight" + (" (with --level)" if in_sweep else ""))
     g.add_argument("--free", metavar="KEY",
                    help="parameter solved for: a dotted model parameter key or an alias (amplitude, "
@@ -33,6 +41,15 @@ def level_options(p: argparse.ArgumentParser, in_sweep: bool) -> None:
 
 
 def register(sub, common) -> None:
+    """Add ``level`` to the CLI's subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        Subparsers of the ``birdocp`` parser.
+    common : argparse.ArgumentParser
+        Parent parser of the common options.
+    """
     p = sub.add_parser("level", parents=[common], help="level (or climbing) flight: solve for the flapping amplitude",
                        description="Find the periodic flight with the flapping amplitude (or --free KEY) as an "
                                    "unknown such that the mean vertical speed is zero (or --climb-rate), in one "
@@ -54,7 +71,19 @@ LEVEL_FLAGS = (("--free", "free"), ("--climb-rate", "climb_rate"), ("--constrain
 
 
 def level_kwargs(args: argparse.Namespace, cfg) -> dict:
-    """Checked keyword arguments of birdocp.studies.level.level from the level options (no model import)."""
+    """Checked keyword arguments of birdocp.studies.level.level from the level options (no model import).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments (the level options).
+    cfg : Config
+        Resolved configuration.
+
+    Returns
+    -------
+    dict
+    """
     from birdocp.studies.level import default_bounds, resolve_constraint, resolve_key
 
     free = resolve_key("amplitude" if args.free is None else args.free, "--free")
@@ -88,6 +117,20 @@ def level_kwargs(args: argparse.Namespace, cfg) -> dict:
 
 
 def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
+    """Run ``birdocp level``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of the command.
+    command_line : list of str
+        The command line, recorded in the provenance of the result.
+
+    Returns
+    -------
+    int
+        Exit code: 0 success, 1 the computation failed or its output could not be written, 2 bad input.
+    """
     t_start = time.perf_counter()
     cfg = resolve_config(args)
     kw = level_kwargs(args, cfg)
@@ -109,7 +152,7 @@ def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
         result["constrain"] = kw["constrain"]
         result["target"] = kw.get("target", kw["climb_rate_mps"])
         if getattr(args, "valid", False):
-            result["validity_constraints"] = level_validity_constraints(cfg, res, result)
+            result["validity_constraints"] = _level_validity_constraints(cfg, res, result)
         finish_result(result, "level", t_start, run.dir)
         run.write(cfg, result, arrays)
         power_figure(arrays, run.dir, args)  # only with --plot: `birdocp plot RUN_DIR` draws it later
@@ -129,7 +172,7 @@ def cmd_level(args: argparse.Namespace, command_line: list[str]) -> int:
     return EXIT_OK
 
 
-def level_validity_constraints(cfg, res, result: dict) -> dict:
+def _level_validity_constraints(cfg, res, result: dict) -> dict:
     """The ``validity_constraints`` of a level cycle (``--valid``): per limit the smooth measure an
     optimiser with ``valid=True`` holds, the exact one and the bound
     (:func:`birdocp.studies.gait_validity.constraint_report`; ``active``: the smooth value at its bound)."""

@@ -90,6 +90,12 @@ Add a new command by adding its module here."""
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``birdocp`` argument parser with every command registered.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+    """
     from birdocp import __version__
 
     parser = Parser(
@@ -123,7 +129,18 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI; returns the exit code (the console script passes it to ``sys.exit``)."""
+    """Run the CLI; returns the exit code (the console script passes it to ``sys.exit``).
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments without the program name (None: ``sys.argv[1:]``, run as the program).
+
+    Returns
+    -------
+    int
+        Exit code.
+    """
     as_program = argv is None  # the console script or python -m birdocp (not a call from Python)
     argv = sys.argv[1:] if argv is None else list(argv)
     if as_program:

@@ -25,7 +25,15 @@ at every iterate, exact gradients), as optimize-gait."""
 
 
 def register(sub, common) -> None:
-    """Add ``optimize-stability`` to the CLI's subparsers."""
+    """Add ``optimize-stability`` to the CLI's subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        Subparsers of the ``birdocp`` parser.
+    common : argparse.ArgumentParser
+        Parent parser of the common options.
+    """
     p = cli.add_run_command(sub, common, "optimize-stability", cmd_optimize, help=HELP,
                             description=DESCRIPTION)
     cli.add_free_gait_options(p, free_help="free parameter (repeatable; default: shoulder incidence and sweep "
@@ -43,7 +51,13 @@ def register(sub, common) -> None:
 
 
 def add_valid_flag(p: argparse.ArgumentParser) -> None:
-    """``--valid``: the limits of ``[validity]`` as smooth constraints of the optimiser."""
+    """``--valid``: the limits of ``[validity]`` as smooth constraints of the optimiser.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        Parser of the command.
+    """
     p.add_argument("--valid", action="store_true",
                    help="constrain the cycle to where the model holds: every limit of [validity] (stalled "
                         "span-time share, minimum forward speed, |pitch|, airflow-to-body angle) as a smooth "
@@ -51,7 +65,17 @@ def add_valid_flag(p: argparse.ArgumentParser) -> None:
 
 
 def validity_lines(result: dict) -> list[str]:
-    """Table lines of a result's ``validity_constraints`` (none without ``--valid``)."""
+    """Table lines of a result's ``validity_constraints`` (none without ``--valid``).
+
+    Parameters
+    ----------
+    result : dict
+        JSON-able result of the optimisation.
+
+    Returns
+    -------
+    list of str
+    """
     vc = result.get("validity_constraints") or {}
     lines = []
     for k, c in vc.items():
@@ -65,7 +89,17 @@ def validity_lines(result: dict) -> list[str]:
 
 def six_dof_lines(result: dict) -> list[str]:
     """Table lines of a six-degree-of-freedom optimum: the longitudinal and lateral multipliers and
-    radii (none for a planar one)."""
+    radii (none for a planar one).
+
+    Parameters
+    ----------
+    result : dict
+        JSON-able result of the optimisation.
+
+    Returns
+    -------
+    list of str
+    """
     if result.get("degrees_of_freedom") != 6:
         return []
     pairs = lambda z: ", ".join(f"{a:.5f}{b:+.5f}j" for a, b in z)  # noqa: E731
@@ -81,7 +115,22 @@ def six_dof_lines(result: dict) -> list[str]:
 
 
 def invalid_failure(res, result: dict, run_dir) -> str | None:
-    """The failure line when ``--valid`` was asked for and the optimum's exact verdict is not valid."""
+    """The failure line when ``--valid`` was asked for and the optimum's exact verdict is not valid.
+
+    Parameters
+    ----------
+    res : optimisation result
+        Result of the optimiser.
+    result : dict
+        Its JSON-able form (``validity``).
+    run_dir : Path
+        The run folder, named by the line.
+
+    Returns
+    -------
+    str or None
+        None when ``--valid`` was not asked for or the optimum is valid.
+    """
     v = result.get("validity") or {}
     if v.get("valid"):
         return None
@@ -90,7 +139,7 @@ def invalid_failure(res, result: dict, run_dir) -> str | None:
             f"({'; '.join(v.get('reasons') or ['not checked'])}); result written to {run_dir}")
 
 
-def free_with_bounds(args: argparse.Namespace, defaults: dict) -> dict:
+def _free_with_bounds(args: argparse.Namespace, defaults: dict) -> dict:
     """key -> (lo, hi) from ``--free KEY`` (default: the keys of ``defaults``) and ``--bounds KEY=LO:HI``
     (default: ``defaults``' range); ConfigError (exit 2) on an unknown key or a malformed range."""
     keys = [check_key(k, "--free") for k in (args.free or [])] or list(defaults)
@@ -112,13 +161,28 @@ def free_with_bounds(args: argparse.Namespace, defaults: dict) -> dict:
 
 
 def checked_free(args: argparse.Namespace, cfg, defaults: dict) -> dict:
-    """:func:`free_with_bounds`, then every free key checked against the model before any run folder
+    """:func:`_free_with_bounds`, then every free key checked against the model before any run folder
     exists (:func:`birdocp.studies.optimize.check_free_keys`: not the amplitude, not reshaping the
-    wing in the arm frame, the configured value inside its bounds); ConfigError (exit 2) otherwise."""
+    wing in the arm frame, the configured value inside its bounds); ConfigError (exit 2) otherwise.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments (``free``, ``bounds``).
+    cfg : Config
+        Resolved configuration.
+    defaults : dict
+        Default free keys and bounds of the command.
+
+    Returns
+    -------
+    dict
+        Free model key to (lo, hi).
+    """
     from birdocp.studies.gait import check_free_bounds
     from birdocp.studies.optimize import check_free_keys
 
-    free = free_with_bounds(args, defaults)
+    free = _free_with_bounds(args, defaults)
     check_free_bounds(cfg, free)  # everything that needs no model, before building it
     with cli.stdout_to_stderr():
         from birdocp.bird.model import get_model
@@ -128,6 +192,20 @@ def checked_free(args: argparse.Namespace, cfg, defaults: dict) -> dict:
 
 
 def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
+    """Run ``birdocp optimize-stability``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of the command.
+    command_line : list of str
+        The command line, recorded in the provenance of the result.
+
+    Returns
+    -------
+    int
+        Exit code: 0 success, 1 the computation failed or its output could not be written, 2 bad input.
+    """
     from birdocp.studies.optimize import DEFAULT_FREE, optimize_stability
 
     cfg = cli.resolve_config(args)
@@ -167,7 +245,17 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
 
 def residuals(res) -> str:
     """'KKT residual 2.16e+00, constraint violation 0.00e+00' of an optimisation result (what the
-    failure line reports as its residual)."""
+    failure line reports as its residual).
+
+    Parameters
+    ----------
+    res : optimisation result
+        With ``kkt_residual`` and ``constraint_violation``.
+
+    Returns
+    -------
+    str
+    """
     return (f"KKT residual {cli.fmt_num(getattr(res, 'kkt_residual', None), '.2e')}, "
             f"constraint violation {cli.fmt_num(getattr(res, 'constraint_violation', None), '.2e')}")
 

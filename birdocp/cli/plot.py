@@ -18,6 +18,15 @@ PLOTTED_HINT = ("plot draws trim, level, sweep (and grid), continue, optimize-st
 
 
 def register(sub, common) -> None:
+    """Add ``plot`` to the CLI's subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        Subparsers of the ``birdocp`` parser.
+    common : argparse.ArgumentParser
+        Parent parser of the common options.
+    """
     p = sub.add_parser("plot", help="redraw the figures of a run folder (trim, level, sweep, continue)",
                        description="Read RUN_DIR/result.json (and arrays.npz, sweep.json, branch.json) and write "
                                    "the run's figures into RUN_DIR.")
@@ -36,6 +45,20 @@ def _read_json(path: Path, what: str):
 
 
 def cmd_plot(args: argparse.Namespace, command_line: list[str]) -> int:
+    """Run ``birdocp plot``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of the command.
+    command_line : list of str
+        The command line, recorded in the provenance of the result.
+
+    Returns
+    -------
+    int
+        Exit code: 0 success, 1 the computation failed or its output could not be written, 2 bad input.
+    """
     from birdocp.cli.inputs import read_run_folder
 
     folder, _ = read_run_folder(args.run_dir, "RUN_DIR", commands=PLOTTED, hint=PLOTTED_HINT)
@@ -75,11 +98,11 @@ def _figures(run: Path, res: dict, command, arrays: dict | None) -> list:
         figs = plot_branches({"level flight" if br.settings.get("level") else "branch": br}, run)
     elif os.path.lexists(run / "grid.json"):
         d = _read_json(run / "grid.json", "grid.json")
-        figs = [plot_rows(d.get("points", []), "value", run / "grid.png",
+        figs = [_plot_rows(d.get("points", []), "value", run / "grid.png",
                           f"grid: lines over {d.get('key')}, one per {d.get('row_key')}", d.get("key"))]
     elif os.path.lexists(run / "sweep.json"):
         d = _read_json(run / "sweep.json", "sweep.json")
-        figs = [plot_rows(d.get("points", []), "value", run / "sweep.png", f"sweep of {d.get('key')}", d.get("key"))]
+        figs = [_plot_rows(d.get("points", []), "value", run / "sweep.png", f"sweep of {d.get('key')}", d.get("key"))]
     elif command in ("trim", "level") or "x0" in res:
         from birdocp.plots import figures as plots
 
@@ -109,7 +132,7 @@ def _figures(run: Path, res: dict, command, arrays: dict | None) -> list:
     return figs
 
 
-def plot_rows(rows, xkey, path, title, xlabel):
+def _plot_rows(rows, xkey, path, title, xlabel):
     """|multipliers| and mean vertical speed of sweep or grid rows against ``xkey``."""
     import matplotlib
 

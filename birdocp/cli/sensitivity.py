@@ -20,7 +20,15 @@ amplitude is first solved for level flight and re-solved along every parameter d
 
 
 def register(sub, common) -> None:
-    """Add ``sensitivity`` to the CLI's subparsers."""
+    """Add ``sensitivity`` to the CLI's subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        Subparsers of the ``birdocp`` parser.
+    common : argparse.ArgumentParser
+        Parent parser of the common options.
+    """
     p = cli.add_run_command(sub, common, "sensitivity", cmd_sensitivity, help=HELP,
                             description=DESCRIPTION)
     p.add_argument("--param", action="append", metavar="KEY",
@@ -31,11 +39,38 @@ def register(sub, common) -> None:
 
 def check_key(key: str, flag: str) -> str:
     """The model parameter ``key`` names (a dotted key or an alias: amplitude, root_ahead_m), else a
-    ConfigError on ``flag`` with a suggestion and the kinds of keys there are."""
+    ConfigError on ``flag`` with a suggestion and the kinds of keys there are.
+
+    Parameters
+    ----------
+    key : str
+        Dotted key or alias.
+    flag : str
+        Flag named by the error.
+
+    Returns
+    -------
+    str
+        The dotted model key.
+    """
     return resolve_key(key, flag)
 
 
 def cmd_sensitivity(args: argparse.Namespace, command_line: list[str]) -> int:
+    """Run ``birdocp sensitivity``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of the command.
+    command_line : list of str
+        The command line, recorded in the provenance of the result.
+
+    Returns
+    -------
+    int
+        Exit code: 0 success, 1 the computation failed or its output could not be written, 2 bad input.
+    """
     t0 = time.perf_counter()
     cfg = cli.resolve_config(args)
     if cfg.model.degrees_of_freedom == 6:

@@ -26,7 +26,15 @@ controller) and the stall of each wing is checked every beat."""
 
 
 def register(sub, common) -> None:
-    """Add ``simulate`` to the CLI's subparsers."""
+    """Add ``simulate`` to the CLI's subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        Subparsers of the ``birdocp`` parser.
+    common : argparse.ArgumentParser
+        Parent parser of the common options.
+    """
     p = cli.add_run_command(sub, common, "simulate", cmd_simulate, help=HELP,
                             description=DESCRIPTION)
     p.add_argument("--beats", type=int, required=True, metavar="K", help="wingbeats to simulate")
@@ -60,10 +68,10 @@ def _first_difference(a: dict, b: dict, prefix: str = "") -> str | None:
     return None
 
 
-def load_controller(path_text: str, cfg):
+def _load_controller(path_text: str, cfg):
     """(controller namespace, cycle cfg, result dict) from a control run folder, read and checked by
     :func:`birdocp.cli.inputs.read_run_folder` (its config.toml the one the controller was designed on)
-    and :func:`controller_fields`; ConfigError on --controller if it is not one, is damaged, or was
+    and :func:`_controller_fields`; ConfigError on --controller if it is not one, is damaged, or was
     designed for another configuration than ``cfg``."""
     from birdocp.bird import config as C
     from birdocp.cli.inputs import read_run_folder
@@ -79,7 +87,7 @@ def load_controller(path_text: str, cfg):
         requested = C.loads(r["requested_config"])
     except ConfigError as exc:
         raise folder.error("result.json", f"requested_config: {cli.one_line(exc)}") from None
-    ctl = controller_fields(folder, cycle_cfg)
+    ctl = _controller_fields(folder, cycle_cfg)
     if C.dumps(cfg) not in (C.dumps(requested), C.dumps(cycle_cfg)):
         key = _first_difference(C.to_dict(cfg), C.to_dict(requested))
         raise ConfigError("--controller", f"'{path}' was designed for another configuration (differs in {key}); "
@@ -101,7 +109,7 @@ def _array(folder, name: str, shape: tuple, value):
     return a
 
 
-def controller_fields(folder, cycle_cfg) -> SimpleNamespace:
+def _controller_fields(folder, cycle_cfg) -> SimpleNamespace:
     """The controller in a control run's result.json, every field checked against the stored
     configuration: known gait controls (no repeats), ``updates_per_beat`` dividing the RK4 steps, gains
     ``(N, m, n)``, cycle states ``(N, n)`` and ``cycle_x0`` finite (n = 4, or 8 in six degrees of freedom),
@@ -150,7 +158,7 @@ def _run_simulation(args, sim_cfg, x0, steps, dx0, gusts, wind, ctl):
         bar.close()
 
 
-def parse_inputs(args: argparse.Namespace):
+def _parse_inputs(args: argparse.Namespace):
     """(perturbation, gusts, wind) of the planar ``simulate``'s options, checked (ConfigError, exit 2)."""
     from birdocp.studies.simulate import parse_perturbation
 
@@ -163,7 +171,21 @@ def parse_inputs(args: argparse.Namespace):
 
 def gusts_and_wind(args: argparse.Namespace, side_gust: bool = False):
     """(gusts, wind) of ``--gust``, ``--gust-start`` and ``--wind``, checked (ConfigError, exit 2);
-    ``side_gust``: a ``--side-gust`` is given too (``--gust-start`` places it)."""
+    ``side_gust``: a ``--side-gust`` is given too (``--gust-start`` places it).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments.
+    side_gust : bool
+        A ``--side-gust`` is given too.
+
+    Returns
+    -------
+    gusts : list of Gust
+    wind : tuple of float
+        (horizontal, vertical) [m/s].
+    """
     from birdocp.studies.simulate import DIRECTIONS, check_speed, parse_gust
 
     gusts = [parse_gust(g) for g in args.gust]
@@ -171,7 +193,7 @@ def gusts_and_wind(args: argparse.Namespace, side_gust: bool = False):
         raise ConfigError("--gust", "at most one vertical and one horizontal gust")
     if args.gust_start is not None and not gusts and not side_gust:  # refused, not ignored
         raise ConfigError("--gust-start", "places a gust: add --gust DIR=MPS:BEATS (or drop --gust-start)")
-    gust_start = check_gust_start(args)
+    gust_start = _check_gust_start(args)
     gusts = [type(g)(g.direction, g.amplitude_mps, g.length_beats, g.length_m, gust_start) for g in gusts]
     wind = [0.0, 0.0]
     for text in args.wind:
@@ -186,7 +208,7 @@ def gusts_and_wind(args: argparse.Namespace, side_gust: bool = False):
     return gusts, wind
 
 
-def check_gust_start(args: argparse.Namespace) -> float:
+def _check_gust_start(args: argparse.Namespace) -> float:
     """``--gust-start`` in beats (default 1), checked."""
     gust_start = 1.0 if args.gust_start is None else args.gust_start
     if not math.isfinite(gust_start) or not 0 <= gust_start <= MAX_BEATS:
@@ -195,25 +217,39 @@ def check_gust_start(args: argparse.Namespace) -> float:
     return gust_start
 
 
-def check_beats_and_controller(args: argparse.Namespace, cfg):
+def _check_beats_and_controller(args: argparse.Namespace, cfg):
     """``--beats`` checked; the controller of ``--controller`` (None), its cycle's configuration and
-    result (:func:`load_controller`); ``--level`` refused with a controller."""
+    result (:func:`_load_controller`); ``--level`` refused with a controller."""
     if not 1 <= args.beats <= MAX_BEATS:
         raise ConfigError("--beats", f"must be an integer in [1, {MAX_BEATS}], got {args.beats}")
     if not args.controller:
         return None, None, None
     if args.level:
         raise ConfigError("--level", "the controller's cycle is used with --controller; drop --level")
-    return load_controller(args.controller, cfg)
+    return _load_controller(args.controller, cfg)
 
 
 def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
+    """Run ``birdocp simulate``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of the command.
+    command_line : list of str
+        The command line, recorded in the provenance of the result.
+
+    Returns
+    -------
+    int
+        Exit code: 0 success, 1 the computation failed or its output could not be written, 2 bad input.
+    """
     t0 = time.perf_counter()
     cfg = cli.resolve_config(args)
     if cfg.model.degrees_of_freedom == 6:
-        return cmd_lateral_simulate(args, command_line, cfg, t0)
-    dx0, gusts, wind = parse_inputs(args)
-    ctl, sim_cfg, ctl_result = check_beats_and_controller(args, cfg)
+        return _cmd_lateral_simulate(args, command_line, cfg, t0)
+    dx0, gusts, wind = _parse_inputs(args)
+    ctl, sim_cfg, ctl_result = _check_beats_and_controller(args, cfg)
     with cli.run_folder(args, "simulate", command_line) as run:
         run_dir = run.dir
         head = {"controller": str(args.controller) if args.controller else None, "run_dir": str(run_dir),
@@ -250,7 +286,26 @@ def cmd_simulate(args: argparse.Namespace, command_line: list[str]) -> int:
 
 
 def report(args: argparse.Namespace, result: dict, sim, closed: bool, run_dir) -> int:
-    """Print the simulation's JSON or summary (and the failure line); the exit code."""
+    """Print the simulation's JSON or summary (and the failure line); the exit code.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments (``json``).
+    result : dict
+        JSON-able result.
+    sim : SimulationResult
+        The simulation.
+    closed : bool
+        A controller closed the loop.
+    run_dir : Path
+        The run folder.
+
+    Returns
+    -------
+    int
+        Exit code.
+    """
     if args.json:
         cli.print_json(result, cli.context_of(args))
     else:
@@ -278,15 +333,15 @@ def _six_dof_inputs(args: argparse.Namespace):
 
     gusts, wind = gusts_and_wind(args, side_gust=args.side_gust is not None)
     dx0 = parse_lateral_perturbation(args.perturb)
-    gust = parse_side_gust(args.side_gust, check_gust_start(args)) if args.side_gust is not None else None
+    gust = parse_side_gust(args.side_gust, _check_gust_start(args)) if args.side_gust is not None else None
     return dx0, gust, gusts, wind
 
 
-def cmd_lateral_simulate(args: argparse.Namespace, command_line: list[str], cfg, t0: float) -> int:
+def _cmd_lateral_simulate(args: argparse.Namespace, command_line: list[str], cfg, t0: float) -> int:
     """``birdocp simulate`` with a 6-DOF configuration: one run folder (result.json, arrays.npz,
     simulation.png); the exit code."""
     dx0, gust, gusts, wind = _six_dof_inputs(args)
-    ctl, sim_cfg, ctl_result = check_beats_and_controller(args, cfg)
+    ctl, sim_cfg, ctl_result = _check_beats_and_controller(args, cfg)
     with cli.run_folder(args, "simulate", command_line) as run:
         head = {"controller": str(args.controller) if args.controller else None, "run_dir": str(run.dir)}
         with run.solving():

@@ -13,13 +13,23 @@ from birdocp.io.errors import ConfigError
 def level_options(kw: dict) -> dict:
     """The 6-DOF level options from the planar level's checked keywords: the amplitude solved for a
     mean vertical speed (other free keys and conditions are refused, one line;
-    :func:`birdocp.studies.lateral.level_keywords`)."""
+    :func:`birdocp.studies.lateral.level_keywords`).
+
+    Parameters
+    ----------
+    kw : dict
+        Checked keywords of the planar level (:func:`birdocp.cli.level.level_kwargs`).
+
+    Returns
+    -------
+    dict
+    """
     from birdocp.studies.lateral_options import level_keywords
 
     return level_keywords(kw)
 
 
-def format_lateral_table(r: dict) -> str:
+def _format_lateral_table(r: dict) -> str:
     """The lateral part of a 6-DOF result: the split, the heading multiplier and the labelled modes."""
     lines = ["", "six degrees of freedom: state (u, v, w, p, q, r, phi, theta, psi)",
              f"  heading multiplier {fmt_num(r.get('heading_multiplier'), '.12g')} (psi: reported apart, "
@@ -48,7 +58,26 @@ def _verdict(stable) -> str:
 
 def run_six_dof(args: argparse.Namespace, command: str, command_line: list[str], cfg, options: dict) -> int:
     """Solve ``cfg`` in six degrees of freedom (``options``: :func:`birdocp.studies.lateral.lateral_trim`
-    keywords), write the run folder, print the table or the JSON; the exit code."""
+    keywords), write the run folder, print the table or the JSON; the exit code.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments.
+    command : str
+        Name of the command.
+    command_line : list of str
+        The command line, recorded in the provenance.
+    cfg : Config
+        Resolved configuration.
+    options : dict
+        Keywords of the six-degree-of-freedom trim.
+
+    Returns
+    -------
+    int
+        Exit code.
+    """
     t_start = time.perf_counter()
     with run_folder(args, command, command_line) as run:
         with run.solving():
@@ -70,7 +99,7 @@ def run_six_dof(args: argparse.Namespace, command: str, command_line: list[str],
         table = format_trim_table(result)
         if command != "trim":
             table = table.replace("trim:", f"{command}:", 1)
-        run.output(result, head + table + "\n" + format_lateral_table(result))
+        run.output(result, head + table + "\n" + _format_lateral_table(result))
         if not res.success:
             return run.fail(f"{command} did not converge", c.status, c.max_residual, c.message)
     return EXIT_OK
@@ -89,7 +118,24 @@ def _sensitivity_keys(raw) -> list[str] | None:
 def run_six_dof_sensitivity(args: argparse.Namespace, command_line: list[str], cfg, t_start: float) -> int:
     """``birdocp sensitivity`` with ``model.degrees_of_freedom = 6``: the exact derivatives of every
     multiplier of the 6-DOF cycle at fixed amplitude (:func:`birdocp.studies.lateral.lateral_sensitivities`),
-    one row per parameter with the derivative of each lateral mode's modulus; the exit code."""
+    one row per parameter with the derivative of each lateral mode's modulus; the exit code.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments (``param``).
+    command_line : list of str
+        The command line, recorded in the provenance.
+    cfg : Config
+        Resolved configuration.
+    t_start : float
+        ``time.perf_counter()`` at the start of the command [s].
+
+    Returns
+    -------
+    int
+        Exit code.
+    """
     params = _sensitivity_keys(args.param)
     if args.level:
         raise ConfigError("--level", "with model.degrees_of_freedom = 6 the sensitivities are taken at fixed "

@@ -80,7 +80,17 @@ class SafeStdout:
 def guarded_stdout(redirect_fd: bool = True) -> Iterator[SafeStdout]:
     """``sys.stdout`` replaced by a :class:`SafeStdout` while the body runs (restored after);
     ``redirect_fd``: point descriptor 1 at ``os.devnull`` once stdout is gone (the program does,
-    a call from Python does not)."""
+    a call from Python does not).
+
+    Parameters
+    ----------
+    redirect_fd : bool
+        Point descriptor 1 at ``os.devnull`` once stdout is gone.
+
+    Yields
+    ------
+    SafeStdout
+    """
     saved = sys.stdout
     guard = SafeStdout(saved, redirect_fd)
     sys.stdout = guard
@@ -123,7 +133,12 @@ def tolerant_encodings() -> None:
 
 def error_log_dir() -> Path:
     """Folder of the internal-error logs: ``$BIRDOCP_LOG_DIR``, else ``$XDG_STATE_HOME/birdocp/logs``
-    (default ``~/.local/state/birdocp/logs``)."""
+    (default ``~/.local/state/birdocp/logs``).
+
+    Returns
+    -------
+    Path
+    """
     env = os.environ.get(LOG_DIR_ENV)
     if env:
         return Path(env).expanduser()
@@ -134,7 +149,19 @@ def error_log_dir() -> Path:
 def write_error_log(exc: BaseException, command_line: Sequence[str]) -> Path | None:
     """Write the traceback of ``exc`` (with the command line and versions) to a new file in
     :func:`error_log_dir` (the system's temporary folder if that cannot be written); returns its
-    path, or None when nothing could be written."""
+    path, or None when nothing could be written.
+
+    Parameters
+    ----------
+    exc : BaseException
+        The error.
+    command_line : sequence of str
+        The command line.
+
+    Returns
+    -------
+    Path or None
+    """
     import platform
     import tempfile
     import traceback

@@ -15,6 +15,15 @@ from birdocp.cli.trim import solve_shortcuts
 
 
 def register(sub, common) -> None:
+    """Add ``sweep`` to the CLI's subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        Subparsers of the ``birdocp`` parser.
+    common : argparse.ArgumentParser
+        Parent parser of the common options.
+    """
     key = argparse.ArgumentParser(add_help=False)
     key.add_argument("key", metavar="KEY",
                      help="parameter to sweep: amplitude (gait.shoulder_flap.amplitude_deg), root_ahead_m / "
@@ -52,7 +61,7 @@ def register(sub, common) -> None:
     p.set_defaults(func=cmd_sweep)
 
 
-def format_sweep_table(rows: list[dict], key: str, level: bool) -> str:
+def _format_sweep_table(rows: list[dict], key: str, level: bool) -> str:
     head = f"{'value':>10}  {'ok':>3}  {'it':>3}  {'|lambda1|':>9}  {'|lambda2,3|':>11}  {'|lambda4|':>9}  " \
            f"{'U [m/s]':>8}  {'W [m/s]':>8}  {'beta [deg]':>10}" + (f"  {'A [deg]':>9}" if level else "") + \
            f"  {'wall [s]':>8}  model"
@@ -76,7 +85,7 @@ def format_sweep_table(rows: list[dict], key: str, level: bool) -> str:
     return "\n".join(lines + validity_notes(rows))
 
 
-def format_grid_table(rows: list[dict], key: str, row_key: str, level: bool) -> str:
+def _format_grid_table(rows: list[dict], key: str, row_key: str, level: bool) -> str:
     lines = [f"grid {row_key} x {key}" + (" (level flight)" if level else ""),
              f"{'row value':>10}  {'value':>10}  {'ok':>3}  {'|lambda1|':>9}  {'U [m/s]':>8}  {'W [m/s]':>8}  model"]
     for r in rows:
@@ -87,7 +96,7 @@ def format_grid_table(rows: list[dict], key: str, row_key: str, level: bool) -> 
     return "\n".join(lines)
 
 
-def parse_rows(text: str | None):
+def _parse_rows(text: str | None):
     from birdocp.studies.level import resolve_key
     from birdocp.studies.sweep import sweep_values
 
@@ -117,6 +126,20 @@ def _report(run, rows: list[dict], ok: bool) -> int:
 
 
 def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
+    """Run ``birdocp sweep``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of the command.
+    command_line : list of str
+        The command line, recorded in the provenance of the result.
+
+    Returns
+    -------
+    int
+        Exit code: 0 success, 1 the computation failed or its output could not be written, 2 bad input.
+    """
     from birdocp.studies.level import resolve_key
     from birdocp.studies.sweep import sweep, sweep_values
 
@@ -155,12 +178,12 @@ def cmd_sweep(args: argparse.Namespace, command_line: list[str]) -> int:
                   "converged": sum(r["success"] for r in rows), "points": rows,
                   "wall_s": {"total": time.perf_counter() - t_start}, "run_dir": str(run.dir)}
         run.write(cfg, result)
-        run.output(result, format_sweep_table(rows, key, args.level)
+        run.output(result, _format_sweep_table(rows, key, args.level)
                    + f"\nrun folder  {run.dir}  (sweep.csv, sweep.json, points/)")
         return _report(run, rows, ok)
 
 
-def grid_executor(args):
+def _grid_executor(args):
     """The executor of ``--jobs`` / ``--scheduler``, checked before any run folder exists: both at once,
     a missing 'distributed' or a scheduler that cannot be reached is a ConfigError (exit 2)."""
     from birdocp.engine.executors import get_executor
@@ -182,7 +205,7 @@ def grid_executor(args):
 
 
 def _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start) -> int:
-    row_key, row_values = parse_rows(args.rows)
+    row_key, row_values = _parse_rows(args.rows)
     if row_key == key:
         raise ConfigError("--rows", "the row parameter must differ from KEY")
     for v in row_values:
@@ -192,7 +215,7 @@ def _cmd_grid(args, command_line, cfg, key, values, level_kw, t_start) -> int:
     if args.jobs is not None and args.jobs > 256:
         raise ConfigError("--jobs", f"must be <= 256, got {args.jobs}")
     resume_file = "grid.json" if args.resume else None
-    ex = grid_executor(args)
+    ex = _grid_executor(args)
     try:
         return _run_grid(args, command_line, cfg, key, values, level_kw, t_start, row_key, row_values, resume_file, ex)
     finally:
@@ -214,6 +237,6 @@ def _run_grid(args, command_line, cfg, key, values, level_kw, t_start, row_key, 
                   "converged": sum(r["success"] for r in rows), "points": rows,
                   "wall_s": {"total": time.perf_counter() - t_start}, "run_dir": str(run.dir)}
         run.write(cfg, result)
-        run.output(result, format_grid_table(rows, key, row_key, args.level)
+        run.output(result, _format_grid_table(rows, key, row_key, args.level)
                    + f"\nrun folder  {run.dir}  (grid.csv, grid.json, timing.json)")
         return _report(run, rows, ok)

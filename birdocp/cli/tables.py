@@ -13,10 +13,34 @@ __all__ = ["one_line", "fmt_num", "real_part", "pairs", "growth_text", "format_t
 
 
 def one_line(text: Any) -> str:
+    """``text`` on one line (runs of white space as one space).
+
+    Parameters
+    ----------
+    text : Any
+        Text or value (``str`` of it).
+
+    Returns
+    -------
+    str
+    """
     return " ".join(str(text).split())
 
 
 def fmt_num(x: Any, fmt: str = ".6g") -> str:
+    """A number for a table: "-" for None, ``re + imj`` for a [re, im] pair, ``str`` of a non-number.
+
+    Parameters
+    ----------
+    x : Any
+        Value to format.
+    fmt : str
+        Format specification of the number(s).
+
+    Returns
+    -------
+    str
+    """
     if x is None:
         return "-"
     if isinstance(x, (list, tuple)) and len(x) == 2:
@@ -29,6 +53,17 @@ def fmt_num(x: Any, fmt: str = ".6g") -> str:
 
 
 def real_part(x: Any) -> float | None:
+    """The real part of a value as a float: the first item of a [re, im] pair; None if not a number.
+
+    Parameters
+    ----------
+    x : Any
+        Value, pair or None.
+
+    Returns
+    -------
+    float or None
+    """
     if x is None:
         return None
     if isinstance(x, (list, tuple)):
@@ -42,11 +77,34 @@ def real_part(x: Any) -> float | None:
 
 
 def pairs(values: Any) -> list:
+    """``values`` as a list when it is a list or tuple, else an empty list.
+
+    Parameters
+    ----------
+    values : Any
+        Value of a result key.
+
+    Returns
+    -------
+    list
+    """
     return list(values) if isinstance(values, (list, tuple)) else []
 
 
 def growth_text(exponent: Any, doubling: Any) -> str:
-    """'doubles in 0.3 s' / 'halves in 1.2 s' / 'neutral'."""
+    """'doubles in 0.3 s' / 'halves in 1.2 s' / 'neutral'.
+
+    Parameters
+    ----------
+    exponent : float or [re, im] or None
+        Floquet exponent [1/s] (its real part is the growth rate).
+    doubling : float or [re, im] or None
+        Doubling time [s] (negative: halving time); used when finite and non-zero.
+
+    Returns
+    -------
+    str
+    """
     rate = real_part(exponent)
     t = real_part(doubling)
     if t is not None and math.isfinite(t) and t != 0:
@@ -59,14 +117,9 @@ def growth_text(exponent: Any, doubling: Any) -> str:
     return "neutral"
 
 
-def format_trim_table(r: dict) -> str:
-    from birdocp.bird.validity import validity_text
-
+def _multiplier_lines(r: dict) -> list[str]:
+    """The Floquet-multiplier block of :func:`format_trim_table` (none without multipliers)."""
     lines = []
-    ok = bool(r.get("success"))
-    lines.append(f"trim: {'converged' if ok else 'NOT converged'} (status: {r.get('status')})")
-    if r.get("message"):
-        lines.append(f"  {one_line(r['message'])}")
     mults = pairs(r.get("multipliers"))
     if mults:
         moduli = pairs(r.get("moduli"))
@@ -83,6 +136,31 @@ def format_trim_table(r: dict) -> str:
             dt = dts[i] if i < len(dts) else None
             lines.append(f"  {i:>2}  {fmt_num(re_):>12}  {fmt_num(im):>12}  {fmt_num(mod, '.6f'):>10}  "
                          f"{fmt_num(ex):>24}  {growth_text(ex, dt)}")
+    return lines
+
+
+def format_trim_table(r: dict) -> str:
+    """The human-readable table of a trim or level result: status, residual, multipliers with their
+    growth and the cycle's validity.
+
+    Parameters
+    ----------
+    r : dict
+        JSON-able result of ``trim`` or ``level``.
+
+    Returns
+    -------
+    str
+        Lines joined by newlines.
+    """
+    from birdocp.bird.validity import validity_text
+
+    lines = []
+    ok = bool(r.get("success"))
+    lines.append(f"trim: {'converged' if ok else 'NOT converged'} (status: {r.get('status')})")
+    if r.get("message"):
+        lines.append(f"  {one_line(r['message'])}")
+    lines += _multiplier_lines(r)
     lines.append("")
     stable = r.get("stable")
     verdict = "stable" if stable is True else "unstable" if stable is False else "unknown"
@@ -138,12 +216,34 @@ def format_trim_table(r: dict) -> str:
 
 
 def validity_word(valid) -> str:
-    """The model-validity column of a table: ``valid``, ``INVALID`` or ``-`` (not checked)."""
+    """The model-validity column of a table: ``valid``, ``INVALID`` or ``-`` (not checked).
+
+    Parameters
+    ----------
+    valid : bool or None
+        The verdict (None: not checked).
+
+    Returns
+    -------
+    str
+    """
     return "valid" if valid is True else "INVALID" if valid is False else "-"
 
 
 def validity_notes(rows: list[dict], label: str = "value") -> list[str]:
-    """Lines naming each invalid point of a table and why (rows with ``validity`` or ``invalid_reasons``)."""
+    """Lines naming each invalid point of a table and why (rows with ``validity`` or ``invalid_reasons``).
+
+    Parameters
+    ----------
+    rows : list of dict
+        Rows of the table.
+    label : str
+        Key of the row's value, named in each line.
+
+    Returns
+    -------
+    list of str
+    """
     out = []
     for r in rows:
         if r.get("valid") is False:

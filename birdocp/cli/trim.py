@@ -11,7 +11,13 @@ from birdocp.cli.common import (add_compiled_flag, add_plot_flag, compiled_reque
 
 def solve_shortcuts(p: argparse.ArgumentParser) -> None:
     """--points, --steps, --solver, --derivatives, --max-iter, --tol (shorthands writing the solve.*
-    keys, applied after --set) and --compiled (``compiled=True`` of the solves)."""
+    keys, applied after --set) and --compiled (``compiled=True`` of the solves).
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        Parser of the command.
+    """
     s = p.add_argument_group("solve (shorthands for the solve.* keys of the configuration)")
     s.add_argument("--points", type=int, metavar="M", help="shooting points per period, closing point included (solve.points)")
     s.add_argument("--steps", type=int, metavar="N", help="RK4 steps per period, a multiple of M-1 (solve.steps_per_period)")
@@ -26,6 +32,15 @@ def solve_shortcuts(p: argparse.ArgumentParser) -> None:
 
 
 def register(sub, common) -> None:
+    """Add ``trim`` to the CLI's subparsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        Subparsers of the ``birdocp`` parser.
+    common : argparse.ArgumentParser
+        Parent parser of the common options.
+    """
     p = sub.add_parser("trim", parents=[common], help="find the trimmed periodic flight and its Floquet stability",
                        description="Find the periodic (trimmed) flapping flight by multiple shooting and its "
                                    "Floquet multipliers. Writes a run folder (config.toml, result.json, arrays.npz).")
@@ -38,7 +53,7 @@ def register(sub, common) -> None:
     p.set_defaults(func=cmd_trim)
 
 
-def last_residual(result: dict):
+def _last_residual(result: dict):
     """The max residual of a result, else the last of its residual history."""
     last = result.get("max_residual")
     hist = result.get("residual_history") or []
@@ -46,6 +61,20 @@ def last_residual(result: dict):
 
 
 def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
+    """Run ``birdocp trim``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of the command.
+    command_line : list of str
+        The command line, recorded in the provenance of the result.
+
+    Returns
+    -------
+    int
+        Exit code: 0 success, 1 the computation failed or its output could not be written, 2 bad input.
+    """
     t_start = time.perf_counter()
     cfg = resolve_config(args)
     if cfg.model.degrees_of_freedom == 6:
@@ -66,5 +95,5 @@ def cmd_trim(args: argparse.Namespace, command_line: list[str]) -> int:
         power_figure(arrays, run.dir, args)  # only with --plot: `birdocp plot RUN_DIR` draws it later
         run.output(result, format_trim_table(result))
         if not res.success:
-            return run.fail("trim did not converge", res.status, last_residual(result), res.message)
+            return run.fail("trim did not converge", res.status, _last_residual(result), res.message)
     return EXIT_OK

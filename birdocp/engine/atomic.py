@@ -42,7 +42,17 @@ _DEFERRED = tuple(s for s in (getattr(signal, "SIGINT", None), getattr(signal, "
 
 
 def umask_mode(directory: bool = False) -> int:
-    """The mode a new file (or folder) gets under the process umask, e.g. 0o644 (0o755)."""
+    """The mode a new file (or folder) gets under the process umask, e.g. 0o644 (0o755).
+
+    Parameters
+    ----------
+    directory : bool
+        The mode of a folder instead of a file.
+
+    Returns
+    -------
+    int
+    """
     umask = os.umask(0)
     os.umask(umask)
     return (0o777 if directory else 0o666) & ~umask
@@ -57,7 +67,12 @@ def signals_deferred() -> Iterator[None]:
     The Python-level handlers are swapped for a recorder (blocking the signal with
     ``pthread_sigmask`` would not do: the kernel hands a process-wide signal to any thread that does
     not block it, CasADi's and the progress bar's included). Outside the main thread, where Python
-    allows no handler change and delivers no signal, the body simply runs."""
+    allows no handler change and delivers no signal, the body simply runs.
+
+    Yields
+    ------
+    None
+    """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -85,7 +100,13 @@ def signals_deferred() -> Iterator[None]:
 
 
 def fsync_file(path: str | Path) -> None:
-    """Flush ``path``'s data to the disk (a full disk is seen here at the latest, as ``OSError``)."""
+    """Flush ``path``'s data to the disk (a full disk is seen here at the latest, as ``OSError``).
+
+    Parameters
+    ----------
+    path : str or Path
+        File to flush.
+    """
     fd = os.open(path, os.O_RDONLY)
     try:
         os.fsync(fd)
@@ -107,7 +128,20 @@ def _discard(path: str | Path) -> None:
 def atomic_target(path: str | Path, suffix: str = ".tmp") -> Iterator[str]:
     """Yield a temporary path in the target's folder; when the body ends normally the file there is
     flushed to disk, given ordinary permissions and renamed over ``path``; on any exception (also
-    ``KeyboardInterrupt``) it is removed and ``path`` is untouched."""
+    ``KeyboardInterrupt``) it is removed and ``path`` is untouched.
+
+    Parameters
+    ----------
+    path : str or Path
+        Target file.
+    suffix : str
+        Suffix of the temporary file's name.
+
+    Yields
+    ------
+    str
+        Temporary path to write.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=suffix)
@@ -172,6 +206,9 @@ def atomic_folder(path: str | Path, *, replace: bool = True,
     """Yield a new temporary folder beside ``path``; when the body ends normally its files are
     flushed to disk and the folder takes ``path``'s place as a whole.
 
+    On any exception (also ``KeyboardInterrupt`` or a full disk) the temporary folder is removed
+    and ``path`` is left as it was: absent, or the earlier folder, complete.
+
     Parameters
     ----------
     path : str or Path
@@ -183,8 +220,10 @@ def atomic_folder(path: str | Path, *, replace: bool = True,
         ``carry(name) -> bool`` for each entry of the earlier folder: True to keep it in the new one
         (hard-linked, or copied across file systems, before the swap), e.g. a user's own files.
 
-    On any exception (also ``KeyboardInterrupt`` or a full disk) the temporary folder is removed
-    and ``path`` is left as it was: absent, or the earlier folder, complete.
+    Yields
+    ------
+    Path
+        The temporary folder to write into.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -230,7 +269,20 @@ def staged_files(folder: str | Path, last: Iterable[str] = ()) -> Iterator[Path]
     staging folder is removed and ``folder`` is untouched.
 
     For several files that belong together in a folder that holds other things too (a run folder):
-    a reader sees none of them or all of them (the one named last marks the set complete)."""
+    a reader sees none of them or all of them (the one named last marks the set complete).
+
+    Parameters
+    ----------
+    folder : str or Path
+        Existing folder the files go to.
+    last : iterable of str
+        Names moved last (e.g. the file that marks the set complete).
+
+    Yields
+    ------
+    Path
+        The staging folder to write into.
+    """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(dir=folder, prefix=".stage-", suffix=".tmp"))

@@ -31,7 +31,19 @@ class BoundedCache:
         self._data: OrderedDict = OrderedDict()
 
     def get(self, key: Hashable, default=None):
-        """The entry of ``key`` (now the most recently used), else ``default``."""
+        """The entry of ``key`` (now the most recently used), else ``default``.
+
+        Parameters
+        ----------
+        key : hashable
+            Key of the entry.
+        default : Any
+            Returned when there is no entry.
+
+        Returns
+        -------
+        Any
+        """
         try:
             self._data.move_to_end(key)
         except KeyError:
@@ -39,7 +51,15 @@ class BoundedCache:
         return self._data[key]
 
     def put(self, key: Hashable, value) -> None:
-        """Store ``value`` under ``key``, evicting the least recently used entries beyond ``maxsize``."""
+        """Store ``value`` under ``key``, evicting the least recently used entries beyond ``maxsize``.
+
+        Parameters
+        ----------
+        key : hashable
+            Key of the entry.
+        value : Any
+            Value stored.
+        """
         self._data[key] = value
         self._data.move_to_end(key)
         while len(self._data) > self.maxsize:
@@ -54,7 +74,19 @@ class BoundedCache:
 
 
 def bounded_cache(name: str, maxsize: int) -> BoundedCache:
-    """A new :class:`BoundedCache`, registered under ``name`` (one name, one cache)."""
+    """A new :class:`BoundedCache`, registered under ``name`` (one name, one cache).
+
+    Parameters
+    ----------
+    name : str
+        Registry name (unique).
+    maxsize : int
+        Largest number of entries.
+
+    Returns
+    -------
+    BoundedCache
+    """
     if name in _REGISTRY:
         raise ValueError(f"a cache named {name!r} is registered already")
     cache = BoundedCache(name, maxsize)
@@ -63,7 +95,20 @@ def bounded_cache(name: str, maxsize: int) -> BoundedCache:
 
 
 def register_cache(name: str, fn: Callable) -> Callable:
-    """Register a ``functools.lru_cache``-wrapped function (anything with ``cache_clear``); returns it."""
+    """Register a ``functools.lru_cache``-wrapped function (anything with ``cache_clear``); returns it.
+
+    Parameters
+    ----------
+    name : str
+        Registry name (unique).
+    fn : callable
+        The cached function.
+
+    Returns
+    -------
+    callable
+        ``fn``.
+    """
     if not hasattr(fn, "cache_clear"):
         raise TypeError(f"{name}: not a cached function (no cache_clear)")
     _REGISTRY[name] = fn
@@ -80,7 +125,12 @@ def clear_caches() -> None:
 
 
 def cache_sizes() -> dict:
-    """Entries held by each registered cache, by name."""
+    """Entries held by each registered cache, by name.
+
+    Returns
+    -------
+    dict of str to int
+    """
     out = {}
     for name, cache in _REGISTRY.items():
         out[name] = cache.cache_info().currsize if hasattr(cache, "cache_info") else len(cache)

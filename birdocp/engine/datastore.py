@@ -36,7 +36,17 @@ MAX_FILES = 64
 
 
 def folder(directory=None) -> Path:
-    """The store's folder: ``<cache_dir>/data``."""
+    """The store's folder: ``<cache_dir>/data``.
+
+    Parameters
+    ----------
+    directory : str or Path, optional
+        Cache folder (default: :func:`birdocp.engine.graphcache.cache_dir`).
+
+    Returns
+    -------
+    Path
+    """
     return (Path(directory) if directory is not None else graphcache.cache_dir()) / "data"
 
 
@@ -50,7 +60,21 @@ def _path(kind: str, key: dict, directory) -> Path:
 
 def load(kind: str, key: dict, directory=None) -> np.ndarray | None:
     """The array stored for ``(kind, key)``, or None (absent, store disabled, or a file that fails the
-    key or checksum test: such a file is removed)."""
+    key or checksum test: such a file is removed).
+
+    Parameters
+    ----------
+    kind : str
+        Kind of array.
+    key : dict
+        JSON-able key.
+    directory : str or Path, optional
+        Cache folder.
+
+    Returns
+    -------
+    ndarray or None
+    """
     if not graphcache.enabled():
         return None
     path = _path(kind, key, directory)
@@ -75,7 +99,23 @@ def load(kind: str, key: dict, directory=None) -> np.ndarray | None:
 
 
 def store(kind: str, key: dict, values, directory=None) -> Path | None:
-    """Write ``values`` for ``(kind, key)``; returns the file, or None (disabled or not writable)."""
+    """Write ``values`` for ``(kind, key)``; returns the file, or None (disabled or not writable).
+
+    Parameters
+    ----------
+    kind : str
+        Kind of array.
+    key : dict
+        JSON-able key.
+    values : array_like
+        Array to store.
+    directory : str or Path, optional
+        Cache folder.
+
+    Returns
+    -------
+    Path or None
+    """
     if not graphcache.enabled():
         return None
     values = np.ascontiguousarray(np.asarray(values, float))
@@ -116,7 +156,17 @@ def _prune(root: Path, keep: Path) -> None:
 
 
 def clear(directory=None) -> int:
-    """Remove every stored array; returns how many files were removed."""
+    """Remove every stored array; returns how many files were removed.
+
+    Parameters
+    ----------
+    directory : str or Path, optional
+        Cache folder.
+
+    Returns
+    -------
+    int
+    """
     root = folder(directory)
     files = list(root.glob("*.npz")) if root.exists() else []
     for f in files:

@@ -23,11 +23,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from typing import Iterator
 
-import casadi as ca
 import numpy as np
 
 from birdocp.engine.continuation.step import ContinuationStep, RunOnce
 from birdocp.engine.ode import ODE
+from birdocp.engine.equilibria_linear import critical_pair, ode_jacobians, sorted_eig  # noqa: F401
 from birdocp.engine.method import OrbitMethod
 from birdocp.engine.orbit_result import OrbitResult
 from birdocp.engine.orbits import solve_orbit_system
@@ -56,7 +56,13 @@ class Equilibrium:
     stable: bool
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; eigenvectors left out)."""
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; eigenvectors left out).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self)
 
 
@@ -83,7 +89,13 @@ class HopfPoint:
         return "hopf"
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`, with the period)."""
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`, with the period).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self, derived=("period",))
 
 
@@ -105,21 +117,14 @@ class EquilibriumBranch:
     message: str = ""
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; the Hopf points nested)."""
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; the Hopf points nested).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self)
-
-
-def ode_jacobians(ode: ODE, x, p, t=0.0):
-    """(df/dx, df/dp) at (x, t, p) as numpy arrays."""
-    fx, fp = ode.jacobian_function()(ca.DM(x), t, ca.DM(p))
-    return np.asarray(fx), np.asarray(fp)
-
-
-def sorted_eig(J):
-    """Eigenvalues and eigenvectors of J, largest real part first (then largest imaginary part)."""
-    lam, V = np.linalg.eig(J)
-    order = np.lexsort((-lam.imag, -lam.real))
-    return lam[order].astype(complex), V[:, order].astype(complex)
 
 
 def find_equilibrium(ode: ODE, p, x_guess, *, tol: float = 1e-12, max_iter: int = 50, t: float = 0.0) -> Equilibrium:
@@ -179,18 +184,32 @@ def find_equilibrium(ode: ODE, p, x_guess, *, tol: float = 1e-12, max_iter: int 
     return Equilibrium(status == "converged", status, x, p, r, it, lam, V, bool(np.all(lam.real < 0)))
 
 
-def critical_pair(lam, tol_imag=1e-8):
-    """Index of the complex eigenvalue (Im > 0) with the real part closest to 0, or None."""
-    idx = [i for i, v in enumerate(lam) if v.imag > tol_imag]
-    if not idx:
-        return None
-    return min(idx, key=lambda i: abs(lam[i].real))
-
-
 def locate_hopf(ode: ODE, p, param, x_guess, bracket, *, tol: float = 1e-12, max_iter: int = 60) -> HopfPoint | None:
     """Hopf point in ``bracket = (a, b)`` of parameter ``param``: the real part of the critical complex
     pair changes sign in the bracket; secant steps safeguarded by bisection (Illinois), the
-    equilibrium re-solved by Newton at each trial value."""
+    equilibrium re-solved by Newton at each trial value.
+
+    Parameters
+    ----------
+    ode : ODE
+        System.
+    p : array_like
+        Parameters.
+    param : int or str
+        The parameter varied.
+    x_guess : array_like
+        Equilibrium guess.
+    bracket : (float, float)
+        Parameter interval.
+    tol : float
+        Tolerance on the parameter.
+    max_iter : int
+        Largest number of steps.
+
+    Returns
+    -------
+    HopfPoint or None
+    """
     j = ode.param_index(param)
     p = np.asarray(p, float).ravel().copy()
     xg = np.asarray(x_guess, float).ravel()
@@ -302,7 +321,13 @@ class EquilibriumPoint:
         return self.eigenvalues
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`)."""
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self)
 
 
@@ -317,7 +342,13 @@ class EquilibriumFold:
     kind: str = "fold"
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`)."""
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self)
 
 
@@ -431,7 +462,12 @@ class EquilibriumBranchIterator(RunOnce):
         return found
 
     def branch(self) -> EquilibriumBranch:
-        """The branch followed so far (all of it after the iteration ended)."""
+        """The branch followed so far (all of it after the iteration ended).
+
+        Returns
+        -------
+        EquilibriumBranch
+        """
         nx = self.ode.nx
         if not self.points:
             return EquilibriumBranch(self.j, np.zeros(0), np.zeros((0, nx)), np.zeros((0, nx)), np.zeros(0, bool),
@@ -502,7 +538,24 @@ def orbit_from_hopf(ode: ODE, hopf: HopfPoint, amplitude: float, method: OrbitMe
 
 
 def hopf_branch(ode: ODE, hopf: HopfPoint, amplitudes, method: OrbitMethod = OrbitMethod(points=5, steps_per_period=100)) -> list:
-    """Orbits at increasing amplitudes from a Hopf point, each warm-started from the previous one."""
+    """Orbits at increasing amplitudes from a Hopf point, each warm-started from the previous one.
+
+    Parameters
+    ----------
+    ode : ODE
+        System.
+    hopf : HopfPoint
+        Start.
+    amplitudes : sequence of float
+        Amplitudes of the orbits.
+    method : OrbitMethod
+        Method of the orbit solves.
+
+    Returns
+    -------
+    list
+        The orbits.
+    """
     out, prev = [], None
     for a in amplitudes:
         r = orbit_from_hopf(ode, hopf, float(a), method, warm_start=prev)

@@ -31,13 +31,34 @@ class Executor:
 
     def map(self, fn: Callable, items: Iterable, on_result: Callable | None = None) -> list:
         """``[fn(item) for item in items]``; ``on_result(index, result)`` is called in this process as
-        each job finishes (in any order), e.g. to write it to disk before the others are done."""
+        each job finishes (in any order), e.g. to write it to disk before the others are done.
+
+        Parameters
+        ----------
+        fn : callable
+            Job (picklable for process and Dask executors).
+        items : iterable
+            Arguments, one per job.
+        on_result : callable, optional
+            ``on_result(index, result)``.
+
+        Returns
+        -------
+        list
+            Results in the order of ``items``.
+        """
         raise NotImplementedError
 
     def start(self) -> "Executor":
         """Make the workers ready now, in the calling thread (nothing to do for most executors). Call it
         from the main thread before calling :meth:`map` from another thread: local worker processes
-        are tied to the thread that started them (they are stopped when it ends)."""
+        are tied to the thread that started them (they are stopped when it ends).
+
+        Returns
+        -------
+        Executor
+            ``self``.
+        """
         return self
 
     def close(self) -> None:
@@ -48,6 +69,12 @@ class Executor:
         self.close()
 
     def describe(self) -> dict:
+        """What the results record about the executor.
+
+        Returns
+        -------
+        dict
+        """
         return {"executor": self.name}
 
     def __enter__(self):
@@ -67,6 +94,20 @@ class SerialExecutor(Executor):
     name = "serial"
 
     def map(self, fn, items, on_result=None):
+        """Parameters
+        ----------
+        fn : callable
+            Job.
+        items : iterable
+            Arguments, one per job.
+        on_result : callable, optional
+            ``on_result(index, result)``.
+
+        Returns
+        -------
+        list
+            Results in the order of ``items``.
+        """
         out = []
         for i, x in enumerate(items):
             out.append(fn(x))
@@ -122,10 +163,29 @@ class ProcessExecutor(Executor):
         return self._pool
 
     def start(self):
+        """Returns
+        -------
+        ProcessExecutor
+            ``self``.
+        """
         self._get()
         return self
 
     def map(self, fn, items, on_result=None):
+        """Parameters
+        ----------
+        fn : callable
+            Job (picklable).
+        items : iterable
+            Arguments, one per job.
+        on_result : callable, optional
+            ``on_result(index, result)``.
+
+        Returns
+        -------
+        list
+            Results in the order of ``items``.
+        """
         items = list(items)
         if not items:
             return []
@@ -141,18 +201,34 @@ class ProcessExecutor(Executor):
         return results
 
     def close(self):
+        """Close the pool and wait for its workers.
+
+        Returns
+        -------
+        None
+        """
         if self._pool is not None:
             self._pool.close()
             self._pool.join()
             self._pool = None
 
     def terminate(self):
+        """Returns
+        -------
+        None
+        """
         if self._pool is not None:
             self._pool.terminate()
             self._pool.join()
             self._pool = None
 
     def describe(self):
+        """What the results record about the executor (its name and worker count).
+
+        Returns
+        -------
+        dict
+        """
         return {"executor": self.name, "jobs": self.jobs}
 
 
@@ -174,7 +250,13 @@ class DaskExecutor(Executor):
         self._own = client is None
 
     def start(self):
-        """Connect to the scheduler now (an unreachable address raises here, before any job)."""
+        """Connect to the scheduler now (an unreachable address raises here, before any job).
+
+        Returns
+        -------
+        DaskExecutor
+            ``self``.
+        """
         self._get()
         return self
 
@@ -186,6 +268,20 @@ class DaskExecutor(Executor):
         return self._client
 
     def map(self, fn, items, on_result=None):
+        """Parameters
+        ----------
+        fn : callable
+            Job (picklable).
+        items : iterable
+            Arguments, one per job.
+        on_result : callable, optional
+            ``on_result(index, result)``.
+
+        Returns
+        -------
+        list
+            Results in the order of ``items``.
+        """
         items = list(items)
         if not items:
             return []
@@ -204,11 +300,23 @@ class DaskExecutor(Executor):
             raise
 
     def close(self):
+        """Close the client when this executor made it (a client passed in stays open).
+
+        Returns
+        -------
+        None
+        """
         if self._own and self._client is not None:
             self._client.close()
             self._client = None
 
     def describe(self):
+        """What the results record about the executor (its name and scheduler).
+
+        Returns
+        -------
+        dict
+        """
         return {"executor": self.name, "scheduler": self.address or str(getattr(self._client, "scheduler", ""))}
 
 

@@ -45,19 +45,45 @@ class FloquetResult:
 
     def to_dict(self) -> dict:
         """JSON-ready dict (:func:`birdocp.engine.results.result_dict`: complex numbers as [re, im]
-        pairs, non-finite numbers as null)."""
+        pairs, non-finite numbers as null).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self)
 
 
 def multiplier_order(lam) -> np.ndarray:
     """Indices sorting multipliers by modulus, largest first, then positive imaginary part first (the
-    order of every result)."""
+    order of every result).
+
+    Parameters
+    ----------
+    lam : array_like
+        Multipliers.
+
+    Returns
+    -------
+    ndarray of int
+    """
     lam = np.asarray(lam)
     return np.lexsort((-lam.imag, -np.abs(lam)))
 
 
 def sort_multipliers(lam) -> np.ndarray:
-    """Multipliers (complex) in the order of :func:`multiplier_order`."""
+    """Multipliers (complex) in the order of :func:`multiplier_order`.
+
+    Parameters
+    ----------
+    lam : array_like
+        Multipliers.
+
+    Returns
+    -------
+    ndarray of complex
+    """
     lam = np.asarray(lam).astype(complex)
     return lam[multiplier_order(lam)]
 
@@ -65,7 +91,18 @@ def sort_multipliers(lam) -> np.ndarray:
 def matched_distances(lam, ref) -> np.ndarray:
     """``|lam_k - ref_k|`` with ``lam`` permuted to minimise the largest distance (``ref``'s order kept;
     ties broken by the sum): the distance between two sets of multipliers that does not depend on how
-    each was sorted."""
+    each was sorted.
+
+    Parameters
+    ----------
+    lam, ref : array_like
+        Two sets of multipliers of equal size.
+
+    Returns
+    -------
+    ndarray
+        One distance per entry of ``ref``.
+    """
     import itertools
 
     lam, ref = np.asarray(lam, complex), np.asarray(ref, complex)
@@ -80,7 +117,18 @@ def doubling_time_s(rate_per_s):
 
     The one place a doubling or halving time is computed (the Floquet results, the CLI's text, the
     study tables): ``1 / rate`` would be the e-folding time, ``ln 2`` times shorter. Works on scalars
-    and arrays (a float for a scalar)."""
+    and arrays (a float for a scalar).
+
+    Parameters
+    ----------
+    rate_per_s : float or array_like
+        Growth rate [1/s].
+
+    Returns
+    -------
+    float or ndarray
+        [s].
+    """
     rate = np.asarray(rate_per_s, float)
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.where(rate == 0, np.inf, np.log(2.0) / np.where(rate == 0, 1.0, rate))
@@ -89,14 +137,40 @@ def doubling_time_s(rate_per_s):
 
 def multiplier_doubling_time_s(multiplier, period_s: float):
     """Signed doubling time [s] of a Floquet multiplier Λ of a cycle of period ``period_s``:
-    ``T ln 2 / ln|Λ|`` (:func:`doubling_time_s` of the rate ``ln|Λ| / T``; 0 for Λ = 0)."""
+    ``T ln 2 / ln|Λ|`` (:func:`doubling_time_s` of the rate ``ln|Λ| / T``; 0 for Λ = 0).
+
+    Parameters
+    ----------
+    multiplier : complex or array_like
+        Λ.
+    period_s : float
+        Period T [s].
+
+    Returns
+    -------
+    float or ndarray
+        [s].
+    """
     with np.errstate(divide="ignore"):
         rate = np.log(np.abs(np.asarray(multiplier, complex))) / float(period_s)
     return doubling_time_s(rate)
 
 
 def multipliers_info(monodromy: np.ndarray, period_s: float):
-    """(multipliers, eigenvectors, exponents, doubling times, stable) from a monodromy matrix."""
+    """(multipliers, eigenvectors, exponents, doubling times, stable) from a monodromy matrix.
+
+    Parameters
+    ----------
+    monodromy : ndarray, shape (n, n)
+        Monodromy matrix.
+    period_s : float
+        Period [s].
+
+    Returns
+    -------
+    tuple
+        ``(multipliers, eigenvectors, exponents [1/s], doubling times [s], stable)``.
+    """
     lam, vec = np.linalg.eig(monodromy)
     order = multiplier_order(lam)
     lam = lam[order].astype(complex)
@@ -109,7 +183,17 @@ def multipliers_info(monodromy: np.ndarray, period_s: float):
 
 
 def monodromy_of(jacobians) -> np.ndarray:
-    """The monodromy matrix: the product J_{M-2} ... J_1 J_0 of the segment Jacobians (in time order)."""
+    """The monodromy matrix: the product J_{M-2} ... J_1 J_0 of the segment Jacobians (in time order).
+
+    Parameters
+    ----------
+    jacobians : sequence of array_like
+        Segment Jacobians in time order.
+
+    Returns
+    -------
+    ndarray
+    """
     Mo = np.eye(np.asarray(jacobians[0]).shape[0])
     for J in jacobians:
         Mo = np.asarray(J) @ Mo
@@ -118,7 +202,21 @@ def monodromy_of(jacobians) -> np.ndarray:
 
 def floquet_from_jacobians(jacobians, full_period_jacobian, period_s) -> FloquetResult:
     """Floquet analysis from the segment Jacobians (time order) of a converged orbit; the monodromy is
-    compared with ``full_period_jacobian`` (the one-period map's Jacobian) as an accuracy indicator."""
+    compared with ``full_period_jacobian`` (the one-period map's Jacobian) as an accuracy indicator.
+
+    Parameters
+    ----------
+    jacobians : sequence of array_like
+        Segment Jacobians in time order.
+    full_period_jacobian : array_like
+        Jacobian of the one-period map.
+    period_s : float
+        Period [s].
+
+    Returns
+    -------
+    FloquetResult
+    """
     Mo = monodromy_of(jacobians)
     lam, vec, mu, dbl, stable = multipliers_info(Mo, period_s)
     diff = float(np.max(np.abs(Mo - full_period_jacobian))) if full_period_jacobian is not None else float("nan")

@@ -58,7 +58,13 @@ class CacheMiss(RuntimeError):
 
 
 def cache_dir() -> Path:
-    """``$BIRDOCP_CACHE``, else ``$XDG_CACHE_HOME/birdocp``, else ``~/.cache/birdocp``."""
+    """``$BIRDOCP_CACHE``, else ``$XDG_CACHE_HOME/birdocp``, else ``~/.cache/birdocp``.
+
+    Returns
+    -------
+    Path
+        The cache folder (not created here).
+    """
     env = os.environ.get("BIRDOCP_CACHE")
     if env:
         return Path(env).expanduser()
@@ -67,12 +73,28 @@ def cache_dir() -> Path:
 
 
 def enabled() -> bool:
-    """False when ``$BIRDOCP_GRAPH_CACHE`` is ``0``/``off``/``no``/``false``."""
+    """False when ``$BIRDOCP_GRAPH_CACHE`` is ``0``/``off``/``no``/``false``.
+
+    Returns
+    -------
+    bool
+    """
     return os.environ.get("BIRDOCP_GRAPH_CACHE", "1").strip().lower() not in _OFF
 
 
 def source_digest(paths) -> str:
-    """SHA-256 over the names and contents of ``paths`` (sorted by name)."""
+    """SHA-256 over the names and contents of ``paths`` (sorted by name).
+
+    Parameters
+    ----------
+    paths : iterable of Path
+        Files to hash.
+
+    Returns
+    -------
+    str
+        Hexadecimal digest.
+    """
     h = hashlib.sha256()
     for p in sorted(Path(p) for p in paths):
         h.update(p.name.encode())
@@ -83,7 +105,18 @@ def source_digest(paths) -> str:
 
 
 def key_digest(key: dict) -> str:
-    """Hash of a key dict (JSON with sorted keys; the format version and CasADi version included)."""
+    """Hash of a key dict (JSON with sorted keys; the format version and CasADi version included).
+
+    Parameters
+    ----------
+    key : dict
+        JSON-able key.
+
+    Returns
+    -------
+    str
+        24 hexadecimal digits.
+    """
     return hashlib.sha256(_canonical(key).encode()).hexdigest()[:24]
 
 
@@ -114,14 +147,34 @@ class Entry:
         return tuple(self.manifest["files"])
 
     def signature(self, name: str) -> dict | None:
-        """The stored signature of ``name`` (:func:`birdocp.engine.lazy.signature`), or None."""
+        """The stored signature of ``name`` (:func:`birdocp.engine.lazy.signature`), or None.
+
+        Parameters
+        ----------
+        name : str
+            Function name.
+
+        Returns
+        -------
+        dict or None
+        """
         info = self.manifest["files"].get(name) or {}
         sig = info.get("signature")
         return sig if isinstance(sig, dict) and {"name", "size_in", "size_out"} <= set(sig) else None
 
     def function(self, name: str) -> ca.Function:
         """The Function ``name``; raises :class:`CacheMiss` (and removes the entry) if its file is
-        missing, has the wrong size or checksum, or does not deserialise."""
+        missing, has the wrong size or checksum, or does not deserialise.
+
+        Parameters
+        ----------
+        name : str
+            Function name.
+
+        Returns
+        -------
+        casadi.Function
+        """
         t = time.perf_counter()
         info = self.manifest["files"].get(name)
         if info is None:
@@ -159,7 +212,21 @@ def _remove(folder: Path) -> None:
 
 def load(kind: str, key: dict, directory=None) -> Entry | None:
     """The entry of ``kind`` for ``key``, or None (absent, disabled, unreadable or foreign manifest:
-    a foreign or broken entry is removed)."""
+    a foreign or broken entry is removed).
+
+    Parameters
+    ----------
+    kind : str
+        Kind of entry.
+    key : dict
+        JSON-able key.
+    directory : str or Path, optional
+        Cache folder (default :func:`cache_dir`).
+
+    Returns
+    -------
+    Entry or None
+    """
     if not enabled():
         return None
     folder = _folder(kind, key, directory)
@@ -183,7 +250,25 @@ def load(kind: str, key: dict, directory=None) -> Entry | None:
 
 def store(kind: str, key: dict, functions: dict, meta: dict | None = None, directory=None) -> Path | None:
     """Write ``functions`` (name -> Function) as the entry of ``kind`` for ``key``; returns its folder,
-    or None when disabled or the write failed (never raises for I/O)."""
+    or None when disabled or the write failed (never raises for I/O).
+
+    Parameters
+    ----------
+    kind : str
+        Kind of entry.
+    key : dict
+        JSON-able key.
+    functions : dict of str to casadi.Function
+        Functions to store.
+    meta : dict, optional
+        JSON-able data stored with them.
+    directory : str or Path, optional
+        Cache folder (default :func:`cache_dir`).
+
+    Returns
+    -------
+    Path or None
+    """
     if not enabled():
         return None
     root = _root(directory)
@@ -230,14 +315,36 @@ def _prune(root: Path, kind: str, keep: Path) -> None:
 
 def remove_oldest(entries: list, n_kept: int, keep: Path, remove) -> None:
     """Keep the ``n_kept`` newest of ``entries`` (``(mtime, path)`` pairs) and pass the others to
-    ``remove`` (the cache's policy, also the data store's); ``keep``, the entry just written, stays."""
+    ``remove`` (the cache's policy, also the data store's); ``keep``, the entry just written, stays.
+
+    Parameters
+    ----------
+    entries : list of (float, Path)
+        Entries with their modification times.
+    n_kept : int
+        Number of entries kept.
+    keep : Path
+        Entry that stays in any case.
+    remove : callable
+        ``remove(path)``.
+    """
     for _, path in sorted(entries, reverse=True)[n_kept:]:
         if path != keep:
             remove(path)
 
 
 def clear(directory=None) -> int:
-    """Remove every graph-cache entry; returns how many were removed."""
+    """Remove every graph-cache entry; returns how many were removed.
+
+    Parameters
+    ----------
+    directory : str or Path, optional
+        Cache folder (default :func:`cache_dir`).
+
+    Returns
+    -------
+    int
+    """
     root = _root(directory)
     n = 0
     for d in list(root.glob("*-*")) if root.exists() else []:

@@ -23,6 +23,7 @@ import numpy as np
 from birdocp.engine import datastore
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.problem import PeriodicODE
+from birdocp.engine.stage_grid import stage_block_index, stage_time_grid  # noqa: F401 (re-exported)
 
 __all__ = [
     "rk4_update",
@@ -51,7 +52,26 @@ def clear_stage_data() -> None:
 def rk4_update(f, x, D3, h, *args):
     """One classical RK4 step of ``x' = f(x, d, *args)`` with the data at the stage times
     ``D3 = [d(t), d(t + h/2), d(t + h)]``: the one RK4 formula of the package (shooting, simulation,
-    C export). Returns ``(x_next, (x1, x2, x3, x4))``, the stage states for quadratures."""
+    C export). Returns ``(x_next, (x1, x2, x3, x4))``, the stage states for quadratures.
+
+    Parameters
+    ----------
+    f : callable
+        ``f(x, d, *args) -> x'``.
+    x : casadi.SX or MX
+        State at t.
+    D3 : casadi.SX or MX
+        Data at the three stage times (3 columns).
+    h : casadi.SX or float
+        Step [s].
+    *args
+        Further arguments of ``f``.
+
+    Returns
+    -------
+    tuple
+        ``(x_next, (x1, x2, x3, x4))``.
+    """
     d0, dm, d1 = D3[:, 0], D3[:, 1], D3[:, 2]
     x1 = x
     k1 = f(x1, d0, *args)
@@ -69,6 +89,17 @@ def rk4_step(ode: PeriodicODE, outputs=()) -> ca.Function:
 
     ``q_inc`` (nq x 1) is the RK4 increment of the integral of each output in ``outputs`` (an output
     may return a column: its entries are integrated together, in order).
+
+    Parameters
+    ----------
+    ode : PeriodicODE
+        System.
+    outputs : sequence of casadi.Function
+        Outputs integrated along the step.
+
+    Returns
+    -------
+    casadi.Function
     """
     nx, nd, np_ = ode.nx, ode.nd, ode.np
     x = ca.SX.sym("x", nx)
@@ -94,7 +125,27 @@ def accumulate(f: ca.Function, n: int, x, D, *args, name: str = "acc") -> list:
     """``f.mapaccum(n)(x, D, *args)`` for a step ``f(x, D3, *args) -> (x_next, ...)``: n steps, the
     state fed back, D holding 3 data columns per step, ``args`` the same at every step. Returns the
     outputs hstacked over the n steps (as ``mapaccum``), built in chunks of at most
-    :data:`MAPACCUM_CHUNK` steps."""
+    :data:`MAPACCUM_CHUNK` steps.
+
+    Parameters
+    ----------
+    f : casadi.Function
+        One step.
+    n : int
+        Number of steps.
+    x : casadi.MX
+        Initial state.
+    D : casadi.MX
+        Data, 3 columns per step.
+    *args
+        Further inputs of ``f``, the same at every step.
+    name : str
+        Name of the mapaccum Functions.
+
+    Returns
+    -------
+    list of casadi.MX
+    """
     n = int(n)
     k = max(d for d in range(1, min(n, MAPACCUM_CHUNK) + 1) if n % d == 0)
     if k == n or k < 8:  # short, or no useful divisor (e.g. a prime count of steps): one piece
@@ -111,22 +162,23 @@ def accumulate(f: ca.Function, n: int, x, D, *args, name: str = "acc") -> list:
 def column_blocks(D, count: int) -> list:
     """``D`` cut into ``count`` blocks of equal column counts, left to right (one ``horzsplit`` node:
     slicing an MX column range builds an index list of every nonzero, ~3 ms per block of the bird's
-    stage data)."""
+    stage data).
+
+    Parameters
+    ----------
+    D : casadi.MX
+        Matrix whose column count is a multiple of ``count``.
+    count : int
+        Number of blocks.
+
+    Returns
+    -------
+    list of casadi.MX
+    """
     n = D.size2()
     if n % count:
         raise ValueError(f"{n} columns do not split into {count} equal blocks")
     return ca.horzsplit(D, list(range(0, n + 1, n // count)))
-
-
-def stage_time_grid(t0: float, period_s: float, n_steps: int) -> np.ndarray:
-    """The 2N+1 times ``t0 + k h/2`` at which RK4 needs the data (1 x (2N+1))."""
-    h = period_s / n_steps
-    return (t0 + 0.5 * h * np.arange(2 * n_steps + 1)).reshape(1, -1)
-
-
-def stage_block_index(n_steps: int) -> list[int]:
-    """Column indices into the data grid giving the hstacked per-step blocks (2k, 2k+1, 2k+2)."""
-    return [c for k in range(n_steps) for c in (2 * k, 2 * k + 1, 2 * k + 2)]
 
 
 class RK4Grid:
@@ -479,7 +531,29 @@ class RK4Grid:
 
 
 def simulate(ode: PeriodicODE, x0, p, steps_per_period: int = 148, n_periods: int = 1, t0: float = 0.0):
-    """Plain RK4 from x0 over ``n_periods`` periods. Returns (t[K+1], X[K+1, nx])."""
+    """Plain RK4 from x0 over ``n_periods`` periods. Returns (t[K+1], X[K+1, nx]).
+
+    Parameters
+    ----------
+    ode : PeriodicODE
+        System.
+    x0 : array_like
+        State at ``t0``.
+    p : array_like
+        Parameters.
+    steps_per_period : int
+        RK4 steps per period.
+    n_periods : int
+        Number of periods.
+    t0 : float
+        Start time [s].
+
+    Returns
+    -------
+    t : ndarray, shape (K + 1,)
+        Times [s].
+    X : ndarray, shape (K + 1, nx)
+    """
     grid = RK4Grid(ode, steps_per_period, 1)
     D = grid.blocks_numeric(t0, p)
     pd = ca.DM(np.asarray(p, float))

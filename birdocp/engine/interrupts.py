@@ -37,7 +37,12 @@ def note() -> None:
 
 
 def pending() -> bool:
-    """Whether an interrupt was recorded and not yet raised by :func:`check`."""
+    """Whether an interrupt was recorded and not yet raised by :func:`check`.
+
+    Returns
+    -------
+    bool
+    """
     return _pending
 
 
@@ -56,7 +61,12 @@ def _handler(signum, frame):
 
 def install() -> bool:
     """Record SIGINT for the rest of the process (a command-line program calls this once); returns
-    whether the handler was installed (main thread, SIGINT not ignored or handled elsewhere)."""
+    whether the handler was installed (main thread, SIGINT not ignored or handled elsewhere).
+
+    Returns
+    -------
+    bool
+    """
     if threading.current_thread() is not threading.main_thread():
         return False
     with contextlib.suppress(ValueError, TypeError):
@@ -70,7 +80,12 @@ def install() -> bool:
 def interruptible() -> Iterator[None]:
     """Record SIGINT while the body runs (see the module docstring); on leaving, a recorded interrupt
     is raised as ``KeyboardInterrupt``, also when the body ended with another exception (e.g. CasADi's
-    ``RuntimeError`` around an interrupted callback)."""
+    ``RuntimeError`` around an interrupted callback).
+
+    Yields
+    ------
+    None
+    """
     installed = False
     if threading.current_thread() is threading.main_thread():
         with contextlib.suppress(ValueError, TypeError):
@@ -95,7 +110,13 @@ def interruptible() -> Iterator[None]:
 
 
 def check_from(exc: BaseException) -> None:
-    """Raise the recorded interrupt in place of ``exc`` (chained), if there is one."""
+    """Raise the recorded interrupt in place of ``exc`` (chained), if there is one.
+
+    Parameters
+    ----------
+    exc : BaseException
+        The exception being handled.
+    """
     global _pending
     if _pending:
         _pending = False

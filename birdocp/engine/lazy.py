@@ -21,7 +21,17 @@ _SIGNATURE_QUERIES = ("n_in", "n_out", "size_in", "size_out", "size1_in", "size2
 
 
 def signature(f: ca.Function) -> dict:
-    """``{"name", "size_in": [[rows, cols], ...], "size_out": [...]}`` of a Function (JSON-able)."""
+    """``{"name", "size_in": [[rows, cols], ...], "size_out": [...]}`` of a Function (JSON-able).
+
+    Parameters
+    ----------
+    f : casadi.Function
+        Function.
+
+    Returns
+    -------
+    dict
+    """
     return {"name": f.name(), "size_in": [list(f.size_in(i)) for i in range(f.n_in())],
             "size_out": [list(f.size_out(i)) for i in range(f.n_out())]}
 

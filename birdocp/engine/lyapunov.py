@@ -57,7 +57,13 @@ class LyapunovResult:
         return float(np.sum(self.exponents))
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; the histories are left out)."""
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; the histories are left out).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self, derived=("sum",), extra={"wall_s": {"total": self.wall_s}})
 
 
@@ -108,7 +114,17 @@ def _benettin(chunk, x, Q, t: float, pd, dt: float, tau: float, n: int, orient: 
 def kaplan_yorke_dimension(lam) -> float:
     """The Kaplan-Yorke dimension of a full Lyapunov spectrum ``lam`` (largest first): ``j + S_j /
     |lam_{j+1}|`` with ``j`` the largest index where the partial sum ``S_j >= 0`` (0 when the largest
-    exponent is negative, nx when the sum is not)."""
+    exponent is negative, nx when the sum is not).
+
+    Parameters
+    ----------
+    lam : array_like
+        Lyapunov exponents, largest first [1/s].
+
+    Returns
+    -------
+    float
+    """
     cs = np.cumsum(lam)
     if cs[0] < 0:
         return 0.0

@@ -75,6 +75,13 @@ class ODE(RhsDimensions):
         forcing_period : float, optional
             Period of the forcing of a non-autonomous system (time units of the system).
         state_names : sequence of str, optional
+            Names of the states.
+        name : str
+            Name of the right-hand-side Function.
+
+        Returns
+        -------
+        ODE
         """
         if isinstance(params, (int, np.integer)):
             n_p, pnames = int(params), ()
@@ -107,7 +114,21 @@ class ODE(RhsDimensions):
     @staticmethod
     def from_casadi(rhs: ca.Function, *, forcing_period: float | None = None, state_names=(),
                     param_names=()) -> "ODE":
-        """Wrap an existing Function ``(x, t, p) -> xdot`` (expanded to SX when it is MX)."""
+        """Wrap an existing Function ``(x, t, p) -> xdot`` (expanded to SX when it is MX).
+
+        Parameters
+        ----------
+        rhs : casadi.Function
+            ``(x, t, p) -> xdot``.
+        forcing_period : float, optional
+            Period of the forcing [s] (None: autonomous).
+        state_names, param_names : sequence of str
+            Names (default: indices).
+
+        Returns
+        -------
+        ODE
+        """
         if not isinstance(rhs, ca.Function) or rhs.n_in() != 3:
             raise ValueError("ODE.from_casadi: expected a casadi.Function with inputs (x, t, p)")
         nx, n_p = rhs.size1_in(0), rhs.size1_in(2)
@@ -115,7 +136,17 @@ class ODE(RhsDimensions):
                                  forcing_period=forcing_period, state_names=state_names)
 
     def param_index(self, key) -> int:
-        """Index of a parameter given by name or index."""
+        """Index of a parameter given by name or index.
+
+        Parameters
+        ----------
+        key : str or int
+            Name or index.
+
+        Returns
+        -------
+        int
+        """
         if isinstance(key, str):
             if key not in self.param_names:
                 raise ValueError(f"unknown parameter {key!r}; parameters: {self.param_names}")
@@ -126,7 +157,12 @@ class ODE(RhsDimensions):
         return i
 
     def jacobian_function(self) -> ca.Function:
-        """``(x, t, p) -> df/dx`` (exact, SX), built on first use."""
+        """``(x, t, p) -> df/dx`` (exact, SX), built on first use.
+
+        Returns
+        -------
+        casadi.Function
+        """
         fn = _JACS.get(id(self))
         if fn is None:
             x, t, p = ca.SX.sym("x", self.nx), ca.SX.sym("t"), ca.SX.sym("p", self.np)
@@ -137,7 +173,21 @@ class ODE(RhsDimensions):
         return fn[1]
 
     def evaluate(self, x, t, p) -> np.ndarray:
-        """f(x, t, p) as a numpy vector."""
+        """f(x, t, p) as a numpy vector.
+
+        Parameters
+        ----------
+        x : array_like
+            State.
+        t : float
+            Time.
+        p : array_like
+            Parameters.
+
+        Returns
+        -------
+        ndarray
+        """
         x, p = np.asarray(x, float).ravel(), np.asarray(p, float).ravel()
         if x.size != self.nx or p.size != self.np:  # CasADi would broadcast a scalar silently
             raise ValueError(f"ODE.evaluate: x has {x.size} entries and p {p.size}; the ODE has nx={self.nx}, "
@@ -146,7 +196,17 @@ class ODE(RhsDimensions):
 
     def to_periodic_ode(self, period_s: float):
         """The same forced system as a :class:`~birdocp.engine.problem.PeriodicODE` (for the bird-style
-        shooting of :mod:`birdocp.engine.shooting`)."""
+        shooting of :mod:`birdocp.engine.shooting`).
+
+        Parameters
+        ----------
+        period_s : float
+            Forcing period [s].
+
+        Returns
+        -------
+        PeriodicODE
+        """
         from birdocp.engine.problem import PeriodicODE
 
         return PeriodicODE.from_rhs(self.rhs, period_s, self.state_names, self.param_names)

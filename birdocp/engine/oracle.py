@@ -31,6 +31,15 @@ def ipopt_options(**over) -> dict:
 
     Quasi-Newton Hessian (the exact Hessian through the integrator was 10x slower for the same
     iterations), MUMPS (the linear solver shipped in the casadi wheels), no banner or timing output.
+
+    Parameters
+    ----------
+    **over
+        Options replacing the defaults (``ipopt.*`` keys included).
+
+    Returns
+    -------
+    dict
     """
     opts = {"ipopt.hessian_approximation": "limited-memory", "ipopt.sb": "yes", "ipopt.print_level": 0,
             "print_time": False, "ipopt.linear_solver": "mumps"}
@@ -44,15 +53,45 @@ class Evaluator:
     :meth:`jacobian`."""
 
     def evaluate(self, z):  # pragma: no cover - the contract
-        """``(g, dense dg/dz)`` at ``z``."""
+        """``(g, dense dg/dz)`` at ``z``.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        g, J : ndarray
+        """
         raise NotImplementedError
 
     def g(self, z):
-        """The constraint values at ``z``."""
+        """The constraint values at ``z``.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray
+        """
         return self.evaluate(z)[0]
 
     def jacobian(self, z):
-        """The dense constraint Jacobian at ``z``."""
+        """The dense constraint Jacobian at ``z``.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray
+        """
         return self.evaluate(z)[1]
 
 
@@ -78,7 +117,19 @@ class StencilHessian:
     last: tuple | None = None
 
     def columns(self, ev, z) -> np.ndarray:
-        """``(nz, ng, nz)`` array: ``[k] = dJ/dz_k`` (dense ng x nz slices) at ``z``."""
+        """``(nz, ng, nz)`` array: ``[k] = dJ/dz_k`` (dense ng x nz slices) at ``z``.
+
+        Parameters
+        ----------
+        ev : Evaluator
+            Constraint evaluator.
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray, shape (nz, ng, nz)
+        """
         z = np.asarray(z, float).ravel()
         J0 = np.asarray(ev.jacobian(z), float)
         near = getattr(ev, "jacobian_near", None)
@@ -114,7 +165,19 @@ class FixedHessian:
     values: np.ndarray
 
     def columns(self, ev, z) -> np.ndarray:
-        """The fixed ``(nz, ng, nz)`` array (``ev`` and ``z`` unused)."""
+        """The fixed ``(nz, ng, nz)`` array (``ev`` and ``z`` unused).
+
+        Parameters
+        ----------
+        ev : Evaluator
+            Unused.
+        z : ndarray
+            Unused.
+
+        Returns
+        -------
+        ndarray, shape (nz, ng, nz)
+        """
         return self.values
 
 

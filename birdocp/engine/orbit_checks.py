@@ -49,6 +49,15 @@ def cover_multiple(traj, F, period: float, k_max: int = 16, rel_tol: float = 1e-
         f at those states.
     period : float
         T.
+    k_max : int
+        Largest k tested.
+    rel_tol : float
+        Largest relative mismatch of a cover.
+
+    Returns
+    -------
+    k : int
+    mismatch : float
     """
     N = traj.shape[0] - 1
     amp = float(np.max(np.abs(traj - traj[0])))
@@ -68,7 +77,19 @@ def cover_multiple(traj, F, period: float, k_max: int = 16, rel_tol: float = 1e-
 
 def solver_error(J, g) -> float:
     """First-order distance from z to the exact solution of the discrete equations: |g|_2 / sigma_min(J)
-    (inf when J is singular)."""
+    (inf when J is singular).
+
+    Parameters
+    ----------
+    J : array_like
+        Jacobian of the discrete equations.
+    g : array_like
+        Their residual.
+
+    Returns
+    -------
+    float
+    """
     if not (np.all(np.isfinite(J)) and np.all(np.isfinite(g))):
         return float("nan")
     smin = float(np.linalg.svd(J, compute_uv=False)[-1])
@@ -81,6 +102,19 @@ def richardson_errors(lam, lam_fine, x0, x0_fine, means: dict, means_fine: dict,
     multipliers, of x0 and of the period means scaled by ``2^order / (2^order - 1)`` (Richardson),
     plus the solver's part ``e_solver`` (added to x0 and, relative to the state's size ``1 +
     max|x0|``, to the multipliers); every estimate at least the round-off of its value.
+
+    Parameters
+    ----------
+    lam, lam_fine : array_like
+        Multipliers on N and 2N steps.
+    x0, x0_fine : array_like
+        Start states on N and 2N steps.
+    means, means_fine : dict
+        Period means by name on N and 2N steps.
+    e_solver : float
+        Solver error (:func:`solver_error`).
+    order : int
+        Order of the integrator.
 
     Returns
     -------
@@ -102,7 +136,17 @@ def richardson_errors(lam, lam_fine, x0, x0_fine, means: dict, means_fine: dict,
 
 
 def match_multipliers(a, b):
-    """Max |a_i - b_j| over a greedy nearest matching of two multiplier lists, and of the relative."""
+    """Max |a_i - b_j| over a greedy nearest matching of two multiplier lists, and of the relative.
+
+    Parameters
+    ----------
+    a, b : sequence of complex
+        Multipliers.
+
+    Returns
+    -------
+    max_abs, max_rel : float
+    """
     b = list(b)
     ab, rel = 0.0, 0.0
     for v in a:
@@ -122,7 +166,21 @@ def _eig_condition(monodromy) -> float:
 
 def attach_error(res, fine, order: int, accuracy: float, e_solver: float) -> None:
     """Fill ``res.error_estimate`` and ``res.accurate`` from the 2N re-solve ``fine`` (an OrbitResult)
-    and the solver error ``e_solver`` (see the module docstring)."""
+    and the solver error ``e_solver`` (see the module docstring).
+
+    Parameters
+    ----------
+    res : OrbitResult
+        Result, changed in place.
+    fine : OrbitResult
+        The re-solve on 2N steps.
+    order : int
+        Order of the integrator.
+    accuracy : float
+        Accuracy asked for.
+    e_solver : float
+        Solver error (:func:`solver_error`).
+    """
     fac = 2.0 ** order / (2.0 ** order - 1.0)
     e_solver = float(e_solver) if np.isfinite(e_solver) else float("inf")
     if not fine.success or fine.multipliers is None or res.multipliers is None:
@@ -154,7 +212,27 @@ def attach_error(res, fine, order: int, accuracy: float, e_solver: float) -> Non
 def failure_reason(traj, x_ref, normal, period, period_lo, period_hi, amplitude0) -> str:
     """Why a solve that did not converge failed, from its last iterate (empty if nothing is known):
     the period at a bound, a fixed section that the trajectory never meets, a trajectory collapsing
-    onto an equilibrium."""
+    onto an equilibrium.
+
+    Parameters
+    ----------
+    traj : ndarray, shape (N + 1, nx)
+        Trajectory of the last iterate.
+    x_ref : ndarray
+        Point of the phase condition.
+    normal : ndarray
+        Normal of the phase condition.
+    period : float
+        Period of the last iterate.
+    period_lo, period_hi : float
+        Bounds of the period.
+    amplitude0 : float
+        Amplitude of the guess.
+
+    Returns
+    -------
+    str
+    """
     reasons = []
     if np.isfinite(period) and (period <= period_lo * (1 + 1e-9) or period >= period_hi * (1 - 1e-9)):
         reasons.append(f"the period ran to its bound ({period:.4g}; OrbitMethod.period_bounds)")

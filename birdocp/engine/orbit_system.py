@@ -59,7 +59,23 @@ def _cached(cache, key, make):
 
 
 def orbit_graphs(ode: ODE, N: int, S: int, integrator: str) -> OrbitGraphs:
-    """The cached :class:`OrbitGraphs` of (ode, N steps, S segments, integrator)."""
+    """The cached :class:`OrbitGraphs` of (ode, N steps, S segments, integrator).
+
+    Parameters
+    ----------
+    ode : ODE
+        System.
+    N : int
+        Integration steps per period.
+    S : int
+        Shooting segments.
+    integrator : str
+        Integrator name.
+
+    Returns
+    -------
+    OrbitGraphs
+    """
     return _cached(_GRAPHS, (id(ode), N, S, integrator), lambda: OrbitGraphs(ode, N, S, integrator))
 
 
@@ -94,7 +110,25 @@ class OrbitSystem(Evaluator):
         self._oracle = None
 
     def set_context(self, p, T, t0, lin_A, lin_b):
-        """The numbers of a solve: parameters, period, start time and the linear rows ``A z = b``."""
+        """The numbers of a solve: parameters, period, start time and the linear rows ``A z = b``.
+
+        Parameters
+        ----------
+        p : array_like
+            Parameters.
+        T : float
+            Period.
+        t0 : float
+            Start time.
+        lin_A : ndarray
+            Matrix of the linear rows.
+        lin_b : ndarray
+            Their right-hand side.
+
+        Returns
+        -------
+        None
+        """
         self._ctx = (np.asarray(p, float).copy(), float(T), float(t0),
                      np.array(lin_A, float).reshape(self.n_lin, self.nz), np.array(lin_b, float).ravel())
         self._last = None
@@ -105,7 +139,17 @@ class OrbitSystem(Evaluator):
         return self._ctx
 
     def q_of(self, z) -> np.ndarray:
-        """(p, T, t0) at z."""
+        """(p, T, t0) at z.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray
+        """
         p, T, t0 = self._ctx[0].copy(), self._ctx[1], self._ctx[2]
         k = self.nX
         if self.period_free:
@@ -116,7 +160,17 @@ class OrbitSystem(Evaluator):
         return np.concatenate([p, [T, t0]])
 
     def points(self, z) -> np.ndarray:
-        """The shooting points at z (nx x (S+1))."""
+        """The shooting points at z (nx x (S+1)).
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray, shape (nx, S + 1)
+        """
         return np.asarray(z[:self.nX]).reshape(self.S + 1, self.nx).T
 
     def _core(self, z):
@@ -134,7 +188,17 @@ class OrbitSystem(Evaluator):
 
     def residual(self, z):
         """The residual g alone (no Jacobian: about nx+1 times cheaper than :meth:`evaluate` when z is
-        not the point of the last evaluation)."""
+        not the point of the last evaluation).
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray
+        """
         z = np.asarray(z, float).ravel()
         if self._last is not None and self._last[0] == z.tobytes():
             return self.evaluate(z)[0]
@@ -148,7 +212,17 @@ class OrbitSystem(Evaluator):
         return np.concatenate([(Xe - X[:, 1:]).T.ravel(), X[:, S] - X[:, 0], A @ z - b])
 
     def evaluate(self, z):
-        """Residual g (continuity, periodicity, linear rows) and its exact Jacobian at z."""
+        """Residual g (continuity, periodicity, linear rows) and its exact Jacobian at z.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        g, J : ndarray
+        """
         z = np.asarray(z, float).ravel()
         Xe, Jx, Jq = self._core(z)
         nx, S = self.nx, self.S
@@ -173,7 +247,15 @@ class OrbitSystem(Evaluator):
 
     def anchor_phase(self, z, row: int = 0) -> None:
         """Re-anchor linear row ``row`` as the Poincare section through X_0(z) orthogonal to the flow
-        there (the row then reads 0 at z); no change where f(X_0) is zero or not finite."""
+        there (the row then reads 0 at z); no change where f(X_0) is zero or not finite.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+        row : int
+            Linear row re-anchored.
+        """
         x0 = np.asarray(z[:self.nx], float)
         q = self.q_of(z)
         f = self.G.ode.evaluate(x0, q[-1], q[:self.G.ode.np])
@@ -186,12 +268,32 @@ class OrbitSystem(Evaluator):
         b[row] = float(A[row] @ z)
 
     def blocks(self, z):
-        """The segment Jacobians (monodromy factors) at z."""
+        """The segment Jacobians (monodromy factors) at z.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        list of ndarray
+        """
         Jx = self._core(np.asarray(z, float).ravel())[1]
         return [Jx[:, i * self.nx:(i + 1) * self.nx] for i in range(self.S)]
 
     def ipopt(self, method: OrbitMethod):
-        """The IPOPT feasibility solver of this system (built once per option set)."""
+        """The IPOPT feasibility solver of this system (built once per option set).
+
+        Parameters
+        ----------
+        method : OrbitMethod
+            Method (its IPOPT options).
+
+        Returns
+        -------
+        casadi.Function
+        """
         if self._solver is None or self._solver[0] != repr(sorted(method.ipopt_options.items())) + str(
                 (method.tol, method.max_iter)):
             if self._oracle is None:
@@ -206,7 +308,23 @@ class OrbitSystem(Evaluator):
 
 
 def orbit_system(graphs, period_free, free_idx, n_lin) -> OrbitSystem:
-    """The cached :class:`OrbitSystem` over ``graphs`` for one layout of unknowns and linear rows."""
+    """The cached :class:`OrbitSystem` over ``graphs`` for one layout of unknowns and linear rows.
+
+    Parameters
+    ----------
+    graphs : OrbitGraphs
+        Graphs of the system.
+    period_free : bool
+        The period is an unknown.
+    free_idx : sequence of int
+        Indices of the free parameters.
+    n_lin : int
+        Number of linear rows.
+
+    Returns
+    -------
+    OrbitSystem
+    """
     return _cached(_EVALS, (id(graphs), bool(period_free), tuple(free_idx), int(n_lin)),
                    lambda: OrbitSystem(graphs, period_free, free_idx, n_lin))
 
@@ -217,7 +335,27 @@ def orbit_residual_system(ode: ODE, method: OrbitMethod, *, period_free: bool, f
     ``blocks(z)``, ``nz``, ``ng``, ``points(z)``, ``q_of(z)``) for continuation and Hopf starts.
 
     The graphs are always cached; ``cached=False`` gives an evaluator of its own (its context -- the
-    parameters and linear rows -- is then not changed by other solves)."""
+    parameters and linear rows -- is then not changed by other solves).
+
+    Parameters
+    ----------
+    ode : ODE
+        System.
+    method : OrbitMethod
+        Method (points, steps, integrator).
+    period_free : bool
+        The period is an unknown.
+    free_idx : sequence of int
+        Indices of the free parameters.
+    n_lin : int
+        Number of linear rows.
+    cached : bool
+        Share the cached evaluator.
+
+    Returns
+    -------
+    OrbitSystem
+    """
     method.validate()
     if method.steps_per_period is None:
         raise ValueError("orbit_residual_system: give steps_per_period (a number)")
@@ -230,7 +368,25 @@ def orbit_residual_system(ode: ODE, method: OrbitMethod, *, period_free: bool, f
 
 def initial_points(graphs: OrbitGraphs, x_guess, p, T, t0) -> np.ndarray:
     """Shooting points (nx x (S+1)) from a guess: a single point is integrated forward over T; a
-    list of M or M-1 points is used as is (closed with the first)."""
+    list of M or M-1 points is used as is (closed with the first).
+
+    Parameters
+    ----------
+    graphs : OrbitGraphs
+        Graphs of the system.
+    x_guess : array_like
+        One point or a list of points.
+    p : array_like
+        Parameters.
+    T : float
+        Period.
+    t0 : float
+        Start time.
+
+    Returns
+    -------
+    ndarray, shape (nx, S + 1)
+    """
     S = graphs.S
     xg = np.asarray(x_guess, float)
     if xg.ndim == 2:
@@ -244,7 +400,25 @@ def initial_points(graphs: OrbitGraphs, x_guess, p, T, t0) -> np.ndarray:
 
 
 def forward_points(graphs: OrbitGraphs, x, p, T, t0) -> np.ndarray:
-    """Points along the trajectory from x at the shooting times (nx x (S+1))."""
+    """Points along the trajectory from x at the shooting times (nx x (S+1)).
+
+    Parameters
+    ----------
+    graphs : OrbitGraphs
+        Graphs of the system.
+    x : array_like
+        Start point.
+    p : array_like
+        Parameters.
+    T : float
+        Period.
+    t0 : float
+        Start time.
+
+    Returns
+    -------
+    ndarray, shape (nx, S + 1)
+    """
     q = ca.DM(np.concatenate([p, [T, t0]]))
     pts = [np.asarray(x, float)]
     for i in range(graphs.S):
@@ -261,7 +435,26 @@ def first_return_period(graphs: OrbitGraphs, x, p, T_guess: float, t0: float = 0
     through x orthogonal to f(x) (in the direction of the flow) between T_guess/1.6 and 1.6 T_guess.
 
     Returns ``(T, distance)`` (None, inf when there is no such crossing). The trajectory is the
-    graphs' grid stretched to 1.6 T_guess (steps 1.6 times longer)."""
+    graphs' grid stretched to 1.6 T_guess (steps 1.6 times longer).
+
+    Parameters
+    ----------
+    graphs : OrbitGraphs
+        Graphs of the system.
+    x : array_like
+        Start point.
+    p : array_like
+        Parameters.
+    T_guess : float
+        Period guess.
+    t0 : float
+        Start time.
+
+    Returns
+    -------
+    T : float or None
+    distance : float
+    """
     ode = graphs.ode
     x = np.asarray(x, float)
     f = ode.evaluate(x, t0, p)
@@ -286,7 +479,25 @@ def first_return_period(graphs: OrbitGraphs, x, p, T_guess: float, t0: float = 0
 
 def trajectory(graphs: OrbitGraphs, X, p, T: float, t0: float = 0.0):
     """The states at the N+1 grid times of the period from the shooting points X (nx x (S+1)), or
-    None when an evaluation fails or is not finite."""
+    None when an evaluation fails or is not finite.
+
+    Parameters
+    ----------
+    graphs : OrbitGraphs
+        Graphs of the system.
+    X : array_like, shape (nx, S + 1)
+        Shooting points.
+    p : array_like
+        Parameters.
+    T : float
+        Period.
+    t0 : float
+        Start time.
+
+    Returns
+    -------
+    ndarray, shape (N + 1, nx) or None
+    """
     q = ca.DM(np.concatenate([p, [T, t0]]))
     try:
         Xt = np.asarray(graphs.segments(ca.DM(X[:, :graphs.S]), q)[1])

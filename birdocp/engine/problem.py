@@ -24,7 +24,23 @@ __all__ = ["RhsDimensions", "PeriodicODE", "MeanCondition", "OrbitProblem", "fin
 def finite_vector(value, name: str, size: int | None = None, what: str = "") -> np.ndarray:
     """``value`` as a flat float array; ValueError naming ``name`` unless every entry is a finite
     number and (``size`` given) there are ``size`` of them (``what`` says where the size comes from,
-    e.g. ``"the ODE has nx=2"``)."""
+    e.g. ``"the ODE has nx=2"``).
+
+    Parameters
+    ----------
+    value : array_like
+        Numbers to check.
+    name : str
+        Name in the error.
+    size : int, optional
+        Number of entries required.
+    what : str
+        Where the size comes from, for the error.
+
+    Returns
+    -------
+    ndarray
+    """
     try:
         v = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
     except (TypeError, ValueError):
@@ -136,7 +152,19 @@ class PeriodicODE(RhsDimensions):
     def fast(self, f: ca.Function, what: str) -> ca.Function:
         """``numeric(f, key)`` when set (a faster Function for numbers only), else ``f``. ``what`` names
         how the engine built ``f`` from this ODE's Functions (e.g. ``"post"``, ``"post_dpf 3,40"``);
-        with ``graph_key`` set, ``key`` = graph_key + what identifies ``f``'s graph (else "")."""
+        with ``graph_key`` set, ``key`` = graph_key + what identifies ``f``'s graph (else "").
+
+        Parameters
+        ----------
+        f : casadi.Function
+            Function built from this ODE's Functions.
+        what : str
+            How it was built.
+
+        Returns
+        -------
+        casadi.Function
+        """
         if self.numeric is None:
             return f
         return self.numeric(f, f"{self.graph_key}:{what}" if self.graph_key else "")
@@ -158,7 +186,21 @@ class PeriodicODE(RhsDimensions):
 
     @staticmethod
     def from_rhs(f: ca.Function, period_s: float, state_names=(), param_names=()) -> "PeriodicODE":
-        """Wrap a plain ``f(x, t, p)``: the data vector is the time itself (``d = t``, nd = 1)."""
+        """Wrap a plain ``f(x, t, p)``: the data vector is the time itself (``d = t``, nd = 1).
+
+        Parameters
+        ----------
+        f : casadi.Function
+            ``f(x, t, p) -> xdot``.
+        period_s : float
+            Forcing period [s].
+        state_names, param_names : sequence of str
+            Names.
+
+        Returns
+        -------
+        PeriodicODE
+        """
         _check_function(f, "from_rhs f", 3)
         try:
             period_s = float(period_s)
@@ -339,16 +381,36 @@ class OrbitProblem:
         return tuple(out)
 
     def free_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """(lower, upper) bounds of the free parameters, in the order of ``free``."""
+        """(lower, upper) bounds of the free parameters, in the order of ``free``.
+
+        Returns
+        -------
+        lower, upper : ndarray
+        """
         lo = np.array([float(b[0]) for b in self.free.values()])
         hi = np.array([float(b[1]) for b in self.free.values()])
         return lo, hi
 
     def free_name(self, i: int) -> str:
-        """The name of parameter ``i`` (``p<i>`` when the ODE has no names)."""
+        """The name of parameter ``i`` (``p<i>`` when the ODE has no names).
+
+        Parameters
+        ----------
+        i : int
+            Parameter index.
+
+        Returns
+        -------
+        str
+        """
         return self.ode.param_names[i] if self.ode.param_names else f"p{i}"
 
     def mean_names(self) -> list[str]:
-        """Names of the period means a result reports: the conditions', then the outputs'."""
+        """Names of the period means a result reports: the conditions', then the outputs'.
+
+        Returns
+        -------
+        list of str
+        """
         names = [m.name or f"mean{k}" for k, m in enumerate(self.means)]
         return names + [str(k) for k in self.outputs]

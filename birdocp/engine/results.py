@@ -64,7 +64,17 @@ def serial(*, key: str | None = None, skip: bool = False, complex: bool = False,
 
 
 def finite_or_none(v) -> float | None:
-    """``float(v)``, or ``None`` where ``v`` is None or not finite (JSON has no NaN)."""
+    """``float(v)``, or ``None`` where ``v`` is None or not finite (JSON has no NaN).
+
+    Parameters
+    ----------
+    v : Any
+        Number or None.
+
+    Returns
+    -------
+    float or None
+    """
     if v is None:
         return None
     v = float(v)
@@ -75,7 +85,17 @@ def complex_pairs(values) -> list:
     """Complex numbers (any array shape, flattened) as ``[re, im]`` pairs of floats, in their order.
 
     For building result fields that hold pairs; NaN parts stay NaN here (:func:`to_jsonable` writes
-    them as null)."""
+    them as null).
+
+    Parameters
+    ----------
+    values : array_like
+        Complex numbers.
+
+    Returns
+    -------
+    list of [float, float]
+    """
     import numpy as np
 
     return [[float(np.real(v)), float(np.imag(v))] for v in np.asarray(values).ravel()]
@@ -143,7 +163,17 @@ def result_dict(obj: Any, *, exclude: Iterable[str] = (), rename: Mapping[str, s
 def to_jsonable(obj: Any) -> Any:
     """Plain JSON types from any result value (the conventions are in the module docstring):
     complex to ``[re, im]``, NaN/inf to None, numpy to lists and Python numbers, dataclasses to
-    their ``to_dict()`` (or :func:`result_dict`)."""
+    their ``to_dict()`` (or :func:`result_dict`).
+
+    Parameters
+    ----------
+    obj : Any
+        Result value.
+
+    Returns
+    -------
+    Any
+    """
     if isinstance(obj, dict):
         return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):

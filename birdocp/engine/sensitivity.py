@@ -41,5 +41,19 @@ def total_derivative(partial_param, partial_state, dx0_da):
     """``dF/da = F_a + F_x dx0/da``: the derivative of a quantity of the orbit along the family.
 
     ``partial_state`` has the state as its last axis (``F_x``: (nx,) for a scalar, (..., nx) for an
-    array); the contraction is over that axis."""
+    array); the contraction is over that axis.
+
+    Parameters
+    ----------
+    partial_param : array_like
+        F_a.
+    partial_state : array_like
+        F_x.
+    dx0_da : array_like, shape (nx,)
+        Derivative of the orbit's start state.
+
+    Returns
+    -------
+    ndarray
+    """
     return np.asarray(partial_param) + np.tensordot(np.asarray(partial_state), np.asarray(dx0_da), axes=(-1, 0))

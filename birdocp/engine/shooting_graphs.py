@@ -21,7 +21,21 @@ _GRAPHS = bounded_cache("engine.shooting_graphs", 32)
 
 
 def rk4_grid(ode, method: OrbitMethod, outputs) -> RK4Grid:
-    """The cached :class:`~birdocp.engine.integrate.RK4Grid` of (ode, method's grid, outputs)."""
+    """The cached :class:`~birdocp.engine.integrate.RK4Grid` of (ode, method's grid, outputs).
+
+    Parameters
+    ----------
+    ode : PeriodicODE
+        System.
+    method : OrbitMethod
+        Method (its grid).
+    outputs : sequence of casadi.Function
+        Outputs integrated along the grid.
+
+    Returns
+    -------
+    RK4Grid
+    """
     method = method.resolved(True)
     outputs = tuple(outputs)
     key = (id(ode), int(method.steps_per_period), int(method.points) - 1, tuple(id(g) for g in outputs))
@@ -193,7 +207,17 @@ class ShootingGraphs(Evaluator):
     # -- numbers of one solve ----------------------------------------------------------------
     def set_context(self, dpar: ca.DM, p, targets) -> None:
         """The numbers the residual depends on besides z: data (stage blocks D, or the stage times
-        when parameters are free), the full parameter vector and the mean targets."""
+        when parameters are free), the full parameter vector and the mean targets.
+
+        Parameters
+        ----------
+        dpar : casadi.DM
+            Data input (stage blocks, or the stage times when parameters are free).
+        p : array_like
+            Full parameter vector.
+        targets : array_like
+            Targets of the mean conditions.
+        """
         self._ctx = (dpar, ca.DM(np.asarray(p, float)), ca.DM(np.asarray(targets, float)))
         self._ctx_id += 1
         self._last = None
@@ -205,7 +229,19 @@ class ShootingGraphs(Evaluator):
 
     def symbolic_context(self, t0: float, p) -> ca.DM:
         """The data input of the graphs when parameters are free: the stage times, and with the
-        pre/post split also pre's values there (numbers: pre does not depend on the free ones)."""
+        pre/post split also pre's values there (numbers: pre does not depend on the free ones).
+
+        Parameters
+        ----------
+        t0 : float
+            Start time [s].
+        p : array_like
+            Parameter vector.
+
+        Returns
+        -------
+        casadi.DM
+        """
         times = ca.DM(self.grid.times(t0)).reshape((1, -1))
         if not self.split:
             return times
@@ -214,7 +250,17 @@ class ShootingGraphs(Evaluator):
         return ca.vertcat(times, self.grid.pre_numeric(t0, p))
 
     def evaluate(self, z):
-        """(g, dense Jacobian dg/dz) at z for the current context; the last point is kept."""
+        """(g, dense Jacobian dg/dz) at z for the current context; the last point is kept.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        g, J : ndarray
+        """
         z = np.asarray(z, float).ravel()
         key = (self._ctx_id, z.tobytes())
         if self._last is not None and self._last[0] == key:
@@ -242,7 +288,17 @@ class ShootingGraphs(Evaluator):
         return g, A
 
     def blocks_at(self, z):
-        """The segment Jacobians J_i (list) at z if z is the last evaluated point, else None."""
+        """The segment Jacobians J_i (list) at z if z is the last evaluated point, else None.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        list of ndarray or None
+        """
         z = np.asarray(z, float).ravel()
         if self._last is None or self._last[0] != (self._ctx_id, z.tobytes()):
             return None
@@ -252,7 +308,17 @@ class ShootingGraphs(Evaluator):
 
     def means_at(self, z):
         """The period means of all outputs (mean conditions first, then the extra outputs) at z if z
-        is the last evaluated point, else None."""
+        is the last evaluated point, else None.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray or None
+        """
         z = np.asarray(z, float).ravel()
         if self._last is None or self._last[0] != (self._ctx_id, z.tobytes()):
             return None
@@ -260,6 +326,17 @@ class ShootingGraphs(Evaluator):
 
     # -- residual alone (LM with derivatives='fd', chord steps of the continuation) ----------------
     def resid(self, z):
+        """The residual g at z alone (no Jacobian), from a graph built on first use.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray
+        """
         if self._resid is None:
             X, pf, dsym, pp, tgt, D, pfull = self._sym
             S, nm = self.S, self.nm
@@ -274,6 +351,20 @@ class ShootingGraphs(Evaluator):
                                       *self._ctx)).ravel()
 
     def ipopt(self, method: OrbitMethod, fallback: bool = False):
+        """The IPOPT solver of this system's feasibility problem (objective: a regularisation weight/2 times
+        |z - z_ref|^2, both NLP parameters), built once per option set.
+
+        Parameters
+        ----------
+        method : OrbitMethod
+            Method (iteration limit, tolerance, IPOPT options).
+        fallback : bool
+            Reject trial steps IPOPT would accept unconditionally (``accept_every_trial_step = no``).
+
+        Returns
+        -------
+        casadi.Function
+        """
         tol = method.tol
         opts = ipopt_options(**IPOPT_DEFAULTS)
         opts.update({"ipopt.max_iter": int(method.max_iter), "ipopt.tol": tol, "ipopt.constr_viol_tol": tol})
@@ -315,7 +406,23 @@ def _affine_columns(ode, free_idx):
 
 def shooting_graphs(problem: OrbitProblem, method: OrbitMethod, free_idx=None):
     """The cached graphs of (problem's ode, outputs, method) with the problem's free parameters, or
-    ``free_idx`` instead (the continuation adds its parameter: one unknown more than equations)."""
+    ``free_idx`` instead (the continuation adds its parameter: one unknown more than equations).
+
+    Parameters
+    ----------
+    problem : OrbitProblem
+        Problem (its ODE, outputs and free parameters).
+    method : OrbitMethod
+        Method.
+    free_idx : sequence of int, optional
+        Free parameter indices replacing the problem's.
+
+    Returns
+    -------
+    graphs : ShootingGraphs
+    build_s : float
+        Wall time of the lookup or build [s].
+    """
     method = method.resolved(True)
     ode = problem.ode
     mean_fns = tuple(m.output for m in problem.means)
@@ -334,7 +441,24 @@ def shooting_graphs(problem: OrbitProblem, method: OrbitMethod, free_idx=None):
 
 # ----------------------------------------------------------------------------------------------
 def initial_points(b: ShootingGraphs, x_start, D, p):
-    """X_0 = x_start, X_i by integrating forward (non-finite points replaced by x_start)."""
+    """X_0 = x_start, X_i by integrating forward (non-finite points replaced by x_start).
+
+    Parameters
+    ----------
+    b : ShootingGraphs
+        Graphs of the problem.
+    x_start : array_like
+        Start state X_0.
+    D : casadi.DM
+        Stage data of the grid.
+    p : array_like
+        Parameters.
+
+    Returns
+    -------
+    ndarray, shape (nx, M)
+        The shooting points as columns.
+    """
     grid = b.grid
     Xt = np.asarray(grid.period_map(ca.DM(x_start), D, ca.DM(p))[1])
     pts = [x_start] + [Xt[:, grid.n * (i + 1) - 1] for i in range(b.S)]

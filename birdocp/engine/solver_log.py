@@ -36,6 +36,18 @@ class NoiseFilter:
 
     # the text-stream interface used by print() and CasADi's writer
     def write(self, text: str) -> int:
+        """Pass ``text`` to the terminal, or count (and log) a CasADi warning line.
+
+        Parameters
+        ----------
+        text : str
+            Text written to the stream.
+
+        Returns
+        -------
+        int
+            ``len(text)``.
+        """
         self._pending += text
         while self._pending:
             head = self._pending[:len(PREFIX)]
@@ -87,9 +99,21 @@ class NoiseFilter:
             self._log = None
 
     def isatty(self) -> bool:
+        """Whether the terminal stream is a terminal.
+
+        Returns
+        -------
+        bool
+        """
         return self.terminal.isatty()
 
     def fileno(self) -> int:
+        """The terminal stream's file descriptor.
+
+        Returns
+        -------
+        int
+        """
         return self.terminal.fileno()
 
     @property
@@ -98,7 +122,12 @@ class NoiseFilter:
 
 
 def install_from_env() -> NoiseFilter | None:
-    """In a worker process: if :data:`LOG_ENV` names a file, route CasADi's warnings there."""
+    """In a worker process: if :data:`LOG_ENV` names a file, route CasADi's warnings there.
+
+    Returns
+    -------
+    NoiseFilter or None
+    """
     path = os.environ.get(LOG_ENV)
     if not path:
         return None

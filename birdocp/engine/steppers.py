@@ -25,7 +25,17 @@ METHOD_ORDER = {"rk4": 4, "radau": 5, "gauss": 4}
 
 
 def tableau(method: str):
-    """Butcher tableau (A, b, c) of an implicit method ("radau" or "gauss") as numpy arrays."""
+    """Butcher tableau (A, b, c) of an implicit method ("radau" or "gauss") as numpy arrays.
+
+    Parameters
+    ----------
+    method : {"radau", "gauss"}
+        Implicit method.
+
+    Returns
+    -------
+    A, b, c : ndarray
+    """
     if method == "radau":
         s6 = np.sqrt(6.0)
         A = np.array([[(88 - 7 * s6) / 360, (296 - 169 * s6) / 1800, (-2 + 3 * s6) / 225],
@@ -50,6 +60,10 @@ def make_step(rhs: ca.Function, method: str = "rk4", *, newton_tol: float = 1e-1
     method : {"rk4", "radau", "gauss"}
     newton_tol : float
         Absolute tolerance of the stage Newton iteration (implicit methods).
+
+    Returns
+    -------
+    casadi.Function
     """
     if method not in METHOD_ORDER:
         raise ValueError(f"integrator must be one of {sorted(METHOD_ORDER)}, got {method!r}")

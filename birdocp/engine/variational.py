@@ -125,7 +125,17 @@ class PeriodSensitivities:
 
     def direction_columns(self, dD):
         """The per-step layout (3 nd n_data x N) of ``n_data`` stage-block directions (each nd x 3N;
-        DM, numpy or MX: build it symbolically once to keep the reordering out of Python)."""
+        DM, numpy or MX: build it symbolically once to keep the reordering out of Python).
+
+        Parameters
+        ----------
+        dD : casadi.DM, MX or ndarray
+            Stage-block directions.
+
+        Returns
+        -------
+        casadi.DM or MX
+        """
         if isinstance(dD[0], ca.MX):
             return ca.reshape(ca.horzcat(*dD)[:, self._direction_columns()], self.nd * 3 * self.n_data, self.N)
         dDall = np.hstack([np.asarray(d, float) for d in dD])[:, self._direction_columns()]

@@ -66,7 +66,22 @@ class ExportInfo:
 
 def runtime_parameters(model, names=PARAM_NAMES) -> tuple[list[int], list[int]]:
     """(indices the state RHS depends on, indices the data depends on), from Jacobian sparsity
-    (``names``: the parameter names, for the message)."""
+    (``names``: the parameter names, for the message).
+
+    Parameters
+    ----------
+    model : BirdModel
+        Model whose ``rhs`` (state right-hand side) and ``data`` (data table) Functions are exported.
+    names : sequence of str
+        The parameter names, for the message.
+
+    Returns
+    -------
+    rhs_indices : list of int
+        Parameters the state right-hand side depends on.
+    data_indices : list of int
+        Parameters the data table depends on; a parameter in both is a ``RuntimeError``.
+    """
     r = sorted(set(model.rhs.sparsity_jac(2, 0).get_col()))
     d = sorted(set(model.data.sparsity_jac(1, 0).get_col()))
     both = set(r) & set(d)

@@ -69,12 +69,23 @@ class CompiledFallbackWarning(UserWarning):
 
 def cache_dir() -> Path:
     """The folder of compiled libraries: ``$BIRDOCP_CACHE``, else ``$XDG_CACHE_HOME/birdocp`` or
-    ``~/.cache/birdocp`` (shared with the graph cache: :func:`birdocp.engine.graphcache.cache_dir`)."""
+    ``~/.cache/birdocp`` (shared with the graph cache: :func:`birdocp.engine.graphcache.cache_dir`).
+
+    Returns
+    -------
+    Path
+    """
     return graphcache.cache_dir()
 
 
 def find_compiler() -> list[str] | None:
-    """The C compiler command: ``$CC`` (split like a shell word list), else ``cc``, ``gcc``, ``clang``."""
+    """The C compiler command: ``$CC`` (split like a shell word list), else ``cc``, ``gcc``, ``clang``.
+
+    Returns
+    -------
+    list of str or None
+        The command and its arguments; None when no compiler is found.
+    """
     env = os.environ.get("CC")
     if env:
         cmd = shlex.split(env)
@@ -144,7 +155,26 @@ def compile_functions(name: str, functions, key_extra: str = "", directory: Path
     Each library carries its SHA-256 in ``<lib>.sha256``, written when it was built; a library that
     does not match it (truncated, garbled, replaced) is removed and rebuilt, never loaded.
 
-    Raises ``RuntimeError`` if no compiler is found or the compiler fails."""
+    Raises ``RuntimeError`` if no compiler is found or the compiler fails.
+
+    Parameters
+    ----------
+    name : str
+        Name of the C file and library.
+    functions : sequence of casadi.Function
+        Functions to generate, by their names.
+    key_extra : str
+        Extra text of the cache key.
+    directory : Path, optional
+        Cache folder (default: :func:`cache_dir`).
+    graph_key : str
+        Exact identity of the Functions' graphs; when given, it replaces the generated source in the key.
+
+    Returns
+    -------
+    str
+        Path of the shared library.
+    """
     t = time.perf_counter()
     directory = Path(directory) if directory is not None else cache_dir()
     directory.mkdir(parents=True, exist_ok=True)
@@ -186,7 +216,24 @@ def compile_functions(name: str, functions, key_extra: str = "", directory: Path
 def compiled_rhs(rhs: ca.Function, key_extra: str = "", directory: Path | None = None,
                  graph_key: str = "") -> ca.Function:
     """``rhs`` as a ``casadi.external`` with compiled forward and reverse derivatives (may raise;
-    ``graph_key`` as in :func:`compile_functions`)."""
+    ``graph_key`` as in :func:`compile_functions`).
+
+    Parameters
+    ----------
+    rhs : casadi.Function
+        Function to compile.
+    key_extra : str
+        Extra text of the cache key.
+    directory : Path, optional
+        Cache folder (default: :func:`cache_dir`).
+    graph_key : str
+        Exact identity of the graph (see :func:`compile_functions`).
+
+    Returns
+    -------
+    casadi.Function
+        The compiled Function, same name and signature as ``rhs``.
+    """
     lib = compile_functions(f"birdocp_{rhs.name()}", [rhs, rhs.forward(1), rhs.reverse(1)], key_extra,
                             directory, graph_key=graph_key)
     return ca.external(rhs.name(), lib)

@@ -25,20 +25,54 @@ __all__ = ["atomic_target", "atomic_folder", "staged_files", "signals_deferred",
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically (:func:`atomic_target`)."""
+    """Write ``data`` to ``path`` atomically (:func:`atomic_target`).
+
+    Parameters
+    ----------
+    path : str or Path
+        File to write; it appears whole or not at all.
+    data : bytes
+        Content of the file.
+
+    Returns
+    -------
+    None
+    """
     with atomic_target(path) as tmp:
         with open(tmp, "wb") as fh:
             fh.write(data)
 
 
 def atomic_write_text(path: str | Path, text: str) -> None:
-    """Write ``text`` (UTF-8) to ``path`` atomically."""
+    """Write ``text`` (UTF-8) to ``path`` atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        File to write; it appears whole or not at all.
+    text : str
+        Content of the file, encoded as UTF-8.
+
+    Returns
+    -------
+    None
+    """
     atomic_write_bytes(path, text.encode("utf-8"))
 
 
 def dataclass_to_dict(obj: Any) -> dict:
-    """Nested plain dict of a dataclass (nested dataclasses as dicts, tuples as lists); a dict is
-    returned as it is."""
+    """Nested plain dict of a dataclass (nested dataclasses as dicts, tuples as lists).
+
+    Parameters
+    ----------
+    obj : dataclass instance or dict
+        Object to convert; a dict is returned as it is.
+
+    Returns
+    -------
+    dict
+        Field name to value.
+    """
     if isinstance(obj, dict):
         return obj
     out = {}
@@ -49,5 +83,17 @@ def dataclass_to_dict(obj: Any) -> dict:
 
 
 def atomic_write_json(path: str | Path, obj: Any) -> None:
-    """Write ``obj`` as indented JSON (the results' convention: complex as [re, im], NaN/inf as null)."""
+    """Write ``obj`` as indented JSON atomically (complex as [re, im], NaN/inf as null).
+
+    Parameters
+    ----------
+    path : str or Path
+        File to write; it appears whole or not at all.
+    obj : Any
+        Value to write, converted by :func:`to_jsonable`.
+
+    Returns
+    -------
+    None
+    """
     atomic_write_text(path, json.dumps(to_jsonable(obj), indent=1) + "\n")

@@ -60,8 +60,21 @@ def _mib(n: int) -> str:
 
 
 def file_problem(path: str | Path, max_bytes: int | None = None) -> str | None:
-    """Why ``path`` cannot be read as an input file (None: it can): missing, not a regular file (FIFO,
-    socket, device, folder), unreadable, or larger than ``max_bytes``. Nothing is opened."""
+    """Why ``path`` cannot be read as an input file; nothing is opened.
+
+    Parameters
+    ----------
+    path : str or Path
+        File to look at with ``os.stat``.
+    max_bytes : int, optional
+        Largest size accepted [bytes]; None: any size.
+
+    Returns
+    -------
+    str or None
+        The problem (missing, not a regular file -- FIFO, socket, device, folder --, unreadable, too
+        large), worded to follow the file's name; None when the file can be read.
+    """
     try:
         st = os.stat(path)
     except FileNotFoundError:
@@ -76,8 +89,29 @@ def file_problem(path: str | Path, max_bytes: int | None = None) -> str | None:
 
 
 def read_input_bytes(path: str | Path, key: str, *, what: str | None = None, max_bytes: int = MAX_TEXT_BYTES) -> bytes:
-    """The bytes of the regular file ``path`` (at most ``max_bytes``), or :class:`ConfigError` on ``key``
-    naming ``what`` (default: the path) and the problem; see :func:`file_problem`."""
+    """The bytes of the regular file ``path``, checked as by :func:`file_problem` and read non-blocking.
+
+    Parameters
+    ----------
+    path : str or Path
+        File to read.
+    key : str
+        Configuration key or flag that named the file: the key of the :class:`ConfigError`.
+    what : str, optional
+        How the messages name the file (default: the quoted path).
+    max_bytes : int
+        Largest size accepted [bytes].
+
+    Returns
+    -------
+    bytes
+        Content of the file.
+
+    Raises
+    ------
+    ConfigError
+        The file is missing, not a regular file, unreadable or larger than ``max_bytes``.
+    """
     what = what or f"'{path}'"
     problem = file_problem(path, max_bytes)
     if problem:
@@ -107,7 +141,24 @@ def read_input_bytes(path: str | Path, key: str, *, what: str | None = None, max
 
 
 def read_input_text(path: str | Path, key: str, *, what: str | None = None, max_bytes: int = MAX_TEXT_BYTES) -> str:
-    """:func:`read_input_bytes` decoded as UTF-8 (a byte-order mark is dropped)."""
+    """:func:`read_input_bytes` decoded as UTF-8 (a byte-order mark is dropped).
+
+    Parameters
+    ----------
+    path : str or Path
+        File to read.
+    key : str
+        Configuration key or flag that named the file: the key of the :class:`ConfigError`.
+    what : str, optional
+        How the messages name the file (default: the quoted path).
+    max_bytes : int
+        Largest size accepted [bytes].
+
+    Returns
+    -------
+    str
+        Content of the file; not UTF-8 is a :class:`ConfigError` on ``key``.
+    """
     data = read_input_bytes(path, key, what=what, max_bytes=max_bytes)
     try:
         return data.decode("utf-8-sig")
@@ -116,8 +167,25 @@ def read_input_text(path: str | Path, key: str, *, what: str | None = None, max_
 
 
 def read_json_file(path: str | Path, key: str, *, what: str | None = None, max_bytes: int = MAX_JSON_BYTES) -> Any:
-    """The JSON value in ``path`` (checked as by :func:`read_input_bytes`); a file that does not parse
-    (truncated, not JSON, nested too deep) is a :class:`ConfigError` on ``key``."""
+    """The JSON value in ``path`` (checked as by :func:`read_input_bytes`).
+
+    Parameters
+    ----------
+    path : str or Path
+        File to read.
+    key : str
+        Configuration key or flag that named the file: the key of the :class:`ConfigError`.
+    what : str, optional
+        How the messages name the file (default: the quoted path).
+    max_bytes : int
+        Largest size accepted [bytes].
+
+    Returns
+    -------
+    Any
+        The parsed value; a file that does not parse (truncated, not JSON, nested too deep) is a
+        :class:`ConfigError` on ``key``.
+    """
     what = what or f"'{path}'"
     text = read_input_text(path, key, what=what, max_bytes=max_bytes)
     try:
@@ -129,8 +197,23 @@ def read_json_file(path: str | Path, key: str, *, what: str | None = None, max_b
 
 
 def parse_toml(text: str, key: str, what: str = "the configuration") -> dict:
-    """The TOML document ``text`` as a dict; not TOML, nested too deeply (thousands of tables) or a
-    number too long to read is a :class:`ConfigError` on ``key``."""
+    """The TOML document ``text`` as a dict.
+
+    Parameters
+    ----------
+    text : str
+        TOML document.
+    key : str
+        Configuration key or flag that named the document: the key of the :class:`ConfigError`.
+    what : str
+        How the messages name the document.
+
+    Returns
+    -------
+    dict
+        The parsed document; not TOML, nested too deeply (thousands of tables) or a number too long to
+        read is a :class:`ConfigError` on ``key``.
+    """
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -143,8 +226,19 @@ def parse_toml(text: str, key: str, what: str = "the configuration") -> dict:
 
 
 def toml_config_hash(data: dict) -> str:
-    """:func:`birdocp.io.provenance.config_hash` of a parsed configuration (the same text, so the same
-    hash, as the configuration it was written from)."""
+    """:func:`birdocp.io.provenance.config_hash` of a parsed configuration.
+
+    Parameters
+    ----------
+    data : dict
+        Parsed configuration (e.g. a run folder's config.toml).
+
+    Returns
+    -------
+    str
+        Hexadecimal SHA-256 of its canonical TOML text: the same hash as the configuration it was
+        written from.
+    """
     from birdocp.io.provenance import canonical_toml
 
     return hashlib.sha256(canonical_toml(data).encode("utf-8")).hexdigest()
@@ -252,6 +346,8 @@ def read_run(path: str | Path, key: str = "RUN_DIR", *, commands: Sequence[str] 
 
     Parameters
     ----------
+    path : str or Path
+        Run folder to read.
     key : str
         The flag that named the folder: the key of every :class:`ConfigError`.
     commands : sequence of str, optional
@@ -264,6 +360,11 @@ def read_run(path: str | Path, key: str = "RUN_DIR", *, commands: Sequence[str] 
         What the caller wants, for the messages (e.g. "a trim or level run folder").
     hint : str, optional
         The fix named when the command is not one of ``commands`` (default: give ``kind``).
+
+    Returns
+    -------
+    RunFolder
+        The folder's result, configuration and arrays, checked.
     """
     path = Path(path)
     _folder(path, key)

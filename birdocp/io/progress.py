@@ -20,7 +20,19 @@ __all__ = ["progress_enabled", "progress_bar", "progress_callback", "text_report
 
 
 def progress_enabled(quiet: bool = False, stream=None) -> bool:
-    """True when a bar should be drawn: not ``quiet`` and ``stream`` (default stderr) is a terminal."""
+    """True when a bar should be drawn: not ``quiet`` and ``stream`` is a terminal.
+
+    Parameters
+    ----------
+    quiet : bool
+        No bar whatever the stream.
+    stream : file-like, optional
+        Stream the bar would be drawn on (default: ``sys.stderr``).
+
+    Returns
+    -------
+    bool
+    """
     if quiet:
         return False
     stream = sys.stderr if stream is None else stream
@@ -93,7 +105,23 @@ def progress_callback(label: str, quiet: bool = False, total: int | None = None,
                       stream=None) -> tuple[Callable[[str], None], Any]:
     """A text callback ``say(text)`` drawing a bar that counts calls and shows the latest text.
 
-    Returns ``(say, bar)``; close the bar when done (``bar.close()``).
+    Parameters
+    ----------
+    label : str
+        Text in front of the bar.
+    quiet : bool
+        No bar (a :class:`NullBar`).
+    total : int, optional
+        Number of calls expected (None: the bar counts without an end).
+    stream : file-like, optional
+        Stream of the bar (default: ``sys.stderr``).
+
+    Returns
+    -------
+    say : callable
+        ``say(text)``: one step done, ``text`` shown after the bar.
+    bar : tqdm or NullBar
+        The bar; close it when done (``bar.close()``).
     """
     bar = progress_bar(total, label, quiet, unit="step", stream=stream)
 

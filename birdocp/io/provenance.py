@@ -28,7 +28,13 @@ IPOPT_LINEAR_SOLVER = "mumps"
 
 def birdocp_version() -> str | None:
     """The version of the running package (``birdocp.__version__``: recorded by setuptools-scm when it
-    was built or installed, else the installed metadata)."""
+    was built or installed, else the installed metadata).
+
+    Returns
+    -------
+    str or None
+        The version; None when it cannot be found.
+    """
     try:
         from birdocp import __version__
 
@@ -42,6 +48,16 @@ def git_revision(path: str | Path = PACKAGE_DIR) -> dict[str, Any] | None:
 
     ``dirty`` counts modified tracked files only (untracked files such as run folders do not make a
     checkout dirty).
+
+    Parameters
+    ----------
+    path : str or Path
+        File or folder inside the checkout (default: the package's folder).
+
+    Returns
+    -------
+    dict or None
+        ``{"commit": str, "dirty": bool}``; None when ``path`` is not in a git checkout or git is missing.
     """
     def git(*args: str) -> str | None:
         try:
@@ -60,7 +76,13 @@ def git_revision(path: str | Path = PACKAGE_DIR) -> dict[str, Any] | None:
 
 def build_revision() -> dict[str, Any] | None:
     """``{"commit", "dirty", "source": "build"}`` recorded by setuptools-scm when the package was built
-    (``birdocp/build_info.py``), or None (a source tree that was never built, or no git at build time)."""
+    (``birdocp/build_info.py``), or None (a source tree that was never built, or no git at build time).
+
+    Returns
+    -------
+    dict or None
+        ``{"commit": str, "dirty": bool, "source": "build"}`` or None.
+    """
     try:
         from birdocp import build_info
     except ImportError:
@@ -75,7 +97,13 @@ def build_revision() -> dict[str, Any] | None:
 def source_revision() -> dict[str, Any] | None:
     """The revision of the code that runs: live git when the package is imported from its own source
     checkout (an editable install; reflects later commits and edits), else the revision recorded at
-    build time (:func:`build_revision`), else None."""
+    build time (:func:`build_revision`), else None.
+
+    Returns
+    -------
+    dict or None
+        ``{"commit", "dirty", "source"}`` with ``source`` "checkout" or "build"; None when unknown.
+    """
     root = PACKAGE_DIR.parent
     if (root / "pyproject.toml").is_file() and (root / ".git").exists():
         live = git_revision(PACKAGE_DIR)
@@ -91,14 +119,36 @@ def _sorted(obj: Any) -> Any:
 
 
 def canonical_toml(cfg) -> str:
-    """The resolved configuration as TOML with sorted keys: the same config gives the same text."""
+    """The resolved configuration as TOML with sorted keys: the same config gives the same text.
+
+    Parameters
+    ----------
+    cfg : Config or dict
+        Configuration (a dataclass or the dict of a parsed config.toml).
+
+    Returns
+    -------
+    str
+        TOML text with sorted keys.
+    """
     import tomli_w
 
     return tomli_w.dumps(_sorted(dataclass_to_dict(cfg)))
 
 
 def config_hash(cfg) -> str:
-    """sha256 (hex) of :func:`canonical_toml`."""
+    """sha256 (hex) of :func:`canonical_toml`.
+
+    Parameters
+    ----------
+    cfg : Config or dict
+        Configuration (a dataclass or the dict of a parsed config.toml).
+
+    Returns
+    -------
+    str
+        Hexadecimal SHA-256 of the canonical TOML text.
+    """
     return hashlib.sha256(canonical_toml(cfg).encode("utf-8")).hexdigest()
 
 
@@ -119,7 +169,23 @@ def _cpu_count() -> dict[str, int | None]:
 
 
 def provenance(cfg, command_line: list[str] | None, wall_s: Any = None) -> dict[str, Any]:
-    """A JSON-able record of how a result was produced (stored under ``provenance`` in result.json)."""
+    """A JSON-able record of how a result was produced (stored under ``provenance`` in result.json).
+
+    Parameters
+    ----------
+    cfg : Config
+        Resolved configuration of the run (stored whole, with its hash).
+    command_line : list of str or None
+        The command line of the run (None from the Python API).
+    wall_s : float, optional
+        Wall time of the run [s].
+
+    Returns
+    -------
+    dict
+        Version, git revision, Python and library versions, machine, configuration and its
+        ``config_sha256``, command line, working folder, ``wall_s`` and a UTC time stamp.
+    """
 
     return {
         "birdocp_version": birdocp_version(),

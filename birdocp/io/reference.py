@@ -14,6 +14,13 @@ _REPO = Path(__file__).resolve().parents[2]
 
 
 def reference_dir() -> Path:
+    """The folder of the reference numbers: ``$BIRDOCP_REFERENCE``, else the checkout's ``tests/reference``.
+
+    Returns
+    -------
+    Path
+        The first candidate folder holding ``reference_cycle.json``; none is a ``FileNotFoundError``.
+    """
     env = os.environ.get("BIRDOCP_REFERENCE")
     here = Path.cwd()
     candidates = ([Path(env)] if env else []) + [
@@ -28,10 +35,32 @@ def reference_dir() -> Path:
 
 
 def load(name: str) -> dict:
-    """``load("force_fixtures")`` or ``load("reference_cycle")``."""
+    """``load("force_fixtures")`` or ``load("reference_cycle")``.
+
+    Parameters
+    ----------
+    name : str
+        File name of the reference set without ``.json``.
+
+    Returns
+    -------
+    dict
+        The parsed JSON file.
+    """
     return json.loads((reference_dir() / f"{name}.json").read_text())
 
 
 def multipliers(entry: dict) -> np.ndarray:
-    """The complex multipliers of a reference entry (its ``multipliers_re`` and ``multipliers_im``)."""
+    """The complex multipliers of a reference entry (its ``multipliers_re`` and ``multipliers_im``).
+
+    Parameters
+    ----------
+    entry : dict
+        Reference entry with lists ``multipliers_re`` and ``multipliers_im``.
+
+    Returns
+    -------
+    ndarray of complex
+        The Floquet multipliers [-].
+    """
     return np.asarray(entry["multipliers_re"], float) + 1j * np.asarray(entry["multipliers_im"], float)

@@ -35,18 +35,56 @@ POINTS_DIR = "points"
 
 
 def plain(obj: Any) -> Any:
-    """``obj`` as it reads back from JSON (tuples as lists, NaN as None): what a resume compares."""
+    """``obj`` as it reads back from JSON (tuples as lists, NaN as None): what a resume compares.
+
+    Parameters
+    ----------
+    obj : Any
+        JSON-able value (via :func:`to_jsonable`).
+
+    Returns
+    -------
+    Any
+        Lists, dicts, numbers, strings and None only.
+    """
     return json.loads(json.dumps(to_jsonable(obj)))
 
 
 def point_path(out: str | Path, index: int) -> Path:
-    """``out/points/point-0003.json``."""
+    """``out/points/point-0003.json``.
+
+    Parameters
+    ----------
+    out : str or Path
+        Study folder.
+    index : int
+        Index of the point in the study.
+
+    Returns
+    -------
+    Path
+    """
     return Path(out) / POINTS_DIR / f"point-{index:04d}.json"
 
 
 def read_index(path: str | Path, flag: str = "--resume") -> tuple[dict | None, bool]:
     """(definition, damaged) of a study's index file: (None, False) when absent, (None, True) when it
-    does not parse (truncated, damaged); a FIFO, device or folder is a :class:`ConfigError` on ``flag``."""
+    does not parse (truncated, damaged); a FIFO, device or folder is a :class:`ConfigError` on ``flag``.
+
+    Parameters
+    ----------
+    path : str or Path
+        Index file of the study.
+    flag : str
+        Flag named by the error.
+
+    Returns
+    -------
+    definition : dict or None
+        The study's definition as written.
+    damaged : bool
+        The file exists but does not parse.
+    """
     path = Path(path)
     if not os.path.lexists(path):
         return None, False
@@ -62,7 +100,21 @@ def read_index(path: str | Path, flag: str = "--resume") -> tuple[dict | None, b
 
 def check_index(old: dict, spec: dict, out: str | Path, what: str, flag: str = "--resume") -> None:
     """Refuse (:class:`ConfigError` on ``flag``) a resume whose definition ``spec`` differs from the
-    index file's ``old`` (naming the differing keys)."""
+    index file's ``old`` (naming the differing keys).
+
+    Parameters
+    ----------
+    old : dict
+        Definition read from the index file.
+    spec : dict
+        Definition of the resumed study (its keys are compared as JSON).
+    out : str or Path
+        Study folder, for the message.
+    what : str
+        What the definition is, for the message (e.g. "sweep").
+    flag : str
+        Flag named by the error.
+    """
     diff = [k for k in spec if json.dumps(plain(old.get(k))) != json.dumps(plain(spec[k]))]
     if diff:
         raise ConfigError(flag, f"the {what} in '{out}' differs in {', '.join(diff)}; resume with the same "
@@ -76,7 +128,18 @@ def _index_of(point: dict) -> int:
 
 
 def read_points(out: str | Path) -> dict[int, dict]:
-    """The point files of ``out`` by index; unreadable or damaged ones are left out (computed again)."""
+    """The point files of ``out`` by index; unreadable or damaged ones are left out (computed again).
+
+    Parameters
+    ----------
+    out : str or Path
+        Study folder.
+
+    Returns
+    -------
+    dict of int to dict
+        Point index to the point as written by :func:`write_point`.
+    """
     folder = Path(out) / POINTS_DIR
     found: dict[int, dict] = {}
     if not folder.is_dir():
@@ -91,7 +154,21 @@ def read_points(out: str | Path) -> dict[int, dict]:
 
 
 def write_point(out: str | Path, index: int, point: dict, config_sha256: str, settings: dict) -> None:
-    """Write one finished point (atomically) with its configuration hash and settings."""
+    """Write one finished point (atomically) with its configuration hash and settings.
+
+    Parameters
+    ----------
+    out : str or Path
+        Study folder (the file goes to its ``points/`` folder).
+    index : int
+        Index of the point in the study.
+    point : dict
+        The point's JSON-able result.
+    config_sha256 : str
+        Hash of the configuration the point was computed with.
+    settings : dict
+        What else decides the point (compared as JSON on resume).
+    """
     atomic_write_json(point_path(out, index), dict(point, index=index, config_sha256=config_sha256,
                                                    settings=plain(settings)))
 
@@ -102,6 +179,8 @@ def kept_points(out: str | Path, config_sha256: Callable[[int], str], settings: 
 
     Parameters
     ----------
+    out : str or Path
+        Study folder.
     config_sha256 : callable
         ``config_sha256(index)``: the hash of the configuration the resumed study computes point
         ``index`` with.
@@ -112,6 +191,13 @@ def kept_points(out: str | Path, config_sha256: Callable[[int], str], settings: 
     match : callable
         ``match(index, point)``: the point belongs at this index of the resumed study (e.g. the same
         swept value); points that do not are computed again.
+    flag : str
+        Flag named by errors.
+
+    Returns
+    -------
+    dict of int to dict
+        Point index to the kept point.
     """
     kept, unverified = {}, []
     settings = plain(settings)

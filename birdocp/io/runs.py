@@ -71,6 +71,18 @@ def check_out_path(path: str | Path, flag: str = "--out") -> Path:
     allows, an existing file, a path through a file, and a nearest existing folder that this process
     cannot write into. The final word is the atomic create of :func:`claim_out_dir`, which maps any
     remaining ``OSError`` to a ``ConfigError`` too.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output folder asked for.
+    flag : str
+        Flag named by the error.
+
+    Returns
+    -------
+    Path
+        ``path`` as a :class:`~pathlib.Path`.
     """
     text = os.fspath(path)
     if not text.strip() or "\x00" in text:  # Path("") would be the current folder
@@ -113,7 +125,15 @@ def check_out_path(path: str | Path, flag: str = "--out") -> Path:
 def check_writable(folder: str | Path, flag: str) -> None:
     """Refuse (:class:`ConfigError` on ``flag``) a folder this process cannot create files in, by
     creating and removing an empty probe file: only a real write tells a read-only file system or a
-    full inode table (permission bits do not stop root)."""
+    full inode table (permission bits do not stop root).
+
+    Parameters
+    ----------
+    folder : str or Path
+        Existing folder to probe.
+    flag : str
+        Flag named by the error.
+    """
     try:
         fd, probe = tempfile.mkstemp(dir=folder, prefix=".birdocp-probe-")
     except OSError as exc:
@@ -127,7 +147,22 @@ def check_out_file(path: str | Path, flag: str = "--out", suffixes: tuple[str, .
     """Refuse (:class:`ConfigError` on ``flag``) an output *file* that cannot be written, before any
     computation: a name with a suffix not in ``suffixes``, an existing folder or special file (FIFO,
     device, socket), a missing or non-folder parent, a parent that cannot be written into
-    (:func:`check_writable`). The file itself is then written atomically."""
+    (:func:`check_writable`). The file itself is then written atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output file asked for.
+    flag : str
+        Flag named by the error.
+    suffixes : tuple of str
+        Accepted lower-case suffixes with the dot (e.g. ``(".gif", ".mp4")``); empty: any.
+
+    Returns
+    -------
+    Path
+        ``path`` as a :class:`~pathlib.Path`.
+    """
     text = os.fspath(path)
     if not text.strip() or "\x00" in text:
         raise ConfigError(flag, f"{text!r} is not a usable file name")
@@ -201,7 +236,22 @@ def _holder(lock_path: Path) -> str:
 def lock_folder(folder: str | Path, flag: str = "--out", created: bool = False) -> RunLock:
     """Take the lock of ``folder`` (which exists): an ``O_EXCL`` create of its lock file, held with
     ``flock``. A lock file whose ``flock`` can be taken belongs to a run that died (SIGKILL, power
-    loss): it is taken over. Raises :class:`ConfigError` when another live run holds the folder."""
+    loss): it is taken over. Raises :class:`ConfigError` when another live run holds the folder.
+
+    Parameters
+    ----------
+    folder : str or Path
+        Existing folder to lock.
+    flag : str
+        Flag named by the error.
+    created : bool
+        The caller created the folder just now (an unused one may be removed again on release).
+
+    Returns
+    -------
+    RunLock
+        The held lock.
+    """
     folder = Path(folder)
     lock_path = folder / LOCK_NAME
     for _ in range(20):
@@ -247,19 +297,45 @@ def lock_folder(folder: str | Path, flag: str = "--out", created: bool = False) 
 
 
 def release_out_dir(folder: str | Path) -> None:
-    """Release the lock taken by :func:`claim_out_dir` (also released when the process exits)."""
+    """Release the lock taken by :func:`claim_out_dir` (also released when the process exits).
+
+    Parameters
+    ----------
+    folder : str or Path
+        Run folder claimed by :func:`claim_out_dir`; a folder without a lock of this process is ignored.
+    """
     lock = _HELD.get(str(Path(folder)))
     if lock is not None:
         lock.release()
 
 
 def held_lock(folder: str | Path) -> RunLock | None:
-    """The lock this process holds on ``folder``, if any."""
+    """The lock this process holds on ``folder``, if any.
+
+    Parameters
+    ----------
+    folder : str or Path
+        Run folder.
+
+    Returns
+    -------
+    RunLock or None
+    """
     return _HELD.get(str(Path(folder)))
 
 
 def folder_entries(folder: str | Path) -> list[str]:
-    """Names in ``folder`` other than the lock file."""
+    """Names in ``folder`` other than the lock file.
+
+    Parameters
+    ----------
+    folder : str or Path
+        Existing folder.
+
+    Returns
+    -------
+    list of str
+    """
     return [n for n in os.listdir(folder) if n != LOCK_NAME]
 
 
@@ -269,6 +345,18 @@ def new_run_dir(base: str | Path | None, command: str) -> Path:
     The folder is created with ``mkdir(exist_ok=False)``, so two runs (even concurrent ones, in
     the same second) never share a folder. A ``base`` that cannot be written is a
     :class:`ConfigError` on ``--out`` (the CLI exits 2 before any computation).
+
+    Parameters
+    ----------
+    base : str or Path or None
+        Folder of the run folders (None: :data:`DEFAULT_BASE`).
+    command : str
+        Name of the command, part of the folder's name.
+
+    Returns
+    -------
+    Path
+        The new, empty folder.
     """
     base = DEFAULT_BASE if base is None else Path(base)
     if base.exists() and not base.is_dir():
@@ -297,7 +385,18 @@ def new_run_dir(base: str | Path | None, command: str) -> Path:
 def read_result(run_dir: str | Path) -> dict | None:
     """The result.json of a run folder, or None if absent, unreadable or not a regular file (read by
     :func:`birdocp.io.inputs.read_json_file`: a FIFO is never opened). Commands that use a run
-    folder read it with :func:`birdocp.io.inputs.read_run`, which says what is wrong."""
+    folder read it with :func:`birdocp.io.inputs.read_run`, which says what is wrong.
+
+    Parameters
+    ----------
+    run_dir : str or Path
+        Run folder.
+
+    Returns
+    -------
+    dict or None
+        The parsed result.json.
+    """
     from birdocp.io.inputs import read_json_file
 
     try:
@@ -310,6 +409,17 @@ def is_run_dir(path: str | Path, command: str | None = None) -> bool:
     """Whether ``path`` is a complete run folder (of ``command`` when given).
 
     A run folder is complete when its result.json exists.
+
+    Parameters
+    ----------
+    path : str or Path
+        Folder to look at.
+    command : str, optional
+        Only a run of this command (``provenance.command``) counts.
+
+    Returns
+    -------
+    bool
     """
     result = read_result(path)
     if not isinstance(result, dict):
@@ -332,6 +442,22 @@ def claim_out_dir(out: str | Path, command: str, *, resume_file: str | None = No
     Anything else is refused with a :class:`ConfigError` on ``flag`` (the CLI exits 2), before any
     computation: a file, a non-empty folder, a folder in use by another run, a dangling symbolic
     link, a name too long for the file system, a read-only location.
+
+    Parameters
+    ----------
+    out : str or Path
+        The folder asked for.
+    command : str
+        Name of the command (for the messages).
+    resume_file : str, optional
+        File name that marks an earlier run of this command the folder may hold.
+    flag : str
+        Flag named by the error.
+
+    Returns
+    -------
+    Path
+        The claimed folder, locked by this process.
     """
     path = check_out_path(out, flag)
     created = False
@@ -365,7 +491,18 @@ def claim_out_dir(out: str | Path, command: str, *, resume_file: str | None = No
 @contextlib.contextmanager
 def atomic_file(path: str | Path) -> Iterator[IO[bytes]]:
     """Binary file handle on a temporary file next to ``path``, renamed over ``path`` on success
-    (:func:`birdocp.io.files.atomic_target`). If the body raises, ``path`` is left untouched."""
+    (:func:`birdocp.io.files.atomic_target`). If the body raises, ``path`` is left untouched.
+
+    Parameters
+    ----------
+    path : str or Path
+        File to write.
+
+    Yields
+    ------
+    file object
+        Binary handle to write the content into.
+    """
     from birdocp.io.files import atomic_target
 
     with atomic_target(path) as tmp, open(tmp, "wb") as fh:
@@ -386,6 +523,28 @@ def write_run(run_dir: str | Path, cfg, result_dict: dict, arrays: dict | None,
 
     ``result.json`` holds ``result_dict`` plus ``provenance`` (see :mod:`birdocp.io.provenance`) and is
     written last. ``wall_s`` defaults to ``result_dict["wall_s"]``. Returns the result.json path.
+
+    Parameters
+    ----------
+    run_dir : str or Path
+        Existing run folder.
+    cfg : Config
+        Resolved configuration of the run (written as config.toml and into the provenance).
+    result_dict : dict
+        JSON-able result.
+    arrays : dict of str to ndarray or None
+        Arrays for arrays.npz; None: no arrays.npz.
+    command_line : list of str or None
+        Command line of the run (None from the Python API).
+    command : str, optional
+        Name of the command, stored as ``provenance.command``.
+    wall_s : float, optional
+        Wall time of the run [s] (default: ``result_dict["wall_s"]``).
+
+    Returns
+    -------
+    Path
+        The path of result.json.
     """
     import json
 

@@ -265,6 +265,11 @@ def draw_frame(mo: dict, path_fwd_m, path_up_m, k: int, path, title: str = "", f
         Figure size [inch].
     dpi : int
         Resolution [dots per inch].
+
+    Returns
+    -------
+    Path
+        ``path``.
     """
     import matplotlib.pyplot as plt
 
@@ -278,6 +283,17 @@ def draw_frame(mo: dict, path_fwd_m, path_up_m, k: int, path, title: str = "", f
 
 def animation_writer(path, fps: float):
     """The matplotlib writer for ``path``: Pillow for ``.gif``, ffmpeg for ``.mp4``.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file; its suffix chooses the writer.
+    fps : float
+        Frames per second [1/s].
+
+    Returns
+    -------
+    matplotlib.animation.AbstractMovieWriter
 
     Raises
     ------

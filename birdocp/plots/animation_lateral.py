@@ -147,6 +147,11 @@ def draw_lateral_frame(mo: dict, flight: dict, k: int, path, title: str = "", fi
         Figure size [inch].
     dpi : int
         Resolution [dots per inch].
+
+    Returns
+    -------
+    Path
+        ``path``.
     """
     import matplotlib.pyplot as plt
 

@@ -25,13 +25,35 @@ def _sp_label(sp) -> str:
 
 
 def valid_mask(branch: Branch) -> np.ndarray:
-    """Per point: True where the model holds (``validity.valid``), also where it was not checked."""
+    """Per point: True where the model holds (``validity.valid``), also where it was not checked.
+
+    Parameters
+    ----------
+    branch : Branch
+        Continuation branch.
+
+    Returns
+    -------
+    ndarray of bool
+        One entry per point of the branch.
+    """
     return np.array([(p.validity or {}).get("valid", True) is not False for p in branch.points], bool)
 
 
 def runs(mask: np.ndarray) -> list:
     """Index ranges (start, stop) of the runs of equal values of ``mask``, each extended by one point so
-    that consecutive runs join in a line plot: [(start, stop, value), ...]."""
+    that consecutive runs join in a line plot: [(start, stop, value), ...].
+
+    Parameters
+    ----------
+    mask : ndarray of bool
+        One value per point.
+
+    Returns
+    -------
+    list of tuple
+        ``(start, stop, value)`` per run.
+    """
     out, start = [], 0
     for i in range(1, len(mask) + 1):
         if i == len(mask) or mask[i] != mask[start]:
@@ -44,7 +66,23 @@ def plot_by_validity(ax, x, y, valid, label: str | None = None, invalid_label: s
                      **style) -> None:
     """``ax.plot(x, y, **style)`` with the runs where the model does not hold (``valid`` False per
     point) drawn grey, dashed and without markers, as in the branch figures; ``label`` goes to the
-    first valid run, ``invalid_label`` to the first invalid one."""
+    first valid run, ``invalid_label`` to the first invalid one.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        Axes to draw on.
+    x, y : array_like
+        Coordinates of the points.
+    valid : sequence of bool or None
+        Per point: False where the model does not hold (None: not checked, drawn as valid).
+    label : str, optional
+        Legend text of the first valid run.
+    invalid_label : str, optional
+        Legend text of the first invalid run.
+    **style
+        Keyword arguments of ``ax.plot`` for the valid runs.
+    """
     x, y = np.asarray(x, float), np.asarray(y, float)
     ok = np.asarray([v is not False for v in valid], bool)
     seen = set()
@@ -60,7 +98,18 @@ STOPPED = ("reached_to", "reached_from", "max_points", "stopped_at_event")
 
 
 def branch_ends(branch: Branch) -> list:
-    """The ends to mark: ``settings['ends']`` (list of {index, reason, message}) or the last point."""
+    """The ends to mark: ``settings['ends']`` (list of {index, reason, message}) or the last point.
+
+    Parameters
+    ----------
+    branch : Branch
+        Continuation branch.
+
+    Returns
+    -------
+    list of dict
+        ``{"index", "reason", "message"}`` per end.
+    """
     ends = branch.settings.get("ends")
     if ends:
         return [dict(e, index=int(e["index"]) % len(branch.points)) for e in ends]
@@ -68,7 +117,17 @@ def branch_ends(branch: Branch) -> list:
 
 
 def end_label(reason: str) -> str:
-    """Legend text of a branch end by its ``end_reason``: stopped at the requested range, or a real end."""
+    """Legend text of a branch end by its ``end_reason``: stopped at the requested range, or a real end.
+
+    Parameters
+    ----------
+    reason : str
+        ``end_reason`` of the branch or of one of its ends.
+
+    Returns
+    -------
+    str
+    """
     if reason in STOPPED:
         return {"max_points": "continuation stopped here (point budget)",
                 "stopped_at_event": "continuation stopped here (at the located event, e.g. the validity boundary)"}.get(
@@ -93,7 +152,24 @@ def plot_branches(branches: dict, out_dir, prefix: str = "", span=None) -> list:
     locus, dashed grey lines in the moduli); branch ends are marked by why the branch ends (``x``: the
     continuation was stopped at the end of the requested range; filled square: the branch itself ends,
     e.g. its free parameter reaches a bound). ``span``: (lo, hi, label) of a parameter range to shade
-    (e.g. the paper's range)."""
+    (e.g. the paper's range).
+
+    Parameters
+    ----------
+    branches : dict of str to Branch
+        Branches by legend label.
+    out_dir : str or Path
+        Folder of the figures.
+    prefix : str
+        Prefix of the file names.
+    span : tuple, optional
+        ``(lo, hi, label)``: parameter range to shade.
+
+    Returns
+    -------
+    list of Path
+        The figures written (empty without branches).
+    """
     out_dir = Path(out_dir)
     labels = [k for k, b in branches.items() if b.points]
     if not labels:

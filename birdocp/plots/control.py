@@ -26,7 +26,19 @@ def _save(fig, path, dpi) -> Path:
 
 
 def plot_multipliers(result: dict, path) -> Path:
-    """Open- and closed-loop multipliers against the unit circle."""
+    """Open- and closed-loop multipliers against the unit circle.
+
+    Parameters
+    ----------
+    result : dict
+        With ``open_loop_multipliers`` and ``closed_loop_multipliers`` (complex or [re, im] pairs).
+    path : str or Path
+        PNG file to write.
+
+    Returns
+    -------
+    Path
+    """
     plt = _plt()
     fig, ax = plt.subplots(figsize=(5, 5))
     t = np.linspace(0, 2 * np.pi, 400)
@@ -47,7 +59,21 @@ def plot_multipliers(result: dict, path) -> Path:
 
 
 def plot_deviation(curves: dict, path, title: str = "deviation from the cycle at each beat start") -> Path:
-    """Deviation per beat on a log axis; ``curves`` maps a label to the deviation list."""
+    """Deviation per beat on a log axis; ``curves`` maps a label to the deviation list.
+
+    Parameters
+    ----------
+    curves : dict of str to sequence of float
+        Label to the deviation at each beat start [norm of the state deviation].
+    path : str or Path
+        PNG file to write.
+    title : str
+        Figure title.
+
+    Returns
+    -------
+    Path
+    """
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6.5, 4))
     for label, dev in curves.items():
@@ -64,7 +90,21 @@ def plot_deviation(curves: dict, path, title: str = "deviation from the cycle at
 def plot_simulation(runs: dict, path, title: str = "") -> Path:
     """Trajectories: altitude -Z against X, pitch, forward speed and the controls against time.
     ``runs`` maps a label to a :meth:`birdocp.studies.simulate.SimulationResult.arrays` dict (plus
-    ``control_keys``)."""
+    ``control_keys``).
+
+    Parameters
+    ----------
+    runs : dict of str to dict
+        Label to the arrays of a simulation.
+    path : str or Path
+        PNG file to write.
+    title : str
+        Figure title.
+
+    Returns
+    -------
+    Path
+    """
     plt = _plt()
     fig, axes = plt.subplots(4, 1, figsize=(7.5, 9))
     for label, a in runs.items():
@@ -95,7 +135,19 @@ def plot_simulation(runs: dict, path, title: str = "") -> Path:
 
 def plot_envelope(envelopes: list, path) -> Path:
     """Beats to recover and the largest control excursion against the gust amplitude, per direction
-    (the trials of :func:`birdocp.studies.simulate.gust_envelope`); failures marked with x."""
+    (the trials of :func:`birdocp.studies.simulate.gust_envelope`); failures marked with x.
+
+    Parameters
+    ----------
+    envelopes : list of dict
+        Results of :func:`birdocp.studies.simulate.gust_envelope` (``direction``, ``sign``, ``trials``).
+    path : str or Path
+        PNG file to write.
+
+    Returns
+    -------
+    Path
+    """
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     for env in envelopes:

@@ -23,7 +23,21 @@ def _plt():
 def plot_power(arrays: dict, path, title: str = "Power over one wingbeat") -> Path:
     """Aerodynamic, shoulder (flapping + inertial) and body power over the period, with their means.
 
-    ``arrays``: keys ``power_t_s`` and ``power_<name>`` (W) as in ``TrimResult.arrays()``."""
+    ``arrays``: keys ``power_t_s`` and ``power_<name>`` (W) as in ``TrimResult.arrays()``.
+
+    Parameters
+    ----------
+    arrays : dict
+        Power histories over one period.
+    path : str or Path
+        PNG file to write.
+    title : str
+        Figure title.
+
+    Returns
+    -------
+    Path
+    """
     from birdocp.plots.figures import save_figure
 
     plt = _plt()
@@ -64,7 +78,21 @@ def plot_power_curve(rows: list, path, title: str = "Power curve of level flight
     part in the marked optima; a marked optimum at an end of the valid rows says so (no interior one).
 
     ``rows``: dicts with ``speed_mps``, ``mean_shoulder_power_W``, ``mean_positive_power_W``,
-    ``largest_modulus``, ``success`` and ``valid`` (a row without ``valid`` counts as valid)."""
+    ``largest_modulus``, ``success`` and ``valid`` (a row without ``valid`` counts as valid).
+
+    Parameters
+    ----------
+    rows : list of dict
+        Rows of the power curve.
+    path : str or Path
+        PNG file to write.
+    title : str
+        Figure title.
+
+    Returns
+    -------
+    Path
+    """
     from birdocp.plots.figures import save_figure
 
     plt = _plt()
@@ -117,7 +145,21 @@ def plot_pareto(points: list, path, title: str = "Power against the stability bo
 
     ``points``: dicts with ``bound``, ``objective_value`` (W), ``largest_modulus``, ``success``. The
     end points are marked: ``bound`` None is the unconstrained energy optimum, ``bound`` "most stable"
-    the most stable gait."""
+    the most stable gait.
+
+    Parameters
+    ----------
+    points : list of dict
+        Points of the front.
+    path : str or Path
+        PNG file to write.
+    title : str
+        Figure title.
+
+    Returns
+    -------
+    Path
+    """
     from birdocp.plots.figures import save_figure
 
     plt = _plt()

@@ -34,7 +34,17 @@ _MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<", ">", "*")
 # ----------------------------------------------------------------------------------------------
 # input normalisation
 def as_complex(v) -> np.ndarray:
-    """Multipliers as a complex 1-D array from complex values, [re, im] pairs or {"real", "imag"}."""
+    """Multipliers as a complex 1-D array from complex values, [re, im] pairs or {"real", "imag"}.
+
+    Parameters
+    ----------
+    v : array_like or dict
+        Complex values, an (n, 2) array of [re, im] pairs or ``{"real": [...], "imag": [...]}``.
+
+    Returns
+    -------
+    ndarray of complex
+    """
     if isinstance(v, dict) and "real" in v:
         return np.asarray(v["real"], float) + 1j * np.asarray(v["imag"], float)
     a = np.asarray(v)
@@ -75,7 +85,19 @@ def _period(t) -> float:
 
 
 def save_figure(fig, path) -> Path:
-    """Save ``fig`` as PNG to ``path`` atomically (temporary file in the same folder, os.replace)."""
+    """Save ``fig`` as PNG to ``path`` atomically (temporary file in the same folder, os.replace).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        Figure to save; it is closed afterwards.
+    path : str or Path
+        PNG file to write.
+
+    Returns
+    -------
+    Path
+    """
     path = Path(path)
     try:
         with atomic_target(path, suffix=".png") as tmp:
@@ -89,7 +111,25 @@ def save_figure(fig, path) -> Path:
 def plot_convergence(results_by_label: dict, path, tol: float | None = None,
                      title: str = "Convergence of the shooting solve", tol_label: str | None = None) -> Path:
     """Max residual per iteration (log scale) for each labelled result/history. Open markers of
-    decreasing size and varying line styles keep coinciding histories distinguishable."""
+    decreasing size and varying line styles keep coinciding histories distinguishable.
+
+    Parameters
+    ----------
+    results_by_label : dict
+        Label to a result with ``residual_history`` or the history itself (max residual per iteration).
+    path : str or Path
+        PNG file to write.
+    tol : float, optional
+        Tolerance drawn as a horizontal line.
+    title : str
+        Figure title.
+    tol_label : str, optional
+        Legend text of the tolerance line.
+
+    Returns
+    -------
+    Path
+    """
     fig, ax = plt.subplots(figsize=(8, 6))
     styles = ("-", "--", "-.", ":")
     n = len(results_by_label)
@@ -114,9 +154,22 @@ def plot_multipliers(mults_by_label: dict, path, reference=None, zoom: bool = Tr
                      title: str = "Floquet multipliers") -> Path:
     """Multipliers in the complex plane with the unit circle (equal aspect), one marker per variant.
 
-    ``reference``: the paper's values (array/pairs, drawn as black crosses labelled "paper"), or a
-    dict label -> values for several reference sets. With ``zoom`` a row of panels below magnifies
-    the neighbourhood of each multiplier in the upper half plane (variants differ by ~1e-3).
+    Parameters
+    ----------
+    mults_by_label : dict
+        Label to the multipliers of a variant (any form :func:`as_complex` reads).
+    path : str or Path
+        PNG file to write.
+    reference : array_like or dict, optional
+        The paper's values (drawn as black crosses labelled "paper"), or label -> values for several sets.
+    zoom : bool
+        Add a row of panels magnifying each multiplier of the upper half plane (variants differ by ~1e-3).
+    title : str
+        Figure title.
+
+    Returns
+    -------
+    Path
     """
     sets = [(lab, as_complex(v), dict(marker=_MARKERS[k % len(_MARKERS)], ms=7, mfc="none", ls="none",
                                       mew=1.4))
@@ -179,7 +232,22 @@ def plot_multipliers(mults_by_label: dict, path, reference=None, zoom: bool = Tr
 
 
 def plot_states(trim_result, path, title: str = "Trimmed flight: states over one wingbeat") -> Path:
-    """The four states over one period (2 x 2 panels), shooting points marked when available."""
+    """The four states over one period (2 x 2 panels), shooting points marked when available.
+
+    Parameters
+    ----------
+    trim_result : TrimResult or dict
+        With ``trajectory_t_s`` [s] and ``trajectory_x`` (u, w [m/s], q [rad/s], theta [rad]);
+        optionally ``shooting_times_s`` and ``shooting_points``.
+    path : str or Path
+        PNG file to write.
+    title : str
+        Figure title.
+
+    Returns
+    -------
+    Path
+    """
     t, x = _trajectory(trim_result)
     T = _period(t)
     try:
@@ -205,7 +273,21 @@ def plot_states(trim_result, path, title: str = "Trimmed flight: states over one
 
 
 def plot_phase_portrait(trim_result, path, title: str = "Limit cycle: phase portrait") -> Path:
-    """u-w and w-q projections of the cycle, coloured by the pitch angle theta (colorbar)."""
+    """u-w and w-q projections of the cycle, coloured by the pitch angle theta (colorbar).
+
+    Parameters
+    ----------
+    trim_result : TrimResult or dict
+        With ``trajectory_t_s`` [s] and ``trajectory_x`` (u, w [m/s], q [rad/s], theta [rad]).
+    path : str or Path
+        PNG file to write.
+    title : str
+        Figure title.
+
+    Returns
+    -------
+    Path
+    """
     _, x = _trajectory(trim_result)
     fig, axs = plt.subplots(1, 2, figsize=(11.5, 4.8), layout="constrained")
     th = np.degrees(x[:, 3])
@@ -238,7 +320,25 @@ def plot_forces(trim_result, model, path, title: str = "Aerodynamic loads along 
     ``frame="body"``: Fx'/(m g) (forward along the body axis), Fz'/(m g) (down, normal to it) and
     My'/(m g c̄) (nose-up); ``frame="inertial"`` (the fixed frame of the paper's figures): the
     horizontal force (forward) and the vertical force (up) over m g, ``F_X = Fx' cos(theta) + Fz' sin(theta)``,
-    ``F_up = Fx' sin(theta) - Fz' cos(theta)``, and the same pitching moment."""
+    ``F_up = Fx' sin(theta) - Fz' cos(theta)``, and the same pitching moment.
+
+    Parameters
+    ----------
+    trim_result : TrimResult or dict
+        With ``trajectory_t_s`` [s] and ``trajectory_x``.
+    model : BirdModel
+        Model whose ``loads`` give the body-frame forces and moment.
+    path : str or Path
+        PNG file to write.
+    title : str
+        Figure title.
+    frame : {"body", "inertial"}
+        Frame of the forces.
+
+    Returns
+    -------
+    Path
+    """
     from birdocp.bird.config import PARAM_NAMES  # local: keep this module importable without the model stack
 
     if frame not in ("body", "inertial"):

@@ -61,6 +61,11 @@ def plot_lateral_mode(histories: dict, k: int, path, validity: str | None = None
         The PNG.
     validity : str, optional
         A note on the cycle's validity, printed under the title.
+
+    Returns
+    -------
+    Path
+        ``path``.
     """
     m = histories["modes"][k]
     t = np.asarray(histories["t_s"]) / histories["period_s"]
@@ -130,6 +135,11 @@ def plot_lateral_run(res: dict, run) -> list[Path]:
         The run's ``result.json``.
     run : str or Path
         The run folder.
+
+    Returns
+    -------
+    list of Path
+        The figures written.
     """
     from birdocp.bird.config import load
     from birdocp.studies.lateral_modes import lateral_mode_histories

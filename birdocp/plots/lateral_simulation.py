@@ -13,7 +13,21 @@ __all__ = ["plot_lateral_simulation"]
 def plot_lateral_simulation(runs: dict, path, title: str = "") -> Path:
     """Bank, heading, sideslip and roll rate over time, the ground track and each run's first
     control, one line per run (``runs``: label -> :meth:`LateralSimulation.arrays` dict with
-    ``control_keys``)."""
+    ``control_keys``).
+
+    Parameters
+    ----------
+    runs : dict of str to dict
+        Label to the arrays of a lateral simulation.
+    path : str or Path
+        PNG file to write.
+    title : str
+        Figure title.
+
+    Returns
+    -------
+    Path
+    """
     import matplotlib
 
     matplotlib.use("Agg")

@@ -26,7 +26,17 @@ PARAM_ALIASES = ("root_ahead_m", "stability_margin", "amplitude_deg")
 
 def resolve_parameter(key: str) -> tuple[str, str]:
     """(model key, display) for a continuation parameter: ``stability_margin`` (SM in percent, continued
-    as the root position ``root_ahead_m = -SM/100 * body.reference_chord_m``), an alias or a dotted key."""
+    as the root position ``root_ahead_m = -SM/100 * body.reference_chord_m``), an alias or a dotted key.
+
+    Parameters
+    ----------
+    key : str
+        ``stability_margin`` (or SM), an alias or a dotted key.
+
+    Returns
+    -------
+    model_key, display : str
+    """
     k = str(key).strip()
     if k in (STABILITY_MARGIN, "SM", "sm"):
         return "wing.root_ahead_m", STABILITY_MARGIN
@@ -37,12 +47,38 @@ def resolve_parameter(key: str) -> tuple[str, str]:
 
 
 def sm_percent(root_ahead_m: float, chord_m: float) -> float:
-    """Stability margin SM = (G - O'w)/c = -root_ahead_m / c, in percent."""
+    """Stability margin SM = (G - O'w)/c = -root_ahead_m / c, in percent.
+
+    Parameters
+    ----------
+    root_ahead_m : float
+        Wing-root position ahead of G_b [m].
+    chord_m : float
+        Reference chord c [m].
+
+    Returns
+    -------
+    float
+        SM [%].
+    """
     return -100.0 * float(root_ahead_m) / float(chord_m)
 
 
 def root_of_sm(sm_pct: float, chord_m: float) -> float:
-    """The wing-root position ``root_ahead_m`` (m) of a stability margin in percent."""
+    """The wing-root position ``root_ahead_m`` (m) of a stability margin in percent.
+
+    Parameters
+    ----------
+    sm_pct : float
+        Stability margin [%].
+    chord_m : float
+        Reference chord c [m].
+
+    Returns
+    -------
+    float
+        ``root_ahead_m`` [m].
+    """
     return -float(sm_pct) / 100.0 * float(chord_m)
 
 
@@ -129,9 +165,9 @@ def bird_branch(cfg=None, key: str = "root_ahead_m", start_value: float = 0.05, 
 
 def _with_lateral_split(cfg, br: Branch, steps: int, points: int, ode=None) -> Branch:
     """``br``, with six degrees of freedom given its per-point longitudinal/lateral split
-    (:func:`birdocp.studies.lateral.add_lateral_split` on the branch's ODE)."""
+    (:func:`birdocp.studies.lateral_branch.add_lateral_split` on the branch's ODE)."""
     if cfg.model.degrees_of_freedom == 6:
-        from birdocp.studies.lateral import add_lateral_split
+        from birdocp.studies.lateral_branch import add_lateral_split
 
         add_lateral_split(cfg, br, steps, points, ode)
     return br
@@ -139,9 +175,9 @@ def _with_lateral_split(cfg, br: Branch, steps: int, points: int, ode=None) -> B
 
 def _problem(cfg, compiled, model_key: str, level: bool, climb_rate_mps: float, bounds):
     """``(ode, problem)`` of a branch: the planar bird's (:func:`bird_problem`) or, with six degrees of
-    freedom, the heading-free 6-DOF model's (:func:`birdocp.studies.lateral.branch_problem`)."""
+    freedom, the heading-free 6-DOF model's (:func:`birdocp.studies.lateral_branch.branch_problem`)."""
     if cfg.model.degrees_of_freedom == 6:
-        from birdocp.studies.lateral import branch_problem
+        from birdocp.studies.lateral_branch import branch_problem
 
         return branch_problem(cfg, model_key, level, climb_rate_mps, bounds)
     if model_key in SIDE_KEYS:
@@ -167,7 +203,29 @@ def _model_units(display: str, a: float, b: float, options: dict, chord: float) 
 def bird_problem(cfg, m, ode, model_key: str, level: bool, climb_rate_mps: float, bounds) -> OrbitProblem:
     """The bird's limit-cycle problem of a branch: at fixed gait, or (``level``) with the amplitude
     free (within ``bounds``, default the level-flight bounds) and the mean vertical speed held at
-    ``climb_rate_mps``."""
+    ``climb_rate_mps``.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    m : BirdModel
+        Model of ``cfg``.
+    ode : PeriodicODE
+        The ODE solved (``m.ode`` or its compiled twin).
+    model_key : str
+        Dotted key of the continuation parameter.
+    level : bool
+        Amplitude free, mean vertical speed held.
+    climb_rate_mps : float
+        Mean vertical speed held with ``level`` [m/s].
+    bounds : (float, float) or None
+        Amplitude bounds [deg] with ``level``.
+
+    Returns
+    -------
+    LimitCycleProblem
+    """
     guess = m.complete_state(cfg.solve.initial_guess, m.p0)
     if not level:
         return OrbitProblem(ode, m.p0, guess, outputs=flight_outputs(m.ode.nd, m.ode.nx))
@@ -181,7 +239,17 @@ def bird_problem(cfg, m, ode, model_key: str, level: bool, climb_rate_mps: float
 
 
 def forward_flight(pt) -> str | None:
-    """Why a branch point is not a forward flight (u <= 0 at a shooting point), or None."""
+    """Why a branch point is not a forward flight (u <= 0 at a shooting point), or None.
+
+    Parameters
+    ----------
+    pt : branch point
+        With ``shooting_points`` (u [m/s] first).
+
+    Returns
+    -------
+    str or None
+    """
     u = np.asarray(pt.shooting_points)[:, 0]
     return None if np.all(u > 0) else f"u <= 0 at a shooting point (min {u.min():.3g} m/s)"
 
@@ -194,7 +262,23 @@ def validity_events(cfg, steps_per_period: int, ode=None, stop: bool = False):
     """The validity limits of ``cfg`` as continuation test functions
     (:class:`birdocp.engine.continuation.BranchEvents`, kind ``validity_boundary``): at each point the
     exact validity (:func:`birdocp.bird.validity.periodic_validity`, stored in the point's
-    ``validity``) and its margins (:func:`birdocp.bird.validity.validity_margins`) as the values."""
+    ``validity``) and its margins (:func:`birdocp.bird.validity.validity_margins`) as the values.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration (its ``[validity]`` limits).
+    steps_per_period : int
+        RK4 steps of the validity period.
+    ode : PeriodicODE, optional
+        The ODE integrated (default: the model's).
+    stop : bool
+        Stop the continuation at the located boundary.
+
+    Returns
+    -------
+    BranchEvents
+    """
     from birdocp.bird.validity import LIMIT_NAMES, periodic_validity, validity_margins
     from birdocp.engine.continuation import BranchEvents
 
@@ -216,7 +300,24 @@ def validity_events(cfg, steps_per_period: int, ode=None, stop: bool = False):
 def add_validity(cfg, br: Branch, steps_per_period: int | None = None, ode=None) -> Branch:
     """Fill ``validity`` (a dict, :meth:`birdocp.bird.validity.CycleValidity.to_dict`) of every point of
     ``br`` that has none: one RK4 period from the point's x0 with the point's parameter vector
-    (``ode``: the model's ODE or its compiled twin, :func:`birdocp.studies.trim.solver_ode`)."""
+    (``ode``: the model's ODE or its compiled twin, :func:`birdocp.studies.trim.solver_ode`).
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    br : Branch
+        Branch, changed in place.
+    steps_per_period : int, optional
+        RK4 steps of the validity period (default: the branch's).
+    ode : PeriodicODE, optional
+        The ODE integrated.
+
+    Returns
+    -------
+    Branch
+        ``br``.
+    """
     from birdocp.bird.validity import periodic_validity
 
     n = int(steps_per_period or br.settings.get("steps_per_period") or cfg.solve.steps_per_period)
@@ -229,10 +330,10 @@ def add_validity(cfg, br: Branch, steps_per_period: int | None = None, ode=None)
 
 def _planar_of(cfg, pt, ode):
     """(x0, p, ode) for the validity of a branch point: as is, or for a 6-DOF point
-    :func:`birdocp.studies.lateral.validity_point` (the planar cycle's, or with per-side joint laws the
+    :func:`birdocp.studies.lateral_branch.validity_point` (the planar cycle's, or with per-side joint laws the
     6-DOF check over both wings)."""
     if cfg.model.degrees_of_freedom == 6:
-        from birdocp.studies.lateral import validity_point
+        from birdocp.studies.lateral_branch import validity_point
 
         return validity_point(pt.x0, pt.p, ode)
     return pt.x0, np.asarray(pt.p, float) if len(pt.p) else None, ode

@@ -37,12 +37,15 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest
+from birdocp.bird.config import PARAM_NAMES, Config, ConfigError
 from birdocp.bird.model import get_model
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.floquet import complex_pairs, multiplier_order
 from birdocp.engine.integrate import RK4Grid
 from birdocp.studies.control_aero import body_gains, manifold_slopes, pad_weight
+from birdocp.studies.control_keys import (ACCEPTABLE_CONTROL_DEG, ACCEPTABLE_STATE, CONTROL_ALIASES,  # noqa: F401
+                                         DEFAULT_CONTROLS, DEFAULT_LIMIT_DEG, GAIT_HINT, bryson_weights,
+                                         default_limits, resolve_controls)
 from birdocp.engine.results import result_dict, serial
 
 __all__ = ["DEFAULT_CONTROLS", "ACCEPTABLE_STATE", "ACCEPTABLE_CONTROL_DEG", "DEFAULT_LIMIT_DEG",
@@ -50,82 +53,20 @@ __all__ = ["DEFAULT_CONTROLS", "ACCEPTABLE_STATE", "ACCEPTABLE_CONTROL_DEG", "DE
            "resolve_controls", "bryson_weights", "default_limits", "sorted_eigs", "reference_cycle",
            "closed_loop_monodromy", "body_gains", "CONTROL_ALIASES", "PerModel", "linearise", "controller_on_map"]
 
-DEFAULT_CONTROLS = ("gait.shoulder_incidence.offset_deg", "gait.shoulder_flap.amplitude_deg",
-                    "gait.shoulder_sweep.offset_deg")
-"""Shoulder incidence offset (wing pitch), flapping amplitude and sweep offset."""
-ACCEPTABLE_STATE = (1.0, 1.0, 1.0, math.radians(5.0))
-"""Acceptable deviations at a beat start for Bryson's rule: u [m/s], w [m/s], q [rad/s], theta [rad]."""
-ACCEPTABLE_CONTROL_DEG = 5.0
-"""Acceptable correction of a joint angle (offset or amplitude) for Bryson's rule [deg]."""
-DEFAULT_LIMIT_DEG = 15.0
-"""Joint range of a control around its cycle value [deg] (the simulation saturates there)."""
-
-CONTROL_ALIASES = {
-    "incidence": "gait.shoulder_incidence.offset_deg", "amplitude": "gait.shoulder_flap.amplitude_deg",
-    "sweep": "gait.shoulder_sweep.offset_deg", "flap_offset": "gait.shoulder_flap.offset_deg",
-}
-
-
-GAIT_HINT = " (a gait key such as gait.shoulder_sweep.offset_deg, or incidence, amplitude, sweep)"
-
-
-def resolve_controls(keys, aliases: dict = CONTROL_ALIASES, allowed=None, hint: str = GAIT_HINT) -> list[str]:
-    """Control keys (dotted :data:`PARAM_NAMES` entries of the gait, or an alias in
-    :data:`CONTROL_ALIASES`); ConfigError on an unknown, non-gait or repeated key. ``aliases``,
-    ``allowed`` (default: the gait keys of :data:`PARAM_NAMES`) and ``hint`` (appended to the error)
-    serve other maps, e.g. the six-degree-of-freedom per-side controls."""
-    allowed = [n for n in PARAM_NAMES if n.startswith("gait.")] if allowed is None else list(allowed)
-    out = []
-    for key in keys:
-        k = aliases.get(str(key).strip(), str(key).strip())
-        if k not in allowed:
-            raise ConfigError("--controls", f"unknown control '{key}'" + suggest(k, allowed + list(aliases)) + hint)
-        if k in out:
-            raise ConfigError("--controls", f"control '{k}' given twice")
-        out.append(k)
-    if not out:
-        raise ConfigError("--controls", "give at least one control key")
-    return out
-
-
-def _acceptable(cfg: Config, key: str) -> float:
-    if key.endswith("_deg"):
-        return ACCEPTABLE_CONTROL_DEG
-    return max(0.05 * abs(float(get_value(cfg, key))), 1e-6)
-
-
-def bryson_weights(cfg: Config, controls, acceptable_state=ACCEPTABLE_STATE, acceptable_control=None):
-    """(Q, R) = (diag(1/dx_max^2), diag(1/du_max^2)): Bryson's rule in the state's and the controls'
-    own units. ``acceptable_state``: one value per state (default :data:`ACCEPTABLE_STATE`, the
-    planar 4); ``acceptable_control``: one value per control (default :data:`ACCEPTABLE_CONTROL_DEG`)."""
-    dx = np.asarray(acceptable_state, float)
-    du = (np.array([_acceptable(cfg, k) for k in controls]) if acceptable_control is None
-          else np.asarray(acceptable_control, float))
-    if dx.ndim != 1 or not np.all(dx > 0) or du.shape != (len(controls),) or not np.all(du > 0):
-        raise ConfigError("weights", "acceptable deviations must be positive: one per state, one per control")
-    return np.diag(1.0 / dx ** 2), np.diag(1.0 / du ** 2)
-
-
-def default_limits(cfg: Config, controls, p, limit_deg: float = DEFAULT_LIMIT_DEG, names=PARAM_NAMES) -> np.ndarray:
-    """(m, 2) absolute joint limits: the cycle value +- ``limit_deg`` (amplitudes not below 0,
-    angles within the configuration's [-180, 180] deg); other units +- 20 %. ``names``: the names of
-    ``p`` (default :data:`PARAM_NAMES`). A per-side offset's limits are those of the offset itself."""
-    out = []
-    for k in controls:
-        v = float(p[list(names).index(k)])
-        if k.endswith("_deg"):
-            lo, hi = max(v - limit_deg, -180.0), min(v + limit_deg, 180.0)
-            if k.endswith("amplitude_deg") and "_offset." not in k:
-                lo = max(lo, 0.0)
-        else:
-            lo, hi = v - 0.2 * abs(v), v + 0.2 * abs(v)
-        out.append((lo, hi))
-    return np.array(out, float)
-
-
 def sorted_eigs(Mat):
-    """Eigenvalues and right eigenvectors in the order of every result
-    (:func:`birdocp.engine.floquet.multiplier_order`: largest modulus first)."""
+    """Eigenvalues and right eigenvectors, largest modulus first (:func:`~birdocp.engine.floquet.multiplier_order`).
+
+    Parameters
+    ----------
+    Mat : array_like, shape (n, n)
+        Real matrix.
+
+    Returns
+    -------
+    lam : ndarray, shape (n,)
+    V : ndarray, shape (n, n)
+        Eigenvectors as columns, in the order of ``lam``.
+    """
     lam, V = np.linalg.eig(np.asarray(Mat, float))
     order = multiplier_order(lam)
     return lam[order], V[:, order]
@@ -144,7 +85,19 @@ class PerModel:
 
     @classmethod
     def get(cls, model, *settings):
-        """The cached instance for (model, settings), built on first use."""
+        """The cached instance for (model, settings), built on first use.
+
+        Parameters
+        ----------
+        model : object
+            Model (identity part of the key).
+        *settings
+            Further parts of the key.
+
+        Returns
+        -------
+        PerModel
+        """
         key = (id(model.model), *settings)
         hit = cls._cache.get(key)
         if hit is None or hit.model is not model.model:
@@ -281,12 +234,28 @@ def wingbeat_map(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat: int 
 
 
 def linearise(model, x0, p, steps: int, updates_per_beat: int, control_index):
-    """The interval maps of the wingbeat map at a cycle: ``(x_starts (N, n), A (N, n, n), B (N, n, m))``.
+    """The interval maps of the wingbeat map at a cycle, by exact forward AD through the per-time data and
+    every RK4 step.
 
-    ``model``: an object with ``ode``, ``data`` and ``model`` (:class:`_Linearisation`); ``x0`` the
-    cycle's start state, ``p`` its parameter vector, ``control_index`` the indices in ``p`` of the m
-    controls (held over each of the N intervals). Exact forward AD through the per-time data and
-    every RK4 step of the ``steps``-step grid."""
+    Parameters
+    ----------
+    model : object
+        With ``ode``, ``data`` and ``model`` (:class:`_Linearisation`).
+    x0, p : array_like
+        The cycle's start state and parameter vector.
+    steps : int
+        RK4 steps per period.
+    updates_per_beat : int
+        N, the intervals over which each control is held.
+    control_index : sequence of int
+        Indices in ``p`` of the m controls.
+
+    Returns
+    -------
+    x_starts : ndarray, shape (N, n)
+    A : ndarray, shape (N, n, n)
+    B : ndarray, shape (N, n, m)
+    """
     N = int(updates_per_beat)
     lin = _Linearisation.get(model, steps, N)
     grid = lin.grid
@@ -369,9 +338,19 @@ def periodic_lqr(A, B, Q, R):
 
 
 def closed_loop_monodromy(A, B, K) -> np.ndarray:
-    """``prod_i (A_i - B_i K_i)`` (the beat map under periodic state feedback). A gain narrower than
-    the state (the body states' 4 columns of a model with aerodynamic states) feeds back the first
-    states only."""
+    """``prod_i (A_i - B_i K_i)``: the beat map under periodic state feedback.
+
+    Parameters
+    ----------
+    A, B : array_like
+        Interval maps, (N, n, n) and (N, n, m).
+    K : array_like
+        Gains (N, m, n) or (N, m, 4): a narrower gain feeds back the first (body) states only.
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+    """
     n = np.asarray(A).shape[1]
     out = np.eye(n)
     for Ai, Bi, Ki in zip(A, B, K):
@@ -474,7 +453,13 @@ class Controller:
 
     def to_dict(self) -> dict:
         """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): the design, its verdict and
-        the linearised map it was designed on."""
+        the linearised map it was designed on.
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         wm = self.map
         ol = wm.multipliers
         rho = self.spectral_radius
@@ -548,10 +533,22 @@ def design_controller(cycle_result, controls=DEFAULT_CONTROLS, updates_per_beat:
 
 
 def controller_on_map(wm: WingbeatMap, Q, R, limits) -> Controller:
-    """The periodic LQR of a linearised wingbeat map (any number of states) with weights ``Q``, ``R``
-    and the analysis of each control alone; ``limits`` (m, 2) go to the controller. Raises
-    ``numpy.linalg.LinAlgError`` carrying ``wingbeat_map`` and ``per_control`` when no stabilising
-    solution exists (:func:`design_controller`)."""
+    """The periodic LQR of a linearised wingbeat map and the analysis of each control alone.
+
+    Parameters
+    ----------
+    wm : WingbeatMap
+        Linearised wingbeat map (any number of states).
+    Q, R : array_like
+        State and control weights.
+    limits : array_like, shape (m, 2)
+        Absolute control limits, kept by the controller.
+
+    Returns
+    -------
+    Controller
+        No stabilising solution: ``numpy.linalg.LinAlgError`` carrying ``wingbeat_map`` and ``per_control``.
+    """
     per = [_single_control(wm, j, Q, R) for j in range(len(wm.controls))]
     try:
         P, K_full = periodic_lqr(wm.A, wm.B, Q, R)
@@ -564,8 +561,21 @@ def controller_on_map(wm: WingbeatMap, Q, R, limits) -> Controller:
 
 
 def reference_cycle(cfg: Config, level: bool = False):
-    """The cycle to control: the trim of ``cfg``, or with ``level`` the level-flight amplitude solved
-    first and the cycle re-trimmed at it (its ``cfg`` then holds that amplitude)."""
+    """The cycle to control: the trim of ``cfg``, or with ``level`` the level-flight amplitude solved first
+    and the cycle re-trimmed at it (its ``cfg`` then holds that amplitude).
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    level : bool
+        Solve the level-flight amplitude first.
+
+    Returns
+    -------
+    TrimResult or LevelResult
+        The trim; the failed level result when the level solve fails.
+    """
     from birdocp.bird.config import with_values
     from birdocp.studies.trim import trim
 

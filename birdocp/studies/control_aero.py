@@ -11,7 +11,23 @@ __all__ = ["manifold_slopes", "body_gains", "pad_weight"]
 
 
 def manifold_slopes(m, x_starts, t_starts, p) -> np.ndarray:
-    """d(aerodynamic states)/d(body state) of the quasi-steady manifold at each (x_i, t_i): (N, n - 4, 4)."""
+    """d(aerodynamic states)/d(body state) of the quasi-steady manifold at each (x_i, t_i): (N, n - 4, 4).
+
+    Parameters
+    ----------
+    m : BirdModel
+        Model with aerodynamic states.
+    x_starts : array_like, shape (N, n)
+        States at the interval starts.
+    t_starts : array_like, shape (N,)
+        Times of the interval starts [s].
+    p : array_like
+        Parameter vector.
+
+    Returns
+    -------
+    ndarray, shape (N, n - 4, 4)
+    """
     x4 = ca.MX.sym("x4", 4)
     d = ca.MX.sym("d", m.ode.nd)
     pp = ca.MX.sym("p", m.ode.np)
@@ -24,7 +40,19 @@ def body_gains(wm, K) -> np.ndarray:
     """Gains (N, m, 4) on the body states alone from full-state gains (N, m, n): the aerodynamic
     states' columns folded in through the slope of their quasi-steady manifold at each interval start
     (``du = -(K_b + K_a S_i) dx_body``: the feedback a flier that senses only its flight state applies,
-    assuming its lag and separation states follow the body state). Unchanged without aerodynamic states."""
+    assuming its lag and separation states follow the body state). Unchanged without aerodynamic states.
+
+    Parameters
+    ----------
+    wm : WingbeatMap
+        Linearised wingbeat map.
+    K : array_like, shape (N, m, n)
+        Full-state gains.
+
+    Returns
+    -------
+    ndarray, shape (N, m, 4)
+    """
     K = np.asarray(K, float)
     if wm.manifold is None or K.shape[2] == wm.n_body:
         return K
@@ -32,7 +60,19 @@ def body_gains(wm, K) -> np.ndarray:
 
 
 def pad_weight(Q, n: int) -> np.ndarray:
-    """A body-state weight (4 x 4) extended by zeros over the aerodynamic states (n x n)."""
+    """A body-state weight (4 x 4) extended by zeros over the aerodynamic states (n x n).
+
+    Parameters
+    ----------
+    Q : array_like
+        Body-state weight (4 x 4), or already n x n.
+    n : int
+        Number of states.
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+    """
     Q = np.asarray(Q, float)
     if Q.shape[0] == n:
         return Q

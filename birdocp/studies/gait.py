@@ -91,7 +91,13 @@ class GaitOptimum:
         return float(np.max(np.abs(self.multipliers)))
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): the documented keys."""
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): the documented keys.
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self, exclude=("cfg", "start_x0", "means", "second_derivatives", "six_dof"),
                            derived=("largest_modulus",), extra=dict(self.six_dof or {}) | {
             "active_bounds": [k for k, v in self.free.items()
@@ -346,7 +352,7 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
         out.second_derivatives = fd.last[1] * scale2
     if opts.verify:
         t0 = time.perf_counter()
-        out.verification = verify_gait(out, cfg, rc.N)
+        out.verification = _verify_gait(out, cfg, rc.N)
         out.cfg = out.verification.pop("cfg")
         wall["verify"] = time.perf_counter() - t0
     wall["total"] = time.perf_counter() - t_all
@@ -396,7 +402,7 @@ def _optimum(prob: ReducedProblem, sol, st, msg, gbounds, ev0, start_value, free
     return out
 
 
-def verify_gait(opt: GaitOptimum, cfg: Config, steps: int) -> dict:
+def _verify_gait(opt: GaitOptimum, cfg: Config, steps: int) -> dict:
     """An independent trim from scratch at the optimal gait and amplitude: 5-point multiple shooting
     from the state of the start gait's cycle (nothing of the optimiser's cycle; the configured
     initial guess finds another, climbing cycle at some optima); its power, speeds and multipliers
@@ -543,13 +549,37 @@ def _pareto_sequential(cfg, speed_mps, bounds, free, start, x_guess, objective, 
 
 def valid_power_curve(executor, cfg, speeds, *, free=None, start=None, x_guess=None, start_speed=None,
                       progress=None, wave: int | None = None, **options) -> dict:
-    """The power curve over valid gaits: at each speed the least-power level gait over ``free``
-    (default :data:`DEFAULT_GAIT_FREE`) with every limit of ``[validity]`` a constraint
-    (``optimize_gait(objective="power", valid=True)``), the speeds solved in parallel waves through
-    ``executor`` (:mod:`birdocp.engine.executors`), each from its nearest solved speed
-    (:func:`birdocp.studies.pareto.waves`; ``start``/``x_guess`` at ``start_speed``: a known solution
-    to begin from, default the configured gait). Returns ``{"rows", "minimum_power",
-    "maximum_range", ...}`` as :func:`power_curve` (optima over the valid rows)."""
+    """The power curve over valid gaits: at each speed the least-power level gait with every limit of
+    ``[validity]`` a constraint (``optimize_gait(objective="power", valid=True)``), the speeds solved in
+    parallel waves, each from its nearest solved speed (:func:`birdocp.studies.pareto.waves`).
+
+    Parameters
+    ----------
+    executor : executor
+        Runs the waves (:mod:`birdocp.engine.executors`).
+    cfg : Config
+        Configuration.
+    speeds : sequence of float
+        Mean forward speeds [m/s].
+    free : dict, optional
+        Free keys and bounds (default :data:`DEFAULT_GAIT_FREE`).
+    start, x_guess : optional
+        A known solution's gait and cycle state at ``start_speed`` (default: the configured gait).
+    start_speed : float, optional
+        Speed of ``start`` [m/s].
+    progress : callable, optional
+        ``progress(text)`` after each speed.
+    wave : int, optional
+        Speeds solved at a time (default: the executor's worker count).
+    **options
+        Further keywords of :func:`optimize_gait`.
+
+    Returns
+    -------
+    dict
+        ``{"rows", "free", "minimum_power", "maximum_range", ...}`` as :func:`power_curve` (optima over
+        the valid rows).
+    """
     from birdocp.studies.pareto import power_point, waves
 
     options = {k: v for k, v in options.items() if k != "progress"} | {"valid": True}

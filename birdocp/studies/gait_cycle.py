@@ -45,7 +45,17 @@ _OUT = ("vertical_speed_mps", "forward_speed_mps", "flapping_power_W", "aerodyna
 
 def jury_conditions(A):
     """The five Jury quantities (each >= 0 <=> all eigenvalues of the 4 x 4 A in the closed unit
-    disc, strict > 0 for the open disc)."""
+    disc, strict > 0 for the open disc).
+
+    Parameters
+    ----------
+    A : casadi.SX or MX, shape (4, 4)
+        Matrix.
+
+    Returns
+    -------
+    casadi.SX or MX, shape (5, 1)
+    """
     t1 = ca.trace(A)
     A2 = A @ A
     t2 = ca.trace(A2)
@@ -65,7 +75,15 @@ def jury_conditions(A):
 def check_free_bounds(cfg, free: dict) -> None:
     """ConfigError unless every free key is a known parameter other than the amplitude, with finite
     bounds lower < upper that hold the configured value and lie in the key's physical range (each
-    bound is a valid configuration value). Needs no model: callers check this before building one."""
+    bound is a valid configuration value). Needs no model: callers check this before building one.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    free : dict of str to (float, float)
+        Free key to (lower, upper) bound.
+    """
     for k, (lo, hi) in free.items():
         if k not in PARAM_NAMES:
             raise ConfigError(k, "unknown parameter for --free" + suggest(k, PARAM_NAMES))
@@ -87,7 +105,17 @@ def check_free_bounds(cfg, free: dict) -> None:
 
 def check_free_keys(m, cfg, free: dict) -> None:
     """ConfigError unless every free key can be a reduced variable (:func:`check_free_bounds`, and
-    not reshaping the wing in the arm frame, which the model ``m`` tells)."""
+    not reshaping the wing in the arm frame, which the model ``m`` tells).
+
+    Parameters
+    ----------
+    m : BirdModel
+        Model of ``cfg``.
+    cfg : Config
+        Configuration.
+    free : dict of str to (float, float)
+        Free key to (lower, upper) bound.
+    """
     check_free_bounds(cfg, free)
     for k in free:
         if PARAM_NAMES.index(k) in m.pre_params:
@@ -96,6 +124,12 @@ def check_free_keys(m, cfg, free: dict) -> None:
 
 
 def jury_function():
+    """The Jury conditions of M / r and their Jacobian, as a CasADi Function ``jury(M, r) -> (j, dj/d(vec M, r))``.
+
+    Returns
+    -------
+    casadi.Function
+    """
     M, r = ca.SX.sym("M", 4, 4), ca.SX.sym("r")
     j = jury_conditions(M / r)
     return ca.Function("jury", [M, r], [j, ca.jacobian(j, ca.vertcat(ca.vec(M), r))])

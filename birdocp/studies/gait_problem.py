@@ -41,6 +41,13 @@ class ReducedProblem:
         self.mg = mg
 
     def bounds_g(self):
+        """Lower and upper bounds of the constraint rows: the amplitude [deg], the speed condition [m/s] when
+        set, the Jury rows (>= ``JURY_MARGIN``) with a stability bound, the validity limits held.
+
+        Returns
+        -------
+        lo, hi : ndarray
+        """
         lo, hi = [self.amp[0]], [self.amp[1]]
         if self.speed is not None:
             lo.append(self.speed)
@@ -54,7 +61,19 @@ class ReducedProblem:
         return np.array(lo), np.array(hi)
 
     def smooth_validity(self, ev: Evaluation, grads: bool = True):
-        """({limit: smooth value}, {limit: gradient in theta}) of the constrained validity limits."""
+        """({limit: smooth value}, {limit: gradient in theta}) of the constrained validity limits.
+
+        Parameters
+        ----------
+        ev : Evaluation
+            Evaluation of the level cycle.
+        grads : bool
+            Also the gradients.
+
+        Returns
+        -------
+        values, gradients : dict
+        """
         from birdocp.bird.validity_smooth import integrand_names, smooth_measures
 
         names = integrand_names()
@@ -77,7 +96,17 @@ class ReducedProblem:
         """Variable scaling z_k = sigma_k theta_k so that a unit step of z_k changes the speed by at most
         1 m/s, the power by 10 % and the amplitude by 1 deg (measured: the sweep offset moves the speed
         by 6.6 m/s per degree, the incidence by 0.24: unscaled, IPOPT's quasi-Newton crept along the
-        constraint in 0.015-deg steps)."""
+        constraint in 0.015-deg steps).
+
+        Parameters
+        ----------
+        ev : Evaluation
+            Evaluation with gradients at the start point.
+
+        Returns
+        -------
+        None
+        """
         g = ev.grads
         P = max(abs(ev.means["flapping_power_W"]), 1e-3)
         sig = np.maximum.reduce([np.abs(g["forward_speed_mps"]), np.abs(g["flapping_power_W"]) / (0.1 * P),
@@ -85,6 +114,19 @@ class ReducedProblem:
         self.sigma = np.concatenate([sig, [1.0] if self.with_r else []])
 
     def both(self, z, grads: bool = True):
+        """The constraints G and their Jacobian dG/dz at the scaled unknowns ``z``.
+
+        Parameters
+        ----------
+        z : array_like
+            Scaled unknowns.
+        grads : bool
+            Also the Jacobian.
+
+        Returns
+        -------
+        G, J : ndarray
+        """
         z = np.asarray(z, float).ravel() / self.sigma
         nt = self.rc.nt
         try:
@@ -145,9 +187,31 @@ class ReducedProblem:
                 "cost-of-transport": P / (self.mg * U)}[self.objective]
 
     def g(self, z):
+        """The constraints G at ``z``.
+
+        Parameters
+        ----------
+        z : array_like
+            Scaled unknowns.
+
+        Returns
+        -------
+        ndarray
+        """
         return self.both(z, grads=False)[0]
 
     def jacobian(self, z):
+        """dG/dz at ``z``; a finite one marks the cycle as a restart point (:meth:`ReducedLevelCycle.accept`).
+
+        Parameters
+        ----------
+        z : array_like
+            Scaled unknowns.
+
+        Returns
+        -------
+        ndarray
+        """
         J = self.both(z)[1]
         if J is not None and np.all(np.isfinite(J)):  # IPOPT asks for derivatives at accepted points
             self.rc.accept(np.asarray(z, float).ravel()[:self.rc.nt] / self.sigma[:self.rc.nt])
@@ -156,7 +220,19 @@ class ReducedProblem:
     def jacobian_near(self, zk, z):
         """dG/dz at ``zk`` next to ``z`` (where :meth:`jacobian` was just evaluated), side-effect-free
         and thread-safe (:meth:`ReducedLevelCycle.evaluate_near` from z's cycle): the perturbed points
-        of :class:`birdocp.engine.oracle.StencilHessian`. NaN where no level cycle is found."""
+        of :class:`birdocp.engine.oracle.StencilHessian`. NaN where no level cycle is found.
+
+        Parameters
+        ----------
+        zk : array_like
+            Scaled unknowns of the perturbed point.
+        z : array_like
+            Scaled unknowns of the last evaluated point.
+
+        Returns
+        -------
+        ndarray
+        """
         nt = self.rc.nt
         zk = np.asarray(zk, float).ravel() / self.sigma
         theta = np.asarray(z, float).ravel()[:nt] / self.sigma[:nt]

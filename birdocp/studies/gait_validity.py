@@ -32,7 +32,21 @@ WARM_IPOPT = {"ipopt.mu_init": 1e-6, "ipopt.mu_strategy": "monotone", "ipopt.bou
 
 def attach_validity(out, prob, ev, lam_g, cfg: Config) -> None:
     """Set ``out.validity`` (exact verdict of the optimal cycle, on the solver's grid) and, when the
-    problem had smooth validity constraints, ``out.validity_constraints``."""
+    problem had smooth validity constraints, ``out.validity_constraints``.
+
+    Parameters
+    ----------
+    out : GaitOptimum
+        Result, changed in place.
+    prob : object
+        The optimisation problem solved.
+    ev : object
+        The problem evaluated at the optimum.
+    lam_g : array_like
+        Constraint multipliers at the optimum.
+    cfg : Config
+        Configuration.
+    """
     from birdocp.bird.config import param_vector
     from birdocp.bird.validity import periodic_validity
 
@@ -49,12 +63,27 @@ def attach_validity(out, prob, ev, lam_g, cfg: Config) -> None:
 
 
 def constraint_report(cfg: Config, smooth: dict, exact: dict, used: dict, lam: dict | None = None) -> dict:
-    """limit -> ``{"smooth", "exact", "bound", "bound_used", "kind", "active", "exact_within_bound",
-    "multiplier", "smoothing"}``: the smooth value at the optimum, the exact measure (``exact``: a
-    validity dict), the configured bound, the (possibly tightened) bound the optimiser held, 'max' or
-    'min', whether the smooth constraint is active (within 1e-5 of its bound, relative to
-    max(1, |bound|)), whether the exact measure respects the configured bound, IPOPT's multiplier
-    (None when no optimiser held it) and the smoothing used."""
+    """Per validity limit, the smooth constraint at the optimum against the exact measure.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration (the configured bounds).
+    smooth : dict
+        Limit to its smooth value at the optimum.
+    exact : dict
+        The exact validity (a validity dict).
+    used : dict
+        Limit to the (possibly tightened) bound the optimiser held.
+    lam : dict, optional
+        Limit to IPOPT's multiplier (None: no optimiser held it).
+
+    Returns
+    -------
+    dict
+        Limit to ``{"smooth", "exact", "bound", "bound_used", "kind" ('max' or 'min'), "active" (within
+        1e-5 of its bound relative to max(1, |bound|)), "exact_within_bound", "multiplier", "smoothing"}``.
+    """
     from birdocp.bird.validity_smooth import KS_RHO, STALL_WIDTH_DEG, limit_bounds
 
     out = {}
@@ -97,7 +126,28 @@ def _tightened(cfg: Config, used: dict, exact: dict, smooth: dict) -> dict | Non
 
 def solve_valid(solve, cfg: Config, free, valid: bool, options: dict, rounds_max: int = VALID_ROUNDS):
     """``solve(cfg, free, valid_bounds=..., **options)`` once (``valid`` False: no smooth constraints),
-    or in rounds until the optimum's exact validity is ``valid`` (see the module)."""
+    or in rounds until the optimum's exact validity is ``valid`` (see the module).
+
+    Parameters
+    ----------
+    solve : callable
+        ``solve(cfg, free, valid_bounds=..., **options)``.
+    cfg : Config
+        Configuration.
+    free : dict
+        Free keys and bounds.
+    valid : bool
+        Add the smooth validity constraints.
+    options : dict
+        Further keywords of ``solve``.
+    rounds_max : int
+        Largest number of rounds.
+
+    Returns
+    -------
+    object
+        The last result of ``solve``.
+    """
     import time
 
     from birdocp.bird.validity_smooth import limit_bounds

@@ -40,7 +40,17 @@ GLIDE_STATES = tuple(range(8))
 
 def frozen_config(cfg: Config | None = None) -> Config:
     """``cfg`` (default: the reference case) with every joint's ``amplitude_deg`` set to 0: the wing
-    held at the gait's offsets."""
+    held at the gait's offsets.
+
+    Parameters
+    ----------
+    cfg : Config, optional
+        Configuration (default: the reference case).
+
+    Returns
+    -------
+    Config
+    """
     return with_values(cfg or Config(), {f"gait.{j}.amplitude_deg": 0.0 for j in JOINT_NAMES})
 
 
@@ -53,6 +63,11 @@ def _glide_ode(six, p6) -> ODE:
 
 def lateral_glide_modes(A) -> dict:
     """The modes of a 4 x 4 lateral state matrix ``A`` over (v, p, r, phi) [1/s].
+
+    Parameters
+    ----------
+    A : array_like, shape (4, 4)
+        Lateral state matrix [1/s].
 
     Returns
     -------
@@ -126,7 +141,19 @@ def check_states(cfg: Config | None = None, glide: dict | None = None) -> list[d
     """Flight states (besides the glide) at which the lateral load derivatives are compared with an
     independent model: ``small_angle``, the glide's speed with the body angle of attack that puts the
     root section at :data:`SMALL_SECTION_ANGLE_DEG` (the offset incidence subtracted). Not equilibria:
-    a diagnostic of the section law, not of the dynamics. Each: ``name``, ``u_mps``, ``w_mps``."""
+    a diagnostic of the section law, not of the dynamics. Each: ``name``, ``u_mps``, ``w_mps``.
+
+    Parameters
+    ----------
+    cfg : Config, optional
+        Configuration (default: the reference case).
+    glide : dict, optional
+        The glide (default: solved here).
+
+    Returns
+    -------
+    list of dict
+    """
     cfg = frozen_config(cfg)
     glide = glide or steady_glide(cfg)
     a = np.radians(SMALL_SECTION_ANGLE_DEG - cfg.gait.shoulder_incidence.offset_deg)
@@ -235,6 +262,10 @@ def lateral_matrix_with(glide: dict, derivatives: dict, cfg: Config | None = Non
         The configuration of the glide (its mass; default the reference case).
     inertia : LateralInertia, optional
         Roll and yaw inertia (default ``cfg.model``'s).
+
+    Returns
+    -------
+    ndarray, shape (4, 4)
     """
     cfg = cfg or Config()
     inertia = inertia or LateralInertia.of(cfg)

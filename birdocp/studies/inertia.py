@@ -25,7 +25,19 @@ _GRIDS: dict = {}
 
 
 def wing_mass_of_fraction(fraction: float, total_mass_kg: float) -> float:
-    """Mass of ONE wing [kg] for a wing-mass fraction (both wings / whole bird, 0..1)."""
+    """Mass of ONE wing [kg] for a wing-mass fraction (both wings / whole bird, 0..1).
+
+    Parameters
+    ----------
+    fraction : float
+        Wing-mass fraction [-].
+    total_mass_kg : float
+        Mass of the whole bird [kg].
+
+    Returns
+    -------
+    float
+    """
     return 0.5 * float(fraction) * float(total_mass_kg)
 
 
@@ -41,7 +53,21 @@ def mean_com_offset_m(cfg: Config, p=None, n: int = 64) -> tuple[float, float]:
     """Cycle mean of the whole bird's centre of mass relative to G_b, (x' forward, z' down) in m:
     ``S̄/M`` by the trapezoidal rule on ``n`` uniform times of one period (spectrally accurate for the
     smooth periodic wing motion). ``p``: parameter vector (default the configuration's). (0, 0) for a
-    model without wing masses."""
+    model without wing masses.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    p : array_like, optional
+        Parameter vector.
+    n : int
+        Number of sample times.
+
+    Returns
+    -------
+    x_m, z_m : float
+    """
     m = get_model(cfg)
     if m.model.mass_points is None:
         return 0.0, 0.0
@@ -61,7 +87,21 @@ def hold_mean_com_root(cfg: Config, root_ahead_ref_m: float, p=None) -> float:
     """The wing-root position ``wing.root_ahead_m`` [m] that puts the shoulder ``root_ahead_ref_m``
     ahead of the cycle-mean centre of mass of the whole bird (docs/studies/inertia.md, frames, x' component):
     ``r' = (M r_ref + sum m_i rhō_x,i) / m_b`` with rho_i the mass points relative to the shoulder.
-    The mean C depends on the gait (e.g. the level-flight amplitude): evaluate at the gait of ``p``."""
+    The mean C depends on the gait (e.g. the level-flight amplitude): evaluate at the gait of ``p``.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    root_ahead_ref_m : float
+        Shoulder position ahead of the mean centre of mass wanted [m].
+    p : array_like, optional
+        Parameter vector (default the configuration's).
+
+    Returns
+    -------
+    float
+    """
     p = np.asarray(get_model(cfg).p0 if p is None else p, float)
     M = p[PARAM_NAMES.index("body.mass_kg")]
     m_w = 2.0 * p[PARAM_NAMES.index("wing.mass_kg")]
@@ -73,7 +113,21 @@ def hold_mean_com_root(cfg: Config, root_ahead_ref_m: float, p=None) -> float:
 
 def stability_margin_mean_com_percent(root_ahead_m: float, mean_com_x_m: float, chord_m: float) -> float:
     """Stability margin measured from the cycle-mean centre of mass C instead of G_b, in percent:
-    ``-(root_ahead_m - x̄_C) / chord``."""
+    ``-(root_ahead_m - x̄_C) / chord``.
+
+    Parameters
+    ----------
+    root_ahead_m : float
+        Wing-root position ahead of G_b [m].
+    mean_com_x_m : float
+        x' of the cycle-mean centre of mass relative to G_b [m].
+    chord_m : float
+        Reference chord [m].
+
+    Returns
+    -------
+    float
+    """
     return -100.0 * (float(root_ahead_m) - float(mean_com_x_m)) / float(chord_m)
 
 
@@ -82,7 +136,23 @@ def cycle_summary(cfg: Config, x0, p, steps_per_period: int = 148) -> dict:
     parameters ``p``: period-mean pitch and half peak-to-peak pitch oscillation [deg], mean and peak
     forward speed, mean centre-of-mass offset [m], the period means of the wing powers [W] and the
     exact ``validity`` of the cycle (:func:`birdocp.bird.validity.grid_validity` on the same RK4
-    states; a dict, with ``valid``)."""
+    states; a dict, with ``valid``).
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    x0 : array_like
+        State at t = 0 on the cycle.
+    p : array_like
+        Parameter vector.
+    steps_per_period : int
+        RK4 steps of one period.
+
+    Returns
+    -------
+    dict
+    """
     from birdocp.bird.validity import grid_validity
 
     m = get_model(cfg)
@@ -113,7 +183,19 @@ def cycle_summary(cfg: Config, x0, p, steps_per_period: int = 148) -> dict:
 
 def config_with_wing_mass(cfg: Config, fraction: float) -> Config:
     """``cfg`` with the wing-mass terms in the graphs and ``wing.mass_kg`` for a wing-mass fraction
-    (both wings / whole bird)."""
+    (both wings / whole bird).
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    fraction : float
+        Wing-mass fraction (both wings / whole bird) [-].
+
+    Returns
+    -------
+    Config
+    """
     return with_values(cfg, {"wing.inertial_terms": True,
                              "wing.mass_kg": wing_mass_of_fraction(fraction, cfg.body.mass_kg)})
 

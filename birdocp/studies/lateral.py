@@ -28,10 +28,10 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, asymmetric, param_vector
+from birdocp.bird.config import PARAM_NAMES, Config, param_vector
 from birdocp.bird.flight import flight_path_angle_deg
 from birdocp.bird.keys import AMPLITUDE_KEY
-from birdocp.bird.sides import SIDE_PARAM_NAMES, side_vector
+from birdocp.bird.sides import side_vector
 from birdocp.bird.sixdof import HEADING, LATERAL, LONGITUDINAL, STATE_NAMES, LateralInertia, embed_planar_state, \
     sixdof_model
 from birdocp.bird.validity import CycleValidity, periodic_validity
@@ -47,12 +47,23 @@ from birdocp.studies.trim import check_physical
 
 __all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "coupled_modes", "LATERAL_SHARE_MIN", "beats_to_double", "lateral_sensitivities",
            "LATERAL_SENSITIVITY_KEYS", "heading_trajectory", "TAIL_SENSITIVITY_KEY", "level_keywords",
-           "solve_point", "branch_problem", "planar_point", "validity_point", "add_lateral_split"]
+           "solve_point"]
 
 
 def beats_to_double(multiplier: complex) -> float:
     """Wingbeats for a perturbation along a mode to double (positive, |Lambda| > 1) or halve
-    (negative, |Lambda| < 1): ``ln 2 / ln|Lambda|``; inf when |Lambda| = 1, 0 when Lambda = 0."""
+    (negative, |Lambda| < 1): ``ln 2 / ln|Lambda|``; inf when |Lambda| = 1, 0 when Lambda = 0.
+
+    Parameters
+    ----------
+    multiplier : complex
+        Floquet multiplier Lambda.
+
+    Returns
+    -------
+    float
+        Wingbeats [-].
+    """
     a = abs(complex(multiplier))
     if a == 0.0:
         return 0.0
@@ -99,7 +110,21 @@ def _label_lateral(modes: list, roll: list) -> None:
 
 def lateral_modes(monodromy, period_s: float, speed_mps: float) -> list[dict]:
     """The lateral multipliers of a 9 x 9 monodromy (its (v, p, r, phi) block), each with its label,
-    beats to double/halve and its eigenvector over (v, p, r, phi) scaled as the module says."""
+    beats to double/halve and its eigenvector over (v, p, r, phi) scaled as the module says.
+
+    Parameters
+    ----------
+    monodromy : array_like, shape (9, 9)
+        Monodromy of the 6-DOF cycle.
+    period_s : float
+        Period [s].
+    speed_mps : float
+        Mean forward speed [m/s] (scales the eigenvectors).
+
+    Returns
+    -------
+    list of dict
+    """
     idx = list(LATERAL)
     names = [STATE_NAMES[i] for i in idx]
     lam, vec, _, _, _ = multipliers_info(np.asarray(monodromy)[np.ix_(idx, idx)], period_s)
@@ -116,7 +141,21 @@ def coupled_modes(monodromy, period_s: float, speed_mps: float) -> list[dict]:
     squared norm in (v, p, r, phi). Modes with ``lateral_share >= LATERAL_SHARE_MIN`` are lateral and
     labelled by the rule of :func:`lateral_modes` (the roll share taken over their lateral components);
     the others are ``longitudinal``. For a symmetric cycle the shares are exactly 0 or 1 and the labels
-    are those of the split monodromy."""
+    are those of the split monodromy.
+
+    Parameters
+    ----------
+    monodromy : array_like
+        Monodromy (8 x 8 or 9 x 9).
+    period_s : float
+        Period [s].
+    speed_mps : float
+        Mean forward speed [m/s].
+
+    Returns
+    -------
+    list of dict
+    """
     M = np.asarray(monodromy)
     names = list(STATE_NAMES[:M.shape[0]])
     lam, vec, _, _, _ = multipliers_info(M, period_s)
@@ -190,7 +229,13 @@ class LateralTrimResult:
         """JSON of the result: the engine cycle's keys (status, residuals, x0 of 9 states, ...) with
         ``multipliers`` (all nine) and ``stable`` (the heading's 1 excluded), then this result's
         fields, ``state_names``, ``moduli`` (of ``multipliers``), ``lateral_stable`` and the period means ``mean_vertical_speed_mps``
-        and ``mean_forward_speed_mps``."""
+        and ``mean_forward_speed_mps``.
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         own = {f.name for f in fields(self)} | {"success", "stable", "lateral_stable"}
         extra = {k: v for k, v in self.cycle.to_dict().items() if k not in own}
         if not self.symmetric and len(self.multipliers):  # the exponents of the nine, the heading's 1 included
@@ -302,7 +347,24 @@ def solve_point(cfg: Config, *, level: bool = False, level_options: dict | None 
 
 def heading_trajectory(six, cycle, steps_per_period: int | None = None):
     """``(t, X)``: the 9 states over one beat from a cycle's start with psi(0) = 0 (RK4 on the trim's
-    grid; the 8-state cycle of an asymmetric gait with its heading, or a 9-state cycle)."""
+    grid; the 8-state cycle of an asymmetric gait with its heading, or a 9-state cycle).
+
+    Parameters
+    ----------
+    six : model
+        The six-degree-of-freedom model (its 9-state ``ode``).
+    cycle : cycle result
+        With ``x0`` and ``p``.
+    steps_per_period : int, optional
+        RK4 steps (default: the trim's).
+
+    Returns
+    -------
+    t : ndarray
+        Times [s].
+    X : ndarray
+        States over (u, v, w, p, q, r, phi, theta, psi).
+    """
     from birdocp.engine.integrate import simulate as rk4
 
     x0 = list(np.asarray(cycle.x0, float))[:8] + [0.0]
@@ -455,75 +517,3 @@ def _labels(lam, res: LateralTrimResult) -> list[str]:
                 lab = m["label"]
         out.append(lab)
     return out
-
-
-# ----------------------------------------------------------------------------------------------
-# Continuation in six degrees of freedom: the heading dropped (nothing depends on it)
-
-def branch_problem(cfg: Config, model_key: str, level: bool, climb_rate_mps: float, bounds):
-    """``(ode, problem)`` of a 6-DOF continuation of ``cfg`` (:func:`birdocp.studies.branch.bird_branch`):
-    the heading-free ODE ``ode_no_heading`` (8 states; nothing depends on psi, whose multiplier 1 would
-    sit on every fold and branch-point test), at fixed gait or (``level``) with the amplitude free and
-    the mean vertical speed held at ``climb_rate_mps``. An asymmetric gait, or a continuation in a
-    per-side offset (``gait.right_offset.*``, ``gait.left_offset.*``), uses the model with per-side
-    joint laws: its cycles are turns, periodic up to the heading, which the 8 states leave out."""
-    six = sixdof_model(cfg, sides=asymmetric(cfg) or model_key in SIDE_PARAM_NAMES)
-    ode, outs = six.ode_no_heading, six.flight_outputs(HEADING)
-    p6 = np.asarray(six.params(param_vector(cfg), LateralInertia.of(cfg), side_vector(cfg) if six.sides else None),
-                    float)
-    guess = np.array(embed_planar_state(cfg.solve.initial_guess)[:HEADING])
-    if not level:
-        return ode, OrbitProblem(ode, p6, guess, outputs=outs)
-    if model_key == AMPLITUDE_KEY:
-        raise ValueError("with level flight held the amplitude is solved for: continue another parameter")
-    lo, hi = bounds if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)
-    cond = MeanCondition(outs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")
-    return ode, OrbitProblem(ode, p6, guess, free={AMPLITUDE_KEY: (float(lo), float(hi))}, means=[cond],
-                             outputs={"forward_speed_mps": outs["forward_speed_mps"]})
-
-
-def planar_point(x0, p):
-    """The planar (u, w, q, theta) state and parameter vector of a 6-DOF point (its validity is the
-    planar cycle's: a symmetric cycle has v = p = r = phi = 0)."""
-    x0 = np.asarray(x0, float)
-    return x0[list(LONGITUDINAL)], (np.asarray(p, float)[:len(PARAM_NAMES)] if p is not None and len(p) else None)
-
-
-def validity_point(x0, p, ode):
-    """``(x0, p, ode)`` for the validity of a 6-DOF branch point on the heading-free ``ode``: with
-    per-side joint laws (an asymmetric gait, a per-side offset continued) the 6-DOF check over both
-    wings on ``ode`` itself; otherwise the planar cycle's (:func:`planar_point`, ode None)."""
-    if ode is not None and SIDE_PARAM_NAMES[0] in ode.param_names:
-        return np.asarray(x0, float), np.asarray(p, float), ode
-    return (*planar_point(x0, p), None)
-
-
-def add_lateral_split(cfg: Config, branch, steps_per_period: int, points: int, ode=None) -> None:
-    """Give every point of a 6-DOF branch its split multipliers, in ``branch.settings``: the lists
-    ``longitudinal_multipliers`` and ``lateral_multipliers`` ([re, im] pairs, largest modulus first),
-    ``lateral_stable`` and ``coupling_max`` per point, from the point's monodromy (one variational
-    period of the heading-free ODE ``ode``, default ``cfg``'s; the heading's multiplier 1 is not part
-    of the branch). With per-side joint laws the blocks couple and the multipliers are split by
-    eigenvector content (:func:`coupled_modes`)."""
-    from birdocp.engine.shooting import floquet
-
-    ode = sixdof_model(cfg).ode_no_heading if ode is None else ode
-    sides = SIDE_PARAM_NAMES[0] in ode.param_names
-    lon, lat = list(LONGITUDINAL), list(LATERAL)
-    rows = {"longitudinal_multipliers": [], "lateral_multipliers": [], "lateral_stable": [], "coupling_max": []}
-    method = OrbitMethod(points=points, steps_per_period=steps_per_period)
-    for pt in branch.points:
-        M = np.asarray(floquet(ode, pt.x0, pt.p, method).monodromy)
-        if sides:
-            modes = coupled_modes(M, ode.period_s, float(pt.x0[0]))
-            L = {"longitudinal": sort_multipliers([m["multiplier"] for m in modes if m["label"] == "longitudinal"]),
-                 "lateral": sort_multipliers([m["multiplier"] for m in modes if m["label"] != "longitudinal"])}
-        else:
-            L = {"longitudinal": sort_multipliers(np.linalg.eigvals(M[np.ix_(lon, lon)])),
-                 "lateral": sort_multipliers(np.linalg.eigvals(M[np.ix_(lat, lat)]))}
-        for k, v in L.items():
-            rows[f"{k}_multipliers"].append([[float(z.real), float(z.imag)] for z in np.asarray(v, complex)])
-        rows["lateral_stable"].append(bool(np.all(np.abs(L["lateral"]) < 1.0)))
-        rows["coupling_max"].append(float(max(np.abs(M[np.ix_(lon, lat)]).max(), np.abs(M[np.ix_(lat, lon)]).max())))
-    branch.settings.update(rows)
-    branch.settings["degrees_of_freedom"] = 6

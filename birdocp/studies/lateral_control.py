@@ -45,7 +45,17 @@ ACCEPTABLE_STATE_6DOF = (1.0, 1.0, 1.0, 1.0, 1.0, 1.0, math.radians(5.0), math.r
 def resolve_lateral_controls(keys) -> list[str]:
     """Control keys of the six-degree-of-freedom map: per-side keys (:data:`SIDE_PARAM_NAMES`), gait
     keys of :data:`PARAM_NAMES` or aliases (:data:`LATERAL_ALIASES`); ConfigError on ``--controls``
-    for an unknown or repeated key."""
+    for an unknown or repeated key.
+
+    Parameters
+    ----------
+    keys : iterable of str
+        Keys or aliases.
+
+    Returns
+    -------
+    list of str
+    """
     allowed = list(SIDE_PARAM_NAMES) + [n for n in PARAM_NAMES if n.startswith("gait.")]
     return resolve_controls(keys, LATERAL_ALIASES, allowed,
                             " (six degrees of freedom: a per-side key such as gait.right_offset.shoulder_flap."
@@ -54,7 +64,17 @@ def resolve_lateral_controls(keys) -> list[str]:
 
 def sides_parameters(cycle_p) -> np.ndarray:
     """The parameter vector of the per-side model (:data:`PARAM_NAMES`, the lateral inertias, the 42
-    offsets) of a 6-DOF cycle's ``p`` (a symmetric cycle's gets zero offsets appended)."""
+    offsets) of a 6-DOF cycle's ``p`` (a symmetric cycle's gets zero offsets appended).
+
+    Parameters
+    ----------
+    cycle_p : array_like
+        The cycle's parameter vector.
+
+    Returns
+    -------
+    ndarray
+    """
     p = np.asarray(cycle_p, float)
     n = len(PARAM_NAMES) + 3
     return np.concatenate([p, np.zeros(len(SIDE_PARAM_NAMES))]) if p.size == n else p
@@ -137,7 +157,22 @@ def design_lateral_controller(res, cfg: Config | None = None, controls=LATERAL_C
 def lateral_reference_cycle(cfg: Config, level: bool = False):
     """The 6-DOF cycle to control: :func:`birdocp.studies.lateral.lateral_trim` of ``cfg``, or with
     ``level`` the level-flight amplitude solved first and the cycle re-trimmed at it (a fixed
-    amplitude, the one the per-side amplitude corrections add to). Returns ``(result, cfg)``."""
+    amplitude, the one the per-side amplitude corrections add to). Returns ``(result, cfg)``.
+
+    Parameters
+    ----------
+    cfg : Config
+        Six-degree-of-freedom configuration.
+    level : bool
+        Solve the level-flight amplitude first.
+
+    Returns
+    -------
+    result : cycle result
+        The 6-DOF trim, or the failed level result.
+    cfg : Config
+        The configuration of the cycle.
+    """
     from birdocp.bird.keys import AMPLITUDE_KEY
     from birdocp.studies.lateral import lateral_trim
 
@@ -152,7 +187,17 @@ def lateral_reference_cycle(cfg: Config, level: bool = False):
 
 def sides_parameter_vector(cfg: Config) -> np.ndarray:
     """The per-side model's parameter vector of ``cfg`` (:data:`PARAM_NAMES`, the lateral inertias,
-    the 42 offsets of :data:`birdocp.bird.sides.SIDE_PARAM_NAMES`)."""
+    the 42 offsets of :data:`birdocp.bird.sides.SIDE_PARAM_NAMES`).
+
+    Parameters
+    ----------
+    cfg : Config
+        Six-degree-of-freedom configuration.
+
+    Returns
+    -------
+    ndarray
+    """
     from birdocp.bird.sides import side_vector
     from birdocp.bird.sixdof import LateralInertia
 

@@ -40,6 +40,12 @@ def state_transition_history(ode, x0, p, steps_per_period: int):
         Its parameters.
     steps_per_period : int
         RK4 steps (the cycle's).
+
+    Returns
+    -------
+    t : ndarray, shape (N+1,)
+    X : ndarray, shape (N+1, nx)
+    Phi : ndarray, shape (N+1, nx, nx)
     """
     grid = RK4Grid(ode, int(steps_per_period), 1)
     D = np.asarray(grid.blocks_numeric(0.0, p))

@@ -24,7 +24,17 @@ __all__ = ["perturbed_flight", "lateral_motion", "body_to_earth"]
 
 def body_to_earth(phi: float, theta: float, psi: float) -> np.ndarray:
     """The rotation matrix from body axes (x' forward, y' right, z' down) to north-east-down for the
-    3-2-1 Euler angles [rad] (yaw psi, then pitch theta, then roll phi)."""
+    3-2-1 Euler angles [rad] (yaw psi, then pitch theta, then roll phi).
+
+    Parameters
+    ----------
+    phi, theta, psi : float
+        Roll, pitch and yaw [rad].
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+    """
     cf, sf, ct, st, cp, sp = np.cos(phi), np.sin(phi), np.cos(theta), np.sin(theta), np.cos(psi), np.sin(psi)
     Rz = np.array([[cp, -sp, 0], [sp, cp, 0], [0, 0, 1.0]])
     Ry = np.array([[ct, 0, st], [0, 1.0, 0], [-st, 0, ct]])
@@ -90,6 +100,10 @@ def lateral_motion(cfg: Config, flight: dict, frames: np.ndarray, p6) -> dict:
         Sample indices to draw.
     p6 : array_like
         The parameter vector of the flight.
+
+    Returns
+    -------
+    dict
     """
     six = sixdof_model(cfg)
     idx = np.asarray(frames, int)

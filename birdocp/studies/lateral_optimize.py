@@ -39,7 +39,17 @@ def multiplier_split(longitudinal_monodromy, lateral_monodromy) -> dict:
     """The JSON split of a symmetric six-degree-of-freedom cycle's multipliers: ``degrees_of_freedom``
     (6), ``longitudinal_multipliers`` and ``lateral_multipliers`` ([re, im] pairs, largest modulus first;
     the heading's 1 is not among them), ``longitudinal_radius`` and ``lateral_radius`` (their largest
-    moduli) and ``lateral_stable``."""
+    moduli) and ``lateral_stable``.
+
+    Parameters
+    ----------
+    longitudinal_monodromy, lateral_monodromy : array_like
+        The two blocks of the monodromy.
+
+    Returns
+    -------
+    dict
+    """
     lon = sort_multipliers(np.linalg.eigvals(np.asarray(longitudinal_monodromy, float)))
     lat = sort_multipliers(np.linalg.eigvals(np.asarray(lateral_monodromy, float)))
     return {"degrees_of_freedom": 6, "longitudinal_multipliers": _pairs(lon), "lateral_multipliers": _pairs(lat),
@@ -121,12 +131,29 @@ class LateralLevelCycle(ReducedLevelCycle):
         ev.blocks = [self._lateral(ev, self.second)]
 
     def fill_monodromy(self, ev: Evaluation) -> None:
+        """Set ``ev.monodromy`` and, without them, its lateral blocks.
+
+        Parameters
+        ----------
+        ev : Evaluation
+            Evaluation, changed in place.
+        """
         super().fill_monodromy(ev)
         if ev.blocks is None:
             ev.blocks = [self._lateral(ev, False)]
 
     def multiplier_split(self, ev: Evaluation) -> dict | None:
-        """:func:`multiplier_split` of ``ev`` (None without its monodromy)."""
+        """:func:`multiplier_split` of ``ev`` (None without its monodromy).
+
+        Parameters
+        ----------
+        ev : Evaluation
+            Evaluation.
+
+        Returns
+        -------
+        dict or None
+        """
         self.fill_monodromy(ev)
         return multiplier_split(ev.monodromy, ev.blocks[0][0])
 
@@ -155,7 +182,23 @@ def lateral_check(cfg_best: Config, x0, multipliers, steps_per_period: int) -> d
     :func:`birdocp.studies.lateral.lateral_trim`) at the optimal gait ``cfg_best`` from the optimum's
     planar state ``x0``: ``trim_multipliers`` (its eight, the heading's 1 left out),
     ``max_multiplier_difference`` against the optimiser's ``multipliers``, ``trim_heading_multiplier``,
-    ``trim_coupling_max`` and ``trim_lateral_modes`` (label, multiplier, wingbeats to double)."""
+    ``trim_coupling_max`` and ``trim_lateral_modes`` (label, multiplier, wingbeats to double).
+
+    Parameters
+    ----------
+    cfg_best : Config
+        Configuration at the optimal gait.
+    x0 : array_like
+        The optimum's planar state.
+    multipliers : array_like
+        The optimiser's multipliers.
+    steps_per_period : int
+        RK4 steps per period.
+
+    Returns
+    -------
+    dict
+    """
     from birdocp.studies.lateral import lateral_trim
 
     tr = lateral_trim(cfg_best, x_guess=embed_planar_state(np.asarray(x0, float)[:4]), points=5,
@@ -173,7 +216,21 @@ def lateral_check(cfg_best: Config, x0, multipliers, steps_per_period: int) -> d
 def reduced_level_cycle(cfg: Config, keys, **options) -> ReducedLevelCycle:
     """The :class:`~birdocp.studies.gait_cycle.ReducedLevelCycle` of ``cfg`` over the free ``keys``
     (``options``: its other arguments); with ``model.degrees_of_freedom = 6`` the
-    :class:`LateralLevelCycle`, whose multipliers also count the lateral ones."""
+    :class:`LateralLevelCycle`, whose multipliers also count the lateral ones.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    keys : sequence of str
+        Free keys.
+    **options
+        Further arguments of the cycle.
+
+    Returns
+    -------
+    ReducedLevelCycle
+    """
     if cfg.model.degrees_of_freedom == 6:
         return LateralLevelCycle(cfg, keys, **options)
     return ReducedLevelCycle(cfg, keys, **options)

@@ -74,13 +74,35 @@ class SideGust:
             raise ConfigError("--side-gust", f"the start must lie in 0..10000 beats, got {self.start_beats}")
 
     def vector(self, period_s: float) -> np.ndarray:
-        """(A, t_s [s], L [s], step flag) for the stepper."""
+        """(A, t_s [s], L [s], step flag) for the stepper.
+
+        Parameters
+        ----------
+        period_s : float
+            Wingbeat period [s].
+
+        Returns
+        -------
+        ndarray, shape (4,)
+        """
         return np.array([self.amplitude_mps, self.start_beats * period_s, self.length_beats * period_s,
                          1.0 if self.shape == "step" else 0.0])
 
 
 def parse_side_gust(text: str, start_beats: float = 1.0) -> SideGust:
-    """``pulse|step=MPS[:BEATS]`` (BEATS the pulse length, default 1)."""
+    """``pulse|step=MPS[:BEATS]`` (BEATS the pulse length, default 1).
+
+    Parameters
+    ----------
+    text : str
+        The gust's text.
+    start_beats : float
+        Start of the gust [beats].
+
+    Returns
+    -------
+    SideGust
+    """
     try:
         shape, rest = text.split("=", 1)
         amp, _, length = rest.partition(":")
@@ -98,7 +120,17 @@ def _check_lateral_deviation(key: str, i: int, v: float, val: str) -> None:
 
 
 def parse_lateral_perturbation(items) -> np.ndarray:
-    """``KEY=VALUE`` deviations of the 9 states (u, v, w [m/s], p, q, r [rad/s], phi, theta, psi [rad])."""
+    """``KEY=VALUE`` deviations of the 9 states (u, v, w [m/s], p, q, r [rad/s], phi, theta, psi [rad]).
+
+    Parameters
+    ----------
+    items : sequence of str
+        ``KEY=VALUE`` texts (``--perturb``).
+
+    Returns
+    -------
+    ndarray, shape (9,)
+    """
     return parse_state_values(items, LATERAL_STATE_ALIASES, 9,
                               "six degrees of freedom: u, v, w, p, q, r, phi, theta, psi", _check_lateral_deviation)
 
@@ -185,7 +217,13 @@ class LateralSimulation:
 
     def to_dict(self) -> dict:
         """JSON-ready dict: the fields but the histories, with the peak bank and the final heading [deg],
-        the largest sideways drift [m] and the beats to recover (deviation back to 1/100 of its peak)."""
+        the largest sideways drift [m] and the beats to recover (deviation back to 1/100 of its peak).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         dev = np.asarray(self.deviation_per_beat, float)
         k = int(np.nanargmax(dev)) if np.any(np.isfinite(dev)) else 0
         later = np.nonzero(dev[k:] <= dev[k] / 100.0)[0]
@@ -201,7 +239,12 @@ class LateralSimulation:
             "stall_fraction_checked": True})
 
     def arrays(self) -> dict:
-        """The histories (arrays.npz)."""
+        """The histories (arrays.npz).
+
+        Returns
+        -------
+        dict of str to ndarray
+        """
         return {"t_s": self.t_s, "states": self.states, "position_m": self.position_m,
                 "control_t_s": self.control_t_s, "controls": self.controls, "control_cycle": self.control_cycle,
                 "deviation_per_beat": self.deviation_per_beat}

@@ -54,7 +54,19 @@ _CONSTRAINT_ALIASES = {
 
 
 def resolve_constraint(constrain: str, what: str = "constrain") -> str:
-    """One of :data:`CONSTRAINTS` from a name or alias; ConfigError (did-you-mean) if unknown."""
+    """One of :data:`CONSTRAINTS` from a name or alias; ConfigError (did-you-mean) if unknown.
+
+    Parameters
+    ----------
+    constrain : str
+        Name or alias.
+    what : str
+        Key named by the error.
+
+    Returns
+    -------
+    str
+    """
     c = _CONSTRAINT_ALIASES.get(str(constrain).strip(), str(constrain).strip())
     if c not in CONSTRAINTS:
         raise ConfigError(what, f"unknown condition '{constrain}'" + suggest(c, CONSTRAINTS)
@@ -63,7 +75,20 @@ def resolve_constraint(constrain: str, what: str = "constrain") -> str:
 
 
 def default_bounds(cfg: Config, key: str) -> tuple[float, float]:
-    """Default bounds of a free parameter (see the module docstring)."""
+    """Default bounds of a free parameter (see the module docstring).
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    key : str
+        Dotted key of the free parameter.
+
+    Returns
+    -------
+    (float, float)
+        In the key's unit.
+    """
     if key == AMPLITUDE_KEY:
         return AMPLITUDE_BOUNDS_DEG
     if key == ROOT_AHEAD_KEY:
@@ -185,8 +210,21 @@ def mean_sensitivity(result, key: str = AMPLITUDE_KEY, output: str = "vertical_s
     At a solved cycle ``x0 = Phi(x0, a)`` (RK4 period map on the result's grid), the implicit function
     theorem gives ``dx0/da = (I - Phi_x)^-1 Phi_a`` and ``d mean/da = mean_a + mean_x dx0/da``; all
     partial derivatives by CasADi AD through the whole model (the geometry included), on one
-    single-shooting period. Returns ``{"derivative", "dx0_da", "mean"}``.
-    ``result``: a :class:`TrimResult` (its ``cfg`` gives the model).
+    single-shooting period.
+
+    Parameters
+    ----------
+    result : TrimResult
+        Solved cycle (its ``cfg`` gives the model).
+    key : str
+        Dotted key of the parameter a.
+    output : str
+        Flight output whose period mean is differentiated.
+
+    Returns
+    -------
+    dict
+        ``{"derivative", "dx0_da", "mean"}``.
     """
     import casadi as ca
     import numpy as np

@@ -100,7 +100,13 @@ class StabilityOptimum:
         return bool(np.max(np.abs(self.multipliers)) < 1.0)
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`)."""
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self, exclude=("cfg", "six_dof"), derived=("stable",), extra=dict(self.six_dof or {}) | {
             "moduli": np.abs(self.multipliers),
             "validity": self.validity or invalid(self.cfg, "not checked (no optimal cycle)"),

@@ -26,7 +26,21 @@ from birdocp.bird.keys import AMPLITUDE_KEY  # noqa: E402
 
 
 def pareto_row(R: float, opt, inserted: bool = False) -> dict:
-    """The row of the front for one :class:`birdocp.studies.gait.GaitOptimum` at bound ``R``."""
+    """The row of the front for one :class:`birdocp.studies.gait.GaitOptimum` at bound ``R``.
+
+    Parameters
+    ----------
+    R : float
+        Bound on the largest multiplier modulus.
+    opt : GaitOptimum
+        The optimum.
+    inserted : bool
+        The row was inserted between the requested bounds.
+
+    Returns
+    -------
+    dict
+    """
     return {"bound": R, "inserted": inserted, "success": bool(opt.success), "status": opt.status,
             "objective_value": opt.objective_value, "largest_modulus": opt.largest_modulus,
             "free": dict(opt.free), "amplitude_deg": opt.amplitude_deg,
@@ -40,7 +54,19 @@ def pareto_row(R: float, opt, inserted: bool = False) -> dict:
 
 
 def solve_point(job: dict) -> dict:
-    """One point of the front (a worker's job: picklable dict in, row out)."""
+    """One point of the front (a worker's job: picklable dict in, row out).
+
+    Parameters
+    ----------
+    job : dict
+        ``optimize``, ``cfg``, ``free``, ``objective``, ``speed_mps``, ``bound``, ``start``, ``x_guess``,
+        ``steps_per_period``, ``options``.
+
+    Returns
+    -------
+    dict
+        Row of :func:`pareto_row`.
+    """
     opt = job["optimize"](job["cfg"], job["free"], objective=job["objective"], speed_mps=job["speed_mps"],
                         max_multiplier=job["bound"], start=job["start"], x_guess=job["x_guess"],
                         steps_per_period=job["steps_per_period"], **job["options"])
@@ -54,12 +80,44 @@ def _nearest(R: float, solved: list) -> dict:
 def pareto_parallel(executor, optimize, cfg, speed_mps: float, bounds, *, free=None, start=None, x_guess=None,
                     start_bound: float | None = None, anchors=(), objective: str = "power",
                     steps_per_period=None, progress=None, wave: int | None = None, **options) -> list[dict]:
-    """The front at the ``bounds`` R (see the module), solved ``wave`` points at a time (default: the
-    executor's worker count, else 2) through ``executor.map``; ``optimize``: the optimiser
-    (:func:`birdocp.studies.gait.optimize_gait`, a module-level function: picklable). ``start``/``x_guess``: the unconstrained
-    optimum's gait and cycle state, at largest modulus ``start_bound`` (default: above every bound);
-    ``anchors``: rows of known solutions (``bound``, ``free``, ``amplitude_deg``, ``x0``). Returns
-    one row per bound, in the order of ``bounds``."""
+    """The front at the ``bounds`` R (see the module), solved in parallel waves.
+
+    Parameters
+    ----------
+    executor : executor
+        Its ``map`` solves a wave.
+    optimize : callable
+        The optimiser (:func:`birdocp.studies.gait.optimize_gait`, module level: picklable).
+    cfg : Config
+        Configuration.
+    speed_mps : float
+        Mean forward speed [m/s].
+    bounds : sequence of float
+        Bounds R on the largest multiplier modulus.
+    free : dict, optional
+        Free keys and bounds.
+    start, x_guess : optional
+        The unconstrained optimum's gait and cycle state.
+    start_bound : float, optional
+        Largest modulus of ``start`` (default: above every bound).
+    anchors : sequence of dict
+        Rows of known solutions (``bound``, ``free``, ``amplitude_deg``, ``x0``).
+    objective : str
+        Objective of ``optimize``.
+    steps_per_period : int, optional
+        RK4 steps per period.
+    progress : callable, optional
+        ``progress(text)`` after each point.
+    wave : int, optional
+        Points solved at a time (default: the executor's worker count, else 2).
+    **options
+        Further keywords of ``optimize``.
+
+    Returns
+    -------
+    list of dict
+        One row per bound, in the order of ``bounds``.
+    """
     options = {k: v for k, v in options.items() if k != "progress"}
     top = max(bounds) + 1.0 if start_bound is None else float(start_bound)
     seeds = [(top, None, start, x_guess)] + [(float(a["bound"]), float(a["bound"]), _gait(a), a["x0"]) for a in anchors]
@@ -83,10 +141,30 @@ def _gait(row: dict) -> dict:
 
 def waves(executor, values, seeds, make_job, fn, report=None, wave: int | None = None) -> list[dict]:
     """Solve one job per value of a scalar (a bound, a speed) in parallel waves, each from its nearest
-    solved neighbour (see the module). ``seeds``: known solutions ``(value, label, start gait,
-    x_guess)``; ``make_job(value, neighbour)`` the job of ``fn`` (neighbour: ``{"label", "start",
-    "x_guess"}``); ``fn(job)`` returns a row with ``success``, ``free``, ``amplitude_deg`` and ``x0``.
-    Returns the rows in the order of ``values``."""
+    solved neighbour (see the module).
+
+    Parameters
+    ----------
+    executor : executor
+        Its ``map`` solves a wave.
+    values : sequence of float
+        The values.
+    seeds : sequence of tuple
+        Known solutions ``(value, label, start gait, x_guess)``.
+    make_job : callable
+        ``make_job(value, neighbour)`` (neighbour: ``{"label", "start", "x_guess"}``): the job of ``fn``.
+    fn : callable
+        ``fn(job)``: a row with ``success``, ``free``, ``amplitude_deg`` and ``x0``.
+    report : callable, optional
+        ``report(text)`` after each row.
+    wave : int, optional
+        Jobs at a time.
+
+    Returns
+    -------
+    list of dict
+        The rows in the order of ``values``.
+    """
     n = int(wave or getattr(executor, "jobs", None) or 2)
     solved = [{"key": float(v), "label": lab, "start": dict(st or {}),
                "x_guess": None if x is None else np.asarray(x, float)} for v, lab, st, x in seeds]
@@ -118,7 +196,18 @@ def _nearest(v: float, solved: list) -> dict:
 
 def power_point(job: dict) -> dict:
     """One speed of :func:`birdocp.studies.gait.valid_power_curve` (a worker's job): the least-power
-    gait at ``job["speed_mps"]`` by ``job["optimize"]``."""
+    gait at ``job["speed_mps"]`` by ``job["optimize"]``.
+
+    Parameters
+    ----------
+    job : dict
+        ``optimize``, ``cfg``, ``free``, ``speed_mps``, ``start``, ``x_guess``, ``options``.
+
+    Returns
+    -------
+    dict
+        Row of the power curve.
+    """
     opt = job["optimize"](job["cfg"], job["free"], objective="power", speed_mps=job["speed_mps"], start=job["start"],
                           x_guess=job["x_guess"], **job["options"])
     row = pareto_row(None, opt)

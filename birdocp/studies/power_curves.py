@@ -20,7 +20,27 @@ level flight): the wing's mean incidence."""
 
 def level_at_speed(cfg: Config, speed_mps: float, key: str = SPEED_KEY, bounds=(-10.0, 35.0),
                    steps_per_period: int | None = None, rc: ReducedLevelCycle | None = None) -> Evaluation:
-    """Level flight at mean forward speed ``speed_mps``: the amplitude and ``key`` solved."""
+    """Level flight at mean forward speed ``speed_mps``: the amplitude and ``key`` solved.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    speed_mps : float
+        Mean forward speed [m/s].
+    key : str
+        Dotted key solved with the amplitude.
+    bounds : (float, float)
+        Bounds of ``key``.
+    steps_per_period : int, optional
+        RK4 steps per period.
+    rc : ReducedLevelCycle, optional
+        Reduced problem to reuse (warm start).
+
+    Returns
+    -------
+    Evaluation
+    """
     rc = rc or ReducedLevelCycle(cfg, [key], steps_per_period)
     theta = rc.warm_start.theta
     theta = theta if theta is not None else np.array([float(get_value(cfg, key))])
@@ -109,7 +129,17 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
 
 def curve_optima(rows: list) -> dict:
     """``minimum_power`` and ``maximum_range`` over the valid converged rows (``mean_shoulder_power_W``
-    against ``speed_mps``), and ``..._all_rows`` over every converged row."""
+    against ``speed_mps``), and ``..._all_rows`` over every converged row.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Rows of the power curve.
+
+    Returns
+    -------
+    dict
+    """
     out = {}
     for tag, keep in (("", lambda r: r.get("valid")), ("_all_rows", lambda r: True)):
         ok = [r for r in rows if r["success"] and keep(r)]

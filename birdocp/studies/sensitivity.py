@@ -47,7 +47,18 @@ DEFAULT_PARAMETERS = tuple(k for k in PARAM_NAMES
 
 def unit_of(key: str) -> tuple[str, float]:
     """(display unit, factor from the parameter's own unit): degrees stay degrees, metres are shown
-    per cm, the rest per its own unit."""
+    per cm, the rest per its own unit.
+
+    Parameters
+    ----------
+    key : str
+        Dotted key.
+
+    Returns
+    -------
+    unit : str
+    factor : float
+    """
     if key.endswith("_deg"):
         return "deg", 1.0
     if key.endswith("_m"):
@@ -84,7 +95,17 @@ class SensitivityResult:
         return None if self.validity is None else bool(self.validity.get("valid"))
 
     def ranked(self, mode: int = 0) -> list[dict]:
-        """Rows sorted by |d modulus of multiplier `mode`| per display unit (deg or cm)."""
+        """Rows sorted by |d modulus of multiplier `mode`| per display unit (deg or cm).
+
+        Parameters
+        ----------
+        mode : int
+            Index of the multiplier (largest modulus first).
+
+        Returns
+        -------
+        list of dict
+        """
         rows = []
         for k, key in enumerate(self.parameters):
             unit, f = unit_of(key)
@@ -101,7 +122,13 @@ class SensitivityResult:
 
     def to_dict(self) -> dict:
         """JSON-ready dict (:func:`birdocp.engine.results.result_dict`, with the ranking of the
-        expanding multiplier's sensitivities, each row with ``valid``: the model holds on the cycle)."""
+        expanding multiplier's sensitivities, each row with ``valid``: the model holds on the cycle).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self, extra={"ranked_expanding": self.ranked(0), "valid": self.valid})
 
 
@@ -116,7 +143,21 @@ class SecondOrderMaps:
     def get(cls, model, steps: int, w_output=None):
         """The cached maps of (model, steps) (``model``: a configured planar model, or any object with
         ``model`` (its identity), ``ode`` and ``data``; ``w_output``: the ``(x, d, p)`` Function of the
-        mean vertical speed, default the planar model's)."""
+        mean vertical speed, default the planar model's).
+
+        Parameters
+        ----------
+        model : object
+            Configured planar model or an object with ``model``, ``ode`` and ``data``.
+        steps : int
+            RK4 steps per period.
+        w_output : casadi.Function, optional
+            ``(x, d, p)`` Function of the mean vertical speed.
+
+        Returns
+        -------
+        SecondOrderMaps
+        """
         key = (id(model.model), steps)
         hit = _SECOND_ORDER.get(key)
         if hit is None or hit.model is not model.model:
@@ -149,15 +190,29 @@ class SecondOrderMaps:
 
 
 def cycle_derivatives(so: SecondOrderMaps, period_s: float, x0, p, param_indices, cycle_states=None):
-    """Exact derivatives of a converged cycle's multipliers, x0 and mean vertical speed along the
-    parameters ``param_indices`` (indices into ``p``), the cycle's change included.
+    """Exact derivatives of a converged cycle's multipliers, x0 and mean vertical speed along some
+    parameters, the cycle's change included.
 
-    ``cycle_states``: the states whose periodicity makes the orbit isolated (default: all). A state
-    nothing depends on (the heading of a six-degree-of-freedom bird) adds a multiplier 1, so ``I - Mon``
-    is singular in it: leave it out, its ``dx0`` is 0 (its value on the orbit is a free choice).
+    Parameters
+    ----------
+    so : SecondOrderMaps
+        Second-order period maps of the model.
+    period_s : float
+        Period [s].
+    x0, p : array_like
+        Start state and parameter vector of the cycle.
+    param_indices : sequence of int
+        Indices into ``p``.
+    cycle_states : sequence of int, optional
+        The states whose periodicity makes the orbit isolated (default: all). A state nothing depends on
+        (the heading of a 6-DOF bird) adds a multiplier 1, so ``I - Mon`` is singular in it: leave it
+        out, its ``dx0`` is 0.
 
-    Returns ``(multipliers, d_multipliers, d_moduli, d_x0, d_mean_vertical_speed)``: multipliers
-    largest modulus first (nx), then arrays (n_params, nx) and (n_params,) per unit of each parameter.
+    Returns
+    -------
+    tuple
+        ``(multipliers, d_multipliers, d_moduli, d_x0, d_mean_vertical_speed)``: multipliers largest
+        modulus first (nx), then arrays (n_params, nx) and (n_params,) per unit of each parameter.
     """
     grid = so.grid
     p = np.asarray(p, float)

@@ -35,34 +35,19 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, ConfigError
-from birdocp.bird.model import STATE_NAMES, air_state, get_model
+from birdocp.bird.model import air_state, get_model
 from birdocp.bird.validity import effective_angles
 from birdocp.engine.integrate import RK4Grid, rk4_update, stage_block_index
 from birdocp.engine.problem import finite_vector
 from birdocp.engine.results import result_dict, serial
 from birdocp.studies.control import PerModel
+from birdocp.studies.simulate_inputs import (  # noqa: F401
+    DIRECTIONS, GUST_LENGTH_BEATS, GUST_LENGTH_M, Gust, MAX_GUST_START_BEATS,
+    MAX_PITCH_PERTURBATION_RAD, MAX_PITCH_RATE_RADPS, MAX_SPEED_MPS, STATE_ALIASES,
+    check_speed, parse_gust, parse_perturbation, parse_state_values)
 
 __all__ = ["Gust", "SimulationResult", "simulate", "gust_envelope", "nonlinear_beat_map", "STATE_ALIASES",
            "parse_perturbation", "parse_gust"]
-
-STATE_ALIASES = {"u": 0, "w": 1, "q": 2, "theta": 3, **{n: i for i, n in enumerate(STATE_NAMES)}}
-DIRECTIONS = ("vertical", "horizontal")
-
-MAX_SPEED_MPS = 340.0
-"""Largest speed (state u, w; a wind, a gust or a perturbation of them) in the model's range: the
-speed of sound at sea level. The model's air is incompressible, so beyond it nothing it computes
-is physics; a simulation whose speed passes it has diverged."""
-MAX_PITCH_RATE_RADPS = 1000.0
-"""Largest pitch rate |q| in the model's range (about 160 turns per second)."""
-MAX_PITCH_PERTURBATION_RAD = math.pi
-"""Largest pitch perturbation (a pitch beyond +-180 deg is the same attitude)."""
-GUST_LENGTH_BEATS = (0.01, 1.0e4)
-"""A gust's length in beats: from a hundredth of a beat (shorter is not resolved by the RK4 grid) to
-10,000 beats (a constant wind: use --wind)."""
-GUST_LENGTH_M = (0.01, 1.0e6)
-"""A gust's length in metres (1 cm to 1,000 km)."""
-MAX_GUST_START_BEATS = 1.0e4
-"""Farthest gust start, in beats (no simulation flies farther: ``--beats`` is at most 10,000)."""
 
 
 def _in_range(z: np.ndarray) -> np.ndarray:
@@ -71,112 +56,6 @@ def _in_range(z: np.ndarray) -> np.ndarray:
     with np.errstate(invalid="ignore", over="ignore"):
         return (np.all(np.isfinite(z), axis=1) & (np.hypot(z[:, 0], z[:, 1]) <= MAX_SPEED_MPS)
                 & (np.abs(z[:, 2]) <= MAX_PITCH_RATE_RADPS))
-
-
-def check_speed(flag: str, what: str, value: float) -> float:
-    """``value`` [m/s] if finite and at most :data:`MAX_SPEED_MPS` in size, else ConfigError on ``flag``."""
-    if not math.isfinite(value) or abs(value) > MAX_SPEED_MPS:
-        raise ConfigError(flag, f"{what} must lie within +-{MAX_SPEED_MPS:g} m/s (the speed of sound: the model's "
-                                f"air is incompressible), got {value!r}")
-    return float(value)
-
-
-@dataclass(frozen=True)
-class Gust:
-    """A 1 - cos gust, frozen in the air.
-
-    Attributes
-    ----------
-    direction
-        'vertical' (positive up) or 'horizontal' (positive along the flight direction, i.e. a
-        tailwind; negative = headwind).
-    amplitude_mps
-        peak wind speed of the gust [m/s].
-    length_beats, length_m
-        its length in wingbeats (of the cycle's flight distance) or in metres (``length_m`` wins
-        when given).
-    start_beats, start_m
-        how far ahead of the bird it starts, in beats or in metres (``start_m`` wins when given).
-    """
-
-    direction: str
-    amplitude_mps: float
-    length_beats: float | None = 1.0
-    length_m: float | None = None
-    start_beats: float = 1.0
-    start_m: float | None = None
-
-    def __post_init__(self):
-        if self.direction not in DIRECTIONS:
-            raise ConfigError("--gust", f"direction must be vertical or horizontal, got '{self.direction}'")
-        check_speed("--gust", "the amplitude", self.amplitude_mps)
-        in_m = self.length_m is not None
-        length = self.length_m if in_m else self.length_beats
-        lo, hi = GUST_LENGTH_M if in_m else GUST_LENGTH_BEATS
-        unit = "m" if in_m else "beats"
-        if length is None or not (math.isfinite(length) and lo <= length <= hi):
-            raise ConfigError("--gust", f"the length must lie in {lo:g}..{hi:g} {unit} (shorter is not resolved by "
-                                        f"the RK4 grid, longer is a constant wind: --wind), got {length}")
-        start = self.start_m if self.start_m is not None else self.start_beats
-        top = MAX_GUST_START_BEATS * (1e3 if self.start_m is not None else 1.0)
-        if not (math.isfinite(start) and 0 <= start <= top):
-            raise ConfigError("--gust-start", f"must lie in 0..{top:g} (no simulation flies farther), got {start}")
-
-    def span_m(self, beat_m: float) -> tuple[float, float]:
-        """(start, length) in metres given the distance flown per beat."""
-        start = self.start_m if self.start_m is not None else self.start_beats * beat_m
-        length = self.length_m if self.length_m is not None else self.length_beats * beat_m
-        return float(start), float(length)
-
-
-def parse_gust(text: str) -> Gust:
-    """``vertical|horizontal=MPS:LENGTH`` (LENGTH in beats, or metres with a trailing 'm')."""
-    try:
-        direction, rest = text.split("=", 1)
-        amp, length = rest.split(":", 1)
-        length = length.strip()
-        kw = ({"length_m": float(length[:-1]), "length_beats": None} if length.endswith("m")
-              else {"length_beats": float(length)})
-        return Gust(direction.strip(), float(amp), **kw)
-    except ValueError as exc:
-        if isinstance(exc, ConfigError):
-            raise
-        raise ConfigError("--gust", f"expected vertical|horizontal=MPS:BEATS (or MPS:METRESm), got '{text}'") from None
-
-
-def parse_state_values(items, aliases: dict, n: int, known: str, check) -> np.ndarray:
-    """The sum of ``KEY=VALUE`` state deviations (``--perturb``) as a vector of ``n`` states: each KEY
-    looked up in ``aliases`` (name -> index; ``known`` lists them in the error), each value checked by
-    ``check(key, index, value, text)`` (raises :class:`ConfigError` naming ``--perturb``)."""
-    dx = np.zeros(n)
-    for text in items or []:
-        try:
-            key, val = text.split("=", 1)
-            v = float(val)
-        except ValueError:
-            raise ConfigError("--perturb", f"expected KEY=VALUE, got '{text}'") from None
-        key = key.strip()
-        if key not in aliases:
-            raise ConfigError("--perturb", f"unknown state '{key}' ({known})")
-        check(key, aliases[key], v, val)
-        dx[aliases[key]] += v
-    return dx
-
-
-def _check_planar_deviation(key: str, i: int, v: float, val: str) -> None:
-    if i < 2:
-        check_speed("--perturb", f"'{key}'", v)
-        return
-    top, unit, why = ((MAX_PITCH_RATE_RADPS, "rad/s", "the model's range of pitch rates") if i == 2 else
-                      (MAX_PITCH_PERTURBATION_RAD, "rad", "a larger pitch is the same attitude"))
-    if not (math.isfinite(v) and abs(v) <= top):
-        raise ConfigError("--perturb", f"'{key}' must lie within +-{top:g} {unit} ({why}), got {val}")
-
-
-def parse_perturbation(items) -> np.ndarray:
-    """``KEY=VALUE`` state perturbations (u, w [m/s], q [rad/s], theta [rad]; or the state names)."""
-    return parse_state_values(items, STATE_ALIASES, 4, f"one of u, w, q, theta or {', '.join(STATE_NAMES)}",
-                              _check_planar_deviation)
 
 
 class _Stepper(PerModel):
@@ -232,7 +111,21 @@ def interval_data(stepper, i: int, p) -> ca.DM:
     """Stage blocks of interval ``i`` for parameters ``p`` of a stepper with ``grid`` (an
     :class:`~birdocp.engine.integrate.RK4Grid` of N intervals), ``post_interval`` (the ODE's ``post``
     mapped over an interval's 2n + 1 times), ``times`` and ``blocks``; the arm-frame shape ``pre``
-    memoised by the grid."""
+    memoised by the grid.
+
+    Parameters
+    ----------
+    stepper : object
+        With ``grid``, ``post_interval``, ``times`` and ``blocks``.
+    i : int
+        Interval index.
+    p : array_like
+        Parameter vector.
+
+    Returns
+    -------
+    casadi.DM
+    """
     n = stepper.grid.n
     cols = slice(2 * n * i, 2 * n * (i + 1) + 1)
     L = stepper.grid.pre_numeric(0.0, p)[:, cols]
@@ -244,7 +137,24 @@ def nonlinear_beat_map(cfg, x0, params_per_interval, steps_per_period: int | Non
     """The state one beat after ``x0`` in the full model (no wind), with the parameter vector
     ``params_per_interval[i]`` held over interval i of N = len(params_per_interval) equal intervals
     (the per-time data recomputed for each). The map :func:`birdocp.studies.control.wingbeat_map`
-    linearises."""
+    linearises.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    x0 : array_like
+        Start state.
+    params_per_interval : sequence of array_like
+        Parameter vector per interval.
+    steps_per_period : int, optional
+        RK4 steps per period.
+
+    Returns
+    -------
+    ndarray
+        The state one beat later.
+    """
     N = len(params_per_interval)
     m = get_model(cfg)
     st = _Stepper.get(m, int(steps_per_period or cfg.solve.steps_per_period), N)
@@ -305,7 +215,13 @@ class SimulationResult:
 
     def to_dict(self) -> dict:
         """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): the fields but the time
-        histories, and the per-beat summary derived from them."""
+        histories, and the per-beat summary derived from them.
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         peak, k = self.peak_deviation
         some = len(self.states) > 0
         return result_dict(self, derived=("final_deviation", "beats_to_recover"), extra={
@@ -316,6 +232,13 @@ class SimulationResult:
             "final_position_m": [self.X_m[-1], self.Z_m[-1]] if len(self.X_m) else None})
 
     def arrays(self) -> dict:
+        """The histories (arrays.npz): times [s], states, position X, Z [m], pitch [deg], the controls and the
+        deviation per beat.
+
+        Returns
+        -------
+        dict of str to ndarray
+        """
         return {"t_s": self.t_s, "states": self.states, "X_m": self.X_m, "Z_m": self.Z_m,
                 "pitch_deg": np.degrees(self.states[:, 3]), "control_t_s": self.control_t_s,
                 "controls": self.controls, "control_cycle": self.control_cycle,
@@ -325,7 +248,22 @@ class SimulationResult:
 def wind_vector(gusts, wind_mps, beat_m) -> tuple[np.ndarray, list]:
     """``(g, spans)``: the 8 wind numbers of the simulation steppers (constant horizontal and vertical
     wind [m/s], the gusts' amplitudes [m/s] and (start, length) [m] of the horizontal then the vertical
-    gust) and one dict per gust, for ``beat_m`` metres flown per beat."""
+    gust) and one dict per gust, for ``beat_m`` metres flown per beat.
+
+    Parameters
+    ----------
+    gusts : sequence of Gust
+        Gusts.
+    wind_mps : sequence of float
+        Constant wind (horizontal, vertical) [m/s].
+    beat_m : float
+        Distance flown per beat [m].
+
+    Returns
+    -------
+    g : ndarray, shape (8,)
+    spans : list of dict
+    """
     g = np.array([float(wind_mps[0]), float(wind_mps[1]), 0.0, 0.0, 0.0, 1.0, 0.0, 1.0])
     spans = []
     for gust in gusts:

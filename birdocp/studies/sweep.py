@@ -81,6 +81,15 @@ def sweep_values(start: float, stop: float, step: float) -> list[float]:
     interval is shorter than ``step``. A step larger than a non-empty range is refused
     (:class:`ConfigError` on ``--by``): it would solve the two ends only, which is rarely what was
     meant (e.g. a step in centimetres for a parameter in metres).
+
+    Parameters
+    ----------
+    start, stop, step : float
+        Range and step (step > 0).
+
+    Returns
+    -------
+    list of float
     """
     for name, v in (("--from", start), ("--to", stop), ("--by", step)):
         if not math.isfinite(v):
@@ -127,7 +136,27 @@ def _pair_list(v):
 def row_of(index: int, key: str, value: float, d: dict, free_key: str | None, warm_from) -> dict:
     """The table row of a solved point (``d``: TrimResult.to_dict()): the :data:`CSV_COLUMNS` (the
     validity's verdict and key numbers flat, :data:`birdocp.bird.validity.VALIDITY_COLUMNS`) and the
-    object ``validity`` (``valid``, ``reasons`` and the measured numbers)."""
+    object ``validity`` (``valid``, ``reasons`` and the measured numbers).
+
+    Parameters
+    ----------
+    index : int
+        Index of the point.
+    key : str
+        Swept key.
+    value : float
+        Swept value.
+    d : dict
+        ``TrimResult.to_dict()``.
+    free_key : str or None
+        Key solved with a level condition.
+    warm_from : int or None
+        Index of the point it was warm-started from.
+
+    Returns
+    -------
+    dict
+    """
     mults = _pair_list(d.get("multipliers"))
     moduli = _pair_list(d.get("moduli"))
     U, W = d.get("mean_forward_speed_mps"), d.get("mean_vertical_speed_mps")
@@ -194,7 +223,17 @@ def _csv_text(rows: list[dict], columns=None) -> str:
 
 def read_points(out_dir: str | Path) -> dict[int, dict]:
     """Point files of a sweep folder by index (:func:`birdocp.io.resume.read_points`: unreadable files
-    are ignored: they will be re-solved)."""
+    are ignored: they will be re-solved).
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Sweep folder.
+
+    Returns
+    -------
+    dict of int to dict
+    """
     return resume_io.read_points(out_dir)
 
 

@@ -31,7 +31,19 @@ def solver_ode(m, compiled: bool = False):
     """The ODE the engine solves for the configured model ``m``: ``m.ode``, or with ``compiled`` its
     twin whose RHS and numeric data Functions are compiled C
     (:func:`birdocp.export.compiled.compiled_ode`, cached; bit-identical numbers). Falls back to
-    ``m.ode`` with a warning on stderr if compiling fails."""
+    ``m.ode`` with a warning on stderr if compiling fails.
+
+    Parameters
+    ----------
+    m : BirdModel
+        Configured model.
+    compiled : bool
+        Use the compiled twin.
+
+    Returns
+    -------
+    PeriodicODE
+    """
     if not compiled:
         return m.ode
     from birdocp.export.compiled import compiled_ode
@@ -40,7 +52,19 @@ def solver_ode(m, compiled: bool = False):
 
 
 def method_of(cfg: Config, **over) -> OrbitMethod:
-    """The :class:`~birdocp.engine.method.OrbitMethod` of ``cfg.solve`` (fields overridden by ``over``)."""
+    """The :class:`~birdocp.engine.method.OrbitMethod` of ``cfg.solve`` (fields overridden by ``over``).
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    **over
+        Fields of :class:`~birdocp.engine.method.OrbitMethod` overridden.
+
+    Returns
+    -------
+    OrbitMethod
+    """
     s = cfg.solve
     kw = dict(points=s.points, steps_per_period=s.steps_per_period, solver=s.solver,
               derivatives=s.derivatives, max_iter=s.max_iter, tol=s.tol if s.tol > 0 else None)
@@ -135,7 +159,12 @@ class TrimResult:
 
     def wing_power_summary(self) -> dict:
         """JSON part of :attr:`wing_power`: the wing mass, the period means and peaks (W, J) and the
-        time histories (lists)."""
+        time histories (lists).
+
+        Returns
+        -------
+        dict
+        """
         from birdocp.bird.model import WING_POWER_NAMES
 
         wp = self.wing_power if self.cycle.trajectory_x is not None else None
@@ -181,7 +210,12 @@ class TrimResult:
 
     def energetics_dict(self) -> dict:
         """The scalar power outputs (keys :data:`birdocp.bird.energetics.ENERGETICS_KEYS`) and their
-        definitions, JSON-able; computed if needed."""
+        definitions, JSON-able; computed if needed.
+
+        Returns
+        -------
+        dict
+        """
         from birdocp.bird.energetics import ENERGETICS_KEYS
 
         e = self.energetics
@@ -193,7 +227,13 @@ class TrimResult:
 
     def to_dict(self) -> dict:
         """Plain JSON-able dict; complex numbers as [re, im] pairs, multipliers largest first. The
-        power outputs are included when they were computed (:attr:`energetics`)."""
+        power outputs are included when they were computed (:attr:`energetics`).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         c = self.cycle
         flight = {"amplitude_deg": self.amplitude_deg,
                   "root_ahead_m": float(c.p[PARAM_NAMES.index("wing.root_ahead_m")]),
@@ -212,6 +252,13 @@ class TrimResult:
                                    "shooting_times": "shooting_times_s"})
 
     def arrays(self) -> dict:
+        """The arrays of the run folder (arrays.npz): trajectory, shooting points, parameters, residual history
+        and, when computed, the monodromy and multipliers.
+
+        Returns
+        -------
+        dict of str to ndarray
+        """
         c = self.cycle
         out = {"trajectory_t_s": np.asarray(c.trajectory_t), "trajectory_x": np.asarray(c.trajectory_x),
                "shooting_points": np.asarray(c.shooting_points), "p": np.asarray(c.p),
@@ -225,7 +272,12 @@ class TrimResult:
         return out
 
     def table(self) -> str:
-        """Human-readable summary."""
+        """Human-readable summary.
+
+        Returns
+        -------
+        str
+        """
         c = self.cycle
         lines = [f"trim: {'converged' if c.success else 'NOT converged'} ({c.status}), "
                  f"{c.iterations} iterations, max residual {c.max_residual:.2e}, {c.wall_s.get('total', 0):.2f} s",
@@ -323,7 +375,22 @@ def linear_section_start(cfg: Config, compiled: bool | None = None, **method_ove
     body state (u, w, q, theta) at t = 0 of the same model's cycle with the linear section, the first
     step of a continuation from attached to separating flow. From ``cfg.solve.initial_guess`` directly,
     IPOPT's first trial points reach angles where the stall circulation's Newton Jacobian is singular
-    (NaN). None when the linear-section trim fails (the configured guess is then used)."""
+    (NaN). None when the linear-section trim fails (the configured guess is then used).
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration with a stall section.
+    compiled : bool, optional
+        Use the compiled twin of the ODE.
+    **method_over
+        Fields of the method overridden.
+
+    Returns
+    -------
+    ndarray or None
+        (u, w, q, theta) at t = 0; None when the linear-section trim fails.
+    """
     from birdocp.bird.config import with_values
 
     lin = trim(with_values(cfg, {"aero.section": "linear"}), compiled=compiled, **method_over)
@@ -332,7 +399,18 @@ def linear_section_start(cfg: Config, compiled: bool | None = None, **method_ove
 
 def check_physical(cycle: OrbitResult) -> OrbitResult:
     """A converged cycle with u <= 0 somewhere is not a forward flight (the aerodynamic model assumes
-    air coming from ahead): mark it failed with status ``non_physical``."""
+    air coming from ahead): mark it failed with status ``non_physical``.
+
+    Parameters
+    ----------
+    cycle : LimitCycleResult
+        Solved cycle, changed in place.
+
+    Returns
+    -------
+    LimitCycleResult
+        ``cycle``.
+    """
     if cycle.success:
         u = np.asarray(cycle.trajectory_x)[:, 0]
         if not np.all(u > 0):

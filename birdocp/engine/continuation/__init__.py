@@ -76,7 +76,21 @@ __all__ = ["Branch", "BranchPoint", "SpecialPoint", "Continuation", "Continuatio
 
 def collect(steps, on_point: Callable | None = None, on_special: Callable | None = None):
     """Run a branch iterator to its end, calling ``on_special`` with every special point and then
-    ``on_point`` with the point of each step; returns the iterator's ``branch()``."""
+    ``on_point`` with the point of each step; returns the iterator's ``branch()``.
+
+    Parameters
+    ----------
+    steps : iterator
+        Branch iterator (:func:`iter_branch` and the like).
+    on_point : callable, optional
+        ``on_point(point)`` after each step.
+    on_special : callable, optional
+        ``on_special(special_point)`` for each special point.
+
+    Returns
+    -------
+    Branch
+    """
     for step in steps:
         for sp in step.special_points:
             if on_special is not None:
@@ -133,6 +147,8 @@ def continuation(problem: OrbitProblem, param, start_value: float, stop_value: f
         every point (``event_values``) and located where one crosses zero, as special points of
         ``events.kind`` naming the function (``event``); with ``events.stop`` the branch ends at the
         first crossing from ``>= 0`` to ``< 0`` (``end_reason`` ``stopped_at_event``).
+    **settings
+        Fields of :class:`ContinuationOptions` replacing those of ``options``.
 
     Returns
     -------

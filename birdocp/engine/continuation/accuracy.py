@@ -47,7 +47,17 @@ class PointError:
         self.li = system.nz - 1
 
     def point_error(self, st: ContinuationState) -> dict:
-        """The error estimate of the corrected point ``st`` (see the module)."""
+        """The error estimate of the corrected point ``st`` (see the module).
+
+        Parameters
+        ----------
+        st : ContinuationState
+            Corrected point.
+
+        Returns
+        -------
+        dict
+        """
         t = time.perf_counter()
         sysm, s, li = self.system, self.s, self.li
         z = s * st.u

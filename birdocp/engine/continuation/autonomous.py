@@ -38,7 +38,19 @@ __all__ = ["AutonomousContinuation", "continue_orbits", "autonomous_branch_itera
 
 def poincare_map_jacobian(monodromy: np.ndarray, f0: np.ndarray) -> np.ndarray:
     """(nx-1) x (nx-1) Jacobian of the Poincare map on the hyperplane through x0 orthogonal to
-    f0 = f(x0): its eigenvalues are the non-trivial Floquet multipliers."""
+    f0 = f(x0): its eigenvalues are the non-trivial Floquet multipliers.
+
+    Parameters
+    ----------
+    monodromy : ndarray, shape (nx, nx)
+        Monodromy matrix of the orbit at x0.
+    f0 : ndarray, shape (nx,)
+        Vector field at x0.
+
+    Returns
+    -------
+    ndarray, shape (nx - 1, nx - 1)
+    """
     nx = f0.size
     n = f0 / np.linalg.norm(f0)
     Q, _ = np.linalg.qr(np.column_stack([n, np.eye(nx)]))
@@ -91,7 +103,12 @@ class AutonomousContinuation:
         self.residual_evaluations = 0
 
     def refined(self) -> "AutonomousContinuation":
-        """The same system (same phase section) on twice the steps per period (for error estimates)."""
+        """The same system (same phase section) on twice the steps per period (for error estimates).
+
+        Returns
+        -------
+        AutonomousContinuation
+        """
         return AutonomousContinuation(self.ode, self.j, self.start,
                                       replace(self.method, steps_per_period=2 * int(self.method.steps_per_period)))
 
@@ -106,29 +123,83 @@ class AutonomousContinuation:
         return ["period"]
 
     def period_of(self, z) -> float:
-        """T at unknowns ``z``."""
+        """T at unknowns ``z``.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        float
+        """
         return float(z[self.nX])
 
     def p_of(self, z) -> np.ndarray:
-        """The parameters at ``z`` followed by the period (so ``free_values`` reports T)."""
+        """The parameters at ``z`` followed by the period (so ``free_values`` reports T).
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray
+        """
         p = self.p0.copy()
         p[self.j] = z[-1]
         return np.concatenate([p, [z[self.nX]]])
 
     def X_of(self, z) -> np.ndarray:
-        """The shooting points at ``z`` (nx x (S+1))."""
+        """The shooting points at ``z`` (nx x (S+1)).
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray, shape (nx, S + 1)
+        """
         return np.asarray(z[:self.nX]).reshape(self.S + 1, self.nx).T
 
     def z_of(self, shooting_points, p) -> np.ndarray:
         """Unknowns from shooting points ((S+1) x nx) and parameters (with the period appended, or
-        without it: then the start orbit's period)."""
+        without it: then the start orbit's period).
+
+        Parameters
+        ----------
+        shooting_points : array_like, shape (S + 1, nx)
+            Shooting points.
+        p : array_like
+            Parameter vector.
+
+        Returns
+        -------
+        ndarray
+        """
         p = np.asarray(p, float).ravel()
         T = p[self.ode.np] if p.size > self.ode.np else self.T0
         X = np.asarray(shooting_points, float).reshape(self.S + 1, self.nx)
         return np.concatenate([X.ravel(), [T, p[self.j]]])
 
     def evaluate(self, z, jacobian: bool = True):
-        """(G, dG/dz, means (none), Poincare-map Jacobian) at z; only G with ``jacobian=False``."""
+        """(G, dG/dz, means (none), Poincare-map Jacobian) at z; only G with ``jacobian=False``.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+        jacobian : bool
+            Also the Jacobian and the rest.
+
+        Returns
+        -------
+        tuple
+        """
         z = np.asarray(z, float)
         if not jacobian:
             self.residual_evaluations += 1

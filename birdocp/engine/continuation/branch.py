@@ -64,7 +64,13 @@ class BranchPoint:
 
     def to_dict(self) -> dict:
         """JSON-ready dict (:func:`birdocp.engine.results.result_dict`; NaN test values as null; the
-        ``error_estimate`` key only where the point has one)."""
+        ``error_estimate`` key only where the point has one).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self, exclude=() if self.error_estimate is not None else ("error_estimate",))
 
 
@@ -95,7 +101,13 @@ class SpecialPoint:
     direction: int | None = None
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`)."""
+        """JSON-ready dict (:func:`birdocp.engine.results.result_dict`).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self)
 
 
@@ -121,16 +133,37 @@ class Branch:
         return np.array([pt.parameter for pt in self.points])
 
     def multipliers(self) -> np.ndarray:
-        """Complex multipliers, one row per point (largest modulus first)."""
+        """Complex multipliers, one row per point (largest modulus first).
+
+        Returns
+        -------
+        ndarray of complex, shape (n_points, nx)
+        """
         return np.array([[complex(a, b) for a, b in pt.multipliers] for pt in self.points])
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (``from_dict`` reads it back)."""
+        """JSON-ready dict (``from_dict`` reads it back).
+
+        Returns
+        -------
+        dict
+            Plain JSON types only.
+        """
         return result_dict(self, extra={"wall_s": {"total": self.wall_s}})
 
     @staticmethod
     def from_dict(d: dict) -> "Branch":
-        """The branch written by :meth:`to_dict`."""
+        """The branch written by :meth:`to_dict`.
+
+        Parameters
+        ----------
+        d : dict
+            The dict of :meth:`to_dict` (e.g. a branch.json read back).
+
+        Returns
+        -------
+        Branch
+        """
         pts = [BranchPoint(**p) for p in d["points"]]
         sps = []
         for s in d.get("special_points", []):

@@ -43,14 +43,42 @@ class Corrector:
         self.li = system.nz - 1   # index of lam in z
 
     def scaled_jacobian(self, J):
-        """dG/du from dG/dz."""
+        """dG/du from dG/dz.
+
+        Parameters
+        ----------
+        J : ndarray
+            dG/dz.
+
+        Returns
+        -------
+        ndarray
+        """
         return J * self.s[None, :]
 
     def newton(self, u_pred, row, rhs, J0=None, reach=None):
         """Solve ``[G(s u); row . u - rhs] = 0`` from ``u_pred``.
 
         ``J0``: the Jacobian to start with (else one is evaluated at ``u_pred``); ``reach``: the
-        predictor's step (scaled norm). Returns ``(u, g, J, means, Mon, steps)`` or ``None``."""
+        predictor's step (scaled norm). Returns ``(u, g, J, means, Mon, steps)`` or ``None``.
+
+        Parameters
+        ----------
+        u_pred : ndarray
+            Predicted scaled unknowns.
+        row : ndarray
+            Row of the arclength condition.
+        rhs : float
+            Its right-hand side.
+        J0 : ndarray, optional
+            Jacobian to start with.
+        reach : float, optional
+            Predictor step (scaled norm).
+
+        Returns
+        -------
+        tuple or None
+        """
         sysm, s, tol = self.system, self.s, self.tol
         u = u_pred.copy()
         A, full, prev, du = None, None, None, None
@@ -100,13 +128,37 @@ class Corrector:
         return u, g, J, means, Mon, it
 
     def state(self, result, t_prev) -> ContinuationState:
-        """The :class:`ContinuationState` of a :meth:`newton` result (tangent oriented by ``t_prev``)."""
+        """The :class:`ContinuationState` of a :meth:`newton` result (tangent oriented by ``t_prev``).
+
+        Parameters
+        ----------
+        result : tuple
+            A :meth:`newton` result.
+        t_prev : ndarray or None
+            Tangent that orients the new one.
+
+        Returns
+        -------
+        ContinuationState
+        """
         u, g, J, means, Mon, it = result
         t = tangent(self.scaled_jacobian(J), t_prev)
         return ContinuationState(u, t, g, means, Mon, it, test_functions(t, Mon, self.li), J)
 
     def along(self, base: ContinuationState, ds: float) -> ContinuationState | None:
-        """The point at scaled arclength ``ds`` from ``base`` along its tangent, or ``None``."""
+        """The point at scaled arclength ``ds`` from ``base`` along its tangent, or ``None``.
+
+        Parameters
+        ----------
+        base : ContinuationState
+            Start of the step.
+        ds : float
+            Scaled arclength of the step.
+
+        Returns
+        -------
+        ContinuationState or None
+        """
         pred = base.u + ds * base.t
         res = self.newton(pred, base.t, base.t @ base.u + ds, base.J, abs(ds))
         if res is None:  # again from a Jacobian evaluated at the predictor
@@ -115,7 +167,21 @@ class Corrector:
 
     def at_parameter(self, a: ContinuationState, b: ContinuationState, lam: float,
                      s_lam: float) -> ContinuationState | None:
-        """The point with the parameter fixed at ``lam`` between ``a`` and ``b`` (linear predictor)."""
+        """The point with the parameter fixed at ``lam`` between ``a`` and ``b`` (linear predictor).
+
+        Parameters
+        ----------
+        a, b : ContinuationState
+            States on either side of ``lam``.
+        lam : float
+            Parameter value.
+        s_lam : float
+            Scale of the parameter.
+
+        Returns
+        -------
+        ContinuationState or None
+        """
         li = self.li
         la, lb = s_lam * a.u[li], s_lam * b.u[li]
         w = (lam - la) / (lb - la) if lb != la else 1.0

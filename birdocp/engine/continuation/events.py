@@ -61,13 +61,37 @@ class BranchEvents:
     describe: Callable[[str, int, BranchPoint], str] | None = None
 
     def values(self, point: BranchPoint) -> dict:
-        """The test functions at ``point`` (floats), also stored in ``point.event_values``."""
+        """The test functions at ``point`` (floats), also stored in ``point.event_values``.
+
+        Parameters
+        ----------
+        point : BranchPoint
+            Point, changed in place.
+
+        Returns
+        -------
+        dict of str to float
+        """
         vals = {str(k): float(v) for k, v in dict(self.evaluate(point)).items()}
         point.event_values = vals
         return vals
 
     def message(self, name: str, direction: int, point: BranchPoint) -> str:
-        """The special point's message."""
+        """The special point's message.
+
+        Parameters
+        ----------
+        name : str
+            Test function.
+        direction : int
+            Sign of the crossing (< 0: falls below 0).
+        point : BranchPoint
+            Point of the crossing.
+
+        Returns
+        -------
+        str
+        """
         if self.describe is not None:
             return self.describe(name, direction, point)
         return f"{name} {'falls below 0' if direction < 0 else 'rises to 0'} along the branch"
@@ -78,7 +102,17 @@ def _side(v: float) -> bool:
 
 
 def event_crossings(va: Mapping[str, float], vb: Mapping[str, float]) -> list:
-    """The names whose value changes side (``>= 0`` / ``< 0``) from ``va`` to ``vb`` (NaN skipped)."""
+    """The names whose value changes side (``>= 0`` / ``< 0``) from ``va`` to ``vb`` (NaN skipped).
+
+    Parameters
+    ----------
+    va, vb : mapping of str to float
+        Test-function values at two consecutive points.
+
+    Returns
+    -------
+    list of str
+    """
     return [k for k in va if k in vb and np.isfinite(va[k]) and np.isfinite(vb[k])
             and _side(va[k]) != _side(vb[k])]
 
@@ -89,7 +123,35 @@ def locate_event(events: BranchEvents, name: str, corrector: Corrector, base: Co
     """Locate where the test function ``name`` of ``events`` crosses zero between ``base`` (branch point
     ``index``, value ``va``) and the point ``ds`` further (value ``vb``): (SpecialPoint, the
     BranchPoint there with its ``event_values``, its corrected state), or ``None`` when no corrector
-    solve succeeded."""
+    solve succeeded.
+
+    Parameters
+    ----------
+    events : BranchEvents
+        The test functions.
+    name : str
+        The one that changed sign.
+    corrector : Corrector
+        Corrector of the continuation.
+    base : ContinuationState
+        State at the last point.
+    ds : float
+        Arclength to the next point.
+    va, vb : float
+        Values at both points.
+    index : int
+        Index of the last branch point.
+    arclength : float
+        Arclength at the last point.
+    make_point : callable
+        Builds a BranchPoint from a corrected state.
+    tol : float
+        Tolerance of the location.
+
+    Returns
+    -------
+    tuple or None
+    """
     seen: dict = {}
 
     def test(st: ContinuationState, c: float) -> float:
@@ -115,7 +177,19 @@ def sign_changes(cur: ContinuationState, nxt: ContinuationState, detect) -> list
     """The kinds in ``detect`` whose test function changes sign from ``cur`` to ``nxt``.
 
     ``det(I - Mon)`` changes sign at a fold too: a branch point is not reported where the fold's
-    test changes sign as well."""
+    test changes sign as well.
+
+    Parameters
+    ----------
+    cur, nxt : ContinuationState
+        Two consecutive states.
+    detect : iterable of str
+        Kinds to test.
+
+    Returns
+    -------
+    list of str
+    """
     kinds = []
     for kind in detect:
         if kind == "branch_point" and np.sign(cur.tests["fold"]) != np.sign(nxt.tests["fold"]):
@@ -192,7 +266,33 @@ def locate(kind: str, corrector: Corrector, base: ContinuationState, nxt: Contin
            tol: float) -> SpecialPoint | None:
     """Locate the special point ``kind`` between ``base`` (branch point ``index``) and ``nxt``, the
     point ``ds`` further along the arclength; ``None`` where the sign change is not a bifurcation
-    or no corrector solve succeeded."""
+    or no corrector solve succeeded.
+
+    Parameters
+    ----------
+    kind : str
+        Kind of special point.
+    corrector : Corrector
+        Corrector of the continuation.
+    base, nxt : ContinuationState
+        Two consecutive states.
+    ds : float
+        Arclength between them.
+    index : int
+        Index of the branch point of ``base``.
+    arclength : float
+        Arclength at ``base``.
+    make_point : callable
+        Builds a BranchPoint from a corrected state.
+    name : str
+        Name of the special point.
+    tol : float
+        Tolerance of the location.
+
+    Returns
+    -------
+    SpecialPoint or None
+    """
     c, st, ok, nev = _bisect(lambda state, _c: state.tests[kind], corrector, base, ds, base.tests[kind],
                              nxt.tests[kind], tol)
     if st is None:

@@ -34,7 +34,19 @@ __all__ = ["OrbitBranchIterator", "resolve_options"]
 
 def resolve_options(options: ContinuationOptions | None, settings: dict) -> ContinuationOptions:
     """``options`` (default :class:`ContinuationOptions`) with the keyword ``settings`` named like its
-    fields replacing them; a TypeError names unknown settings."""
+    fields replacing them; a TypeError names unknown settings.
+
+    Parameters
+    ----------
+    options : ContinuationOptions or None
+        Base options.
+    settings : dict
+        Field name to value.
+
+    Returns
+    -------
+    ContinuationOptions
+    """
     opts = options or ContinuationOptions()
     unknown = set(settings) - {f.name for f in fields(ContinuationOptions)}
     if unknown:
@@ -90,7 +102,21 @@ class OrbitBranchIterator(RunOnce):
 
     # --- the points -----------------------------------------------------------------------------
     def make_point(self, st: ContinuationState, arclen: float, ds_used: float) -> BranchPoint:
-        """The :class:`BranchPoint` of a corrected state."""
+        """The :class:`BranchPoint` of a corrected state.
+
+        Parameters
+        ----------
+        st : ContinuationState
+            Corrected state.
+        arclen : float
+            Arclength at the point.
+        ds_used : float
+            Step that reached it.
+
+        Returns
+        -------
+        BranchPoint
+        """
         sysm, li = self.sysm, self.li
         z = self.s * st.u
         lam_m, _, _, _, stable = multipliers_info(st.Mon, sysm.period_of(z))
@@ -106,7 +132,17 @@ class OrbitBranchIterator(RunOnce):
             tests=dict(st.tests), p=p.tolist(), period=sysm.period_of(z))
 
     def rejection(self, pt: BranchPoint) -> str | None:
-        """Why ``pt`` is not accepted (a free parameter out of its bounds, ``accept``), or None."""
+        """Why ``pt`` is not accepted (a free parameter out of its bounds, ``accept``), or None.
+
+        Parameters
+        ----------
+        pt : BranchPoint
+            Point.
+
+        Returns
+        -------
+        str or None
+        """
         sysm = self.sysm
         if self.nf:
             fv = np.array([pt.p[i] for i in sysm.free_idx])
@@ -313,7 +349,12 @@ class OrbitBranchIterator(RunOnce):
 
     # --- the result -------------------------------------------------------------------------------
     def branch(self) -> Branch:
-        """The branch followed so far (all of it after the iteration ended)."""
+        """The branch followed so far (all of it after the iteration ended).
+
+        Returns
+        -------
+        Branch
+        """
         settings = dict(self.settings)
         if self.steps is not None:
             settings.update(evaluations=self.sysm.evaluations, residual_evaluations=self.sysm.residual_evaluations,

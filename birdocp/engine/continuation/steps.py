@@ -33,7 +33,17 @@ class StepController:
         self.refusals = 0            # converged steps beyond max_dparam / max_dstate
 
     def capped(self, st: ContinuationState) -> float:
-        """The current ``ds``, shortened so the step is expected to stay within the limits."""
+        """The current ``ds``, shortened so the step is expected to stay within the limits.
+
+        Parameters
+        ----------
+        st : ContinuationState
+            Current state.
+
+        Returns
+        -------
+        float
+        """
         s, li, nX = self.s, self.li, self.nX
         ds = self.ds
         if self.max_dparam:
@@ -48,7 +58,12 @@ class StepController:
         return ds
 
     def failed(self) -> bool:
-        """The corrector failed: halve ``ds``; ``False`` when that would go below ``ds_min``."""
+        """The corrector failed: halve ``ds``; ``False`` when that would go below ``ds_min``.
+
+        Returns
+        -------
+        bool
+        """
         if self.ds / 2 < self.ds_min:
             return False
         self.ds /= 2
@@ -56,7 +71,17 @@ class StepController:
         return True
 
     def refuse(self, cur: ContinuationState, nxt: ContinuationState) -> bool:
-        """Record the step ``cur -> nxt``; ``True`` (and ``ds`` shortened) when it exceeds a limit."""
+        """Record the step ``cur -> nxt``; ``True`` (and ``ds`` shortened) when it exceeds a limit.
+
+        Parameters
+        ----------
+        cur, nxt : ContinuationState
+            The step's ends.
+
+        Returns
+        -------
+        bool
+        """
         s, li, nX, ds = self.s, self.li, self.nX, self.ds
         dX = np.max(np.abs(s[:nX] * (nxt.u[:nX] - cur.u[:nX])))
         dlam = abs(s[li] * nxt.u[li] - s[li] * cur.u[li])
@@ -70,7 +95,13 @@ class StepController:
         return False
 
     def converged(self, iterations: int) -> None:
-        """Adapt ``ds`` to the corrector's work on the accepted step."""
+        """Adapt ``ds`` to the corrector's work on the accepted step.
+
+        Parameters
+        ----------
+        iterations : int
+            Corrector iterations of the step.
+        """
         if iterations <= 5:
             self.ds = min(self.ds * 1.5, self.ds_max)
         elif iterations > 9:

@@ -63,7 +63,12 @@ class Continuation:
     """The order of the grid's integrator (RK4)."""
 
     def refined(self) -> "Continuation":
-        """The same system on twice the steps per period (same unknowns: for error estimates)."""
+        """The same system on twice the steps per period (same unknowns: for error estimates).
+
+        Returns
+        -------
+        Continuation
+        """
         return Continuation(self.problem, self.j, self.method.points, 2 * int(self.method.steps_per_period))
 
     @property
@@ -79,26 +84,80 @@ class Continuation:
         return [names[i] if names else f"p{i}" for i in self.free_idx]
 
     def period_of(self, z) -> float:
-        """The period of the orbit at ``z`` (the forcing period: fixed for this system)."""
+        """The period of the orbit at ``z`` (the forcing period: fixed for this system).
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        float
+        """
         return float(self.ode.period_s)
 
     def p_of(self, z) -> np.ndarray:
-        """The full parameter vector at unknowns ``z``."""
+        """The full parameter vector at unknowns ``z``.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray
+        """
         p = self.problem.p.copy()
         p[self.pidx] = z[self.nx * (self.S + 1):]
         return p
 
     def X_of(self, z) -> np.ndarray:
-        """The shooting points at ``z`` as an nx x (S+1) array."""
+        """The shooting points at ``z`` as an nx x (S+1) array.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray, shape (nx, S + 1)
+        """
         return z[: self.nx * (self.S + 1)].reshape(self.S + 1, self.nx).T
 
     def z_of(self, shooting_points, p) -> np.ndarray:
-        """The unknowns of shooting points ((S+1) x nx) and a parameter vector."""
+        """The unknowns of shooting points ((S+1) x nx) and a parameter vector.
+
+        Parameters
+        ----------
+        shooting_points : array_like, shape (S + 1, nx)
+            Shooting points.
+        p : array_like
+            Parameter vector.
+
+        Returns
+        -------
+        ndarray
+        """
         X = np.asarray(shooting_points, float).reshape(self.S + 1, self.nx)
         return np.concatenate([X.ravel(), np.asarray(p, float)[self.pidx]])
 
     def evaluate(self, z, jacobian: bool = True):
-        """(G, J = dG/dz, means, monodromy) at z; with ``jacobian=False`` only G (the rest None)."""
+        """(G, J = dG/dz, means, monodromy) at z; with ``jacobian=False`` only G (the rest None).
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+        jacobian : bool
+            Also the Jacobian and the rest.
+
+        Returns
+        -------
+        tuple
+        """
         b = self.builder
         if b.context is not self._ctx:  # the cached graphs served another solve in between
             b.set_context(*self._ctx)
@@ -126,7 +185,19 @@ class ContinuationState:
 
 
 def tangent(Ju, t_prev):
-    """Unit null vector of ``Ju`` (n x n+1), oriented along ``t_prev`` (or by SVD when ``None``)."""
+    """Unit null vector of ``Ju`` (n x n+1), oriented along ``t_prev`` (or by SVD when ``None``).
+
+    Parameters
+    ----------
+    Ju : ndarray, shape (n, n + 1)
+        Jacobian of the extended system.
+    t_prev : ndarray or None
+        Previous tangent.
+
+    Returns
+    -------
+    ndarray, shape (n + 1,)
+    """
     if t_prev is None:
         _, _, Vt = np.linalg.svd(Ju)
         t = Vt[-1]
@@ -142,7 +213,22 @@ def tangent(Ju, t_prev):
 
 
 def test_functions(t, Mon, lam_index) -> dict:
-    """Special-point test functions at a point (see :mod:`birdocp.engine.continuation`)."""
+    """Special-point test functions at a point (see :mod:`birdocp.engine.continuation`).
+
+    Parameters
+    ----------
+    t : ndarray
+        Tangent at the point.
+    Mon : ndarray, shape (nx, nx)
+        Monodromy matrix.
+    lam_index : int
+        Index of the parameter in ``t`` (its component is the fold test).
+
+    Returns
+    -------
+    dict
+        ``fold``, ``branch_point`` (det(I - Mon)), ``period_doubling`` (det(I + Mon)), ``neimark_sacker``.
+    """
     nx = Mon.shape[0]
     L = np.linalg.eigvals(Mon)
     ns = 1.0
