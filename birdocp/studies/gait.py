@@ -16,6 +16,7 @@ import numpy as np
 
 from birdocp.bird.config import require_body_states, Config, ConfigError, get_value, with_values
 from birdocp.bird.keys import AMPLITUDE_BOUNDS_DEG
+from birdocp.engine.oracle import active_bounds
 from birdocp.engine.oracle import ipopt_options as one_ipopt_front  # the one set of IPOPT options
 from birdocp.engine.results import result_dict, serial
 from birdocp.studies.gait_cycle import (AMPLITUDE_KEY, JURY_MARGIN, POSITIVE_EPS_W, Evaluation,  # noqa: F401
@@ -81,6 +82,10 @@ class GaitOptimum:
     """With ``hessian="fd"``: the last finite-difference second derivatives, ``[k, i, j] =
     d^2 G_i / dz_j dz_k`` (G = objective and constraints, z = free values and r, unscaled); what a
     warm-started ``hessian="fixed"`` solve (e.g. on a finer grid) takes as ``second_derivatives``."""
+    ipopt_multipliers: dict | None = None
+    """IPOPT's multipliers at the optimum: ``lam_g`` (one per constraint row, the objective row
+    excluded) and ``lam_x`` (one per free value and r, per unit of each, unscaled); what a warm start
+    of a nearby problem takes as ``warm_multipliers`` (:class:`GaitSolverOptions`)."""
 
     @property
     def largest_modulus(self) -> float:
@@ -88,9 +93,8 @@ class GaitOptimum:
 
     def to_dict(self) -> dict:
         """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): the documented keys."""
-        return result_dict(self, exclude=("cfg", "start_x0", "means", "second_derivatives"), derived=("largest_modulus",), extra={
-            "active_bounds": [k for k, v in self.free.items()
-                              if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6],
+        return result_dict(self, exclude=("cfg", "start_x0", "means", "second_derivatives", "ipopt_multipliers"), derived=("largest_modulus",), extra={
+            "active_bounds": active_bounds(self.free, self.bounds),
             "moduli": np.abs(self.multipliers), "stable": bool(self.largest_modulus < 1),
             "mean_shoulder_power_W": self.means.get("flapping_power_W"),
             "mean_aerodynamic_power_W": self.means.get("aerodynamic_power_W"),
@@ -134,6 +138,11 @@ class GaitSolverOptions:
     valid_rounds : int, optional
         With ``valid``: solves at most, tightening a bound the exact check finds crossed (default
         :data:`birdocp.studies.gait_validity.VALID_ROUNDS`).
+    warm_multipliers : dict, optional
+        A nearby optimum's :attr:`GaitOptimum.ipopt_multipliers`: IPOPT starts from them
+        (``warm_start_init_point``; with a small ``mu_init`` in ``ipopt_options``, e.g.
+        :data:`birdocp.studies.gait_validity.WARM_IPOPT`, a real warm start). Ignored when the
+        constraint rows differ in number.
     """
 
     max_iter: int = 100
@@ -146,6 +155,7 @@ class GaitSolverOptions:
     threads: int = 2
     second_derivatives: np.ndarray | None = None
     valid_rounds: int | None = None
+    warm_multipliers: dict | None = None
 
     def check(self) -> None:
         """ValueError/ConfigError (naming the option) for an impossible choice, before any computation."""
@@ -259,8 +269,9 @@ def _start_cycle(rc: ReducedLevelCycle, theta0, lo, hi, speed_mps):
         return rc.evaluate(last if last is not None else theta0), f"; start not at the speed ({e})"
 
 
-def _nlp_solver(prob: ReducedProblem, opts: GaitSolverOptions):
-    """(IPOPT solver, the oracle to keep alive, the Hessian object, the sigma_k sigma_j scale) of ``prob``."""
+def _nlp_solver(prob: ReducedProblem, opts: GaitSolverOptions, warm: bool = False):
+    """(IPOPT solver, the oracle to keep alive, the Hessian object, the sigma_k sigma_j scale) of
+    ``prob``; ``warm``: IPOPT starts from the multipliers given to the call."""
     from birdocp.engine.oracle import ConstraintOracle, FixedHessian, StencilHessian
 
     zs = ca.MX.sym("z", prob.nz)
@@ -278,7 +289,8 @@ def _nlp_solver(prob: ReducedProblem, opts: GaitSolverOptions):
         "ipopt.print_level": 5 if opts.progress is True else 0, "print_time": False,
         "ipopt.max_iter": int(opts.max_iter), "ipopt.tol": opts.tol, "ipopt.constr_viol_tol": 1e-8,
         "ipopt.acceptable_tol": 1e-6, "ipopt.acceptable_iter": 5, "ipopt.mu_strategy": "adaptive",
-        "ipopt.nlp_scaling_method": "gradient-based", **(opts.ipopt_options or {})})
+        "ipopt.nlp_scaling_method": "gradient-based", **({"ipopt.warm_start_init_point": "yes"} if warm else {}),
+        **(opts.ipopt_options or {})})
     return ca.nlpsol("gait", "ipopt", {"x": zs, "f": G[0], "g": G[1:]}, ipopt), oracle, fd, scale2
 
 
@@ -321,14 +333,15 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
     start_value = float(prob.both(z0)[0][0]) if not prob.with_r else float(np.max(np.abs(ev0.multipliers)))
     if note and not prob.with_r:
         start_value = float("nan")  # the configured gait does not fly level at this speed
-    solver, oracle, fd, scale2 = _nlp_solver(prob, opts)
+    duals = _warm_duals(prob, opts.warm_multipliers)
+    solver, oracle, fd, scale2 = _nlp_solver(prob, opts, warm=bool(duals))
     glo, ghi = prob.bounds_g()
     t0 = time.perf_counter()
     try:
         from birdocp.engine import interrupts
 
         with interrupts.interruptible():  # Ctrl-C inside IPOPT: KeyboardInterrupt, not a status
-            sol = solver(x0=z0, lbx=lbx, ubx=ubx, lbg=glo, ubg=ghi)
+            sol = solver(x0=z0, lbx=lbx, ubx=ubx, lbg=glo, ubg=ghi, **duals)
     except RuntimeError as e:  # the reduced map failed (no level cycle) and IPOPT could not recover
         return fail(f"IPOPT stopped: {e}")
     wall["solve"] = time.perf_counter() - t0
@@ -348,6 +361,15 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
     wall["cpu_total"] = time.process_time() - cpu_all  # this process's CPU time (the machine is shared)
     out.wall_s = wall
     return out
+
+
+def _warm_duals(prob: ReducedProblem, warm: dict | None) -> dict:
+    """``lam_x0``/``lam_g0`` of the solver call from a nearby optimum's multipliers (in this problem's
+    scaled variables: lam_x per unit of z = lam_x per unit of theta / sigma); empty when there are none
+    or the rows differ in number."""
+    if not warm or len(warm.get("lam_g", ())) != prob.ng - 1 or len(warm.get("lam_x", ())) != prob.nz:
+        return {}
+    return {"lam_x0": np.asarray(warm["lam_x"], float) / prob.sigma, "lam_g0": np.asarray(warm["lam_g"], float)}
 
 
 def _scaled_start(prob: ReducedProblem, ev0: Evaluation, lo, hi, radius_start_factor: float):
@@ -383,6 +405,7 @@ def _optimum(prob: ReducedProblem, sol, st, msg, gbounds, ev0, start_value, free
                       ev0.multipliers, ev.means["forward_speed_mps"], speed_mps, max_multiplier, dict(ev.means),
                       float(np.max(np.abs(kkt))), viol, cfg=cfg)
     out.evaluations = {"full": rc.n_full, "residual": rc.n_resid, "no_level_cycle": len(prob.failures)}
+    out.ipopt_multipliers = {"lam_g": lam_g.tolist(), "lam_x": (lam_x * prob.sigma).tolist()}
     from birdocp.studies.gait_validity import attach_validity
 
     attach_validity(out, prob, ev, lam_g, cfg)
