@@ -219,7 +219,7 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     **solver_options
         Fields of :class:`GaitSolverOptions` overriding ``solver``'s (``max_iter``, ``tol``,
         ``verify``, ``progress``, ``ipopt_options``, ``hessian``, ``radius_start_factor``,
-        ``threads``, ``second_derivatives``, ``valid_rounds``).
+        ``threads``, ``second_derivatives``, ``valid_rounds``, ``warm_multipliers``).
 
     Returns
     -------
