@@ -83,7 +83,7 @@ def main():
     if args.skip_pareto and path.is_file():  # keep the Pareto measurements of an earlier run
         res |= {k: v for k, v in json.loads(path.read_text()).items() if k.startswith("pareto") or k in (
             "points", "jobs", "bounds", "ratio_parallel_over_sequential", "ratio_parallel_valid_over_sequential",
-            "max_objective_difference_W", "uptime")}
+            "max_objective_difference_W", "max_objective_difference_to_committed_W", "uptime")}
     if args.skip_stability and path.is_file():  # keep the optimize_stability measurements of an earlier run
         res |= {k: v for k, v in json.loads(path.read_text()).items() if k.startswith("optimize_stability")
                 or k == "ratio_valid_over_today"}
