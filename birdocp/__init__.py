@@ -41,7 +41,7 @@ API = {
                     "SensitivityResult": "birdocp.studies.sensitivity"},
     "optimisers": {"optimize_stability": "birdocp.studies.optimize", "StabilityOptimum": "birdocp.studies.optimize",
                    "optimize_gait": "birdocp.studies.gait", "GaitOptimum": "birdocp.studies.gait",
-                   "power_curve": "birdocp.studies.power_curves", "stability_pareto": "birdocp.studies.gait"},
+                   "power_curve": "birdocp.studies.power_curves", "stability_pareto": "birdocp.studies.gait_fronts"},
     "control": {"design_controller": "birdocp.studies.control", "Controller": "birdocp.studies.control",
                 "wingbeat_map": "birdocp.studies.control"},
     "simulation": {"simulate": "birdocp.studies.simulate", "SimulationResult": "birdocp.studies.simulate",

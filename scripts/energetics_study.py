@@ -30,7 +30,8 @@ import numpy as np
 from birdocp.bird.config import Config
 from birdocp.io.files import atomic_write_json, atomic_write_text
 from birdocp.plots.energetics import plot_pareto, plot_power, plot_power_curve
-from birdocp.studies.gait import optimize_gait, power_curve, stability_pareto
+from birdocp.studies.gait import optimize_gait, power_curve
+from birdocp.studies.gait_fronts import stability_pareto
 from birdocp.studies.level import level
 from script_common import parse_with_out, script_parser
 

@@ -54,9 +54,10 @@ def main():
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     from birdocp.engine.executors import get_executor
-    from birdocp.studies.gait import optimize_gait, power_curve, stability_pareto
+    from birdocp.studies.gait import optimize_gait, power_curve
+    from birdocp.studies.gait_fronts import stability_pareto
     from birdocp.studies.level import level
-    from birdocp.studies.gait import valid_power_curve
+    from birdocp.studies.gait_fronts import valid_power_curve
 
     cfg = Config()
     res = json.loads((out / "result.json").read_text()) if (out / "result.json").is_file() else {}

@@ -12,7 +12,8 @@ import pytest
 from birdocp.bird.config import Config, with_values
 from birdocp.cli import main as cli
 from birdocp.engine.integrate import RK4Grid
-from birdocp.studies.gait import ReducedLevelCycle, optimize_gait, stability_pareto
+from birdocp.studies.gait import ReducedLevelCycle, optimize_gait
+from birdocp.studies.gait_fronts import stability_pareto
 
 STEPS = 24
 KEYS = ["gait.shoulder_incidence.offset_deg", "gait.shoulder_sweep.offset_deg"]

@@ -130,7 +130,7 @@ def test_parallel_pareto_matches_sequential():
     """One bound of the stability-power front, traced as today (sequential) and through an executor
     wave from the same neighbour: the same optimum; rows carry validity."""
     from birdocp.engine.executors import SerialExecutor
-    from birdocp.studies.gait import stability_pareto
+    from birdocp.studies.gait_fronts import stability_pareto
 
     cfg = with_values(Config(), {"solve.steps_per_period": 16})
     opt = optimize_gait(cfg, FREE, objective="power", speed_mps=18.0)
@@ -148,7 +148,7 @@ def test_valid_power_curve_rows():
     """The power curve over valid gaits: each row is a valid least-power optimum at its speed, with
     the cycle to re-solve it, and the optima come from valid rows only."""
     from birdocp.engine.executors import SerialExecutor
-    from birdocp.studies.gait import valid_power_curve
+    from birdocp.studies.gait_fronts import valid_power_curve
 
     cfg = with_values(Config(), {"solve.steps_per_period": 16})
     out = valid_power_curve(SerialExecutor(), cfg, [18.0], free=FREE)

@@ -16,6 +16,7 @@ import numpy as np
 
 from birdocp.bird.config import require_body_states, Config, ConfigError, get_value, with_values
 from birdocp.bird.keys import AMPLITUDE_BOUNDS_DEG
+from birdocp.engine.oracle import active_bounds
 from birdocp.engine.oracle import ipopt_options as one_ipopt_front  # the one set of IPOPT options
 from birdocp.engine.results import result_dict, serial
 from birdocp.studies.gait_cycle import (AMPLITUDE_KEY, JURY_MARGIN, POSITIVE_EPS_W, Evaluation,  # noqa: F401
@@ -25,7 +26,7 @@ from birdocp.studies.lateral_optimize import reduced_level_cycle
 from birdocp.studies.power_curves import SPEED_KEY, curve_optima, level_at_speed, power_curve  # noqa: F401
 
 __all__ = ["ReducedLevelCycle", "ReducedProblem", "GaitOptimum", "GaitSolverOptions", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
-           "level_at_speed", "power_curve", "SPEED_KEY", "stability_pareto", "jury_conditions", "valid_power_curve",
+           "level_at_speed", "power_curve", "SPEED_KEY", "jury_conditions",
            "curve_optima",
            "check_free_keys"]
 
@@ -85,6 +86,10 @@ class GaitOptimum:
     """With ``hessian="fd"``: the last finite-difference second derivatives, ``[k, i, j] =
     d^2 G_i / dz_j dz_k`` (G = objective and constraints, z = free values and r, unscaled); what a
     warm-started ``hessian="fixed"`` solve (e.g. on a finer grid) takes as ``second_derivatives``."""
+    ipopt_multipliers: dict | None = None
+    """IPOPT's multipliers at the optimum: ``lam_g`` (one per constraint row, the objective row
+    excluded) and ``lam_x`` (one per free value and r, per unit of each, unscaled); what a warm start
+    of a nearby problem takes as ``warm_multipliers`` (:class:`GaitSolverOptions`)."""
 
     @property
     def largest_modulus(self) -> float:
@@ -98,10 +103,10 @@ class GaitOptimum:
         dict
             Plain JSON types only.
         """
-        return result_dict(self, exclude=("cfg", "start_x0", "means", "second_derivatives", "six_dof"),
+        return result_dict(self, exclude=("cfg", "start_x0", "means", "second_derivatives", "six_dof",
+                                          "ipopt_multipliers"),
                            derived=("largest_modulus",), extra=dict(self.six_dof or {}) | {
-            "active_bounds": [k for k, v in self.free.items()
-                              if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6],
+            "active_bounds": active_bounds(self.free, self.bounds),
             "moduli": np.abs(self.multipliers), "stable": bool(self.largest_modulus < 1),
             "mean_shoulder_power_W": self.means.get("flapping_power_W"),
             "mean_aerodynamic_power_W": self.means.get("aerodynamic_power_W"),
@@ -145,6 +150,11 @@ class GaitSolverOptions:
     valid_rounds : int, optional
         With ``valid``: solves at most, tightening a bound the exact check finds crossed (default
         :data:`birdocp.studies.gait_validity.VALID_ROUNDS`).
+    warm_multipliers : dict, optional
+        A nearby optimum's :attr:`GaitOptimum.ipopt_multipliers`: IPOPT starts from them
+        (``warm_start_init_point``; with a small ``mu_init`` in ``ipopt_options``, e.g.
+        :data:`birdocp.studies.gait_validity.WARM_IPOPT`, a real warm start). Ignored when the
+        constraint rows differ in number.
     """
 
     max_iter: int = 100
@@ -157,6 +167,7 @@ class GaitSolverOptions:
     threads: int = 2
     second_derivatives: np.ndarray | None = None
     valid_rounds: int | None = None
+    warm_multipliers: dict | None = None
 
     def check(self) -> None:
         """ValueError/ConfigError (naming the option) for an impossible choice, before any computation."""
@@ -220,7 +231,7 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     **solver_options
         Fields of :class:`GaitSolverOptions` overriding ``solver``'s (``max_iter``, ``tol``,
         ``verify``, ``progress``, ``ipopt_options``, ``hessian``, ``radius_start_factor``,
-        ``threads``, ``second_derivatives``, ``valid_rounds``).
+        ``threads``, ``second_derivatives``, ``valid_rounds``, ``warm_multipliers``).
 
     Returns
     -------
@@ -270,8 +281,9 @@ def _start_cycle(rc: ReducedLevelCycle, theta0, lo, hi, speed_mps):
         return rc.evaluate(last if last is not None else theta0), f"; start not at the speed ({e})"
 
 
-def _nlp_solver(prob: ReducedProblem, opts: GaitSolverOptions):
-    """(IPOPT solver, the oracle to keep alive, the Hessian object, the sigma_k sigma_j scale) of ``prob``."""
+def _nlp_solver(prob: ReducedProblem, opts: GaitSolverOptions, warm: bool = False):
+    """(IPOPT solver, the oracle to keep alive, the Hessian object, the sigma_k sigma_j scale) of
+    ``prob``; ``warm``: IPOPT starts from the multipliers given to the call."""
     from birdocp.engine.oracle import ConstraintOracle, FixedHessian, StencilHessian
 
     zs = ca.MX.sym("z", prob.nz)
@@ -289,7 +301,8 @@ def _nlp_solver(prob: ReducedProblem, opts: GaitSolverOptions):
         "ipopt.print_level": 5 if opts.progress is True else 0, "print_time": False,
         "ipopt.max_iter": int(opts.max_iter), "ipopt.tol": opts.tol, "ipopt.constr_viol_tol": 1e-8,
         "ipopt.acceptable_tol": 1e-6, "ipopt.acceptable_iter": 5, "ipopt.mu_strategy": "adaptive",
-        "ipopt.nlp_scaling_method": "gradient-based", **(opts.ipopt_options or {})})
+        "ipopt.nlp_scaling_method": "gradient-based", **({"ipopt.warm_start_init_point": "yes"} if warm else {}),
+        **(opts.ipopt_options or {})})
     return ca.nlpsol("gait", "ipopt", {"x": zs, "f": G[0], "g": G[1:]}, ipopt), oracle, fd, scale2
 
 
@@ -332,14 +345,15 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
     start_value = float(prob.both(z0)[0][0]) if not prob.with_r else float(np.max(np.abs(ev0.multipliers)))
     if note and not prob.with_r:
         start_value = float("nan")  # the configured gait does not fly level at this speed
-    solver, oracle, fd, scale2 = _nlp_solver(prob, opts)
+    duals = _warm_duals(prob, opts.warm_multipliers)
+    solver, oracle, fd, scale2 = _nlp_solver(prob, opts, warm=bool(duals))
     glo, ghi = prob.bounds_g()
     t0 = time.perf_counter()
     try:
         from birdocp.engine import interrupts
 
         with interrupts.interruptible():  # Ctrl-C inside IPOPT: KeyboardInterrupt, not a status
-            sol = solver(x0=z0, lbx=lbx, ubx=ubx, lbg=glo, ubg=ghi)
+            sol = solver(x0=z0, lbx=lbx, ubx=ubx, lbg=glo, ubg=ghi, **duals)
     except RuntimeError as e:  # the reduced map failed (no level cycle) and IPOPT could not recover
         return fail(f"IPOPT stopped: {e}")
     wall["solve"] = time.perf_counter() - t0
@@ -359,6 +373,15 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
     wall["cpu_total"] = time.process_time() - cpu_all  # this process's CPU time (the machine is shared)
     out.wall_s = wall
     return out
+
+
+def _warm_duals(prob: ReducedProblem, warm: dict | None) -> dict:
+    """``lam_x0``/``lam_g0`` of the solver call from a nearby optimum's multipliers (in this problem's
+    scaled variables: lam_x per unit of z = lam_x per unit of theta / sigma); empty when there are none
+    or the rows differ in number."""
+    if not warm or len(warm.get("lam_g", ())) != prob.ng - 1 or len(warm.get("lam_x", ())) != prob.nz:
+        return {}
+    return {"lam_x0": np.asarray(warm["lam_x"], float) / prob.sigma, "lam_g0": np.asarray(warm["lam_g"], float)}
 
 
 def _scaled_start(prob: ReducedProblem, ev0: Evaluation, lo, hi, radius_start_factor: float):
@@ -395,6 +418,7 @@ def _optimum(prob: ReducedProblem, sol, st, msg, gbounds, ev0, start_value, free
                       float(np.max(np.abs(kkt))), viol, cfg=cfg)
     out.evaluations = {"full": rc.n_full, "residual": rc.n_resid, "no_level_cycle": len(prob.failures)}
     out.six_dof = rc.multiplier_split(ev)
+    out.ipopt_multipliers = {"lam_g": lam_g.tolist(), "lam_x": (lam_x * prob.sigma).tolist()}
     from birdocp.studies.gait_validity import attach_validity
 
     attach_validity(out, prob, ev, lam_g, cfg)
@@ -447,152 +471,4 @@ def _failed(objective, free, message, cfg, speed, R) -> GaitOptimum:
 
 
 # ------------------------------------------------------------------------------------------------
-def stability_pareto(cfg: Config | None, speed_mps: float, bounds, *, free: dict | None = None,
-                     start: dict | None = None, x_guess=None, objective: str = "power",
-                     steps_per_period: int | None = None, max_halvings: int = 4, progress=None,
-                     executor=None, anchors=(), start_bound: float | None = None, **options) -> list[dict]:
-    """The Pareto front of minimum ``objective`` in level flight at ``speed_mps`` against the bound R
-    on every multiplier's modulus: one :func:`optimize_gait` per R in ``bounds`` (in the given order,
-    normally from loose to tight), each started from the previous optimum (gait, amplitude and cycle).
 
-    A failed point is retried from the last optimum with a smaller step: the bound halfway between the
-    last successful R and the failed one is inserted first (at most ``max_halvings`` times in a row).
-    Returns one row per bound tried (inserted ones included, ``"inserted": True``), each with
-    ``bound``, ``success``, ``status``, ``objective_value``, ``largest_modulus``, ``free``,
-    ``amplitude_deg``, ``x0``, ``iterations``, ``kkt_residual``, ``wall_s`` and the verification's
-    ``power_difference_W``, ``validity``, ``valid`` and ``validity_constraints``. ``options`` go to
-    :func:`optimize_gait` (e.g. ``valid=True``: the front over valid cycles).
-
-    With an ``executor`` (:mod:`birdocp.engine.executors`: processes or Dask) the points are solved in
-    parallel waves, each from its nearest solved neighbour (:func:`birdocp.studies.pareto.pareto_parallel`;
-    ``anchors``: known solutions such as the most stable gait, ``start_bound``: the start's largest
-    modulus); no halving then, one row per bound.
-
-    Parameters
-    ----------
-    cfg : Config or None
-        The configuration (None: the paper's reference case).
-    speed_mps : float
-        Mean forward speed held [m/s].
-    bounds : sequence of float
-        The bounds R on every multiplier's modulus, in the order tried.
-    free : dict, optional
-        Gait key -> (lo, hi) (default :data:`DEFAULT_GAIT_FREE`).
-    start : dict, optional
-        Gait values of the first start.
-    x_guess : array_like (4,), optional
-        State at t = 0 of the start's level cycle, if known.
-    objective : str
-        The objective of :func:`optimize_gait`.
-    steps_per_period : int, optional
-        RK4 steps per period.
-    max_halvings : int
-        Inserted bounds in a row after failures.
-    progress : callable, optional
-        ``progress(text)``, one line per point.
-    executor : Executor, optional
-        Solve the points in parallel waves (see above).
-    anchors : sequence
-        Known solutions to start points from (with ``executor``).
-    start_bound : float, optional
-        The start's largest modulus (with ``executor``).
-    **options
-        Passed to :func:`optimize_gait`.
-
-    Returns
-    -------
-    list of dict
-        One row per bound tried (see above).
-    """
-    if executor is not None:
-        from birdocp.studies.pareto import pareto_parallel
-
-        return pareto_parallel(executor, optimize_gait, cfg, speed_mps, bounds, free=free, start=start, x_guess=x_guess,
-                               start_bound=start_bound, anchors=anchors, objective=objective,
-                               steps_per_period=steps_per_period, progress=progress, **options)
-    return _pareto_sequential(cfg, speed_mps, bounds, free, start, x_guess, objective, steps_per_period,
-                              max_halvings, progress, options)
-
-
-def _pareto_sequential(cfg, speed_mps, bounds, free, start, x_guess, objective, steps_per_period, max_halvings,
-                       progress, options) -> list[dict]:
-    """:func:`stability_pareto` without an executor: each bound from the previous optimum, a failed
-    one retried from halfway."""
-    from birdocp.studies.pareto import pareto_row
-
-    queue = [(float(R), False) for R in bounds]
-    rows, last_R, halvings = [], None, 0
-    while queue:
-        R, inserted = queue[0]
-        opt = optimize_gait(cfg, free, objective=objective, speed_mps=speed_mps, max_multiplier=R, start=start,
-                            x_guess=x_guess, steps_per_period=steps_per_period, **options)
-        row = pareto_row(R, opt, inserted)
-        if progress:
-            progress(f"Pareto R = {R:.5f}: {opt.status}, P {opt.objective_value:.5f}, |L1| "
-                     f"{opt.largest_modulus:.5f}, {opt.iterations} iterations, "
-                     f"{opt.wall_s.get('total', float('nan')):.1f} s")
-        if opt.success:
-            rows.append(row)
-            queue.pop(0)
-            start = dict(opt.free) | {AMPLITUDE_KEY: opt.amplitude_deg}
-            x_guess, last_R, halvings = opt.x0, R, 0
-        elif last_R is not None and halvings < max_halvings:
-            rows.append(row)
-            queue.insert(0, (0.5 * (last_R + R), True))
-            halvings += 1
-        else:
-            rows.append(row)
-            queue.pop(0)
-            halvings = 0
-    return rows
-
-
-def valid_power_curve(executor, cfg, speeds, *, free=None, start=None, x_guess=None, start_speed=None,
-                      progress=None, wave: int | None = None, **options) -> dict:
-    """The power curve over valid gaits: at each speed the least-power level gait with every limit of
-    ``[validity]`` a constraint (``optimize_gait(objective="power", valid=True)``), the speeds solved in
-    parallel waves, each from its nearest solved speed (:func:`birdocp.studies.pareto.waves`).
-
-    Parameters
-    ----------
-    executor : executor
-        Runs the waves (:mod:`birdocp.engine.executors`).
-    cfg : Config
-        Configuration.
-    speeds : sequence of float
-        Mean forward speeds [m/s].
-    free : dict, optional
-        Free keys and bounds (default :data:`DEFAULT_GAIT_FREE`).
-    start, x_guess : optional
-        A known solution's gait and cycle state at ``start_speed`` (default: the configured gait).
-    start_speed : float, optional
-        Speed of ``start`` [m/s].
-    progress : callable, optional
-        ``progress(text)`` after each speed.
-    wave : int, optional
-        Speeds solved at a time (default: the executor's worker count).
-    **options
-        Further keywords of :func:`optimize_gait`.
-
-    Returns
-    -------
-    dict
-        ``{"rows", "free", "minimum_power", "maximum_range", ...}`` as :func:`power_curve` (optima over
-        the valid rows).
-    """
-    from birdocp.studies.pareto import power_point, waves
-
-    options = {k: v for k, v in options.items() if k != "progress"} | {"valid": True}
-    s0 = float(np.median(speeds)) if start_speed is None else float(start_speed)
-
-    def job(U, nb):
-        return {"optimize": optimize_gait, "cfg": cfg, "free": free, "speed_mps": float(U),
-                "start": nb["start"] or None, "x_guess": nb["x_guess"], "options": options,
-                "started_from": nb["label"]}
-
-    def say(U, row):
-        if progress:
-            progress(f"valid power curve U = {U:.2f}: {row['status']}, P {row['objective_value']:.5f} W, valid "
-                     f"{row['valid']}, {row['iterations']} iterations, {row['wall_s'].get('total', math.nan):.1f} s")
-    rows = waves(executor, [float(U) for U in speeds], [(s0, None, start, x_guess)], job, power_point, say, wave)
-    return {"rows": rows, "free": free} | curve_optima(rows)

@@ -37,7 +37,7 @@ from birdocp.bird.config import require_body_states, PARAM_NAMES, Config, Config
 from birdocp.bird.validity import invalid, periodic_validity
 from birdocp.engine import interrupts
 from birdocp.engine.floquet import matched_distances, sort_multipliers
-from birdocp.engine.oracle import ConstraintOracle, ipopt_options
+from birdocp.engine.oracle import ConstraintOracle, active_bounds, ipopt_options
 from birdocp.engine.results import result_dict, serial
 from birdocp.io.progress import text_reporter
 from birdocp.studies.gait_cycle import check_free_keys, jury_conditions  # noqa: F401 (public here too)
@@ -110,8 +110,7 @@ class StabilityOptimum:
         return result_dict(self, exclude=("cfg", "six_dof"), derived=("stable",), extra=dict(self.six_dof or {}) | {
             "moduli": np.abs(self.multipliers),
             "validity": self.validity or invalid(self.cfg, "not checked (no optimal cycle)"),
-            "active_bounds": [k for k, v in self.free.items()
-                              if min(abs(v - self.bounds[k][0]), abs(v - self.bounds[k][1])) < 1e-6]})
+            "active_bounds": active_bounds(self.free, self.bounds)})
 
 
 class _Evaluator:

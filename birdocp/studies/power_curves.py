@@ -1,6 +1,6 @@
 """Level flight over a range of forward speeds: the power curve of a gait (the speed held by one
 key, level flight by the amplitude), its minimum-power and maximum-range speeds over valid rows,
-(the power curve over valid gaits: :func:`birdocp.studies.gait.valid_power_curve`)."""
+(the power curve over valid gaits: :func:`birdocp.studies.gait_fronts.valid_power_curve`)."""
 
 from __future__ import annotations
 
