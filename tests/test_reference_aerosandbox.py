@@ -1,23 +1,34 @@
 """The gliding limit against an independent vortex-lattice model: birdocp's lateral roots of the frozen
-wing's steady glide, computed here, against AeroSandbox's committed numbers
-(results/lateral/glide/aerosandbox.json, made offline by scripts/reference_aerosandbox from the
-geometry birdocp exported: results/lateral/glide/geometry.json)."""
+wing's steady glide (the attached pose ``birdocp.studies.glide.ATTACHED_POSE``), computed here, against
+AeroSandbox's committed numbers (results/lateral/glide/aerosandbox.json, made offline by
+scripts/reference_aerosandbox from the geometry birdocp exported: results/lateral/glide/geometry.json)."""
 from __future__ import annotations
 
+import hashlib
 import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from birdocp.studies.glide import glide_geometry, load_derivatives_at, steady_glide
+from birdocp.bird.config import param_vector
+from birdocp.bird.sixdof import LateralInertia, sixdof_model
+from birdocp.engine.shooting import MultipleShooting, floquet
+from birdocp.studies.glide import (attached_config, glide_geometry, lateral_glide_modes, lateral_matrix_with,
+                                   load_derivatives_at, steady_glide)
+from birdocp.studies.glide_refined import refined_load_derivatives
 
 FOLDER = Path(__file__).resolve().parents[1] / "results" / "lateral" / "glide"
 
 
 @pytest.fixture(scope="module")
-def glide():
-    g = steady_glide()
+def cfg():
+    return attached_config()
+
+
+@pytest.fixture(scope="module")
+def glide(cfg):
+    g = steady_glide(cfg)
     assert g["success"] and g["residual"] < 1e-10
     return g
 
@@ -27,53 +38,106 @@ def reference():
     return json.loads((FOLDER / "aerosandbox.json").read_text())
 
 
-def test_the_reference_is_of_the_geometry_birdocp_builds(glide):
-    """The committed geometry (AeroSandbox's input) is the frozen lifting line and glide of today's code."""
-    committed = json.loads((FOLDER / "geometry.json").read_text())
-    now = glide_geometry(glide=glide)
+def test_the_reference_is_of_the_geometry_birdocp_builds(cfg, glide, reference):
+    """The committed geometry (AeroSandbox's input) is the frozen lifting line and glide of today's code,
+    and the committed VLM numbers were made from that very file."""
+    text = (FOLDER / "geometry.json").read_text()
+    committed = json.loads(text)
+    assert reference["geometry_sha256"] == hashlib.sha256(text.encode()).hexdigest()
+    now = glide_geometry(cfg, glide=glide)
     for key in ("nodes_m", "centres_m", "chords_m", "chord_directions", "lengths_m"):
         np.testing.assert_allclose(np.asarray(now[key]), np.asarray(committed[key]), rtol=0, atol=1e-9)
     for key in ("u_mps", "w_mps", "theta_rad"):
         assert abs(now["glide_state"][key] - committed["glide_state"][key]) < 1e-9
+    assert now["joint_offsets_deg"] == committed["joint_offsets_deg"] == reference["joint_offsets_deg"]
 
 
-def test_dutch_roll_frequency_within_five_percent_of_the_vortex_lattice(glide, reference):
-    ours = glide["dutch_roll"]["frequency_radps"]
-    ref = reference["body_axis_wake"]["dutch_roll"]["frequency_radps"]
-    assert abs(ours - ref) <= 0.05 * ref, (ours, ref)
+def test_the_compared_glide_is_attached_and_valid(glide):
+    """The pose is chosen so that the glide is a flight the lifting line (and the VLM) represent:
+    valid by the project's validity check, the airflow along the body axis (so the body-axis wake is
+    also the wind-aligned one), every section well below the stall angle."""
+    v = glide["validity"]
+    assert v["valid"], v["reasons"]
+    assert abs(glide["alpha_body_deg"]) < 1.0
+    assert 5.0 < v["alpha_eff_min_deg"] and v["alpha_eff_max_deg"] < 15.0
 
 
-@pytest.mark.xfail(strict=True, reason="known: at the glide the sections fly at ~36 deg, where the lifting line's "
-                   "lift linear in the angle has a slope 1/cos(36 deg) above the vortex lattice's (linear in its "
-                   "sine): roll damping 28 % higher, roll subsidence 35 % faster (docs/studies/lateral.md)")
+def test_frozen_attached_wing_multipliers_are_the_glide_eigenvalues(cfg, glide):
+    """The gliding limit in the compared pose: ln(Lambda)/T of the frozen wing's cycle (the engine's
+    exact monodromy, 600 RK4 steps) are steady_glide's eigenvalues (plus the heading's 0) to 1e-6."""
+    six = sixdof_model(cfg)
+    p6 = six.params(param_vector(cfg), LateralInertia.of(cfg))
+    x0 = np.append(list(glide["state"].values()), 0.0)
+    fl = floquet(six.ode, x0, p6, MultipleShooting(points=3, steps_per_period=600))
+    ln = np.sort_complex(np.log(fl.multipliers.astype(complex)) / six.ode.period_s)
+    lam = np.sort_complex(np.append([complex(*z) for z in glide["eigenvalues"]], 0.0))
+    np.testing.assert_allclose(ln.real, lam.real, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(np.abs(ln.imag), np.abs(lam.imag), rtol=1e-6, atol=1e-6)
+
+
+@pytest.mark.xfail(strict=True, reason="measured: birdocp -45.30 1/s, the VLM (body-axis wake) -41.77 1/s, 8.4 % "
+                   "apart. The roll damping L_p differs by 8.3 %: 2.2 % is the lifting line's 8 elements a wing "
+                   "(128 elements: 5.9 %), 1.3 % its step planform (the VLM's linear one: 4.6 %), the rest the "
+                   "lifting line against the lattice (docs/studies/lateral.md)")
 def test_roll_subsidence_within_five_percent_of_the_vortex_lattice(glide, reference):
     ours = glide["roll_subsidence_per_s"]
     ref = reference["body_axis_wake"]["roll_subsidence_per_s"]
     assert abs(ours - ref) <= 0.05 * abs(ref), (ours, ref)
 
 
-def test_roll_damping_agrees_at_a_small_section_angle(reference):
-    """The explanation of the roll-subsidence gap: at a small section angle of attack (where the two
-    section laws agree) birdocp's roll damping L_p is within 10 % of the vortex lattice's, while at the
-    glide (section angle ~36 deg) it is 20-35 % above."""
+@pytest.mark.xfail(strict=True, reason="measured: birdocp 1.819 rad/s, the VLM (body-axis wake) 1.688 rad/s, 7.8 % "
+                   "apart, from the sideslip derivatives L_v (23 %) and N_v (24 %), which refining the lifting "
+                   "line moves by 2 % only: the lifting line's sideslip response, not its discretisation "
+                   "(docs/studies/lateral.md)")
+def test_dutch_roll_frequency_within_five_percent_of_the_vortex_lattice(glide, reference):
+    ours = glide["dutch_roll"]["frequency_radps"]
+    ref = reference["body_axis_wake"]["dutch_roll"]["frequency_radps"]
+    assert abs(ours - ref) <= 0.05 * ref, (ours, ref)
+
+
+def test_the_roots_agree_within_ten_percent_and_the_spiral_within_five(glide, reference):
+    """What does hold in the attached glide: both named roots within 10 %, the spiral within 5 %."""
+    ref = reference["body_axis_wake"]
+    assert abs(glide["roll_subsidence_per_s"] / ref["roll_subsidence_per_s"] - 1) < 0.10
+    assert abs(glide["dutch_roll"]["frequency_radps"] / ref["dutch_roll"]["frequency_radps"] - 1) < 0.10
+    assert abs(glide["spiral_per_s"] / ref["spiral_per_s"] - 1) < 0.05
+
+
+def test_the_refined_lifting_line_is_the_model_at_split_one_and_approaches_the_lattice(cfg, glide, reference):
+    """birdocp's lifting line cut into sub-elements: at split 1 (step planform) it is the model (the
+    derivatives of load_derivatives_at to round-off); cutting each element in two moves the roll damping
+    towards the VLM's, which it stays above."""
+    s = glide["state"]
+    one = refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], 1)
+    assert one.pop("elements") == 16
+    for k, v in glide["derivatives"].items():
+        assert abs(one[k] - v) <= 1e-10 * max(1.0, abs(v)), (k, one[k], v)
+    two = refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], 2)
+    vlm = reference["body_axis_wake"]["derivatives"]["L_p"]
+    assert two["elements"] == 32
+    assert one["L_p"] < two["L_p"] < vlm < 0
+
+
+def test_roll_damping_gap_is_smaller_at_a_small_section_angle(cfg, reference):
+    """At a small section angle of attack (4 deg; the two section laws, linear in the angle and in its
+    sine, agree) birdocp's roll damping L_p is within 7 % of the vortex lattice's; at the glide
+    (sections at 8-14 deg) the gap is larger."""
     st = reference["body_axis_wake"]["check_states"][0]
-    ours = load_derivatives_at(None, st["u_mps"], st["w_mps"])["L_p"]
+    ours = load_derivatives_at(cfg, st["u_mps"], st["w_mps"])["L_p"]
     ref = st["derivatives"]["L_p"]
-    assert ours < 0 and ref < 0
-    assert abs(ours - ref) <= 0.10 * abs(ref), (ours, ref)
-    at_glide = reference["body_axis_wake"]["derivatives"]["L_p"]
-    ours_glide = load_derivatives_at(None, reference["glide_state"]["u_mps"], reference["glide_state"]["w_mps"])["L_p"]
-    assert 1.2 < ours_glide / at_glide < 1.35
+    assert ours < ref < 0
+    assert abs(ours / ref - 1) < 0.07
+    g = reference["glide_state"]
+    at_glide = load_derivatives_at(cfg, g["u_mps"], g["w_mps"])["L_p"] / reference["body_axis_wake"]["derivatives"]["L_p"]
+    assert at_glide - 1 > abs(ours / ref - 1)
 
 
-def test_the_two_rigid_body_linearisations_agree_and_roll_damping_explains_the_gap(glide, reference):
+def test_the_two_rigid_body_linearisations_agree_and_roll_damping_explains_the_roll_gap(cfg, glide, reference):
     """birdocp's exact lateral matrix with all nine load derivatives replaced by the VLM's is the VLM
     script's own lateral matrix (written apart, with the same glide, mass and inertia); with the VLM's
-    roll damping L_p alone, birdocp's roll-subsidence root comes within 5 % of the VLM's."""
-    from birdocp.studies.glide import lateral_glide_modes, lateral_matrix_with
-
+    roll damping L_p alone, birdocp's roll-subsidence root comes within 0.5 % of the VLM's."""
     ref = reference["body_axis_wake"]
-    A = lateral_matrix_with(glide, ref["derivatives"])
+    A = lateral_matrix_with(glide, ref["derivatives"], cfg)
     np.testing.assert_allclose(A, np.asarray(ref["lateral_matrix"]), rtol=1e-9, atol=1e-9)
-    only_lp = lateral_glide_modes(lateral_matrix_with(glide, {"L_p": ref["derivatives"]["L_p"]}))
-    assert abs(only_lp["roll_subsidence_per_s"] - ref["roll_subsidence_per_s"]) <= 0.05 * abs(ref["roll_subsidence_per_s"])
+    only_lp = lateral_glide_modes(lateral_matrix_with(glide, {"L_p": ref["derivatives"]["L_p"]}, cfg))
+    assert abs(only_lp["roll_subsidence_per_s"] / ref["roll_subsidence_per_s"] - 1) <= 0.005

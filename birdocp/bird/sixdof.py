@@ -57,7 +57,8 @@ from birdocp.engine.cache import register_cache
 from birdocp.engine.problem import PeriodicODE
 
 __all__ = ["rhs_expression", "STATE_NAMES", "LONGITUDINAL", "LATERAL", "HEADING", "LATERAL_PARAM_NAMES", "LateralInertia",
-           "SixDofModel", "sixdof_model", "embed_planar_state", "body_loads"]
+           "SixDofModel", "sixdof_model", "embed_planar_state", "body_loads", "air_velocity",
+           "body_axis_loads"]
 
 STATE_NAMES = ("u_mps", "v_mps", "w_mps", "p_radps", "q_radps", "r_radps", "phi_rad", "theta_rad", "psi_rad")
 LONGITUDINAL = (0, 2, 4, 7)
@@ -110,27 +111,38 @@ def body_loads(x, d, p, with_tail=False):
 
     Returns ``(F_body 3x1, M_body 3x1, terms)``; ``terms`` is the dict of
     :func:`birdocp.bird.aero.forces_from_velocity` (code frame)."""
-    u, v, w, pr, q, rr = (x[i] for i in range(6))
     b = unpack_data(d)
-    r, v_kin = b["r_m"], b["v_kin_mps"]
-    ones = ca.DM.ones(1, r.shape[1])
-    # V = U_inf - Omega x r - v_kin, U_inf = (-v, w, u), Omega = (q, -r, -p) (code frame)
-    om1, om2, om3 = q, -rr, -pr
-    V = ca.vertcat(-v * ones - (om2 * r[2, :] - om3 * r[1, :]) - v_kin[0, :],
-                   w * ones - (om3 * r[0, :] - om1 * r[2, :]) - v_kin[1, :],
-                   u * ones - (om1 * r[1, :] - om2 * r[0, :]) - v_kin[2, :])
+    r = b["r_m"]
+    V = air_velocity(x, r, b["v_kin_mps"])
     e = aero.forces_from_velocity(V, b["c_hat"], b["up"], b["tau"], b["ds_m"], b["G"], b["Wx"], b["Wy"],
                                   _p(p, "aero.air_density_kgm3"))
-    dF = e["dF"]
-    F = ca.sum2(dF)
-    Mc = ca.sum2(ca.vertcat(r[1, :] * dF[2, :] - r[2, :] * dF[1, :],
-                            r[2, :] * dF[0, :] - r[0, :] * dF[2, :],
-                            r[0, :] * dF[1, :] - r[1, :] * dF[0, :]))
-    Fb, Mb = ca.vertcat(-F[2], F[0], -F[1]), ca.vertcat(-Mc[2], Mc[0], -Mc[1])
+    Fb, Mb = body_axis_loads(r, e["dF"])
     if with_tail:
         Lt, Dt, Mt = tail_body_loads(x, b, e["Gamma"], p)
         Fb, Mb = Fb - ca.vertcat(Dt, 0, Lt), Mb + ca.vertcat(0, Mt, 0)
     return Fb, Mb, e
+
+
+def air_velocity(x, r, v_kin):
+    """The air velocity ``V = U_inf - Omega x r - v_kin`` (3 x n, code frame, m/s, without the
+    induced part) of the points ``r`` (3 x n, from G) moving at ``v_kin`` (3 x n) relative to the
+    body, at the state ``x`` (u, v, w, p, q, r, ...): ``U_inf = (-v, w, u)``, ``Omega = (q, -r, -p)``."""
+    u, v, w, pr, q, rr = (x[i] for i in range(6))
+    ones = ca.DM.ones(1, r.shape[1])
+    om1, om2, om3 = q, -rr, -pr
+    return ca.vertcat(-v * ones - (om2 * r[2, :] - om3 * r[1, :]) - v_kin[0, :],
+                      w * ones - (om3 * r[0, :] - om1 * r[2, :]) - v_kin[1, :],
+                      u * ones - (om1 * r[1, :] - om2 * r[0, :]) - v_kin[2, :])
+
+
+def body_axis_loads(r, dF):
+    """Body-axis force (X, Y, Z) = (-F3, F1, -F2) [N] and moment (L, M, N) = (-Mc3, Mc1, -Mc2) [N m]
+    about G of the element forces ``dF`` (3 x n, code frame) acting at ``r`` (3 x n, from G)."""
+    F = ca.sum2(dF)
+    Mc = ca.sum2(ca.vertcat(r[1, :] * dF[2, :] - r[2, :] * dF[1, :],
+                            r[2, :] * dF[0, :] - r[0, :] * dF[2, :],
+                            r[0, :] * dF[1, :] - r[1, :] * dF[0, :]))
+    return ca.vertcat(-F[2], F[0], -F[1]), ca.vertcat(-Mc[2], Mc[0], -Mc[1])
 
 
 def tail_body_loads(x, b, gamma, p):

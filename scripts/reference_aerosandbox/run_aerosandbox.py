@@ -31,6 +31,7 @@ along the body axis) and ``wind_aligned_wake`` (along the free stream).
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import time
 from pathlib import Path
@@ -146,14 +147,16 @@ def main(argv=None) -> None:
     ap.add_argument("--spanwise", type=int, default=4, help="VLM panels per node interval")
     ap.add_argument("--chordwise", type=int, default=8)
     a = ap.parse_args(argv)
-    geo = json.loads(Path(a.geometry).read_text())
+    text = Path(a.geometry).read_text()
+    geo = json.loads(text)
     sections = node_sections(geo)
     plane = airplane(sections)
     res = (a.spanwise, a.chordwise)
     result = {"aerosandbox_version": asb.__version__, "method": "asb.VortexLatticeMethod",
               "resolution": {"spanwise_per_section": a.spanwise, "chordwise": a.chordwise},
               "steps": STEP, "sections": sections, "area_m2": float(plane.wings[0].area()),
-              "geometry_file": a.geometry, "glide_state": geo["glide_state"]}
+              "geometry_file": a.geometry, "geometry_sha256": hashlib.sha256(text.encode()).hexdigest(),
+              "joint_offsets_deg": geo.get("joint_offsets_deg"), "glide_state": geo["glide_state"]}
     for name, wind in (("body_axis_wake", False), ("wind_aligned_wake", True)):
         t0 = time.time()
         der, trim = derivatives(plane, geo, res, wind)

@@ -1,0 +1,122 @@
+"""birdocp's lifting line of the frozen wing with every element cut into ``split`` pieces: how much of
+a difference to a vortex-lattice model is the 16-element discretisation.
+
+The model's lifting line has 16 elements (8 a wing), each with one circulation, its trailing
+filaments at the nodes and its collocation point at the element centre. :func:`refined_line` cuts
+every element into ``split`` sub-elements along the polyline node - centre - node (the centre at the
+middle of the parameter), each keeping its element's chord direction, normal and span direction, a
+share 1/``split`` of its length and either its element's chord (``planform="step"``: the planform the
+model flies) or the chord interpolated linearly between the nodes (``planform="linear"``: the
+planform ``scripts/reference_aerosandbox`` gives the vortex lattice, node chords the mean of the
+neighbouring elements', the tip extrapolated and clipped at 0). The same lifting-line code
+(:func:`birdocp.bird.aero.circulation_matrices`, :func:`~birdocp.bird.aero.forces_from_velocity`) then
+gives the loads; :func:`refined_load_derivatives` differentiates them exactly. ``split = 1`` with the
+step planform is the model itself (tested: the derivatives of
+:func:`birdocp.studies.glide.load_derivatives_at` to round-off).
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from birdocp.bird import aero
+from birdocp.bird.config import Config, param_vector
+from birdocp.bird.model import unpack_data
+from birdocp.bird.sixdof import air_velocity, body_axis_loads, sixdof_model
+from birdocp.studies.glide import frozen_config
+
+__all__ = ["refined_line", "refined_load_derivatives"]
+
+
+def _node_chords(chords: np.ndarray) -> np.ndarray:
+    """Chords at the 17 nodes: the mean of the two neighbouring elements', the tips extrapolated
+    linearly over half an element and clipped at 0 (the vortex-lattice script's sections)."""
+    inner = 0.5 * (chords[1:] + chords[:-1])
+    tip_r = max(0.0, chords[-1] + 0.5 * (chords[-1] - chords[-2]))
+    tip_l = max(0.0, chords[0] + 0.5 * (chords[0] - chords[1]))
+    return np.concatenate([[tip_l], inner, [tip_r]])
+
+
+def refined_line(cfg: Config | None = None, split: int = 1, planform: str = "step") -> dict:
+    """The frozen wing's lifting line (:func:`~birdocp.studies.glide.frozen_config` of ``cfg``, at
+    t = 0) with every element cut into ``split`` sub-elements.
+
+    Parameters
+    ----------
+    cfg : Config, optional
+        The configuration (default: the reference case); amplitudes set to 0 here.
+    split : int
+        Sub-elements per element (1: the model's line).
+    planform : {"step", "linear"}
+        The sub-elements' chords: their element's, or interpolated between the node chords.
+
+    Returns
+    -------
+    dict
+        Code-frame arrays (e1 right, e2 up, e3 back, from G): ``nodes_m`` (3 x (16 split + 1)),
+        ``r_m``, ``c_hat``, ``up``, ``tau`` (3 x 16 split), ``chord_m``, ``ds_m`` (16 split), and
+        ``air_density_kgm3``, ``lift_slope_per_rad``.
+    """
+    if split < 1 or planform not in ("step", "linear"):
+        raise ValueError(f"split must be >= 1 and planform 'step' or 'linear', got {split!r}, {planform!r}")
+    cfg = frozen_config(cfg)
+    b = {k: np.asarray(v) for k, v in unpack_data(sixdof_model(cfg).planar.data(0.0, param_vector(cfg))).items()}
+    N, C, chords = b["nodes_m"], b["r_m"], b["chord_m"].ravel()
+    cn = _node_chords(chords)
+
+    def point(j, s):  # the polyline node j -> centre j -> node j+1 at parameter s in [0, 1]
+        return N[:, j] + 2 * s * (C[:, j] - N[:, j]) if s <= 0.5 else C[:, j] + (2 * s - 1) * (N[:, j + 1] - C[:, j])
+
+    nodes, centres, ch = [N[:, 0]], [], []
+    for j in range(chords.size):
+        for i in range(split):
+            nodes.append(point(j, (i + 1) / split))
+            s = (i + 0.5) / split
+            centres.append(point(j, s))
+            ch.append(chords[j] if planform == "step" else (1 - s) * cn[j] + s * cn[j + 1])
+    rep = lambda a: np.repeat(a, split, axis=-1)  # noqa: E731
+    return {"nodes_m": np.array(nodes).T, "r_m": np.array(centres).T, "chord_m": np.array(ch),
+            "ds_m": rep(b["ds_m"].ravel()) / split, "c_hat": rep(b["c_hat"]), "up": rep(b["up"]),
+            "tau": rep(b["tau"]), "air_density_kgm3": cfg.aero.air_density_kgm3,
+            "lift_slope_per_rad": cfg.aero.lift_slope_per_rad}
+
+
+def refined_load_derivatives(cfg: Config | None, u_mps: float, w_mps: float, split: int = 1,
+                             planform: str = "step") -> dict:
+    """The body-axis lateral load derivatives (as :func:`birdocp.studies.glide.load_derivatives_at`)
+    of the frozen wing's lifting line cut by :func:`refined_line`, at the body velocity (u, w).
+
+    Parameters
+    ----------
+    cfg : Config or None
+        The configuration (default: the reference case); amplitudes set to 0 here.
+    u_mps, w_mps : float
+        Body-axis velocity of the centre of mass [m/s] (v = p = q = r = 0).
+    split : int
+        Sub-elements per element.
+    planform : {"step", "linear"}
+        See :func:`refined_line`.
+
+    Returns
+    -------
+    dict
+        ``Y_v``, ``Y_p``, ``Y_r`` [N s/m, N s], ``L_*`` and ``N_*`` [N s, N m s]; ``elements`` (16 split).
+    """
+    line = refined_line(cfg, split, planform)
+    nodes = [ca.DM(p) for p in line["nodes_m"].T]
+    centres = [ca.DM(p) for p in line["r_m"].T]
+    G, Wx, Wy = (ca.DM(ca.evalf(m)) for m in aero.circulation_matrices(
+        centres, nodes, list(line["chord_m"]), line["lift_slope_per_rad"]))
+    xs = ca.SX.sym("x", 6)
+    r = ca.DM(line["r_m"])
+    V = air_velocity(xs, r, ca.DM.zeros(*line["r_m"].shape))
+    e = aero.forces_from_velocity(V, ca.DM(line["c_hat"]), ca.DM(line["up"]), ca.DM(line["tau"]),
+                                  ca.DM(line["ds_m"]), G, Wx, Wy, line["air_density_kgm3"])
+    Fb, Mb = body_axis_loads(r, e["dF"])
+    loads = ca.vertcat(Fb, Mb)
+    J = np.asarray(ca.Function("dl", [xs], [ca.jacobian(loads, xs)])([u_mps, 0, w_mps, 0, 0, 0]))
+    rows, cols = {"Y": 1, "L": 3, "N": 5}, {"v": 1, "p": 3, "r": 5}
+    out = {f"{a}_{b}": float(J[i, j]) for a, i in rows.items() for b, j in cols.items()}
+    out["elements"] = int(line["chord_m"].size)
+    return out
