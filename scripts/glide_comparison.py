@@ -37,14 +37,17 @@ def rel(a: float, b: float) -> float:
 
 def refinement(glide: dict, ref: dict, split: int) -> list[dict]:
     """The lateral roots with the nine load derivatives of: the model (16 elements), its lifting line
-    cut ``split`` times (the model's step planform, then the vortex lattice's linear one), the VLM
-    (body-axis wake); each through birdocp's exact lateral matrix (:func:`lateral_matrix_with`)."""
+    cut ``split`` times (the model's step planform, then the vortex lattice's linear one), the same with
+    the section frames turned to the elements' direction (16 elements, then cut), the VLM (body-axis
+    wake); each through birdocp's exact lateral matrix (:func:`lateral_matrix_with`)."""
     cfg, s = attached_config(), glide["state"]
     cases = [("birdocp, 16 elements", glide["derivatives"])]
-    for planform in ("step", "linear"):
-        d = refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], split, planform)
+    for n, planform, span in ((split, "step", "section"), (split, "linear", "section"), (1, "step", "element"),
+                              (split, "linear", "element")):
+        d = refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], n, planform, span)
         d.pop("elements")
-        cases.append((f"birdocp's lifting line, {16 * split} elements, {planform} planform", d))
+        cases.append((f"birdocp's lifting line, {16 * n} elements, {planform} planform"
+                      + (", span direction along the element" if span == "element" else ""), d))
     cases.append(("AeroSandbox VLM, body-axis wake", ref["body_axis_wake"]["derivatives"]))
     out = []
     for name, der in cases:

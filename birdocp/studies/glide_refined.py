@@ -13,6 +13,14 @@ neighbouring elements', the tip extrapolated and clipped at 0). The same lifting
 gives the loads; :func:`refined_load_derivatives` differentiates them exactly. ``split = 1`` with the
 step planform is the model itself (tested: the derivatives of
 :func:`birdocp.studies.glide.load_derivatives_at` to round-off).
+
+``span_direction``: the model's sections take their span direction ``tau = n x c_hat`` from the
+relaxed leading line through the neighbouring points (docs/model.md §4.5 and §5: the paper's
+definition), which in the attached glide's pose is swept up to 11 deg more than the element's own chord
+node to node, the line the bound and trailing vortices follow (and the only one a vortex lattice of the
+same nodes can see).
+``"element"`` turns every (sub-)element's section frame to the element's direction (``c_hat`` made
+normal to it, ``n = c_hat x tau``): a diagnostic of what that choice does to the lateral derivatives.
 """
 
 from __future__ import annotations
@@ -38,7 +46,17 @@ def _node_chords(chords: np.ndarray) -> np.ndarray:
     return np.concatenate([[tip_l], inner, [tip_r]])
 
 
-def refined_line(cfg: Config | None = None, split: int = 1, planform: str = "step") -> dict:
+def _element_frames(nodes: np.ndarray, c_hat: np.ndarray) -> tuple:
+    """(tau, c_hat, up) with tau along each element node to node (3 x n), c_hat made normal to it."""
+    tau = np.diff(nodes, axis=1)
+    tau /= np.linalg.norm(tau, axis=0)
+    c = c_hat - tau * np.sum(tau * c_hat, axis=0)
+    c /= np.linalg.norm(c, axis=0)
+    return tau, c, np.cross(c.T, tau.T).T
+
+
+def refined_line(cfg: Config | None = None, split: int = 1, planform: str = "step",
+                 span_direction: str = "section") -> dict:
     """The frozen wing's lifting line (:func:`~birdocp.studies.glide.frozen_config` of ``cfg``, at
     t = 0) with every element cut into ``split`` sub-elements.
 
@@ -50,6 +68,8 @@ def refined_line(cfg: Config | None = None, split: int = 1, planform: str = "ste
         Sub-elements per element (1: the model's line).
     planform : {"step", "linear"}
         The sub-elements' chords: their element's, or interpolated between the node chords.
+    span_direction : {"section", "element"}
+        The section frames: the model's (``section``), or turned to each sub-element's direction.
 
     Returns
     -------
@@ -58,8 +78,9 @@ def refined_line(cfg: Config | None = None, split: int = 1, planform: str = "ste
         ``r_m``, ``c_hat``, ``up``, ``tau`` (3 x 16 split), ``chord_m``, ``ds_m`` (16 split), and
         ``air_density_kgm3``, ``lift_slope_per_rad``.
     """
-    if split < 1 or planform not in ("step", "linear"):
-        raise ValueError(f"split must be >= 1 and planform 'step' or 'linear', got {split!r}, {planform!r}")
+    if split < 1 or planform not in ("step", "linear") or span_direction not in ("section", "element"):
+        raise ValueError(f"split must be >= 1, planform 'step' or 'linear', span_direction 'section' or "
+                         f"'element', got {split!r}, {planform!r}, {span_direction!r}")
     cfg = frozen_config(cfg)
     b = {k: np.asarray(v) for k, v in unpack_data(sixdof_model(cfg).planar.data(0.0, param_vector(cfg))).items()}
     N, C, chords = b["nodes_m"], b["r_m"], b["chord_m"].ravel()
@@ -76,14 +97,17 @@ def refined_line(cfg: Config | None = None, split: int = 1, planform: str = "ste
             centres.append(point(j, s))
             ch.append(chords[j] if planform == "step" else (1 - s) * cn[j] + s * cn[j + 1])
     rep = lambda a: np.repeat(a, split, axis=-1)  # noqa: E731
-    return {"nodes_m": np.array(nodes).T, "r_m": np.array(centres).T, "chord_m": np.array(ch),
-            "ds_m": rep(b["ds_m"].ravel()) / split, "c_hat": rep(b["c_hat"]), "up": rep(b["up"]),
-            "tau": rep(b["tau"]), "air_density_kgm3": cfg.aero.air_density_kgm3,
-            "lift_slope_per_rad": cfg.aero.lift_slope_per_rad}
+    nodes = np.array(nodes).T
+    tau, c_hat, up = rep(b["tau"]), rep(b["c_hat"]), rep(b["up"])
+    if span_direction == "element":
+        tau, c_hat, up = _element_frames(nodes, c_hat)
+    return {"nodes_m": nodes, "r_m": np.array(centres).T, "chord_m": np.array(ch),
+            "ds_m": rep(b["ds_m"].ravel()) / split, "c_hat": c_hat, "up": up, "tau": tau,
+            "air_density_kgm3": cfg.aero.air_density_kgm3, "lift_slope_per_rad": cfg.aero.lift_slope_per_rad}
 
 
 def refined_load_derivatives(cfg: Config | None, u_mps: float, w_mps: float, split: int = 1,
-                             planform: str = "step") -> dict:
+                             planform: str = "step", span_direction: str = "section") -> dict:
     """The body-axis lateral load derivatives (as :func:`birdocp.studies.glide.load_derivatives_at`)
     of the frozen wing's lifting line cut by :func:`refined_line`, at the body velocity (u, w).
 
@@ -97,13 +121,15 @@ def refined_load_derivatives(cfg: Config | None, u_mps: float, w_mps: float, spl
         Sub-elements per element.
     planform : {"step", "linear"}
         See :func:`refined_line`.
+    span_direction : {"section", "element"}
+        See :func:`refined_line`.
 
     Returns
     -------
     dict
         ``Y_v``, ``Y_p``, ``Y_r`` [N s/m, N s], ``L_*`` and ``N_*`` [N s, N m s]; ``elements`` (16 split).
     """
-    line = refined_line(cfg, split, planform)
+    line = refined_line(cfg, split, planform, span_direction)
     nodes = [ca.DM(p) for p in line["nodes_m"].T]
     centres = [ca.DM(p) for p in line["r_m"].T]
     G, Wx, Wy = (ca.DM(ca.evalf(m)) for m in aero.circulation_matrices(
