@@ -5,8 +5,10 @@ environment: ``python -m venv /work/venvs/asb && /work/venvs/asb/bin/pip install
     /work/venvs/asb/bin/python scripts/reference_aerosandbox/run_aerosandbox.py \\
         --geometry results/lateral/glide/geometry.json --out results/lateral/glide/aerosandbox.json
 
-Input: the geometry JSON written by ``scripts/glide_comparison.py`` (birdocp's frozen lifting line,
-its glide state, mass, inertia, density). This script imports nothing of birdocp.
+Input: the geometry JSON written by ``scripts/glide_comparison.py`` (birdocp's frozen lifting line in
+its pose, the joint offsets, its glide state, mass, inertia, density). This script imports nothing of
+birdocp. The output records the SHA-256 of the geometry file and its joint offsets (the configuration
+that produced the numbers).
 
 Geometry: one symmetric ``asb.Wing`` whose cross-sections sit at the lifting line's nodes of the
 right wing (the centre node to the tip), each with its quarter-chord point on the node, its chord the
