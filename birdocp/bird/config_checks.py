@@ -15,6 +15,7 @@ import tomllib
 from dataclasses import fields, is_dataclass
 from typing import Any
 
+from birdocp.bird.span import SPAN_DIRECTIONS
 from birdocp.io.errors import ConfigError
 
 __all__ = [
@@ -213,6 +214,9 @@ def validate(cfg: Any) -> None:
         raise ConfigError("tail.incidence_deg", f"must lie in (-90, 90) deg, got {cfg.tail.incidence_deg!r}")
     if cfg.aero.circulation not in CIRCULATION_MODES:
         raise ConfigError("aero.circulation", f"must be one of {', '.join(CIRCULATION_MODES)}; got {cfg.aero.circulation!r}")
+    if cfg.aero.span_direction not in SPAN_DIRECTIONS:
+        raise ConfigError("aero.span_direction",
+                          f"must be one of {', '.join(SPAN_DIRECTIONS)}; got {cfg.aero.span_direction!r}")
     if cfg.aero.kinematic_velocity not in KINEMATIC_VELOCITY_MODES:
         raise ConfigError("aero.kinematic_velocity",
                           f"must be one of {', '.join(KINEMATIC_VELOCITY_MODES)}; got {cfg.aero.kinematic_velocity!r}")

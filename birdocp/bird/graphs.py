@@ -14,6 +14,7 @@ import numpy as np
 from birdocp.bird import aero
 from birdocp.bird import inertia
 from birdocp.bird import kinematics
+from birdocp.bird import span
 from birdocp.bird import unsteady
 from birdocp.bird import wing
 from birdocp.bird.config import JOINT_NAMES, PARAM_NAMES, WING_MASS_SHARES
@@ -207,6 +208,8 @@ def aero_blocks(s: Structure, L, t, p, left=None) -> dict:
     up = ca.horzcat(*nu)[:, 1::2]
     chord = ca.horzcat(*ch)[1::2]
     tau = ca.horzcat(*[ca.cross(up[:, j], c_hat[:, j]) for j in range(N_EL)])
+    if s.span_direction == "element":
+        tau, c_hat, up = span.element_frames(nodes, c_hat)
     ds = ca.vertcat(*[ca.norm_2(nodes[:, j + 1] - nodes[:, j]) for j in range(N_EL)])
     r_w = ca.vertcat(0, 0, -_p(p, "wing.root_ahead_m"))
     r = centres + ca.repmat(r_w, 1, N_EL)

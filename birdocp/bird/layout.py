@@ -97,6 +97,7 @@ class Structure:
     section: str = "linear"
     newton_steps: int = 5
     smooth_geometry: bool = False
+    span_direction: str = "leading_line"
 
     @property
     def aero_extra(self) -> bool:
@@ -123,5 +124,5 @@ class Structure:
                          drag=bool(dr.enabled or dr.body_drag_coefficient > 0 or dr.profile_drag_coefficient > 0),
                          unsteady=a.unsteady, section=a.section,
                          newton_steps=int(a.newton_steps) if a.section != "linear" else 5,
-                         smooth_geometry=bool(cfg.wing.smooth_geometry))
+                         smooth_geometry=bool(cfg.wing.smooth_geometry), span_direction=a.span_direction)
 

@@ -19,8 +19,9 @@ relaxed leading line through the neighbouring points (docs/model.md §4.5 and §
 definition), which in the attached glide's pose is swept up to 11 deg more than the element's own chord
 node to node, the line the bound and trailing vortices follow (and the only one a vortex lattice of the
 same nodes can see).
-``"element"`` turns every (sub-)element's section frame to the element's direction (``c_hat`` made
-normal to it, ``n = c_hat x tau``): a diagnostic of what that choice does to the lateral derivatives.
+``"element"`` turns every (sub-)element's section frame to the element's direction
+(:func:`birdocp.bird.span.element_frames`, the model's ``aero.span_direction = "element"``; at
+``split = 1`` it is that model, tested); ``"section"`` keeps the frames of ``cfg``'s model.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ import numpy as np
 from birdocp.bird import aero
 from birdocp.bird.config import Config, param_vector
 from birdocp.bird.model import unpack_data
+from birdocp.bird.span import element_frames
 from birdocp.bird.sixdof import air_velocity, body_axis_loads, sixdof_model
 from birdocp.studies.glide import frozen_config
 
@@ -44,15 +46,6 @@ def _node_chords(chords: np.ndarray) -> np.ndarray:
     tip_r = max(0.0, chords[-1] + 0.5 * (chords[-1] - chords[-2]))
     tip_l = max(0.0, chords[0] + 0.5 * (chords[0] - chords[1]))
     return np.concatenate([[tip_l], inner, [tip_r]])
-
-
-def _element_frames(nodes: np.ndarray, c_hat: np.ndarray) -> tuple:
-    """(tau, c_hat, up) with tau along each element node to node (3 x n), c_hat made normal to it."""
-    tau = np.diff(nodes, axis=1)
-    tau /= np.linalg.norm(tau, axis=0)
-    c = c_hat - tau * np.sum(tau * c_hat, axis=0)
-    c /= np.linalg.norm(c, axis=0)
-    return tau, c, np.cross(c.T, tau.T).T
 
 
 def refined_line(cfg: Config | None = None, split: int = 1, planform: str = "step",
@@ -100,7 +93,7 @@ def refined_line(cfg: Config | None = None, split: int = 1, planform: str = "ste
     nodes = np.array(nodes).T
     tau, c_hat, up = rep(b["tau"]), rep(b["c_hat"]), rep(b["up"])
     if span_direction == "element":
-        tau, c_hat, up = _element_frames(nodes, c_hat)
+        tau, c_hat, up = (np.asarray(a) for a in element_frames(nodes, c_hat))
     return {"nodes_m": nodes, "r_m": np.array(centres).T, "chord_m": np.array(ch),
             "ds_m": rep(b["ds_m"].ravel()) / split, "c_hat": c_hat, "up": up, "tau": tau,
             "air_density_kgm3": cfg.aero.air_density_kgm3, "lift_slope_per_rad": cfg.aero.lift_slope_per_rad}

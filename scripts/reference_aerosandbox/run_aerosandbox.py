@@ -77,11 +77,39 @@ def node_sections(geo: dict) -> list[dict]:
     return out
 
 
-def airplane(sections: list[dict]) -> asb.Airplane:
+def _section(quarter, d, c) -> dict:
+    """A cross-section with its quarter-chord point on ``quarter``, the streamwise chord of a chord
+    ``c`` along the direction ``d`` (geometry axes) and its twist [deg] (leading edge up positive)."""
+    d_xz = np.array([d[0], d[2]])
+    c_stream = c / (np.linalg.norm(d_xz) / np.linalg.norm(d))
+    twist_deg = float(np.degrees(np.arctan2(-d_xz[1], d_xz[0])))
+    t = np.radians(twist_deg)
+    le = quarter - 0.25 * c_stream * np.array([np.cos(t), 0.0, -np.sin(t)])
+    return {"xyz_le": le.tolist(), "chord": float(c_stream), "twist_deg": twist_deg, "node": quarter.tolist()}
+
+
+def step_sections(geo: dict) -> list[dict]:
+    """The model's stepped planform: every right-wing element a constant-chord strip (its own chord and
+    chord direction) between two cross-sections at its end nodes (pairs: element j is sections 2j, 2j+1)."""
+    nodes = [to_geometry_axes(n) for n in geo["nodes_m"]]
+    chords = np.asarray(geo["chords_m"])
+    dirs = [to_geometry_axes(c) for c in geo["chord_directions"]]
+    out = []
+    for j in range(len(chords) // 2, len(chords)):
+        out += [_section(q, dirs[j], chords[j]) for q in (nodes[j], nodes[j + 1])]
+    return out
+
+
+def airplane(sections: list[dict], planform: str = "linear") -> asb.Airplane:
+    """One symmetric wing through the sections (``linear``), or one symmetric wing per pair of sections
+    (``step``: every element its own constant-chord wing, joined to its neighbours at the nodes; at a
+    node the trailing legs of both sides' horseshoes meet, no panel spans the chord jump)."""
     foil = asb.Airfoil("naca0008")
-    wing = asb.Wing(name="ibis wing (frozen)", symmetric=True, xsecs=[
-        asb.WingXSec(xyz_le=s["xyz_le"], chord=s["chord"], twist=s["twist_deg"], airfoil=foil) for s in sections])
-    return asb.Airplane(name="ibis", xyz_ref=[0.0, 0.0, 0.0], wings=[wing])
+    groups = [sections] if planform == "linear" else [sections[i:i + 2] for i in range(0, len(sections), 2)]
+    wings = [asb.Wing(name=f"ibis wing (frozen) {i}", symmetric=True, xsecs=[
+        asb.WingXSec(xyz_le=s["xyz_le"], chord=s["chord"], twist=s["twist_deg"], airfoil=foil) for s in g])
+        for i, g in enumerate(groups)]
+    return asb.Airplane(name="ibis", xyz_ref=[0.0, 0.0, 0.0], wings=wings)
 
 
 def loads(plane, u, v, w, p, r, rho, resolution, wind_wake):
@@ -148,15 +176,18 @@ def main(argv=None) -> None:
     ap.add_argument("--out", default="results/lateral/glide/aerosandbox.json")
     ap.add_argument("--spanwise", type=int, default=4, help="VLM panels per node interval")
     ap.add_argument("--chordwise", type=int, default=8)
+    ap.add_argument("--planform", choices=("linear", "step"), default="linear",
+                    help="linear: chords interpolated between the nodes; step: the model's constant-chord elements")
     a = ap.parse_args(argv)
     text = Path(a.geometry).read_text()
     geo = json.loads(text)
-    sections = node_sections(geo)
-    plane = airplane(sections)
+    sections = node_sections(geo) if a.planform == "linear" else step_sections(geo)
+    plane = airplane(sections, a.planform)
     res = (a.spanwise, a.chordwise)
     result = {"aerosandbox_version": asb.__version__, "method": "asb.VortexLatticeMethod",
               "resolution": {"spanwise_per_section": a.spanwise, "chordwise": a.chordwise},
-              "steps": STEP, "sections": sections, "area_m2": float(plane.wings[0].area()),
+              "planform": a.planform,
+              "steps": STEP, "sections": sections, "area_m2": float(sum(w.area() for w in plane.wings)),
               "geometry_file": a.geometry, "geometry_sha256": hashlib.sha256(text.encode()).hexdigest(),
               "joint_offsets_deg": geo.get("joint_offsets_deg"), "glide_state": geo["glide_state"]}
     for name, wind in (("body_axis_wake", False), ("wind_aligned_wake", True)):
