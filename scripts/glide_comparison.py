@@ -7,10 +7,12 @@ attached and valid) and its lateral roots next to AeroSandbox's.
 writes ``geometry.json`` (birdocp's frozen lifting line and glide: the input of
 ``scripts/reference_aerosandbox/run_aerosandbox.py``, run in AeroSandbox's own environment),
 ``birdocp.json`` (the glide, its eigenvalues, lateral matrix and derivatives) and, when
-``aerosandbox.json`` is in the folder, ``comparison.json`` and ``comparison.md`` (the roll-subsidence
-root, the Dutch-roll frequency and the other roots and derivatives side by side, with the relative
-differences; and the roots of birdocp's own lifting line with every element cut into ``--split`` pieces,
-``birdocp.studies.glide_refined``: how much of the difference is the 16-element discretisation).
+``aerosandbox.json`` (the VLM of the model's stepped planform) is in the folder, ``comparison.json`` and
+``comparison.md`` (the roll-subsidence root, the Dutch-roll frequency and the other roots and
+derivatives side by side, with the relative differences; and the roots of (a) the paper's model and
+(b) the model with ``aero.span_direction = "element"``, each also with every element cut into
+``--split`` pieces, ``birdocp.studies.glide_refined``; ``aerosandbox_linear.json``, the VLM of the
+linearly interpolated planform, is listed when present).
 """
 from __future__ import annotations
 
@@ -22,6 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from script_common import parse_with_out, script_parser  # noqa: E402
 
+from birdocp.bird.config import with_values  # noqa: E402
 from birdocp.studies.glide import (attached_config, glide_geometry, lateral_glide_modes,  # noqa: E402
                                    lateral_matrix_with, load_derivatives_at, steady_glide)
 from birdocp.studies.glide_refined import refined_load_derivatives  # noqa: E402
@@ -35,26 +38,32 @@ def rel(a: float, b: float) -> float:
     return (a - b) / abs(b)
 
 
-def refinement(glide: dict, ref: dict, split: int) -> list[dict]:
-    """The lateral roots with the nine load derivatives of: the model (16 elements), its lifting line
-    cut ``split`` times (the model's step planform, then the vortex lattice's linear one), the same with
-    the section frames turned to the elements' direction (16 elements, then cut), the VLM (body-axis
-    wake); each through birdocp's exact lateral matrix (:func:`lateral_matrix_with`)."""
+def refinement(glide: dict, ref: dict, split: int, linear: dict | None = None) -> list[dict]:
+    """The lateral roots with the nine load derivatives of: (a) the paper's model (16 elements, the
+    leading-line span direction), its lifting line cut ``split`` times, (b) the model with
+    ``aero.span_direction = "element"`` (16 elements, then cut 2, 4 and ``split`` times: the refined
+    model), the VLM of the same stepped planform (``ref``, body-axis wake; the reference of the
+    differences) and, if given, the VLM of the linearly interpolated planform (``linear``); each
+    through birdocp's exact lateral matrix (:func:`lateral_matrix_with`)."""
     cfg, s = attached_config(), glide["state"]
-    cases = [("birdocp, 16 elements", glide["derivatives"])]
-    for n, planform, span in ((split, "step", "section"), (split, "linear", "section"), (1, "step", "element"),
-                              (split, "linear", "element")):
-        d = refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], n, planform, span)
-        d.pop("elements")
-        cases.append((f"birdocp's lifting line, {16 * n} elements, {planform} planform"
-                      + (", span direction along the element" if span == "element" else ""), d))
-    cases.append(("AeroSandbox VLM, body-axis wake", ref["body_axis_wake"]["derivatives"]))
+    element = with_values(cfg, {"aero.span_direction": "element"})
+    cases = [("(a) the paper's model: 16 elements, leading-line span direction", glide["derivatives"]),
+             (f"(a) cut: {16 * split} elements, leading-line span direction",
+              refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], split, "step", "section")),
+             ("(b) aero.span_direction = element: 16 elements", load_derivatives_at(element, s["u_mps"], s["w_mps"]))]
+    for n in sorted({2, 4, split} - {1}):
+        cases.append((f"(b) cut: {16 * n} elements, span direction along each sub-element",
+                      refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], n, "step", "element")))
+    cases.append(("AeroSandbox VLM, stepped planform, body-axis wake", ref["body_axis_wake"]["derivatives"]))
+    if linear is not None:
+        cases.append(("AeroSandbox VLM, linear planform, body-axis wake", linear["body_axis_wake"]["derivatives"]))
     out = []
     for name, der in cases:
+        der = {k: v for k, v in der.items() if k != "elements"}
         m = lateral_glide_modes(lateral_matrix_with(glide, der, cfg))
         out.append({"model": name, "roll_subsidence_per_s": m["roll_subsidence_per_s"],
                     "dutch_roll_frequency_radps": (m["dutch_roll"] or {}).get("frequency_radps"),
-                    "spiral_per_s": m["spiral_per_s"], "derivatives": dict(der)})
+                    "spiral_per_s": m["spiral_per_s"], "derivatives": der})
     return out
 
 
@@ -132,9 +141,9 @@ def table(cmp: dict) -> str:
         lines.append(f"| {r['replaced']} | {f(r['roll_subsidence_per_s'])} | {f(r['dutch_roll_frequency_radps'])} | "
                      f"{f(r['spiral_per_s'])} |")
     if cmp.get("refinement"):
-        vlm = cmp["refinement"][-1]
+        vlm = next(r for r in cmp["refinement"] if r["model"].startswith("AeroSandbox VLM, stepped"))
         lines += ["", "The lateral roots (birdocp's exact lateral matrix) with the nine load derivatives of each model; "
-                  "in brackets the difference to the VLM:", "",
+                  "in brackets the difference to the VLM of the same (stepped) planform:", "",
                   "| derivatives of | roll subsidence [1/s] | Dutch-roll frequency [rad/s] | spiral [1/s] | L_p [N m s] "
                   "| L_v [N s] | N_v [N s] |", "|---|---|---|---|---|---|---|"]
         for r in cmp["refinement"]:
@@ -167,7 +176,8 @@ def main(argv=None) -> None:
     if ref_file.exists():
         ref = json.loads(ref_file.read_text())
         cmp = compare(glide, ref)
-        cmp["refinement"] = refinement(glide, ref, args.split)
+        lin = out / "aerosandbox_linear.json"
+        cmp["refinement"] = refinement(glide, ref, args.split, json.loads(lin.read_text()) if lin.exists() else None)
         cmp["glide"] = {"joint_offsets_deg": glide_geometry(cfg, glide=glide)["joint_offsets_deg"],
                         **{k: glide[k] for k in ("speed_mps", "alpha_body_deg", "flight_path_angle_deg")},
                         **{k: v[k] for k in ("valid", "alpha_eff_min_deg", "alpha_eff_max_deg")}}

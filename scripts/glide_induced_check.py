@@ -76,7 +76,7 @@ def main(argv=None) -> None:
             rows.append({"induced_velocity": name, "elements": d.pop("elements"), "derivatives": d})
     finally:
         aero.induced_matrices = TWO_D
-    ref = out / "aerosandbox.json"
+    ref = out / "aerosandbox_linear.json"  # the VLM of the interpolated planform, as glide_refined's default cut
     if ref.exists():
         rows.append({"induced_velocity": "AeroSandbox VLM, body-axis wake", "elements": None,
                      "derivatives": json.loads(ref.read_text())["body_axis_wake"]["derivatives"]})

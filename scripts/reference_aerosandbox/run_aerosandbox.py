@@ -117,7 +117,8 @@ def loads(plane, u, v, w, p, r, rho, resolution, wind_wake):
     V = float(np.sqrt(u * u + v * v + w * w))
     op = asb.OperatingPoint(velocity=V, alpha=float(np.degrees(np.arctan2(w, u))),
                             beta=float(np.degrees(np.arcsin(v / V))), p=p, q=0.0, r=r)
-    vlm = asb.VortexLatticeMethod(airplane=plane, op_point=op, spanwise_resolution=resolution[0],
+    spacing = {"spanwise_spacing_function": np.linspace} if resolution[2] == "uniform" else {}
+    vlm = asb.VortexLatticeMethod(airplane=plane, op_point=op, spanwise_resolution=resolution[0], **spacing,
                                   chordwise_resolution=resolution[1], align_trailing_vortices_with_wind=wind_wake)
     out = vlm.run()
     scale = rho / float(op.atmosphere.density())
@@ -178,14 +179,19 @@ def main(argv=None) -> None:
     ap.add_argument("--chordwise", type=int, default=8)
     ap.add_argument("--planform", choices=("linear", "step"), default="linear",
                     help="linear: chords interpolated between the nodes; step: the model's constant-chord elements")
+    ap.add_argument("--spacing", choices=("cosine", "uniform"), default="cosine",
+                    help="spanwise panel spacing in every section interval (AeroSandbox's default: cosine; the "
+                    "step planform needs uniform: cosine panels at a chord jump put collocation points a fraction "
+                    "of a millimetre from the neighbouring wing's trailing legs)")
     a = ap.parse_args(argv)
     text = Path(a.geometry).read_text()
     geo = json.loads(text)
     sections = node_sections(geo) if a.planform == "linear" else step_sections(geo)
     plane = airplane(sections, a.planform)
-    res = (a.spanwise, a.chordwise)
+    res = (a.spanwise, a.chordwise, a.spacing)
     result = {"aerosandbox_version": asb.__version__, "method": "asb.VortexLatticeMethod",
-              "resolution": {"spanwise_per_section": a.spanwise, "chordwise": a.chordwise},
+              "resolution": {"spanwise_per_section": a.spanwise, "chordwise": a.chordwise,
+                                                      "spanwise_spacing": a.spacing},
               "planform": a.planform,
               "steps": STEP, "sections": sections, "area_m2": float(sum(w.area() for w in plane.wings)),
               "geometry_file": a.geometry, "geometry_sha256": hashlib.sha256(text.encode()).hexdigest(),
