@@ -172,6 +172,10 @@ class Aero:
     """The sections' span direction: ``leading_line`` (the paper's: ``n x c_hat`` with ``n`` from the
     tangent of the relaxed quarter-chord line) or ``element`` (along each element, node to node: the
     line its bound vortex follows; :mod:`birdocp.bird.span`)."""
+    span_subdivisions: int = 1
+    """Every lifting-line element cut into this many sub-elements along its node - centre - node line
+    (1..8; the same geometry and stepped planform, 16 k circulations; :mod:`birdocp.bird.subdivide`).
+    Quasi-steady linear section only."""
     unsteady: str = "none"
     """``none``: quasi-steady section; ``wagner``: two lag states per element on the effective
     normalwash (Jones's indicial response), the 3/4-chord pitch-rate term and the added-mass loads."""

@@ -16,6 +16,7 @@ from dataclasses import fields, is_dataclass
 from typing import Any
 
 from birdocp.bird.span import SPAN_DIRECTIONS
+from birdocp.bird.subdivide import MAX_SUBDIVISIONS
 from birdocp.io.errors import ConfigError
 
 __all__ = [
@@ -217,6 +218,12 @@ def validate(cfg: Any) -> None:
     if cfg.aero.span_direction not in SPAN_DIRECTIONS:
         raise ConfigError("aero.span_direction",
                           f"must be one of {', '.join(SPAN_DIRECTIONS)}; got {cfg.aero.span_direction!r}")
+    k = cfg.aero.span_subdivisions
+    if isinstance(k, bool) or not isinstance(k, int) or not 1 <= k <= MAX_SUBDIVISIONS:
+        raise ConfigError("aero.span_subdivisions", f"must be an integer in [1, {MAX_SUBDIVISIONS}], got {k!r}")
+    if k > 1 and (cfg.aero.unsteady != "none" or cfg.aero.section != "linear"):
+        raise ConfigError("aero.span_subdivisions", "> 1 needs the quasi-steady linear section "
+                          "(aero.unsteady = 'none', aero.section = 'linear'); set it to 1")
     if cfg.aero.kinematic_velocity not in KINEMATIC_VELOCITY_MODES:
         raise ConfigError("aero.kinematic_velocity",
                           f"must be one of {', '.join(KINEMATIC_VELOCITY_MODES)}; got {cfg.aero.kinematic_velocity!r}")

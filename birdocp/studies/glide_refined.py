@@ -4,8 +4,10 @@ a difference to a vortex-lattice model is the 16-element discretisation.
 The model's lifting line has 16 elements (8 a wing), each with one circulation, its trailing
 filaments at the nodes and its collocation point at the element centre. :func:`refined_line` cuts
 every element into ``split`` sub-elements along the polyline node - centre - node (the centre at the
-middle of the parameter), each keeping its element's chord direction, normal and span direction, a
-share 1/``split`` of its length and either its element's chord (``planform="step"``: the planform the
+middle of the parameter; :func:`birdocp.bird.subdivide.refine_points`, the model's
+``aero.span_subdivisions``: with the step planform the two agree to round-off, tested), each keeping
+its element's chord direction, normal and span direction, its length the distance of its nodes, and
+either its element's chord (``planform="step"``: the planform the
 model flies) or the chord interpolated linearly between the nodes (``planform="linear"``: the
 planform ``scripts/reference_aerosandbox`` gives the vortex lattice, node chords the mean of the
 neighbouring elements', the tip extrapolated and clipped at 0). The same lifting-line code
@@ -29,7 +31,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from birdocp.bird import aero
+from birdocp.bird import aero, subdivide
 from birdocp.bird.config import Config, param_vector
 from birdocp.bird.model import unpack_data
 from birdocp.bird.span import element_frames
@@ -79,23 +81,19 @@ def refined_line(cfg: Config | None = None, split: int = 1, planform: str = "ste
     N, C, chords = b["nodes_m"], b["r_m"], b["chord_m"].ravel()
     cn = _node_chords(chords)
 
-    def point(j, s):  # the polyline node j -> centre j -> node j+1 at parameter s in [0, 1]
-        return N[:, j] + 2 * s * (C[:, j] - N[:, j]) if s <= 0.5 else C[:, j] + (2 * s - 1) * (N[:, j + 1] - C[:, j])
-
-    nodes, centres, ch = [N[:, 0]], [], []
-    for j in range(chords.size):
-        for i in range(split):
-            nodes.append(point(j, (i + 1) / split))
-            s = (i + 0.5) / split
-            centres.append(point(j, s))
-            ch.append(chords[j] if planform == "step" else (1 - s) * cn[j] + s * cn[j + 1])
+    line = [N[:, j // 2] if j % 2 == 0 else C[:, j // 2] for j in range(2 * chords.size + 1)]
+    fine = np.array(subdivide.refine_points(line, split)).T  # the model's aero.span_subdivisions
+    nodes, centres = fine[:, 0::2], fine[:, 1::2]
+    s = np.tile((np.arange(split) + 0.5) / split, chords.size)
+    j = np.repeat(np.arange(chords.size), split)
+    ch = np.repeat(chords, split) if planform == "step" else (1 - s) * cn[j] + s * cn[j + 1]
     rep = lambda a: np.repeat(a, split, axis=-1)  # noqa: E731
-    nodes = np.array(nodes).T
     tau, c_hat, up = rep(b["tau"]), rep(b["c_hat"]), rep(b["up"])
     if span_direction == "element":
         tau, c_hat, up = (np.asarray(a) for a in element_frames(nodes, c_hat))
-    return {"nodes_m": nodes, "r_m": np.array(centres).T, "chord_m": np.array(ch),
-            "ds_m": rep(b["ds_m"].ravel()) / split, "c_hat": c_hat, "up": up, "tau": tau,
+    ds = b["ds_m"].ravel() if split == 1 else np.linalg.norm(np.diff(nodes, axis=1), axis=0)
+    return {"nodes_m": nodes, "r_m": centres, "chord_m": np.asarray(ch),
+            "ds_m": ds, "c_hat": c_hat, "up": up, "tau": tau,
             "air_density_kgm3": cfg.aero.air_density_kgm3, "lift_slope_per_rad": cfg.aero.lift_slope_per_rad}
 
 
