@@ -168,14 +168,8 @@ class Aero:
     kinematic_velocity: str = "exact"
     """``exact``: time derivative of the geometry by AD; ``backward-difference``: as the reference."""
     backward_step_s: float = 2.5e-5
-    span_direction: str = "leading_line"
-    """The sections' span direction: ``leading_line`` (the paper's: ``n x c_hat`` with ``n`` from the
-    tangent of the relaxed quarter-chord line) or ``element`` (along each element, node to node: the
-    line its bound vortex follows; :mod:`birdocp.bird.span`)."""
-    span_subdivisions: int = 1
-    """Every lifting-line element cut into this many sub-elements along its node - centre - node line
-    (1..8; the same geometry and stepped planform, 16 k circulations; :mod:`birdocp.bird.subdivide`).
-    Quasi-steady linear section only."""
+    span_direction: str = "leading_line"  # or "element": birdocp.bird.span
+    span_subdivisions: int = 1  # 1..8 sub-elements per element (linear section): birdocp.bird.subdivide
     unsteady: str = "none"
     """``none``: quasi-steady section; ``wagner``: two lag states per element on the effective
     normalwash (Jones's indicial response), the 3/4-chord pitch-rate term and the added-mass loads."""
