@@ -10,8 +10,6 @@ line, node to node (the line its bound vortex and the ends of its trailing filam
 
 from __future__ import annotations
 
-import casadi as ca
-
 SPAN_DIRECTIONS = ("leading_line", "element")
 """The values of ``aero.span_direction``."""
 
@@ -24,6 +22,8 @@ def element_frames(nodes, c_hat):
     ``tau_j = (N_{j+1} - N_j) / |N_{j+1} - N_j|``; ``c_j`` = ``c_hat_j`` without its component along
     ``tau_j``, normalised; ``up_j = c_j x tau_j``.
     """
+    import casadi as ca  # here: the configuration checks read SPAN_DIRECTIONS without CasADi
+
     nodes, c_hat = _casadi(nodes), _casadi(c_hat)
     n = c_hat.shape[1]
     d = nodes[:, 1:n + 1] - nodes[:, 0:n]
@@ -37,4 +37,6 @@ def element_frames(nodes, c_hat):
 
 
 def _casadi(a):
+    import casadi as ca
+
     return a if isinstance(a, (ca.SX, ca.MX, ca.DM)) else ca.DM(a)
