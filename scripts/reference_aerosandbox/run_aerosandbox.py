@@ -2,15 +2,20 @@
 OFFLINE, independent reference (AeroSandbox is not a dependency of birdocp; run this in its own
 environment: ``python -m venv /work/venvs/asb && /work/venvs/asb/bin/pip install aerosandbox``).
 
+    /work/venvs/asb/bin/python scripts/reference_aerosandbox/run_aerosandbox.py --planform step \\
+        --spacing uniform --spanwise 16 --out results/lateral/glide/aerosandbox.json
     /work/venvs/asb/bin/python scripts/reference_aerosandbox/run_aerosandbox.py \\
-        --geometry results/lateral/glide/geometry.json --out results/lateral/glide/aerosandbox.json
+        --out results/lateral/glide/aerosandbox_linear.json
 
 Input: the geometry JSON written by ``scripts/glide_comparison.py`` (birdocp's frozen lifting line in
 its pose, the joint offsets, its glide state, mass, inertia, density). This script imports nothing of
 birdocp. The output records the SHA-256 of the geometry file and its joint offsets (the configuration
 that produced the numbers).
 
-Geometry: one symmetric ``asb.Wing`` whose cross-sections sit at the lifting line's nodes of the
+Geometry, ``--planform step`` (the model's own planform): one symmetric ``asb.Wing`` per right-wing
+element, two cross-sections on its end nodes with the element's chord and chord direction (constant
+chord; neighbouring wings meet at the nodes), uniform spanwise panels (``--spacing uniform``).
+Geometry, ``--planform linear``: one symmetric ``asb.Wing`` whose cross-sections sit at the lifting line's nodes of the
 right wing (the centre node to the tip), each with its quarter-chord point on the node, its chord the
 element chords interpolated to the node (the tip chord extrapolated linearly, clipped at 0) divided
 by the length of the chord direction's projection on the symmetry plane (a streamwise section with
