@@ -1,14 +1,18 @@
 """The gliding limit against an independent vortex-lattice model: birdocp's steady glide of the
-frozen wing (all flapping amplitudes 0) and its lateral roots next to AeroSandbox's.
+frozen wing (all flapping amplitudes 0, the pose ``birdocp.studies.glide.ATTACHED_POSE`` whose glide is
+attached and valid) and its lateral roots next to AeroSandbox's.
 
     python scripts/glide_comparison.py --out results/lateral/glide
 
 writes ``geometry.json`` (birdocp's frozen lifting line and glide: the input of
 ``scripts/reference_aerosandbox/run_aerosandbox.py``, run in AeroSandbox's own environment),
 ``birdocp.json`` (the glide, its eigenvalues, lateral matrix and derivatives) and, when
-``aerosandbox.json`` is in the folder, ``comparison.json`` and ``comparison.md`` (the roll-subsidence
-root, the Dutch-roll frequency and the other roots and derivatives side by side, with the relative
-differences).
+``aerosandbox.json`` (the VLM of the model's stepped planform) is in the folder, ``comparison.json`` and
+``comparison.md`` (the roll-subsidence root, the Dutch-roll frequency and the other roots and
+derivatives side by side, with the relative differences; and the roots of (a) the paper's model and
+(b) the model with ``aero.span_direction = "element"``, each also with every element cut into
+``--split`` pieces, ``birdocp.studies.glide_refined``; ``aerosandbox_linear.json``, the VLM of the
+linearly interpolated planform, is listed when present).
 """
 from __future__ import annotations
 
@@ -20,8 +24,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from script_common import parse_with_out, script_parser  # noqa: E402
 
-from birdocp.studies.glide import (glide_geometry, lateral_glide_modes, lateral_matrix_with,  # noqa: E402
-                                   load_derivatives_at, steady_glide)
+from birdocp.bird.config import with_values  # noqa: E402
+from birdocp.studies.glide import (attached_config, glide_geometry, lateral_glide_modes,  # noqa: E402
+                                   lateral_matrix_with, load_derivatives_at, steady_glide)
+from birdocp.studies.glide_refined import refined_load_derivatives  # noqa: E402
 
 TOLERANCE = 0.05
 """The issue's agreement target for the roll-subsidence root and the Dutch-roll frequency."""
@@ -30,6 +36,35 @@ TOLERANCE = 0.05
 def rel(a: float, b: float) -> float:
     """(a - b) / |b|."""
     return (a - b) / abs(b)
+
+
+def refinement(glide: dict, ref: dict, split: int, linear: dict | None = None) -> list[dict]:
+    """The lateral roots with the nine load derivatives of: (a) the paper's model (16 elements, the
+    leading-line span direction), its lifting line cut ``split`` times, (b) the model with
+    ``aero.span_direction = "element"`` (16 elements, then cut 2, 4 and ``split`` times: the refined
+    model), the VLM of the same stepped planform (``ref``, body-axis wake; the reference of the
+    differences) and, if given, the VLM of the linearly interpolated planform (``linear``); each
+    through birdocp's exact lateral matrix (:func:`lateral_matrix_with`)."""
+    cfg, s = attached_config(), glide["state"]
+    element = with_values(cfg, {"aero.span_direction": "element"})
+    cases = [("(a) the paper's model: 16 elements, leading-line span direction", glide["derivatives"]),
+             (f"(a) cut: {16 * split} elements, leading-line span direction",
+              refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], split, "step", "section")),
+             ("(b) aero.span_direction = element: 16 elements", load_derivatives_at(element, s["u_mps"], s["w_mps"]))]
+    for n in sorted({2, 4, split} - {1}):
+        cases.append((f"(b) cut: {16 * n} elements, span direction along each sub-element",
+                      refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], n, "step", "element")))
+    cases.append(("AeroSandbox VLM, stepped planform, body-axis wake", ref["body_axis_wake"]["derivatives"]))
+    if linear is not None:
+        cases.append(("AeroSandbox VLM, linear planform, body-axis wake", linear["body_axis_wake"]["derivatives"]))
+    out = []
+    for name, der in cases:
+        der = {k: v for k, v in der.items() if k != "elements"}
+        m = lateral_glide_modes(lateral_matrix_with(glide, der, cfg))
+        out.append({"model": name, "roll_subsidence_per_s": m["roll_subsidence_per_s"],
+                    "dutch_roll_frequency_radps": (m["dutch_roll"] or {}).get("frequency_radps"),
+                    "spiral_per_s": m["spiral_per_s"], "derivatives": der})
+    return out
 
 
 def compare(ours: dict, ref: dict) -> dict:
@@ -52,7 +87,7 @@ def compare(ours: dict, ref: dict) -> dict:
             row[f"relative_{wake}"] = None if (r is None or value is None or r == 0) else rel(value, r)
         rows.append(row)
     for i, st in enumerate(ref["body_axis_wake"].get("check_states", [])):
-        mine_d = load_derivatives_at(None, st["u_mps"], st["w_mps"])
+        mine_d = load_derivatives_at(attached_config(), st["u_mps"], st["w_mps"])
         for k, value in mine_d.items():
             row = {"quantity": f"{st['name']}: d{k}", "birdocp": value}
             for wake in ("body_axis_wake", "wind_aligned_wake"):
@@ -74,7 +109,7 @@ def _attribution(ours: dict, ref: dict) -> list[dict]:
     out = []
     swaps = [(k, {k: v}) for k, v in ref["derivatives"].items()] + [("all nine", dict(ref["derivatives"]))]
     for name, swap in swaps:
-        m = lateral_glide_modes(lateral_matrix_with(ours, swap))
+        m = lateral_glide_modes(lateral_matrix_with(ours, swap, attached_config()))
         dr = m["dutch_roll"] or {}
         out.append({"replaced": name, "roll_subsidence_per_s": m["roll_subsidence_per_s"],
                     "dutch_roll_frequency_radps": dr.get("frequency_radps"), "spiral_per_s": m["spiral_per_s"]})
@@ -86,7 +121,15 @@ def table(cmp: dict) -> str:
         if x is None:
             return "-"
         return f"{100 * x:+.1f} %" if pct else f"{x:.4g}"
-    lines = ["| quantity | birdocp | AeroSandbox VLM (body-axis wake) | diff | AeroSandbox VLM (wind-aligned wake) | diff |",
+    g = cmp.get("glide")
+    lines = [] if g is None else [
+        f"The steady glide of the frozen wing (joint offsets {g['joint_offsets_deg']} deg, amplitudes 0): "
+        f"{g['speed_mps']:.4g} m/s, body angle of attack {g['alpha_body_deg']:.3g} deg, flight path "
+        f"{g['flight_path_angle_deg']:.3g} deg, effective section angles {g['alpha_eff_min_deg']:.3g}.."
+        f"{g['alpha_eff_max_deg']:.3g} deg: {'valid' if g['valid'] else 'NOT VALID'} by birdocp's validity check. "
+        "Like for like is the VLM with the body-axis wake (birdocp's wake is straight along the body axis, "
+        "also in sideslip); diff = (birdocp - VLM) / |VLM|.", ""]
+    lines += ["| quantity | birdocp | AeroSandbox VLM (body-axis wake) | diff | AeroSandbox VLM (wind-aligned wake) | diff |",
              "|---|---|---|---|---|---|"]
     for r in cmp["rows"]:
         lines.append(f"| {r['quantity']} | {f(r['birdocp'])} | {f(r['body_axis_wake'])} | "
@@ -97,23 +140,47 @@ def table(cmp: dict) -> str:
     for r in cmp["attribution"]:
         lines.append(f"| {r['replaced']} | {f(r['roll_subsidence_per_s'])} | {f(r['dutch_roll_frequency_radps'])} | "
                      f"{f(r['spiral_per_s'])} |")
+    if cmp.get("refinement"):
+        vlm = next(r for r in cmp["refinement"] if r["model"].startswith("AeroSandbox VLM, stepped"))
+        lines += ["", "The lateral roots (birdocp's exact lateral matrix) with the nine load derivatives of each model; "
+                  "in brackets the difference to the VLM of the same (stepped) planform:", "",
+                  "| derivatives of | roll subsidence [1/s] | Dutch-roll frequency [rad/s] | spiral [1/s] | L_p [N m s] "
+                  "| L_v [N s] | N_v [N s] |", "|---|---|---|---|---|---|---|"]
+        for r in cmp["refinement"]:
+            cells = [f"{f(r[k])} ({f(rel(r[k], vlm[k]), True)})" for k in
+                     ("roll_subsidence_per_s", "dutch_roll_frequency_radps", "spiral_per_s")]
+            cells += [f"{f(r['derivatives'][k])} ({f(rel(r['derivatives'][k], vlm['derivatives'][k]), True)})"
+                      for k in ("L_p", "L_v", "N_v")]
+            lines.append(f"| {r['model']} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
 def main(argv=None) -> None:
     ap = script_parser(__doc__, "results/lateral/glide")
-    _, out = parse_with_out(ap, argv)
-    glide = steady_glide()
+    ap.add_argument("--split", type=int, default=8, help="pieces per lifting-line element of the refined "
+                    "lifting line (default %(default)s; 8 takes about a minute)")
+    args, out = parse_with_out(ap, argv)
+    cfg = attached_config()
+    glide = steady_glide(cfg)
     if not glide["success"]:
         raise SystemExit(f"the steady glide did not converge (residual {glide['residual']:.3g})")
     (out / "birdocp.json").write_text(json.dumps(glide, indent=1) + "\n")
-    (out / "geometry.json").write_text(json.dumps(glide_geometry(glide=glide), indent=1) + "\n")
+    (out / "geometry.json").write_text(json.dumps(glide_geometry(cfg, glide=glide), indent=1) + "\n")
+    v = glide["validity"]
+    print(f"glide {'valid' if v['valid'] else 'NOT VALID: ' + '; '.join(v['reasons'])}: effective section angles "
+          f"{v['alpha_eff_min_deg']:.2f}..{v['alpha_eff_max_deg']:.2f} deg")
     print(f"glide: speed {glide['speed_mps']:.4f} m/s, body angle of attack {glide['alpha_body_deg']:.2f} deg, "
           f"flight path {glide['flight_path_angle_deg']:.2f} deg; roll subsidence "
           f"{glide['roll_subsidence_per_s']:.4f} 1/s, Dutch roll {glide['dutch_roll']['frequency_radps']:.4f} rad/s")
     ref_file = out / "aerosandbox.json"
     if ref_file.exists():
-        cmp = compare(glide, json.loads(ref_file.read_text()))
+        ref = json.loads(ref_file.read_text())
+        cmp = compare(glide, ref)
+        lin = out / "aerosandbox_linear.json"
+        cmp["refinement"] = refinement(glide, ref, args.split, json.loads(lin.read_text()) if lin.exists() else None)
+        cmp["glide"] = {"joint_offsets_deg": glide_geometry(cfg, glide=glide)["joint_offsets_deg"],
+                        **{k: glide[k] for k in ("speed_mps", "alpha_body_deg", "flight_path_angle_deg")},
+                        **{k: v[k] for k in ("valid", "alpha_eff_min_deg", "alpha_eff_max_deg")}}
         (out / "comparison.json").write_text(json.dumps(cmp, indent=1) + "\n")
         (out / "comparison.md").write_text(table(cmp))
         print(table(cmp))

@@ -1,23 +1,37 @@
 """The gliding limit against an independent vortex-lattice model: birdocp's lateral roots of the frozen
-wing's steady glide, computed here, against AeroSandbox's committed numbers
-(results/lateral/glide/aerosandbox.json, made offline by scripts/reference_aerosandbox from the
-geometry birdocp exported: results/lateral/glide/geometry.json)."""
+wing's steady glide (the attached pose ``birdocp.studies.glide.ATTACHED_POSE``), computed here, against
+AeroSandbox's committed numbers (results/lateral/glide/aerosandbox.json: the VLM of the model's stepped
+planform, every element a constant-chord strip, made offline by scripts/reference_aerosandbox from the
+geometry birdocp exported: results/lateral/glide/geometry.json). (a) is the paper's model, (b) the model
+with aero.span_direction = "element" (and its lifting line cut into sub-elements, glide_refined)."""
 from __future__ import annotations
 
+import hashlib
 import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from birdocp.studies.glide import glide_geometry, load_derivatives_at, steady_glide
+from birdocp.bird.config import param_vector, with_values
+from birdocp.bird.sixdof import LateralInertia, sixdof_model
+from birdocp.engine.method import OrbitMethod
+from birdocp.engine.shooting import floquet
+from birdocp.studies.glide import (attached_config, glide_geometry, lateral_glide_modes, lateral_matrix_with,
+                                   load_derivatives_at, steady_glide)
+from birdocp.studies.glide_refined import refined_load_derivatives
 
 FOLDER = Path(__file__).resolve().parents[1] / "results" / "lateral" / "glide"
 
 
 @pytest.fixture(scope="module")
-def glide():
-    g = steady_glide()
+def cfg():
+    return attached_config()
+
+
+@pytest.fixture(scope="module")
+def glide(cfg):
+    g = steady_glide(cfg)
     assert g["success"] and g["residual"] < 1e-10
     return g
 
@@ -27,53 +41,155 @@ def reference():
     return json.loads((FOLDER / "aerosandbox.json").read_text())
 
 
-def test_the_reference_is_of_the_geometry_birdocp_builds(glide):
-    """The committed geometry (AeroSandbox's input) is the frozen lifting line and glide of today's code."""
-    committed = json.loads((FOLDER / "geometry.json").read_text())
-    now = glide_geometry(glide=glide)
+def test_the_reference_is_of_the_geometry_birdocp_builds(cfg, glide, reference):
+    """The committed geometry (AeroSandbox's input) is the frozen lifting line and glide of today's code,
+    and the committed VLM numbers were made from that very file."""
+    text = (FOLDER / "geometry.json").read_text()
+    committed = json.loads(text)
+    assert reference["geometry_sha256"] == hashlib.sha256(text.encode()).hexdigest()
+    now = glide_geometry(cfg, glide=glide)
     for key in ("nodes_m", "centres_m", "chords_m", "chord_directions", "lengths_m"):
         np.testing.assert_allclose(np.asarray(now[key]), np.asarray(committed[key]), rtol=0, atol=1e-9)
     for key in ("u_mps", "w_mps", "theta_rad"):
         assert abs(now["glide_state"][key] - committed["glide_state"][key]) < 1e-9
+    assert now["joint_offsets_deg"] == committed["joint_offsets_deg"] == reference["joint_offsets_deg"]
 
 
-def test_dutch_roll_frequency_within_five_percent_of_the_vortex_lattice(glide, reference):
-    ours = glide["dutch_roll"]["frequency_radps"]
-    ref = reference["body_axis_wake"]["dutch_roll"]["frequency_radps"]
-    assert abs(ours - ref) <= 0.05 * ref, (ours, ref)
+def test_the_compared_glide_is_attached_and_valid(glide):
+    """The pose is chosen so that the glide is a flight the lifting line (and the VLM) represent:
+    valid by the project's validity check, the airflow along the body axis (so the body-axis wake is
+    also the wind-aligned one), every section well below the stall angle."""
+    v = glide["validity"]
+    assert v["valid"], v["reasons"]
+    assert abs(glide["alpha_body_deg"]) < 1.0
+    assert 5.0 < v["alpha_eff_min_deg"] and v["alpha_eff_max_deg"] < 15.0
 
 
-@pytest.mark.xfail(strict=True, reason="known: at the glide the sections fly at ~36 deg, where the lifting line's "
-                   "lift linear in the angle has a slope 1/cos(36 deg) above the vortex lattice's (linear in its "
-                   "sine): roll damping 28 % higher, roll subsidence 35 % faster (docs/studies/lateral.md)")
+def test_frozen_attached_wing_multipliers_are_the_glide_eigenvalues(cfg, glide):
+    """The gliding limit in the compared pose: ln(Lambda)/T of the frozen wing's cycle (the engine's
+    exact monodromy, 600 RK4 steps) are steady_glide's eigenvalues (plus the heading's 0) to 1e-6."""
+    six = sixdof_model(cfg)
+    p6 = six.params(param_vector(cfg), LateralInertia.of(cfg))
+    x0 = np.append(list(glide["state"].values()), 0.0)
+    fl = floquet(six.ode, x0, p6, OrbitMethod(points=3, steps_per_period=600))
+    ln = np.sort_complex(np.log(fl.multipliers.astype(complex)) / six.ode.period_s)
+    lam = np.sort_complex(np.append([complex(*z) for z in glide["eigenvalues"]], 0.0))
+    np.testing.assert_allclose(ln.real, lam.real, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(np.abs(ln.imag), np.abs(lam.imag), rtol=1e-6, atol=1e-6)
+
+
+@pytest.mark.xfail(strict=True, reason="measured: (a) the paper's model -45.30 1/s, the VLM of the same stepped "
+                   "planform (body-axis wake) -41.34 1/s, 9.6 % apart: the roll damping L_p is 9.5 % larger; the "
+                   "refined model (b) is also not within 5 % (test below)")
 def test_roll_subsidence_within_five_percent_of_the_vortex_lattice(glide, reference):
     ours = glide["roll_subsidence_per_s"]
     ref = reference["body_axis_wake"]["roll_subsidence_per_s"]
     assert abs(ours - ref) <= 0.05 * abs(ref), (ours, ref)
 
 
-def test_roll_damping_agrees_at_a_small_section_angle(reference):
-    """The explanation of the roll-subsidence gap: at a small section angle of attack (where the two
-    section laws agree) birdocp's roll damping L_p is within 10 % of the vortex lattice's, while at the
-    glide (section angle ~36 deg) it is 20-35 % above."""
+@pytest.mark.xfail(strict=True, reason="measured: (a) the paper's model 1.819 rad/s, the VLM 1.664 rad/s, 9.3 % "
+                   "apart, from the sideslip derivatives L_v and N_v (23-25 %): the model's section span direction "
+                   "(n x c_hat from the relaxed leading line, docs/model.md) is swept up to 11 deg more than the "
+                   "elements the vortices follow; with aero.span_direction = element (b) it is within 5 % (below)")
+def test_dutch_roll_frequency_within_five_percent_of_the_vortex_lattice(glide, reference):
+    ours = glide["dutch_roll"]["frequency_radps"]
+    ref = reference["body_axis_wake"]["dutch_roll"]["frequency_radps"]
+    assert abs(ours - ref) <= 0.05 * ref, (ours, ref)
+
+
+@pytest.fixture(scope="module")
+def element_model(cfg, glide):
+    """(b) the refined model's derivatives at the glide: ``aero.span_direction = "element"`` (the model
+    option, 16 elements) and the same with every element cut in two (glide_refined; 128 elements in
+    results/lateral/glide/comparison.md)."""
+    s = glide["state"]
+    one = load_derivatives_at(with_values(cfg, {"aero.span_direction": "element"}), s["u_mps"], s["w_mps"])
+    two = refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], 2, "step", "element")
+    two.pop("elements")
+    return one, two
+
+
+def test_refined_model_dutch_roll_frequency_within_five_percent_of_the_vortex_lattice(cfg, glide, reference,
+                                                                                      element_model):
+    """(b): with the span direction along the elements the Dutch-roll frequency is the VLM's within 5 %
+    (1.653 rad/s against 1.664: 0.7 %; cut 8 times 1.9 %), at 16 and 32 elements."""
+    ref = reference["body_axis_wake"]["dutch_roll"]["frequency_radps"]
+    for d in element_model:
+        dr = lateral_glide_modes(lateral_matrix_with(glide, d, cfg))["dutch_roll"]["frequency_radps"]
+        assert abs(dr / ref - 1) < 0.05, (dr, ref)
+
+
+@pytest.mark.xfail(strict=True, reason="measured: (b) -45.48 1/s at 16 elements, -45.01 at 32, -44.50 at 128 "
+                   "against the VLM's -41.34 (7.7 % at 128 elements, the change per halving shrinking by ~0.6: "
+                   "about -44.2, 7 %, in the limit): the remaining roll-damping gap is the lifting line against "
+                   "the lattice (docs/studies/lateral.md), not the discretisation, the planform or the span direction")
+def test_refined_model_roll_subsidence_within_five_percent_of_the_vortex_lattice(cfg, glide, reference, element_model):
+    ref = reference["body_axis_wake"]["roll_subsidence_per_s"]
+    roll = lateral_glide_modes(lateral_matrix_with(glide, element_model[1], cfg))["roll_subsidence_per_s"]
+    assert abs(roll / ref - 1) <= 0.05, (roll, ref)
+
+
+def test_the_roots_agree_within_ten_percent_and_the_spiral_within_five(glide, reference):
+    """What does hold in the attached glide: both named roots within 10 %, the spiral within 5 %."""
+    ref = reference["body_axis_wake"]
+    assert abs(glide["roll_subsidence_per_s"] / ref["roll_subsidence_per_s"] - 1) < 0.10
+    assert abs(glide["dutch_roll"]["frequency_radps"] / ref["dutch_roll"]["frequency_radps"] - 1) < 0.10
+    assert abs(glide["spiral_per_s"] / ref["spiral_per_s"] - 1) < 0.05
+
+
+def test_the_refined_lifting_line_is_the_model_at_split_one_and_approaches_the_lattice(cfg, glide, reference):
+    """birdocp's lifting line cut into sub-elements: at split 1 (step planform) it is the model (the
+    derivatives of load_derivatives_at to round-off); cutting each element in two moves the roll damping
+    towards the VLM's, which it stays above."""
+    s = glide["state"]
+    one = refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], 1)
+    assert one.pop("elements") == 16
+    for k, v in glide["derivatives"].items():
+        assert abs(one[k] - v) <= 1e-10 * max(1.0, abs(v)), (k, one[k], v)
+    two = refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], 2)
+    vlm = reference["body_axis_wake"]["derivatives"]["L_p"]
+    assert two["elements"] == 32
+    assert one["L_p"] < two["L_p"] < vlm < 0
+
+
+def test_roll_damping_gap_is_smaller_at_a_small_section_angle(cfg, reference):
+    """At a small section angle of attack (4 deg; the two section laws, linear in the angle and in its
+    sine, agree) birdocp's roll damping L_p is within 7 % of the vortex lattice's; at the glide
+    (sections at 8-14 deg) the gap is larger."""
     st = reference["body_axis_wake"]["check_states"][0]
-    ours = load_derivatives_at(None, st["u_mps"], st["w_mps"])["L_p"]
+    ours = load_derivatives_at(cfg, st["u_mps"], st["w_mps"])["L_p"]
     ref = st["derivatives"]["L_p"]
-    assert ours < 0 and ref < 0
-    assert abs(ours - ref) <= 0.10 * abs(ref), (ours, ref)
-    at_glide = reference["body_axis_wake"]["derivatives"]["L_p"]
-    ours_glide = load_derivatives_at(None, reference["glide_state"]["u_mps"], reference["glide_state"]["w_mps"])["L_p"]
-    assert 1.2 < ours_glide / at_glide < 1.35
+    assert ours < ref < 0
+    assert abs(ours / ref - 1) < 0.07
+    g = reference["glide_state"]
+    at_glide = load_derivatives_at(cfg, g["u_mps"], g["w_mps"])["L_p"] / reference["body_axis_wake"]["derivatives"]["L_p"]
+    assert at_glide - 1 > abs(ours / ref - 1)
 
 
-def test_the_two_rigid_body_linearisations_agree_and_roll_damping_explains_the_gap(glide, reference):
+def test_the_two_rigid_body_linearisations_agree_and_roll_damping_explains_the_roll_gap(cfg, glide, reference):
     """birdocp's exact lateral matrix with all nine load derivatives replaced by the VLM's is the VLM
     script's own lateral matrix (written apart, with the same glide, mass and inertia); with the VLM's
-    roll damping L_p alone, birdocp's roll-subsidence root comes within 5 % of the VLM's."""
-    from birdocp.studies.glide import lateral_glide_modes, lateral_matrix_with
-
+    roll damping L_p alone, birdocp's roll-subsidence root comes within 0.5 % of the VLM's."""
     ref = reference["body_axis_wake"]
-    A = lateral_matrix_with(glide, ref["derivatives"])
+    A = lateral_matrix_with(glide, ref["derivatives"], cfg)
     np.testing.assert_allclose(A, np.asarray(ref["lateral_matrix"]), rtol=1e-9, atol=1e-9)
-    only_lp = lateral_glide_modes(lateral_matrix_with(glide, {"L_p": ref["derivatives"]["L_p"]}))
-    assert abs(only_lp["roll_subsidence_per_s"] - ref["roll_subsidence_per_s"]) <= 0.05 * abs(ref["roll_subsidence_per_s"])
+    only_lp = lateral_glide_modes(lateral_matrix_with(glide, {"L_p": ref["derivatives"]["L_p"]}, cfg))
+    assert abs(only_lp["roll_subsidence_per_s"] / ref["roll_subsidence_per_s"] - 1) <= 0.005
+
+
+def test_with_the_span_direction_along_the_elements_the_sideslip_derivatives_are_the_lattices(cfg, glide, reference):
+    """The Dutch-roll gap found: the model's 16-element lifting line with every section frame turned to
+    its element's node-to-node direction (the line its vortices and the VLM's follow) has the VLM's
+    sideslip derivatives L_v and N_v within 5 % (2.7 %, 3.3 %; the paper's model: 23-25 % off). The
+    model option ``aero.span_direction = "element"`` is glide_refined's element frames at split 1, to
+    round-off (two code paths: the model's data graph and NumPy on the frozen line)."""
+    s = glide["state"]
+    d = refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], 1, "step", "element")
+    d.pop("elements")
+    option = load_derivatives_at(with_values(cfg, {"aero.span_direction": "element"}), s["u_mps"], s["w_mps"])
+    for k, v in option.items():
+        assert abs(d[k] - v) <= 1e-10 * max(1.0, abs(v)), (k, d[k], v)
+    vlm = reference["body_axis_wake"]["derivatives"]
+    for k in ("L_v", "N_v"):
+        assert abs(d[k] / vlm[k] - 1) < 0.05, (k, d[k], vlm[k])
+        assert abs(glide["derivatives"][k] / vlm[k] - 1) > 0.2

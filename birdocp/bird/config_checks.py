@@ -15,6 +15,8 @@ import tomllib
 from dataclasses import fields, is_dataclass
 from typing import Any
 
+from birdocp.bird.span import SPAN_DIRECTIONS
+from birdocp.bird.subdivide import MAX_SUBDIVISIONS
 from birdocp.io.errors import ConfigError
 
 __all__ = [
@@ -284,6 +286,19 @@ def _validate_solve(cfg: Any) -> None:
                                                           f"of sound: the model's air is incompressible), got {v!r}")
 
 
+def _validate_span(cfg: Any) -> None:
+    """``aero.span_direction`` and ``aero.span_subdivisions`` (1..8, > 1 with the linear section only)."""
+    if cfg.aero.span_direction not in SPAN_DIRECTIONS:
+        raise ConfigError("aero.span_direction",
+                          f"must be one of {', '.join(SPAN_DIRECTIONS)}; got {cfg.aero.span_direction!r}")
+    k = cfg.aero.span_subdivisions
+    if isinstance(k, bool) or not isinstance(k, int) or not 1 <= k <= MAX_SUBDIVISIONS:
+        raise ConfigError("aero.span_subdivisions", f"must be an integer in [1, {MAX_SUBDIVISIONS}], got {k!r}")
+    if k > 1 and (cfg.aero.unsteady != "none" or cfg.aero.section != "linear"):
+        raise ConfigError("aero.span_subdivisions", "> 1 needs the quasi-steady linear section "
+                          "(aero.unsteady = 'none', aero.section = 'linear'); set it to 1")
+
+
 def validate(cfg: Any) -> None:
     """Raise :class:`ConfigError` on the first non-physical value.
 
@@ -326,6 +341,7 @@ def validate(cfg: Any) -> None:
         raise ConfigError("tail.incidence_deg", f"must lie in (-90, 90) deg, got {cfg.tail.incidence_deg!r}")
     if cfg.aero.circulation not in CIRCULATION_MODES:
         raise ConfigError("aero.circulation", f"must be one of {', '.join(CIRCULATION_MODES)}; got {cfg.aero.circulation!r}")
+    _validate_span(cfg)
     if cfg.aero.kinematic_velocity not in KINEMATIC_VELOCITY_MODES:
         raise ConfigError("aero.kinematic_velocity",
                           f"must be one of {', '.join(KINEMATIC_VELOCITY_MODES)}; got {cfg.aero.kinematic_velocity!r}")

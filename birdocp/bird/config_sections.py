@@ -144,6 +144,12 @@ class Aero:
     kinematic_velocity: str = "exact"
     """``exact``: time derivative of the geometry by AD; ``backward-difference``: as the reference."""
     backward_step_s: float = 2.5e-5
+    span_direction: str = "leading_line"
+    """``leading_line``: each section's span direction from the relaxed leading line (the paper's model);
+    ``element``: along the lifting-line element the vortices follow (:mod:`birdocp.bird.span`)."""
+    span_subdivisions: int = 1
+    """Sub-elements per lifting-line element, 1..8, same geometry (linear quasi-steady section only;
+    :mod:`birdocp.bird.subdivide`); 1: the paper's model, bit for bit."""
     unsteady: str = "none"
     """``none``: quasi-steady section; ``wagner``: two lag states per element on the effective
     normalwash (Jones's indicial response), the 3/4-chord pitch-rate term and the added-mass loads."""

@@ -14,6 +14,8 @@ import numpy as np
 from birdocp.bird import aero
 from birdocp.bird import inertia
 from birdocp.bird import kinematics
+from birdocp.bird import span
+from birdocp.bird import subdivide
 from birdocp.bird import unsteady
 from birdocp.bird import wing
 from birdocp.bird.config import JOINT_NAMES, PARAM_NAMES, WING_MASS_SHARES
@@ -172,12 +174,12 @@ def _kinematic_velocity(s: Structure, R1, arm, centres, t, p, x_ep, left=None):
         lv = None if left is None else (_columns(ca.jtimes(left[0], t, ca.SX(1)) @ left[1][0] + left[0] @ left[1][4]),
                                         [0] * N_EL, _columns(left[1][0]), _columns(left[1][0]))
         Qd = wing.merge(_columns(Pdot), [0] * N_EL, _columns(P_s), _columns(P_s), 0.0, left=lv)[0]
-        return ca.horzcat(*Qd)[:, 1::2]
+        return ca.horzcat(*subdivide.refine_points(Qd, s.span_subdivisions))[:, 1::2]
     R1_prev = _shoulder(t - s.backward_step_s, p, s.frequency_hz)
     lv = None if left is None else (_columns(_shoulder(t - s.backward_step_s, left[2], s.frequency_hz) @ left[1][4]),
                                     [0] * N_EL, _columns(left[1][0]), _columns(left[1][0]))
     Qp = wing.merge(_columns(R1_prev @ aux_s), [0] * N_EL, _columns(P_s), _columns(P_s), x_ep, left=lv)[0]
-    return (centres - ca.horzcat(*Qp)[:, 1::2]) / s.backward_step_s
+    return (centres - ca.horzcat(*subdivide.refine_points(Qp, s.span_subdivisions))[:, 1::2]) / s.backward_step_s
 
 
 def aero_blocks(s: Structure, L, t, p, left=None) -> dict:
@@ -218,24 +220,28 @@ def aero_blocks(s: Structure, L, t, p, left=None) -> dict:
                                    left=(_columns(R1l @ arm_l[0]), [arm_l[3][j] for j in range(N_EL)],
                                          _columns(R1l @ arm_l[1]), _columns(R1l @ arm_l[2])))
         lw = (R1l, arm_l, left[1])
+    k, n = s.span_subdivisions, s.n_elements
+    Q, ch, cd, nu = subdivide.refine_points(Q, k), *(subdivide.repeat_sections(v, k) for v in (ch, cd, nu))
     line = ca.horzcat(*Q)
     centres, nodes = line[:, 1::2], line[:, 0::2]
     v_kin = _kinematic_velocity(s, R1, arm, centres, t, p, x_ep, lw)
     c_hat = ca.horzcat(*cd)[:, 1::2]
     up = ca.horzcat(*nu)[:, 1::2]
     chord = ca.horzcat(*ch)[1::2]
-    tau = ca.horzcat(*[ca.cross(up[:, j], c_hat[:, j]) for j in range(N_EL)])
-    ds = ca.vertcat(*[ca.norm_2(nodes[:, j + 1] - nodes[:, j]) for j in range(N_EL)])
+    tau = ca.horzcat(*[ca.cross(up[:, j], c_hat[:, j]) for j in range(n)])
+    if s.span_direction == "element":
+        tau, c_hat, up = span.element_frames(nodes, c_hat)
+    ds = ca.vertcat(*[ca.norm_2(nodes[:, j + 1] - nodes[:, j]) for j in range(n)])
     r_w = ca.vertcat(0, 0, -_p(p, "wing.root_ahead_m"))
-    r = centres + ca.repmat(r_w, 1, N_EL)
+    r = centres + ca.repmat(r_w, 1, n)
     if s.aero_extra:  # per unit circulation: the state right-hand side solves the lifting line
         Wx, Wy, G = aero.induced_matrices(_columns(centres), _columns(nodes))
     else:
         G, Wx, Wy = aero.circulation_matrices(
-            _columns(centres), _columns(nodes), [chord[j] for j in range(N_EL)],
+            _columns(centres), _columns(nodes), [chord[j] for j in range(n)],
             _p(p, "aero.lift_slope_per_rad"), s.circulation, s.relaxed_evaluations)
     return {"r_m": r, "v_kin_mps": v_kin, "c_hat": c_hat, "up": up, "tau": tau, "ds_m": ds,
-            "G": G, "Wx": Wx, "Wy": Wy, "nodes_m": nodes + ca.repmat(r_w, 1, N_EL + 1),
+            "G": G, "Wx": Wx, "Wy": Wy, "nodes_m": nodes + ca.repmat(r_w, 1, n + 1),
             "chord_m": chord.T}
 
 
@@ -359,7 +365,7 @@ def _state_functions(s: Structure, p) -> dict:
         fns.update(section_d=None, aero_guess_d=None, held_d=None)
     fns["rhs"] = ca.Function("rhs", [x, dsym, p], [xdot], ["x", "d", "p"], ["xdot"])
     fns["loads_d"] = ca.Function("loads_d", [x, dsym, p], [loads], ["x", "d", "p"], ["loads"])
-    fns["detail_d"] = ca.Function("detail_d", [x, dsym, p], ca.vertsplit(detail, [0, N_EL, 2 * N_EL, 3 * N_EL, 3 * N_EL + 3]),
+    fns["detail_d"] = ca.Function("detail_d", [x, dsym, p], ca.vertsplit(detail, [0, s.n_elements, 2 * s.n_elements, 3 * s.n_elements, 3 * s.n_elements + 3]),
                                   ["x", "d", "p"], ["gamma", "alpha_rad", "vp_mps", "F_code"])
     return fns
 

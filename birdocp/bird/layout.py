@@ -9,43 +9,79 @@ Used by :mod:`birdocp.bird.loads`, :mod:`birdocp.bird.graphs` and :mod:`birdocp.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import casadi as ca
 
 from birdocp.bird import aero
 from birdocp.bird import inertia
+from birdocp.bird import subdivide
 from birdocp.bird import unsteady
 from birdocp.bird.config import PARAM_NAMES, Config
 
 N_EL = aero.N_ELEMENTS
 STATE_NAMES = ("u_mps", "w_mps", "q_radps", "theta_rad")
 
-# Layout of the per-time data vector d (column-major blocks).
-DATA_BLOCKS = (
-    ("r_m", (3, N_EL)),          # element centres relative to G, code frame
-    ("v_kin_mps", (3, N_EL)),    # kinematic velocity of the centres
-    ("c_hat", (3, N_EL)),        # chord directions (leading -> trailing edge)
-    ("up", (3, N_EL)),           # 'up' normals
-    ("tau", (3, N_EL)),          # spanwise directions n x c_hat
-    ("ds_m", (N_EL, 1)),         # element lengths
-    ("G", (N_EL, N_EL)),         # Gamma = G (|Vp| alpha); unsteady/stall structures: K (downwash per unit Gamma)
-    ("Wx", (N_EL, N_EL)),        # induced velocity e1 = Wx (|Vp| alpha); unsteady/stall: per unit Gamma
-    ("Wy", (N_EL, N_EL)),        # induced velocity e2 = Wy (|Vp| alpha); unsteady/stall: per unit Gamma
-    ("nodes_m", (3, N_EL + 1)),  # element end nodes relative to G (the tail's induced velocity)
-    ("chord_m", (N_EL, 1)),      # element chords (the optional profile drag)
-)
+def data_blocks(n: int = aero.N_ELEMENTS) -> tuple:
+    """Layout of the per-time data vector d (column-major blocks) of a lifting line of ``n`` elements
+    (16, or 16 k with ``aero.span_subdivisions = k``).
+
+    Parameters
+    ----------
+    n : int
+        Number of lifting-line elements of both wings.
+
+    Returns
+    -------
+    tuple
+        ``(name, rows, columns)`` of each block, in order.
+    """
+    return (
+        ("r_m", (3, n)),          # element centres relative to G, code frame
+        ("v_kin_mps", (3, n)),    # kinematic velocity of the centres
+        ("c_hat", (3, n)),        # chord directions (leading -> trailing edge)
+        ("up", (3, n)),           # 'up' normals
+        ("tau", (3, n)),          # spanwise directions n x c_hat
+        ("ds_m", (n, 1)),         # element lengths
+        ("G", (n, n)),            # Gamma = G (|Vp| alpha); unsteady/stall structures: K (downwash per unit Gamma)
+        ("Wx", (n, n)),           # induced velocity e1 = Wx (|Vp| alpha); unsteady/stall: per unit Gamma
+        ("Wy", (n, n)),           # induced velocity e2 = Wy (|Vp| alpha); unsteady/stall: per unit Gamma
+        ("nodes_m", (3, n + 1)),  # element end nodes relative to G (the tail's induced velocity)
+        ("chord_m", (n, 1)),      # element chords (the optional profile drag)
+    )
 
 
-def _offsets():
+DATA_BLOCKS = data_blocks(N_EL)
+
+
+@functools.lru_cache(maxsize=None)
+def _offsets(n: int = N_EL):
     out, k = {}, 0
-    for name, (r, c) in DATA_BLOCKS:
+    for name, (r, c) in data_blocks(n):
         out[name] = (k, r, c)
         k += r * c
     return out, k
 
 
-DATA_OFFSETS, N_DATA = _offsets()
+DATA_OFFSETS, N_DATA = _offsets(N_EL)
+
+
+def n_data(n: int) -> int:
+    """Size of the aerodynamic data blocks of ``n`` elements (:data:`N_DATA` for 16).
+
+    Parameters
+    ----------
+    n : int
+        Number of lifting-line elements of both wings.
+
+    Returns
+    -------
+    int
+        Number of values.
+    """
+    return _offsets(n)[1]
+
 
 N_MASS = len(inertia.MASS_BLOCK)
 """A model with wing masses appends the sums :data:`birdocp.bird.inertia.MASS_BLOCK` to the data
@@ -67,20 +103,44 @@ def unpack_mass(d):
     return {k: d[N_DATA + i] for i, k in enumerate(inertia.MASS_BLOCK)}
 
 
-def unpack_data(d):
+def elements_of(size: int) -> int:
+    """The element count of a data vector of ``size`` values: ``16 k`` when it is the blocks of a
+    line cut ``k`` > 1 times (with or without the wing-mass sums; such a model has no unsteady
+    blocks), else 16.
+
+    Parameters
+    ----------
+    size : int
+        Number of values in the data vector.
+
+    Returns
+    -------
+    int
+        Number of lifting-line elements of both wings.
+    """
+    for k in range(subdivide.MAX_SUBDIVISIONS, 1, -1):
+        if size - n_data(N_EL * k) in (0, N_MASS):
+            return N_EL * k
+    return N_EL
+
+
+def unpack_data(d, n: int | None = None):
     """Blocks of a data vector (SX/MX/DM) as a dict of matrices.
 
     Parameters
     ----------
     d : casadi.SX, MX or DM
         Data vector.
+    n : int, optional
+        Number of elements (default: read off the vector's size, :func:`elements_of`).
 
     Returns
     -------
     dict
-        Block name (:data:`DATA_OFFSETS`) to matrix.
+        Block name to matrix.
     """
-    return {name: ca.reshape(d[k:k + r * c], r, c) for name, (k, r, c) in DATA_OFFSETS.items()}
+    n = n or elements_of(int(d.shape[0] * d.shape[1]))
+    return {name: ca.reshape(d[k:k + r * c], r, c) for name, (k, r, c) in _offsets(n)[0].items()}
 
 
 def air_state(x, wind_mps):
@@ -142,6 +202,13 @@ class Structure:
     section: str = "linear"
     newton_steps: int = 5
     smooth_geometry: bool = False
+    span_direction: str = "leading_line"
+    span_subdivisions: int = 1
+
+    @property
+    def n_elements(self) -> int:
+        """Lifting-line elements: 16 times ``span_subdivisions``."""
+        return N_EL * self.span_subdivisions
 
     @property
     def aero_extra(self) -> bool:
@@ -168,5 +235,6 @@ class Structure:
                          drag=bool(dr.enabled or dr.body_drag_coefficient > 0 or dr.profile_drag_coefficient > 0),
                          unsteady=a.unsteady, section=a.section,
                          newton_steps=int(a.newton_steps) if a.section != "linear" else 5,
-                         smooth_geometry=bool(cfg.wing.smooth_geometry))
+                         smooth_geometry=bool(cfg.wing.smooth_geometry), span_direction=a.span_direction,
+                         span_subdivisions=int(a.span_subdivisions))
 

@@ -13,7 +13,7 @@ import casadi as ca
 from birdocp.bird import aero
 from birdocp.bird import tail
 from birdocp.bird import unsteady
-from birdocp.bird.layout import N_DATA, N_EL, N_MASS, Structure, param as _p, unpack_data
+from birdocp.bird.layout import N_EL, N_MASS, Structure, n_data, param as _p, unpack_data
 
 def unsteady_params(p) -> dict:
     """The numbers of :func:`birdocp.bird.unsteady.section_loads` (``prm``) from the parameter vector p.
@@ -51,7 +51,7 @@ def unsteady_data_offset(structure: Structure) -> int:
     -------
     int
     """
-    return N_DATA + (N_MASS if structure.wing_mass else 0)
+    return n_data(structure.n_elements) + (N_MASS if structure.wing_mass else 0)
 
 
 def section_terms(structure: Structure, x, d, p) -> dict:
@@ -117,7 +117,7 @@ def load_terms(structure: Structure, x, d, p, x_inertial=None) -> dict:
     dict
         Name to expression.
     """
-    b = unpack_data(d)
+    b = unpack_data(d, structure.n_elements)
     rho = _p(p, "aero.air_density_kgm3")
     r = b["r_m"]
     sec = None
@@ -132,7 +132,7 @@ def load_terms(structure: Structure, x, d, p, x_inertial=None) -> dict:
         F = ca.sum2(e["dF"])
         M = aero.moment_about_G(r, e["dF"])
     out = {"r": r, "v_kin": b["v_kin_mps"], "V": e["V"], "Vp": e["Vp"], "vind": e["vind"], "dF": e["dF"],
-           "dD": ca.SX.zeros(3, N_EL), "F_par": ca.SX.zeros(3, 1), "tail": None,
+           "dD": ca.SX.zeros(3, r.shape[1]), "F_par": ca.SX.zeros(3, 1), "tail": None,
            "Gamma": e["Gamma"], "alpha": e["alpha"].T, "Vp_norm": e["Vp_norm"].T}
     if structure.drag:
         # profile drag at the element centres, parasite drag at G along the free stream (0, w, u)

@@ -58,7 +58,8 @@ from birdocp.engine.cache import register_cache
 from birdocp.engine.problem import PeriodicODE
 
 __all__ = ["rhs_expression", "STATE_NAMES", "LONGITUDINAL", "LATERAL", "HEADING", "LATERAL_PARAM_NAMES", "LateralInertia",
-           "SixDofModel", "sixdof_model", "embed_planar_state", "body_loads", "drag_terms"]
+           "SixDofModel", "sixdof_model", "embed_planar_state", "body_loads", "drag_terms", "air_velocity",
+           "body_axis_loads"]
 
 STATE_NAMES = ("u_mps", "v_mps", "w_mps", "p_radps", "q_radps", "r_radps", "phi_rad", "theta_rad", "psi_rad")
 LONGITUDINAL = (0, 2, 4, 7)
@@ -132,26 +133,19 @@ def body_loads(x, d, p, with_tail=False, with_drag=False):
     tuple
         ``(F_body, M_body, terms)``.
     """
-    u, v, w, pr, q, rr = (x[i] for i in range(6))
+    u, v, w = x[0], x[1], x[2]
     b = unpack_data(d)
-    r, v_kin = b["r_m"], b["v_kin_mps"]
-    ones = ca.DM.ones(1, r.shape[1])
-    # V = U_inf - Omega x r - v_kin, U_inf = (-v, w, u), Omega = (q, -r, -p) (code frame)
-    om1, om2, om3 = q, -rr, -pr
-    V = ca.vertcat(-v * ones - (om2 * r[2, :] - om3 * r[1, :]) - v_kin[0, :],
-                   w * ones - (om3 * r[0, :] - om1 * r[2, :]) - v_kin[1, :],
-                   u * ones - (om1 * r[1, :] - om2 * r[0, :]) - v_kin[2, :])
+    r = b["r_m"]
+    V = air_velocity(x, r, b["v_kin_mps"])
     e = aero.forces_from_velocity(V, b["c_hat"], b["up"], b["tau"], b["ds_m"], b["G"], b["Wx"], b["Wy"],
                                   _p(p, "aero.air_density_kgm3"))
     dF = e["dF"]
     if with_drag:
         e.update(drag_terms(e, b, u, v, w, p))
         dF = dF + e["dD"]  # the profile drag acts at the element centres, as the lifting-line force
-    F = ca.sum2(dF) + (e["F_par"] if with_drag else 0)
-    Mc = ca.sum2(ca.vertcat(r[1, :] * dF[2, :] - r[2, :] * dF[1, :],
-                            r[2, :] * dF[0, :] - r[0, :] * dF[2, :],
-                            r[0, :] * dF[1, :] - r[1, :] * dF[0, :]))
-    Fb, Mb = ca.vertcat(-F[2], F[0], -F[1]), ca.vertcat(-Mc[2], Mc[0], -Mc[1])
+    Fb, Mb = body_axis_loads(r, dF)
+    if with_drag:  # the body's parasite drag at G (no moment)
+        Fb = Fb + ca.vertcat(-e["F_par"][2], e["F_par"][0], -e["F_par"][1])
     if with_tail:
         Lt, Dt, Mt = tail_body_loads(x, b, e["Gamma"], p)
         Fb, Mb = Fb - ca.vertcat(Dt, 0, Lt), Mb + ca.vertcat(0, Mt, 0)
@@ -188,6 +182,56 @@ def drag_terms(e: dict, b: dict, u, v, w, p) -> dict:
     F_par = 0.5 * rho * _p(p, "drag.body_frontal_area_m2") * _p(p, "drag.body_drag_coefficient") \
         * ca.norm_2(U_inf) * U_inf
     return {"dD": dD, "F_par": F_par}
+
+
+def air_velocity(x, r, v_kin):
+    """The air velocity ``V = U_inf - Omega x r - v_kin`` (3 x n, code frame, m/s, without the
+    induced part) of the points ``r`` (3 x n, from G) moving at ``v_kin`` (3 x n) relative to the
+    body, at the state ``x`` (u, v, w, p, q, r, ...): ``U_inf = (-v, w, u)``, ``Omega = (q, -r, -p)``.
+
+    Parameters
+    ----------
+    x : casadi.SX
+        9-state (body axes).
+    r : casadi.SX
+        Points from G, code frame [m] (3 x n).
+    v_kin : casadi.SX
+        Their velocities relative to the body, code frame [m/s] (3 x n).
+
+    Returns
+    -------
+    casadi.SX
+        Air velocity at the points [m/s] (3 x n).
+    """
+    u, v, w, pr, q, rr = (x[i] for i in range(6))
+    ones = ca.DM.ones(1, r.shape[1])
+    om1, om2, om3 = q, -rr, -pr
+    return ca.vertcat(-v * ones - (om2 * r[2, :] - om3 * r[1, :]) - v_kin[0, :],
+                      w * ones - (om3 * r[0, :] - om1 * r[2, :]) - v_kin[1, :],
+                      u * ones - (om1 * r[1, :] - om2 * r[0, :]) - v_kin[2, :])
+
+
+def body_axis_loads(r, dF):
+    """Body-axis force (X, Y, Z) = (-F3, F1, -F2) [N] and moment (L, M, N) = (-Mc3, Mc1, -Mc2) [N m]
+    about G of the element forces ``dF`` (3 x n, code frame) acting at ``r`` (3 x n, from G).
+
+    Parameters
+    ----------
+    r : casadi.SX
+        Points of action from G, code frame [m] (3 x n).
+    dF : casadi.SX
+        Element forces, code frame [N] (3 x n).
+
+    Returns
+    -------
+    tuple of casadi.SX
+        Body-axis force [N] (3 x 1) and moment about G [N m] (3 x 1).
+    """
+    F = ca.sum2(dF)
+    Mc = ca.sum2(ca.vertcat(r[1, :] * dF[2, :] - r[2, :] * dF[1, :],
+                            r[2, :] * dF[0, :] - r[0, :] * dF[2, :],
+                            r[0, :] * dF[1, :] - r[1, :] * dF[0, :]))
+    return ca.vertcat(-F[2], F[0], -F[1]), ca.vertcat(-Mc[2], Mc[0], -Mc[1])
 
 
 def tail_body_loads(x, b, gamma, p):

@@ -241,15 +241,15 @@ def _header(info: ExportInfo, cfg: Config) -> str:
     pdefs = "\n".join(f"#define BIRD_P_{_c_ident(n.split('.')[-1])} {k}  /* {n} */"
                       for k, n in enumerate(info.runtime_params))
     baked = "\n".join(f" *   {n} = {v!r}" for n, v in info.baked_params.items())
-    from birdocp.bird.model import DATA_BLOCKS
-    blocks = []
-    k = 0
-    for name, (r, c) in DATA_BLOCKS:
-        blocks.append(f" *   d[{k}..{k + r * c - 1}]  {name} ({r}x{c}, column-major)")
-        k += r * c
+    from birdocp.bird.layout import data_blocks
     from birdocp.bird.model import Structure
 
     st = Structure.of(cfg)
+    blocks = []
+    k = 0
+    for name, (r, c) in data_blocks(st.n_elements):
+        blocks.append(f" *   d[{k}..{k + r * c - 1}]  {name} ({r}x{c}, column-major)")
+        k += r * c
     if st.wing_mass:  # wings with mass: their sums (birdocp.bird.inertia.MASS_BLOCK)
         from birdocp.bird.inertia import MASS_BLOCK
 

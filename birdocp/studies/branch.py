@@ -224,7 +224,7 @@ def bird_problem(cfg, m, ode, model_key: str, level: bool, climb_rate_mps: float
 
     Returns
     -------
-    LimitCycleProblem
+    OrbitProblem
     """
     guess = m.complete_state(cfg.solve.initial_guess, m.p0)
     if not level:

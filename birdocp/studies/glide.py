@@ -2,10 +2,14 @@
 at the gait's offsets, the model autonomous and its cycles steady glides.
 
 * :func:`frozen_config`: the configuration with every joint amplitude set to 0.
+* :func:`attached_config`: the frozen wing of the comparison with a vortex-lattice model
+  (:data:`ATTACHED_POSE`: the paper's mid-stroke pose with one degree less sweep-back), whose steady
+  glide is attached; the paper's own pose glides stalled (every section at about 36 deg).
 * :func:`steady_glide`: the steady glide (the engine's :func:`~birdocp.engine.equilibria.find_equilibrium`
   on the 8 states without the heading), its eigenvalues, the lateral (v, p, r, phi) block of the
   Jacobian and its modes (roll subsidence, spiral, Dutch roll), and the body-axis lateral
-  derivatives of the aerodynamic loads (Y, L, N by v, p, r) from CasADi's exact Jacobian.
+  derivatives of the aerodynamic loads (Y, L, N by v, p, r) from CasADi's exact Jacobian, and the
+  glide's verdict by the project's validity check (:func:`glide_validity`).
 * :func:`glide_geometry`: the frozen lifting line (nodes, element centres, chords, chord and span
   directions, in the code frame e1 right, e2 up, e3 back, from the centre of mass) with the glide's
   state, mass, inertia and air density: the input of an independent vortex-lattice model
@@ -24,15 +28,25 @@ import numpy as np
 from birdocp.bird.config import JOINT_NAMES, PARAM_NAMES, Config, param_vector, with_values
 from birdocp.bird.model import unpack_data
 from birdocp.bird.sixdof import LATERAL, STATE_NAMES, LateralInertia, body_loads, embed_planar_state, sixdof_model
+from birdocp.bird.validity import cycle_validity
 from birdocp.engine.equilibria import find_equilibrium
 from birdocp.engine.ode import ODE
 
-__all__ = ["frozen_config", "steady_glide", "glide_geometry", "lateral_glide_modes", "check_states",
+__all__ = ["ATTACHED_POSE", "attached_config", "frozen_config", "glide_validity", "steady_glide", "glide_geometry", "lateral_glide_modes", "check_states",
            "load_derivatives_at", "lateral_matrix_with"]
 
 SMALL_SECTION_ANGLE_DEG = 4.0
 """Section angle of attack of the diagnostic state of :func:`check_states` (small: where a section's
 lift linear in the angle and one linear in its sine agree)."""
+
+ATTACHED_POSE = {"gait.shoulder_sweep.offset_deg": -18.0}
+"""The frozen pose of the gliding-limit comparison: the paper's gait offsets (its mid-stroke pose)
+with the shoulder sweep at -18 deg instead of -19 deg. The tailless frozen wing trims where its force
+passes through the centre of mass, and that angle is steep in the sweep: -19 deg glides at 24.5 deg
+body angle of attack with every section near 36 deg (stalled: neither a lifting line nor a vortex
+lattice holds there), -18 deg at 0.2 deg with effective section angles of 8-14 deg (valid), -17.8 deg
+at -5.4 deg. At 0.2 deg the airflow runs along the body axis, so the lifting line's straight wake
+along the body axis is also the wake aligned with the wind."""
 
 GLIDE_STATES = tuple(range(8))
 """Indices of the glide's states: all but the heading psi (nothing depends on it)."""
@@ -52,6 +66,46 @@ def frozen_config(cfg: Config | None = None) -> Config:
     Config
     """
     return with_values(cfg or Config(), {f"gait.{j}.amplitude_deg": 0.0 for j in JOINT_NAMES})
+
+
+def attached_config(cfg: Config | None = None) -> Config:
+    """:func:`frozen_config` of ``cfg`` (default: the reference case) in :data:`ATTACHED_POSE`: the
+    frozen wing whose steady glide is attached (the configuration of ``results/lateral/glide``).
+
+    Parameters
+    ----------
+    cfg : Config, optional
+        Configuration (default: the reference case).
+
+    Returns
+    -------
+    Config
+        The frozen, attached-glide configuration.
+    """
+    return with_values(frozen_config(cfg), ATTACHED_POSE)
+
+
+def glide_validity(cfg: Config, state: dict) -> dict:
+    """The project's validity check of a steady glide: :func:`birdocp.bird.validity.cycle_validity`
+    of the constant cycle (``state``'s u, w, q, theta at 4 times of a period) of ``cfg``'s frozen wing.
+
+    Parameters
+    ----------
+    cfg : Config
+        The configuration (amplitudes set to 0 here; its ``[validity]`` thresholds).
+    state : dict
+        The glide's state, names as :func:`steady_glide`'s ``state`` (u_mps, w_mps, q_radps, theta_rad).
+
+    Returns
+    -------
+    dict
+        :meth:`~birdocp.bird.validity.CycleValidity.to_dict`: ``valid``, ``reasons`` and the measures
+        (effective section angles, airflow angle to the body axis, ...).
+    """
+    cfg = frozen_config(cfg)
+    x = [state["u_mps"], state["w_mps"], state["q_radps"], state["theta_rad"]]
+    t = np.arange(4) / (4.0 * cfg.gait.frequency_hz)
+    return cycle_validity(cfg, t, np.tile(x, (4, 1))).to_dict()
 
 
 def _glide_ode(six, p6) -> ODE:
@@ -113,7 +167,8 @@ def steady_glide(cfg: Config | None = None, inertia: LateralInertia | None = Non
         phi), the lateral modes of :func:`lateral_glide_modes` and ``derivatives`` (body-axis
         dY/dv [N s/m], dL/dp [N m s], ... of the aerodynamic loads: keys ``Y_v``, ``Y_p``, ``Y_r``,
         ``L_v``, ``L_p``, ``L_r``, ``N_v``, ``N_p``, ``N_r``) and ``section_angles_deg`` (the 16
-        elements' geometric angles of attack, left tip to right tip).
+        elements' geometric angles of attack, left tip to right tip), ``validity``
+        (:func:`glide_validity`).
     """
     cfg = frozen_config(cfg)
     six = sixdof_model(cfg)
@@ -132,6 +187,7 @@ def steady_glide(cfg: Config | None = None, inertia: LateralInertia | None = Non
            "eigenvalues": [[float(z.real), float(z.imag)] for z in eq.eigenvalues],
            "lateral_matrix": A.tolist(), "derivatives": _load_derivatives(six, x, p6),
            "section_angles_deg": _section_angles_deg(six, x, p6)}
+    out["validity"] = glide_validity(cfg, out["state"])
     out.update({k: v for k, v in lateral_glide_modes(A).items() if k != "eigenvalues"})
     out["lateral_eigenvalues"] = lateral_glide_modes(A)["eigenvalues"]
     return out
@@ -223,7 +279,8 @@ def glide_geometry(cfg: Config | None = None, glide: dict | None = None,
         (leading to trailing edge), ``span_directions``, ``lengths_m``; ``area_m2`` (sum of chord x
         length); ``glide_state`` (u, w [m/s], theta [rad]); ``mass_kg``, ``gravity_mps2``,
         ``roll_inertia_kgm2``, ``yaw_inertia_kgm2``, ``product_inertia_xz_kgm2``,
-        ``air_density_kgm3``, ``lift_slope_per_rad``; ``check_states`` (:func:`check_states`).
+        ``air_density_kgm3``, ``lift_slope_per_rad``; ``check_states`` (:func:`check_states`);
+        ``joint_offsets_deg`` (the frozen pose: every joint's offset) and ``validity`` (the glide's).
     """
     cfg = frozen_config(cfg)
     inertia = inertia or LateralInertia.of(cfg)
@@ -242,7 +299,9 @@ def glide_geometry(cfg: Config | None = None, glide: dict | None = None,
         "roll_inertia_kgm2": inertia.roll_inertia_kgm2, "yaw_inertia_kgm2": inertia.yaw_inertia_kgm2,
         "product_inertia_xz_kgm2": inertia.product_inertia_xz_kgm2,
         "air_density_kgm3": cfg.aero.air_density_kgm3, "lift_slope_per_rad": cfg.aero.lift_slope_per_rad,
-        "check_states": check_states(cfg, glide)}
+        "check_states": check_states(cfg, glide),
+        "joint_offsets_deg": {j: getattr(cfg.gait, j).offset_deg for j in JOINT_NAMES},
+        "validity": {k: glide["validity"][k] for k in ("valid", "reasons")}}
 
 
 def lateral_matrix_with(glide: dict, derivatives: dict, cfg: Config | None = None,

@@ -403,12 +403,12 @@ def check_physical(cycle: OrbitResult) -> OrbitResult:
 
     Parameters
     ----------
-    cycle : LimitCycleResult
+    cycle : OrbitResult
         Solved cycle, changed in place.
 
     Returns
     -------
-    LimitCycleResult
+    OrbitResult
         ``cycle``.
     """
     if cycle.success:

@@ -2,13 +2,20 @@
 OFFLINE, independent reference (AeroSandbox is not a dependency of birdocp; run this in its own
 environment: ``python -m venv /work/venvs/asb && /work/venvs/asb/bin/pip install aerosandbox``).
 
+    /work/venvs/asb/bin/python scripts/reference_aerosandbox/run_aerosandbox.py --planform step \\
+        --spacing uniform --spanwise 16 --out results/lateral/glide/aerosandbox.json
     /work/venvs/asb/bin/python scripts/reference_aerosandbox/run_aerosandbox.py \\
-        --geometry results/lateral/glide/geometry.json --out results/lateral/glide/aerosandbox.json
+        --out results/lateral/glide/aerosandbox_linear.json
 
-Input: the geometry JSON written by ``scripts/glide_comparison.py`` (birdocp's frozen lifting line,
-its glide state, mass, inertia, density). This script imports nothing of birdocp.
+Input: the geometry JSON written by ``scripts/glide_comparison.py`` (birdocp's frozen lifting line in
+its pose, the joint offsets, its glide state, mass, inertia, density). This script imports nothing of
+birdocp. The output records the SHA-256 of the geometry file and its joint offsets (the configuration
+that produced the numbers).
 
-Geometry: one symmetric ``asb.Wing`` whose cross-sections sit at the lifting line's nodes of the
+Geometry, ``--planform step`` (the model's own planform): one symmetric ``asb.Wing`` per right-wing
+element, two cross-sections on its end nodes with the element's chord and chord direction (constant
+chord; neighbouring wings meet at the nodes), uniform spanwise panels (``--spacing uniform``).
+Geometry, ``--planform linear``: one symmetric ``asb.Wing`` whose cross-sections sit at the lifting line's nodes of the
 right wing (the centre node to the tip), each with its quarter-chord point on the node, its chord the
 element chords interpolated to the node (the tip chord extrapolated linearly, clipped at 0) divided
 by the length of the chord direction's projection on the symmetry plane (a streamwise section with
@@ -31,6 +38,7 @@ along the body axis) and ``wind_aligned_wake`` (along the free stream).
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import time
 from pathlib import Path
@@ -74,11 +82,39 @@ def node_sections(geo: dict) -> list[dict]:
     return out
 
 
-def airplane(sections: list[dict]) -> asb.Airplane:
+def _section(quarter, d, c) -> dict:
+    """A cross-section with its quarter-chord point on ``quarter``, the streamwise chord of a chord
+    ``c`` along the direction ``d`` (geometry axes) and its twist [deg] (leading edge up positive)."""
+    d_xz = np.array([d[0], d[2]])
+    c_stream = c / (np.linalg.norm(d_xz) / np.linalg.norm(d))
+    twist_deg = float(np.degrees(np.arctan2(-d_xz[1], d_xz[0])))
+    t = np.radians(twist_deg)
+    le = quarter - 0.25 * c_stream * np.array([np.cos(t), 0.0, -np.sin(t)])
+    return {"xyz_le": le.tolist(), "chord": float(c_stream), "twist_deg": twist_deg, "node": quarter.tolist()}
+
+
+def step_sections(geo: dict) -> list[dict]:
+    """The model's stepped planform: every right-wing element a constant-chord strip (its own chord and
+    chord direction) between two cross-sections at its end nodes (pairs: element j is sections 2j, 2j+1)."""
+    nodes = [to_geometry_axes(n) for n in geo["nodes_m"]]
+    chords = np.asarray(geo["chords_m"])
+    dirs = [to_geometry_axes(c) for c in geo["chord_directions"]]
+    out = []
+    for j in range(len(chords) // 2, len(chords)):
+        out += [_section(q, dirs[j], chords[j]) for q in (nodes[j], nodes[j + 1])]
+    return out
+
+
+def airplane(sections: list[dict], planform: str = "linear") -> asb.Airplane:
+    """One symmetric wing through the sections (``linear``), or one symmetric wing per pair of sections
+    (``step``: every element its own constant-chord wing, joined to its neighbours at the nodes; at a
+    node the trailing legs of both sides' horseshoes meet, no panel spans the chord jump)."""
     foil = asb.Airfoil("naca0008")
-    wing = asb.Wing(name="ibis wing (frozen)", symmetric=True, xsecs=[
-        asb.WingXSec(xyz_le=s["xyz_le"], chord=s["chord"], twist=s["twist_deg"], airfoil=foil) for s in sections])
-    return asb.Airplane(name="ibis", xyz_ref=[0.0, 0.0, 0.0], wings=[wing])
+    groups = [sections] if planform == "linear" else [sections[i:i + 2] for i in range(0, len(sections), 2)]
+    wings = [asb.Wing(name=f"ibis wing (frozen) {i}", symmetric=True, xsecs=[
+        asb.WingXSec(xyz_le=s["xyz_le"], chord=s["chord"], twist=s["twist_deg"], airfoil=foil) for s in g])
+        for i, g in enumerate(groups)]
+    return asb.Airplane(name="ibis", xyz_ref=[0.0, 0.0, 0.0], wings=wings)
 
 
 def loads(plane, u, v, w, p, r, rho, resolution, wind_wake):
@@ -86,7 +122,8 @@ def loads(plane, u, v, w, p, r, rho, resolution, wind_wake):
     V = float(np.sqrt(u * u + v * v + w * w))
     op = asb.OperatingPoint(velocity=V, alpha=float(np.degrees(np.arctan2(w, u))),
                             beta=float(np.degrees(np.arcsin(v / V))), p=p, q=0.0, r=r)
-    vlm = asb.VortexLatticeMethod(airplane=plane, op_point=op, spanwise_resolution=resolution[0],
+    spacing = {"spanwise_spacing_function": np.linspace} if resolution[2] == "uniform" else {}
+    vlm = asb.VortexLatticeMethod(airplane=plane, op_point=op, spanwise_resolution=resolution[0], **spacing,
                                   chordwise_resolution=resolution[1], align_trailing_vortices_with_wind=wind_wake)
     out = vlm.run()
     scale = rho / float(op.atmosphere.density())
@@ -145,15 +182,25 @@ def main(argv=None) -> None:
     ap.add_argument("--out", default="results/lateral/glide/aerosandbox.json")
     ap.add_argument("--spanwise", type=int, default=4, help="VLM panels per node interval")
     ap.add_argument("--chordwise", type=int, default=8)
+    ap.add_argument("--planform", choices=("linear", "step"), default="linear",
+                    help="linear: chords interpolated between the nodes; step: the model's constant-chord elements")
+    ap.add_argument("--spacing", choices=("cosine", "uniform"), default="cosine",
+                    help="spanwise panel spacing in every section interval (AeroSandbox's default: cosine; the "
+                    "step planform needs uniform: cosine panels at a chord jump put collocation points a fraction "
+                    "of a millimetre from the neighbouring wing's trailing legs)")
     a = ap.parse_args(argv)
-    geo = json.loads(Path(a.geometry).read_text())
-    sections = node_sections(geo)
-    plane = airplane(sections)
-    res = (a.spanwise, a.chordwise)
+    text = Path(a.geometry).read_text()
+    geo = json.loads(text)
+    sections = node_sections(geo) if a.planform == "linear" else step_sections(geo)
+    plane = airplane(sections, a.planform)
+    res = (a.spanwise, a.chordwise, a.spacing)
     result = {"aerosandbox_version": asb.__version__, "method": "asb.VortexLatticeMethod",
-              "resolution": {"spanwise_per_section": a.spanwise, "chordwise": a.chordwise},
-              "steps": STEP, "sections": sections, "area_m2": float(plane.wings[0].area()),
-              "geometry_file": a.geometry, "glide_state": geo["glide_state"]}
+              "resolution": {"spanwise_per_section": a.spanwise, "chordwise": a.chordwise,
+                                                      "spanwise_spacing": a.spacing},
+              "planform": a.planform,
+              "steps": STEP, "sections": sections, "area_m2": float(sum(w.area() for w in plane.wings)),
+              "geometry_file": a.geometry, "geometry_sha256": hashlib.sha256(text.encode()).hexdigest(),
+              "joint_offsets_deg": geo.get("joint_offsets_deg"), "glide_state": geo["glide_state"]}
     for name, wind in (("body_axis_wake", False), ("wind_aligned_wake", True)):
         t0 = time.time()
         der, trim = derivatives(plane, geo, res, wind)
