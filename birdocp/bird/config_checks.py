@@ -312,14 +312,15 @@ def _validate_model(cfg: Any) -> None:
                                    "or model.degrees_of_freedom = 4")
 
 
-def require_body_states(cfg: Any, what: str) -> None:
+def require_body_states(cfg: Any, what: str, other: str = "") -> None:
     """Raise :class:`ConfigError` when ``cfg``'s model has aerodynamic states (``aero.unsteady =
     "wagner"`` or ``aero.section = "dynamic-stall"``) and ``what`` (a study) works on the 4 body
-    states only."""
+    states only; ``other``: the alternative that does work with them (named in the message)."""
     if cfg.aero.unsteady != "none" or cfg.aero.section == "dynamic-stall":
         raise ConfigError("aero.unsteady" if cfg.aero.unsteady != "none" else "aero.section",
-                          f"{what} works on the 4 body states only (no lag or separation states yet): use "
-                          "aero.unsteady = 'none' with aero.section = 'linear' or 'stall'")
+                          f"{what} works on the 4 body states only (no lag or separation states yet): "
+                          + (f"{other}, or " if other else "use ")
+                          + "aero.unsteady = 'none' with aero.section = 'linear' or 'stall'")
 
 
 def _validate_unsteady(cfg: Any) -> None:

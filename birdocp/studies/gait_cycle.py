@@ -32,7 +32,7 @@ from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, sug
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.floquet import sort_multipliers
 
-__all__ = ["ReducedLevelCycle", "Evaluation", "WarmStart", "jury_conditions", "check_free_bounds", "check_free_keys",
+__all__ = ["ReducedLevelCycle", "Evaluation", "WarmStart", "jury_conditions", "dominant_block", "jury_values", "check_free_bounds", "check_free_keys",
            "AMPLITUDE_KEY", "JURY_MARGIN", "POSITIVE_EPS_W"]
 
 from birdocp.bird.keys import AMPLITUDE_KEY, JURY_MARGIN  # noqa: E402 (one definition of each)
@@ -99,6 +99,65 @@ def jury_function():
     M, r = ca.SX.sym("M", 4, 4), ca.SX.sym("r")
     j = jury_conditions(M / r)
     return ca.Function("jury", [M, r], [j, ca.jacobian(j, ca.vertcat(ca.vec(M), r))])
+
+
+def _real_basis(vectors, values, columns: bool = True):
+    """A real basis (columns, or rows with ``columns=False``) of the span of complex eigenvectors
+    closed under conjugation: a real eigenvalue's real part, a pair's real and imaginary parts."""
+    out = []
+    for k, lam in enumerate(values):
+        v = vectors[:, k] if columns else vectors[k]
+        if abs(lam.imag) <= 1e-12 * max(abs(lam), 1.0):
+            out.append(np.real(v))
+        elif lam.imag > 0:
+            out += [np.real(v), np.imag(v)]
+    return np.column_stack(out) if columns else np.vstack(out)
+
+
+def dominant_block(M, k: int = 4):
+    """``(B, P, V)`` with ``B = P M V`` (k x k, real) holding the dominant multipliers of the n x n
+    monodromy ``M``: the m <= k largest-modulus eigenvalues, m where the modulus drops most (largest
+    ratio |lambda_m| / |lambda_m+1|, never inside a conjugate pair), padded with zeros to k x k. V spans
+    their right invariant subspace, P their left one with ``P V = I``. A perturbation dM moves them, to
+    first order, as the eigenvalues of ``B + P dM V`` (the coupling to the other eigenvalues enters at
+    second order), so a stability constraint on B has exact first derivatives. For n = k:
+    ``(M, None, None)``. With aerodynamic states the other multipliers are the lag and separation
+    modes and the body mode they damp, all far inside the dominant ones (measured on the ibis: 1.42,
+    0.87, 0.87, then 0.15 and below). RuntimeError when no m <= k separates (equal moduli)."""
+    M = np.asarray(M, float)
+    n = M.shape[0]
+    if n == k:
+        return M, None, None
+    lam, Vc = np.linalg.eig(M)
+    order = np.argsort(-np.abs(lam), kind="stable")
+    mod = np.abs(lam[order])
+    ratios = [mod[m - 1] / max(mod[m], 1e-300) for m in range(1, k + 1)]
+    m = int(np.argmax(ratios)) + 1
+    if not ratios[m - 1] > 1.0 + 1e-9:
+        raise RuntimeError(f"no dominant multipliers: the {k + 1} largest have the same modulus {mod[0]:.6g}")
+    sel = order[:m]
+    V = _real_basis(Vc[:, sel], lam[sel])
+    U = _real_basis(np.linalg.inv(Vc)[sel], lam[sel], columns=False)  # rows: the left eigenvectors
+    P = np.linalg.solve(U @ V, U)
+    P, V = np.vstack([P, np.zeros((k - m, n))]), np.hstack([V, np.zeros((n, k - m))])
+    return P @ M @ V, P, V
+
+
+def jury_values(jury, M, r, d_monodromy=None):
+    """``(values (5,), d values / d theta (5 x n_theta) or None, d values / d r (5,))`` of the Jury
+    conditions of ``B / r``, B the :func:`dominant_block` of the monodromy ``M`` (M itself for the 4
+    body states). ``jury``: :func:`jury_function`'s Function; ``d_monodromy``: dM/dtheta (column-major
+    vec, n^2 x n_theta). The radius constrained is therefore the spectral radius of the full
+    monodromy as long as the other multipliers (aerodynamic modes) stay inside the 4 dominant ones."""
+    B, P, V = dominant_block(M)
+    jv, jj = (np.asarray(v) for v in jury(ca.DM(B), r))
+    dB = d_monodromy
+    if d_monodromy is not None and P is not None:
+        n = M.shape[0]
+        dM = np.asarray(d_monodromy, float)
+        dB = np.column_stack([(P @ dM[:, c].reshape(n, n, order="F") @ V).ravel(order="F")
+                              for c in range(dM.shape[1])])
+    return jv.ravel(), (None if dB is None else jj[:, :16] @ dB), jj[:, 16]
 
 
 @dataclass(frozen=True)
@@ -168,7 +227,7 @@ def _graphs(m, cfg: Config, N: int, vidx: tuple, nt: int, second: bool, valid: b
         return hit
     nv = len(vidx)
     pf = power_functions(m)
-    x, d, p = ca.SX.sym("x", 4), ca.SX.sym("d", m.ode.nd), ca.SX.sym("p", len(PARAM_NAMES))
+    x, d, p = ca.SX.sym("x", m.ode.nx), ca.SX.sym("d", m.ode.nd), ca.SX.sym("p", len(PARAM_NAMES))
     pw = pf.power(x, d, p)
     Pf = pw[1]  # the shoulder power: flapping (aerodynamic) + the wings' inertial part if any
     if "shoulder_inertial_power_W" in pf.names:
@@ -178,7 +237,7 @@ def _graphs(m, cfg: Config, N: int, vidx: tuple, nt: int, second: bool, valid: b
     if valid:  # the smooth validity integrands, on the same RK4 stages (bird.validity_smooth)
         from birdocp.bird.validity_smooth import integrand_names, smooth_integrands
 
-        out = ca.vertcat(out, smooth_integrands(cfg, m.ode.nd)(x, d, p))
+        out = ca.vertcat(out, smooth_integrands(cfg, m.ode.nd, m.model)(x, d, p))
         out_names = _OUT + integrand_names()
     outputs = ca.Function("gait_outputs", [x, d, p], [out])
     grid = RK4Grid(m.ode, N, 1, outputs=(outputs,))
@@ -238,11 +297,12 @@ class ReducedLevelCycle:
         self.valid = bool(valid)
         self.second = bool(second_order)
         self.K = 2 * N + 1
+        self.nx = nx = m.ode.nx  # the full state: body (4) and aerodynamic states, if any
         g = _graphs(m, cfg, N, tuple(self.vidx), self.nt, self.second, self.valid)
         self.out_names, self.outputs, self.grid, self.sens = g["out_names"], g["outputs"], g["grid"], g["sens"]
         self.sens2, self.sens_mono, self._data = g["sens2"], g["sens_mono"], g["data"]
         self.times, self.local, self._seeds = g["times"], g["local"], g["seeds"]
-        self._y = np.concatenate([np.asarray(cfg.solve.initial_guess, float),
+        self._y = np.concatenate([m.complete_state(cfg.solve.initial_guess, self.p0),
                                   [float(amplitude_start_deg if amplitude_start_deg is not None
                                          else self.p0[self.ia])]])
         self._theta = None
@@ -268,27 +328,29 @@ class ReducedLevelCycle:
 
     def residual(self, y, theta):
         """(R, means): the level-cycle residual (x_T - x0, mean W - climb) and the period means."""
-        p = self.pfull(theta, y[4])
-        xT, _, q = self.grid.period_map(ca.DM(y[:4]), self._D(p), ca.DM(p))
+        p = self.pfull(theta, y[self.nx])
+        nx = self.nx
+        xT, _, q = self.grid.period_map(ca.DM(y[:nx]), self._D(p), ca.DM(p))
         with self._count_lock:
             self.n_resid += 1
         means = np.asarray(q).ravel() / self.T
-        return np.concatenate([np.asarray(xT).ravel() - y[:4], [means[0] - self.climb]]), means
+        return np.concatenate([np.asarray(xT).ravel() - y[:nx], [means[0] - self.climb]]), means
 
     def _full(self, y, theta):
         """First-order sensitivities at (y, theta): R, R_y, R_theta, the means' partials, and the
         data (D, directions, p) for a second-order pass."""
         with self._count_lock:
             self.n_full += 1
-        p = self.pfull(theta, y[4])
+        nx = self.nx
+        p = self.pfull(theta, y[nx])
         D, cols = self._data(ca.DM(p))
-        s = self.sens(y[:4], D, p, dp=self._seeds, columns=cols)
+        s = self.sens(y[:nx], D, p, dp=self._seeds, columns=cols)
         T, nt = self.T, self.nt
-        cy = list(range(4)) + [4 + nt]          # columns of y = (x0, A)
-        ct = list(range(4, 4 + nt))             # columns of theta
+        cy = list(range(nx)) + [nx + nt]        # columns of y = (x0, A)
+        ct = list(range(nx, nx + nt))           # columns of theta
         J, Jq = s["J"], s["Jq"] / T
-        R = np.concatenate([s["x_T"] - y[:4], [s["q"][0] / T - self.climb]])
-        Ry = np.vstack([J[:, cy] - np.eye(5)[:4], Jq[0, cy]])
+        R = np.concatenate([s["x_T"] - y[:nx], [s["q"][0] / T - self.climb]])
+        Ry = np.vstack([J[:, cy] - np.eye(nx + 1)[:nx], Jq[0, cy]])
         Rt = np.vstack([J[:, ct], Jq[0, ct]])
         return s, R, Ry, Rt, Jq, cy, ct, (D, cols, p)
 
@@ -308,8 +370,9 @@ class ReducedLevelCycle:
         self._dy = None if start.dy is None else np.array(start.dy, float)
 
     def set_guess(self, x0) -> None:
-        """Start the first Newton solve from the state ``x0`` (at the configured amplitude)."""
-        self._y[:4] = np.asarray(x0, float)
+        """Start the first Newton solve from the state ``x0`` (at the configured amplitude; a body
+        state of 4 numbers gets its aerodynamic states on the quasi-steady manifold)."""
+        self._y[:self.nx] = self.m.complete_state(x0, self.p0)
         self._started = True
 
     def _first_guess(self, theta):
@@ -319,7 +382,7 @@ class ReducedLevelCycle:
         y = self._y.copy()
         tr = trim(with_values(self.cfg, dict(zip(self.keys, map(float, theta)))), steps_per_period=self.N)
         if tr.success:
-            y[:4] = tr.x0
+            y[:self.nx] = tr.x0
         return y
 
     def evaluate(self, theta, grads: bool = True, tol: float = 1e-10, max_newton: int = 12) -> Evaluation:
@@ -372,11 +435,12 @@ class ReducedLevelCycle:
         except np.linalg.LinAlgError:
             raise RuntimeError("singular level-cycle Jacobian (a fold of cycles)") from None
         ev.grads = {n: Jq[i, ct] + Jq[i, cy] @ dy for i, n in enumerate(self.out_names)}
-        ev.grads["amplitude_deg"] = dy[4]
-        ev.monodromy = np.asarray(s["J"][:, :4])
-        if self.second:  # along theta_c with x0 and A following: dy[:4, c], dy[4, c]
-            W = np.vstack([np.eye(self.nt), dy[4]])
-            s2 = self.sens2(ev.x0, D, p, dp=self._seeds, columns=cols, W=W, dx0=dy[:4])
+        nx = self.nx
+        ev.grads["amplitude_deg"] = dy[nx]
+        ev.monodromy = np.asarray(s["J"][:, :nx])
+        if self.second:  # along theta_c with x0 and A following: dy[:nx, c], dy[nx, c]
+            W = np.vstack([np.eye(self.nt), dy[nx]])
+            s2 = self.sens2(ev.x0, D, p, dp=self._seeds, columns=cols, W=W, dx0=dy[:nx])
             ev.d_monodromy, ev.monodromy = s2["dMon"], np.asarray(s2["Mon"])
         ev.dy, ev.Ry = dy, Ry
 
@@ -421,8 +485,8 @@ class ReducedLevelCycle:
         last, first = np.inf, np.max(np.abs(R))
         while True:
             res = float(np.max(np.abs(R)))
-            if not (math.isfinite(res) and np.all(np.isfinite(y))) or not lo <= y[4] <= hi:
-                raise RuntimeError(f"Newton left the level cycles (residual {res:.2e}, amplitude {y[4]:.4g} deg)")
+            if not (math.isfinite(res) and np.all(np.isfinite(y))) or not lo <= y[self.nx] <= hi:
+                raise RuntimeError(f"Newton left the level cycles (residual {res:.2e}, amplitude {y[self.nx]:.4g} deg)")
             if res <= tol:
                 break
             if it >= max_newton or res > 1e3 * max(first, 1e-6):
@@ -438,7 +502,7 @@ class ReducedLevelCycle:
                 raise RuntimeError("singular level-cycle Jacobian (a fold of cycles)") from None
             it += 1
             R, means = self.residual(y, theta)
-        return Evaluation(theta.copy(), y[:4].copy(), float(y[4]), dict(zip(self.out_names, means.tolist())), None,
+        return Evaluation(theta.copy(), y[:self.nx].copy(), float(y[self.nx]), dict(zip(self.out_names, means.tolist())), None,
                           None, None, res, it)
 
     def solve_speed(self, speed_mps: float, theta, k: int = 0, bounds=None, tol: float = 1e-9,

@@ -40,7 +40,7 @@ from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.engine.oracle import ConstraintOracle, ipopt_options
 from birdocp.engine.results import result_dict, serial
 from birdocp.io.progress import text_reporter
-from birdocp.studies.gait_cycle import check_free_keys, jury_conditions  # noqa: F401 (public here too)
+from birdocp.studies.gait_cycle import check_free_keys, jury_conditions, jury_function, jury_values  # noqa: F401
 from birdocp.studies.gait_validity import WARM_IPOPT
 
 __all__ = ["DEFAULT_FREE", "METHODS", "check_free_keys", "optimize_stability", "StabilityOptimum", "jury_conditions"]
@@ -309,7 +309,6 @@ def _optimize_reduced(cfg, free, climb_rate_mps, amplitude_bounds, steps_per_per
     from birdocp.bird.model import get_model
 
     cfg = cfg or Config()
-    require_body_states(cfg, "this gait study")
     free = dict(DEFAULT_FREE if free is None else free)
     check_free_keys(get_model(cfg), cfg, free)
     t_start = time.perf_counter()
@@ -421,7 +420,10 @@ def _verify(out: StabilityOptimum, cfg: Config, N: int, jury=None) -> None:
     dist = lambda a, b: float(np.max(matched_distances(a, b)))
     lam = np.asarray(out.multipliers)
     if jury is None and check.success and check.monodromy is not None:
-        jury = np.asarray(ca.DM(jury_conditions(ca.DM(np.asarray(check.monodromy)) / out.radius))).ravel()
+        try:  # of the 4 dominant multipliers (the body modes; the aerodynamic ones lie far inside)
+            jury = jury_values(jury_function(), np.asarray(check.monodromy), out.radius)[0]
+        except RuntimeError:
+            jury = None
     out.verification = {
         "trim_success": bool(check.success),
         "trim_multipliers": pairs(check.multipliers) if check.success else None,
@@ -483,7 +485,7 @@ def _optimize_full(cfg: Config | None = None, free: dict | None = None, *, climb
     from birdocp.bird.model import get_model
 
     cfg = cfg or Config()
-    require_body_states(cfg, "this gait study")
+    require_body_states(cfg, "the full-space method", "use the reduced method (drop --method full)")
     free = dict(DEFAULT_FREE if free is None else free)
     t_start = time.perf_counter()
     m = get_model(cfg)
