@@ -34,6 +34,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import require_body_states, PARAM_NAMES, Config, ConfigError, with_values
+from birdocp.bird.config_checks import has_aero_states
 from birdocp.bird.validity import invalid, periodic_validity
 from birdocp.engine import interrupts
 from birdocp.engine.floquet import matched_distances, sort_multipliers
@@ -234,7 +235,8 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     single-shooting NLP (state, parameters, amplitude and r as unknowns; quasi-Newton).
 
     With ``coarse_steps`` (default ``"auto"``: :data:`COARSE_STEPS` of the method, 32 RK4 steps per
-    period for the reduced method, 48 for the full one; None: no coarse stage) the optimum is first
+    period for the reduced method, 48 for the full one, and none with aerodynamic states, whose lag
+    needs the fine grid; None: no coarse stage) the optimum is first
     found on that coarse grid and then refined on the full grid (``steps_per_period``, default
     ``cfg.solve.steps_per_period``) from the coarse optimum; ``max_iter`` counts per stage. The answer
     is verified independently: numpy eigenvalues of the monodromy, a multiple-shooting trim from the
@@ -242,6 +244,12 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
 
     ``progress``: False (silent), True (one line per evaluation on stderr) or a callable taking that
     line's text (e.g. from :func:`birdocp.io.progress.progress_callback`).
+
+    With aerodynamic states (``aero.unsteady = "wagner"``, ``aero.section = "dynamic-stall"``; reduced
+    method only) the cycle's state is the full state and r bounds the spectral radius of the full
+    monodromy: the Jury conditions hold on its dominant block
+    (:func:`birdocp.studies.gait_cycle.dominant_block`; the lag and separation multipliers lie far
+    inside, |.| <= 0.15 on the ibis).
 
     ``valid``: the limits of ``cfg.validity`` are smooth constraints in every stage (reduced method
     only; :func:`birdocp.studies.gait.optimize_gait`'s ``valid``); the result carries
@@ -283,8 +291,8 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
         verification, the optimum's validity and, with ``valid``, ``validity_constraints``.
     """
     _check_options(method, threads, valid)
-    if coarse_steps == "auto":
-        coarse_steps = COARSE_STEPS[method]
+    if coarse_steps == "auto":  # none with aerodynamic states: their lag diverges on RK4 grids of 32 steps
+        coarse_steps = None if has_aero_states(cfg or Config()) else COARSE_STEPS[method]
     if method == "full":
         return _optimize_full(cfg, free, climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
                               steps_per_period=steps_per_period, max_iter=max_iter, tol=tol, verify=verify,
