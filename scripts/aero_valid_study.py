@@ -85,19 +85,38 @@ def optimize_case(gait: str, name: str, steps: int, max_iter: int) -> dict:
             "wall_s": time.perf_counter() - t0}
 
 
+def fine_grid_trim(row: dict) -> dict:
+    """A trim at the optimum's gait and amplitude on the configured grid (148 steps per period), from
+    the optimum's state: how far the optimiser's grid moves |Lambda1|."""
+    from birdocp.bird.config import Config, with_values
+    from birdocp.studies.trim import trim
+
+    o = row["optimum"]
+    cfg = with_values(Config(), row["overrides"] | o["free"] | {"gait.shoulder_flap.amplitude_deg": o["amplitude_deg"]})
+    tr = trim(cfg, x_guess=o["x0"])
+    return {"steps_per_period": cfg.solve.steps_per_period, "success": bool(tr.success),
+            "lambda1": float(abs(tr.multipliers[0])) if tr.success else None,
+            "mean_vertical_speed_mps": float(tr.mean_vertical_speed_mps) if tr.success else None,
+            "mean_forward_speed_mps": float(tr.mean_forward_speed_mps) if tr.success else None,
+            "valid": bool(tr.validity.valid) if tr.success and tr.validity is not None else None}
+
+
 def optimized_table(rows: list[dict]) -> str:
     """Markdown table of the ``--optimize`` rows."""
     lines = ["| problem | model | steps | status | r* (quasi-steady r*) | \\|Λ5\\| | KKT | valid | "
-             "active limits | free keys at a bound | re-trim \\|ΔΛ\\| |", "|" + "---|" * 11]
+             "active limits | free keys at a bound | re-trim \\|ΔΛ\\| | \\|Λ1\\| on 148 steps (W m/s) |",
+             "|" + "---|" * 12]
     for r in rows:
         o = r["optimum"]
         lam = sorted((abs(complex(*z)) for z in (o.get("multipliers") or [])), reverse=True)
         v = (o.get("verification") or {}).get("max_multiplier_difference")
+        fine = r.get("fine_grid_trim") or {}
         lines.append(f"| {r['gait']} | {r['case']} | {r['steps_per_period']} | {o.get('status')} | "
                      f"{_f(o.get('objective_value'))} ({_f(r.get('quasi_steady_radius'))}) | "
                      f"{_f(lam[4] if len(lam) > 4 else None)} | {_f(o.get('kkt_residual'), '{:.1e}')} | "
                      f"{(o.get('validity') or {}).get('valid')} | {', '.join(r['active_limits']) or '—'} | "
-                     f"{', '.join(k.split('.', 1)[1] for k in r['active_bounds']) or '—'} | {_f(v, '{:.1e}')} |")
+                     f"{', '.join(k.split('.', 1)[1] for k in r['active_bounds']) or '—'} | {_f(v, '{:.1e}')} | "
+                     f"{_f(fine.get('lambda1'))} ({_f(fine.get('mean_vertical_speed_mps'), '{:+.3f}')}) |")
     return "\n".join(lines) + "\n"
 
 
@@ -112,7 +131,10 @@ def optimize_all(args, out: Path) -> int:
             if not path.exists():
                 print(f"optimize {gait} {name} ...", flush=True)
                 atomic_write_json(path, optimize_case(gait, name, args.steps, args.max_iter))
-            rows.append(json.loads(path.read_text()))
+            row = json.loads(path.read_text())
+            if "fine_grid_trim" not in row and row["optimum"].get("x0"):
+                row["fine_grid_trim"] = fine_grid_trim(row)
+                atomic_write_json(path, row)
     rows = [json.loads(p.read_text()) for p in sorted((out / "cases").glob("opt_*.json"))]
     atomic_write_json(out / "optimized.json", {"rows": rows})
     atomic_write_text(out / "optimized.md", optimized_table(rows))

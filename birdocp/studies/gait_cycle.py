@@ -297,7 +297,7 @@ class ReducedLevelCycle:
         self.valid = bool(valid)
         self.second = bool(second_order)
         self.K = 2 * N + 1
-        self.nx = nx = m.ode.nx  # the full state: body (4) and aerodynamic states, if any
+        self.nx = m.ode.nx  # the full state: body (4) and aerodynamic states, if any
         g = _graphs(m, cfg, N, tuple(self.vidx), self.nt, self.second, self.valid)
         self.out_names, self.outputs, self.grid, self.sens = g["out_names"], g["outputs"], g["grid"], g["sens"]
         self.sens2, self.sens_mono, self._data = g["sens2"], g["sens_mono"], g["data"]
