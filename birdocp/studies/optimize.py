@@ -235,8 +235,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     single-shooting NLP (state, parameters, amplitude and r as unknowns; quasi-Newton).
 
     With ``coarse_steps`` (default ``"auto"``: :data:`COARSE_STEPS` of the method, 32 RK4 steps per
-    period for the reduced method, 48 for the full one, and none with aerodynamic states, whose lag
-    needs the fine grid; None: no coarse stage) the optimum is first
+    period for the reduced method, 48 for the full one, none with aerodynamic states; None: no coarse stage) the optimum is first
     found on that coarse grid and then refined on the full grid (``steps_per_period``, default
     ``cfg.solve.steps_per_period``) from the coarse optimum; ``max_iter`` counts per stage. The answer
     is verified independently: numpy eigenvalues of the monodromy, a multiple-shooting trim from the
@@ -245,11 +244,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     ``progress``: False (silent), True (one line per evaluation on stderr) or a callable taking that
     line's text (e.g. from :func:`birdocp.io.progress.progress_callback`).
 
-    With aerodynamic states (``aero.unsteady = "wagner"``, ``aero.section = "dynamic-stall"``; reduced
-    method only) the cycle's state is the full state and r bounds the spectral radius of the full
-    monodromy: the Jury conditions hold on its dominant block
-    (:func:`birdocp.studies.gait_cycle.dominant_block`; the lag and separation multipliers lie far
-    inside, |.| <= 0.15 on the ibis).
+    Aerodynamic states (reduced method): r bounds the full monodromy's spectral radius (its dominant block).
 
     ``valid``: the limits of ``cfg.validity`` are smooth constraints in every stage (reduced method
     only; :func:`birdocp.studies.gait.optimize_gait`'s ``valid``); the result carries
