@@ -139,3 +139,15 @@ def test_cli_trim_compiled_with_wagner(tmp_path, capsys, monkeypatch):
     b = json.loads(capsys.readouterr().out)
     assert len(a["multipliers"]) == 36
     assert np.max(np.abs(np.array(a["multipliers"]) - np.array(b["multipliers"]))) < 1e-10
+
+
+@pytest.mark.slow
+def test_power_curve_with_wagner():
+    """The power curve's level cycles at a held speed are over the full 36-state model."""
+    from birdocp.bird.config import Config, with_values
+    from birdocp.studies.power_curves import power_curve
+
+    cfg = with_values(Config(), {"aero.unsteady": "wagner"})
+    row = power_curve(cfg, speeds=[17.0], steps_per_period=48)["rows"][0]
+    assert abs(row["mean_forward_speed_mps"] - 17.0) < 1e-6 and len(row["x0"]) == 36
+    assert 20.0 < row["amplitude_deg"] < 70.0
