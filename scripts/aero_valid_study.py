@@ -86,25 +86,26 @@ def optimize_case(gait: str, name: str, steps: int, max_iter: int) -> dict:
 
 
 def fine_grid_trim(row: dict) -> dict:
-    """A trim at the optimum's gait and amplitude on the configured grid (148 steps per period), from
-    the optimum's state: how far the optimiser's grid moves |Lambda1|."""
+    """Level flight at the optimum's gait on the configured grid (148 steps per period; the amplitude
+    solved, from the optimum's state): how far the optimiser's grid moves |Lambda1|."""
     from birdocp.bird.config import Config, with_values
-    from birdocp.studies.trim import trim
+    from birdocp.studies.level import level
 
     o = row["optimum"]
     cfg = with_values(Config(), row["overrides"] | o["free"] | {"gait.shoulder_flap.amplitude_deg": o["amplitude_deg"]})
-    tr = trim(cfg, x_guess=o["x0"])
-    return {"steps_per_period": cfg.solve.steps_per_period, "success": bool(tr.success),
-            "lambda1": float(abs(tr.multipliers[0])) if tr.success else None,
-            "mean_vertical_speed_mps": float(tr.mean_vertical_speed_mps) if tr.success else None,
-            "mean_forward_speed_mps": float(tr.mean_forward_speed_mps) if tr.success else None,
-            "valid": bool(tr.validity.valid) if tr.success and tr.validity is not None else None}
+    lv = level(cfg, x_guess=o["x0"])
+    ok = bool(lv.success)
+    return {"steps_per_period": cfg.solve.steps_per_period, "success": ok,
+            "lambda1": float(abs(lv.multipliers[0])) if ok else None,
+            "amplitude_deg": float(lv.amplitude_deg) if ok else None,
+            "mean_forward_speed_mps": float(lv.mean_forward_speed_mps) if ok else None,
+            "valid": bool(lv.validity.valid) if ok else None}
 
 
 def optimized_table(rows: list[dict]) -> str:
     """Markdown table of the ``--optimize`` rows."""
-    lines = ["| problem | model | steps | status | r* (quasi-steady r*) | \\|Λ5\\| | KKT | valid | "
-             "active limits | free keys at a bound | re-trim \\|ΔΛ\\| | \\|Λ1\\| on 148 steps (W m/s) |",
+    lines = ["| problem | model | steps | status | r / \\|Λ1\\| (quasi-steady r*) | \\|Λ5\\| | KKT | valid | "
+             "active limits | free keys at a bound | re-trim \\|ΔΛ\\| | level on 148 steps: \\|Λ1\\| (U m/s) |",
              "|" + "---|" * 12]
     for r in rows:
         o = r["optimum"]
@@ -112,11 +113,11 @@ def optimized_table(rows: list[dict]) -> str:
         v = (o.get("verification") or {}).get("max_multiplier_difference")
         fine = r.get("fine_grid_trim") or {}
         lines.append(f"| {r['gait']} | {r['case']} | {r['steps_per_period']} | {o.get('status')} | "
-                     f"{_f(o.get('objective_value'))} ({_f(r.get('quasi_steady_radius'))}) | "
+                     f"{_f(o.get('objective_value'))} / {_f(o.get('largest_modulus'))} ({_f(r.get('quasi_steady_radius'))}) | "
                      f"{_f(lam[4] if len(lam) > 4 else None)} | {_f(o.get('kkt_residual'), '{:.1e}')} | "
                      f"{(o.get('validity') or {}).get('valid')} | {', '.join(r['active_limits']) or '—'} | "
                      f"{', '.join(k.split('.', 1)[1] for k in r['active_bounds']) or '—'} | {_f(v, '{:.1e}')} | "
-                     f"{_f(fine.get('lambda1'))} ({_f(fine.get('mean_vertical_speed_mps'), '{:+.3f}')}) |")
+                     f"{_f(fine.get('lambda1'))} ({_f(fine.get('mean_forward_speed_mps'), '{:.2f}')}) |")
     return "\n".join(lines) + "\n"
 
 
