@@ -13,6 +13,16 @@ largest |alpha_E|, the stalled and separated fractions and the validity of every
 
 Writes DIR/cases/<gait>_<case>.json as each case finishes (a rerun skips finished cases), then
 DIR/table.json and DIR/table.md.
+
+With ``--optimize``: the validity-constrained most stable level gait *optimised with the full model*
+(``optimize_gait(objective="stability", valid=True)``, the reduced NLP over the full state, body +
+aerodynamic; the radius constrained is the spectral radius of the full monodromy through its dominant
+block) for each ``--gaits`` of :data:`PROBLEMS` (speed free, 18.53 m/s, tail opening + incidence free)
+and each ``--cases`` model, started from the quasi-steady optimum's gait on ``--steps`` RK4 steps per
+period (default 48: the wagner trim diverges at 32). Writes DIR/cases/opt_<gait>_<case>.json as each
+finishes, then DIR/optimized.json and DIR/optimized.md (r*, KKT residual, validity, active limits).
+
+    python scripts/aero_valid_study.py --optimize --cases wagner --out results/aero/valid
 """
 from __future__ import annotations
 
@@ -35,6 +45,102 @@ CASES = {
 }
 """Configuration overrides of each aerodynamic model."""
 GAITS = ("free_speed", "at_speed")
+TAIL_OPTIMUM = ROOT / "results" / "tail" / "optimum_valid.json"
+PROBLEMS = {"free_speed": {"speed_mps": None, "tail": False}, "at_speed": {"speed_mps": 18.53, "tail": False},
+            "tail": {"speed_mps": None, "tail": True}}
+"""The optimisation problems of ``--optimize``: the speed held (None: free) and whether the tail is
+open (its opening angle and incidence free, as scripts/tail_study.py)."""
+
+
+def quasi_steady_optimum(gait: str) -> dict:
+    """The committed quasi-steady validity-constrained optimum of a problem of :data:`PROBLEMS`."""
+    if PROBLEMS[gait]["tail"]:
+        d = json.loads(TAIL_OPTIMUM.read_text())
+        return d | {"bounds": d["free_bounds"]}
+    return json.loads(OPTIMA.read_text())[gait]
+
+
+def optimize_case(gait: str, name: str, steps: int, max_iter: int) -> dict:
+    """The most stable valid level gait of problem ``gait`` with model ``name``, from the quasi-steady
+    optimum (its gait, amplitude and body state); the optimum's summary."""
+    from birdocp.bird.config import Config, with_values
+    from birdocp.studies.gait import optimize_gait
+
+    qs = quasi_steady_optimum(gait)
+    tail = {"tail.enabled": True} if PROBLEMS[gait]["tail"] else {}
+    cfg = with_values(Config(), tail | CASES[name])
+    free = {k: tuple(v) for k, v in qs["bounds"].items()}
+    t0 = time.perf_counter()
+    o = optimize_gait(cfg, free, objective="stability", speed_mps=PROBLEMS[gait]["speed_mps"], valid=True,
+                      steps_per_period=steps, start=gait_values(qs), x_guess=qs["x0"][:4], max_iter=max_iter)
+    d = json.loads(json.dumps(o.to_dict(), default=str))
+    keep = ("success", "status", "message", "iterations", "objective_value", "largest_modulus", "free",
+            "amplitude_deg", "multipliers", "kkt_residual", "constraint_violation", "validity",
+            "validity_constraints", "mean_forward_speed_mps", "verification", "wall_s", "x0")
+    return {"gait": gait, "case": name, "steps_per_period": steps, "quasi_steady_radius": qs.get("radius"),
+            "overrides": tail | CASES[name], "optimum": {k: d.get(k) for k in keep},
+            "active_limits": [k for k, c in (d.get("validity_constraints") or {}).items() if c.get("active")],
+            "active_bounds": [k for k, v in (d.get("free") or {}).items()
+                              if min(abs(v - free[k][0]), abs(v - free[k][1])) < 1e-4],
+            "wall_s": time.perf_counter() - t0}
+
+
+def fine_grid_trim(row: dict) -> dict:
+    """Level flight at the optimum's gait on the configured grid (148 steps per period; the amplitude
+    solved, from the optimum's state): how far the optimiser's grid moves |Lambda1|."""
+    from birdocp.bird.config import Config, with_values
+    from birdocp.studies.level import level
+
+    o = row["optimum"]
+    cfg = with_values(Config(), row["overrides"] | o["free"] | {"gait.shoulder_flap.amplitude_deg": o["amplitude_deg"]})
+    lv = level(cfg, x_guess=o["x0"])
+    ok = bool(lv.success)
+    return {"steps_per_period": cfg.solve.steps_per_period, "success": ok,
+            "lambda1": float(abs(lv.multipliers[0])) if ok else None,
+            "amplitude_deg": float(lv.amplitude_deg) if ok else None,
+            "mean_forward_speed_mps": float(lv.mean_forward_speed_mps) if ok else None,
+            "valid": bool(lv.validity.valid) if ok else None}
+
+
+def optimized_table(rows: list[dict]) -> str:
+    """Markdown table of the ``--optimize`` rows."""
+    lines = ["| problem | model | steps | status | r / \\|Λ1\\| (quasi-steady r*) | \\|Λ5\\| | KKT | valid | "
+             "active limits | free keys at a bound | re-trim \\|ΔΛ\\| | level on 148 steps: \\|Λ1\\| (U m/s) |",
+             "|" + "---|" * 12]
+    for r in rows:
+        o = r["optimum"]
+        lam = sorted((abs(complex(*z)) for z in (o.get("multipliers") or [])), reverse=True)
+        v = (o.get("verification") or {}).get("max_multiplier_difference")
+        fine = r.get("fine_grid_trim") or {}
+        lines.append(f"| {r['gait']} | {r['case']} | {r['steps_per_period']} | {o.get('status')} | "
+                     f"{_f(o.get('objective_value'))} / {_f(o.get('largest_modulus'))} ({_f(r.get('quasi_steady_radius'))}) | "
+                     f"{_f(lam[4] if len(lam) > 4 else None)} | {_f(o.get('kkt_residual'), '{:.1e}')} | "
+                     f"{(o.get('validity') or {}).get('valid')} | {', '.join(r['active_limits']) or '—'} | "
+                     f"{', '.join(k.split('.', 1)[1] for k in r['active_bounds']) or '—'} | {_f(v, '{:.1e}')} | "
+                     f"{_f(fine.get('lambda1'))} ({_f(fine.get('mean_forward_speed_mps'), '{:.2f}')}) |")
+    return "\n".join(lines) + "\n"
+
+
+def optimize_all(args, out: Path) -> int:
+    """``--optimize``: every (problem, model) not yet in DIR/cases, then the table."""
+    from birdocp.io.files import atomic_write_json, atomic_write_text
+
+    rows = []
+    for gait in args.gaits:
+        for name in args.cases:
+            path = out / "cases" / f"opt_{gait}_{name}.json"
+            if not path.exists():
+                print(f"optimize {gait} {name} ...", flush=True)
+                atomic_write_json(path, optimize_case(gait, name, args.steps, args.max_iter))
+            row = json.loads(path.read_text())
+            if "fine_grid_trim" not in row and row["optimum"].get("x0"):
+                row["fine_grid_trim"] = fine_grid_trim(row)
+                atomic_write_json(path, row)
+    rows = [json.loads(p.read_text()) for p in sorted((out / "cases").glob("opt_*.json"))]
+    atomic_write_json(out / "optimized.json", {"rows": rows})
+    atomic_write_text(out / "optimized.md", optimized_table(rows))
+    print(optimized_table(rows))
+    return 0
 
 
 def gait_values(optimum: dict) -> dict:
@@ -83,12 +189,18 @@ def main(argv=None) -> int:
     ap = script_parser(__doc__, "results/aero/valid")
     ap.add_argument("--cases", nargs="*", default=["today", "wagner", "wagner_stall"],
                     help=f"aerodynamic models (default today wagner wagner_stall; also {', '.join(CASES)})")
-    ap.add_argument("--gaits", nargs="*", default=list(GAITS), help="optima to evaluate (default free_speed at_speed)")
+    ap.add_argument("--gaits", nargs="*", default=list(GAITS),
+                    help="optima to evaluate (default free_speed at_speed; with --optimize also tail)")
+    ap.add_argument("--optimize", action="store_true", help="optimise with the full model (see the module)")
+    ap.add_argument("--steps", type=int, default=48, help="RK4 steps per period of --optimize (default 48)")
+    ap.add_argument("--max-iter", type=int, default=60, help="IPOPT iterations per solve of --optimize")
     args, out = parse_with_out(ap, argv)
     from birdocp.io.files import atomic_write_json, atomic_write_text
 
-    optima = json.loads(OPTIMA.read_text())
     (out / "cases").mkdir(exist_ok=True)
+    if args.optimize:
+        return optimize_all(args, out)
+    optima = json.loads(OPTIMA.read_text())
     rows = []
     for gait in args.gaits:
         for name in args.cases:

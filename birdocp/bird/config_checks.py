@@ -23,7 +23,7 @@ __all__ = [
     "JOINT_NAMES", "CIRCULATION_MODES", "KINEMATIC_VELOCITY_MODES", "UNSTEADY_MODES", "SECTION_MODES",
     "UNSTEADY_PARAMS", "SIX_DOF_UNSUPPORTED", "WING_MASS_SHARES", "ANGLE_LIMIT_DEG", "MAX_POINTS",
     "MAX_STEPS_PER_PERIOD", "MAX_SOLVE_ITERATIONS", "MAX_GUESS_SPEED_MPS", "get_value", "flat_keys", "suggest", "coerce",
-    "check_number", "parse_scalar", "validate", "require_body_states", "SIDE_KEYS", "asymmetric",
+    "check_number", "parse_scalar", "validate", "require_body_states", "has_aero_states", "SIDE_KEYS", "asymmetric",
 ]
 
 
@@ -415,10 +415,26 @@ def _validate_model(cfg: Any) -> None:
                                    "or model.degrees_of_freedom = 4")
 
 
-def require_body_states(cfg: Any, what: str) -> None:
+def has_aero_states(cfg: Any) -> bool:
+    """Whether ``cfg``'s model has aerodynamic states (``aero.unsteady = "wagner"`` or
+    ``aero.section = "dynamic-stall"``) besides the 4 body states.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+
+    Returns
+    -------
+    bool
+    """
+    return cfg.aero.unsteady != "none" or cfg.aero.section == "dynamic-stall"
+
+
+def require_body_states(cfg: Any, what: str, other: str = "") -> None:
     """Raise :class:`ConfigError` when ``cfg``'s model has aerodynamic states (``aero.unsteady =
     "wagner"`` or ``aero.section = "dynamic-stall"``) and ``what`` (a study) works on the 4 body
-    states only.
+    states only; ``other``: the alternative that does work with them (named in the message).
 
     Parameters
     ----------
@@ -426,11 +442,14 @@ def require_body_states(cfg: Any, what: str) -> None:
         Configuration.
     what : str
         The study, named by the error.
+    other : str
+        The alternative that works with aerodynamic states ("" for none).
     """
-    if cfg.aero.unsteady != "none" or cfg.aero.section == "dynamic-stall":
+    if has_aero_states(cfg):
         raise ConfigError("aero.unsteady" if cfg.aero.unsteady != "none" else "aero.section",
-                          f"{what} works on the 4 body states only (no lag or separation states yet): use "
-                          "aero.unsteady = 'none' with aero.section = 'linear' or 'stall'")
+                          f"{what} works on the 4 body states only (no lag or separation states yet): "
+                          + (f"{other}, or " if other else "use ")
+                          + "aero.unsteady = 'none' with aero.section = 'linear' or 'stall'")
 
 
 def _validate_unsteady(cfg: Any) -> None:

@@ -98,10 +98,13 @@ def smoothing_info() -> dict:
             "quadrature": "RK4 stages of the cycle's grid"}
 
 
-def smooth_integrands(cfg: Config, n_data: int):
+def smooth_integrands(cfg: Config, n_data: int, model=None):
     """``g(x, d, p) -> 4 x 1``: the integrands of :data:`SMOOTH_LIMITS` (see the module) for the
     thresholds of ``cfg.validity``, for a model with data of size ``n_data``; built once per
-    (thresholds, size) and reused.
+    (thresholds, size, model with aerodynamic states) and reused. ``model``: a
+    :class:`~birdocp.bird.model.BirdModel`; when it has aerodynamic states, x is its full state and the
+    angle is the one its section law sees (:func:`birdocp.bird.validity.model_angles`, as the exact
+    measure); otherwise x is the body state (u, w, q, theta).
 
     Parameters
     ----------
@@ -109,24 +112,29 @@ def smooth_integrands(cfg: Config, n_data: int):
         Configuration (its ``[validity]`` thresholds).
     n_data : int
         Length of the data vector.
+    model : BirdModel, optional
+        The model, when it may have aerodynamic states.
 
     Returns
     -------
     casadi.Function
     """
     v = cfg.validity
+    aero_model = model if model is not None and model.ode.nx > 4 else None
     return _integrands(float(v.stall_angle_deg), float(v.min_forward_speed_mps), float(v.max_abs_pitch_deg),
-                       float(v.max_airflow_body_angle_deg), int(n_data))
+                       float(v.max_airflow_body_angle_deg), int(n_data), aero_model)
 
 
 @functools.lru_cache(maxsize=8)
-def _integrands(stall_deg, umin, pitch_deg, airflow_deg, n_data):
+def _integrands(stall_deg, umin, pitch_deg, airflow_deg, n_data, aero_model=None):
     import casadi as ca
 
-    from birdocp.bird.validity import effective_angles
+    from birdocp.bird.validity import effective_angles, model_angles
 
-    x, d, p = ca.SX.sym("x", 4), ca.SX.sym("d", n_data), ca.SX.sym("p", len(PARAM_NAMES))
-    ae, _, ds = effective_angles(n_data)(x, d, p)
+    nx = 4 if aero_model is None else aero_model.ode.nx
+    x, d, p = ca.SX.sym("x", nx), ca.SX.sym("d", n_data), ca.SX.sym("p", len(PARAM_NAMES))
+    angles = effective_angles(n_data) if aero_model is None else model_angles(aero_model)
+    ae, _, ds = angles(x, d, p)[:3]
     a = ae * (180.0 / math.pi)
     w = STALL_WIDTH_DEG
     logistic = lambda z: 1.0 / (1.0 + ca.exp(-z))  # noqa: E731
@@ -210,10 +218,10 @@ def cycle_smooth_measures(cfg: Config, x0, p=None, steps_per_period: int | None 
     key = (id(m.ode), n, tuple(limit_bounds(cfg).items()), float(cfg.validity.stall_angle_deg))
     grid = _GRIDS.get(key)
     if grid is None:
-        grid = RK4Grid(m.ode, n, 1, outputs=(smooth_integrands(cfg, m.ode.nd),))
+        grid = RK4Grid(m.ode, n, 1, outputs=(smooth_integrands(cfg, m.ode.nd, m.model),))
         _GRIDS.put(key, grid)
     D = grid.blocks_numeric(0.0, p)
-    _, _, q = grid.period_map(ca.DM(np.asarray(x0, float)), D, ca.DM(p))
+    _, _, q = grid.period_map(ca.DM(m.complete_state(x0, p)), D, ca.DM(p))
     return smooth_measures(cfg, np.asarray(q).ravel() / m.period_s)[0]
 
 

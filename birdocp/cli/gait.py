@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from birdocp.bird.config import require_body_states
 import math
 import sys
 
@@ -70,7 +69,6 @@ def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
     from birdocp.studies.gait import DEFAULT_GAIT_FREE, optimize_gait
 
     cfg = cli.resolve_config(args)
-    require_body_states(cfg, "optimize-gait")  # before any computation: exit 2
     if not (math.isfinite(args.speed) and args.speed > 0):
         raise ConfigError("--speed", f"must be a positive speed in m/s, got {args.speed}")
     if args.max_multiplier is not None and not (math.isfinite(args.max_multiplier) and args.max_multiplier > 0):

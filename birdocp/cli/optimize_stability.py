@@ -209,7 +209,8 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
     from birdocp.studies.optimize import DEFAULT_FREE, optimize_stability
 
     cfg = cli.resolve_config(args)
-    require_body_states(cfg, "optimize-stability")  # before any computation: exit 2
+    if args.method == "full":  # before any computation: exit 2
+        require_body_states(cfg, "optimize-stability --method full", "use the reduced method (drop --method full)")
     if not math.isfinite(args.climb_rate):
         raise ConfigError("--climb-rate", f"must be finite, got {args.climb_rate}")
     if not 1 <= args.max_iter <= 100000:

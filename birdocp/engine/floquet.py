@@ -91,7 +91,8 @@ def sort_multipliers(lam) -> np.ndarray:
 def matched_distances(lam, ref) -> np.ndarray:
     """``|lam_k - ref_k|`` with ``lam`` permuted to minimise the largest distance (``ref``'s order kept;
     ties broken by the sum): the distance between two sets of multipliers that does not depend on how
-    each was sorted.
+    each was sorted. Exhaustive over the permutations up to 7 multipliers; beyond (a model with
+    aerodynamic states has dozens), greedy: the closest remaining pair first.
 
     Parameters
     ----------
@@ -106,6 +107,14 @@ def matched_distances(lam, ref) -> np.ndarray:
     import itertools
 
     lam, ref = np.asarray(lam, complex), np.asarray(ref, complex)
+    if len(lam) > 7:
+        d = np.abs(lam[:, None] - ref[None, :])
+        out = np.full(len(ref), np.nan)
+        for _ in range(min(len(lam), len(ref))):
+            i, j = np.unravel_index(np.argmin(d), d.shape)
+            out[j] = d[i, j]
+            d[i, :], d[:, j] = np.inf, np.inf
+        return out
     best = min(itertools.permutations(range(len(lam))),
                key=lambda perm: (np.max(np.abs(lam[list(perm)] - ref)), np.sum(np.abs(lam[list(perm)] - ref))))
     return np.abs(lam[list(best)] - ref)

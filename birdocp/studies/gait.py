@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from birdocp.bird.config import require_body_states, Config, ConfigError, get_value, with_values
+from birdocp.bird.config import Config, ConfigError, get_value, with_values
 from birdocp.bird.keys import AMPLITUDE_BOUNDS_DEG
 from birdocp.engine.oracle import active_bounds
 from birdocp.engine.oracle import ipopt_options as one_ipopt_front  # the one set of IPOPT options
@@ -246,7 +246,6 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
 
     opts = replace(solver or GaitSolverOptions(), **solver_options)
     cfg = cfg or Config()
-    require_body_states(cfg, "this gait study")
     options = {k: v for k, v in asdict(opts).items() if k != "valid_rounds"} | dict(
         objective=objective, speed_mps=speed_mps, max_multiplier=max_multiplier, climb_rate_mps=climb_rate_mps,
         amplitude_bounds=amplitude_bounds, steps_per_period=steps_per_period, start=start, x_guess=x_guess)

@@ -31,8 +31,9 @@ import numpy as np
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest, with_values
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.floquet import sort_multipliers
+from birdocp.studies.jury import dominant_block, jury_conditions, jury_function, jury_values  # noqa: F401
 
-__all__ = ["ReducedLevelCycle", "Evaluation", "WarmStart", "jury_conditions", "check_free_bounds", "check_free_keys",
+__all__ = ["ReducedLevelCycle", "Evaluation", "WarmStart", "jury_conditions", "dominant_block", "jury_values", "check_free_bounds", "check_free_keys",
            "AMPLITUDE_KEY", "JURY_MARGIN", "POSITIVE_EPS_W"]
 
 from birdocp.bird.keys import AMPLITUDE_KEY, JURY_MARGIN  # noqa: E402 (one definition of each)
@@ -42,35 +43,6 @@ POSITIVE_EPS_W = 0.05
 # rows of the quadrature output vector
 _OUT = ("vertical_speed_mps", "forward_speed_mps", "flapping_power_W", "aerodynamic_power_W",
         "positive_power_smooth_W")
-
-def jury_conditions(A):
-    """The five Jury quantities (each >= 0 <=> all eigenvalues of the 4 x 4 A in the closed unit
-    disc, strict > 0 for the open disc).
-
-    Parameters
-    ----------
-    A : casadi.SX or MX, shape (4, 4)
-        Matrix.
-
-    Returns
-    -------
-    casadi.SX or MX, shape (5, 1)
-    """
-    t1 = ca.trace(A)
-    A2 = A @ A
-    t2 = ca.trace(A2)
-    t3 = ca.trace(A2 @ A)
-    a3 = -t1
-    a2 = 0.5 * (t1 ** 2 - t2)
-    a1 = -(t1 ** 3 - 3 * t1 * t2 + 2 * t3) / 6
-    a0 = ca.det(A)
-    a = [a0, a1, a2, a3, 1.0]
-    p1 = sum(a)
-    pm1 = a0 - a1 + a2 - a3 + 1.0
-    b = [a[0] * a[k] - a[4] * a[4 - k] for k in range(4)]
-    c = [b[0] * b[k] - b[3] * b[3 - k] for k in range(3)]
-    return ca.vertcat(p1, pm1, 1 - a0 ** 2, b[0] ** 2 - b[3] ** 2, c[0] ** 2 - c[2] ** 2)
-
 
 def check_free_bounds(cfg, free: dict) -> None:
     """ConfigError unless every free key is a known parameter other than the amplitude, with finite
@@ -121,18 +93,6 @@ def check_free_keys(m, cfg, free: dict) -> None:
         if PARAM_NAMES.index(k) in m.pre_params:
             raise ConfigError(k, "changes the wing's shape in the arm frame (elbow, wrist, morphology): "
                                  "free shoulder joints, wing.root_ahead_m or body/aero/drag keys")
-
-
-def jury_function():
-    """The Jury conditions of M / r and their Jacobian, as a CasADi Function ``jury(M, r) -> (j, dj/d(vec M, r))``.
-
-    Returns
-    -------
-    casadi.Function
-    """
-    M, r = ca.SX.sym("M", 4, 4), ca.SX.sym("r")
-    j = jury_conditions(M / r)
-    return ca.Function("jury", [M, r], [j, ca.jacobian(j, ca.vertcat(ca.vec(M), r))])
 
 
 @dataclass(frozen=True)
@@ -205,7 +165,7 @@ def _graphs(m, cfg: Config, N: int, vidx: tuple, nt: int, second: bool, valid: b
         return hit
     nv = len(vidx)
     pf = power_functions(m)
-    x, d, p = ca.SX.sym("x", 4), ca.SX.sym("d", m.ode.nd), ca.SX.sym("p", len(PARAM_NAMES))
+    x, d, p = ca.SX.sym("x", m.ode.nx), ca.SX.sym("d", m.ode.nd), ca.SX.sym("p", len(PARAM_NAMES))
     pw = pf.power(x, d, p)
     Pf = pw[1]  # the shoulder power: flapping (aerodynamic) + the wings' inertial part if any
     if "shoulder_inertial_power_W" in pf.names:
@@ -215,7 +175,7 @@ def _graphs(m, cfg: Config, N: int, vidx: tuple, nt: int, second: bool, valid: b
     if valid:  # the smooth validity integrands, on the same RK4 stages (bird.validity_smooth)
         from birdocp.bird.validity_smooth import integrand_names, smooth_integrands
 
-        out = ca.vertcat(out, smooth_integrands(cfg, m.ode.nd)(x, d, p))
+        out = ca.vertcat(out, smooth_integrands(cfg, m.ode.nd, m.model)(x, d, p))
         out_names = _OUT + integrand_names()
     outputs = ca.Function("gait_outputs", [x, d, p], [out])
     grid = RK4Grid(m.ode, N, 1, outputs=(outputs,))
@@ -275,11 +235,12 @@ class ReducedLevelCycle:
         self.valid = bool(valid)
         self.second = bool(second_order)
         self.K = 2 * N + 1
+        self.nx = m.ode.nx  # the full state: body (4) and aerodynamic states, if any
         g = _graphs(m, cfg, N, tuple(self.vidx), self.nt, self.second, self.valid)
         self.out_names, self.outputs, self.grid, self.sens = g["out_names"], g["outputs"], g["grid"], g["sens"]
         self.sens2, self.sens_mono, self._data = g["sens2"], g["sens_mono"], g["data"]
         self.times, self.local, self._seeds = g["times"], g["local"], g["seeds"]
-        self._y = np.concatenate([np.asarray(cfg.solve.initial_guess, float),
+        self._y = np.concatenate([m.complete_state(cfg.solve.initial_guess, self.p0),
                                   [float(amplitude_start_deg if amplitude_start_deg is not None
                                          else self.p0[self.ia])]])
         self._theta = None
@@ -320,27 +281,29 @@ class ReducedLevelCycle:
 
     def residual(self, y, theta):
         """(R, means): the level-cycle residual (x_T - x0, mean W - climb) and the period means."""
-        p = self.pfull(theta, y[4])
-        xT, _, q = self.grid.period_map(ca.DM(y[:4]), self._D(p), ca.DM(p))
+        p = self.pfull(theta, y[self.nx])
+        nx = self.nx
+        xT, _, q = self.grid.period_map(ca.DM(y[:nx]), self._D(p), ca.DM(p))
         with self._count_lock:
             self.n_resid += 1
         means = np.asarray(q).ravel() / self.T
-        return np.concatenate([np.asarray(xT).ravel() - y[:4], [means[0] - self.climb]]), means
+        return np.concatenate([np.asarray(xT).ravel() - y[:nx], [means[0] - self.climb]]), means
 
     def _full(self, y, theta):
         """First-order sensitivities at (y, theta): R, R_y, R_theta, the means' partials, and the
         data (D, directions, p) for a second-order pass."""
         with self._count_lock:
             self.n_full += 1
-        p = self.pfull(theta, y[4])
+        nx = self.nx
+        p = self.pfull(theta, y[nx])
         D, cols = self._data(ca.DM(p))
-        s = self.sens(y[:4], D, p, dp=self._seeds, columns=cols)
+        s = self.sens(y[:nx], D, p, dp=self._seeds, columns=cols)
         T, nt = self.T, self.nt
-        cy = list(range(4)) + [4 + nt]          # columns of y = (x0, A)
-        ct = list(range(4, 4 + nt))             # columns of theta
+        cy = list(range(nx)) + [nx + nt]        # columns of y = (x0, A)
+        ct = list(range(nx, nx + nt))           # columns of theta
         J, Jq = s["J"], s["Jq"] / T
-        R = np.concatenate([s["x_T"] - y[:4], [s["q"][0] / T - self.climb]])
-        Ry = np.vstack([J[:, cy] - np.eye(5)[:4], Jq[0, cy]])
+        R = np.concatenate([s["x_T"] - y[:nx], [s["q"][0] / T - self.climb]])
+        Ry = np.vstack([J[:, cy] - np.eye(nx + 1)[:nx], Jq[0, cy]])
         Rt = np.vstack([J[:, ct], Jq[0, ct]])
         return s, R, Ry, Rt, Jq, cy, ct, (D, cols, p)
 
@@ -374,8 +337,9 @@ class ReducedLevelCycle:
         self._dy = None if start.dy is None else np.array(start.dy, float)
 
     def set_guess(self, x0) -> None:
-        """Start the first Newton solve from the state ``x0`` (at the configured amplitude)."""
-        self._y[:4] = np.asarray(x0, float)
+        """Start the first Newton solve from the state ``x0`` (at the configured amplitude; a body
+        state of 4 numbers gets its aerodynamic states on the quasi-steady manifold)."""
+        self._y[:self.nx] = self.m.complete_state(x0, self.p0)
         self._started = True
 
     def _first_guess(self, theta):
@@ -385,7 +349,7 @@ class ReducedLevelCycle:
         y = self._y.copy()
         tr = trim(with_values(self.cfg, dict(zip(self.keys, map(float, theta)))), steps_per_period=self.N)
         if tr.success:
-            y[:4] = tr.x0
+            y[:self.nx] = tr.x0
         return y
 
     def evaluate(self, theta, grads: bool = True, tol: float = 1e-10, max_newton: int = 12) -> Evaluation:
@@ -438,11 +402,12 @@ class ReducedLevelCycle:
         except np.linalg.LinAlgError:
             raise RuntimeError("singular level-cycle Jacobian (a fold of cycles)") from None
         ev.grads = {n: Jq[i, ct] + Jq[i, cy] @ dy for i, n in enumerate(self.out_names)}
-        ev.grads["amplitude_deg"] = dy[4]
-        ev.monodromy = np.asarray(s["J"][:, :4])
-        if self.second:  # along theta_c with x0 and A following: dy[:4, c], dy[4, c]
-            W = np.vstack([np.eye(self.nt), dy[4]])
-            s2 = self.sens2(ev.x0, D, p, dp=self._seeds, columns=cols, W=W, dx0=dy[:4])
+        nx = self.nx
+        ev.grads["amplitude_deg"] = dy[nx]
+        ev.monodromy = np.asarray(s["J"][:, :nx])
+        if self.second:  # along theta_c with x0 and A following: dy[:nx, c], dy[nx, c]
+            W = np.vstack([np.eye(self.nt), dy[nx]])
+            s2 = self.sens2(ev.x0, D, p, dp=self._seeds, columns=cols, W=W, dx0=dy[:nx])
             ev.d_monodromy, ev.monodromy = s2["dMon"], np.asarray(s2["Mon"])
         ev.dy, ev.Ry = dy, Ry
 
@@ -487,8 +452,8 @@ class ReducedLevelCycle:
         last, first = np.inf, np.max(np.abs(R))
         while True:
             res = float(np.max(np.abs(R)))
-            if not (math.isfinite(res) and np.all(np.isfinite(y))) or not lo <= y[4] <= hi:
-                raise RuntimeError(f"Newton left the level cycles (residual {res:.2e}, amplitude {y[4]:.4g} deg)")
+            if not (math.isfinite(res) and np.all(np.isfinite(y))) or not lo <= y[self.nx] <= hi:
+                raise RuntimeError(f"Newton left the level cycles (residual {res:.2e}, amplitude {y[self.nx]:.4g} deg)")
             if res <= tol:
                 break
             if it >= max_newton or res > 1e3 * max(first, 1e-6):
@@ -504,7 +469,7 @@ class ReducedLevelCycle:
                 raise RuntimeError("singular level-cycle Jacobian (a fold of cycles)") from None
             it += 1
             R, means = self.residual(y, theta)
-        return Evaluation(theta.copy(), y[:4].copy(), float(y[4]), dict(zip(self.out_names, means.tolist())), None,
+        return Evaluation(theta.copy(), y[:self.nx].copy(), float(y[self.nx]), dict(zip(self.out_names, means.tolist())), None,
                           None, None, res, it)
 
     def solve_speed(self, speed_mps: float, theta, k: int = 0, bounds=None, tol: float = 1e-9,

@@ -8,7 +8,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import get_value
-from birdocp.studies.gait_cycle import JURY_MARGIN, Evaluation, ReducedLevelCycle, jury_function
+from birdocp.studies.gait_cycle import JURY_MARGIN, Evaluation, ReducedLevelCycle, jury_function, jury_values
 
 __all__ = ["ReducedProblem"]
 
@@ -140,8 +140,7 @@ class ReducedProblem:
             if self.jury is not None:  # the monodromy alone: no gradients at a trial point
                 self.rc.fill_monodromy(ev)
                 r = z[-1] if self.with_r else self.R
-                G = np.concatenate([G] + [np.asarray(self.jury(ca.DM(M), r)[0]).ravel()
-                                          for M, _ in self.rc.stability_blocks(ev)])
+                G = np.concatenate([G] + [self._jury_or_nan(M, r)[0] for M, _ in self.rc.stability_blocks(ev)])
             if self.valid_bounds:
                 vals = self.smooth_validity(ev, grads=False)[0]
                 G = np.concatenate([G, [vals[k] for k in self.valid_bounds]])
@@ -167,12 +166,10 @@ class ReducedProblem:
             i += 1
         if self.jury is not None:
             r = z[-1] if self.with_r else self.R
-            for M, dM in self.rc.stability_blocks(ev):  # the planar monodromy (and the lateral block)
-                jv, jj = (np.asarray(v) for v in self.jury(ca.DM(M), r))
-                G[i:i + 5] = jv.ravel()
-                J[i:i + 5, :nt] = jj[:, :16] @ dM
+            for M, dM in self.rc.stability_blocks(ev):  # the (dominant) planar monodromy, and the lateral block
+                G[i:i + 5], J[i:i + 5, :nt], jr = self._jury_or_nan(M, r, dM)
                 if self.with_r:
-                    J[i:i + 5, -1] = jj[:, 16]
+                    J[i:i + 5, -1] = jr
                 i += 5
         if self.valid_bounds:
             vals, der = self.smooth_validity(ev)
@@ -180,6 +177,16 @@ class ReducedProblem:
                 G[i], J[i, :nt] = vals[k], der[k]
                 i += 1
         return G, J / self.sigma
+
+    def _jury_or_nan(self, M, r, d_monodromy=None):
+        """:func:`birdocp.studies.gait_cycle.jury_values`, NaN (IPOPT cuts its step) where the
+        monodromy has no dominant 4-dimensional subspace."""
+        try:
+            return jury_values(self.jury, M, r, d_monodromy)
+        except RuntimeError as e:
+            self.failures.append(str(e))
+            nt = 0 if d_monodromy is None else np.shape(d_monodromy)[1]
+            return np.full(5, np.nan), np.full((5, nt), np.nan), np.full(5, np.nan)
 
     def _value(self, ev):
         P, U = ev.means["flapping_power_W"], ev.means["forward_speed_mps"]

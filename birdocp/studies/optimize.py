@@ -34,13 +34,14 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import require_body_states, PARAM_NAMES, Config, ConfigError, with_values
+from birdocp.bird.config_checks import has_aero_states
 from birdocp.bird.validity import invalid, periodic_validity
 from birdocp.engine import interrupts
 from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.engine.oracle import ConstraintOracle, active_bounds, ipopt_options
 from birdocp.engine.results import result_dict, serial
 from birdocp.io.progress import text_reporter
-from birdocp.studies.gait_cycle import check_free_keys, jury_conditions  # noqa: F401 (public here too)
+from birdocp.studies.gait_cycle import check_free_keys, jury_conditions, jury_function, jury_values  # noqa: F401
 from birdocp.studies.gait_validity import WARM_IPOPT
 
 __all__ = ["DEFAULT_FREE", "METHODS", "check_free_keys", "optimize_stability", "StabilityOptimum", "jury_conditions"]
@@ -243,7 +244,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     single-shooting NLP (state, parameters, amplitude and r as unknowns; quasi-Newton).
 
     With ``coarse_steps`` (default ``"auto"``: :data:`COARSE_STEPS` of the method, 32 RK4 steps per
-    period for the reduced method, 48 for the full one; None: no coarse stage) the optimum is first
+    period for the reduced method, 48 for the full one, none with aerodynamic states; None: no coarse stage) the optimum is first
     found on that coarse grid and then refined on the full grid (``steps_per_period``, default
     ``cfg.solve.steps_per_period``) from the coarse optimum; ``max_iter`` counts per stage. The answer
     is verified independently: numpy eigenvalues of the monodromy, a multiple-shooting trim from the
@@ -251,6 +252,8 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
 
     ``progress``: False (silent), True (one line per evaluation on stderr) or a callable taking that
     line's text (e.g. from :func:`birdocp.io.progress.progress_callback`).
+
+    Aerodynamic states (reduced method): r bounds the full monodromy's spectral radius (its dominant block).
 
     ``valid``: the limits of ``cfg.validity`` are smooth constraints in every stage (reduced method
     only; :func:`birdocp.studies.gait.optimize_gait`'s ``valid``); the result carries
@@ -292,8 +295,8 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
         verification, the optimum's validity and, with ``valid``, ``validity_constraints``.
     """
     _check_options(method, threads, valid, cfg)
-    if coarse_steps == "auto":
-        coarse_steps = COARSE_STEPS[method]
+    if coarse_steps == "auto":  # none with aerodynamic states: their lag diverges on RK4 grids of 32 steps
+        coarse_steps = None if has_aero_states(cfg or Config()) else COARSE_STEPS[method]
     if method == "full":
         return _optimize_full(cfg, free, climb_rate_mps=climb_rate_mps, amplitude_bounds=amplitude_bounds,
                               steps_per_period=steps_per_period, max_iter=max_iter, tol=tol, verify=verify,
@@ -322,7 +325,6 @@ def _optimize_reduced(cfg, free, climb_rate_mps, amplitude_bounds, steps_per_per
     from birdocp.bird.model import get_model
 
     cfg = cfg or Config()
-    require_body_states(cfg, "this gait study")
     free = dict(DEFAULT_FREE if free is None else free)
     check_free_keys(get_model(cfg), cfg, free)
     t_start = time.perf_counter()
@@ -435,11 +437,14 @@ def _verify(out: StabilityOptimum, cfg: Config, N: int, jury=None) -> None:
     dist = lambda a, b: float(np.max(matched_distances(a, b)))
     lam = np.asarray(out.multipliers)
     if jury is None and check.success and check.monodromy is not None:
-        jury = np.asarray(ca.DM(jury_conditions(ca.DM(np.asarray(check.monodromy)) / out.radius))).ravel()
+        try:  # of the 4 dominant multipliers (the body modes; the aerodynamic ones lie far inside)
+            jury = jury_values(jury_function(), np.asarray(check.monodromy), out.radius)[0]
+        except RuntimeError:
+            jury = None
     out.verification = {
         "trim_success": bool(check.success),
         "trim_multipliers": pairs(check.multipliers) if check.success else None,
-        "max_multiplier_difference": dist(check.multipliers, lam) if check.success and len(lam) == 4 else None,
+        "max_multiplier_difference": dist(check.multipliers, lam) if check.success and len(lam) == len(check.multipliers) else None,
         "trim_mean_vertical_speed_mps": float(check.mean_vertical_speed_mps) if check.success else None,
         "trim_x0_difference": float(np.max(np.abs(check.x0 - xs))) if check.success else None,
         "scratch_trim_success": bool(scratch.success),
@@ -501,7 +506,7 @@ def _optimize_full(cfg: Config | None = None, free: dict | None = None, *, climb
     from birdocp.bird.model import get_model
 
     cfg = cfg or Config()
-    require_body_states(cfg, "this gait study")
+    require_body_states(cfg, "the full-space method", "use the reduced method (drop --method full)")
     free = dict(DEFAULT_FREE if free is None else free)
     t_start = time.perf_counter()
     m = get_model(cfg)

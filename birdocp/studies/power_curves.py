@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from birdocp.bird.config import require_body_states, Config, get_value, with_values
+from birdocp.bird.config import Config, get_value, with_values
 from birdocp.bird.validity import periodic_validity
 from birdocp.io.progress import text_reporter
 from birdocp.studies.gait_cycle import AMPLITUDE_KEY, Evaluation, ReducedLevelCycle, WarmStart
@@ -83,7 +83,6 @@ def power_curve(cfg: Config | None = None, speeds=None, key: str = SPEED_KEY, bo
     from birdocp.bird.energetics import cycle_energetics
 
     cfg = cfg or Config()
-    require_body_states(cfg, "this gait study")
     speeds = np.sort(np.asarray(speeds if speeds is not None else np.arange(12.0, 24.01, 1.0), float))
     rc = ReducedLevelCycle(cfg, [key], steps_per_period)
     ev0 = rc.evaluate(np.array([float(get_value(cfg, key))]))
