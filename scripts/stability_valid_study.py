@@ -135,14 +135,24 @@ def main():
     ap.add_argument("--speed", type=float, default=18.53)
     ap.add_argument("--skip-multistart", action="store_true")
     ap.add_argument("--only-multistart", action="store_true", help="reuse OUT/result.json's optima")
+    ap.add_argument("--retable", action="store_true",
+                    help="solve nothing: re-judge the stored optima's active bounds "
+                         "(birdocp.engine.oracle.active_bounds) and rewrite OUT/result.json, table.md and figures")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     from birdocp.studies.gait import optimize_gait
     from birdocp.studies.optimize import optimize_stability
 
-    res = json.loads((out / "result.json").read_text()) if args.only_multistart else {}
-    if not args.only_multistart:
+    reuse = args.only_multistart or args.retable
+    res = json.loads((out / "result.json").read_text()) if reuse else {}
+    if args.retable:
+        from birdocp.engine.oracle import active_bounds
+
+        for key in ("free_speed", "at_speed"):
+            if res.get(key):
+                res[key]["active_bounds"] = active_bounds(res[key]["free"], res[key]["bounds"])
+    if not reuse:
         if args.free_speed_from:
             d = json.loads(Path(args.free_speed_from).read_text())
             res["free_speed"] = summary(d) | {"script_wall_s": d["wall_s"]["total"], "source": args.free_speed_from}
@@ -163,7 +173,7 @@ def main():
                                          "script_wall_s": time.perf_counter() - t0}
         log(f"  r* {g.objective_value:.6f}, KKT {g.kkt_residual:.1e}, valid {g.validity['valid']}, {g.status}")
         atomic_write_json(out / "result.json", res)
-    if not args.skip_multistart:
+    if not (args.skip_multistart or args.retable):
         log(f"multi-start: {args.starts} starts, {args.ms_steps} steps, {args.jobs} jobs")
         res["multistart"] = multistart(args.starts, args.jobs, args.ms_steps, args.ms_max_iter, args.speed)
         atomic_write_json(out / "result.json", res)

@@ -208,13 +208,15 @@ def optimize_valid(threads: int = 2) -> dict:
                 "active_validity_limits": active, "script_wall_s": time.perf_counter() - t0}
 
 
-def at_bound(o: dict, tol: float = 1e-4) -> list:
-    """The free keys of the optimum ``o`` within ``tol`` of a bound, as 'key = bound'."""
+def at_bound(o: dict) -> list:
+    """The free keys of the optimum ``o`` at a bound (:func:`birdocp.engine.oracle.active_bounds`, the
+    rule of every optimum's ``active_bounds``), as 'key = bound'."""
+    from birdocp.engine.oracle import active_bounds
+
     out = []
-    for k, v in o["free"].items():
-        lo, hi = o["bounds"][k]
-        if min(v - lo, hi - v) < tol:
-            out.append(f"{k} = {lo:g}" if v - lo < hi - v else f"{k} = {hi:g}")
+    for k in active_bounds(o["free"], o["bounds"]):
+        v, (lo, hi) = o["free"][k], o["bounds"][k]
+        out.append(f"{k} = {lo:g}" if v - lo < hi - v else f"{k} = {hi:g}")
     return out
 
 
@@ -234,7 +236,8 @@ def optimum_lines(o: dict) -> list:
             f"- r* = {o['radius']:.6f}, largest |Λ| = {r:.6f}: {verdict}",
             f"- KKT residual {o['kkt_residual']:.2e}, constraint violation {o['constraint_violation']:.1e}",
             f"- active validity limits: {', '.join(o['active_validity_limits']) or 'none'}; parameters at a bound "
-            f"(within 1e-4 deg: IPOPT's interior point stops that close): {', '.join(at_bound(o)) or 'none'}; "
+            f"(within 1e-5 of the bound range: IPOPT's interior point stops that close): "
+            f"{', '.join(at_bound(o)) or 'none'}; "
             f"flapping amplitude {o['amplitude_deg']:.5f} deg (its bounds 20-70 deg)",
             f"- exact validity: {'valid' if o['validity']['valid'] else 'NOT valid: ' + '; '.join(o['validity']['reasons'])}",
             f"- optimum: {fv}, amplitude {o['amplitude_deg']:.3f} deg"]
@@ -295,8 +298,14 @@ def main(argv=None):
     summary["answer"] = answer_of(summary)
     if args.optimize:
         atomic_write_json(out / "optimum_valid.json", optimize_valid())
-    if (out / "optimum_valid.json").is_file():
-        summary["optimum_valid"] = json.loads((out / "optimum_valid.json").read_text())
+    if (out / "optimum_valid.json").is_file():  # its active bounds judged by today's rule
+        from birdocp.engine.oracle import active_bounds
+
+        o = json.loads((out / "optimum_valid.json").read_text())
+        if o.get("free") and o.get("bounds"):
+            o["active_bounds"] = active_bounds(o["free"], o["bounds"])
+            atomic_write_json(out / "optimum_valid.json", o)
+        summary["optimum_valid"] = o
     atomic_write_json(out / "summary.json", summary)
     atomic_write_text(out / "table.md", table(summary, summary["answer"]))
     figure(results, out)
