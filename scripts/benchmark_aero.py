@@ -43,7 +43,7 @@ def trim_cost(overrides: dict, repeats: int = 2, x_guess=None, compiled: bool = 
     from birdocp.bird.config import Config, with_values
     from birdocp.bird.model import get_model
     from birdocp.bird.model import N_EL
-    from birdocp.bird.unsteady import expanded_instructions
+    from birdocp.bird.stall_section import expanded_instructions
     from birdocp.engine.integrate import RK4Grid
     from birdocp.studies.trim import trim
 
@@ -78,7 +78,7 @@ def element_scaling(unsteady: str, section: str, n: int, evals: int = 200) -> di
     import casadi as ca
     import numpy as np
 
-    from birdocp.bird.unsteady import expanded_instructions
+    from birdocp.bird.stall_section import expanded_instructions
     from birdocp.bird.unsteady_harness import PrescribedWing, harmonic
 
     w = PrescribedWing(unsteady, section, aspect_ratio=6.9, n=n)

@@ -21,9 +21,8 @@ import math
 
 import casadi as ca
 
-from birdocp.bird.stall_section import (FROZEN_NEWTON_MATRIX, INLINE_NEWTON_STEPS, circulation,  # noqa: F401
-    expanded_instructions, factored_solve, lift_coefficient, lu_solve, separated_drag_coefficient,
-    separation_point)
+from birdocp.bird.stall_section import (circulation, lift_coefficient, separated_drag_coefficient,
+                                        separation_point)
 
 A1, A2, B1, B2 = 0.165, 0.335, 0.0455, 0.3
 """Jones's two-exponential approximation of Wagner's function: phi(s) = 1 - A1 e^(-B1 s) - A2 e^(-B2 s)

@@ -10,7 +10,7 @@ import numpy as np
 
 from birdocp.bird.config import Config
 from birdocp.bird.keys import AMPLITUDE_KEY
-from birdocp.studies.gait import DEFAULT_GAIT_FREE, optimize_gait  # noqa: F401
+from birdocp.studies.gait import optimize_gait
 from birdocp.studies.power_curves import curve_optima
 
 __all__ = ["stability_pareto", "valid_power_curve"]
@@ -46,7 +46,7 @@ def stability_pareto(cfg: Config | None, speed_mps: float, bounds, *, free: dict
     bounds : sequence of float
         The bounds R on every multiplier's modulus, in the order tried.
     free : dict, optional
-        Gait key -> (lo, hi) (default :data:`DEFAULT_GAIT_FREE`).
+        Gait key -> (lo, hi) (default :data:`birdocp.studies.gait.DEFAULT_GAIT_FREE`).
     start : dict, optional
         Gait values of the first start.
     x_guess : array_like (4,), optional
@@ -131,7 +131,7 @@ def valid_power_curve(executor, cfg, speeds, *, free=None, start=None, x_guess=N
     speeds : sequence of float
         Mean forward speeds [m/s].
     free : dict, optional
-        Free keys and bounds (default :data:`DEFAULT_GAIT_FREE`).
+        Free keys and bounds (default :data:`birdocp.studies.gait.DEFAULT_GAIT_FREE`).
     start, x_guess : optional
         A known solution's gait and cycle state at ``start_speed`` (default: the configured gait).
     start_speed : float, optional
