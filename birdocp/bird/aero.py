@@ -18,15 +18,19 @@ import math
 
 import casadi as ca
 
+from birdocp.bird.collocation import three_quarter_downwash
+
 N_ELEMENTS = 16
 
 
-def induced_matrices(centres, nodes):
+def induced_matrices(centres, nodes, collocation="quarter", chord=None, c_hat=None):
     """Induced velocity per unit circulation at the element centres.
 
     Returns (Vx, Vy, K) (16 x 16 SX): e1 and e2 components of the induced velocity at centre j per
     unit Gamma_m, and the downwash per unit circulation K = v . d_j (docs/model.md §5.6). Only the (e1, e2)
-    coordinates are used: the wake filaments are straight and parallel to e3.
+    coordinates are used: the wake filaments are straight and parallel to e3. With ``collocation =
+    "three_quarter"`` K is Weissinger's three-quarter-chord downwash instead
+    (:func:`birdocp.bird.collocation.three_quarter_downwash`; Vx, Vy, used by the forces, unchanged).
 
     Parameters
     ----------
@@ -34,6 +38,12 @@ def induced_matrices(centres, nodes):
         The 16 element centres (code frame) [m].
     nodes : sequence of 3-vectors
         The 17 element end nodes (code frame) [m].
+    collocation : {"quarter", "three_quarter"}
+        ``aero.collocation``: where the sections see the wake.
+    chord : sequence, optional
+        Chords [m] (``three_quarter`` only).
+    c_hat : sequence of 3-vectors, optional
+        Chord directions (``three_quarter`` only).
 
     Returns
     -------
@@ -66,10 +76,13 @@ def induced_matrices(centres, nodes):
         # d_j = (s2, -s1, 0); downwash w_j = v_j . d_j
         rows.append(s[1] * Vx[j, :] - s[0] * Vy[j, :])
     K = ca.vertcat(*rows)
+    if collocation == "three_quarter":
+        K = three_quarter_downwash(centres, nodes, chord, c_hat)
     return Vx, Vy, K
 
 
-def circulation_matrices(centres, nodes, chord, lift_slope_per_rad, mode="exact", relaxed_evaluations=39):
+def circulation_matrices(centres, nodes, chord, lift_slope_per_rad, mode="exact", relaxed_evaluations=39,
+                         collocation="quarter", c_hat=None):
     """Matrices (G, Wx, Wy) with ``Gamma = G q`` and induced velocity ``(Wx q, Wy q, 0)``, where
     ``q_j = |Vp_j| alpha_j``.
 
@@ -93,12 +106,16 @@ def circulation_matrices(centres, nodes, chord, lift_slope_per_rad, mode="exact"
         Solution of the lifting-line equation.
     relaxed_evaluations : int
         n, the evaluations of the relaxed iteration.
+    collocation : {"quarter", "three_quarter"}
+        ``aero.collocation`` (:func:`induced_matrices`).
+    c_hat : sequence of 3-vectors, optional
+        Chord directions (``three_quarter`` only).
 
     Returns
     -------
     G, Wx, Wy : casadi.SX, shape (16, 16)
     """
-    Vx, Vy, K = induced_matrices(centres, nodes)
+    Vx, Vy, K = induced_matrices(centres, nodes, collocation, chord, c_hat)
     n = len(centres)
     h = ca.vertcat(*[0.5 * c * lift_slope_per_rad for c in chord])
     HK = ca.diag(h) @ K
@@ -162,7 +179,7 @@ def element_forces(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho) -> dict:
     return forces_from_velocity(_body_velocity(state, r, v_kin), c_hat, up, tau, ds, G, Wx, Wy, rho)
 
 
-def forces_from_velocity(V, c_hat, up, tau, ds, G, Wx, Wy, rho) -> dict:
+def forces_from_velocity(V, c_hat, up, tau, ds, G, Wx, Wy, rho, normalwash="angle") -> dict:
     """:func:`element_forces` from the relative air velocity ``V`` (3 x n, code frame, m/s, without
     the induced part) of every element centre, whatever motion of the body made it (the planar
     state of :func:`_body_velocity` or the six-degree-of-freedom one of :mod:`birdocp.bird.sixdof`).
@@ -179,14 +196,18 @@ def forces_from_velocity(V, c_hat, up, tau, ds, G, Wx, Wy, rho) -> dict:
         Lifting-line matrices (:func:`circulation_matrices`).
     rho : float
         Air density [kg/m^3].
+    normalwash : {"angle", "tangency"}
+        The section's normalwash ``q_j`` of ``Gamma = G q``: ``|Vp_j| alpha_j`` (the model's section
+        law, lift linear in the angle) or ``|Vp_j| sin(alpha_j)`` (the flow tangency of a flat plate, the
+        law a vortex lattice solves: ``birdocp.studies.glide_refined``'s like-for-like comparison).
 
     Returns
     -------
     dict
         As :func:`element_forces`.
     """
-    Vp_norm, alpha, vind = _inflow_from_velocity(V, c_hat, up, tau, Wx, Wy)
-    Gamma = G @ (Vp_norm * alpha).T
+    Vp_norm, alpha, vind = _inflow_from_velocity(V, c_hat, up, tau, Wx, Wy, normalwash)
+    Gamma = G @ (Vp_norm * (alpha if normalwash == "angle" else ca.sin(alpha))).T
     W = V + vind
     # (V + v) x tau
     cross = ca.vertcat(W[1, :] * tau[2, :] - W[2, :] * tau[1, :],
@@ -282,12 +303,12 @@ def _body_velocity(state, r, v_kin):
                       u * ones - q * r[1, :] - v_kin[2, :])
 
 
-def _inflow_from_velocity(V, c_hat, up, tau, Wx, Wy):
+def _inflow_from_velocity(V, c_hat, up, tau, Wx, Wy, normalwash="angle"):
     """``(|Vp| 1xn, alpha 1xn [rad], vind 3xn)`` of the relative air velocity ``V`` (3 x n): the
     section speed, the geometric angle of attack and the induced velocity ``(Wx q, Wy q, 0)`` of the
-    lifting line with ``q = |Vp| alpha``."""
+    lifting line with ``q = |Vp| alpha`` (``normalwash = "tangency"``: ``|Vp| sin(alpha)``)."""
     alpha, Vp_norm = section_angle(V, c_hat, up, tau)
-    qv = (Vp_norm * alpha).T
+    qv = (Vp_norm * (alpha if normalwash == "angle" else ca.sin(alpha))).T
     vind = ca.vertcat((Wx @ qv).T, (Wy @ qv).T, ca.DM.zeros(1, V.shape[1]))
     return Vp_norm, alpha, vind
 

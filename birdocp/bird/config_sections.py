@@ -150,6 +150,10 @@ class Aero:
     span_subdivisions: int = 1
     """Sub-elements per lifting-line element, 1..8, same geometry (linear quasi-steady section only;
     :mod:`birdocp.bird.subdivide`); 1: the paper's model, bit for bit."""
+    collocation: str = "quarter"
+    """``quarter``: each section sees the wake at its centre on the lifting line (the paper's model);
+    ``three_quarter``: Weissinger's three-quarter-chord flow tangency (:mod:`birdocp.bird.collocation`;
+    linear quasi-steady section only)."""
     unsteady: str = "none"
     """``none``: quasi-steady section; ``wagner``: two lag states per element on the effective
     normalwash (Jones's indicial response), the 3/4-chord pitch-rate term and the added-mass loads."""

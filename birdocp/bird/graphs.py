@@ -229,6 +229,7 @@ def aero_blocks(s: Structure, L, t, p, left=None) -> dict:
     up = ca.horzcat(*nu)[:, 1::2]
     chord = ca.horzcat(*ch)[1::2]
     tau = ca.horzcat(*[ca.cross(up[:, j], c_hat[:, j]) for j in range(n)])
+    wake = {} if s.collocation == "quarter" else {"collocation": s.collocation, "c_hat": _columns(c_hat)}
     if s.span_direction == "element":
         tau, c_hat, up = span.element_frames(nodes, c_hat)
     ds = ca.vertcat(*[ca.norm_2(nodes[:, j + 1] - nodes[:, j]) for j in range(n)])
@@ -239,7 +240,7 @@ def aero_blocks(s: Structure, L, t, p, left=None) -> dict:
     else:
         G, Wx, Wy = aero.circulation_matrices(
             _columns(centres), _columns(nodes), [chord[j] for j in range(n)],
-            _p(p, "aero.lift_slope_per_rad"), s.circulation, s.relaxed_evaluations)
+            _p(p, "aero.lift_slope_per_rad"), s.circulation, s.relaxed_evaluations, **wake)
     return {"r_m": r, "v_kin_mps": v_kin, "c_hat": c_hat, "up": up, "tau": tau, "ds_m": ds,
             "G": G, "Wx": Wx, "Wy": Wy, "nodes_m": nodes + ca.repmat(r_w, 1, n + 1),
             "chord_m": chord.T}

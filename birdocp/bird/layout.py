@@ -204,6 +204,7 @@ class Structure:
     smooth_geometry: bool = False
     span_direction: str = "leading_line"
     span_subdivisions: int = 1
+    collocation: str = "quarter"
 
     @property
     def n_elements(self) -> int:
@@ -236,5 +237,5 @@ class Structure:
                          unsteady=a.unsteady, section=a.section,
                          newton_steps=int(a.newton_steps) if a.section != "linear" else 5,
                          smooth_geometry=bool(cfg.wing.smooth_geometry), span_direction=a.span_direction,
-                         span_subdivisions=int(a.span_subdivisions))
+                         span_subdivisions=int(a.span_subdivisions), collocation=a.collocation)
 

@@ -70,7 +70,9 @@ def refined_line(cfg: Config | None = None, split: int = 1, planform: str = "ste
     -------
     dict
         Code-frame arrays (e1 right, e2 up, e3 back, from G): ``nodes_m`` (3 x (16 split + 1)),
-        ``r_m``, ``c_hat``, ``up``, ``tau`` (3 x 16 split), ``chord_m``, ``ds_m`` (16 split), and
+        ``r_m``, ``c_hat``, ``up``, ``tau`` (3 x 16 split; the section frames), ``chord_direction``
+        (3 x 16 split; the wing's chord direction, before any turning of the frames), ``chord_m``,
+        ``ds_m`` (16 split), and
         ``air_density_kgm3``, ``lift_slope_per_rad``.
     """
     if split < 1 or planform not in ("step", "linear") or span_direction not in ("section", "element"):
@@ -89,16 +91,18 @@ def refined_line(cfg: Config | None = None, split: int = 1, planform: str = "ste
     ch = np.repeat(chords, split) if planform == "step" else (1 - s) * cn[j] + s * cn[j + 1]
     rep = lambda a: np.repeat(a, split, axis=-1)  # noqa: E731
     tau, c_hat, up = rep(b["tau"]), rep(b["c_hat"]), rep(b["up"])
+    chord_direction = c_hat
     if span_direction == "element":
         tau, c_hat, up = (np.asarray(a) for a in element_frames(nodes, c_hat))
     ds = b["ds_m"].ravel() if split == 1 else np.linalg.norm(np.diff(nodes, axis=1), axis=0)
-    return {"nodes_m": nodes, "r_m": centres, "chord_m": np.asarray(ch),
+    return {"nodes_m": nodes, "r_m": centres, "chord_m": np.asarray(ch), "chord_direction": chord_direction,
             "ds_m": ds, "c_hat": c_hat, "up": up, "tau": tau,
             "air_density_kgm3": cfg.aero.air_density_kgm3, "lift_slope_per_rad": cfg.aero.lift_slope_per_rad}
 
 
 def refined_load_derivatives(cfg: Config | None, u_mps: float, w_mps: float, split: int = 1,
-                             planform: str = "step", span_direction: str = "section") -> dict:
+                             planform: str = "step", span_direction: str = "section",
+                             collocation: str = "quarter", normalwash: str = "angle") -> dict:
     """The body-axis lateral load derivatives (as :func:`birdocp.studies.glide.load_derivatives_at`)
     of the frozen wing's lifting line cut by :func:`refined_line`, at the body velocity (u, w).
 
@@ -114,6 +118,11 @@ def refined_load_derivatives(cfg: Config | None, u_mps: float, w_mps: float, spl
         See :func:`refined_line`.
     span_direction : {"section", "element"}
         See :func:`refined_line`.
+    collocation : {"quarter", "three_quarter"}
+        Where the sections see the wake (the model's ``aero.collocation``, :mod:`birdocp.bird.collocation`).
+    normalwash : {"angle", "tangency"}
+        The section law (:func:`birdocp.bird.aero.forces_from_velocity`): the model's lift linear in the
+        angle, or the flat plate's flow tangency that a vortex lattice solves (lift linear in its sine).
 
     Returns
     -------
@@ -124,12 +133,13 @@ def refined_load_derivatives(cfg: Config | None, u_mps: float, w_mps: float, spl
     nodes = [ca.DM(p) for p in line["nodes_m"].T]
     centres = [ca.DM(p) for p in line["r_m"].T]
     G, Wx, Wy = (ca.DM(ca.evalf(m)) for m in aero.circulation_matrices(
-        centres, nodes, list(line["chord_m"]), line["lift_slope_per_rad"]))
+        centres, nodes, list(line["chord_m"]), line["lift_slope_per_rad"], collocation=collocation,
+        c_hat=[ca.DM(c) for c in line["chord_direction"].T]))
     xs = ca.SX.sym("x", 6)
     r = ca.DM(line["r_m"])
     V = air_velocity(xs, r, ca.DM.zeros(*line["r_m"].shape))
     e = aero.forces_from_velocity(V, ca.DM(line["c_hat"]), ca.DM(line["up"]), ca.DM(line["tau"]),
-                                  ca.DM(line["ds_m"]), G, Wx, Wy, line["air_density_kgm3"])
+                                  ca.DM(line["ds_m"]), G, Wx, Wy, line["air_density_kgm3"], normalwash)
     Fb, Mb = body_axis_loads(r, e["dF"])
     loads = ca.vertcat(Fb, Mb)
     J = np.asarray(ca.Function("dl", [xs], [ca.jacobian(loads, xs)])([u_mps, 0, w_mps, 0, 0, 0]))
