@@ -9,10 +9,12 @@ writes ``geometry.json`` (birdocp's frozen lifting line and glide: the input of
 ``birdocp.json`` (the glide, its eigenvalues, lateral matrix and derivatives) and, when
 ``aerosandbox.json`` (the VLM of the model's stepped planform) is in the folder, ``comparison.json`` and
 ``comparison.md`` (the roll-subsidence root, the Dutch-roll frequency and the other roots and
-derivatives side by side, with the relative differences; and the roots of (a) the paper's model and
-(b) the model with ``aero.span_direction = "element"``, each also with every element cut into
-``--split`` pieces, ``birdocp.studies.glide_refined``; ``aerosandbox_linear.json``, the VLM of the
-linearly interpolated planform, is listed when present).
+derivatives side by side, with the relative differences; and the roots of (a) the paper's model,
+(b) the model with ``aero.span_direction = "element"`` and (c) also with ``aero.collocation =
+"three_quarter"`` (Weissinger's extended lifting line), alone and with the vortex lattice's
+flow-tangency section law, each also with every element cut into ``--split`` pieces,
+``birdocp.studies.glide_refined``; the VLM runs of :data:`OTHER_REFERENCES` (linear planform, 16
+chordwise panels, one panel an element) are listed when present).
 """
 from __future__ import annotations
 
@@ -38,15 +40,25 @@ def rel(a: float, b: float) -> float:
     return (a - b) / abs(b)
 
 
-def refinement(glide: dict, ref: dict, split: int, linear: dict | None = None) -> list[dict]:
+OTHER_REFERENCES = (("aerosandbox_linear.json", "AeroSandbox VLM, linear planform, body-axis wake"),
+                    ("aerosandbox_chordwise16.json", "AeroSandbox VLM, 8 spanwise x 16 chordwise panels, body-axis wake"),
+                    ("aerosandbox_chordwise1.json", "AeroSandbox VLM, one panel an element (Weissinger's lattice), "
+                     "body-axis wake"))
+"""Other VLM runs listed in the refinement table when present: (file, row name)."""
+
+
+def refinement(glide: dict, ref: dict, split: int, others: tuple = ()) -> list[dict]:
     """The lateral roots with the nine load derivatives of: (a) the paper's model (16 elements, the
     leading-line span direction), its lifting line cut ``split`` times, (b) the model with
-    ``aero.span_direction = "element"`` (16 elements, then cut 2, 4 and ``split`` times: the refined
-    model), the VLM of the same stepped planform (``ref``, body-axis wake; the reference of the
-    differences) and, if given, the VLM of the linearly interpolated planform (``linear``); each
-    through birdocp's exact lateral matrix (:func:`lateral_matrix_with`)."""
+    ``aero.span_direction = "element"`` (16 elements, then cut 2, 4 and ``split`` times), (c) the model
+    with also ``aero.collocation = "three_quarter"`` (Weissinger's extended lifting line; 16 elements,
+    cut 2 and ``split`` times), and (c) with the vortex lattice's flow-tangency section law (lift linear
+    in the sine of the angle: the like-for-like comparison), the VLM of the same stepped planform
+    (``ref``, body-axis wake; the reference of the differences) and the VLM runs ``others`` ((name,
+    result) pairs); each through birdocp's exact lateral matrix (:func:`lateral_matrix_with`)."""
     cfg, s = attached_config(), glide["state"]
     element = with_values(cfg, {"aero.span_direction": "element"})
+    weissinger = with_values(element, {"aero.collocation": "three_quarter"})
     cases = [("(a) the paper's model: 16 elements, leading-line span direction", glide["derivatives"]),
              (f"(a) cut: {16 * split} elements, leading-line span direction",
               refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], split, "step", "section")),
@@ -54,9 +66,14 @@ def refinement(glide: dict, ref: dict, split: int, linear: dict | None = None) -
     for n in sorted({2, 4, split} - {1}):
         cases.append((f"(b) cut: {16 * n} elements, span direction along each sub-element",
                       refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], n, "step", "element")))
+    cases.append(("(c) aero.collocation = three_quarter, span_direction = element: 16 elements",
+                  load_derivatives_at(weissinger, s["u_mps"], s["w_mps"])))
+    for law, name in (("angle", "(c)"), ("tangency", "(c) with the VLM's flow-tangency law")):
+        for n in ([1] if law == "tangency" else []) + sorted({2, split} - {1}):
+            cases.append((f"{name}: {16 * n} elements", refined_load_derivatives(
+                cfg, s["u_mps"], s["w_mps"], n, "step", "element", "three_quarter", law)))
     cases.append(("AeroSandbox VLM, stepped planform, body-axis wake", ref["body_axis_wake"]["derivatives"]))
-    if linear is not None:
-        cases.append(("AeroSandbox VLM, linear planform, body-axis wake", linear["body_axis_wake"]["derivatives"]))
+    cases += [(name, other["body_axis_wake"]["derivatives"]) for name, other in others]
     out = []
     for name, der in cases:
         der = {k: v for k, v in der.items() if k != "elements"}
@@ -176,8 +193,8 @@ def main(argv=None) -> None:
     if ref_file.exists():
         ref = json.loads(ref_file.read_text())
         cmp = compare(glide, ref)
-        lin = out / "aerosandbox_linear.json"
-        cmp["refinement"] = refinement(glide, ref, args.split, json.loads(lin.read_text()) if lin.exists() else None)
+        others = tuple((name, json.loads((out / f).read_text())) for f, name in OTHER_REFERENCES if (out / f).exists())
+        cmp["refinement"] = refinement(glide, ref, args.split, others)
         cmp["glide"] = {"joint_offsets_deg": glide_geometry(cfg, glide=glide)["joint_offsets_deg"],
                         **{k: glide[k] for k in ("speed_mps", "alpha_body_deg", "flight_path_angle_deg")},
                         **{k: v[k] for k in ("valid", "alpha_eff_min_deg", "alpha_eff_max_deg")}}
