@@ -129,6 +129,89 @@ def test_refined_model_roll_subsidence_within_five_percent_of_the_vortex_lattice
     assert abs(roll / ref - 1) <= 0.05, (roll, ref)
 
 
+@pytest.fixture(scope="module")
+def weissinger(cfg, glide):
+    """(c) the model with ``aero.span_direction = "element"`` and ``aero.collocation = "three_quarter"``
+    (Weissinger's extended lifting line): the model option at 16 elements, and glide_refined's line at
+    16 and 32 elements with the model's section law (lift linear in the angle) and with the vortex
+    lattice's (flow tangency: lift linear in the sine of the angle)."""
+    s = glide["state"]
+    option = load_derivatives_at(with_values(cfg, {"aero.span_direction": "element", "aero.collocation": "three_quarter"}),
+                                 s["u_mps"], s["w_mps"])
+    out = {"option": option}
+    for law in ("angle", "tangency"):
+        for split in (1, 2):
+            d = refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], split, "step", "element", "three_quarter", law)
+            d.pop("elements")
+            out[law, split] = d
+    return out
+
+
+def _roots(glide, der, cfg):
+    m = lateral_glide_modes(lateral_matrix_with(glide, der, cfg))
+    return m["roll_subsidence_per_s"], m["dutch_roll"]["frequency_radps"]
+
+
+def test_weissingers_lifting_line_is_the_one_panel_lattice(cfg, glide, weissinger):
+    """Two code paths and an independent model for the same thing: the model option (c) is
+    glide_refined's three-quarter-chord line at split 1 to round-off, and with the lattice's
+    flow-tangency law it is AeroSandbox's VLM with one panel an element (the same 16 horseshoes;
+    aerosandbox_chordwise1.json) within 1.5 % in L_p, L_v and N_v (measured 0.4 %, 0.9 %, 0.9 %: the
+    forces' induced velocity is the model's two-dimensional one at the bound vortex); the quarter-chord
+    model is 7 % from it in L_p."""
+    for k, v in weissinger["option"].items():
+        assert abs(weissinger["angle", 1][k] - v) <= 1e-10 * max(1.0, abs(v)), (k, weissinger["angle", 1][k], v)
+    one_panel = json.loads((FOLDER / "aerosandbox_chordwise1.json").read_text())
+    assert one_panel["resolution"]["chordwise"] == 1 and one_panel["resolution"]["spanwise_per_section"] == 1
+    vlm1 = one_panel["body_axis_wake"]["derivatives"]
+    for k in ("L_p", "L_v", "N_v"):
+        assert abs(weissinger["tangency", 1][k] / vlm1[k] - 1) < 0.015, (k, weissinger["tangency", 1][k], vlm1[k])
+    assert abs(glide["derivatives"]["L_p"] / vlm1["L_p"] - 1) > 0.05
+
+
+def test_the_vortex_lattice_reference_is_converged_in_its_panels(reference):
+    """The VLM reference (16 spanwise panels an element, 8 chordwise) against 8 x 16: the roll root
+    and the Dutch-roll frequency move by 0.1 % and 0.6 %; against one panel an element (Weissinger's
+    lattice) the roll root is 2.7 % less damped: the chordwise loading the lifting line cannot carry."""
+    runs = {f: json.loads((FOLDER / f).read_text())["body_axis_wake"]
+            for f in ("aerosandbox_chordwise16.json", "aerosandbox_chordwise1.json")}
+    ref = reference["body_axis_wake"]
+    fine = runs["aerosandbox_chordwise16.json"]
+    assert abs(fine["roll_subsidence_per_s"] / ref["roll_subsidence_per_s"] - 1) < 0.005
+    assert abs(fine["dutch_roll"]["frequency_radps"] / ref["dutch_roll"]["frequency_radps"] - 1) < 0.01
+    one = runs["aerosandbox_chordwise1.json"]["roll_subsidence_per_s"] / ref["roll_subsidence_per_s"] - 1
+    assert 0.02 < one < 0.035
+
+
+def test_like_for_like_roll_subsidence_and_dutch_roll_within_five_percent_of_the_vortex_lattice(cfg, glide, reference,
+                                                                                              weissinger):
+    """(c) with the vortex lattice's own section law (flow tangency on a flat plate, the law a VLM
+    solves): the roll-subsidence root within 5 % of the VLM's (measured -42.67 1/s at 16 elements,
+    -42.48 at 32, against -41.34: 3.2 %, 2.8 %), and the Dutch-roll frequency too (1.3 %, 0.7 %)."""
+    ref = reference["body_axis_wake"]
+    for split in (1, 2):
+        roll, dutch = _roots(glide, weissinger["tangency", split], cfg)
+        assert abs(roll / ref["roll_subsidence_per_s"] - 1) <= 0.05, (split, roll)
+        assert abs(dutch / ref["dutch_roll"]["frequency_radps"] - 1) <= 0.05, (split, dutch)
+
+
+def test_weissinger_dutch_roll_within_five_percent_of_the_vortex_lattice(cfg, glide, reference, weissinger):
+    """(c) with the model's section law: the Dutch-roll frequency 1.671 rad/s (0.4 %; 32 elements 0.2 %)."""
+    for d in (weissinger["option"], weissinger["angle", 2]):
+        dutch = _roots(glide, d, cfg)[1]
+        assert abs(dutch / reference["body_axis_wake"]["dutch_roll"]["frequency_radps"] - 1) <= 0.05, dutch
+
+
+@pytest.mark.xfail(strict=True, reason="measured: (c) with the model's section law (lift linear in the angle) "
+                   "-43.62 1/s at 16 elements, -43.43 at 32, -43.66 at 128 against the VLM's -41.34: 5.5 %, 5.1 %, "
+                   "5.6 %; the section law adds 2.3 points at the glide's 8-14 deg sections (tangency: 3.2 %), the "
+                   "VLM's chordwise loading 2.7 (one panel an element: -42.46)")
+def test_weissinger_roll_subsidence_within_five_percent_of_the_vortex_lattice(cfg, glide, reference, weissinger):
+    for d in (weissinger["option"], weissinger["angle", 2]):
+        roll = _roots(glide, d, cfg)[0]
+        assert abs(roll / reference["body_axis_wake"]["roll_subsidence_per_s"] - 1) <= 0.05, roll
+
+
 def test_the_roots_agree_within_ten_percent_and_the_spiral_within_five(glide, reference):
     """What does hold in the attached glide: both named roots within 10 %, the spiral within 5 %."""
     ref = reference["body_axis_wake"]
