@@ -6,6 +6,11 @@ environment: ``python -m venv /work/venvs/asb && /work/venvs/asb/bin/pip install
         --spacing uniform --spanwise 16 --out results/lateral/glide/aerosandbox.json
     /work/venvs/asb/bin/python scripts/reference_aerosandbox/run_aerosandbox.py \\
         --out results/lateral/glide/aerosandbox_linear.json
+    # convergence (8 spanwise x 16 chordwise) and Weissinger's lattice (one panel an element):
+    /work/venvs/asb/bin/python scripts/reference_aerosandbox/run_aerosandbox.py --planform step \\
+        --spacing uniform --spanwise 8 --chordwise 16 --out results/lateral/glide/aerosandbox_chordwise16.json
+    /work/venvs/asb/bin/python scripts/reference_aerosandbox/run_aerosandbox.py --planform step \\
+        --spacing uniform --spanwise 1 --chordwise 1 --out results/lateral/glide/aerosandbox_chordwise1.json
 
 Input: the geometry JSON written by ``scripts/glide_comparison.py`` (birdocp's frozen lifting line in
 its pose, the joint offsets, its glide state, mass, inertia, density). This script imports nothing of
