@@ -31,7 +31,7 @@ import numpy as np
 from birdocp.bird.config import PARAM_NAMES, Config, param_vector
 from birdocp.bird.flight import flight_path_angle_deg
 from birdocp.bird.keys import AMPLITUDE_KEY
-from birdocp.bird.sides import side_vector
+from birdocp.bird.sides import SIDE_PARAM_NAMES, side_vector
 from birdocp.bird.sixdof import HEADING, LATERAL, LONGITUDINAL, STATE_NAMES, LateralInertia, embed_planar_state, \
     sixdof_model
 from birdocp.bird.validity import CycleValidity, periodic_validity
@@ -438,8 +438,11 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
     :data:`birdocp.bird.sixdof.LATERAL_PARAM_NAMES`), the change of the cycle included (second-order
     AD through the RK4 period map, :func:`birdocp.studies.sensitivity.cycle_derivatives`; the heading
     is left out of the periodicity condition, its multiplier 1 being structural). An asymmetric gait's
-    cycle (a turn) is differentiated in the heading-free 8 states it was solved in, and its parameters
-    include the per-side offsets (``gait.right_offset.*``, ``gait.left_offset.*``).
+    cycle (a turn) is differentiated in the heading-free 8 states it was solved in. The per-side offsets
+    (``gait.right_offset.*``, ``gait.left_offset.*``, :data:`birdocp.bird.sides.SIDE_PARAM_NAMES`) are
+    parameters of every 6-DOF cycle: a symmetric cycle is differentiated with the model with per-side
+    joint laws at zero offsets (the same right-hand side bit for bit), where mirror symmetry makes a
+    right offset's derivative equal the left one's.
 
     Parameters
     ----------
@@ -449,7 +452,7 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
         Its configuration (default: the reference case).
     parameters : sequence of str, optional
         Parameter keys (default :data:`LATERAL_SENSITIVITY_KEYS`, with :data:`TAIL_SENSITIVITY_KEY`
-        when ``cfg`` has the tail).
+        when ``cfg`` has the tail); per-side offsets allowed.
 
     Returns
     -------
@@ -470,18 +473,24 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
     six = sixdof_model(cfg)
     if parameters is None:
         parameters = LATERAL_SENSITIVITY_KEYS + ((TAIL_SENSITIVITY_KEY,) if six.structure.tail else ())
+    p = np.asarray(c.p, float)
+    if not six.sides and set(parameters) & set(SIDE_PARAM_NAMES):
+        # per-side keys of a symmetric cycle: the model with per-side joint laws at zero offsets (its data
+        # is the symmetric model's bit for bit), the parameter vector with the 42 zeros appended
+        six = sixdof_model(cfg, sides=True)
+        p = np.concatenate([p, np.zeros(len(SIDE_PARAM_NAMES))])
     names = list(six.ode.param_names)
     for k in parameters:
         if k not in names:
             raise ValueError(f"unknown parameter {k!r}")
     steps = int(c.method["steps_per_period"])
-    if six.sides:  # an asymmetric gait: the heading-free 8 states the cycle was solved in
+    if not res.symmetric:  # an asymmetric gait: the heading-free 8 states the cycle was solved in
         so = SecondOrderMaps.get(_heading_free(six), steps, six.flight_outputs(HEADING)["vertical_speed_mps"])
         states = list(range(HEADING))
     else:
         so = SecondOrderMaps.get(six, steps, six.flight_outputs()["vertical_speed_mps"])
         states = [i for i in range(9) if i != HEADING]
-    lam, dL, dmod, _, _ = cycle_derivatives(so, six.period_s, c.x0, c.p, [names.index(k) for k in parameters], states)
+    lam, dL, dmod, _, _ = cycle_derivatives(so, six.period_s, c.x0, p, [names.index(k) for k in parameters], states)
     labels = _labels(lam, res)
     return [{"parameter": k, "labels": labels, "multipliers": lam, "d_moduli": dmod[i], "d_multipliers": dL[i]}
             for i, k in enumerate(parameters)]
