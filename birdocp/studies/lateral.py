@@ -270,8 +270,8 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     Parameters
     ----------
     cfg : Config, optional
-        The configuration (default: the paper's reference case). The unsteady or stall sections are refused;
-        the tail, wing masses and the optional drag are taken in 3-D.
+        The configuration (default: the paper's reference case). The static stall section, the tail, wing masses and
+        the optional drag are taken in 3-D (``dynamic-stall`` and ``wagner`` are refused).
     inertia : LateralInertia, optional
         Roll and yaw inertia [kg m^2]; default ``cfg.model``'s.
     level : bool
@@ -301,7 +301,7 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     p6 = six.params(param_vector(cfg), inertia, side_vector(cfg) if asym else None)
     method = method or OrbitMethod(**{"points": cfg.solve.points, "steps_per_period": cfg.solve.steps_per_period,
                                            "max_iter": cfg.solve.max_iter, "tol": cfg.solve.tol or None, **method_over})
-    guess = embed_planar_state(cfg.solve.initial_guess) if x_guess is None else x_guess
+    guess = _start_state(cfg, method) if x_guess is None else x_guess
     outputs = six.flight_outputs(8 if asym else 9)
     free, means = {}, []
     if level:
@@ -316,6 +316,23 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     if asym:
         return _split_asymmetric(cfg, six, cyc, method, inertia, amplitude)
     return _split(cfg, cyc, six.ode.period_s, method, inertia, amplitude)
+
+
+def _start_state(cfg: Config, method: OrbitMethod) -> list[float]:
+    """The 9-state start of a 6-DOF trim: ``cfg.solve.initial_guess`` with zero lateral states; with a
+    stall section, the planar linear-section cycle's state at t = 0 (as the planar trim,
+    :func:`birdocp.studies.trim.linear_section_start`) and, with ``dynamic-stall``, the separation
+    states on the quasi-steady manifold there."""
+    x4 = cfg.solve.initial_guess
+    if cfg.aero.section == "linear":
+        return embed_planar_state(x4)
+    from birdocp.bird.model import get_model
+    from birdocp.studies.trim import linear_section_start
+
+    lin = linear_section_start(cfg, points=method.points, steps_per_period=method.steps_per_period)
+    x4 = x4 if lin is None else lin
+    m = get_model(cfg)
+    return embed_planar_state(x4) + [float(v) for v in m.complete_state(x4, m.p0)[4:]]
 
 
 def solve_point(cfg: Config, *, level: bool = False, level_options: dict | None = None, warm_start=None,
