@@ -118,3 +118,27 @@ def test_control_and_simulate_cli_in_six_degrees_of_freedom(tmp_path):
 def test_bad_six_dof_simulate_and_control_input_exits_2(argv, flag, tmp_path):
     proc = _cli(*argv, "--out", str(tmp_path / "run"))
     assert proc.returncode == 2 and flag in proc.stderr and not (tmp_path / "run").exists(), proc.stderr
+
+
+@pytest.mark.slow
+def test_control_cli_with_wing_masses_in_six_degrees_of_freedom(tmp_path):
+    """``birdocp control`` with wing masses (0.086 kg per wing, their 3-D inertial terms): the 8-state
+    map's monodromy holds the planar wing-mass cycle's multipliers (the masses are in the model), the
+    closed loop M - B K (recomputed from the JSON) is the reported one and inside the unit circle while
+    the open loop is not, and the gains are mirror-symmetric."""
+    import json
+
+    from birdocp.studies.trim import trim
+
+    proc = _cli("control", *SIX, "--set", "wing.mass_kg=0.086", "--json", "--out", str(tmp_path / "ctl"))
+    assert proc.returncode == 0, proc.stderr
+    r = json.loads(proc.stdout)
+    assert r["success"] and r["degrees_of_freedom"] == 6 and r["cycle_symmetric"]
+    M, B, K = (np.asarray(r[k]) for k in ("monodromy", "B_lifted", "gains"))
+    assert r["open_loop_spectral_radius"] > 1.0 > r["closed_loop_spectral_radius"]
+    assert np.max(np.abs(np.linalg.eigvals(M - B @ K[0]))) == pytest.approx(r["closed_loop_spectral_radius"], abs=1e-9)
+    planar = trim(with_values(Config(), {"wing.mass_kg": 0.086}), points=3, steps_per_period=48)
+    lam = np.linalg.eigvals(M)
+    for z in planar.multipliers:
+        assert np.min(np.abs(lam - z)) < 1e-7, (z, lam)
+    np.testing.assert_allclose(K[0][3:], K[0][:3] * LAT8, rtol=0, atol=1e-9 * np.abs(K).max())

@@ -288,12 +288,32 @@ def test_continue_cli_with_six_degrees_of_freedom(tmp_path):
 
 @pytest.mark.slow
 def test_sensitivity_cli_with_six_degrees_of_freedom(tmp_path):
-    r = _cli("sensitivity", "--param", "model.roll_inertia_kgm2", "--out", str(tmp_path / "s"))
+    """The lateral inertia and the per-side offsets of a symmetric gait through the CLI: a right
+    offset's derivatives equal the left one's (mirror symmetry) and sum to the symmetric key's (the
+    symmetric offset adds to both wings: the chain rule)."""
+    side = [f"gait.{s}_offset.shoulder_sweep.offset_deg" for s in ("right", "left")]
+    r = _cli("sensitivity", "--param", "model.roll_inertia_kgm2", "--param", side[0], "--param", side[1],
+             "--param", "gait.shoulder_sweep.offset_deg", "--out", str(tmp_path / "s"))
     assert r["success"] and len(r["multipliers"]) == 9 and len(r["lateral_multipliers"]) == 4
-    (row,) = r["sensitivities"]
+    row, right, left, both = r["sensitivities"]
     assert row["parameter"] == "model.roll_inertia_kgm2" and len(row["d_moduli"]) == 9
     # a roll inertia moves only the lateral modes (the longitudinal block does not contain it)
     assert abs(row["d_modulus_by_mode"]["longitudinal"]) < 1e-12 < abs(row["d_modulus_by_mode"]["spiral"])
+    assert (right["parameter"], left["parameter"]) == tuple(side)
+    np.testing.assert_allclose(right["d_moduli"], left["d_moduli"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.add(right["d_moduli"], left["d_moduli"]), both["d_moduli"], rtol=0, atol=1e-12)
+    assert np.abs(both["d_moduli"]).max() > 1e-2
+
+
+def test_sensitivity_cli_names_a_misspelt_per_side_key(tmp_path):
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "birdocp", "sensitivity", "--param",
+                           "gait.right_offset.shoulder_sweep.ofset_deg", *SIX_CLI, "--out", str(tmp_path / "s")],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and not (tmp_path / "s").exists()
+    assert "--param" in proc.stderr and "gait.right_offset.shoulder_sweep.offset_deg" in proc.stderr
 
 
 def _export_six(d):

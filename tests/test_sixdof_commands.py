@@ -156,3 +156,16 @@ def test_lateral_level_cycle_with_wing_masses():
                       points=3, x_guess=[ev.x0[0], 0, ev.x0[1], 0, ev.x0[2], 0, 0, ev.x0[3], 0])
     lat = np.array([complex(*p) for p in rc.multiplier_split(ev)["lateral_multipliers"]])
     assert np.max(np.abs(np.sort_complex(lat) - np.sort_complex(tr.lateral_multipliers))) < 1e-8
+
+
+def test_optimisers_refuse_an_asymmetric_gait_naming_the_offset(tmp_path):
+    import subprocess
+    import sys
+
+    key = "gait.left_offset.shoulder_sweep.offset_deg"
+    for command, extra in (("optimize-stability", []), ("optimize-gait", ["--speed", "17"])):
+        proc = subprocess.run([sys.executable, "-m", "birdocp", command, *extra, "--set", "model.degrees_of_freedom=6",
+                               "--set", f"{key}=-1", "--out", str(tmp_path / command)],
+                              capture_output=True, text=True, timeout=120)
+        assert proc.returncode == 2 and not (tmp_path / command).exists(), proc.stderr
+        assert key in proc.stderr and len(proc.stderr.strip().splitlines()) == 1

@@ -417,10 +417,14 @@ def _validate_model(cfg: Any) -> None:
         if get_value(cfg, key) != 0:
             raise ConfigError(key, f"{what}: not yet written in six degrees of freedom; set {key} = 0 "
                                    "or model.degrees_of_freedom = 4")
-    for key, default in (("aero.unsteady", "none"), ("aero.section", "linear")):
-        if get_value(cfg, key) != default:
-            raise ConfigError(key, f"not yet written in six degrees of freedom; set {key} = '{default}' "
-                                   "or model.degrees_of_freedom = 4")
+    if cfg.aero.section == "dynamic-stall":
+        raise ConfigError("aero.section", "'dynamic-stall' (separation states split into symmetric and antisymmetric "
+                                          "parts) is not yet written in six degrees of freedom; use 'stall' or "
+                                          "model.degrees_of_freedom = 4")
+    if cfg.aero.unsteady != "none":
+        raise ConfigError("aero.unsteady", "'wagner' (lag states and added mass in 3-D) is not yet written in six "
+                                           "degrees of freedom; set aero.unsteady = 'none' or "
+                                           "model.degrees_of_freedom = 4")
 
 
 def has_aero_states(cfg: Any) -> bool:

@@ -19,7 +19,8 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, SIDE_KEYS, Config, get_value
-from birdocp.bird.model import DATA_BLOCKS, BirdModel, Structure, aero_blocks
+from birdocp.bird.graphs import unsteady_blocks
+from birdocp.bird.model import DATA_BLOCKS, N_EL, BirdModel, Structure, aero_blocks
 from birdocp.bird.sixdof_inertia import sums_function
 
 __all__ = ["SIDE_PARAM_NAMES", "side_vector", "side_parameters", "side_data_functions", "swap_sides"]
@@ -103,6 +104,9 @@ def _sides_post(structure: Structure, n_local: int) -> ca.Function:
     pr, pl = ca.SX.sym("p_right", n), ca.SX.sym("p_left", n)
     blocks = aero_blocks(structure, Lr, t, pr, left=(Ll, pl))
     d = ca.vertcat(*[ca.vec(blocks[name]) for name, _ in DATA_BLOCKS])
+    if structure.aero_extra:  # the unsteady data of the two differing wings (stall section)
+        n_aero = 4 * 3 * N_EL + N_EL
+        d = ca.vertcat(d, unsteady_blocks([Lr, Ll], n_aero, n_local - 2 * n_aero, blocks, t))
     return ca.Function("wing_assemble_sides", [Lr, Ll, t, pr, pl], [d],
                        ["local_right", "local_left", "t", "p_right", "p_left"], ["d"])
 
@@ -130,8 +134,8 @@ def side_data_functions(planar: BirdModel, n_params: int, first_offset: int):
         ``(pre, post, data, pre_params)``.
     """
     n = len(PARAM_NAMES)
-    if planar.structure.aero_extra:
-        raise ValueError("asymmetric gaits: the unsteady or stall sections are not written per side")
+    if planar.structure.unsteady != "none":
+        raise ValueError("asymmetric gaits: aero.unsteady = 'wagner' is not written in six degrees of freedom")
     nl = planar.pre.size1_out(0)
     post2 = _sides_post(planar.structure, nl)
     tm, pm = ca.MX.sym("t"), ca.MX.sym("p", n_params)

@@ -38,8 +38,10 @@ terms (momentum, angular momentum, products of inertia) are added by
 :mod:`birdocp.bird.sixdof_inertia`; ``body.mass_kg`` is then the whole bird and the inertias are the
 body's own about its centre of mass G_b, as in the planar model with wing masses. With the tail
 (``tail.opening_angle_deg`` > 0) its planar loads are added (:func:`tail_body_loads`); with the optional
-drag (``[drag]``) the profile drag of every element and the body's parasite drag (:func:`drag_terms`). For a symmetric
-cycle (v = p = r = phi = 0) the longitudinal equations are the planar model's.
+drag (``[drag]``) the profile drag of every element and the body's parasite drag (:func:`drag_terms`). With the
+stall-aware section (``aero.section = "stall"``) the planar section law is called per element over both wings in
+the asymmetric flow (:class:`SectionLaw`). For a symmetric cycle (v = p = r = phi = 0) the longitudinal equations
+are the planar model's.
 """
 
 from __future__ import annotations
@@ -49,15 +51,16 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from birdocp.bird import aero, tail
+from birdocp.bird import aero, tail, unsteady
 from birdocp.bird import sixdof_inertia as wing3
 from birdocp.bird.config import PARAM_NAMES, Config, asymmetric
-from birdocp.bird.model import N_DATA, BirdModel, Structure, get_model, unpack_data
+from birdocp.bird.loads import unsteady_params, unsteady_data_offset
+from birdocp.bird.model import N_DATA, N_EL, BirdModel, Structure, get_model, unpack_data
 from birdocp.bird.sides import SIDE_PARAM_NAMES, side_data_functions
 from birdocp.engine.cache import register_cache
 from birdocp.engine.problem import PeriodicODE
 
-__all__ = ["rhs_expression", "STATE_NAMES", "LONGITUDINAL", "LATERAL", "HEADING", "LATERAL_PARAM_NAMES", "LateralInertia",
+__all__ = ["rhs_expression", "SectionLaw", "STATE_NAMES", "LONGITUDINAL", "LATERAL", "HEADING", "LATERAL_PARAM_NAMES", "LateralInertia",
            "SixDofModel", "sixdof_model", "embed_planar_state", "body_loads", "drag_terms", "air_velocity",
            "body_axis_loads"]
 
@@ -104,21 +107,81 @@ def _p(p, name):
     return p[PARAM_NAMES.index(name)]
 
 
-def body_loads(x, d, p, with_tail=False, with_drag=False):
+@dataclass(frozen=True)
+class SectionLaw:
+    """The planar model's unsteady or stall-aware section (``aero.unsteady``, ``aero.section``) as the
+    6-DOF loads call it: the section options and where the unsteady data blocks
+    (:func:`birdocp.bird.unsteady.element_data`) start in the 6-DOF data vector."""
+
+    unsteady: str
+    section: str
+    newton_steps: int
+    data_offset: int
+
+    @staticmethod
+    def of(structure: Structure, data_offset: int) -> "SectionLaw | None":
+        """The section law of ``structure`` (None for the linear quasi-steady section).
+
+        Parameters
+        ----------
+        structure : Structure
+            Structure of the model.
+        data_offset : int
+            Index of the first unsteady data value in the 6-DOF data vector.
+
+        Returns
+        -------
+        SectionLaw or None
+        """
+        if not structure.aero_extra:
+            return None
+        return SectionLaw(structure.unsteady, structure.section, int(structure.newton_steps), int(data_offset))
+
+    @property
+    def n_states(self) -> int:
+        """Aerodynamic states (lag and separation states) after the 9 body states."""
+        return unsteady.n_aero_states(self.unsteady, self.section, N_EL)
+
+
+def _section_element_terms(law: SectionLaw, x, V, b: dict, d, p) -> dict:
+    """The planar section law (:func:`birdocp.bird.unsteady.section_loads`, the same functions) over the
+    16 elements of both wings in the asymmetric flow ``V`` with the body rates of the 9-state ``x``
+    and its aerodynamic states ``x[9:]``: the element terms of :func:`body_loads` (``dF`` the attached
+    force at the quarter chord, ``dF_mid`` at ``r_mid``)."""
+    k0 = law.data_offset
+    ud = unsteady.unpack(d[k0:k0 + unsteady.data_size(N_EL)], N_EL)
+    base = {"r": b["r_m"], "v_kin": b["v_kin_mps"], "c_hat": b["c_hat"], "up": b["up"], "tau": b["tau"],
+            "ds": b["ds_m"], "chord": b["chord_m"]}
+    wake = {"K": b["G"], "Vx": b["Wx"], "Vy": b["Wy"]}
+    opts = {"unsteady": law.unsteady, "section": law.section, "newton_steps": law.newton_steps}
+    flow = {"V": V, "Omega": ca.vertcat(x[4], -x[5], -x[3])}
+    sec = unsteady.section_loads(opts, ca.vertcat(x[0], x[2], x[4]), x[9:], base, ud, wake, unsteady_params(p),
+                                 flow=flow)
+    e = {k: sec[k] for k in ("V", "Vp", "vind", "Vp_norm", "alpha", "Gamma", "dF_mid", "r_mid", "zdot")}
+    e["dF"] = sec["dF_att"]
+    e["sec"] = sec
+    return e
+
+
+def body_loads(x, d, p, with_tail=False, with_drag=False, section: SectionLaw | None = None):
     """Body-axis aerodynamic force (X, Y, Z) [N] and moment (L, M, N) [N m] about G at the 9-state
-    ``x``, planar data ``d`` and parameters ``p`` (SX), with the per-element terms.
+    ``x`` (then the aerodynamic states of ``section``), planar data ``d`` and parameters ``p`` (SX),
+    with the per-element terms.
 
     ``with_tail``: add the tail's loads (:func:`tail_body_loads`). ``with_drag``: add the optional drag
-    terms of the planar model in 3-D (:func:`drag_terms`).
+    terms of the planar model in 3-D (:func:`drag_terms`). ``section``: the unsteady or stall-aware
+    section of the planar model (:class:`SectionLaw`), per element over both wings in the asymmetric
+    flow (the attached force at the quarter chord, the separated one at mid-chord).
 
     Returns ``(F_body 3x1, M_body 3x1, terms)``; ``terms`` is the dict of
     :func:`birdocp.bird.aero.forces_from_velocity` (code frame), with ``dD`` and ``F_par`` when
-    ``with_drag``.
+    ``with_drag`` and, with a ``section``, ``dF_mid``, ``r_mid``, ``zdot`` (the aerodynamic-state
+    derivatives) and ``sec`` (:func:`birdocp.bird.unsteady.section_loads`).
 
     Parameters
     ----------
     x : casadi.SX
-        9-state.
+        9-state (and the section's aerodynamic states).
     d : casadi.SX
         Planar data vector.
     p : casadi.SX
@@ -127,6 +190,8 @@ def body_loads(x, d, p, with_tail=False, with_drag=False):
         Add the tail's loads.
     with_drag : bool
         Add the optional drag terms.
+    section : SectionLaw, optional
+        The unsteady or stall-aware section (default: the linear quasi-steady lifting line).
 
     Returns
     -------
@@ -137,13 +202,19 @@ def body_loads(x, d, p, with_tail=False, with_drag=False):
     b = unpack_data(d)
     r = b["r_m"]
     V = air_velocity(x, r, b["v_kin_mps"])
-    e = aero.forces_from_velocity(V, b["c_hat"], b["up"], b["tau"], b["ds_m"], b["G"], b["Wx"], b["Wy"],
-                                  _p(p, "aero.air_density_kgm3"))
+    if section is None:
+        e = aero.forces_from_velocity(V, b["c_hat"], b["up"], b["tau"], b["ds_m"], b["G"], b["Wx"], b["Wy"],
+                                      _p(p, "aero.air_density_kgm3"))
+    else:
+        e = _section_element_terms(section, x, V, b, d, p)
     dF = e["dF"]
     if with_drag:
         e.update(drag_terms(e, b, u, v, w, p))
         dF = dF + e["dD"]  # the profile drag acts at the element centres, as the lifting-line force
     Fb, Mb = body_axis_loads(r, dF)
+    if section is not None:  # the separated force at mid-chord
+        Fm, Mm = body_axis_loads(e["r_mid"], e["dF_mid"])
+        Fb, Mb = Fb + Fm, Mb + Mm
     if with_drag:  # the body's parasite drag at G (no moment)
         Fb = Fb + ca.vertcat(-e["F_par"][2], e["F_par"][0], -e["F_par"][1])
     if with_tail:
@@ -264,16 +335,17 @@ def tail_body_loads(x, b, gamma, p):
                                                           "incidence_deg")])
 
 
-def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None):
-    """The state derivative (9) of the rigid body with the aerodynamic loads of :func:`body_loads` at
-    ``x_air`` (the state as the air sees it, with a wind; default ``x``) and, with
-    ``structure.wing_mass``, the wing masses of :mod:`birdocp.bird.sixdof_inertia` (whose sums follow
-    the planar data in ``d``); ``structure.tail`` adds the tail.
+def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None, section: SectionLaw | None = None):
+    """The state derivative (9, then the aerodynamic states') of the rigid body with the aerodynamic
+    loads of :func:`body_loads` at ``x_air`` (the state as the air sees it, with a wind; default ``x``)
+    and, with ``structure.wing_mass``, the wing masses of :mod:`birdocp.bird.sixdof_inertia` (whose
+    sums follow the planar data in ``d``); ``structure.tail`` adds the tail; ``section`` the planar
+    model's stall-aware section (its separation states after the 9 body states with ``dynamic-stall``).
 
     Parameters
     ----------
     x : casadi.SX
-        9-state.
+        9-state (then the section's aerodynamic states).
     d : casadi.SX
         Data vector.
     p6 : casadi.SX
@@ -282,17 +354,22 @@ def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None):
         State as the air sees it (default ``x``).
     structure : Structure, optional
         Structure of the model.
+    section : SectionLaw, optional
+        The stall-aware section (default: the linear quasi-steady lifting line).
 
     Returns
     -------
-    casadi.SX, shape (9, 1)
+    casadi.SX, shape (9 + aerodynamic states, 1)
     """
     p = p6[:len(PARAM_NAMES)]
     ixx, izz, ixz = (p6[len(PARAM_NAMES) + i] for i in range(3))
     m, iyy, g = _p(p, "body.mass_kg"), _p(p, "body.pitch_inertia_kgm2"), _p(p, "body.gravity_mps2")
     u, v, w, pr, q, rr, phi, th = (x[i] for i in range(8))
-    Fb, Mb, _ = body_loads(x if x_air is None else x_air, d, p, with_tail=bool(structure and structure.tail),
-                           with_drag=bool(structure and structure.drag))
+    if section is not None and section.unsteady != "none":
+        raise ValueError("six degrees of freedom: aero.unsteady = 'wagner' (lag states and added mass in 3-D) is "
+                         "not written yet; use aero.unsteady = 'none'")
+    Fb, Mb, e = body_loads(x if x_air is None else x_air, d, p, with_tail=bool(structure and structure.tail),
+                           with_drag=bool(structure and structure.drag), section=section)
     X, Y, Z = Fb[0], Fb[1], Fb[2]
     L, M, N = Mb[0], Mb[1], Mb[2]
     cth, sth, cph, sph = ca.cos(th), ca.sin(th), ca.cos(phi), ca.sin(phi)
@@ -315,7 +392,8 @@ def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None):
             ca.vertcat(udot, vdot, wdot, pdot, qdot, rdot), x, s, m, J_b, g * ca.vertcat(-sth, sph * cth, cph * cth)))
     turn = q * sph + rr * cph
     return ca.vertcat(udot, vdot, wdot, pdot, qdot, rdot,
-                      pr + turn * ca.tan(th), q * cph - rr * sph, turn / cth)
+                      pr + turn * ca.tan(th), q * cph - rr * sph, turn / cth,
+                      *([e["zdot"]] if section is not None and section.n_states else []))
 
 
 class SixDofModel:
@@ -330,23 +408,28 @@ class SixDofModel:
 
     def __init__(self, planar: BirdModel, sides: bool = False):
         structure = planar.structure
-        if getattr(structure, "aero_extra", False):
-            raise ValueError("six degrees of freedom: the unsteady or stall-aware sections are planar terms not yet "
-                             "written in 3-D; use aero.unsteady = 'none' and aero.section = 'linear'")
+        if getattr(structure, "unsteady", "none") != "none":
+            raise ValueError("six degrees of freedom: aero.unsteady = 'wagner' (lag states and added mass in 3-D) "
+                             "is not written yet; use aero.unsteady = 'none'")
         self.planar = planar
         self.sides = bool(sides)
         n = len(PARAM_NAMES)
         names = tuple(PARAM_NAMES) + LATERAL_PARAM_NAMES + (SIDE_PARAM_NAMES if self.sides else ())
-        x = ca.SX.sym("x", 9)
-        # per-side data: the aerodynamic blocks only (the planar model's in-plane mass sums, which the
-        # 3-D equations do not read, are not assembled for two differing wings)
-        n_planar = N_DATA if self.sides else planar.rhs.size1_in(1)
+        # per-side data: the aerodynamic blocks (then the unsteady blocks of a stall section) only (the
+        # planar model's in-plane mass sums, which the 3-D equations do not read, are not assembled for
+        # two differing wings)
+        self.section = SectionLaw.of(structure, N_DATA if self.sides else unsteady_data_offset(structure))
+        n_sec = self.section.n_states if self.section else 0
+        self.state_names = STATE_NAMES + tuple(structure.state_names[4:])
+        x = ca.SX.sym("x", 9 + n_sec)
+        n_planar = (N_DATA + (unsteady.data_size(N_EL) if self.section else 0)) if self.sides \
+            else planar.rhs.size1_in(1)
         d = ca.SX.sym("d", n_planar + (wing3.N_MASS3 if structure.wing_mass else 0))
         p6 = ca.SX.sym("p", len(names))
         self.structure = structure
-        self.rhs = ca.Function("rhs6", [x, d, p6], [rhs_expression(x, d, p6, structure=structure)], ["x", "d", "p"],
-                               ["xdot"])
-        Fb, Mb, _ = body_loads(x, d, p6[:n], with_tail=structure.tail, with_drag=structure.drag)
+        self.rhs = ca.Function("rhs6", [x, d, p6], [rhs_expression(x, d, p6, structure=structure, section=self.section)],
+                               ["x", "d", "p"], ["xdot"])
+        Fb, Mb, _ = body_loads(x, d, p6[:n], with_tail=structure.tail, with_drag=structure.drag, section=self.section)
         self.loads_d = ca.Function("loads6", [x, d, p6], [ca.vertcat(Fb, Mb)], ["x", "d", "p"], ["loads"])
         self.wing_sums = None
         if self.sides:
@@ -365,16 +448,16 @@ class SixDofModel:
             pre_params = planar.pre_params
         self.data = data
         self.period_s = planar.period_s
-        self.ode = PeriodicODE(rhs=self.rhs, data=data, period_s=planar.period_s, state_names=STATE_NAMES,
+        self.ode = PeriodicODE(rhs=self.rhs, data=data, period_s=planar.period_s, state_names=self.state_names,
                                param_names=names, pre=pre, post=post, pre_params=pre_params)
         # the heading excluded (nothing depends on it): the ODE of a cycle periodic up to its heading
-        x8 = ca.SX.sym("x", 8)
-        rhs8 = ca.Function("rhs6_no_heading", [x8, d, p6],
-                           [rhs_expression(ca.vertcat(x8, 0), d, p6, structure=structure)[:8]],
+        x8 = ca.SX.sym("x", 8 + n_sec)
+        f8 = rhs_expression(ca.vertcat(x8[:HEADING], 0, x8[HEADING:]), d, p6, structure=structure, section=self.section)
+        rhs8 = ca.Function("rhs6_no_heading", [x8, d, p6], [ca.vertcat(f8[:HEADING], f8[HEADING + 1:])],
                            ["x", "d", "p"], ["xdot"])
         self.ode_no_heading = PeriodicODE(rhs=rhs8, data=data, period_s=planar.period_s,
-                                          state_names=STATE_NAMES[:HEADING], param_names=names, pre=pre, post=post,
-                                          pre_params=pre_params)
+                                          state_names=self.state_names[:HEADING] + self.state_names[HEADING + 1:],
+                                          param_names=names, pre=pre, post=post, pre_params=pre_params)
 
     @property
     def model(self) -> "SixDofModel":

@@ -230,7 +230,7 @@ def _cross(W, tau):
                       W[0, :] * tau[1, :] - W[1, :] * tau[0, :])
 
 
-def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dict) -> dict:
+def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dict, flow: dict | None = None) -> dict:
     """Loads and aerodynamic-state derivatives at one instant (see the module and docs).
 
     ``opts``: ``unsteady``, ``section``, ``newton_steps``. ``nu`` = (u, w, q) air-relative body
@@ -238,7 +238,10 @@ def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dic
     ``base``: ``r``, ``v_kin``, ``c_hat``, ``up``, ``tau`` (3 x n), ``ds``, ``chord`` (n x 1); ``ud``:
     :func:`element_data`; ``wake``: ``K``, ``Vx``, ``Vy`` (n x n: downwash and induced e1, e2
     velocity per unit circulation); ``prm``: ``rho``, ``cla``, ``eps``, ``a0``, ``kappa``, ``chi_w``, ``chi_nc``,
-    ``alpha1`` [rad], ``cd90``, ``Tf``, ``T2``.
+    ``alpha1`` [rad], ``cd90``, ``Tf``, ``T2``; ``flow`` (six degrees of freedom): ``V`` the air velocity
+    of every element without the induced part (3 x n, code frame, m/s: sideslip and roll and yaw rates
+    included) and ``Omega`` the body's rotation rate (3 x 1, code frame, rad/s), which replace the planar
+    velocity and pitch rate made from ``nu`` (``nu`` then only feeds the added mass of the planar rows).
 
     Returns a dict: ``dF_att`` (at r), ``dF_mid`` (at r_mid), ``r_mid`` (3 x n, N and m); ``F`` (3 x 1,
     code frame, circulatory + separated), ``M`` (moment about G, N m, nose-up); the non-circulatory
@@ -249,7 +252,7 @@ def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dic
 
     Parameters
     ----------
-    opts, nu, zs, base, ud, wake, prm
+    opts, nu, zs, base, ud, wake, prm, flow
         See above.
 
     Returns
@@ -262,7 +265,7 @@ def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dic
     n = base["chord"].shape[0]
     wag = opts["unsteady"] == "wagner"
     dyn = opts["section"] == "dynamic-stall"
-    kin = _section_flow(nu, base, ud, prm, wag)
+    kin = _section_flow(nu, base, ud, prm, wag, flow)
     Vn, chord = kin["Vp_norm"], base["chord"]
     k = 2 * n if wag else 0
     z1, z2 = (zs[0:n], zs[n:2 * n]) if wag else (ca.SX.zeros(n, 1), ca.SX.zeros(n, 1))
@@ -293,19 +296,29 @@ def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dic
     return out
 
 
-def _section_flow(nu, base, ud, prm, wag) -> dict:
+def _section_flow(nu, base, ud, prm, wag, flow=None) -> dict:
     """Air velocity V at the elements (3 x n), its part Vp normal to the span and |Vp| (1 x n), the
     section angle alpha, the section pitch rate omega (``wagner``) and the quasi-steady normalwash
-    q~ (n x 1, with the 3/4-chord term under ``wagner``)."""
+    q~ (n x 1, with the 3/4-chord term under ``wagner``); ``flow``: the 6-DOF V and Omega
+    (:func:`section_loads`), the section pitch rate then omega_k + Omega . tau_hat."""
     from birdocp.bird import aero
 
-    u, w, q = nu[0], nu[1], nu[2]
     r, v_kin, tau = base["r"], base["v_kin"], base["tau"]
-    ones = ca.DM.ones(1, base["chord"].shape[0])
-    V = ca.vertcat(-v_kin[0, :], w * ones + q * r[2, :] - v_kin[1, :], u * ones - q * r[1, :] - v_kin[2, :])
+    if flow is None:
+        u, w, q = nu[0], nu[1], nu[2]
+        ones = ca.DM.ones(1, base["chord"].shape[0])
+        V = ca.vertcat(-v_kin[0, :], w * ones + q * r[2, :] - v_kin[1, :], u * ones - q * r[1, :] - v_kin[2, :])
+    else:
+        V = flow["V"]
     alpha, Vn = aero.section_angle(V, base["c_hat"], base["up"], tau)
     Vp = V - tau * ca.repmat(ca.sum1(tau * V), 3, 1)
-    omega = ud["omega_k"] + q * ud["tau_hat"][0, :] if wag else None
+    if not wag:
+        omega = None
+    elif flow is None:
+        omega = ud["omega_k"] + q * ud["tau_hat"][0, :]
+    else:
+        th, Om = ud["tau_hat"], flow["Omega"]
+        omega = ud["omega_k"] + Om[0] * th[0, :] + Om[1] * th[1, :] + Om[2] * th[2, :]
     q_t = (Vn * alpha).T
     if wag:
         q_t = q_t + prm["chi_w"] * 0.5 * base["chord"] * omega.T

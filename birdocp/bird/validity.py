@@ -495,19 +495,25 @@ SIDE_ELEMENTS = {"left": slice(0, 8), "right": slice(8, 16)}
 
 
 @functools.lru_cache(maxsize=8)
-def sixdof_angles(nx: int, nd: int, n_times: int) -> "ca.Function":
+def sixdof_angles(nx: int, nd: int, n_times: int, section=None) -> "ca.Function":
     """``(X nx x n, D nd x n, p6) -> (alpha_eff_rad 16 x n, alpha_geo_rad 16 x n, ds_m 16 x n)`` of the
     six-degree-of-freedom model (:func:`birdocp.bird.sixdof.body_loads`: sideslip and roll and yaw
     rates in every element's velocity, both wings apart) for ``nx`` = 9 or 8 (the heading dropped)
-    states and data vectors of ``nd`` values, mapped over ``n_times`` times (built once)."""
+    states (then the aerodynamic states of ``section``) and data vectors of ``nd`` values, mapped over
+    ``n_times`` times (built once). With a stall ``section`` (:class:`birdocp.bird.sixdof.SectionLaw`)
+    the effective angle is the one its section law sees (alpha_E)."""
     import casadi as ca
 
     from birdocp.bird import aero
-    from birdocp.bird.sixdof import body_loads
+    from birdocp.bird.sixdof import HEADING, body_loads
 
     x, d, p = ca.SX.sym("x", nx), ca.SX.sym("d", nd), ca.SX.sym("p", len(PARAM_NAMES))
-    _, _, e = body_loads(x, d, p)
-    ae, _ = aero.section_angle(e["V"] + e["vind"], *(unpack_blocks(d, ("c_hat", "up", "tau"))))
+    x9 = x if section is None or nx - section.n_states == 9 else ca.vertcat(x[:HEADING], 0, x[HEADING:])
+    _, _, e = body_loads(x9, d, p, section=section)
+    if section is None:
+        ae, _ = aero.section_angle(e["V"] + e["vind"], *(unpack_blocks(d, ("c_hat", "up", "tau"))))
+    else:
+        ae = e["sec"]["alpha_E"].T
     b = unpack_blocks(d, ("ds_m",))[0]
     one = ca.Function("angles6", [x, d, p], [ae.T, e["alpha"].T, b])
     X, D = ca.MX.sym("X", nx, n_times), ca.MX.sym("D", nd, n_times)
@@ -539,6 +545,16 @@ def unpack_blocks(d, names):
     return [b[k] for k in names]
 
 
+def _section_of(cfg: Config, ode):
+    """The stall section (:class:`birdocp.bird.sixdof.SectionLaw`) of the 6-DOF ``ode`` of ``cfg``, or None."""
+    from birdocp.bird.sides import SIDE_PARAM_NAMES
+    from birdocp.bird.sixdof import sixdof_model
+
+    if cfg.aero.section == "linear":
+        return None
+    return sixdof_model(cfg, sides=SIDE_PARAM_NAMES[0] in ode.param_names).section
+
+
 def _sixdof_verdict(cfg: Config, grid, X, t, D, p6) -> CycleValidity:
     """The validity measures of a six-degree-of-freedom cycle (states ``X`` n x 9 or 8 at the step
     starts): the effective angles of both wings in the asymmetric flow, the stalled share of each wing
@@ -551,7 +567,7 @@ def _sixdof_verdict(cfg: Config, grid, X, t, D, p6) -> CycleValidity:
     from birdocp.bird.sixdof import LONGITUDINAL
 
     n = X.shape[0]
-    f = sixdof_angles(int(grid.ode.nx), int(grid.ode.nd), n)
+    f = sixdof_angles(int(grid.ode.nx), int(grid.ode.nd), n, _section_of(cfg, grid.ode))
     ae, ag, ds = (np.asarray(v) for v in f(ca.DM(X.T), grid.step_start_data(D), ca.DM(p6[:len(PARAM_NAMES)])))
     u, v, w = X[:, 0], X[:, 1], X[:, 2]
     extra = {"max_sideslip_deg": float(np.degrees(np.abs(np.arctan2(v, np.hypot(u, w)))).max()),

@@ -106,13 +106,28 @@ def run_six_dof(args: argparse.Namespace, command: str, command_line: list[str],
 
 
 def _sensitivity_keys(raw) -> list[str] | None:
-    """The checked ``--param`` keys of a 6-DOF sensitivity: model parameters, aliases or the lateral
-    inertias (:data:`birdocp.bird.sixdof.LATERAL_PARAM_NAMES`)."""
+    """The checked ``--param`` keys of a 6-DOF sensitivity: model parameters, aliases, the lateral
+    inertias (:data:`birdocp.bird.sixdof.LATERAL_PARAM_NAMES`) or the per-side offsets
+    (:data:`birdocp.bird.sides.SIDE_PARAM_NAMES`, ``gait.right_offset.<joint>.<field>`` and
+    ``gait.left_offset.<joint>.<field>``)."""
     from birdocp.bird.keys import resolve_key
+    from birdocp.bird.sides import SIDE_PARAM_NAMES
     from birdocp.bird.sixdof import LATERAL_PARAM_NAMES
 
-    keys = [k if k in LATERAL_PARAM_NAMES else resolve_key(k, "--param") for k in raw or []]
+    own = set(LATERAL_PARAM_NAMES) | set(SIDE_PARAM_NAMES)
+    keys = [k if k in own else _resolve_six_key(k, resolve_key) for k in raw or []]
     return list(dict.fromkeys(keys)) or None
+
+
+def _resolve_six_key(key: str, resolve_key) -> str:
+    """``resolve_key`` of a planar key; a misspelt per-side key gets its own one-line error."""
+    from birdocp.bird.config import suggest
+    from birdocp.bird.sides import SIDE_PARAM_NAMES
+
+    if ".right_offset." in key or ".left_offset." in key:
+        raise ConfigError("--param", f"unknown per-side key '{key}'" + suggest(key, list(SIDE_PARAM_NAMES))
+                          + " (gait.right_offset.<joint>.<offset_deg|amplitude_deg|phase_deg>, or left_offset)")
+    return resolve_key(key, "--param")
 
 
 def run_six_dof_sensitivity(args: argparse.Namespace, command_line: list[str], cfg, t_start: float) -> int:

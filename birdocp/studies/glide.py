@@ -244,7 +244,7 @@ def load_derivatives_at(cfg: Config | None, u_mps: float, w_mps: float, inertia:
 def _section_angles_deg(six, x8, p6) -> list[float]:
     """The geometric angle of attack of each of the 16 elements at the glide [deg], left tip to right tip."""
     xs = ca.SX.sym("x", 9)
-    alpha = body_loads(xs, six.data(0.0, p6), p6[:len(PARAM_NAMES)])[2]["alpha"]
+    alpha = body_loads(xs, six.data(0.0, p6), p6[:len(PARAM_NAMES)], section=six.section)[2]["alpha"]
     return np.degrees(np.asarray(ca.Function("alpha", [xs], [alpha])(np.append(x8, 0.0)))).ravel().tolist()
 
 

@@ -31,7 +31,7 @@ import numpy as np
 from birdocp.bird.config import PARAM_NAMES, Config, param_vector
 from birdocp.bird.flight import flight_path_angle_deg
 from birdocp.bird.keys import AMPLITUDE_KEY
-from birdocp.bird.sides import side_vector
+from birdocp.bird.sides import SIDE_PARAM_NAMES, side_vector
 from birdocp.bird.sixdof import HEADING, LATERAL, LONGITUDINAL, STATE_NAMES, LateralInertia, embed_planar_state, \
     sixdof_model
 from birdocp.bird.validity import CycleValidity, periodic_validity
@@ -270,8 +270,8 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     Parameters
     ----------
     cfg : Config, optional
-        The configuration (default: the paper's reference case). The unsteady or stall sections are refused;
-        the tail, wing masses and the optional drag are taken in 3-D.
+        The configuration (default: the paper's reference case). The static stall section, the tail, wing masses and
+        the optional drag are taken in 3-D (``dynamic-stall`` and ``wagner`` are refused).
     inertia : LateralInertia, optional
         Roll and yaw inertia [kg m^2]; default ``cfg.model``'s.
     level : bool
@@ -301,7 +301,7 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     p6 = six.params(param_vector(cfg), inertia, side_vector(cfg) if asym else None)
     method = method or OrbitMethod(**{"points": cfg.solve.points, "steps_per_period": cfg.solve.steps_per_period,
                                            "max_iter": cfg.solve.max_iter, "tol": cfg.solve.tol or None, **method_over})
-    guess = embed_planar_state(cfg.solve.initial_guess) if x_guess is None else x_guess
+    guess = _start_state(cfg, method) if x_guess is None else x_guess
     outputs = six.flight_outputs(8 if asym else 9)
     free, means = {}, []
     if level:
@@ -316,6 +316,23 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     if asym:
         return _split_asymmetric(cfg, six, cyc, method, inertia, amplitude)
     return _split(cfg, cyc, six.ode.period_s, method, inertia, amplitude)
+
+
+def _start_state(cfg: Config, method: OrbitMethod) -> list[float]:
+    """The 9-state start of a 6-DOF trim: ``cfg.solve.initial_guess`` with zero lateral states; with a
+    stall section, the planar linear-section cycle's state at t = 0 (as the planar trim,
+    :func:`birdocp.studies.trim.linear_section_start`) and, with ``dynamic-stall``, the separation
+    states on the quasi-steady manifold there."""
+    x4 = cfg.solve.initial_guess
+    if cfg.aero.section == "linear":
+        return embed_planar_state(x4)
+    from birdocp.bird.model import get_model
+    from birdocp.studies.trim import linear_section_start
+
+    lin = linear_section_start(cfg, points=method.points, steps_per_period=method.steps_per_period)
+    x4 = x4 if lin is None else lin
+    m = get_model(cfg)
+    return embed_planar_state(x4) + [float(v) for v in m.complete_state(x4, m.p0)[4:]]
 
 
 def solve_point(cfg: Config, *, level: bool = False, level_options: dict | None = None, warm_start=None,
@@ -438,8 +455,11 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
     :data:`birdocp.bird.sixdof.LATERAL_PARAM_NAMES`), the change of the cycle included (second-order
     AD through the RK4 period map, :func:`birdocp.studies.sensitivity.cycle_derivatives`; the heading
     is left out of the periodicity condition, its multiplier 1 being structural). An asymmetric gait's
-    cycle (a turn) is differentiated in the heading-free 8 states it was solved in, and its parameters
-    include the per-side offsets (``gait.right_offset.*``, ``gait.left_offset.*``).
+    cycle (a turn) is differentiated in the heading-free 8 states it was solved in. The per-side offsets
+    (``gait.right_offset.*``, ``gait.left_offset.*``, :data:`birdocp.bird.sides.SIDE_PARAM_NAMES`) are
+    parameters of every 6-DOF cycle: a symmetric cycle is differentiated with the model with per-side
+    joint laws at zero offsets (the same right-hand side bit for bit), where mirror symmetry makes a
+    right offset's derivative equal the left one's.
 
     Parameters
     ----------
@@ -449,7 +469,7 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
         Its configuration (default: the reference case).
     parameters : sequence of str, optional
         Parameter keys (default :data:`LATERAL_SENSITIVITY_KEYS`, with :data:`TAIL_SENSITIVITY_KEY`
-        when ``cfg`` has the tail).
+        when ``cfg`` has the tail); per-side offsets allowed.
 
     Returns
     -------
@@ -470,18 +490,24 @@ def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, par
     six = sixdof_model(cfg)
     if parameters is None:
         parameters = LATERAL_SENSITIVITY_KEYS + ((TAIL_SENSITIVITY_KEY,) if six.structure.tail else ())
+    p = np.asarray(c.p, float)
+    if not six.sides and set(parameters) & set(SIDE_PARAM_NAMES):
+        # per-side keys of a symmetric cycle: the model with per-side joint laws at zero offsets (its data
+        # is the symmetric model's bit for bit), the parameter vector with the 42 zeros appended
+        six = sixdof_model(cfg, sides=True)
+        p = np.concatenate([p, np.zeros(len(SIDE_PARAM_NAMES))])
     names = list(six.ode.param_names)
     for k in parameters:
         if k not in names:
             raise ValueError(f"unknown parameter {k!r}")
     steps = int(c.method["steps_per_period"])
-    if six.sides:  # an asymmetric gait: the heading-free 8 states the cycle was solved in
+    if not res.symmetric:  # an asymmetric gait: the heading-free 8 states the cycle was solved in
         so = SecondOrderMaps.get(_heading_free(six), steps, six.flight_outputs(HEADING)["vertical_speed_mps"])
         states = list(range(HEADING))
     else:
         so = SecondOrderMaps.get(six, steps, six.flight_outputs()["vertical_speed_mps"])
         states = [i for i in range(9) if i != HEADING]
-    lam, dL, dmod, _, _ = cycle_derivatives(so, six.period_s, c.x0, c.p, [names.index(k) for k in parameters], states)
+    lam, dL, dmod, _, _ = cycle_derivatives(so, six.period_s, c.x0, p, [names.index(k) for k in parameters], states)
     labels = _labels(lam, res)
     return [{"parameter": k, "labels": labels, "multipliers": lam, "d_moduli": dmod[i], "d_multipliers": dL[i]}
             for i, k in enumerate(parameters)]

@@ -14,7 +14,9 @@ on the planar cycle's own data and data directions (the 6-DOF data is the planar
 whose 3-D sums the planar data lacks, forward AD through the 9-state period map of
 :class:`birdocp.studies.sensitivity.SecondOrderMaps`).
 
-An asymmetric gait (per-side offsets) is refused: its cycle is not the planar one.
+An asymmetric gait (per-side offsets) is refused, naming the first non-zero offset: its cycle is a turn,
+periodic up to its heading, not the planar one; the optimisation problem is well posed there (docs), but
+its level cycle, power outputs and validity integrands in the 8 heading-free states are not written.
 """
 
 from __future__ import annotations
@@ -22,7 +24,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from birdocp.bird.config import Config, ConfigError, asymmetric
+from birdocp.bird.config import Config, ConfigError, asymmetric, get_value
+from birdocp.bird.sides import SIDE_PARAM_NAMES
 from birdocp.bird.sixdof import LATERAL, LONGITUDINAL, LateralInertia, embed_planar_state, sixdof_model
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.floquet import matched_distances, sort_multipliers
@@ -67,8 +70,10 @@ class LateralLevelCycle(ReducedLevelCycle):
 
     def __init__(self, cfg: Config, keys, **options):
         if asymmetric(cfg):
-            raise ConfigError("model.degrees_of_freedom", "the gait optimisers in six degrees of freedom take a "
-                                                          "symmetric gait (no per-side offsets)")
+            key = next(k for k in SIDE_PARAM_NAMES if get_value(cfg, k) != 0)
+            raise ConfigError(key, "the 6-DOF gait optimisers take a symmetric gait: their level cycle is the planar "
+                                   "one, a turn's 8-state cycle is not written in them (docs/studies/lateral.md); set "
+                                   "the per-side offsets to 0")
         super().__init__(cfg, keys, **options)
         from birdocp.studies.sensitivity import SecondOrderMaps
 

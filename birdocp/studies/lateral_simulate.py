@@ -172,7 +172,7 @@ class _SixStepper(PerModel):
         C = _dcm(x[6], x[7], x[8])
         wind_b = C @ ca.vertcat(forward, east, -up)
         x_air = ca.vertcat(x[:3] - wind_b, x[3:])
-        zdot = ca.vertcat(rhs_expression(x, d, p, x_air, structure=six.structure), C.T @ x[:3], 1)
+        zdot = ca.vertcat(rhs_expression(x, d, p, x_air, structure=six.structure, section=six.section), C.T @ x[:3], 1)
         f = ca.Function("f_sim6", [z, d, p, g], [zdot])
         D3 = ca.SX.sym("D3", nd, 3)
         step = ca.Function("sim6_step", [z, D3, p, g], [rk4_update(f, z, D3, grid.h, p, g)[0]])
@@ -277,7 +277,7 @@ def _stalled_shares(st, Zi, air, D, pk, stall_deg: float) -> np.ndarray:
     from birdocp.bird.validity import SIDE_ELEMENTS, sixdof_angles
 
     n = Zi.shape[0]
-    f = sixdof_angles(9, st.model.ode.nd, n)
+    f = sixdof_angles(9, st.model.ode.nd, n, st.model.section)
     X_air = np.vstack([air, Zi[:, 3:9].T])
     ae, _, ds = (np.asarray(v) for v in f(ca.DM(X_air), D[:, 2::3], ca.DM(pk[:len(PARAM_NAMES)])))
     stalled = np.degrees(np.abs(ae)) > stall_deg
