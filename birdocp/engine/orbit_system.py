@@ -9,7 +9,7 @@ from birdocp.engine.cache import bounded_cache
 from birdocp.engine.ode import ODE
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.method import OrbitMethod
-from birdocp.engine.steppers import make_step
+from birdocp.engine.steppers import make_step, make_variational_step
 
 __all__ = ["OrbitGraphs", "OrbitSystem", "orbit_graphs", "orbit_system", "orbit_residual_system", "initial_points",
            "forward_points", "first_return_period", "trajectory"]
@@ -19,13 +19,10 @@ class OrbitGraphs:
     """CasADi Functions for one (ode, N, S, integrator): segments, their Jacobians, the trajectory."""
 
     def __init__(self, ode: ODE, N: int, S: int, integrator: str):
-        self.ode, self.N, self.S, self.n = ode, N, S, N // S
+        self.ode, self.N, self.S, self.n, self.integrator = ode, N, S, N // S, integrator
         nx, n_p = ode.nx, ode.np
         self.nq = nq = n_p + 2  # q = (p, T, t0)
-        x, tau, q = ca.SX.sym("x", nx), ca.SX.sym("tau"), ca.SX.sym("q", nq)
-        T, t0 = q[n_p], q[n_p + 1]
-        F = ca.Function("scaled_rhs", [x, tau, q], [T * ode.rhs(x, t0 + T * tau, q[:n_p])])
-        self.step = make_step(F, integrator)
+        self.step, variational = _steps(ode, integrator)
         h = 1.0 / N
         acc = self.step.mapaccum("acc", self.n)
         xm, ts, qm = ca.MX.sym("x", nx), ca.MX.sym("tau0"), ca.MX.sym("q", nq)
@@ -33,8 +30,12 @@ class OrbitGraphs:
         X = acc(xm, taus, qm, h)
         seg = ca.Function("segment", [xm, ts, qm], [X[:, -1], X])
         self.segment = seg
-        xe = X[:, -1]
-        segJ = ca.Function("segment_jac", [xm, ts, qm], [xe, ca.jacobian(xe, xm), ca.jacobian(xe, qm)])
+        # the segment's exact Jacobians by the discrete variational equation (one augmented step per
+        # step: the state and its derivatives with respect to the start point and to q)
+        aug = variational.mapaccum("acc_sens", self.n)
+        A = aug(ca.vertcat(xm, ca.vec(ca.DM.eye(nx)), ca.DM.zeros(nx * nq)), taus, qm, h)[:, -1]
+        segJ = ca.Function("segment_jac", [xm, ts, qm], [A[:nx], ca.reshape(A[nx:nx + nx * nx], nx, nx),
+                                                        ca.reshape(A[nx + nx * nx:], nx, nq)])
         Xs = ca.MX.sym("X", nx, S)
         tgrid = ca.DM(np.arange(S) / S).T
         Xe, Jx, Jq = segJ.map(S)(Xs, tgrid, qm)
@@ -56,6 +57,17 @@ def _cached(cache, key, make):
         hit = make()
         cache.put(key, hit)
     return hit
+
+
+def _steps(ode: ODE, integrator: str):
+    """(step, variational step) of the time-scaled ODE ``dx/dtau = T f(x, t0 + T tau, p)``, q = (p, T,
+    t0): built once per (ode, integrator) and shared by the graphs of every grid."""
+    def make():
+        nx, n_p = ode.nx, ode.np
+        x, tau, q = ca.SX.sym("x", nx), ca.SX.sym("tau"), ca.SX.sym("q", n_p + 2)
+        F = ca.Function("scaled_rhs", [x, tau, q], [q[n_p] * ode.rhs(x, q[n_p + 1] + q[n_p] * tau, q[:n_p])])
+        return ode, make_step(F, integrator), make_variational_step(F, integrator)
+    return _cached(_GRAPHS, (id(ode), "steps", integrator), make)[1:]
 
 
 def orbit_graphs(ode: ODE, N: int, S: int, integrator: str) -> OrbitGraphs:
