@@ -33,13 +33,14 @@ class OrbitGraphs:
         # the segment's exact Jacobians by the discrete variational equation (one augmented step per
         # step: the state and its derivatives with respect to the start point and to q)
         aug = variational.mapaccum("acc_sens", self.n)
-        A = aug(ca.vertcat(xm, ca.vec(ca.DM.eye(nx)), ca.DM.zeros(nx * nq)), taus, qm, h)[:, -1]
+        Aall = aug(ca.vertcat(xm, ca.vec(ca.DM.eye(nx)), ca.DM.zeros(nx * nq)), taus, qm, h)
+        A = Aall[:, -1]
         segJ = ca.Function("segment_jac", [xm, ts, qm], [A[:nx], ca.reshape(A[nx:nx + nx * nx], nx, nx),
-                                                        ca.reshape(A[nx + nx * nx:], nx, nq)])
+                                                        ca.reshape(A[nx + nx * nx:], nx, nq), Aall[:nx, :]])
         Xs = ca.MX.sym("X", nx, S)
         tgrid = ca.DM(np.arange(S) / S).T
-        Xe, Jx, Jq = segJ.map(S)(Xs, tgrid, qm)
-        self.sens = ca.Function("segments_sens", [Xs, qm], [Xe, Jx, Jq])
+        Xe, Jx, Jq, Xt = segJ.map(S)(Xs, tgrid, qm)
+        self.sens = ca.Function("segments_sens", [Xs, qm], [Xe, Jx, Jq, Xt])  # Xt: the states on the grid
         Xe2, Xt = seg.map(S)(Xs, tgrid, qm)
         self.segments = ca.Function("segments", [Xs, qm], [Xe2, Xt])
         self.h = h
@@ -194,13 +195,15 @@ class OrbitSystem(Evaluator):
         try:
             core = tuple(np.asarray(v) for v in self.G.sens(ca.DM(self.points(z)[:, :S]), ca.DM(self.q_of(z))))
         except RuntimeError:  # e.g. an implicit stage solve failed far from the orbit
-            core = (np.full((nx, S), np.nan), np.full((nx, nx * S), np.nan), np.full((nx, self.G.nq * S), np.nan))
+            core = (np.full((nx, S), np.nan), np.full((nx, nx * S), np.nan), np.full((nx, self.G.nq * S), np.nan),
+                    np.full((nx, self.G.N), np.nan))
         self._last = (key, core)
         return core
 
     def residual(self, z):
-        """The residual g alone (no Jacobian: about nx+1 times cheaper than :meth:`evaluate` when z is
-        not the point of the last evaluation).
+        """The residual g alone (RK4: no Jacobian, 3-10 times cheaper than :meth:`evaluate` when z is
+        not the point of the last evaluation; implicit integrators: the stage solves cost most of an
+        evaluation and the Jacobian only ~25 % more, so it is computed too and kept for the next step).
 
         Parameters
         ----------
@@ -212,7 +215,7 @@ class OrbitSystem(Evaluator):
         ndarray
         """
         z = np.asarray(z, float).ravel()
-        if self._last is not None and self._last[0] == z.tobytes():
+        if self.G.integrator != "rk4" or (self._last is not None and self._last[0] == z.tobytes()):
             return self.evaluate(z)[0]
         nx, S = self.nx, self.S
         X = self.points(z)
@@ -236,7 +239,7 @@ class OrbitSystem(Evaluator):
         g, J : ndarray
         """
         z = np.asarray(z, float).ravel()
-        Xe, Jx, Jq = self._core(z)
+        Xe, Jx, Jq, _ = self._core(z)
         nx, S = self.nx, self.S
         X = self.points(z)
         A, b = self._ctx[3], self._ctx[4]
@@ -256,6 +259,23 @@ class OrbitSystem(Evaluator):
         J[S * nx:self.nX, S * nx:self.nX] = I
         J[self.nX:, :] = A
         return g, J
+
+    def trajectory(self, z):
+        """The states at the N+1 grid times of the period at z (one row per time; the evaluation's,
+        no new integration), or None when they are not all finite.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray, shape (N + 1, nx) or None
+        """
+        z = np.asarray(z, float).ravel()
+        traj = np.vstack([self.points(z)[:, 0][None, :], self._core(z)[3].T])
+        return traj if np.all(np.isfinite(traj)) else None
 
     def anchor_phase(self, z, row: int = 0) -> None:
         """Re-anchor linear row ``row`` as the Poincare section through X_0(z) orthogonal to the flow

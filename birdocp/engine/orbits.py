@@ -66,8 +66,7 @@ from birdocp.engine.lm import levenberg_marquardt
 from birdocp.engine.nlp import run_ipopt
 from birdocp.engine.orbit_checks import attach_error, cover_multiple, failure_reason, solver_error
 from birdocp.engine.orbit_system import (OrbitGraphs, OrbitSystem, first_return_period, forward_points,
-                                         initial_points, orbit_graphs, orbit_residual_system, orbit_system,
-                                         trajectory)
+                                         initial_points, orbit_graphs, orbit_residual_system, orbit_system)
 from birdocp.engine.method import OrbitMethod
 from birdocp.engine.orbit_result import OrbitResult
 from birdocp.engine.problem import OrbitProblem
@@ -343,9 +342,12 @@ SOLVERS = {"ipopt": _run_ipopt_then_lm, "lm": _run_lm}
 def _polish(ev, z, hist, prepare, steps: int = 3):
     """Up to ``steps`` full Newton steps past the tolerance while each halves |g|_2: the solver error
     (part of the error estimate) then falls to round-off for the price of a few evaluations (a
-    trial step costs a residual, the Jacobian is evaluated at accepted points only)."""
+    trial step costs a residual, the Jacobian is evaluated at accepted points only; no step once
+    max|g| is at round-off, ``4 eps (1 + max|z|)``)."""
     g, J = ev.evaluate(z)
     for _ in range(steps):
+        if np.max(np.abs(g)) <= 4 * np.finfo(float).eps * (1.0 + np.max(np.abs(z))):
+            break
         zn = z - np.linalg.lstsq(J, g, rcond=None)[0]
         if prepare is not None:
             prepare(zn)
@@ -448,7 +450,7 @@ def _assemble(problem, method, ev: OrbitSystem, G: OrbitGraphs, z, sstat, messag
     X = ev.points(z)
     g = ev.g(z) if finite else np.full(ev.ng, np.nan)
     r = float(np.max(np.abs(g))) if np.all(np.isfinite(g)) else float("nan")
-    traj = trajectory(G, X, p, T, problem.t0) if finite and np.all(np.isfinite(g)) else None
+    traj = ev.trajectory(z) if finite and np.all(np.isfinite(g)) else None
     if traj is None:
         traj = np.full((G.N + 1, nx), np.nan)
     tt = problem.t0 + T * np.arange(G.N + 1) / G.N
