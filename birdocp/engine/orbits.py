@@ -36,9 +36,13 @@ and reduced to the minimal period (``covers = k``, ``reduced_from_period``, said
 if the reduced solve fails, reported with status ``"multiple_cover"`` and ``success=False``.
 
 Derivatives are exact: each segment's Jacobians with respect to its start point and to
-``q = (p, T, t0)`` come from CasADi forward AD through the steps (for the implicit integrators
-through the rootfinder, by the implicit function theorem); the shooting matrix is assembled around
-them in numpy. IPOPT sees the constraints through :class:`~birdocp.engine.oracle.ConstraintOracle`.
+``q = (p, T, t0)`` are the discrete variational equation stepped with the states
+(:func:`birdocp.engine.steppers.make_variational_step`: RK4 by forward AD, the implicit integrators'
+stages by the implicit function theorem), the same evaluation giving the trajectory; the shooting
+matrix is assembled around them in numpy. IPOPT sees the constraints through
+:class:`~birdocp.engine.oracle.ConstraintOracle`. The steps are built once per ODE and integrator
+and shared by every grid; a grid started from the converged orbit of a coarser one (the refinement)
+starts Levenberg-Marquardt undamped, a Newton step from a point O(h^p) away.
 
 Success means ``max_residual <= tol`` (all equations, absolute), whatever the solver's status, plus
 a non-degenerate orbit: an equilibrium satisfies every equation for any T (a constant trajectory),
