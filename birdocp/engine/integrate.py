@@ -22,6 +22,7 @@ import numpy as np
 
 from birdocp.engine import datastore
 from birdocp.engine.cache import bounded_cache
+from birdocp.engine.period_jacobian import PeriodJacobianFromFirst
 from birdocp.engine.problem import PeriodicODE
 from birdocp.engine.stage_grid import stage_block_index, stage_time_grid  # noqa: F401 (re-exported)
 
@@ -200,7 +201,7 @@ class RK4Grid:
     M-1 segments called one after the other (the same RK4 steps on the same data columns as a
     148-step ``mapaccum``, whose unrolled graph took 0.3 s to build and 1.1 s more to differentiate);
     the Jacobian Functions are built on first use (a trim by IPOPT needs ``segment_sensitivities``
-    and ``period_jacobian``; the plain ``segment_jacobians`` only :func:`birdocp.engine.shooting.floquet`).
+    and ``period_jacobian_from_first``; the plain ``segment_jacobians`` only :func:`birdocp.engine.shooting.floquet`).
     ``period_jacobian`` is the product of the segment Jacobians along the trajectory integrated from
     x0 (chain rule: the exact Jacobian of the one-period map, as one forward-AD pass through it).
     """
@@ -393,6 +394,24 @@ class RK4Grid:
             xi, _, Ji, _ = self.segment_jacobian(xi, Di, p)
             Jp = Ji if Jp is None else ca.mtimes(Ji, Jp)
         return ca.Function("period_jacobian", [x, D, p], [xi, Jp])
+
+    @functools.cached_property
+    def period_jacobian_after_first(self) -> ca.Function:
+        """(x1, J0, D, p) -> (x_T, dx_T/dx0): the segments 2..S from x1, their state Jacobians chained
+        onto J0 (:attr:`period_jacobian` from the first segment's end and Jacobian)."""
+        xi, D, p = self._symbols(1, 3 * self.N)
+        x1, J0 = xi, ca.MX.sym("J0", self.ode.nx, self.ode.nx)
+        Jp = J0
+        for Di in column_blocks(D, self.S)[1:]:
+            xi, _, Ji, _ = self.segment_jacobian(xi, Di, p)
+            Jp = ca.mtimes(Ji, Jp)
+        return ca.Function("period_jacobian_after_first", [x1, J0, D, p], [xi, Jp])
+
+    @functools.cached_property
+    def period_jacobian_from_first(self) -> PeriodJacobianFromFirst:
+        """``(x1, J0, D, p) -> (x_T, dx_T/dx0)``: :attr:`period_jacobian`'s numbers from the first
+        segment's end and Jacobian, as a solver has them (the Floquet check of a solve)."""
+        return PeriodJacobianFromFirst(self)
 
     def fd_segment_jacobians(self, X, D, p, floor: float = 1e-3, rel_step: float = 1e-3):
         """Forward-difference segment Jacobians, as the paper computes them (the engine's

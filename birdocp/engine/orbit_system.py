@@ -9,7 +9,7 @@ from birdocp.engine.cache import bounded_cache
 from birdocp.engine.ode import ODE
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.method import OrbitMethod
-from birdocp.engine.steppers import make_step
+from birdocp.engine.steppers import make_step, make_variational_step
 
 __all__ = ["OrbitGraphs", "OrbitSystem", "orbit_graphs", "orbit_system", "orbit_residual_system", "initial_points",
            "forward_points", "first_return_period", "trajectory"]
@@ -19,13 +19,10 @@ class OrbitGraphs:
     """CasADi Functions for one (ode, N, S, integrator): segments, their Jacobians, the trajectory."""
 
     def __init__(self, ode: ODE, N: int, S: int, integrator: str):
-        self.ode, self.N, self.S, self.n = ode, N, S, N // S
+        self.ode, self.N, self.S, self.n, self.integrator = ode, N, S, N // S, integrator
         nx, n_p = ode.nx, ode.np
         self.nq = nq = n_p + 2  # q = (p, T, t0)
-        x, tau, q = ca.SX.sym("x", nx), ca.SX.sym("tau"), ca.SX.sym("q", nq)
-        T, t0 = q[n_p], q[n_p + 1]
-        F = ca.Function("scaled_rhs", [x, tau, q], [T * ode.rhs(x, t0 + T * tau, q[:n_p])])
-        self.step = make_step(F, integrator)
+        self.step, variational = _steps(ode, integrator)
         h = 1.0 / N
         acc = self.step.mapaccum("acc", self.n)
         xm, ts, qm = ca.MX.sym("x", nx), ca.MX.sym("tau0"), ca.MX.sym("q", nq)
@@ -33,12 +30,17 @@ class OrbitGraphs:
         X = acc(xm, taus, qm, h)
         seg = ca.Function("segment", [xm, ts, qm], [X[:, -1], X])
         self.segment = seg
-        xe = X[:, -1]
-        segJ = ca.Function("segment_jac", [xm, ts, qm], [xe, ca.jacobian(xe, xm), ca.jacobian(xe, qm)])
+        # the segment's exact Jacobians by the discrete variational equation (one augmented step per
+        # step: the state and its derivatives with respect to the start point and to q)
+        aug = variational.mapaccum("acc_sens", self.n)
+        Aall = aug(ca.vertcat(xm, ca.vec(ca.DM.eye(nx)), ca.DM.zeros(nx * nq)), taus, qm, h)
+        A = Aall[:, -1]
+        segJ = ca.Function("segment_jac", [xm, ts, qm], [A[:nx], ca.reshape(A[nx:nx + nx * nx], nx, nx),
+                                                        ca.reshape(A[nx + nx * nx:], nx, nq), Aall[:nx, :]])
         Xs = ca.MX.sym("X", nx, S)
         tgrid = ca.DM(np.arange(S) / S).T
-        Xe, Jx, Jq = segJ.map(S)(Xs, tgrid, qm)
-        self.sens = ca.Function("segments_sens", [Xs, qm], [Xe, Jx, Jq])
+        Xe, Jx, Jq, Xt = segJ.map(S)(Xs, tgrid, qm)
+        self.sens = ca.Function("segments_sens", [Xs, qm], [Xe, Jx, Jq, Xt])  # Xt: the states on the grid
         Xe2, Xt = seg.map(S)(Xs, tgrid, qm)
         self.segments = ca.Function("segments", [Xs, qm], [Xe2, Xt])
         self.h = h
@@ -56,6 +58,17 @@ def _cached(cache, key, make):
         hit = make()
         cache.put(key, hit)
     return hit
+
+
+def _steps(ode: ODE, integrator: str):
+    """(step, variational step) of the time-scaled ODE ``dx/dtau = T f(x, t0 + T tau, p)``, q = (p, T,
+    t0): built once per (ode, integrator) and shared by the graphs of every grid."""
+    def make():
+        nx, n_p = ode.nx, ode.np
+        x, tau, q = ca.SX.sym("x", nx), ca.SX.sym("tau"), ca.SX.sym("q", n_p + 2)
+        F = ca.Function("scaled_rhs", [x, tau, q], [q[n_p] * ode.rhs(x, q[n_p + 1] + q[n_p] * tau, q[:n_p])])
+        return ode, make_step(F, integrator), make_variational_step(F, integrator)
+    return _cached(_GRAPHS, (id(ode), "steps", integrator), make)[1:]
 
 
 def orbit_graphs(ode: ODE, N: int, S: int, integrator: str) -> OrbitGraphs:
@@ -182,13 +195,15 @@ class OrbitSystem(Evaluator):
         try:
             core = tuple(np.asarray(v) for v in self.G.sens(ca.DM(self.points(z)[:, :S]), ca.DM(self.q_of(z))))
         except RuntimeError:  # e.g. an implicit stage solve failed far from the orbit
-            core = (np.full((nx, S), np.nan), np.full((nx, nx * S), np.nan), np.full((nx, self.G.nq * S), np.nan))
+            core = (np.full((nx, S), np.nan), np.full((nx, nx * S), np.nan), np.full((nx, self.G.nq * S), np.nan),
+                    np.full((nx, self.G.N), np.nan))
         self._last = (key, core)
         return core
 
     def residual(self, z):
-        """The residual g alone (no Jacobian: about nx+1 times cheaper than :meth:`evaluate` when z is
-        not the point of the last evaluation).
+        """The residual g alone (RK4: no Jacobian, 3-10 times cheaper than :meth:`evaluate` when z is
+        not the point of the last evaluation; implicit integrators: the stage solves cost most of an
+        evaluation and the Jacobian only ~25 % more, so it is computed too and kept for the next step).
 
         Parameters
         ----------
@@ -200,7 +215,7 @@ class OrbitSystem(Evaluator):
         ndarray
         """
         z = np.asarray(z, float).ravel()
-        if self._last is not None and self._last[0] == z.tobytes():
+        if self.G.integrator != "rk4" or (self._last is not None and self._last[0] == z.tobytes()):
             return self.evaluate(z)[0]
         nx, S = self.nx, self.S
         X = self.points(z)
@@ -224,7 +239,7 @@ class OrbitSystem(Evaluator):
         g, J : ndarray
         """
         z = np.asarray(z, float).ravel()
-        Xe, Jx, Jq = self._core(z)
+        Xe, Jx, Jq, _ = self._core(z)
         nx, S = self.nx, self.S
         X = self.points(z)
         A, b = self._ctx[3], self._ctx[4]
@@ -244,6 +259,23 @@ class OrbitSystem(Evaluator):
         J[S * nx:self.nX, S * nx:self.nX] = I
         J[self.nX:, :] = A
         return g, J
+
+    def trajectory(self, z):
+        """The states at the N+1 grid times of the period at z (one row per time; the evaluation's,
+        no new integration), or None when they are not all finite.
+
+        Parameters
+        ----------
+        z : ndarray
+            Unknowns.
+
+        Returns
+        -------
+        ndarray, shape (N + 1, nx) or None
+        """
+        z = np.asarray(z, float).ravel()
+        traj = np.vstack([self.points(z)[:, 0][None, :], self._core(z)[3].T])
+        return traj if np.all(np.isfinite(traj)) else None
 
     def anchor_phase(self, z, row: int = 0) -> None:
         """Re-anchor linear row ``row`` as the Poincare section through X_0(z) orthogonal to the flow

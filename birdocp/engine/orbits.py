@@ -36,9 +36,13 @@ and reduced to the minimal period (``covers = k``, ``reduced_from_period``, said
 if the reduced solve fails, reported with status ``"multiple_cover"`` and ``success=False``.
 
 Derivatives are exact: each segment's Jacobians with respect to its start point and to
-``q = (p, T, t0)`` come from CasADi forward AD through the steps (for the implicit integrators
-through the rootfinder, by the implicit function theorem); the shooting matrix is assembled around
-them in numpy. IPOPT sees the constraints through :class:`~birdocp.engine.oracle.ConstraintOracle`.
+``q = (p, T, t0)`` are the discrete variational equation stepped with the states
+(:func:`birdocp.engine.steppers.make_variational_step`: RK4 by forward AD, the implicit integrators'
+stages by the implicit function theorem), the same evaluation giving the trajectory; the shooting
+matrix is assembled around them in numpy. IPOPT sees the constraints through
+:class:`~birdocp.engine.oracle.ConstraintOracle`. The steps are built once per ODE and integrator
+and shared by every grid; a grid started from the converged orbit of a coarser one (the refinement)
+starts Levenberg-Marquardt undamped, a Newton step from a point O(h^p) away.
 
 Success means ``max_residual <= tol`` (all equations, absolute), whatever the solver's status, plus
 a non-degenerate orbit: an equilibrium satisfies every equation for any T (a constant trajectory),
@@ -66,8 +70,7 @@ from birdocp.engine.lm import levenberg_marquardt
 from birdocp.engine.nlp import run_ipopt
 from birdocp.engine.orbit_checks import attach_error, cover_multiple, failure_reason, solver_error
 from birdocp.engine.orbit_system import (OrbitGraphs, OrbitSystem, first_return_period, forward_points,
-                                         initial_points, orbit_graphs, orbit_residual_system, orbit_system,
-                                         trajectory)
+                                         initial_points, orbit_graphs, orbit_residual_system, orbit_system)
 from birdocp.engine.method import OrbitMethod
 from birdocp.engine.orbit_result import OrbitResult
 from birdocp.engine.problem import OrbitProblem
@@ -196,7 +199,8 @@ def solve_orbit_system(problem: OrbitProblem, method: OrbitMethod, warm_start=No
     if moving:
         ev.anchor_phase(z0)
     ts = time.perf_counter()
-    z, sstat, message, iters, hist = _run_solver(ev, z0, method, lo, hi, moving, deadline)
+    lam0 = 1e-8 if _on_another_grid(warm_start, problem, G, z_start, free_idx) else 1.0
+    z, sstat, message, iters, hist = _run_solver(ev, z0, method, lo, hi, moving, deadline, lam0)
     solve_s = time.perf_counter() - ts
     x_ref = z[:problem.ode.nx].copy() if moving and np.all(np.isfinite(z)) else x_ref
     res = _assemble(problem, method, ev, G, z, sstat, note + message, iters, hist, x_ref)
@@ -289,12 +293,21 @@ def _search_period(G, problem, p, T, X0):
             f"start period {T_ret:.6g} from the closest return (guess {T:.6g}); ")
 
 
-def _run_solver(ev, z0, method, lo, hi, moving, deadline):
-    """(z, solver status, message, iterations, history) of the method's solver (:data:`SOLVERS`)."""
-    return SOLVERS[method.solver](ev, z0, method, lo, hi, moving, deadline)
+def _on_another_grid(warm_start, problem, G, z_start, free_idx) -> bool:
+    """The start is a converged orbit of the same problem on another grid (the refinement's previous
+    grid): it is O(h^p) from the solution, inside Newton's basin, so LM starts undamped."""
+    return (z_start is None and not free_idx and isinstance(warm_start, OrbitResult) and warm_start.success
+            and warm_start.formulation == "ode" and warm_start.method.get("steps_per_period") != G.N
+            and warm_start.method.get("integrator") == G.integrator and np.array_equal(warm_start.p, problem.p))
 
 
-def _run_ipopt_then_lm(ev, z0, method, lo, hi, moving, deadline):
+def _run_solver(ev, z0, method, lo, hi, moving, deadline, lam0=1.0):
+    """(z, solver status, message, iterations, history) of the method's solver (:data:`SOLVERS`);
+    ``lam0`` the initial damping of LM."""
+    return SOLVERS[method.solver](ev, z0, method, lo, hi, moving, deadline, lam0)
+
+
+def _run_ipopt_then_lm(ev, z0, method, lo, hi, moving, deadline, lam0=1.0):
     """IPOPT, then an LM polish (or LM from the start when IPOPT fails)."""
     prepare = ev.anchor_phase if moving else None
     z, sstat, iters, hist = _run_ipopt(ev, z0, method, lo, hi)
@@ -309,17 +322,17 @@ def _run_ipopt_then_lm(ev, z0, method, lo, hi, moving, deadline):
         return z, sstat, f"IPOPT: {sstat}", iters, hist
     if moving:
         ev.anchor_phase(z0)
-    z, status, message, its, hist_lm = _run_lm(ev, z0, method, lo, hi, moving, deadline)
+    z, status, message, its, hist_lm = _run_lm(ev, z0, method, lo, hi, moving, deadline, lam0)
     return (z, status, f"IPOPT: {sstat} (max|g| {r:.1e}); retried with LM: " + message, iters + its,
             hist + hist_lm)
 
 
-def _run_lm(ev, z0, method, lo, hi, moving, deadline):
+def _run_lm(ev, z0, method, lo, hi, moving, deadline, lam0=1.0):
     """The engine's Levenberg-Marquardt (steps that do not lower the residual rejected), then a
     Newton polish."""
     prepare = ev.anchor_phase if moving else None
     out = levenberg_marquardt(ev, z0, tol=method.tol, max_iter=method.max_iter, lo=lo, hi=hi, prepare=prepare,
-                              deadline=deadline, residual=ev.residual)
+                              deadline=deadline, residual=ev.residual, lam0=lam0)
     z, hist = out.z, list(out.history)
     if out.status == "converged":
         z, hist = _polish(ev, z, hist, prepare)
@@ -332,18 +345,23 @@ SOLVERS = {"ipopt": _run_ipopt_then_lm, "lm": _run_lm}
 
 def _polish(ev, z, hist, prepare, steps: int = 3):
     """Up to ``steps`` full Newton steps past the tolerance while each halves |g|_2: the solver error
-    (part of the error estimate) then falls to round-off for the price of a few evaluations."""
+    (part of the error estimate) then falls to round-off for the price of a few evaluations (a
+    trial step costs a residual, the Jacobian is evaluated at accepted points only; no step once
+    max|g| is at round-off, ``4 eps (1 + max|z|)``)."""
     g, J = ev.evaluate(z)
     for _ in range(steps):
+        if np.max(np.abs(g)) <= 4 * np.finfo(float).eps * (1.0 + np.max(np.abs(z))):
+            break
         zn = z - np.linalg.lstsq(J, g, rcond=None)[0]
         if prepare is not None:
             prepare(zn)
-        gn, Jn = ev.evaluate(zn)
+        gn = ev.residual(zn)
         if not (np.all(np.isfinite(gn)) and np.linalg.norm(gn) < 0.5 * np.linalg.norm(g)):
             if prepare is not None:
                 prepare(z)
             break
-        z, g, J = zn, gn, Jn
+        z = zn
+        g, J = ev.evaluate(z)
         hist.append(float(np.max(np.abs(g))))
     return z, hist
 
@@ -436,7 +454,7 @@ def _assemble(problem, method, ev: OrbitSystem, G: OrbitGraphs, z, sstat, messag
     X = ev.points(z)
     g = ev.g(z) if finite else np.full(ev.ng, np.nan)
     r = float(np.max(np.abs(g))) if np.all(np.isfinite(g)) else float("nan")
-    traj = trajectory(G, X, p, T, problem.t0) if finite and np.all(np.isfinite(g)) else None
+    traj = ev.trajectory(z) if finite and np.all(np.isfinite(g)) else None
     if traj is None:
         traj = np.full((G.N + 1, nx), np.nan)
     tt = problem.t0 + T * np.arange(G.N + 1) / G.N

@@ -342,10 +342,14 @@ def _attach_floquet(res, b, z, X, Dn, pd):
     try:
         Js = b.blocks_at(z)  # IPOPT's (or LM's) last Jacobian evaluation, when at z
         if Js is None:
-            _, Jcat = grid.segment_jacobians(ca.DM(X[:S].T), Dn, pd)
+            Xe, Jcat = grid.segment_jacobians(ca.DM(X[:S].T), Dn, pd)
             Jcat = np.asarray(Jcat)
             Js = [Jcat[:, i * nx:(i + 1) * nx] for i in range(S)]
-        _, Jfull = grid.period_jacobian(ca.DM(X[0]), Dn, pd)
+            x1 = np.asarray(Xe)[:, 0]
+        else:  # the first segment's end on the residual's trajectory (the same integration, the same numbers)
+            x1 = res.trajectory_x[grid.n]
+        # the one-period map's Jacobian along the trajectory from x0: its first segment is the solver's
+        _, Jfull = grid.period_jacobian_from_first(ca.DM(x1), ca.DM(Js[0]), Dn, pd)
         fr = floquet_from_jacobians(Js, np.asarray(Jfull), b.ode.period_s)
         res.monodromy, res.multipliers, res.eigenvectors = fr.monodromy, fr.multipliers, fr.eigenvectors
         res.floquet_exponents, res.doubling_times_s = fr.floquet_exponents, fr.doubling_times_s
@@ -414,8 +418,8 @@ def floquet(ode: PeriodicODE, x0, p, method=None, *, t0: float = 0.0, points=Non
         pts = np.column_stack([x0] + [Xt[:, grid.n * (i + 1) - 1] for i in range(S - 1)])
     else:
         pts = np.asarray(points, float)[:S].T
-    _, Jcat = grid.segment_jacobians(ca.DM(pts), D, pd)
+    Xe, Jcat = grid.segment_jacobians(ca.DM(pts), D, pd)
     Jcat = np.asarray(Jcat)
     Js = [Jcat[:, i * nx:(i + 1) * nx] for i in range(S)]
-    _, Jfull = grid.period_jacobian(ca.DM(pts[:, 0]), D, pd)
+    _, Jfull = grid.period_jacobian_from_first(Xe[:, 0], ca.DM(Js[0]), D, pd)  # the one-period map's, from pts[:, 0]
     return floquet_from_jacobians(Js, np.asarray(Jfull), ode.period_s)
