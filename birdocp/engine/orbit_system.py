@@ -5,7 +5,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from birdocp.engine.cache import bounded_cache
+from birdocp.engine.cache import owned_cache
 from birdocp.engine.ode import ODE
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.method import OrbitMethod
@@ -44,22 +44,8 @@ class OrbitGraphs:
         self.h = h
 
 
-_GRAPHS = bounded_cache("engine.orbits.graphs", 32)
-_EVALS = bounded_cache("engine.orbits.evaluators", 32)
-
-
-def _cached(cache, key, make):
-    """The entry of ``key``, built by ``make()`` on a miss (entries hold the objects whose ids are
-    in their keys, so an id is not reused while its entry lives)."""
-    hit = cache.get(key)
-    if hit is None:
-        hit = make()
-        cache.put(key, hit)
-    return hit
-
-
 def orbit_graphs(ode: ODE, N: int, S: int, integrator: str) -> OrbitGraphs:
-    """The cached :class:`OrbitGraphs` of (ode, N steps, S segments, integrator).
+    """The :class:`OrbitGraphs` of (N steps, S segments, integrator), kept by ``ode``.
 
     Parameters
     ----------
@@ -76,7 +62,7 @@ def orbit_graphs(ode: ODE, N: int, S: int, integrator: str) -> OrbitGraphs:
     -------
     OrbitGraphs
     """
-    return _cached(_GRAPHS, (id(ode), N, S, integrator), lambda: OrbitGraphs(ode, N, S, integrator))
+    return owned_cache(ode).build(("orbit_graphs", N, S, integrator), lambda: OrbitGraphs(ode, N, S, integrator))
 
 
 class OrbitSystem(Evaluator):
@@ -308,7 +294,7 @@ class OrbitSystem(Evaluator):
 
 
 def orbit_system(graphs, period_free, free_idx, n_lin) -> OrbitSystem:
-    """The cached :class:`OrbitSystem` over ``graphs`` for one layout of unknowns and linear rows.
+    """The :class:`OrbitSystem` over ``graphs`` for one layout of unknowns and linear rows, kept by ``graphs``.
 
     Parameters
     ----------
@@ -325,8 +311,8 @@ def orbit_system(graphs, period_free, free_idx, n_lin) -> OrbitSystem:
     -------
     OrbitSystem
     """
-    return _cached(_EVALS, (id(graphs), bool(period_free), tuple(free_idx), int(n_lin)),
-                   lambda: OrbitSystem(graphs, period_free, free_idx, n_lin))
+    return owned_cache(graphs).build(("orbit_system", bool(period_free), tuple(free_idx), int(n_lin)),
+                                     lambda: OrbitSystem(graphs, period_free, free_idx, n_lin))
 
 
 def orbit_residual_system(ode: ODE, method: OrbitMethod, *, period_free: bool, free_idx=(), n_lin: int = 0,
