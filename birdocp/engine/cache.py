@@ -20,7 +20,7 @@ __all__ = ["BoundedCache", "bounded_cache", "register_cache", "owned_cache", "cl
 
 _REGISTRY: dict[str, Any] = {}
 _OWNED: "weakref.WeakSet[BoundedCache]" = weakref.WeakSet()  # the owned caches of live objects
-_OWNED_ATTRIBUTE = "_owned_cache"
+_OWNED_ATTRIBUTE = "_owned_caches"
 
 
 class BoundedCache:
@@ -146,14 +146,16 @@ def register_cache(name: str, fn: Callable) -> Callable:
     return fn
 
 
-def owned_cache(owner, maxsize: int = 32) -> BoundedCache:
-    """The cache that ``owner`` keeps of what is built from it (made on first use, stored on the
-    object itself): its entries live as long as ``owner`` and need no ``id()`` in their keys.
+def owned_cache(owner, name: str = "graphs", maxsize: int = 64) -> BoundedCache:
+    """The cache ``name`` that ``owner`` keeps of what is built from it (made on first use, stored on
+    the object itself): its entries live as long as ``owner`` and need no ``id()`` in their keys.
 
     Parameters
     ----------
     owner : object
         Any object with a ``__dict__`` (frozen dataclasses included).
+    name : str
+        Which of the owner's caches (a large kind of entry gets its own, smaller bound).
     maxsize : int
         Largest number of entries (used when the cache is made).
 
@@ -161,10 +163,12 @@ def owned_cache(owner, maxsize: int = 32) -> BoundedCache:
     -------
     BoundedCache
     """
-    cache = owner.__dict__.get(_OWNED_ATTRIBUTE)
+    caches = owner.__dict__.get(_OWNED_ATTRIBUTE)
+    if caches is None:
+        caches = owner.__dict__[_OWNED_ATTRIBUTE] = {}  # __dict__: frozen dataclasses too
+    cache = caches.get(name)
     if cache is None:
-        cache = BoundedCache(f"owned by {type(owner).__name__}", maxsize)
-        owner.__dict__[_OWNED_ATTRIBUTE] = cache  # __dict__: frozen dataclasses too
+        cache = caches[name] = BoundedCache(f"owned: {type(owner).__name__}.{name}", maxsize)
         _OWNED.add(cache)
     return cache
 
@@ -183,7 +187,7 @@ def clear_caches() -> None:
 
 def cache_sizes() -> dict:
     """Entries held by each registered cache, by name, and by the owned caches of the objects alive,
-    summed by owner type (``"owned by <type>"``).
+    summed by owner type and cache name (``"owned: <type>.<name>"``).
 
     Returns
     -------
