@@ -51,9 +51,18 @@ def flight_outputs(nd: int = N_DATA, nx: int = 4) -> dict:
     """``{"vertical_speed_mps": W, "forward_speed_mps": U}`` as Functions of ``(x, d, p)`` (the same
     Functions on every call with the same sizes).
 
-    ``nd``: size of the model's data vector, ``model.ode.nd`` (N_DATA + N_MASS with wing masses);
-    ``nx``: size of its state, ``model.ode.nx`` (4, plus the aerodynamic states of an unsteady or
-    dynamic-stall section)."""
+    Parameters
+    ----------
+    nd : int
+        Size of the model's data vector, ``model.ode.nd`` (N_DATA + N_MASS with wing masses).
+    nx : int
+        Size of its state, ``model.ode.nx`` (4, plus the aerodynamic states of an unsteady or
+        dynamic-stall section).
+
+    Returns
+    -------
+    dict of str to casadi.Function
+    """
     return _OUTPUTS.build(("flight", int(nd), int(nx)), lambda: _flight_outputs(int(nd), int(nx)))
 
 
@@ -66,8 +75,21 @@ def _flight_outputs(nd: int, nx: int) -> dict:
 
 def path_angle_output(beta_deg: float, nd: int = N_DATA, nx: int = 4) -> ca.Function:
     """``W - tan(beta) U`` as a Function of ``(x, d, p)``: its period mean is zero on a flight path of
-    ``beta_deg`` degrees (one Function per angle and data size ``nd``, so the shooting graphs are
-    reused; ``nx`` the state size)."""
+    ``beta_deg`` degrees (one Function per angle and sizes, so the shooting graphs are reused).
+
+    Parameters
+    ----------
+    beta_deg : float
+        Flight-path angle [deg], positive climbing.
+    nd : int
+        Size of the model's data vector.
+    nx : int
+        Size of its state.
+
+    Returns
+    -------
+    casadi.Function
+    """
     return _OUTPUTS.build(("path_angle", float(beta_deg), int(nd), int(nx)),
                           lambda: _path_angle_output(float(beta_deg), int(nd), int(nx)))
 
