@@ -304,7 +304,7 @@ def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None =
     PeriodicODE or None
         The compiled ODE, or None when compiling failed (see above).
     """
-    cache = owned_cache(ode)
+    cache = owned_cache(ode, "compiled", 1)
     hit = cache.get("compiled_ode")
     if hit is not None:
         return hit
