@@ -62,3 +62,14 @@ def test_a_process_builds_the_model_and_its_shooting_graphs_once(monkeypatch):
     assert after_level["model"] == after_trim["model"]  # the level solve reuses the model
     birdocp.level(cfg)
     assert counts == after_level
+
+
+def test_a_pickled_owner_arrives_with_empty_caches():
+    """An owner sent to a worker process is pickled without its graphs (they are rebuilt there)."""
+    import pickle
+
+    a = _Owner()
+    owned_cache(a).put("graph", list(range(1000)))
+    b = pickle.loads(pickle.dumps(a))
+    assert len(owned_cache(a)) == 1 and len(owned_cache(b)) == 0
+    assert len(pickle.dumps(a)) < 400  # the entry was not pickled

@@ -103,6 +103,17 @@ class BoundedCache:
     def __len__(self) -> int:
         return len(self._data)
 
+    def __reduce__(self):
+        # a copy of an owner (pickled to a worker process) gets an empty cache: graphs are rebuilt
+        # there, never pickled with their owner
+        return _empty_owned_cache, (self.name, self.maxsize)
+
+
+def _empty_owned_cache(name: str, maxsize: int) -> BoundedCache:
+    cache = BoundedCache(name, maxsize)
+    _OWNED.add(cache)
+    return cache
+
 
 def bounded_cache(name: str, maxsize: int) -> BoundedCache:
     """A new :class:`BoundedCache`, registered under ``name`` (one name, one cache).
