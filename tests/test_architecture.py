@@ -338,6 +338,8 @@ MODULE_CACHES = {
     "birdocp/bird/model.py": {"_model_for"},  # the bird model of a Structure (a value): the one entry point
     "birdocp/bird/stall_section.py": {"_frozen_factorization", "_detached_newton"},  # sub-Functions called
     # inside the model's graphs, one per size (built before any model exists)
+    "birdocp/bird/validity.py": {"sixdof_angles"},  # to become the six-DOF ODE's (kept while the
+    # six-DOF section work changes its signature)
     "birdocp/bird/flight.py": {"bird.flight_outputs"},  # output Functions by (sizes, angle): one per value
     "birdocp/engine/integrate.py": {"engine.data_values"},  # a gait's data on a grid, shared by the grids
 }

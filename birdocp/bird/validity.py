@@ -24,12 +24,13 @@ per violated threshold, empty when valid).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from birdocp.bird.config import PARAM_NAMES, Config
-from birdocp.engine.cache import owned_cache
+from birdocp.engine.cache import owned_cache, register_cache
 from birdocp.engine.results import result_dict, serial
 
 if TYPE_CHECKING:
@@ -480,29 +481,12 @@ SIDE_ELEMENTS = {"left": slice(0, 8), "right": slice(8, 16)}
 """The lifting-line elements of each wing (left 0..7, right 8..15: the code frame's e1 points right)."""
 
 
-def sixdof_angles(ode, n_times: int) -> "ca.Function":
+@functools.lru_cache(maxsize=8)
+def sixdof_angles(nx: int, nd: int, n_times: int) -> "ca.Function":
     """``(X nx x n, D nd x n, p6) -> (alpha_eff_rad 16 x n, alpha_geo_rad 16 x n, ds_m 16 x n)`` of the
     six-degree-of-freedom model (:func:`birdocp.bird.sixdof.body_loads`: sideslip and roll and yaw
-    rates in every element's velocity, both wings apart) for its ODE ``ode`` (``nx`` = 9 or 8 states,
-    the heading dropped; data vectors of ``nd`` values), mapped over ``n_times`` times (built once,
-    kept by ``ode``).
-
-    Parameters
-    ----------
-    ode : PeriodicODE
-        The six-degree-of-freedom ODE (``SixDofModel.ode`` or ``ode_no_heading``).
-    n_times : int
-        Number of times n.
-
-    Returns
-    -------
-    casadi.Function
-    """
-    nx, nd, n = int(ode.nx), int(ode.nd), int(n_times)
-    return owned_cache(ode).build(("angles6", n), lambda: _sixdof_angles(nx, nd, n))
-
-
-def _sixdof_angles(nx: int, nd: int, n_times: int) -> "ca.Function":
+    rates in every element's velocity, both wings apart) for ``nx`` = 9 or 8 (the heading dropped)
+    states and data vectors of ``nd`` values, mapped over ``n_times`` times (built once)."""
     import casadi as ca
 
     from birdocp.bird import aero
@@ -516,6 +500,9 @@ def _sixdof_angles(nx: int, nd: int, n_times: int) -> "ca.Function":
     X, D = ca.MX.sym("X", nx, n_times), ca.MX.sym("D", nd, n_times)
     pm = ca.MX.sym("p", len(PARAM_NAMES))
     return ca.Function("angles6_map", [X, D, pm], list(one.map(n_times)(X, D, pm)))
+
+
+register_cache("bird.validity_angles_6dof", sixdof_angles)
 
 
 def unpack_blocks(d, names):
@@ -551,7 +538,7 @@ def _sixdof_verdict(cfg: Config, grid, X, t, D, p6) -> CycleValidity:
     from birdocp.bird.sixdof import LONGITUDINAL
 
     n = X.shape[0]
-    f = sixdof_angles(grid.ode, n)
+    f = sixdof_angles(int(grid.ode.nx), int(grid.ode.nd), n)
     ae, ag, ds = (np.asarray(v) for v in f(ca.DM(X.T), grid.step_start_data(D), ca.DM(p6[:len(PARAM_NAMES)])))
     u, v, w = X[:, 0], X[:, 1], X[:, 2]
     extra = {"max_sideslip_deg": float(np.degrees(np.abs(np.arctan2(v, np.hypot(u, w)))).max()),
