@@ -3,6 +3,7 @@ import cycle, public functions are documented, ruff finds nothing."""
 from __future__ import annotations
 
 import ast
+import re
 import shutil
 import subprocess
 import sys
@@ -327,3 +328,80 @@ def test_public_faces():
             "print(sorted(m for m in sys.modules if m.startswith('birdocp.') and m != 'birdocp.build_info'))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "['birdocp.engine']", out.stdout
+
+
+# -- caches -----------------------------------------------------------------------------------------
+# What is built from an object is kept by that object (birdocp.engine.cache.owned_cache). The only
+# module-level caches are these value caches (keyed by values, not by an object's id), each registered
+# in birdocp.engine.cache; a new one is a design decision: add it here with its reason.
+MODULE_CACHES = {
+    "birdocp/bird/model.py": {"_model_for"},  # the bird model of a Structure (a value): the one entry point
+    "birdocp/bird/stall_section.py": {"_frozen_factorization", "_detached_newton"},  # sub-Functions called
+    # inside the model's graphs, one per size (built before any model exists)
+    "birdocp/bird/validity.py": {"sixdof_angles"},  # to become the six-DOF ODE's (kept while the
+    # six-DOF section work changes its signature)
+    "birdocp/bird/flight.py": {"bird.flight_outputs"},  # output Functions by (sizes, angle): one per value
+    "birdocp/engine/integrate.py": {"engine.data_values"},  # a gait's data on a grid, shared by the grids
+}
+NOT_CACHES = {  # module-level dicts that are not caches
+    "birdocp/engine/cache.py": {"_REGISTRY"},  # the registry of caches itself
+    "birdocp/export/compiled.py": {"last_compile_s"},  # the last compile times (a report)
+    "birdocp/io/runs.py": {"_HELD"},  # the run-folder locks this process holds
+}
+
+
+def _decorator_name(d) -> str:
+    d = d.func if isinstance(d, ast.Call) else d
+    return d.attr if isinstance(d, ast.Attribute) else getattr(d, "id", "")
+
+
+def module_caches(path: Path) -> set:
+    """The module-level caches of a module: functions decorated with ``functools.lru_cache`` or
+    ``functools.cache``, the names given to ``bounded_cache(...)`` and module-level ``{}``,
+    ``dict()`` or ``OrderedDict()`` assignments (by target name)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            if any(_decorator_name(d) in ("lru_cache", "cache") for d in node.decorator_list):
+                out.add(node.name)
+        elif isinstance(node, ast.Call) and getattr(node.func, "id", getattr(node.func, "attr", "")) == "bounded_cache":
+            arg = node.args[0] if node.args else None
+            out.add(arg.value if isinstance(arg, ast.Constant) else ast.unparse(arg) if arg else "?")
+    for node in tree.body:
+        value = node.value if isinstance(node, (ast.Assign, ast.AnnAssign)) else None
+        empty = isinstance(value, ast.Dict) and not value.keys or (
+            isinstance(value, ast.Call) and getattr(value.func, "id", "") in ("dict", "OrderedDict") and not value.args)
+        if empty:
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            out |= {t.id for t in targets if isinstance(t, ast.Name)}
+    return out
+
+
+def test_module_cache_check_finds_new_caches(tmp_path):
+    """The checker itself: an lru_cache, a functools.cache, a bounded_cache and a module dict are found."""
+    (tmp_path / "a.py").write_text(
+        "import functools\nfrom functools import lru_cache\n_SEEN = {}\n_T: dict = dict()\nX = {'a': 1}\n"
+        "@functools.lru_cache(maxsize=4)\ndef f(n):\n    return n\n\n@lru_cache\ndef g(n):\n    return n\n\n"
+        "@functools.cache\ndef h(n):\n    return n\n\nC = bounded_cache('x.y', 3)\n")
+    assert module_caches(tmp_path / "a.py") == {"_SEEN", "_T", "f", "g", "h", "x.y"}
+
+
+def test_module_level_caches_only_in_the_allowed_places():
+    """No module-level cache outside MODULE_CACHES (things built from an object are kept by it:
+    ``owned_cache``), every allowed one still exists, and every lru_cache is registered (cleared by
+    ``clear_caches``)."""
+    found = {}
+    for path in sorted(PKG.rglob("*.py")):
+        rel = str(path.relative_to(ROOT))
+        names = module_caches(path) - NOT_CACHES.get(rel, set())
+        if names:
+            found[rel] = names
+    extra = {k: v - MODULE_CACHES.get(k, set()) for k, v in found.items() if v - MODULE_CACHES.get(k, set())}
+    assert not extra, f"new module-level caches (keep them on the object they are built from: owned_cache): {extra}"
+    assert found == MODULE_CACHES, f"allowed caches that no longer exist: {MODULE_CACHES} vs {found}"
+    for rel, names in MODULE_CACHES.items():
+        text = (ROOT / rel).read_text(encoding="utf-8")
+        for name in names:
+            if f"def {name}(" in text:
+                assert re.search(rf'register_cache\("[^"]+", {name}\)', text), f"{rel}: {name} is not registered"

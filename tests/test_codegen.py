@@ -11,6 +11,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
+from birdocp.engine.cache import clear_caches
 from birdocp.export.compiled import CompiledFallbackWarning, compiled_ode, find_compiler
 from birdocp.bird.config import Config
 
@@ -79,7 +80,7 @@ def test_compiled_trim_same_multipliers(shared_cache, monkeypatch):
     from birdocp.studies.trim import trim
 
     monkeypatch.setenv("BIRDOCP_CACHE", str(shared_cache))
-    compiled._ODES.clear()
+    clear_caches()
     a = trim()
     with warnings.catch_warnings():
         warnings.simplefilter("error", CompiledFallbackWarning)
@@ -90,7 +91,7 @@ def test_compiled_trim_same_multipliers(shared_cache, monkeypatch):
     assert list(shared_cache.glob("birdocp_rk4_variational_step-*.so"))
     assert np.array_equal(a.multipliers, b.multipliers)
     assert np.array_equal(a.x0, b.x0)
-    compiled._ODES.clear()  # the second build is a cache hit
+    clear_caches()  # the second build is a cache hit
     b2 = trim(compiled=True)
     assert compiled.last_compile_s["birdocp_rhs"]["cached"]
     assert np.max(np.abs(b2.multipliers - b.multipliers)) < 1e-10
@@ -107,7 +108,7 @@ def test_compiled_level_bit_identical(shared_cache, monkeypatch, coarse, default
     from birdocp.studies.level import level
 
     monkeypatch.setenv("BIRDOCP_CACHE", str(shared_cache))
-    compiled._ODES.clear()
+    clear_caches()
     clear_stage_data()
     a = level(**coarse)
     clear_stage_data()  # the compiled solve evaluates the data itself
@@ -121,8 +122,7 @@ def test_compiled_level_bit_identical(shared_cache, monkeypatch, coarse, default
     assert np.array_equal(a.multipliers, b.multipliers)
     assert a.amplitude_deg == b.amplitude_deg
     assert np.array_equal(a.x0, b.x0)
-    compiled._ODES.clear()
-    compiled._NUMERIC.clear()
+    clear_caches()  # the compiled ODEs and Functions kept by their sources too
     clear_stage_data()
     c = level(compiled=True, **coarse)
     assert compiled.last_compile_s["birdocp_post_dpf"] == {"generate": 0.0, "compile": 0.0, "cached": True,
@@ -193,13 +193,11 @@ def test_variational_step_over_the_size_limit_stays_interpreted(shared_cache, mo
 
     monkeypatch.setenv("BIRDOCP_CACHE", str(shared_cache))
     monkeypatch.setattr(compiled, "MAX_INSTRUCTIONS", 1000)
-    compiled._ODES.clear()
-    compiled._NUMERIC.clear()
+    clear_caches()  # the compiled ODEs and Functions kept by their sources too
     a = trim(**coarse)
     with pytest.warns(CompiledFallbackWarning, match="rhs_tangent.*MAX_INSTRUCTIONS"):
         b = trim(compiled=True, **coarse)
-    compiled._ODES.clear()
-    compiled._NUMERIC.clear()
+    clear_caches()  # the compiled ODEs and Functions kept by their sources too
     assert a.success and b.success
     assert np.max(np.abs(a.multipliers - b.multipliers)) < 1e-12
     assert np.max(np.abs(a.x0 - b.x0)) < 1e-12

@@ -31,7 +31,6 @@ wingbeat).
 
 from __future__ import annotations
 
-import functools
 import math
 
 import casadi as ca
@@ -39,6 +38,7 @@ import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES
 from birdocp.bird.model import load_terms, unpack_data
+from birdocp.engine.cache import owned_cache
 
 __all__ = ["POWER_NAMES", "PowerFunctions", "power_functions", "shoulder_power_W", "cycle_energetics",
            "ENERGETICS_KEYS"]
@@ -150,10 +150,20 @@ class PowerFunctions:
         return g
 
 
-@functools.lru_cache(maxsize=8)
 def power_functions(model) -> PowerFunctions:
-    """The :class:`PowerFunctions` of a :class:`~birdocp.bird.model.BirdModel` (built once per model)."""
-    return PowerFunctions(getattr(model, "model", model))
+    """The :class:`PowerFunctions` of a :class:`~birdocp.bird.model.BirdModel` (built once, kept by the model).
+
+    Parameters
+    ----------
+    model : BirdModel or ConfiguredModel
+        The model.
+
+    Returns
+    -------
+    PowerFunctions
+    """
+    model = getattr(model, "model", model)
+    return owned_cache(model).build("power_functions", lambda: PowerFunctions(model))
 
 
 def shoulder_power_W(flapping_power_W, inertial_power_W=0.0):

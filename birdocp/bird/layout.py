@@ -9,7 +9,6 @@ Used by :mod:`birdocp.bird.loads`, :mod:`birdocp.bird.graphs` and :mod:`birdocp.
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import casadi as ca
@@ -55,7 +54,6 @@ def data_blocks(n: int = aero.N_ELEMENTS) -> tuple:
 DATA_BLOCKS = data_blocks(N_EL)
 
 
-@functools.lru_cache(maxsize=None)
 def _offsets(n: int = N_EL):
     out, k = {}, 0
     for name, (r, c) in data_blocks(n):

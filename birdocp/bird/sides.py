@@ -13,7 +13,6 @@ left wing (one lifting line over the full span, its matrices from the asymmetric
 
 from __future__ import annotations
 
-import functools
 
 import casadi as ca
 import numpy as np
@@ -22,6 +21,7 @@ from birdocp.bird.config import PARAM_NAMES, SIDE_KEYS, Config, get_value
 from birdocp.bird.graphs import unsteady_blocks
 from birdocp.bird.model import DATA_BLOCKS, N_EL, BirdModel, Structure, aero_blocks
 from birdocp.bird.sixdof_inertia import sums_function
+from birdocp.engine.cache import owned_cache
 
 __all__ = ["SIDE_PARAM_NAMES", "side_vector", "side_parameters", "side_data_functions", "swap_sides"]
 
@@ -95,7 +95,6 @@ def side_parameters(p, offsets):
     return pr, pl
 
 
-@functools.lru_cache(maxsize=4)
 def _sides_post(structure: Structure, n_local: int) -> ca.Function:
     """``post2(local_right, local_left, t, p_right, p_left) -> d``: the data of two differing wings."""
     n = len(PARAM_NAMES)
@@ -137,7 +136,7 @@ def side_data_functions(planar: BirdModel, n_params: int, first_offset: int):
     if planar.structure.unsteady != "none":
         raise ValueError("asymmetric gaits: aero.unsteady = 'wagner' is not written in six degrees of freedom")
     nl = planar.pre.size1_out(0)
-    post2 = _sides_post(planar.structure, nl)
+    post2 = owned_cache(planar).build(("sides_post", nl), lambda: _sides_post(planar.structure, nl))
     tm, pm = ca.MX.sym("t"), ca.MX.sym("p", n_params)
     pr, pl = side_parameters(pm[:n], pm[first_offset:first_offset + 2 * _N_SIDE])
     pre = ca.Function("pre_sides", [tm, pm], [ca.vertcat(planar.pre(tm, pr), planar.pre(tm, pl))], ["t", "p"],

@@ -46,7 +46,6 @@ are the planar model's.
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import casadi as ca
@@ -57,7 +56,7 @@ from birdocp.bird.config import PARAM_NAMES, Config, asymmetric
 from birdocp.bird.loads import unsteady_params, unsteady_data_offset
 from birdocp.bird.model import N_DATA, N_EL, BirdModel, Structure, get_model, unpack_data
 from birdocp.bird.sides import SIDE_PARAM_NAMES, side_data_functions
-from birdocp.engine.cache import register_cache
+from birdocp.engine.cache import owned_cache
 from birdocp.engine.problem import PeriodicODE
 
 __all__ = ["rhs_expression", "SectionLaw", "STATE_NAMES", "LONGITUDINAL", "LATERAL", "HEADING", "LATERAL_PARAM_NAMES", "LateralInertia",
@@ -510,16 +509,8 @@ class SixDofModel:
         return cache[n_states]
 
 
-@functools.lru_cache(maxsize=4)
-def _sixdof_for(structure: Structure, planar: BirdModel, sides: bool = False) -> SixDofModel:
-    return SixDofModel(planar, sides)
-
-
-register_cache("bird.sixdof_models", _sixdof_for)
-
-
 def sixdof_model(cfg: Config, sides: bool | None = None) -> SixDofModel:
-    """The (cached) :class:`SixDofModel` of ``cfg``'s structure; its numbers come from
+    """The :class:`SixDofModel` of ``cfg``'s structure (built once, kept by the planar model); its numbers come from
     ``SixDofModel.params(param_vector(cfg), inertia, offsets)``. ``sides``: a model with per-side
     joint laws (default: when ``cfg``'s gait is asymmetric, :func:`birdocp.bird.config.asymmetric`).
 
@@ -535,7 +526,8 @@ def sixdof_model(cfg: Config, sides: bool | None = None) -> SixDofModel:
     SixDofModel
     """
     sides = asymmetric(cfg) if sides is None else bool(sides)
-    return _sixdof_for(Structure.of(cfg), get_model(cfg).model, sides)
+    planar = get_model(cfg).model
+    return owned_cache(planar).build(("sixdof", sides), lambda: SixDofModel(planar, sides))
 
 
 def embed_planar_state(x4) -> list[float]:

@@ -11,7 +11,6 @@ body-fixed, **origin at the centre of mass G**. The forward body axis is x' = -e
 
 from __future__ import annotations
 
-import functools
 import math
 
 import casadi as ca
@@ -20,6 +19,7 @@ import numpy as np
 from birdocp.bird import kinematics
 from birdocp.bird.config import JOINT_NAMES, PARAM_NAMES, Config, param_vector
 from birdocp.bird.model import GEOMETRY_OUTPUTS, get_model
+from birdocp.engine.cache import owned_cache
 
 __all__ = ["motion", "interpolate_states", "earth_path", "MOTION_KEYS"]
 
@@ -31,7 +31,6 @@ MOTION_KEYS = ("t_s", "x", "chain_m", "feather_base_m", "feather_tip_m", "minor_
 FEATHER_ORDER = (6, 4, 2, 0)  # the master feathers, shoulder to hand tip (trailing-edge points 0..3)
 
 
-@functools.lru_cache(maxsize=4)
 def _bones_function(frequency_hz: float) -> ca.Function:
     """``(t, p) -> (chain 3x4, feather bases 3x4, feather tips 3x4, minor bases 3x3, minor tips 3x3)``
     of the right wing, origin at the right shoulder: shoulder, elbow, wrist and hand tip; the four
@@ -134,7 +133,7 @@ def motion(cfg: Config, times_s, states=None, p=None) -> dict:
     X = None if states is None else np.asarray(states, float).reshape(len(times), 4)
     m = get_model(cfg)
     pv = np.asarray(param_vector(cfg) if p is None else p, float).ravel()
-    bones = _bones_function(float(cfg.gait.frequency_hz))
+    bones = owned_cache(m.model).build("bones", lambda: _bones_function(float(cfg.gait.frequency_hz)))
     x_ep = pv[PARAM_NAMES.index("wing.shoulder_half_separation_m")]
     root = pv[PARAM_NAMES.index("wing.root_ahead_m")]
     # right shoulder relative to G: x_ep along e1, root_ahead_m forward (= -e3)

@@ -9,6 +9,8 @@ import functools
 
 import casadi as ca
 
+from birdocp.engine.cache import register_cache
+
 __all__ = ["separation_point", "lift_coefficient", "separated_drag_coefficient", "lu_solve", "factored_solve",
            "expanded_instructions", "circulation", "INLINE_NEWTON_STEPS", "FROZEN_NEWTON_MATRIX"]
 
@@ -133,6 +135,9 @@ def _frozen_factorization(n: int) -> ca.Function:
     return ca.Function(f"frozen_lu_{n}", [A], [F], {"never_inline": True, "is_diff_in": [False]})
 
 
+register_cache("bird.stall_frozen_factorizations", _frozen_factorization)  # one called Function per size
+
+
 def factored_solve(F, b):
     """x = A^-1 b from the factors F of :func:`_lu_factors` (the same operations, in the same order, as
     :func:`lu_solve`; about n^2 multiply-adds).
@@ -219,6 +224,9 @@ def _detached_newton(section: str, n: int, steps: int) -> ca.Function:
     args = sc + cols[:4] + [K, f]
     return ca.Function(f"newton_start_{section.replace('-', '_')}_{steps}", args, [gam],
                        {"never_inline": True, "is_diff_in": [False] * len(args)})
+
+
+register_cache("bird.stall_newton_starts", _detached_newton)  # one called Function per (section, size, steps)
 
 
 def expanded_instructions(f: ca.Function, section: str, n: int, newton_steps: int, evaluations: int = 1) -> int:

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from birdocp.bird.config import PARAM_NAMES, Config
-from birdocp.engine.cache import bounded_cache, register_cache
+from birdocp.engine.cache import owned_cache, register_cache
 from birdocp.engine.results import result_dict, serial
 
 if TYPE_CHECKING:
@@ -53,7 +53,7 @@ def effective_angles(n_data: int | None = None) -> "ca.Function":
     section plane; ``alpha_geo``: the same without the induced velocity (the model's ``alpha``);
     ``ds_m``: the element lengths (span weights). ``n_data``: the size of the model's data vector
     (default: the massless model's; wing masses append their terms after the aerodynamic blocks).
-    Built once per size (cached).
+    A new Function on each call (a model keeps its own: :func:`model_angles`).
 
     Parameters
     ----------
@@ -66,18 +66,13 @@ def effective_angles(n_data: int | None = None) -> "ca.Function":
     """
     from birdocp.bird.model import N_DATA
 
-    return _effective_angles(int(n_data or N_DATA))
-
-
-@functools.lru_cache(maxsize=4)
-def _effective_angles(n_data: int) -> "ca.Function":
     import casadi as ca
 
     from birdocp.bird import aero
     from birdocp.bird.model import unpack_data
 
     x = ca.SX.sym("x", 4)
-    d = ca.SX.sym("d", n_data)
+    d = ca.SX.sym("d", int(n_data or N_DATA))
     p = ca.SX.sym("p", len(PARAM_NAMES))
     b = unpack_data(d)
     V, _, alpha, vind = aero.inflow(x, b["r_m"], b["v_kin_mps"], b["c_hat"], b["up"], b["tau"], b["Wx"], b["Wy"])
@@ -86,16 +81,13 @@ def _effective_angles(n_data: int) -> "ca.Function":
                        ["x", "d", "p"], ["alpha_eff_rad", "alpha_geo_rad", "ds_m"])
 
 
-register_cache("bird.validity_angles", _effective_angles)
-
-
 def model_angles(model) -> "ca.Function":
     """``(x, d, p) -> (alpha_eff 16, alpha_geo 16, ds 16, alpha_eff_quasi_steady 16, f_sep 16,
     newton_residual)`` for a
     :class:`~birdocp.bird.model.BirdModel`: with an unsteady or stall section ``alpha_eff`` is the angle
     the section law sees (alpha_E: lag and 3/4-chord term included) and ``f_sep`` the separation point;
     otherwise alpha_eff_quasi_steady = alpha_eff, f_sep = 1 and the residual 0 (the relative residual
-    max|R| / max|Gamma| of the stall circulation after its Newton steps).
+    max|R| / max|Gamma| of the stall circulation after its Newton steps). Built once, kept by the model.
 
     Parameters
     ----------
@@ -106,6 +98,10 @@ def model_angles(model) -> "ca.Function":
     -------
     casadi.Function
     """
+    return owned_cache(model).build("model_angles", lambda: _model_angles(model))
+
+
+def _model_angles(model) -> "ca.Function":
     import casadi as ca
 
     if not model.structure.aero_extra:
@@ -122,7 +118,7 @@ def model_angles(model) -> "ca.Function":
 
 def element_angles_function(cfg: Config, n_times: int, extended: bool = False) -> "ca.Function":
     """``f(X[nx x n], T[1 x n], p) -> (alpha_eff 16 x n, alpha_geo 16 x n, ds 16 x n)`` (rad, m) for
-    the model of ``cfg``; built once per (model structure, n) and reused. ``extended``: also
+    the model of ``cfg``; built once per (n, extended), kept by the model. ``extended``: also
     ``alpha_eff_quasi_steady`` (16 x n), ``f_sep`` (16 x n) and ``newton_residual`` (1 x n) of
     :func:`model_angles`.
 
@@ -139,28 +135,24 @@ def element_angles_function(cfg: Config, n_times: int, extended: bool = False) -
     -------
     casadi.Function
     """
+    from birdocp.bird.model import get_model
+
+    model = get_model(cfg).model
+    n, extended = int(n_times), bool(extended)
+    return owned_cache(model).build(("element_angles", n, extended), lambda: _element_angles(model, n, extended))
+
+
+def _element_angles(model, n: int, extended: bool) -> "ca.Function":
     import casadi as ca
 
-    from birdocp.bird.model import Structure, get_model
-
-    key = (Structure.of(cfg), int(n_times), bool(extended))
-    f = _ANGLE_FUNCTIONS.get(key)
-    if f is None:
-        n = key[1]
-        model = get_model(cfg).model
-        X = ca.MX.sym("X", model.ode.nx, n)
-        T = ca.MX.sym("T", 1, n)
-        p = ca.MX.sym("p", len(PARAM_NAMES))
-        D = model.ode.data.map(n)(T, p)  # post(pre(t, p)): no need to read the whole data graph
-        outs = model_angles(model).map(n)(X, D, p)
-        names = ["alpha_eff_rad", "alpha_geo_rad", "ds_m", "alpha_eff_quasi_steady_rad", "f_sep", "newton_residual"]
-        k = 6 if extended else 3
-        f = ca.Function("element_angles", [X, T, p], list(outs[:k]), ["X", "T", "p"], names[:k])
-        _ANGLE_FUNCTIONS.put(key, f)
-    return f
-
-
-_ANGLE_FUNCTIONS = bounded_cache("bird.validity_angles_on_times", 16)
+    X = ca.MX.sym("X", model.ode.nx, n)
+    T = ca.MX.sym("T", 1, n)
+    p = ca.MX.sym("p", len(PARAM_NAMES))
+    D = model.ode.data.map(n)(T, p)  # post(pre(t, p)): no need to read the whole data graph
+    outs = model_angles(model).map(n)(X, D, p)
+    names = ["alpha_eff_rad", "alpha_geo_rad", "ds_m", "alpha_eff_quasi_steady_rad", "f_sep", "newton_residual"]
+    k = 6 if extended else 3
+    return ca.Function("element_angles", [X, T, p], list(outs[:k]), ["X", "T", "p"], names[:k])
 
 
 @dataclass
@@ -477,18 +469,13 @@ def grid_validity(cfg: Config, x, p=None, t0_s: float = 0.0, steps_per_period: i
     D = grid.blocks_numeric(float(t0_s), p)
     if grid.ode.state_names[:2] == ("u_mps", "v_mps"):  # the six-degree-of-freedom ODE (9 or 8 states)
         return _sixdof_verdict(cfg, grid, X, t, D, p)
-    from birdocp.bird.model import Structure, get_model
+    from birdocp.bird.model import get_model
 
-    key = (n, Structure.of(cfg))
-    hit = _ANGLE_MAPS.get(key)
-    if hit is None:
-        hit = model_angles(get_model(cfg).model).map(n)
-        _ANGLE_MAPS.put(key, hit)
+    model = get_model(cfg).model
+    hit = owned_cache(model).build(("model_angles_map", n), lambda: model_angles(model).map(n))
     ae, ag, ds, aq, fs, nr = (np.asarray(v) for v in hit(ca.DM(X.T), grid.step_start_data(D), ca.DM(p)))
     return _verdict(cfg, t, X, np.degrees(ae), np.degrees(ag), ds, _section_measures(cfg, aq, fs, ds, nr))
 
-
-_ANGLE_MAPS = bounded_cache("bird.validity_angle_maps", 8)
 
 SIDE_ELEMENTS = {"left": slice(0, 8), "right": slice(8, 16)}
 """The lifting-line elements of each wing (left 0..7, right 8..15: the code frame's e1 points right)."""

@@ -38,11 +38,10 @@ difference and solve again (:func:`birdocp.studies.gait.optimize_gait`).
 
 from __future__ import annotations
 
-import functools
 import math
 
 from birdocp.bird.config import PARAM_NAMES, Config
-from birdocp.engine.cache import bounded_cache
+from birdocp.engine.cache import owned_cache
 
 __all__ = ["SMOOTH_LIMITS", "STALL_WIDTH_DEG", "KS_RHO", "smooth_integrands", "integrand_names",
            "smooth_measures", "limit_bounds", "smoothing_info", "cycle_smooth_measures"]
@@ -101,7 +100,7 @@ def smoothing_info() -> dict:
 def smooth_integrands(cfg: Config, n_data: int, model=None):
     """``g(x, d, p) -> 4 x 1``: the integrands of :data:`SMOOTH_LIMITS` (see the module) for the
     thresholds of ``cfg.validity``, for a model with data of size ``n_data``; built once per
-    (thresholds, size, model with aerodynamic states) and reused. ``model``: a
+    (thresholds, size) and kept by ``model`` (a new Function when ``model`` is None). ``model``: a
     :class:`~birdocp.bird.model.BirdModel`; when it has aerodynamic states, x is its full state and the
     angle is the one its section law sees (:func:`birdocp.bird.validity.model_angles`, as the exact
     measure); otherwise x is the body state (u, w, q, theta).
@@ -121,11 +120,13 @@ def smooth_integrands(cfg: Config, n_data: int, model=None):
     """
     v = cfg.validity
     aero_model = model if model is not None and model.ode.nx > 4 else None
-    return _integrands(float(v.stall_angle_deg), float(v.min_forward_speed_mps), float(v.max_abs_pitch_deg),
-                       float(v.max_airflow_body_angle_deg), int(n_data), aero_model)
+    args = (float(v.stall_angle_deg), float(v.min_forward_speed_mps), float(v.max_abs_pitch_deg),
+            float(v.max_airflow_body_angle_deg), int(n_data))
+    if model is None:
+        return _integrands(*args)
+    return owned_cache(model).build(("smooth_integrands",) + args, lambda: _integrands(*args, aero_model))
 
 
-@functools.lru_cache(maxsize=8)
 def _integrands(stall_deg, umin, pitch_deg, airflow_deg, n_data, aero_model=None):
     import casadi as ca
 
@@ -215,14 +216,8 @@ def cycle_smooth_measures(cfg: Config, x0, p=None, steps_per_period: int | None 
     m = get_model(cfg)
     n = int(steps_per_period or cfg.solve.steps_per_period)
     p = m.p0 if p is None else np.asarray(p, float).ravel()
-    key = (id(m.ode), n, tuple(limit_bounds(cfg).items()), float(cfg.validity.stall_angle_deg))
-    grid = _GRIDS.get(key)
-    if grid is None:
-        grid = RK4Grid(m.ode, n, 1, outputs=(smooth_integrands(cfg, m.ode.nd, m.model),))
-        _GRIDS.put(key, grid)
+    key = ("smooth_validity_grid", n, tuple(limit_bounds(cfg).items()), float(cfg.validity.stall_angle_deg))
+    grid = owned_cache(m.ode).build(key, lambda: RK4Grid(m.ode, n, 1, outputs=(smooth_integrands(cfg, m.ode.nd, m.model),)))
     D = grid.blocks_numeric(0.0, p)
     _, _, q = grid.period_map(ca.DM(m.complete_state(x0, p)), D, ca.DM(p))
     return smooth_measures(cfg, np.asarray(q).ravel() / m.period_s)[0]
-
-
-_GRIDS = bounded_cache("bird.validity_smooth_grids", 4)

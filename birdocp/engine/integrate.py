@@ -39,15 +39,17 @@ __all__ = [
     "clear_stage_data",
 ]
 
-_STAGE_DATA = bounded_cache("engine.stage_data", 6)  # (id(data), N, t0, p) -> (data, stage blocks DM)
-_PRE_DATA = bounded_cache("engine.pre_data", 6)      # (id(pre), N, t0, pre values) -> (pre, pre grid DM)
+# the numbers of a gait on a grid, shared by every grid of the same data Function (a value cache):
+# ("stage", id(data), N, t0, p) -> (data, stage blocks DM); ("pre", id(pre), N, t0, pre values) -> (pre,
+# pre grid DM): ids, not the Functions, in the keys (hashing a LazyFunction would load it); each entry
+# holds its Function, so an id is not reused while the entry lives
+_DATA_VALUES = bounded_cache("engine.data_values", 12)
 
 
 def clear_stage_data() -> None:
     """Forget the memoised stage data of every grid (the next solve evaluates the data again; the
     on-disk store of pre values is not touched)."""
-    _STAGE_DATA.clear()
-    _PRE_DATA.clear()
+    _DATA_VALUES.clear()
 
 
 def rk4_update(f, x, D3, h, *args):
@@ -486,8 +488,8 @@ class RK4Grid:
         of the same data and step count (shooting, validity, power; an ODE with a compiled RHS and the
         same data) shares the numbers of a gait instead of evaluating the data again."""
         p = np.asarray(p, float).ravel()
-        key = (id(self.ode.data), self.N, float(t0), p.tobytes())
-        hit = _STAGE_DATA.get(key)
+        key = ("stage", id(self.ode.data), self.N, float(t0), p.tobytes())
+        hit = _DATA_VALUES.get(key)
         if hit is not None and hit[0] is self.ode.data:
             return hit[1]
         ode = self.ode
@@ -498,7 +500,7 @@ class RK4Grid:
             out = self._blocks_of_pre(self.pre_numeric(t0, p), ca.DM(self.times(t0)), ca.DM(p))
         else:
             out = self._blocks_of_data(self.data_grid(ca.DM(self.times(t0)), ca.DM(p)))
-        _STAGE_DATA.put(key, (ode.data, out))  # holding the Function keeps its id unique
+        _DATA_VALUES.put(key, (ode.data, out))
         return out
 
     def pre_numeric(self, t0: float, p) -> ca.DM:
@@ -508,8 +510,8 @@ class RK4Grid:
         p = np.asarray(p, float).ravel()
         ode = self.ode
         pre_values = p[list(ode.pre_params)]
-        key = (id(ode.pre), self.N, float(t0), pre_values.tobytes())
-        hit = _PRE_DATA.get(key)
+        key = ("pre", id(ode.pre), self.N, float(t0), pre_values.tobytes())
+        hit = _DATA_VALUES.get(key)
         if hit is not None and hit[0] is ode.pre:
             return hit[1]
         disk_key = None
@@ -527,7 +529,7 @@ class RK4Grid:
             out = self._pre_grid(ca.DM(self.times(t0)), ca.DM(p))
             if disk_key is not None:
                 datastore.store("pre-grid", disk_key, np.asarray(out))
-        _PRE_DATA.put(key, (ode.pre, out))
+        _DATA_VALUES.put(key, (ode.pre, out))
         return out
 
     @functools.cached_property

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from birdocp.engine.cache import bounded_cache
+from birdocp.engine.cache import owned_cache
 from birdocp.engine.ode import ODE
 from birdocp.engine.problem import finite_vector
 from birdocp.engine.results import result_dict, serial
@@ -67,15 +67,13 @@ class LyapunovResult:
         return result_dict(self, derived=("sum",), extra={"wall_s": {"total": self.wall_s}})
 
 
-_CHUNKS = bounded_cache("engine.lyapunov.tangent_chunks", 16)
-
-
 def _chunk(ode: ODE, k: int, n_sub: int, integrator: str) -> ca.Function:
-    """``chunk(x, W, t, p, h) -> (x, W)`` after n_sub steps (state and tangent vectors)."""
-    key = (id(ode), k, n_sub, integrator)
-    hit = _CHUNKS.get(key)
-    if hit is not None:
-        return hit[1]
+    """``chunk(x, W, t, p, h) -> (x, W)`` after n_sub steps (state and tangent vectors), kept by ``ode``."""
+    return owned_cache(ode).build(("tangent_chunk", k, n_sub, integrator),
+                                  lambda: _build_chunk(ode, k, n_sub, integrator))
+
+
+def _build_chunk(ode: ODE, k: int, n_sub: int, integrator: str) -> ca.Function:
     step = make_step(ode.rhs, integrator)
     S = ca.SX if step.is_a("SXFunction") else ca.MX
     x, W = S.sym("x", ode.nx), S.sym("W", ode.nx, k)
@@ -88,9 +86,7 @@ def _chunk(ode: ODE, k: int, n_sub: int, integrator: str) -> ca.Function:
         ca.MX.sym("p", ode.np), ca.MX.sym("h")
     ts = tm + hm * ca.DM(np.arange(n_sub)).T
     Xo, Wo = acc(xm, Wm, ts, pm, hm)
-    fn = ca.Function("tangent_chunk", [xm, Wm, tm, pm, hm], [Xo[:, -1], Wo[:, -k:]])
-    _CHUNKS.put(key, (ode, fn))
-    return fn
+    return ca.Function("tangent_chunk", [xm, Wm, tm, pm, hm], [Xo[:, -1], Wo[:, -k:]])
 
 
 def _benettin(chunk, x, Q, t: float, pd, dt: float, tau: float, n: int, orient: bool = True) -> tuple:

@@ -27,7 +27,7 @@ import numpy as np
 
 from birdocp.engine.problem import RhsDimensions
 
-from birdocp.engine.cache import bounded_cache
+from birdocp.engine.cache import owned_cache
 
 __all__ = ["ODE"]
 
@@ -163,14 +163,13 @@ class ODE(RhsDimensions):
         -------
         casadi.Function
         """
-        fn = _JACS.get(id(self))
-        if fn is None:
-            x, t, p = ca.SX.sym("x", self.nx), ca.SX.sym("t"), ca.SX.sym("p", self.np)
-            fx = self.rhs(x, t, p)
-            fn = (self, ca.Function("dfdx", [x, t, p], [ca.jacobian(fx, x), ca.jacobian(fx, p)],
-                                    ["x", "t", "p"], ["dfdx", "dfdp"]))
-            _JACS.put(id(self), fn)
-        return fn[1]
+        return owned_cache(self).build("jacobians", self._build_jacobians)
+
+    def _build_jacobians(self) -> ca.Function:
+        x, t, p = ca.SX.sym("x", self.nx), ca.SX.sym("t"), ca.SX.sym("p", self.np)
+        fx = self.rhs(x, t, p)
+        return ca.Function("dfdx", [x, t, p], [ca.jacobian(fx, x), ca.jacobian(fx, p)],
+                           ["x", "t", "p"], ["dfdx", "dfdp"])
 
     def evaluate(self, x, t, p) -> np.ndarray:
         """f(x, t, p) as a numpy vector.
@@ -211,5 +210,3 @@ class ODE(RhsDimensions):
 
         return PeriodicODE.from_rhs(self.rhs, period_s, self.state_names, self.param_names)
 
-
-_JACS = bounded_cache("engine.ode.jacobians", 64)

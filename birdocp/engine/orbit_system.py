@@ -5,7 +5,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from birdocp.engine.cache import bounded_cache
+from birdocp.engine.cache import owned_cache
 from birdocp.engine.ode import ODE
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.method import OrbitMethod
@@ -46,33 +46,19 @@ class OrbitGraphs:
         self.h = h
 
 
-_GRAPHS = bounded_cache("engine.orbits.graphs", 32)
-_EVALS = bounded_cache("engine.orbits.evaluators", 32)
-
-
-def _cached(cache, key, make):
-    """The entry of ``key``, built by ``make()`` on a miss (entries hold the objects whose ids are
-    in their keys, so an id is not reused while its entry lives)."""
-    hit = cache.get(key)
-    if hit is None:
-        hit = make()
-        cache.put(key, hit)
-    return hit
-
-
 def _steps(ode: ODE, integrator: str):
     """(step, variational step) of the time-scaled ODE ``dx/dtau = T f(x, t0 + T tau, p)``, q = (p, T,
-    t0): built once per (ode, integrator) and shared by the graphs of every grid."""
+    t0): built once per (ode, integrator), kept by ``ode``, shared by the graphs of every grid."""
     def make():
         nx, n_p = ode.nx, ode.np
         x, tau, q = ca.SX.sym("x", nx), ca.SX.sym("tau"), ca.SX.sym("q", n_p + 2)
         F = ca.Function("scaled_rhs", [x, tau, q], [q[n_p] * ode.rhs(x, q[n_p + 1] + q[n_p] * tau, q[:n_p])])
-        return ode, make_step(F, integrator), make_variational_step(F, integrator)
-    return _cached(_GRAPHS, (id(ode), "steps", integrator), make)[1:]
+        return make_step(F, integrator), make_variational_step(F, integrator)
+    return owned_cache(ode).build(("steps", integrator), make)
 
 
 def orbit_graphs(ode: ODE, N: int, S: int, integrator: str) -> OrbitGraphs:
-    """The cached :class:`OrbitGraphs` of (ode, N steps, S segments, integrator).
+    """The :class:`OrbitGraphs` of (N steps, S segments, integrator), kept by ``ode``.
 
     Parameters
     ----------
@@ -89,7 +75,7 @@ def orbit_graphs(ode: ODE, N: int, S: int, integrator: str) -> OrbitGraphs:
     -------
     OrbitGraphs
     """
-    return _cached(_GRAPHS, (id(ode), N, S, integrator), lambda: OrbitGraphs(ode, N, S, integrator))
+    return owned_cache(ode).build(("orbit_graphs", N, S, integrator), lambda: OrbitGraphs(ode, N, S, integrator))
 
 
 class OrbitSystem(Evaluator):
@@ -340,7 +326,7 @@ class OrbitSystem(Evaluator):
 
 
 def orbit_system(graphs, period_free, free_idx, n_lin) -> OrbitSystem:
-    """The cached :class:`OrbitSystem` over ``graphs`` for one layout of unknowns and linear rows.
+    """The :class:`OrbitSystem` over ``graphs`` for one layout of unknowns and linear rows, kept by ``graphs``.
 
     Parameters
     ----------
@@ -357,8 +343,8 @@ def orbit_system(graphs, period_free, free_idx, n_lin) -> OrbitSystem:
     -------
     OrbitSystem
     """
-    return _cached(_EVALS, (id(graphs), bool(period_free), tuple(free_idx), int(n_lin)),
-                   lambda: OrbitSystem(graphs, period_free, free_idx, n_lin))
+    return owned_cache(graphs).build(("orbit_system", bool(period_free), tuple(free_idx), int(n_lin)),
+                                     lambda: OrbitSystem(graphs, period_free, free_idx, n_lin))
 
 
 def orbit_residual_system(ode: ODE, method: OrbitMethod, *, period_free: bool, free_idx=(), n_lin: int = 0,

@@ -8,7 +8,7 @@ import time
 import casadi as ca
 import numpy as np
 
-from birdocp.engine.cache import bounded_cache
+from birdocp.engine.cache import owned_cache
 from birdocp.engine.integrate import RK4Grid, column_blocks
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.method import IPOPT_DEFAULTS, OrbitMethod
@@ -16,12 +16,9 @@ from birdocp.engine.problem import OrbitProblem
 
 __all__ = ["ShootingGraphs", "shooting_graphs", "rk4_grid", "initial_points"]
 
-_GRIDS = bounded_cache("engine.rk4_grids", 32)
-_GRAPHS = bounded_cache("engine.shooting_graphs", 32)
-
 
 def rk4_grid(ode, method: OrbitMethod, outputs) -> RK4Grid:
-    """The cached :class:`~birdocp.engine.integrate.RK4Grid` of (ode, method's grid, outputs).
+    """The :class:`~birdocp.engine.integrate.RK4Grid` of (method's grid, outputs), kept by ``ode``.
 
     Parameters
     ----------
@@ -38,13 +35,8 @@ def rk4_grid(ode, method: OrbitMethod, outputs) -> RK4Grid:
     """
     method = method.resolved(True)
     outputs = tuple(outputs)
-    key = (id(ode), int(method.steps_per_period), int(method.points) - 1, tuple(id(g) for g in outputs))
-    hit = _GRIDS.get(key)
-    if hit is not None and hit[0] is ode:
-        return hit[2]
-    grid = RK4Grid(ode, method.steps_per_period, method.points - 1, outputs)
-    _GRIDS.put(key, (ode, outputs, grid))  # holding the references keeps the ids unique
-    return grid
+    key = ("rk4_grid", int(method.steps_per_period), int(method.points) - 1, outputs)
+    return owned_cache(ode).build(key, lambda: RK4Grid(ode, method.steps_per_period, method.points - 1, outputs))
 
 
 class ShootingGraphs(Evaluator):
@@ -405,7 +397,7 @@ def _affine_columns(ode, free_idx):
 
 
 def shooting_graphs(problem: OrbitProblem, method: OrbitMethod, free_idx=None):
-    """The cached graphs of (problem's ode, outputs, method) with the problem's free parameters, or
+    """The graphs (kept by the problem's ode) of (outputs, method) with the problem's free parameters, or
     ``free_idx`` instead (the continuation adds its parameter: one unknown more than equations).
 
     Parameters
@@ -428,14 +420,14 @@ def shooting_graphs(problem: OrbitProblem, method: OrbitMethod, free_idx=None):
     mean_fns = tuple(m.output for m in problem.means)
     extra_fns = tuple(problem.outputs.values())
     free_idx = tuple(problem.free_indices() if free_idx is None else (int(j) for j in free_idx))
-    key = (id(ode), int(method.steps_per_period), int(method.points), free_idx,
-           tuple(id(f) for f in mean_fns), tuple(id(f) for f in extra_fns))
-    hit = _GRAPHS.get(key)
-    if hit is not None and hit.ode is ode:
+    key = ("shooting_graphs", int(method.steps_per_period), int(method.points), free_idx, mean_fns, extra_fns)
+    cache = owned_cache(ode)
+    hit = cache.get(key)
+    if hit is not None:
         return hit, 0.0
     t = time.perf_counter()
     b = ShootingGraphs(ode, method, free_idx, mean_fns, extra_fns)
-    _GRAPHS.put(key, b)
+    cache.put(key, b)
     return b, time.perf_counter() - t
 
 

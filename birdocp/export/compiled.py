@@ -41,7 +41,7 @@ import casadi as ca
 
 from birdocp.engine import graphcache
 from birdocp.io.files import atomic_target
-from birdocp.engine.cache import bounded_cache
+from birdocp.engine.cache import owned_cache
 from birdocp.engine.problem import PeriodicODE
 
 __all__ = ["CompiledFallbackWarning", "cache_dir", "find_compiler", "compile_functions", "compiled_ode",
@@ -239,10 +239,6 @@ def compiled_rhs(rhs: ca.Function, key_extra: str = "", directory: Path | None =
     return ca.external(rhs.name(), lib)
 
 
-_ODES = bounded_cache("export.compiled_odes", 16)
-_NUMERIC = bounded_cache("export.compiled_numeric", 32)
-
-
 class NumericCompiler:
     """The ``numeric`` hook of a compiled :class:`PeriodicODE`: a Function the engine evaluates for
     numbers only (``post`` on the stage grid, ``post`` with its derivatives along free parameters) is
@@ -268,7 +264,8 @@ class NumericCompiler:
         self.source = source
 
     def __call__(self, f: ca.Function, key: str = "") -> ca.Function:
-        hit = _NUMERIC.get(id(f))
+        cache = owned_cache(self, "compiled")  # id(f) keys: hashing a lazily loaded Function would load it
+        hit = cache.get(id(f))
         if hit is not None and hit[0] is f:
             return hit[1]
         try:
@@ -281,7 +278,7 @@ class NumericCompiler:
             warnings.warn(f"birdocp: compiled {f.name()} unavailable, using the interpreted CasADi path ({e})",
                           CompiledFallbackWarning, stacklevel=2)
             out = f
-        _NUMERIC.put(id(f), (f, out))  # holding f keeps its id unique
+        cache.put(id(f), (f, out))  # holding f keeps its id unique
         return out
 
 
@@ -290,8 +287,8 @@ def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None =
     numeric-only data Functions are compiled on first use (:class:`NumericCompiler`), or None with a
     :class:`CompiledFallbackWarning` when compiling or loading the RHS fails.
 
-    The result is memoised per ``ode`` object, so the engine's graph caches (keyed by ODE identity)
-    are reused across solves.
+    The result is kept by ``ode`` (:func:`birdocp.engine.cache.owned_cache`), so the graphs the
+    engine keeps on the compiled ODE are reused across solves.
 
     Parameters
     ----------
@@ -307,9 +304,10 @@ def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None =
     PeriodicODE or None
         The compiled ODE, or None when compiling failed (see above).
     """
-    hit = _ODES.get(id(ode))
-    if hit is not None and hit[0] is ode:
-        return hit[1]
+    cache = owned_cache(ode, "compiled", 1)
+    hit = cache.get("compiled_ode")
+    if hit is not None:
+        return hit
     try:
         ext = compiled_rhs(ode.rhs, key_extra, directory, f"{ode.graph_key}:rhs" if ode.graph_key else "")
         # pre/post kept symbolic (the engine differentiates post); their numbers come from compiled C
@@ -320,5 +318,5 @@ def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None =
         warnings.warn(f"birdocp: compiled RHS unavailable, using the interpreted CasADi path ({e})",
                       CompiledFallbackWarning, stacklevel=2)
         return None
-    _ODES.put(id(ode), (ode, out))
+    cache.put("compiled_ode", out)
     return out

@@ -39,7 +39,7 @@ import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError
 from birdocp.bird.model import get_model
-from birdocp.engine.cache import bounded_cache
+from birdocp.engine.cache import owned_cache
 from birdocp.engine.floquet import complex_pairs, multiplier_order
 from birdocp.engine.integrate import RK4Grid
 from birdocp.studies.control_aero import body_gains, manifold_slopes, pad_weight
@@ -74,23 +74,16 @@ def sorted_eigs(Mat):
 
 class PerModel:
     """Base of the classes that hold CasADi Functions built once per (model, settings): ``get``
-    returns the cached instance. One bounded cache per subclass, registered in
-    :mod:`birdocp.engine.cache` as ``studies.<ClassName>`` (8 entries; rebuilt if the model changed)."""
-
-    _cache = None
-
-    def __init_subclass__(cls, **kw):
-        super().__init_subclass__(**kw)
-        cls._cache = bounded_cache(f"studies.{cls.__name__}", 8)
+    returns the instance kept by the model (``model.model``, :func:`birdocp.engine.cache.owned_cache`)."""
 
     @classmethod
     def get(cls, model, *settings):
-        """The cached instance for (model, settings), built on first use.
+        """The instance for (model, settings), built on first use and kept by ``model.model``.
 
         Parameters
         ----------
         model : object
-            Model (identity part of the key).
+            Model (``model.model`` keeps the instance).
         *settings
             Further parts of the key.
 
@@ -98,12 +91,7 @@ class PerModel:
         -------
         PerModel
         """
-        key = (id(model.model), *settings)
-        hit = cls._cache.get(key)
-        if hit is None or hit.model is not model.model:
-            hit = cls(model, *settings)
-            cls._cache.put(key, hit)
-        return hit
+        return owned_cache(model.model).build((cls, *settings), lambda: cls(model, *settings))
 
 
 class _Linearisation(PerModel):

@@ -29,7 +29,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest, with_values
-from birdocp.engine.cache import bounded_cache
+from birdocp.engine.cache import owned_cache
 from birdocp.engine.floquet import sort_multipliers
 from birdocp.studies.jury import dominant_block, jury_conditions, jury_function, jury_values  # noqa: F401
 
@@ -141,28 +141,27 @@ class Evaluation:
         return sort_multipliers(np.concatenate([np.linalg.eigvals(m) for m in mats]))
 
 
-_GRAPHS = bounded_cache("studies.gait_graphs", 4)
-
-
 def _graphs(m, cfg: Config, N: int, vidx: tuple, nt: int, second: bool, valid: bool) -> dict:
     """The CasADi Functions of a :class:`ReducedLevelCycle` (outputs, RK4 grid, first- and
     second-order sensitivities, the monodromy alone, the data and its directions), built once per
-    (model, steps, free parameters, order, validity thresholds, the wing's arm-frame shape) and reused
-    by every later cycle of the same problem in this process (e.g. every point of a Pareto front a
-    worker solves): a build costs seconds, a point's solve tens of them."""
-    from birdocp.bird.energetics import power_functions
-    from birdocp.engine.integrate import RK4Grid
-    from birdocp.engine.variational import PeriodSensitivities
-
+    (steps, free parameters, order, validity thresholds, the wing's arm-frame shape), kept by the model
+    (the last 4) and reused by every later cycle of the same problem in this process (e.g. every point
+    of a Pareto front a worker solves): a build costs seconds, a point's solve tens of them."""
     p0 = np.asarray(m.p0, float)
     thresholds = None
     if valid:
         v = cfg.validity
         thresholds = (v.stall_angle_deg, v.min_forward_speed_mps, v.max_abs_pitch_deg, v.max_airflow_body_angle_deg)
-    key = (id(m.model), N, vidx, second, thresholds, p0[list(m.ode.pre_params)].tobytes())
-    hit = _GRAPHS.get(key)
-    if hit is not None and hit["model"] is m.model:
-        return hit
+    key = (N, vidx, second, thresholds, p0[list(m.ode.pre_params)].tobytes())
+    return owned_cache(m.model, "gait_graphs", 4).build(key, lambda: _build_graphs(m, cfg, N, vidx, nt, second, valid))
+
+
+def _build_graphs(m, cfg: Config, N: int, vidx: tuple, nt: int, second: bool, valid: bool) -> dict:
+    from birdocp.bird.energetics import power_functions
+    from birdocp.engine.integrate import RK4Grid
+    from birdocp.engine.variational import PeriodSensitivities
+
+    p0 = np.asarray(m.p0, float)
     nv = len(vidx)
     pf = power_functions(m)
     x, d, p = ca.SX.sym("x", m.ode.nx), ca.SX.sym("d", m.ode.nd), ca.SX.sym("p", len(PARAM_NAMES))
@@ -202,7 +201,6 @@ def _graphs(m, cfg: Config, N: int, vidx: tuple, nt: int, second: bool, valid: b
     Dg, Jg = post_jac.map(2 * N + 1)(g["local"], g["times"], pm)  # Jg: nv columns per time
     cols = sens.direction_columns([Jg[:, [tk * nv + k for tk in blk]] for k in range(nv)])
     g |= {"seeds": seeds, "data": ca.Function("gait_data", [pm], [Dg[:, blk], cols])}
-    _GRAPHS.put(key, g)
     return g
 
 

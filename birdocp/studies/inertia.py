@@ -15,13 +15,12 @@ import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config, with_values
 from birdocp.bird.model import get_model
+from birdocp.engine.cache import owned_cache
 from birdocp.engine.integrate import RK4Grid
 
 __all__ = ["wing_mass_of_fraction", "mean_com_offset_m", "hold_mean_com_root", "stability_margin_mean_com_percent",
            "cycle_summary", "config_with_wing_mass"]
 
-_MAPS: dict = {}
-_GRIDS: dict = {}
 
 
 def wing_mass_of_fraction(fraction: float, total_mass_kg: float) -> float:
@@ -42,11 +41,8 @@ def wing_mass_of_fraction(fraction: float, total_mass_kg: float) -> float:
 
 
 def _mass_points_map(model, n: int):
-    key = (id(model), n)
-    f = _MAPS.get(key)
-    if f is None:
-        f = _MAPS[key] = model.mass_points.map(n)
-    return f
+    """``mass_points`` mapped over ``n`` times, kept by the model."""
+    return owned_cache(model).build(("mass_points_map", n), lambda: model.mass_points.map(n))
 
 
 def mean_com_offset_m(cfg: Config, p=None, n: int = 64) -> tuple[float, float]:
@@ -157,9 +153,7 @@ def cycle_summary(cfg: Config, x0, p, steps_per_period: int = 148) -> dict:
 
     m = get_model(cfg)
     p = np.asarray(p, float)
-    grid = _GRIDS.get((id(m.ode), steps_per_period))
-    if grid is None or grid.ode is not m.ode:
-        grid = _GRIDS[(id(m.ode), steps_per_period)] = RK4Grid(m.ode, steps_per_period, 1)
+    grid = owned_cache(m.ode).build(("plain_rk4_grid", steps_per_period), lambda: RK4Grid(m.ode, steps_per_period, 1))
     D = grid.blocks_numeric(0.0, p)
     X = np.asarray(grid.period_map(ca.DM(np.asarray(x0, float)), D, ca.DM(p))[1]).T
     X = np.vstack([np.asarray(x0, float)[None, :], X])

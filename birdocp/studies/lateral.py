@@ -23,7 +23,6 @@ share of at least :data:`LATERAL_SHARE_MIN` (one half) is lateral and gets a lab
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass, field, fields
 
 import numpy as np
@@ -35,6 +34,7 @@ from birdocp.bird.sides import SIDE_PARAM_NAMES, side_vector
 from birdocp.bird.sixdof import HEADING, LATERAL, LONGITUDINAL, STATE_NAMES, LateralInertia, embed_planar_state, \
     sixdof_model
 from birdocp.bird.validity import CycleValidity, periodic_validity
+from birdocp.engine.cache import owned_cache
 from birdocp.engine.floquet import doubling_time_s, multipliers_info, sort_multipliers
 from birdocp.engine.problem import MeanCondition, OrbitProblem
 from birdocp.engine.results import result_dict, serial
@@ -526,9 +526,9 @@ class _HeadingFree:
         return self
 
 
-@functools.lru_cache(maxsize=4)
 def _heading_free(six) -> _HeadingFree:
-    return _HeadingFree(six)
+    """The heading-free view of ``six`` (one per model, kept by it: the maps are cached by it)."""
+    return owned_cache(six).build("heading_free", lambda: _HeadingFree(six))
 
 
 def _labels(lam, res: LateralTrimResult) -> list[str]:

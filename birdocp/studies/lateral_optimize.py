@@ -27,7 +27,7 @@ import numpy as np
 from birdocp.bird.config import Config, ConfigError, asymmetric, get_value
 from birdocp.bird.sides import SIDE_PARAM_NAMES
 from birdocp.bird.sixdof import LATERAL, LONGITUDINAL, LateralInertia, embed_planar_state, sixdof_model
-from birdocp.engine.cache import bounded_cache
+from birdocp.engine.cache import owned_cache
 from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.studies.gait_cycle import Evaluation, ReducedLevelCycle
 
@@ -163,23 +163,17 @@ class LateralLevelCycle(ReducedLevelCycle):
         return multiplier_split(ev.monodromy, ev.blocks[0][0])
 
 
-_VARIATIONAL = bounded_cache("studies.lateral_optimize_variational", 4)
-
-
 def _variational(six, steps: int, n_theta: int, n_data: int, second: bool) -> dict:
     """The 9-state period sensitivities of a :class:`LateralLevelCycle` (built once per model, grid and
-    number of free parameters): ``mono`` (the monodromy alone) and, with ``second``, ``second`` (the
+    number of free parameters, kept by the model): ``mono`` (the monodromy alone) and, with ``second``, ``second`` (the
     monodromy and its derivative along the combined directions, as the planar cycle's ``sens2``)."""
     from birdocp.engine.variational import PeriodSensitivities
 
-    key = (id(six), int(steps), int(n_theta), int(n_data), bool(second))
-    hit = _VARIATIONAL.get(key)
-    if hit is None or hit["six"] is not six:
-        hit = {"six": six, "mono": PeriodSensitivities(six.ode, steps, (), 0),
-               "second": PeriodSensitivities(six.ode, steps, (), n_theta, True, combined=True, n_data=n_data)
-               if second else None}
-        _VARIATIONAL.put(key, hit)
-    return hit
+    key = ("lateral_variational", int(steps), int(n_theta), int(n_data), bool(second))
+    return owned_cache(six).build(key, lambda: {
+        "six": six, "mono": PeriodSensitivities(six.ode, steps, (), 0),
+        "second": PeriodSensitivities(six.ode, steps, (), n_theta, True, combined=True, n_data=n_data)
+        if second else None})
 
 
 def lateral_check(cfg_best: Config, x0, multipliers, steps_per_period: int) -> dict:

@@ -25,7 +25,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config
-from birdocp.engine.cache import bounded_cache
+from birdocp.engine.cache import owned_cache
 from birdocp.engine.floquet import multiplier_order
 from birdocp.engine.integrate import RK4Grid
 from birdocp.engine.results import result_dict, serial
@@ -132,17 +132,14 @@ class SensitivityResult:
         return result_dict(self, extra={"ranked_expanding": self.ranked(0), "valid": self.valid})
 
 
-_SECOND_ORDER = bounded_cache("studies.second_order_maps", 8)
-
-
 class SecondOrderMaps:
     """Functions for one (model, steps): period map with the mean-W quadrature, its x0-Jacobian, and
     directional derivatives of both along (dx0, dD, dp)."""
 
     @classmethod
     def get(cls, model, steps: int, w_output=None):
-        """The cached maps of (model, steps) (``model``: a configured planar model, or any object with
-        ``model`` (its identity), ``ode`` and ``data``; ``w_output``: the ``(x, d, p)`` Function of the
+        """The maps of (model, steps), built once and kept by ``model.model`` (``model``: a configured
+        planar model, or any object with ``model`` (the owner), ``ode`` and ``data``; ``w_output``: the ``(x, d, p)`` Function of the
         mean vertical speed, default the planar model's).
 
         Parameters
@@ -158,12 +155,7 @@ class SecondOrderMaps:
         -------
         SecondOrderMaps
         """
-        key = (id(model.model), steps)
-        hit = _SECOND_ORDER.get(key)
-        if hit is None or hit.model is not model.model:
-            hit = cls(model, steps, w_output)
-            _SECOND_ORDER.put(key, hit)
-        return hit
+        return owned_cache(model.model).build(("second_order_maps", int(steps)), lambda: cls(model, steps, w_output))
 
     def __init__(self, model, steps: int, w_output=None):
         from birdocp.bird.flight import flight_outputs
