@@ -176,6 +176,12 @@ def test_committed_power_curve_rows_carry_validity_and_optima_over_valid_rows():
         assert r["valid"] == r["validity"]["valid"] and len(r["x0"]) == 4 and "amplitude_deg" in r and pc["key"] in r
     again = curve_optima(pc["rows"])
     for k in ("minimum_power", "maximum_range", "minimum_power_all_rows"):
-        assert again[k] == pc[k], k
+        # the optima come from a least-squares fit (LAPACK): its last bits depend on the LAPACK build
+        assert again[k].keys() == pc[k].keys(), k
+        for f, v in again[k].items():
+            if isinstance(v, float):
+                assert v == pytest.approx(pc[k][f], rel=1e-12, abs=1e-12), (k, f)
+            else:
+                assert v == pc[k][f], (k, f)
     valid_U = [r["speed_mps"] for r in ok if r["valid"]]
     assert min(valid_U) <= pc["minimum_power"]["speed_mps"] <= max(valid_U)
