@@ -135,6 +135,38 @@ def own_state_trim(row: dict) -> dict:
             "lambda1": float(abs(tr.multipliers[0]))}
 
 
+def stall_at_optimum(row: dict, max_iter: int) -> dict:
+    """``wagner`` + ``stall`` trimmed at a ``wagner`` optimum's gait and amplitude (148 steps), from the
+    optimum's full state, at most ``max_iter`` IPOPT iterations: does the stall section keep it stable?"""
+    from birdocp.bird.config import Config, with_values
+    from birdocp.studies.trim import trim
+
+    o = row["optimum"]
+    over = row["overrides"] | CASES["wagner_stall"]
+    cfg = with_values(Config(), over | o["free"] | {"gait.shoulder_flap.amplitude_deg": o["amplitude_deg"]})
+    t0 = time.perf_counter()
+    tr = trim(cfg, x_guess=o["x0"], max_iter=max_iter)
+    return {"overrides": over, "max_iter": max_iter, "trim": _summary(tr), "trim_wall_s": time.perf_counter() - t0}
+
+
+def stall_table(rows: list[dict]) -> str:
+    """Markdown lines of the ``stall_at_optimum`` results of the rows that have one."""
+    lines = ["", "With `wagner` + `stall` at the gait and amplitude of a `wagner` optimum (148 steps, from its state):",
+             "", "| problem | optimum | status | residual | \\|Λ1\\| | next multipliers | mean W (m/s) | "
+             "max \\|α_E\\| (deg) | stalled / separated | valid |", "|" + "---|" * 10]
+    for r in rows:
+        t = (r.get("stall_at_optimum") or {}).get("trim")
+        if not t:
+            continue
+        ok = t.get("success")
+        nxt = ", ".join(f"{abs(complex(*z)):.4f}" for z in (t.get("multipliers") or [])[1:4])
+        lines.append(f"| {r['gait']} | {r.get('label') or '—'} | {t.get('status')} | {_f(t.get('max_residual'), '{:.1e}')} | "
+                     f"{_f(t.get('lambda1'))} | {nxt or '—'} | {_f(t.get('mean_vertical_speed_mps'), '{:+.3f}')} | "
+                     f"{_f(t.get('max_abs_alpha_E_deg'), '{:.1f}')} | {_f(t.get('stalled_fraction'), '{:.3f}')} / "
+                     f"{_f(t.get('separated_fraction'), '{:.3f}')} | {t.get('valid') if ok else 'not converged'} |")
+    return "\n".join(lines) + "\n" if len(lines) > 5 else ""
+
+
 def optimized_table(rows: list[dict]) -> str:
     """Markdown table of the ``--optimize`` rows."""
     lines = ["| problem | model | start; Hessian; iterations | steps | status | r / \\|Λ1\\| (quasi-steady r*) | "
@@ -181,10 +213,14 @@ def optimize_all(args, out: Path) -> int:
             if "own_state_trim" not in row and row["optimum"].get("x0") and args.own_state:
                 row["own_state_trim"] = own_state_trim(row)
                 atomic_write_json(path, row)
+            if "stall_at_optimum" not in row and row["optimum"].get("x0") and args.stall_at_optimum:
+                print(f"wagner + stall at {path.name} ...", flush=True)
+                row["stall_at_optimum"] = stall_at_optimum(row, args.stall_at_optimum)
+                atomic_write_json(path, row)
     rows = [json.loads(p.read_text()) for p in sorted((out / "cases").glob("opt_*.json"))]
     atomic_write_json(out / "optimized.json", {"rows": rows})
-    atomic_write_text(out / "optimized.md", optimized_table(rows))
-    print(optimized_table(rows))
+    atomic_write_text(out / "optimized.md", optimized_table(rows) + stall_table(rows))
+    print(optimized_table(rows) + stall_table(rows))
     return 0
 
 
@@ -210,6 +246,12 @@ def _f(v, f="{:.4f}"):
     return "—" if v is None else f.format(v)
 
 
+def _not_converged(t: dict) -> str:
+    """A failed trim's status, residual and largest multiplier at the solver's last point."""
+    lam = f"; \\|Λ1\\| {t['lambda1']:.7f} at the last point" if t.get("lambda1") is not None else ""
+    return f"not converged: {t.get('status')} (residual {_f(t.get('max_residual'), '{:.1e}')}{lam})"
+
+
 def table(rows: list[dict]) -> str:
     lines = ["| gait | model | \\|Λ1\\| | next multipliers | stable | mean W (m/s) | max \\|α_E\\| (deg) | "
              "stalled / separated | valid | reasons |", "|" + "---|" * 10]
@@ -225,7 +267,7 @@ def table(rows: list[dict]) -> str:
                      f"{_f(t.get('max_abs_alpha_E_deg') if ok else None, '{:.1f}')} | "
                      f"{_f(t.get('stalled_fraction') if ok else None, '{:.3f}')} / "
                      f"{_f(t.get('separated_fraction') if ok else None, '{:.3f}')} | "
-                     f"{t.get('valid') if ok else 'not converged: ' + str(t.get('status'))} | "
+                     f"{t.get('valid') if ok else _not_converged(t)} | "
                      f"{'; '.join(v.get('reasons') or []) or '—'} |")
     return "\n".join(lines) + "\n"
 
@@ -249,6 +291,8 @@ def main(argv=None) -> int:
     ap.add_argument("--valid-rounds", type=int, default=None, help="validity rounds of --optimize at most")
     ap.add_argument("--own-state", action="store_true",
                     help="--optimize also re-trims each optimum from its own state (own_state_trim)")
+    ap.add_argument("--stall-at-optimum", type=int, default=0, metavar="MAX_ITER",
+                    help="--optimize also trims wagner + stall at each optimum's gait (at most MAX_ITER iterations)")
     ap.add_argument("--progress", action="store_true", help="IPOPT's iteration log on stderr (--optimize)")
     ap.add_argument("--label", default="", help="--optimize writes DIR/cases/opt_<gait>_<case>_<label>.json")
     args, out = parse_with_out(ap, argv)
