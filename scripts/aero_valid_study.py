@@ -23,6 +23,15 @@ period (default 48: the wagner trim diverges at 32). Writes DIR/cases/opt_<gait>
 finishes, then DIR/optimized.json and DIR/optimized.md (r*, KKT residual, validity, active limits).
 
     python scripts/aero_valid_study.py --optimize --cases wagner --out results/aero/valid
+
+Converging them (docs/model_unsteady.md): ``--hessian fd --from-reached --label fd_reached`` solves again
+from the point an earlier row reached (its gait, amplitude and full state) with the exact-Hessian mode,
+``--max-wall-s`` and ``--valid-rounds`` bound the cost; ``--own-state`` re-trims each optimum from its own
+state; ``--stall-at-optimum N`` trims ``wagner`` + ``stall`` at each optimum's gait (at most N iterations)
+and then solves its level flight.
+
+    python scripts/aero_valid_study.py --optimize --gaits free_speed tail --cases wagner --hessian fd \
+        --from-reached --max-iter 40 --max-wall-s 2000 --valid-rounds 2 --label fd_reached --out results/aero/valid
 """
 from __future__ import annotations
 
@@ -149,6 +158,26 @@ def stall_at_optimum(row: dict, max_iter: int) -> dict:
     return {"overrides": over, "max_iter": max_iter, "trim": _summary(tr), "trim_wall_s": time.perf_counter() - t0}
 
 
+def stall_level_at_optimum(row: dict) -> dict:
+    """Level flight with ``wagner`` + ``stall`` at a ``wagner`` optimum's gait (148 steps; the flapping
+    amplitude solved, from the body state of :func:`stall_at_optimum`'s cycle)."""
+    from birdocp.bird.config import Config, with_values
+    from birdocp.studies.level import level
+
+    o, st = row["optimum"], row["stall_at_optimum"]
+    cfg = with_values(Config(), st["overrides"] | o["free"] | {"gait.shoulder_flap.amplitude_deg": o["amplitude_deg"]})
+    t0 = time.perf_counter()
+    lv = level(cfg, x_guess=st["trim"]["x0_body"])
+    ok = bool(lv.success)
+    v = lv.validity.to_dict() if ok else {}
+    return {"success": ok, "status": str(getattr(lv, "status", "")), "wall_s": time.perf_counter() - t0,
+            "lambda1": float(abs(lv.multipliers[0])) if ok else None,
+            "amplitude_deg": float(lv.amplitude_deg) if ok else None,
+            "mean_forward_speed_mps": float(lv.mean_forward_speed_mps) if ok else None,
+            "valid": v.get("valid"), "reasons": v.get("reasons"), "stalled_fraction": v.get("stalled_fraction"),
+            "separated_fraction": v.get("separated_fraction")}
+
+
 def stall_table(rows: list[dict]) -> str:
     """Markdown lines of the ``stall_at_optimum`` results of the rows that have one."""
     lines = ["", "With `wagner` + `stall` at the gait and amplitude of a `wagner` optimum (148 steps, from its state):",
@@ -164,6 +193,15 @@ def stall_table(rows: list[dict]) -> str:
                      f"{_f(t.get('lambda1'))} | {nxt or '—'} | {_f(t.get('mean_vertical_speed_mps'), '{:+.3f}')} | "
                      f"{_f(t.get('max_abs_alpha_E_deg'), '{:.1f}')} | {_f(t.get('stalled_fraction'), '{:.3f}')} / "
                      f"{_f(t.get('separated_fraction'), '{:.3f}')} | {t.get('valid') if ok else 'not converged'} |")
+    for r in rows:
+        lv = r.get("stall_level_at_optimum")
+        if lv:
+            lines.append(f"\nLevel flight there ({r['gait']}, {r.get('label') or '—'}; amplitude solved): "
+                         + (f"|Λ1| {lv['lambda1']:.4f}, amplitude {lv['amplitude_deg']:.2f} deg, "
+                            f"{lv['mean_forward_speed_mps']:.2f} m/s, stalled / separated "
+                            f"{_f(lv.get('stalled_fraction'), '{:.3f}')} / {_f(lv.get('separated_fraction'), '{:.3f}')}, "
+                            f"valid {lv['valid']}{' (' + '; '.join(lv['reasons']) + ')' if lv.get('reasons') else ''}."
+                            if lv["success"] else f"not converged ({lv['status']})."))
     return "\n".join(lines) + "\n" if len(lines) > 5 else ""
 
 
@@ -216,6 +254,11 @@ def optimize_all(args, out: Path) -> int:
             if "stall_at_optimum" not in row and row["optimum"].get("x0") and args.stall_at_optimum:
                 print(f"wagner + stall at {path.name} ...", flush=True)
                 row["stall_at_optimum"] = stall_at_optimum(row, args.stall_at_optimum)
+                atomic_write_json(path, row)
+            if "stall_level_at_optimum" not in row and (row.get("stall_at_optimum") or {}).get("trim", {}).get("success") \
+                    and args.stall_at_optimum:
+                print(f"wagner + stall level flight at {path.name} ...", flush=True)
+                row["stall_level_at_optimum"] = stall_level_at_optimum(row)
                 atomic_write_json(path, row)
     rows = [json.loads(p.read_text()) for p in sorted((out / "cases").glob("opt_*.json"))]
     atomic_write_json(out / "optimized.json", {"rows": rows})
