@@ -23,6 +23,15 @@ period (default 48: the wagner trim diverges at 32). Writes DIR/cases/opt_<gait>
 finishes, then DIR/optimized.json and DIR/optimized.md (r*, KKT residual, validity, active limits).
 
     python scripts/aero_valid_study.py --optimize --cases wagner --out results/aero/valid
+
+Converging them (docs/model_unsteady.md): ``--hessian fd --from-reached --label fd_reached`` solves again
+from the point an earlier row reached (its gait, amplitude and full state) with the exact-Hessian mode,
+``--max-wall-s`` and ``--valid-rounds`` bound the cost; ``--own-state`` re-trims each optimum from its own
+state; ``--stall-at-optimum N`` trims ``wagner`` + ``stall`` at each optimum's gait (at most N iterations)
+and then solves its level flight.
+
+    python scripts/aero_valid_study.py --optimize --gaits free_speed tail --cases wagner --hessian fd \
+        --from-reached --max-iter 40 --max-wall-s 2000 --valid-rounds 2 --label fd_reached --out results/aero/valid
 """
 from __future__ import annotations
 
@@ -60,24 +69,36 @@ def quasi_steady_optimum(gait: str) -> dict:
     return json.loads(OPTIMA.read_text())[gait]
 
 
-def optimize_case(gait: str, name: str, steps: int, max_iter: int) -> dict:
+def optimize_case(gait: str, name: str, steps: int, max_iter: int, run: dict | None = None) -> dict:
     """The most stable valid level gait of problem ``gait`` with model ``name``, from the quasi-steady
-    optimum (its gait, amplitude and body state); the optimum's summary."""
+    optimum (its gait, amplitude and body state) or, with ``run["reached"]`` (a committed ``--optimize``
+    row), from that row's point (gait, amplitude and full state); ``run`` also holds the ``hessian``,
+    ``threads``, ``max_wall_s`` (IPOPT's wall-time limit per solve) and ``valid_rounds``. The optimum's
+    summary."""
     from birdocp.bird.config import Config, with_values
     from birdocp.studies.gait import optimize_gait
 
+    run = run or {}
     qs = quasi_steady_optimum(gait)
     tail = {"tail.enabled": True} if PROBLEMS[gait]["tail"] else {}
     cfg = with_values(Config(), tail | CASES[name])
     free = {k: tuple(v) for k, v in qs["bounds"].items()}
+    reached = (run.get("reached") or {}).get("optimum")
+    start, x_guess = (gait_values(reached), reached["x0"]) if reached else (gait_values(qs), qs["x0"][:4])
+    ipopt = {"ipopt.max_wall_time": float(run["max_wall_s"])} if run.get("max_wall_s") else None
     t0 = time.perf_counter()
     o = optimize_gait(cfg, free, objective="stability", speed_mps=PROBLEMS[gait]["speed_mps"], valid=True,
-                      steps_per_period=steps, start=gait_values(qs), x_guess=qs["x0"][:4], max_iter=max_iter)
+                      steps_per_period=steps, start=start, x_guess=x_guess, max_iter=max_iter,
+                      hessian=run.get("hessian", "sr1"), threads=int(run.get("threads", 2)),
+                      ipopt_options=ipopt, valid_rounds=run.get("valid_rounds"), progress=bool(run.get("progress")))
     d = json.loads(json.dumps(o.to_dict(), default=str))
     keep = ("success", "status", "message", "iterations", "objective_value", "largest_modulus", "free",
             "amplitude_deg", "multipliers", "kkt_residual", "constraint_violation", "validity",
-            "validity_constraints", "mean_forward_speed_mps", "verification", "wall_s", "x0")
+            "validity_constraints", "mean_forward_speed_mps", "verification", "wall_s", "x0", "validity_rounds",
+            "ipopt_multipliers")
     return {"gait": gait, "case": name, "steps_per_period": steps, "quasi_steady_radius": qs.get("radius"),
+            "label": run.get("label", ""), "hessian": run.get("hessian", "sr1"), "max_iter": max_iter,
+            "start": f"point reached by opt_{gait}_{name}.json" if reached else "quasi-steady optimum",
             "overrides": tail | CASES[name], "optimum": {k: d.get(k) for k in keep},
             "active_limits": [k for k, c in (d.get("validity_constraints") or {}).items() if c.get("active")],
             "active_bounds": [k for k, v in (d.get("free") or {}).items()
@@ -102,21 +123,108 @@ def fine_grid_trim(row: dict) -> dict:
             "valid": bool(lv.validity.valid) if ok else None}
 
 
+def own_state_trim(row: dict) -> dict:
+    """A trim (5-point multiple shooting, the optimiser's grid) at the optimum's gait and amplitude from
+    the optimum's own full state: the optimiser's verification starts from the *start* gait's cycle and,
+    next to a fold of cycles, can find the other cycle of the same gait; this one checks the optimum's."""
+    import numpy as np
+
+    from birdocp.bird.config import Config, with_values
+    from birdocp.studies.trim import trim
+
+    o = row["optimum"]
+    cfg = with_values(Config(), row["overrides"] | o["free"] | {"gait.shoulder_flap.amplitude_deg": o["amplitude_deg"]})
+    tr = trim(cfg, x_guess=o["x0"], points=5, steps_per_period=row["steps_per_period"])
+    if not tr.success:
+        return {"success": False, "status": str(getattr(tr, "status", ""))}
+    lam = np.array([complex(*z) for z in o["multipliers"]])
+    return {"success": True, "x0_difference": float(np.max(np.abs(np.asarray(tr.x0) - np.asarray(o["x0"])))),
+            "mean_vertical_speed_mps": float(tr.mean_vertical_speed_mps),
+            "max_multiplier_difference": float(np.max(np.abs(np.sort_complex(tr.multipliers) - np.sort_complex(lam)))),
+            "lambda1": float(abs(tr.multipliers[0]))}
+
+
+def stall_at_optimum(row: dict, max_iter: int) -> dict:
+    """``wagner`` + ``stall`` trimmed at a ``wagner`` optimum's gait and amplitude (148 steps), from the
+    optimum's full state, at most ``max_iter`` IPOPT iterations: does the stall section keep it stable?"""
+    from birdocp.bird.config import Config, with_values
+    from birdocp.studies.trim import trim
+
+    o = row["optimum"]
+    over = row["overrides"] | CASES["wagner_stall"]
+    cfg = with_values(Config(), over | o["free"] | {"gait.shoulder_flap.amplitude_deg": o["amplitude_deg"]})
+    t0 = time.perf_counter()
+    tr = trim(cfg, x_guess=o["x0"], max_iter=max_iter)
+    return {"overrides": over, "max_iter": max_iter, "trim": _summary(tr), "trim_wall_s": time.perf_counter() - t0}
+
+
+def stall_level_at_optimum(row: dict) -> dict:
+    """Level flight with ``wagner`` + ``stall`` at a ``wagner`` optimum's gait (148 steps; the flapping
+    amplitude solved, from the body state of :func:`stall_at_optimum`'s cycle)."""
+    from birdocp.bird.config import Config, with_values
+    from birdocp.studies.level import level
+
+    o, st = row["optimum"], row["stall_at_optimum"]
+    cfg = with_values(Config(), st["overrides"] | o["free"] | {"gait.shoulder_flap.amplitude_deg": o["amplitude_deg"]})
+    t0 = time.perf_counter()
+    lv = level(cfg, x_guess=st["trim"]["x0_body"])
+    ok = bool(lv.success)
+    v = lv.validity.to_dict() if ok else {}
+    return {"success": ok, "status": str(getattr(lv, "status", "")), "wall_s": time.perf_counter() - t0,
+            "lambda1": float(abs(lv.multipliers[0])) if ok else None,
+            "amplitude_deg": float(lv.amplitude_deg) if ok else None,
+            "mean_forward_speed_mps": float(lv.mean_forward_speed_mps) if ok else None,
+            "valid": v.get("valid"), "reasons": v.get("reasons"), "stalled_fraction": v.get("stalled_fraction"),
+            "separated_fraction": v.get("separated_fraction")}
+
+
+def stall_table(rows: list[dict]) -> str:
+    """Markdown lines of the ``stall_at_optimum`` results of the rows that have one."""
+    lines = ["", "With `wagner` + `stall` at the gait and amplitude of a `wagner` optimum (148 steps, from its state):",
+             "", "| problem | optimum | status | residual | \\|Λ1\\| | next multipliers | mean W (m/s) | "
+             "max \\|α_E\\| (deg) | stalled / separated | valid |", "|" + "---|" * 10]
+    for r in rows:
+        t = (r.get("stall_at_optimum") or {}).get("trim")
+        if not t:
+            continue
+        ok = t.get("success")
+        nxt = ", ".join(f"{abs(complex(*z)):.4f}" for z in (t.get("multipliers") or [])[1:4])
+        lines.append(f"| {r['gait']} | {r.get('label') or '—'} | {t.get('status')} | {_f(t.get('max_residual'), '{:.1e}')} | "
+                     f"{_f(t.get('lambda1'))} | {nxt or '—'} | {_f(t.get('mean_vertical_speed_mps'), '{:+.3f}')} | "
+                     f"{_f(t.get('max_abs_alpha_E_deg'), '{:.1f}')} | {_f(t.get('stalled_fraction'), '{:.3f}')} / "
+                     f"{_f(t.get('separated_fraction'), '{:.3f}')} | {t.get('valid') if ok else 'not converged'} |")
+    for r in rows:
+        lv = r.get("stall_level_at_optimum")
+        if lv:
+            lines.append(f"\nLevel flight there ({r['gait']}, {r.get('label') or '—'}; amplitude solved): "
+                         + (f"|Λ1| {lv['lambda1']:.4f}, amplitude {lv['amplitude_deg']:.2f} deg, "
+                            f"{lv['mean_forward_speed_mps']:.2f} m/s, stalled / separated "
+                            f"{_f(lv.get('stalled_fraction'), '{:.3f}')} / {_f(lv.get('separated_fraction'), '{:.3f}')}, "
+                            f"valid {lv['valid']}{' (' + '; '.join(lv['reasons']) + ')' if lv.get('reasons') else ''}."
+                            if lv["success"] else f"not converged ({lv['status']})."))
+    return "\n".join(lines) + "\n" if len(lines) > 5 else ""
+
+
 def optimized_table(rows: list[dict]) -> str:
     """Markdown table of the ``--optimize`` rows."""
-    lines = ["| problem | model | steps | status | r / \\|Λ1\\| (quasi-steady r*) | \\|Λ5\\| | KKT | valid | "
-             "active limits | free keys at a bound | re-trim \\|ΔΛ\\| | level on 148 steps: \\|Λ1\\| (U m/s) |",
-             "|" + "---|" * 12]
+    lines = ["| problem | model | start; Hessian; iterations | steps | status | r / \\|Λ1\\| (quasi-steady r*) | "
+             "\\|Λ5\\| | KKT | valid | active limits | free keys at a bound | "
+             "re-trim \\|ΔΛ\\| (from the start's cycle; own state) | "
+             "level on 148 steps: \\|Λ1\\| (U m/s) |", "|" + "---|" * 13]
     for r in rows:
         o = r["optimum"]
         lam = sorted((abs(complex(*z)) for z in (o.get("multipliers") or [])), reverse=True)
         v = (o.get("verification") or {}).get("max_multiplier_difference")
         fine = r.get("fine_grid_trim") or {}
-        lines.append(f"| {r['gait']} | {r['case']} | {r['steps_per_period']} | {o.get('status')} | "
+        own = r.get("own_state_trim") or {}
+        run = (f"{'point reached' if r.get('start', '').startswith('point') else 'quasi-steady optimum'}; "
+               f"{'exact (FD)' if r.get('hessian') == 'fd' else 'SR1'}; {o.get('iterations')}")
+        lines.append(f"| {r['gait']} | {r['case']} | {run} | {r['steps_per_period']} | {o.get('status')} | "
                      f"{_f(o.get('objective_value'))} / {_f(o.get('largest_modulus'))} ({_f(r.get('quasi_steady_radius'))}) | "
                      f"{_f(lam[4] if len(lam) > 4 else None)} | {_f(o.get('kkt_residual'), '{:.1e}')} | "
                      f"{(o.get('validity') or {}).get('valid')} | {', '.join(r['active_limits']) or '—'} | "
-                     f"{', '.join(k.split('.', 1)[1] for k in r['active_bounds']) or '—'} | {_f(v, '{:.1e}')} | "
+                     f"{', '.join(k.split('.', 1)[1] for k in r['active_bounds']) or '—'} | {_f(v, '{:.1e}')}; "
+                     f"{_f(own.get('max_multiplier_difference'), '{:.1e}')} | "
                      f"{_f(fine.get('lambda1'))} ({_f(fine.get('mean_forward_speed_mps'), '{:.2f}')}) |")
     return "\n".join(lines) + "\n"
 
@@ -125,21 +233,37 @@ def optimize_all(args, out: Path) -> int:
     """``--optimize``: every (problem, model) not yet in DIR/cases, then the table."""
     from birdocp.io.files import atomic_write_json, atomic_write_text
 
-    rows = []
+    suffix = f"_{args.label}" if args.label else ""
     for gait in args.gaits:
         for name in args.cases:
-            path = out / "cases" / f"opt_{gait}_{name}.json"
+            path = out / "cases" / f"opt_{gait}_{name}{suffix}.json"
             if not path.exists():
-                print(f"optimize {gait} {name} ...", flush=True)
-                atomic_write_json(path, optimize_case(gait, name, args.steps, args.max_iter))
+                run = {"label": args.label, "hessian": args.hessian, "threads": args.threads,
+                       "max_wall_s": args.max_wall_s, "valid_rounds": args.valid_rounds, "progress": args.progress}
+                if args.from_reached:
+                    run["reached"] = json.loads((out / "cases" / f"opt_{gait}_{name}.json").read_text())
+                print(f"optimize {gait} {name}{suffix} ...", flush=True)
+                atomic_write_json(path, optimize_case(gait, name, args.steps, args.max_iter, run))
             row = json.loads(path.read_text())
             if "fine_grid_trim" not in row and row["optimum"].get("x0"):
                 row["fine_grid_trim"] = fine_grid_trim(row)
                 atomic_write_json(path, row)
+            if "own_state_trim" not in row and row["optimum"].get("x0") and args.own_state:
+                row["own_state_trim"] = own_state_trim(row)
+                atomic_write_json(path, row)
+            if "stall_at_optimum" not in row and row["optimum"].get("x0") and args.stall_at_optimum:
+                print(f"wagner + stall at {path.name} ...", flush=True)
+                row["stall_at_optimum"] = stall_at_optimum(row, args.stall_at_optimum)
+                atomic_write_json(path, row)
+            if "stall_level_at_optimum" not in row and (row.get("stall_at_optimum") or {}).get("trim", {}).get("success") \
+                    and args.stall_at_optimum:
+                print(f"wagner + stall level flight at {path.name} ...", flush=True)
+                row["stall_level_at_optimum"] = stall_level_at_optimum(row)
+                atomic_write_json(path, row)
     rows = [json.loads(p.read_text()) for p in sorted((out / "cases").glob("opt_*.json"))]
     atomic_write_json(out / "optimized.json", {"rows": rows})
-    atomic_write_text(out / "optimized.md", optimized_table(rows))
-    print(optimized_table(rows))
+    atomic_write_text(out / "optimized.md", optimized_table(rows) + stall_table(rows))
+    print(optimized_table(rows) + stall_table(rows))
     return 0
 
 
@@ -165,6 +289,12 @@ def _f(v, f="{:.4f}"):
     return "—" if v is None else f.format(v)
 
 
+def _not_converged(t: dict) -> str:
+    """A failed trim's status, residual and largest multiplier at the solver's last point."""
+    lam = f"; \\|Λ1\\| {t['lambda1']:.7f} at the last point" if t.get("lambda1") is not None else ""
+    return f"not converged: {t.get('status')} (residual {_f(t.get('max_residual'), '{:.1e}')}{lam})"
+
+
 def table(rows: list[dict]) -> str:
     lines = ["| gait | model | \\|Λ1\\| | next multipliers | stable | mean W (m/s) | max \\|α_E\\| (deg) | "
              "stalled / separated | valid | reasons |", "|" + "---|" * 10]
@@ -180,7 +310,7 @@ def table(rows: list[dict]) -> str:
                      f"{_f(t.get('max_abs_alpha_E_deg') if ok else None, '{:.1f}')} | "
                      f"{_f(t.get('stalled_fraction') if ok else None, '{:.3f}')} / "
                      f"{_f(t.get('separated_fraction') if ok else None, '{:.3f}')} | "
-                     f"{t.get('valid') if ok else 'not converged: ' + str(t.get('status'))} | "
+                     f"{t.get('valid') if ok else _not_converged(t)} | "
                      f"{'; '.join(v.get('reasons') or []) or '—'} |")
     return "\n".join(lines) + "\n"
 
@@ -194,6 +324,20 @@ def main(argv=None) -> int:
     ap.add_argument("--optimize", action="store_true", help="optimise with the full model (see the module)")
     ap.add_argument("--steps", type=int, default=48, help="RK4 steps per period of --optimize (default 48)")
     ap.add_argument("--max-iter", type=int, default=60, help="IPOPT iterations per solve of --optimize")
+    ap.add_argument("--hessian", choices=("sr1", "fd"), default="sr1",
+                    help="second derivatives of --optimize (optimize_gait's hessian; default sr1)")
+    ap.add_argument("--threads", type=int, default=2, help="perturbed points at a time with --hessian fd")
+    ap.add_argument("--from-reached", action="store_true",
+                    help="--optimize starts from the point of DIR/cases/opt_<gait>_<case>.json (gait, amplitude, "
+                         "full state) instead of the quasi-steady optimum")
+    ap.add_argument("--max-wall-s", type=float, default=None, help="IPOPT's wall-time limit per solve [s]")
+    ap.add_argument("--valid-rounds", type=int, default=None, help="validity rounds of --optimize at most")
+    ap.add_argument("--own-state", action="store_true",
+                    help="--optimize also re-trims each optimum from its own state (own_state_trim)")
+    ap.add_argument("--stall-at-optimum", type=int, default=0, metavar="MAX_ITER",
+                    help="--optimize also trims wagner + stall at each optimum's gait (at most MAX_ITER iterations)")
+    ap.add_argument("--progress", action="store_true", help="IPOPT's iteration log on stderr (--optimize)")
+    ap.add_argument("--label", default="", help="--optimize writes DIR/cases/opt_<gait>_<case>_<label>.json")
     args, out = parse_with_out(ap, argv)
     from birdocp.io.files import atomic_write_json, atomic_write_text
 

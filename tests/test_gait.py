@@ -218,3 +218,51 @@ def test_trial_point_values_equal_the_gradient_evaluation_values():
         assert J is not None and rc.cached(theta).d_monodromy is not None
         assert np.allclose(g_trial, G, rtol=1e-9, atol=1e-12), (objective, g_trial - G)
         assert np.all(np.abs(g_trial[2:7]) > 1e-8)  # the Jury rows are there, not zero padding
+
+
+def _fake_cycle(**attrs):
+    """A ReducedLevelCycle shell (no model, no graphs) with the attributes a test gives."""
+    from birdocp.studies.gait_cycle import ReducedLevelCycle
+
+    rc = ReducedLevelCycle.__new__(ReducedLevelCycle)
+    rc.__dict__.update(attrs)
+    return rc
+
+
+def test_solve_speed_names_the_speed_extremum_it_cannot_pass():
+    """U(theta) = 18 - 0.01 (theta - 4)^2 (the wagner power curve's shape at 48 steps: a maximum of the
+    level speed in the incidence offset): 17.9 m/s is reached; 18.5 m/s gets a RuntimeError naming the
+    maximum (18 m/s near theta 4), not an exhausted iteration count."""
+    from types import SimpleNamespace
+
+    def evaluate(theta):
+        t = float(theta[0])
+        return SimpleNamespace(means={"forward_speed_mps": 18.0 - 0.01 * (t - 4.0) ** 2},
+                               grads={"forward_speed_mps": np.array([-0.02 * (t - 4.0)])})
+
+    rc = _fake_cycle(keys=["gait.shoulder_incidence.offset_deg"], evaluate=evaluate)
+    ev = rc.solve_speed(17.9, np.array([12.7]), 0, (-10.0, 35.0))
+    assert abs(ev.means["forward_speed_mps"] - 17.9) < 1e-9
+    with pytest.raises(RuntimeError, match="local maximum near") as e:
+        rc.solve_speed(18.5, np.array([12.7]), 0, (-10.0, 35.0))
+    import re
+
+    u, t = map(float, re.search(r"near ([\d.]+) m/s \(\S+ about ([\d.]+)", str(e.value)).groups())
+    assert abs(u - 18.0) < 0.01 and abs(t - 4.0) < 1.0
+
+
+def test_level_newton_rescues_a_slow_chord():
+    """A chord Jacobian contracting by 0.29 a step (12 steps: 0.29^12 = 3.5e-7 > tol) used to fail;
+    the fresh-Jacobian steps after it solve the linear residual exactly (second method: numpy)."""
+    from birdocp.studies.gait_cycle import NEWTON_RESCUE_STEPS
+
+    A = np.diag([2.0, 1.0, 3.0, 1.5, 1.0])
+    b = np.array([1.0, -2.0, 0.5, 0.3, 20.0])
+    residual = lambda y, theta: (A @ y - b, np.zeros(2))  # noqa: E731
+    full = lambda y, theta: (None, A @ y - b, A)  # noqa: E731
+    stale = A / 0.71  # chord step y - stale^-1 R: the error shrinks by 1 - 0.71 = 0.29 a step
+    rc = _fake_cycle(nx=4, amplitude_range_deg=(-1e3, 1e3), _Ry=stale, residual=residual, _full=full,
+                     out_names=("a", "b"))
+    ev = rc._newton(np.zeros(5), np.zeros(1), 1e-10, 12)
+    assert np.allclose(ev.y, np.linalg.solve(A, b), atol=1e-10)
+    assert 12 < ev.newton_iterations <= 12 + NEWTON_RESCUE_STEPS

@@ -34,11 +34,14 @@ from birdocp.engine.floquet import sort_multipliers
 from birdocp.studies.jury import dominant_block, jury_conditions, jury_function, jury_values  # noqa: F401
 
 __all__ = ["ReducedLevelCycle", "Evaluation", "WarmStart", "jury_conditions", "dominant_block", "jury_values", "check_free_bounds", "check_free_keys",
-           "AMPLITUDE_KEY", "JURY_MARGIN", "POSITIVE_EPS_W"]
+           "AMPLITUDE_KEY", "JURY_MARGIN", "POSITIVE_EPS_W", "NEWTON_RESCUE_STEPS"]
 
 from birdocp.bird.keys import AMPLITUDE_KEY, JURY_MARGIN  # noqa: E402 (one definition of each)
 POSITIVE_EPS_W = 0.05
 """Smoothing of max(P, 0) in the positive-power objective, 1/2 (P + sqrt(P^2 + eps^2)), error <= eps/2."""
+NEWTON_RESCUE_STEPS = 4
+"""Level-cycle Newton: steps with a fresh Jacobian each after the chord steps ran out with the residual
+still falling (``ReducedLevelCycle._newton``)."""
 
 # rows of the quadrature output vector
 _OUT = ("vertical_speed_mps", "forward_speed_mps", "flapping_power_W", "aerodynamic_power_W",
@@ -441,10 +444,13 @@ class ReducedLevelCycle:
     def _newton(self, y, theta, tol, max_newton, Ry=None, keep: bool = True) -> Evaluation:
         """Newton on the level-cycle residual from y: chord steps with the last Jacobian (``keep``,
         which also remembers a fresh one for the next solve) or with ``Ry`` (``keep=False``: no
-        state read or written), a fresh Jacobian when they stall."""
+        state read or written), a fresh Jacobian when they stall. When the steps run out with the
+        residual still below its start (a chord contracting by just under 0.3 a step: 12 steps reach
+        only ~1e-8), up to :data:`NEWTON_RESCUE_STEPS` more with a fresh Jacobian each; a solve that
+        converged within ``max_newton`` is unchanged."""
         y = np.asarray(y, float).copy()
         lo, hi = self.amplitude_range_deg
-        it = 0
+        it, rescue = 0, False
         Ry = self._Ry if keep else Ry
         R, means = self.residual(y, theta)
         last, first = np.inf, np.max(np.abs(R))
@@ -454,9 +460,11 @@ class ReducedLevelCycle:
                 raise RuntimeError(f"Newton left the level cycles (residual {res:.2e}, amplitude {y[self.nx]:.4g} deg)")
             if res <= tol:
                 break
-            if it >= max_newton or res > 1e3 * max(first, 1e-6):
-                raise RuntimeError(f"residual {res:.2e} after {it} Newton steps")
-            if Ry is None or res > 0.3 * last:
+            if res > 1e3 * max(first, 1e-6) or it >= max_newton + (NEWTON_RESCUE_STEPS if rescue else 0):
+                if rescue or it < max_newton or not res < first:
+                    raise RuntimeError(f"residual {res:.2e} after {it} Newton steps")
+                rescue = True
+            if Ry is None or res > 0.3 * last or rescue:
                 _, R, Ry, *_ = self._full(y, theta)  # fresh Jacobian (the chord stalled)
                 if keep:
                     self._Ry = Ry
@@ -473,15 +481,25 @@ class ReducedLevelCycle:
     def solve_speed(self, speed_mps: float, theta, k: int = 0, bounds=None, tol: float = 1e-9,
                     max_iter: int = 30) -> Evaluation:
         """Level flight at mean forward speed ``speed_mps``: Newton on theta[k] (the others fixed),
-        exact derivative dU/dtheta_k; damped, kept within ``bounds``."""
+        exact derivative dU/dtheta_k; damped, kept within ``bounds``. RuntimeError when the speed is
+        not reached; when dU/dtheta_k vanishes or changes sign between two iterates that both fall short
+        on the same side, the speed lies beyond a local extremum of U(theta_k) and the message gives it."""
         theta = np.asarray(theta, float).copy()
+        prev = None
         for _ in range(max_iter):
             ev = self.evaluate(theta)
             r = ev.means["forward_speed_mps"] - speed_mps
             if abs(r) < tol:
                 return ev
             g = ev.grads["forward_speed_mps"][k]
-            step = -r / g if g != 0 else 0.0
+            if g == 0 or (prev is not None and prev[1] * r > 0 and prev[2] * g < 0):
+                u, t = min([(r, theta[k])] + ([(prev[1], prev[0])] if prev else []), key=lambda a: abs(a[0]))
+                raise RuntimeError(
+                    f"speed {speed_mps} m/s not reachable by {self.keys[k]} here: the level speed has a local "
+                    f"{'maximum' if r < 0 else 'minimum'} near {u + speed_mps:.6g} m/s ({self.keys[k]} about "
+                    f"{t:.4g}; dU/d{self.keys[k].rsplit('.', 1)[-1]} changes sign)")
+            prev = (float(theta[k]), r, g)
+            step = -r / g
             step = float(np.clip(step, -3.0, 3.0))
             new = theta[k] + step
             if bounds is not None:
