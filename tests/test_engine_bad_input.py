@@ -117,7 +117,7 @@ def test_floquet_hopf_and_branch_starts_refuse_bad_input():
         floquet(FORCED, [0.0], [0.5], m)
     with pytest.raises(ValueError, match=r"floquet p: size 2, the ODE has np=1"):  # was a CasADi call error
         floquet(FORCED, [0.0, 0.0], [0.5, 1.0], m)
-    with pytest.raises(ValueError, match=r"period_s must be a positive number, got 'abc'"):
+    with pytest.raises(ValueError, match=r"forcing_period must be a positive number, got 'abc'"):
         PeriodicODE.from_rhs(FORCED.rhs, "abc")
     sl = ODE.from_function(lambda x, t, p: ca.vertcat(p[0] * x[0] - x[1] - x[0] * (x[0] ** 2 + x[1] ** 2),
                                                       x[0] + p[0] * x[1] - x[1] * (x[0] ** 2 + x[1] ** 2)),
