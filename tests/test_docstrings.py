@@ -91,7 +91,7 @@ def test_parameters_documented(func):
 # each of their constructor's parameters is documented (numpydoc Parameters or Attributes, or an
 # attribute docstring under a dataclass field, as birdocp.bird.config does).
 INPUT_CLASSES = {"birdocp": ["Config", "Gust", "BirdModel"],
-                 "birdocp.engine": ["PeriodicODE", "OrbitProblem", "MeanCondition", "ODE", "OrbitMethod",
+                 "birdocp.engine": ["ODE", "OrbitProblem", "MeanCondition", "ODE", "OrbitMethod",
                                     "ContinuationOptions"]}
 
 

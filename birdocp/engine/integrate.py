@@ -1,4 +1,4 @@
-"""Fixed-step RK4 on a :class:`~birdocp.engine.problem.PeriodicODE`, as CasADi Functions.
+"""Fixed-step RK4 on a :class:`~birdocp.engine.ode.ODE`, as CasADi Functions.
 
 Layout of the data (the time-dependent vector d(t, p)):
 
@@ -22,7 +22,7 @@ import numpy as np
 
 from birdocp.engine import datastore
 from birdocp.engine.cache import bounded_cache
-from birdocp.engine.problem import PeriodicODE
+from birdocp.engine.ode import ODE
 from birdocp.engine.stage_grid import stage_block_index, stage_time_grid  # noqa: F401 (re-exported)
 
 __all__ = [
@@ -84,7 +84,7 @@ def rk4_update(f, x, D3, h, *args):
     return x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4), (x1, x2, x3, x4)
 
 
-def rk4_step(ode: PeriodicODE, outputs=()) -> ca.Function:
+def rk4_step(ode: ODE, outputs=()) -> ca.Function:
     """One RK4 step ``step(x, D3, p, h) -> (x_next, q_inc)``; D3 = [d(t), d(t+h/2), d(t+h)].
 
     ``q_inc`` (nq x 1) is the RK4 increment of the integral of each output in ``outputs`` (an output
@@ -92,7 +92,7 @@ def rk4_step(ode: PeriodicODE, outputs=()) -> ca.Function:
 
     Parameters
     ----------
-    ode : PeriodicODE
+    ode : ODE
         System.
     outputs : sequence of casadi.Function
         Outputs integrated along the step.
@@ -205,14 +205,14 @@ class RK4Grid:
     x0 (chain rule: the exact Jacobian of the one-period map, as one forward-AD pass through it).
     """
 
-    def __init__(self, ode: PeriodicODE, steps_per_period: int, n_segments: int, outputs=()):
+    def __init__(self, ode: ODE, steps_per_period: int, n_segments: int, outputs=()):
         if steps_per_period % n_segments:
             raise ValueError("steps_per_period must be a multiple of the number of segments (points - 1)")
         self.ode = ode
         self.N = int(steps_per_period)
         self.S = int(n_segments)
         self.n = self.N // self.S
-        self.h = ode.period_s / self.N
+        self.h = ode.forcing_period / self.N
         self.nq = sum(int(g.numel_out(0)) for g in outputs)  # an output may be a column
         self._outputs = tuple(outputs)
         self._pre_grid = self._post_grid = None
@@ -430,7 +430,7 @@ class RK4Grid:
 
     # -- data ---------------------------------------------------------------------------------
     def times(self, t0: float) -> np.ndarray:
-        return stage_time_grid(t0, self.ode.period_s, self.N)
+        return stage_time_grid(t0, self.ode.forcing_period, self.N)
 
     @functools.cached_property
     def data_grid(self) -> ca.Function:
@@ -496,7 +496,7 @@ class RK4Grid:
         disk_key = None
         out = None
         if ode.graph_key:
-            disk_key = {"pre": ode.graph_key, "steps": self.N, "period_s": repr(float(ode.period_s)),
+            disk_key = {"pre": ode.graph_key, "steps": self.N, "period_s": repr(float(ode.forcing_period)),
                         "t0": repr(float(t0)), "pre_params": list(ode.pre_params),
                         "values": [repr(float(v)) for v in pre_values]}
             arr = datastore.load("pre-grid", disk_key)
@@ -514,7 +514,7 @@ class RK4Grid:
     @functools.cached_property
     def numeric_post_grid(self) -> ca.Function:
         """:attr:`post_grid` for numbers only (never differentiated): the ODE's compiled ``post``
-        mapped where it offers one (``PeriodicODE.numeric``), else :attr:`post_grid` itself."""
+        mapped where it offers one (``ODE.numeric``), else :attr:`post_grid` itself."""
         ode = self.ode
         return self.post_grid if ode.numeric is None else ode.fast(ode.post, "post").map(2 * self.N + 1)
 
@@ -530,12 +530,12 @@ class RK4Grid:
         return grid[:, self.block_index]
 
 
-def simulate(ode: PeriodicODE, x0, p, steps_per_period: int = 148, n_periods: int = 1, t0: float = 0.0):
+def simulate(ode: ODE, x0, p, steps_per_period: int = 148, n_periods: int = 1, t0: float = 0.0):
     """Plain RK4 from x0 over ``n_periods`` periods. Returns (t[K+1], X[K+1, nx]).
 
     Parameters
     ----------
-    ode : PeriodicODE
+    ode : ODE
         System.
     x0 : array_like
         State at ``t0``.

@@ -6,7 +6,7 @@ left ``None`` takes the default of that formulation (:meth:`OrbitMethod.resolved
 every solve are those of its formulation's own defaults:
 
 ============================  =====================================  ==================================
-setting                       ``PeriodicODE`` (data-split, forced)   ``ODE`` (time scaled by T)
+setting                       ``ODE`` (data-split, forced)   ``ODE`` (time scaled by T)
 ============================  =====================================  ==================================
 ``steps_per_period=None``     148 (the paper's grid)                 refined until ``accuracy`` is met
 ``solver=None``               ``"ipopt"``                            ``"lm"``
@@ -29,14 +29,14 @@ PHASE_CONDITIONS = ("moving", "fixed")
 SOLVER_NAMES = ("ipopt", "lm")
 """The solvers of the engine's solver table (:data:`birdocp.engine.orbit_front.SOLVERS`)."""
 PAPER_STEPS_PER_PERIOD = 148
-"""RK4 steps per period of a ``PeriodicODE`` by default: the paper's grid (M = 5: 37 per segment)."""
+"""RK4 steps per period of a ``ODE`` by default: the paper's grid (M = 5: 37 per segment)."""
 
 IPOPT_DEFAULTS = {
     # Full (undamped) Newton-type steps, like the paper's LM which accepts every step. Measured on a
     # forced Duffing oscillator from a poor guess (max residual 1.2): IPOPT's filter line search
     # ended in Infeasible_Problem_Detected for M = 2, 3, 9 (and with an exact Hessian, or a
     # regularisation objective 1e-8..1e-2, for all M) while full steps converged in 7-18 iterations.
-    # When this first attempt fails, the PeriodicODE solve retries once with IPOPT's filter line
+    # When this first attempt fails, the ODE solve retries once with IPOPT's filter line
     # search (OrbitMethod.ipopt_fallback).
     "ipopt.accept_every_trial_step": "yes",
 }
@@ -53,17 +53,17 @@ class OrbitMethod:
     points
         M, shooting points INCLUDING the closing one (M-1 segments), M >= 2.
     steps_per_period
-        N, integrator steps over the period, a multiple of points-1. None: 148 for a ``PeriodicODE``;
+        N, integrator steps over the period, a multiple of points-1. None: 148 for a ``ODE``;
         for an ``ODE`` chosen by doubling from ``min_steps`` until the error estimate is below
         ``accuracy``.
     integrator
-        The stepper: "rk4" | "radau" (stiff systems) | "gauss" (``PeriodicODE``: "rk4" only).
+        The stepper: "rk4" | "radau" (stiff systems) | "gauss" (``ODE``: "rk4" only).
     solver
         "ipopt" (feasibility NLP through the exact Jacobian) | "lm" (Levenberg-Marquardt on the exact
-        shooting matrix); None: "ipopt" for a ``PeriodicODE``, "lm" for an ``ODE``.
+        shooting matrix); None: "ipopt" for a ``ODE``, "lm" for an ``ODE``.
     derivatives
         "exact" (CasADi AD) | "fd" (forward differences of the segment flow, relative step
-        1e-3*x_j, absolute step 1e-3*fd_floor when abs(x_j) < fd_floor; ``PeriodicODE`` with lm only).
+        1e-3*x_j, absolute step 1e-3*fd_floor when abs(x_j) < fd_floor; ``ODE`` with lm only).
     tol
         Max abs(residual) for success (absolute, all equations); None: see the module table.
     max_iter
@@ -72,16 +72,16 @@ class OrbitMethod:
         Relative error tolerance of period, x0 and multipliers (``ODE``: the error estimate's target).
     error_estimate
         Re-solve with 2N steps and estimate the discretisation error plus the solver-tolerance error
-        (``OrbitResult.error_estimate``); None: False for a ``PeriodicODE``, True for an ``ODE``.
+        (``OrbitResult.error_estimate``); None: False for a ``ODE``, True for an ``ODE``.
     ipopt_options
         Extra IPOPT options (merged over the defaults).
     fd_floor
         See ``derivatives``.
     regularization
-        ``PeriodicODE`` with ipopt: objective weight w in w/2 abs(z - z_guess)^2 (default 0: pure
+        ``ODE`` with ipopt: objective weight w in w/2 abs(z - z_guess)^2 (default 0: pure
         feasibility; measured: no weight in 1e-8..1e-2 helped IPOPT converge).
     ipopt_fallback
-        ``PeriodicODE``: if the first IPOPT attempt (full steps) fails, retry once with IPOPT's
+        ``ODE``: if the first IPOPT attempt (full steps) fails, retry once with IPOPT's
         filter line search; iterations and histories are concatenated.
     min_amplitude
         ``ODE``: relative amplitude below which a solution is an equilibrium (failure).
@@ -135,13 +135,13 @@ class OrbitMethod:
         Parameters
         ----------
         data_split : bool
-            True for a ``PeriodicODE`` problem (forced, data-split formulation), False for an ``ODE``.
+            True for a ``ODE`` problem (forced, data-split formulation), False for an ``ODE``.
 
         Returns
         -------
         OrbitMethod
             A copy (or ``self`` when nothing was left open) whose ``solver``, ``tol`` and
-            ``error_estimate`` are set (``steps_per_period`` too for a ``PeriodicODE``).
+            ``error_estimate`` are set (``steps_per_period`` too for a ``ODE``).
         """
         solver = self.solver or ("ipopt" if data_split else "lm")
         tol = self.tol if self.tol is not None else (1e-10 if solver == "ipopt" or not data_split else 1e-5)
@@ -153,9 +153,9 @@ class OrbitMethod:
             else replace(self, solver=solver, tol=float(tol), error_estimate=est, steps_per_period=n)
         out.validate()
         if data_split and out.integrator != "rk4":
-            raise ValueError(f"OrbitMethod.integrator must be 'rk4' for a PeriodicODE, got {out.integrator!r}")
+            raise ValueError(f"OrbitMethod.integrator must be 'rk4' for a ODE, got {out.integrator!r}")
         if out.derivatives == "fd" and not (data_split and out.solver == "lm"):
-            raise ValueError("OrbitMethod.derivatives='fd' is only available with solver='lm' on a PeriodicODE")
+            raise ValueError("OrbitMethod.derivatives='fd' is only available with solver='lm' on a ODE")
         return out
 
     def validate(self) -> None:

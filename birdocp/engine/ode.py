@@ -184,11 +184,6 @@ class ODE:
         return self.rhs.size1_in(2)
 
     @property
-    def period_s(self) -> float:  # transitional: removed with the rename commit
-        """Transitional name of forcing_period."""
-        return self.forcing_period
-
-    @property
     def nd(self) -> int:
         """Size of the per-time data vector (1 without data: d = t)."""
         return self.rhs.size1_in(1)

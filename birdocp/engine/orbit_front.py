@@ -19,7 +19,7 @@ __all__ = ["solve", "FORMULATIONS", "SOLVERS"]
 
 FORMULATIONS = {"periodic_ode": shooting.solve_periodic_ode, "ode": orbits.solve_ode}
 """Formulation -> its solve(problem, method, warm_start): ``"periodic_ode"`` for a
-:class:`~birdocp.engine.problem.PeriodicODE` (forced, data-split, period fixed, free parameters held
+:class:`~birdocp.engine.ode.ODE` (forced, data-split, period fixed, free parameters held
 by mean conditions; :mod:`birdocp.engine.shooting`), ``"ode"`` for an :class:`~birdocp.engine.ode.ODE`
 (time scaled by the period: autonomous or forced; :mod:`birdocp.engine.orbits`)."""
 
@@ -40,8 +40,8 @@ def solve(problem: OrbitProblem, method: OrbitMethod | None = None, *, solver: s
     Parameters
     ----------
     problem : OrbitProblem
-        The ODE (a ``PeriodicODE`` or an ``ODE``), its parameters, the guess; free parameters and mean
-        conditions (``PeriodicODE``), a period guess (autonomous ``ODE``).
+        The ODE (a ``ODE`` or an ``ODE``), its parameters, the guess; free parameters and mean
+        conditions (``ODE``), a period guess (autonomous ``ODE``).
     method : OrbitMethod, optional
         Grid, stepper, solver, tolerances (default ``OrbitMethod()``; ``None`` settings take the
         formulation's defaults, :mod:`birdocp.engine.method`).
@@ -57,15 +57,15 @@ def solve(problem: OrbitProblem, method: OrbitMethod | None = None, *, solver: s
 
     Examples
     --------
-    A forced linear oscillator ``x'' + 0.5 x' + x = cos t`` (a ``PeriodicODE``): the orbit is
+    A forced linear oscillator ``x'' + 0.5 x' + x = cos t`` (a ``ODE``): the orbit is
     ``x = 2 sin t`` and the multipliers are ``exp(2 pi eig(A))``, of modulus ``exp(-0.5 pi)``
     (Liouville).
 
     >>> import casadi as ca, numpy as np
-    >>> from birdocp.engine import ODE, OrbitMethod, OrbitProblem, PeriodicODE, solve
+    >>> from birdocp.engine import ODE, OrbitMethod, OrbitProblem, solve
     >>> x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 1)
     >>> f = ca.Function("f", [x, t, p], [ca.vertcat(x[1], -p[0] * x[1] - x[0] + ca.cos(t))])
-    >>> res = solve(OrbitProblem(PeriodicODE.from_rhs(f, 2 * np.pi), p=[0.5], x_guess=[0, 0]),
+    >>> res = solve(OrbitProblem(ODE.from_rhs(f, 2 * np.pi), p=[0.5], x_guess=[0, 0]),
     ...             OrbitMethod(points=3, steps_per_period=200))
     >>> res.success, bool(np.allclose(res.x0, [0.0, 2.0], atol=1e-4))
     (True, True)

@@ -11,7 +11,7 @@ from birdocp.engine.results import result_dict, serial
 __all__ = ["OrbitResult", "FORMULATIONS", "JSON_OMITS"]
 
 FORMULATIONS = ("periodic_ode", "ode")
-"""How a result was computed: ``"periodic_ode"`` (a :class:`~birdocp.engine.problem.PeriodicODE`:
+"""How a result was computed: ``"periodic_ode"`` (a :class:`~birdocp.engine.ode.ODE`:
 forced, data-split, period fixed, mean conditions) or ``"ode"`` (an :class:`~birdocp.engine.ode.ODE`:
 time scaled by the period, autonomous or forced)."""
 
@@ -23,7 +23,7 @@ JSON_OMITS = {
             "monodromy_vs_full_period_jacobian"),
 }
 """The fields each formulation leaves out of ``to_dict()`` (those it does not compute, and for a
-``PeriodicODE`` the error estimate, which callers that compute it add: ``birdocp trim``)."""
+``ODE`` the error estimate, which callers that compute it add: ``birdocp trim``)."""
 
 
 def _empty():
@@ -38,10 +38,10 @@ class OrbitResult:
     ----------
     success : bool
         Converged: the max residual of all equations is finite and at most the tolerance (10 x tol
-        for IPOPT on a ``PeriodicODE``), whatever the solver's status says; finite multipliers; for
+        for IPOPT on a ``ODE``), whatever the solver's status says; finite multipliers; for
         an ``ODE`` also a true orbit (not an equilibrium) of minimal period.
     status : str
-        ``PeriodicODE``: IPOPT's ``return_status`` (e.g. "Solve_Succeeded") or the LM's "converged",
+        ``ODE``: IPOPT's ``return_status`` (e.g. "Solve_Succeeded") or the LM's "converged",
         "max_iter", "stalled", "nan"; "residual_above_tol" when a status claims convergence but the
         residual exceeds the tolerance. ``ODE``: "converged", "equilibrium", "not_converged", "nan",
         "bad_phase_point", "bad_period", "multiple_cover" (see ``covers``).
@@ -68,18 +68,18 @@ class OrbitResult:
     max_residual : float
         Max abs of all equations at the result.
     means : dict
-        ``PeriodicODE``: the period mean of each mean-condition output and extra output (by name).
+        ``ODE``: the period mean of each mean-condition output and extra output (by name).
     monodromy : numpy.ndarray or None
         The monodromy matrix (product of the segment Jacobians).
     multipliers : numpy.ndarray or None
         All Floquet multipliers, largest modulus first (autonomous: the trivial one included).
     eigenvectors, floquet_exponents, doubling_times_s : numpy.ndarray or None
-        ``PeriodicODE``: the multipliers' eigenvectors (one column per mode), ``log(multiplier)/T``
+        ``ODE``: the multipliers' eigenvectors (one column per mode), ``log(multiplier)/T``
         (1/s) and ``ln 2 / Re(exponent)``, signed (:mod:`birdocp.engine.floquet`).
     stable : bool or None
         All (non-trivial) multipliers inside the unit circle.
     monodromy_vs_full_period_jacobian : float
-        ``PeriodicODE``: max abs difference between the monodromy and the Jacobian of the one-period
+        ``ODE``: max abs difference between the monodromy and the Jacobian of the one-period
         map from x0 (accuracy indicator).
     method : dict
         The method's settings as used.

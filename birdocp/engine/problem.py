@@ -15,7 +15,7 @@ import numpy as np
 
 from birdocp.engine.ode import ODE, check_function
 
-__all__ = ["PeriodicODE", "MeanCondition", "OrbitProblem", "finite_vector"]
+__all__ = ["MeanCondition", "OrbitProblem", "finite_vector"]
 
 
 def finite_vector(value, name: str, size: int | None = None, what: str = "") -> np.ndarray:
@@ -250,20 +250,3 @@ class OrbitProblem:
         names = [m.name or f"mean{k}" for k, m in enumerate(self.means)]
         return names + [str(k) for k in self.outputs]
 
-
-def PeriodicODE(rhs, data, period_s, *args, **kwargs):  # transitional: removed with the rename commit
-    """Transitional: :class:`~birdocp.engine.ode.ODE` with data (removed by the next commit).
-
-    Parameters
-    ----------
-    rhs, data, period_s, args, kwargs
-        As :class:`~birdocp.engine.ode.ODE`.
-
-    Returns
-    -------
-    ODE
-    """
-    return ODE(rhs, data, period_s, *args, **kwargs)
-
-
-PeriodicODE.from_rhs = ODE.from_rhs

@@ -50,7 +50,7 @@ class PeriodSensitivities:
         self.n_data = int(n_data if n_data is not None else n_dir)  # directions given per call
         self.n_state = 0 if self.combined else nx                    # identity state directions first
         nz = self.n_state + self.n_dir
-        self.h = h = ode.period_s / self.N
+        self.h = h = ode.forcing_period / self.N
         step = rk4_step(ode, outputs)
         x = ca.SX.sym("x", nx)
         D3 = ca.SX.sym("D3", nd, 3)

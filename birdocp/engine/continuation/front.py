@@ -17,7 +17,7 @@ def iter_branch(problem, param, start_value: float, stop_value: float, *, start=
 
     One front for the three kinds of branch; what is followed depends on ``problem`` and ``start``:
 
-    * an :class:`~birdocp.engine.problem.OrbitProblem` of a ``PeriodicODE``: its forced periodic orbits
+    * an :class:`~birdocp.engine.problem.OrbitProblem` of a ``ODE``: its forced periodic orbits
       (:class:`~birdocp.engine.continuation.iterate.OrbitBranchIterator`; ``start`` an optional
       converged cycle);
     * an :class:`~birdocp.engine.ode.ODE` with ``start`` a converged
@@ -69,7 +69,7 @@ def iter_branch(problem, param, start_value: float, stop_value: float, *, start=
     if isinstance(problem, OrbitProblem) and problem.data_split:
         return OrbitBranchIterator(problem, param, start_value, stop_value, start=start, **settings)
     if not isinstance(problem, ODE):
-        raise TypeError(f"iter_branch: problem must be an OrbitProblem of a PeriodicODE or an ODE, "
+        raise TypeError(f"iter_branch: problem must be an OrbitProblem of a ODE or an ODE, "
                         f"got {type(problem).__name__}")
     if start is None:
         raise ValueError("iter_branch: an ODE needs start= (an OrbitResult, an Equilibrium or a state)")
