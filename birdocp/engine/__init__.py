@@ -2,8 +2,8 @@
 
 It knows nothing of birds (casadi, numpy and the standard library only). The names below are
 importable from here (``from birdocp.engine import OrbitProblem, solve``), loaded on first use
-(PEP 562), so importing the package costs nothing. One problem type (:class:`OrbitProblem`, of a
-:class:`ODE` or an :class:`ODE`), one method type (:class:`OrbitMethod`), one front
+(PEP 562), so importing the package costs nothing. One problem type (:class:`OrbitProblem`, of an
+:class:`ODE`, forced or autonomous), one method type (:class:`OrbitMethod`), one front
 (:func:`solve`), one result type (:class:`OrbitResult`).
 
 Examples

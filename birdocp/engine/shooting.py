@@ -1,5 +1,5 @@
-"""The ODE formulation of :func:`birdocp.engine.orbit_front.solve`: multiple shooting for the
-periodic orbits of a forced, data-split :class:`~birdocp.engine.ode.ODE` (IPOPT or
+"""The data-split formulation of :func:`birdocp.engine.orbit_front.solve`: multiple shooting for the
+periodic orbits of a forced :class:`~birdocp.engine.ode.ODE` with a data function (IPOPT or
 Levenberg-Marquardt), with free parameters held by period-mean conditions.
 
 Unknowns: the shooting points X_0 .. X_{M-1} at t0 + i T/(M-1) (M counts the closing point, as in
@@ -40,7 +40,7 @@ from birdocp.engine.problem import OrbitProblem, finite_vector
 from birdocp.engine.ode import ODE
 from birdocp.engine.shooting_graphs import ShootingGraphs, initial_points, rk4_grid, shooting_graphs
 
-__all__ = ["solve_periodic_ode", "SOLVERS", "estimate_error", "clear_cache", "floquet", "ShootingGraphs",
+__all__ = ["solve_data_split", "SOLVERS", "estimate_error", "clear_cache", "floquet", "ShootingGraphs",
            "shooting_graphs", "initial_points", "rk4_grid"]
 
 def clear_cache() -> None:
@@ -103,9 +103,9 @@ def _run_ipopt(solver, z0, method, lbx, ubx):
     return out.z, out.status, out.success, out.iterations, out.history, out.message
 
 
-def solve_periodic_ode(problem: OrbitProblem, method: OrbitMethod,
+def solve_data_split(problem: OrbitProblem, method: OrbitMethod,
                        warm_start: OrbitResult | None = None) -> OrbitResult:
-    """The ODE formulation of :func:`birdocp.engine.orbit_front.solve` (use that front).
+    """The data-split formulation of :func:`birdocp.engine.orbit_front.solve` (use that front).
 
     ``success`` means converged: the max residual of all equations at the result is finite and at
     most the method's tolerance (10 x tol for IPOPT), whatever the solver's status says (IPOPT's
@@ -117,17 +117,17 @@ def solve_periodic_ode(problem: OrbitProblem, method: OrbitMethod,
     Parameters
     ----------
     problem : OrbitProblem
-        A problem of a :class:`~birdocp.engine.ode.ODE`.
+        A problem of an :class:`~birdocp.engine.ode.ODE` with a data function.
     method : OrbitMethod
         Shooting points, RK4 steps per period, solver, derivatives, tolerances (``None`` settings
-        resolved for a ODE: :meth:`~birdocp.engine.method.OrbitMethod.resolved`).
+        resolved for an ODE with data: :meth:`~birdocp.engine.method.OrbitMethod.resolved`).
     warm_start : OrbitResult, optional
         A previous result on the same grid whose shooting points (and free values) start the solve.
 
     Returns
     -------
     OrbitResult
-        ``formulation="periodic_ode"``: ``success``, ``status``, ``x0``, ``shooting_points``, the
+        ``formulation="data_split"``: ``success``, ``status``, ``x0``, ``shooting_points``, the
         trajectory, ``monodromy``, ``multipliers`` (largest modulus first), ``eigenvectors``,
         ``floquet_exponents``, ``stable``, ``means`` and ``free_values``.
     """
@@ -198,7 +198,7 @@ def estimate_error(problem: OrbitProblem, method: OrbitMethod, result: OrbitResu
     e_solver = solver_error(J, g)
     fine_m = replace(method, steps_per_period=2 * int(method.steps_per_period), solver="lm", error_estimate=False,
                      tol=min(method.tol, 1e-10), max_iter=20)
-    fine = solve_periodic_ode(problem, fine_m, result)
+    fine = solve_data_split(problem, fine_m, result)
     lam = np.asarray(result.multipliers)
     out = {"solver": e_solver, "steps_per_period_fine": fine_m.steps_per_period, "fine_status": fine.status}
     if fine.success and fine.multipliers is not None:
@@ -272,7 +272,7 @@ def _run_ipopt_attempts(problem, method, b, z0, lo, hi):
 
 
 SOLVERS = {"ipopt": _run_ipopt_attempts, "lm": _run_lm}
-"""The solver table of the ODE formulation: name -> run(problem, method, graphs, z0, lo, hi)."""
+"""The solver table of the data-split formulation: name -> run(problem, method, graphs, z0, lo, hi)."""
 
 
 def _residual_at(problem, b, z, pfull, Dn):
@@ -323,7 +323,7 @@ def _result(problem, method, b, z, p_init, D_init, outcome, wall):
     shooting_times = t0 + T / S * np.arange(S + 1)
     res = OrbitResult(
         success=bool(success), status=status, message=message, iterations=int(iters),
-        residual_history=hist, wall_s=wall, formulation="periodic_ode", autonomous=False,
+        residual_history=hist, wall_s=wall, formulation="data_split", autonomous=False,
         solver_status=solver_status,
         period=float(shooting_times[-1] - shooting_times[0]),
         shooting_times=shooting_times, shooting_points=X, x0=X[0].copy(), p=pfull,

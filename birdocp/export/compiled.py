@@ -286,7 +286,7 @@ class NumericCompiler:
 
 
 def compiled_ode(ode: ODE, key_extra: str = "", directory: Path | None = None) -> ODE | None:
-    """A :class:`ODE` equal to ``ode`` but whose ``rhs`` is compiled C (an external) and whose
+    """An :class:`ODE` equal to ``ode`` but whose ``rhs`` is compiled C (an external) and whose
     numeric-only data Functions are compiled on first use (:class:`NumericCompiler`), or None with a
     :class:`CompiledFallbackWarning` when compiling or loading the RHS fails.
 

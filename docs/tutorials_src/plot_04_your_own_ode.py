@@ -15,7 +15,7 @@ resonance curve).
 # %%
 # Pose the problem
 # ----------------
-# ``ODE.from_rhs(f, T, state_names, param_names)`` wraps ``f(x, t, p)``; the period T is the
+# ``ODE.from_rhs(f, T, state_names, param_names)`` wraps ``f(x, t, p)`` (the data is the time); the period T is the
 # forcing's. ``OrbitProblem`` adds the parameter values and a guess of the state at t = 0.
 import casadi as ca
 import matplotlib.pyplot as plt

@@ -17,13 +17,13 @@ def iter_branch(problem, param, start_value: float, stop_value: float, *, start=
 
     One front for the three kinds of branch; what is followed depends on ``problem`` and ``start``:
 
-    * an :class:`~birdocp.engine.problem.OrbitProblem` of a ``ODE``: its forced periodic orbits
+    * an :class:`~birdocp.engine.problem.OrbitProblem` of an ODE with data: its forced periodic orbits
       (:class:`~birdocp.engine.continuation.iterate.OrbitBranchIterator`; ``start`` an optional
       converged cycle);
-    * an :class:`~birdocp.engine.ode.ODE` with ``start`` a converged
+    * an :class:`~birdocp.engine.ode.ODE` (without data) with ``start`` a converged
       :class:`~birdocp.engine.orbit_result.OrbitResult`: the autonomous orbits through it (the period
       varies; :func:`~birdocp.engine.continuation.autonomous.autonomous_branch_iterator`);
-    * an :class:`~birdocp.engine.ode.ODE` with ``start`` an
+    * an :class:`~birdocp.engine.ode.ODE` (without data) with ``start`` an
       :class:`~birdocp.engine.equilibria.Equilibrium` or a state: its equilibria
       (:class:`~birdocp.engine.equilibria.EquilibriumBranchIterator`).
 
@@ -69,7 +69,7 @@ def iter_branch(problem, param, start_value: float, stop_value: float, *, start=
     if isinstance(problem, OrbitProblem) and problem.data_split:
         return OrbitBranchIterator(problem, param, start_value, stop_value, start=start, **settings)
     if not isinstance(problem, ODE):
-        raise TypeError(f"iter_branch: problem must be an OrbitProblem of a ODE or an ODE, "
+        raise TypeError(f"iter_branch: problem must be an OrbitProblem of an ODE with data or an ODE, "
                         f"got {type(problem).__name__}")
     if start is None:
         raise ValueError("iter_branch: an ODE needs start= (an OrbitResult, an Equilibrium or a state)")
