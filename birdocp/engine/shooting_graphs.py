@@ -9,7 +9,8 @@ import casadi as ca
 import numpy as np
 
 from birdocp.engine.cache import bounded_cache
-from birdocp.engine.integrate import RK4Grid, column_blocks
+from birdocp.engine.integrate import RK4Grid
+from birdocp.engine.rk4 import column_blocks
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.method import IPOPT_DEFAULTS, OrbitMethod
 from birdocp.engine.problem import OrbitProblem

@@ -26,7 +26,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from birdocp.engine.integrate import MAPACCUM_CHUNK, column_blocks, rk4_step
+from birdocp.engine.rk4 import MAPACCUM_CHUNK, column_blocks, rk4_step
 
 __all__ = ["PeriodSensitivities"]
 
