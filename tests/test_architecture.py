@@ -123,7 +123,7 @@ def test_private_writes_check_finds_outside_writes(tmp_path):
 def test_no_private_writes_from_outside():
     """No module of birdocp/studies or birdocp/engine writes a private attribute of another object:
     state an object exposes for change has a method or an explicit object for it (a warm start:
-    :class:`birdocp.studies.gait_cycle.WarmStart`). Nothing is allowed."""
+    :class:`birdocp.studies.gait_types.WarmStart`). Nothing is allowed."""
     found = private_writes(sorted(p for layer in PRIVATE_WRITE_LAYERS for p in (PKG / layer).rglob("*.py")))
     assert not found, "\n".join(found)
 

@@ -19,8 +19,9 @@ from birdocp.bird.keys import AMPLITUDE_BOUNDS_DEG
 from birdocp.engine.oracle import active_bounds
 from birdocp.engine.oracle import ipopt_options as one_ipopt_front  # the one set of IPOPT options
 from birdocp.engine.results import result_dict, serial
-from birdocp.studies.gait_cycle import (AMPLITUDE_KEY, JURY_MARGIN, POSITIVE_EPS_W, Evaluation,  # noqa: F401
-                                        ReducedLevelCycle, check_free_bounds, check_free_keys, jury_conditions)
+from birdocp.studies.gait_cycle import (AMPLITUDE_KEY, JURY_MARGIN, POSITIVE_EPS_W,  # noqa: F401
+                                        ReducedLevelCycle, jury_conditions)
+from birdocp.studies.gait_types import Evaluation, check_free_bounds, check_free_keys  # noqa: F401
 from birdocp.studies.gait_problem import ReducedProblem
 from birdocp.studies.lateral_optimize import reduced_level_cycle
 from birdocp.studies.power_curves import SPEED_KEY, curve_optima, level_at_speed, power_curve  # noqa: F401

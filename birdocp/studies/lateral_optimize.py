@@ -26,7 +26,8 @@ from birdocp.bird.config import Config, ConfigError, asymmetric
 from birdocp.bird.sixdof import LATERAL, LONGITUDINAL, LateralInertia, embed_planar_state, sixdof_model
 from birdocp.engine.cache import bounded_cache
 from birdocp.engine.floquet import matched_distances, sort_multipliers
-from birdocp.studies.gait_cycle import Evaluation, ReducedLevelCycle
+from birdocp.studies.gait_cycle import ReducedLevelCycle
+from birdocp.studies.gait_types import Evaluation
 
 __all__ = ["LateralLevelCycle", "reduced_level_cycle", "multiplier_split", "lateral_check"]
 

@@ -41,7 +41,8 @@ from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.engine.oracle import ConstraintOracle, active_bounds, ipopt_options
 from birdocp.engine.results import result_dict, serial
 from birdocp.io.progress import text_reporter
-from birdocp.studies.gait_cycle import check_free_keys, jury_conditions, jury_function, jury_values  # noqa: F401
+from birdocp.studies.gait_cycle import jury_conditions, jury_function, jury_values  # noqa: F401
+from birdocp.studies.gait_types import check_free_keys
 from birdocp.studies.gait_validity import WARM_IPOPT
 
 __all__ = ["DEFAULT_FREE", "METHODS", "check_free_keys", "optimize_stability", "StabilityOptimum", "jury_conditions"]
