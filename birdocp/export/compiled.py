@@ -305,7 +305,8 @@ def compiled_ode(ode: ODE, key_extra: str = "", directory: Path | None = None) -
     Returns
     -------
     ODE or None
-        The compiled ODE, or None when compiling failed (see above).
+        The compiled ODE, or None when compiling or loading the right-hand side failed (a
+        :class:`CompiledFallbackWarning` says why).
     """
     hit = _ODES.get(id(ode))
     if hit is not None and hit[0] is ode:

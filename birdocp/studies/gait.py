@@ -141,7 +141,9 @@ class GaitSolverOptions:
     ipopt_options : dict, optional
         Extra IPOPT options.
     hessian : {"sr1", "fd", "fixed"}
-        How IPOPT gets second derivatives (see above).
+        How IPOPT gets second derivatives: "sr1" limited-memory SR1 updates; "fd" exact-Hessian mode
+        on the forward difference of the exact constraint gradients (perturbed points evaluated
+        ``threads`` at a time); "fixed" exact-Hessian mode on ``second_derivatives`` held fixed.
     radius_start_factor : float
         With the stability objective, r starts at this factor times the start's spectral radius.
     threads : int
@@ -226,7 +228,9 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     x_guess : array_like (4,), optional
         State at t = 0 of the start's level cycle, if known (default: a trim of the start gait).
     valid : bool
-        Every limit of ``cfg.validity`` a smooth constraint (see above).
+        Every limit of ``cfg.validity`` a smooth constraint (:mod:`birdocp.bird.validity_smooth`); a
+        limit the optimum still crosses exactly is tightened by the difference and the problem solved
+        again, at most ``valid_rounds`` solves.
     solver : GaitSolverOptions, optional
         How IPOPT solves (default :class:`GaitSolverOptions`).
     **solver_options

@@ -277,17 +277,23 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     tol : float
         IPOPT's tolerance.
     verify : bool
-        Verify the optimum independently (see above).
+        Verify the optimum independently: numpy eigenvalues of the monodromy, a multiple-shooting
+        trim from the optimum's state and a trim from scratch at the optimal gait.
     progress : bool or callable
-        See above.
+        False (silent), True (one line per evaluation on stderr) or a callable taking that line's
+        text.
     coarse_steps : int, None or "auto"
-        Steps of the coarse stage (see above).
+        RK4 steps per period of the coarse stage, whose optimum starts the fine one; "auto":
+        :data:`COARSE_STEPS` of the method (none with aerodynamic states); None: no coarse stage.
     method : {"reduced", "full"}
-        The formulation (see above).
+        "reduced": the reduced-space NLP of :func:`birdocp.studies.gait.optimize_gait` (free
+        parameters and r as IPOPT's unknowns, the level cycle solved by Newton); "full": the
+        full-space single-shooting NLP (state, parameters, amplitude and r; quasi-Newton).
     threads : int
         Perturbed points evaluated at a time (reduced method).
     valid : bool
-        The validity limits as smooth constraints (see above).
+        The limits of ``cfg.validity`` as smooth constraints in every stage (reduced method only);
+        the result then carries ``validity_constraints``.
 
     Returns
     -------

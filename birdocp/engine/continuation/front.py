@@ -37,8 +37,9 @@ def iter_branch(problem, param, start_value: float, stop_value: float, *, start=
         The parameter interval: the branch starts at ``start_value`` (the start is corrected there)
         and ends at ``stop_value`` or earlier (the iterator's ``end_reason`` / ``status`` says why).
     start : object, optional
-        A cycle (an ``OrbitResult``, ``TrimResult.cycle``), an ``OrbitResult`` of the ODE or an
-        ``Equilibrium`` / a state near the start, as above.
+        What the branch starts from: for an ``OrbitProblem``, optionally a converged cycle of it
+        (an ``OrbitResult``, e.g. ``TrimResult.cycle``); for an ``ODE``, a converged ``OrbitResult``
+        of it (autonomous orbits), or an ``Equilibrium`` or a state near an equilibrium (equilibria).
     **settings
         For orbits: the fields of :class:`~birdocp.engine.continuation.options.ContinuationOptions`
         (``step``, ``max_points``, ``error_estimate``, ...; or ``options=``) and ``accept``,
