@@ -470,19 +470,19 @@ class ReducedLevelCycle:
         return self._cache.get(np.asarray(theta, float).ravel().tobytes())
 
     def accept(self, theta) -> None:
-        """Mark the (already evaluated) cycle at theta as a good restart point for Newton (nothing
-        happens when theta is not among the last few evaluations).
+        """Mark the (already evaluated) cycle at theta as a good restart point for Newton.
 
         Parameters
         ----------
         theta : array_like
-            The free parameters (n_theta,), in the units of their keys.
+            Free parameters of a cycle among the last few evaluations (:meth:`cached`); any other
+            theta changes nothing.
 
         Returns
         -------
         None
         """
-        ev = self._cache.get(np.asarray(theta, float).ravel().tobytes())
+        ev = self.cached(theta)
         if ev is not None:
             self._anchor = np.append(ev.x0, ev.amplitude_deg)
 
