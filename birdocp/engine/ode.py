@@ -18,7 +18,7 @@ Lyapunov exponents, continuation). Two ways to build one:
 The ODE selects the shooting strategy of :func:`birdocp.engine.orbit_front.solve`: with a data function,
 the forced data-split one (the period is the forcing's; free parameters held by period-mean conditions;
 :mod:`birdocp.engine.shooting`); without, the time-scaled one (autonomous: the period is an unknown;
-forced: the period is a guess's, e.g. a multiple of the forcing's; :mod:`birdocp.engine.orbits`).
+forced: the period is the problem's period guess, e.g. a multiple of the forcing's; :mod:`birdocp.engine.orbits`).
 
 Example::
 
