@@ -244,21 +244,14 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     derivatives fixed (one fine gradient per iteration). ``method="full"``: the full-space
     single-shooting NLP (state, parameters, amplitude and r as unknowns; quasi-Newton).
 
-    With ``coarse_steps`` (default ``"auto"``: :data:`COARSE_STEPS` of the method, 32 RK4 steps per
-    period for the reduced method, 48 for the full one, none with aerodynamic states; None: no coarse stage) the optimum is first
-    found on that coarse grid and then refined on the full grid (``steps_per_period``, default
-    ``cfg.solve.steps_per_period``) from the coarse optimum; ``max_iter`` counts per stage. The answer
-    is verified independently: numpy eigenvalues of the monodromy, a multiple-shooting trim from the
-    optimum's state and a trim from scratch at the optimal gait.
-
-    ``progress``: False (silent), True (one line per evaluation on stderr) or a callable taking that
-    line's text (e.g. from :func:`birdocp.io.progress.progress_callback`).
+    With ``coarse_steps`` (default ``"auto"``: 32 RK4 steps per period for the reduced method, 48 for
+    the full one, none with aerodynamic states) the optimum is first found on that coarse grid, then
+    refined on the full grid (``steps_per_period``) from it; ``max_iter`` counts per stage.
 
     Aerodynamic states (reduced method): r bounds the full monodromy's spectral radius (its dominant block).
 
-    ``valid``: the limits of ``cfg.validity`` are smooth constraints in every stage (reduced method
-    only; :func:`birdocp.studies.gait.optimize_gait`'s ``valid``); the result carries
-    ``validity_constraints`` and its exact ``validity`` is ``valid`` unless the rounds ran out.
+    ``valid``: :func:`birdocp.studies.gait.optimize_gait`'s ``valid`` in every stage; the exact
+    ``validity`` of the result is ``valid`` unless the rounds ran out.
 
     Parameters
     ----------
@@ -281,7 +274,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
         trim from the optimum's state and a trim from scratch at the optimal gait.
     progress : bool or callable
         False (silent), True (one line per evaluation on stderr) or a callable taking that line's
-        text.
+        text (e.g. from :func:`birdocp.io.progress.progress_callback`).
     coarse_steps : int, None or "auto"
         RK4 steps per period of the coarse stage, whose optimum starts the fine one; "auto":
         :data:`COARSE_STEPS` of the method (none with aerodynamic states); None: no coarse stage.
