@@ -20,14 +20,14 @@ import time
 import casadi as ca
 import numpy as np
 
-from birdocp.engine import OrbitProblem, PeriodicODE, iter_branch
+from birdocp.engine import OrbitProblem, ODE, iter_branch
 
 
 def linear_case(steps: int) -> dict:
     x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 1)
     f = ca.Function("ns", [x, t, p], [ca.vertcat(p[0] * x[0] - 2 * x[1] + ca.sin(2 * np.pi * t),
                                                  2 * x[0] + p[0] * x[1])])
-    prob = OrbitProblem(PeriodicODE.from_rhs(f, 1.0, ("x", "y"), ("lam",)), [-0.5], [0.0, 0.0])
+    prob = OrbitProblem(ODE.from_rhs(f, 1.0, ("x", "y"), ("lam",)), [-0.5], [0.0, 0.0])
     rows = []
     for step in iter_branch(prob, "lam", -0.5, 0.5, points=3, steps_per_period=steps, error_estimate=True):
         if step.point is None:

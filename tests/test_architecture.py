@@ -124,7 +124,7 @@ def test_private_writes_check_finds_outside_writes(tmp_path):
 def test_no_private_writes_from_outside():
     """No module of birdocp/studies or birdocp/engine writes a private attribute of another object:
     state an object exposes for change has a method or an explicit object for it (a warm start:
-    :class:`birdocp.studies.gait_cycle.WarmStart`). Nothing is allowed."""
+    :class:`birdocp.studies.gait_types.WarmStart`). Nothing is allowed."""
     found = private_writes(sorted(p for layer in PRIVATE_WRITE_LAYERS for p in (PKG / layer).rglob("*.py")))
     assert not found, "\n".join(found)
 
@@ -217,12 +217,12 @@ def _engine_classes():
                 yield node.name, names, p.relative_to(ROOT)
 
 
-def test_engine_has_one_orbit_problem_method_front_and_result():
+def test_engine_has_one_ode_orbit_problem_method_front_and_result():
     """One periodic-orbit engine: one problem class (``*Problem``), one method class (``*Method`` or
     ``*Shooting``, or any class with both ``steps_per_period`` and ``solver`` fields), one result class
     (any class with both ``shooting_points`` and ``multipliers`` fields; a branch's point, which has a
-    ``parameter``, is the continuation's record) defined in engine/, and one ``solve*`` front on the
-    engine's face."""
+    ``parameter``, is the continuation's record) defined in engine/, one ODE class (``*ODE``, or any
+    class with an ``rhs`` field), and one ``solve*`` front on the engine's face."""
     import birdocp.engine as engine
 
     classes = list(_engine_classes())
@@ -234,6 +234,8 @@ def test_engine_has_one_orbit_problem_method_front_and_result():
     assert problems == ["birdocp/engine/problem.py:OrbitProblem"], problems
     assert methods == ["birdocp/engine/method.py:OrbitMethod"], methods
     assert results == ["birdocp/engine/orbit_result.py:OrbitResult"], results
+    odes = [f"{path}:{name}" for name, fields, path in classes if name.endswith("ODE") or "rhs" in fields]
+    assert odes == ["birdocp/engine/ode.py:ODE"], odes
     assert [n for n in engine.__all__ if n.startswith("solve")] == ["solve"]
     assert engine.API["orbits"]["solve"] == "birdocp.engine.orbit_front"
 

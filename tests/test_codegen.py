@@ -154,7 +154,7 @@ def test_compiled_library_is_checked_before_use(tmp_path):
 
 
 def test_compile_failure_falls_back_with_warning(tmp_path, monkeypatch):
-    from birdocp.engine.problem import PeriodicODE
+    from birdocp.engine.ode import ODE
 
     monkeypatch.setenv("BIRDOCP_CACHE", str(tmp_path / "cache"))
     monkeypatch.setenv("CC", shutil.which("false") or "false")
@@ -163,7 +163,7 @@ def test_compile_failure_falls_back_with_warning(tmp_path, monkeypatch):
     x = ca.SX.sym("x", 1)
     t = ca.SX.sym("t")
     p = ca.SX.sym("p", 1)
-    ode = PeriodicODE.from_rhs(ca.Function("f", [x, t, p], [-p * x + ca.sin(t)]), 2 * np.pi)
+    ode = ODE.from_rhs(ca.Function("f", [x, t, p], [-p * x + ca.sin(t)]), 2 * np.pi)
     with pytest.warns(CompiledFallbackWarning, match="interpreted"):
         assert compiled_ode(ode) is None
 

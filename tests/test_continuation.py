@@ -8,7 +8,8 @@ import casadi as ca
 import numpy as np
 
 from birdocp.engine.continuation import Branch, continuation
-from birdocp.engine.problem import OrbitProblem, PeriodicODE
+from birdocp.engine.problem import OrbitProblem
+from birdocp.engine.ode import ODE
 
 T = 1.0
 
@@ -18,7 +19,7 @@ def _ode(expr_fn, nx, name):
     t = ca.SX.sym("t")
     p = ca.SX.sym("p", 1)
     f = ca.Function(name, [x, t, p], [expr_fn(x, t, p[0])])
-    return PeriodicODE.from_rhs(f, T, tuple(f"x{i}" for i in range(nx)), ("lam",))
+    return ODE.from_rhs(f, T, tuple(f"x{i}" for i in range(nx)), ("lam",))
 
 
 def fold_ode():

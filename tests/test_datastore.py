@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from birdocp.engine import datastore
-from birdocp.engine.integrate import RK4Grid, accumulate, clear_stage_data, rk4_step
+from birdocp.engine.integrate import RK4Grid, clear_stage_data
+from birdocp.engine.rk4 import accumulate, rk4_step
 
 
 @pytest.fixture

@@ -10,10 +10,10 @@ from birdocp.engine.equilibria import find_equilibrium
 from birdocp.engine.lyapunov import lyapunov_exponents
 from birdocp.engine.ode import ODE
 from birdocp.engine import OrbitMethod, OrbitProblem, solve
-from birdocp.engine.problem import MeanCondition, PeriodicODE
+from birdocp.engine.problem import MeanCondition
 
 x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 1)
-FORCED = PeriodicODE.from_rhs(ca.Function("f", [x, t, p], [ca.vertcat(x[1], -0.3 * x[1] - x[0] + p * ca.cos(t))]),
+FORCED = ODE.from_rhs(ca.Function("f", [x, t, p], [ca.vertcat(x[1], -0.3 * x[1] - x[0] + p * ca.cos(t))]),
                               2 * np.pi, ("x", "v"), ("F",))
 VDP = ODE.from_function(lambda x, t, p: ca.vertcat(x[1], p[0] * (1 - x[0] ** 2) * x[1] - x[0]), nx=2, params=("mu",))
 
@@ -117,8 +117,8 @@ def test_floquet_hopf_and_branch_starts_refuse_bad_input():
         floquet(FORCED, [0.0], [0.5], m)
     with pytest.raises(ValueError, match=r"floquet p: size 2, the ODE has np=1"):  # was a CasADi call error
         floquet(FORCED, [0.0, 0.0], [0.5, 1.0], m)
-    with pytest.raises(ValueError, match=r"period_s must be a positive number, got 'abc'"):
-        PeriodicODE.from_rhs(FORCED.rhs, "abc")
+    with pytest.raises(ValueError, match=r"forcing_period must be a positive number, got 'abc'"):
+        ODE.from_rhs(FORCED.rhs, "abc")
     sl = ODE.from_function(lambda x, t, p: ca.vertcat(p[0] * x[0] - x[1] - x[0] * (x[0] ** 2 + x[1] ** 2),
                                                       x[0] + p[0] * x[1] - x[1] * (x[0] ** 2 + x[1] ** 2)),
                            nx=2, params=("mu",))

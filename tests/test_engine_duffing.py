@@ -7,7 +7,8 @@ import pytest
 
 from birdocp.engine.shooting import floquet
 from birdocp.engine.integrate import RK4Grid, simulate
-from birdocp.engine.problem import OrbitProblem, PeriodicODE
+from birdocp.engine.problem import OrbitProblem
+from birdocp.engine.ode import ODE
 from birdocp.engine import OrbitMethod, solve
 
 OMEGA = 1.3
@@ -20,12 +21,12 @@ def duffing():
     p = ca.SX.sym("p", 4)  # c, k, beta, F
     c, k, beta, F = p[0], p[1], p[2], p[3]
     xdot = ca.vertcat(x[1], -c * x[1] - k * x[0] - beta * x[0] ** 3 + F * ca.cos(OMEGA * t))
-    return PeriodicODE.from_rhs(ca.Function("duffing", [x, t, p], [xdot]), T, ("x", "v"), ("c", "k", "beta", "F"))
+    return ODE.from_rhs(ca.Function("duffing", [x, t, p], [xdot]), T, ("x", "v"), ("c", "k", "beta", "F"))
 
 
-ODE = duffing()
+FORCED_ODE = duffing()
 P = np.array([0.25, 1.0, 0.8, 0.6])
-PROB = OrbitProblem(ODE, P, np.array([0.5, 0.0]))
+PROB = OrbitProblem(FORCED_ODE, P, np.array([0.5, 0.0]))
 
 
 def test_rk4_order_of_multipliers():
@@ -65,7 +66,7 @@ def test_monodromy_against_finite_differences():
     m = OrbitMethod(points=5, steps_per_period=200, tol=1e-12)
     r = solve(PROB, m)
     assert r.success
-    grid = RK4Grid(ODE, 200, 1)
+    grid = RK4Grid(FORCED_ODE, 200, 1)
     D = grid.blocks_numeric(0.0, r.p)
     pd = ca.DM(r.p)
 
@@ -78,11 +79,11 @@ def test_monodromy_against_finite_differences():
     assert r.monodromy_vs_full_period_jacobian < 1e-12
     # periodicity of the solution under the plain integrator
     assert np.max(np.abs(phi(r.x0) - r.x0)) < 1e-9
-    t, X = simulate(ODE, r.x0, r.p, steps_per_period=200, n_periods=2)
+    t, X = simulate(FORCED_ODE, r.x0, r.p, steps_per_period=200, n_periods=2)
     assert np.max(np.abs(X[200] - r.x0)) < 1e-9 and np.max(np.abs(X[400] - r.x0)) < 1e-8
     assert np.allclose(X[:201], r.trajectory_x, atol=1e-9)
     # the standalone analysis, shooting points from integrating forward
-    fr = floquet(ODE, r.x0, r.p, m)
+    fr = floquet(FORCED_ODE, r.x0, r.p, m)
     assert np.max(np.abs(fr.monodromy - r.monodromy)) < 1e-9
 
 
@@ -102,7 +103,7 @@ def _nan_ode():
     x = ca.SX.sym("x", 2)
     t = ca.SX.sym("t")
     p = ca.SX.sym("p", 1)
-    return PeriodicODE.from_rhs(ca.Function("bad", [x, t, p], [ca.vertcat(ca.sqrt(x[0]) , -x[1] + ca.cos(t))]), T)
+    return ODE.from_rhs(ca.Function("bad", [x, t, p], [ca.vertcat(ca.sqrt(x[0]) , -x[1] + ca.cos(t))]), T)
 
 
 @pytest.mark.parametrize("solver", ["ipopt", "lm"])
@@ -144,7 +145,7 @@ def test_staged_variational_step_equals_the_whole_step():
     models) gives the whole step's state, sensitivity, output integral and its sensitivity to round-off."""
     xs, ds, ps = ca.SX.sym("x", 2), ca.SX.sym("d", 1), ca.SX.sym("p", 4)
     out = ca.Function("energy", [xs, ds, ps], [ca.vertcat(xs[0] ** 2 * ps[1] + xs[1] ** 4, ca.sin(ds) * xs[1])])
-    grid = RK4Grid(ODE, 40, 1, outputs=(out,))
+    grid = RK4Grid(FORCED_ODE, 40, 1, outputs=(out,))
     whole = grid.variational_step(h_input=True)
     staged = grid.staged_variational_step(grid.rhs_tangent())
     rng = np.random.default_rng(3)

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from birdocp.engine import interrupts, oracle, shooting
-from birdocp.engine.problem import OrbitProblem, PeriodicODE
+from birdocp.engine.problem import OrbitProblem
+from birdocp.engine.ode import ODE
 from birdocp.engine import OrbitMethod, solve
 
 T = 1.0
@@ -22,11 +23,11 @@ def stiff_ode(k: float = 50.0):
     t = ca.SX.sym("t")
     p = ca.SX.sym("p", 1)
     f = ca.Function("f", [x, t, p], [-p[0] * x ** 3 + p[0] * ca.cos(2 * np.pi * t / T)])
-    return PeriodicODE.from_rhs(f, T, state_names=("x",), param_names=("k",)), np.array([k])
+    return ODE.from_rhs(f, T, state_names=("x",), param_names=("k",)), np.array([k])
 
 
-ODE, P = stiff_ode()
-PROBLEM = OrbitProblem(ODE, P, np.array([0.3]))
+FORCED_ODE, P = stiff_ode()
+PROBLEM = OrbitProblem(FORCED_ODE, P, np.array([0.3]))
 
 
 def test_loose_ipopt_success_with_a_large_residual_is_not_converged():
@@ -52,10 +53,10 @@ def test_loose_ipopt_success_with_a_large_residual_is_not_converged():
 def test_non_finite_problem_is_never_success():
     # a non-finite parameter is bad input, refused before any solve ...
     with pytest.raises(ValueError, match=r"OrbitProblem\.p must be finite"):
-        OrbitProblem(ODE, np.array([np.inf]), np.array([0.3]))
+        OrbitProblem(FORCED_ODE, np.array([np.inf]), np.array([0.3]))
     # ... and a problem whose flow blows up within the period (x' = 50 x^3 - ..., from x = 3) is a
     # failure, never a success
-    r = solve(OrbitProblem(ODE, np.array([-50.0]), np.array([3.0])), OrbitMethod(points=3, steps_per_period=60))
+    r = solve(OrbitProblem(FORCED_ODE, np.array([-50.0]), np.array([3.0])), OrbitMethod(points=3, steps_per_period=60))
     assert r.success is False and r.status != "Solve_Succeeded"
 
 

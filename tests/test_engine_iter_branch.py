@@ -65,7 +65,7 @@ def test_equilibria_through_the_same_front_hopf_at_zero():
 
 
 def test_iter_branch_refuses_what_it_cannot_follow():
-    with pytest.raises(TypeError, match="OrbitProblem of a PeriodicODE or an ODE"):
+    with pytest.raises(TypeError, match="OrbitProblem of an ODE with data or an ODE"):
         iter_branch("not a problem", "mu", 0.0, 1.0)
     with pytest.raises(ValueError, match="start="):
         iter_branch(SL, "mu", 0.0, 1.0)
@@ -119,23 +119,23 @@ def test_bird_branch_and_trim_carry_the_same_error_estimate_through_the_cli(tmp_
 
 
 def test_forced_and_any_ode_problems_give_the_one_result_type_with_the_same_names():
-    """x'' + x'/2 + x = cos t posed both ways (a PeriodicODE: data-split multiple shooting with mean
+    """x'' + x'/2 + x = cos t posed both ways (an ODE with data: data-split multiple shooting with mean
     conditions; an ODE: time scaled by the period) through the one front: both results are
     OrbitResults of their formulation, and the shared names agree (x = 2 sin t exactly; period 2 pi;
     multipliers exp(eig(A) 2 pi)); each JSON leaves out what its formulation does not compute."""
     import casadi as ca
 
-    from birdocp.engine import OrbitMethod, OrbitProblem, OrbitResult, PeriodicODE, solve
+    from birdocp.engine import OrbitMethod, OrbitProblem, OrbitResult, ODE, solve
     from birdocp.engine.orbit_result import JSON_OMITS
 
     x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 1)
     f = ca.Function("f", [x, t, p], [ca.vertcat(x[1], -p[0] * x[1] - x[0] + ca.cos(t))])
-    forced = solve(OrbitProblem(PeriodicODE.from_rhs(f, 2 * np.pi), p=[0.5], x_guess=[0, 0]),
+    forced = solve(OrbitProblem(ODE.from_rhs(f, 2 * np.pi), p=[0.5], x_guess=[0, 0]),
                    OrbitMethod(points=3, steps_per_period=120))
     ode = ODE.from_function(lambda x, t, p: [x[1], -p[0] * x[1] - x[0] + ca.cos(t)], 2, ("c",),
                             forcing_period=2 * np.pi)
     anyode = solve(OrbitProblem(ode, [0.5], [0.0, 1.5]), OrbitMethod(points=3, steps_per_period=120))
-    assert (forced.formulation, anyode.formulation) == ("periodic_ode", "ode")
+    assert (forced.formulation, anyode.formulation) == ("data_split", "time_scaled")
     assert forced.success and anyode.success
     lam_exact = np.exp(np.linalg.eigvals(np.array([[0.0, 1.0], [-1.0, -0.5]])) * 2 * np.pi)
     for r in (forced, anyode):

@@ -11,7 +11,8 @@ import pytest
 import scipy.linalg as sl
 
 from birdocp.engine.shooting import floquet
-from birdocp.engine.problem import OrbitProblem, MeanCondition, PeriodicODE
+from birdocp.engine.problem import OrbitProblem, MeanCondition
+from birdocp.engine.ode import ODE
 from birdocp.engine import OrbitMethod, solve
 
 T = 1.7
@@ -50,7 +51,7 @@ def linear_ode_plain(A):
     t = ca.SX.sym("t")
     p = ca.SX.sym("p", 2)
     f = ca.Function("f", [x, t, p], [ca.mtimes(ca.DM(A), x) + ca.vertcat(*forcing(t, p, ca))])
-    return PeriodicODE.from_rhs(f, T, state_names=("a", "b", "c", "d"), param_names=("amp", "bias"))
+    return ODE.from_rhs(f, T, state_names=("a", "b", "c", "d"), param_names=("amp", "bias"))
 
 
 def linear_ode_split(A):
@@ -61,7 +62,7 @@ def linear_ode_split(A):
     t = ca.SX.sym("t")
     rhs = ca.Function("rhs", [x, d, p], [ca.mtimes(ca.DM(A), x) + ca.vertcat(p[0] * d[0], d[1], d[2], p[1])])
     data = ca.Function("data", [t, p], [ca.vertcat(ca.sin(W * t), ca.cos(W * t), ca.sin(2 * W * t))])
-    return PeriodicODE(rhs, data, T, param_names=("amp", "bias"))
+    return ODE(rhs, data, T, param_names=("amp", "bias"))
 
 
 ODES = {u: linear_ode_plain(make_A(u)) for u in (False, True)}

@@ -6,7 +6,8 @@ import scipy.linalg as sl
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from birdocp.engine.problem import OrbitProblem, PeriodicODE
+from birdocp.engine.problem import OrbitProblem
+from birdocp.engine.ode import ODE
 from birdocp.engine import OrbitMethod, solve
 
 T = 1.0
@@ -30,7 +31,7 @@ def test_random_linear_system(eig, seed, M, solver):
     t = ca.SX.sym("t")
     p = ca.SX.sym("p", 0)
     f = ca.Function("f", [x, t, p], [ca.mtimes(ca.DM(A), x) + ca.DM(c) * ca.sin(W * t) + ca.DM(b0)])
-    ode = PeriodicODE.from_rhs(f, T)
+    ode = ODE.from_rhs(f, T)
     r = solve(OrbitProblem(ode, np.zeros(0), np.zeros(3)),
               OrbitMethod(points=M, steps_per_period=240, solver=solver, tol=1e-11))
     assert r.success, r.message

@@ -18,7 +18,7 @@ from scipy.integrate import solve_ivp
 from birdocp.bird import inertia
 from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, with_values
 from birdocp.bird.model import N_DATA, N_MASS, get_model, unpack_mass
-from birdocp.engine.problem import PeriodicODE
+from birdocp.engine.ode import ODE
 from birdocp.engine.integrate import simulate
 
 WING = 0.086  # kg per wing (spec inertia.md 8)
@@ -82,7 +82,7 @@ def _augmented(m, p):
     P_sh = m.wing_power_d(xs, d, ps)[1]
     rhs = ca.Function("rhs_aug", [x, d, ps], [ca.vertcat(m.rhs(xs, d, ps), u * ca.cos(th) + w * ca.sin(th),
                                                          u * ca.sin(th) - w * ca.cos(th), P_sh)])
-    return PeriodicODE(rhs, m.data, m.ode.period_s)
+    return ODE(rhs, m.data, m.ode.forcing_period)
 
 
 def _brute(m, p, t, y):

@@ -72,7 +72,7 @@ def test_frozen_attached_wing_multipliers_are_the_glide_eigenvalues(cfg, glide):
     p6 = six.params(param_vector(cfg), LateralInertia.of(cfg))
     x0 = np.append(list(glide["state"].values()), 0.0)
     fl = floquet(six.ode, x0, p6, OrbitMethod(points=3, steps_per_period=600))
-    ln = np.sort_complex(np.log(fl.multipliers.astype(complex)) / six.ode.period_s)
+    ln = np.sort_complex(np.log(fl.multipliers.astype(complex)) / six.ode.forcing_period)
     lam = np.sort_complex(np.append([complex(*z) for z in glide["eigenvalues"]], 0.0))
     np.testing.assert_allclose(ln.real, lam.real, rtol=1e-6, atol=1e-6)
     np.testing.assert_allclose(np.abs(ln.imag), np.abs(lam.imag), rtol=1e-6, atol=1e-6)

@@ -131,7 +131,7 @@ def _tiny_instances() -> dict:
                         None, 1e-12, {"vertical_speed_mps": 0.0, "forward_speed_mps": 18.0},
                         monodromy=np.eye(4), multipliers=lam, eigenvectors=np.eye(4, dtype=complex),
                         floquet_exponents=np.log(lam) / 0.25, doubling_times_s=np.array([0.1, -1, -1, np.inf]),
-                        stable=False, period=0.125, formulation="periodic_ode")
+                        stable=False, period=0.125, formulation="data_split")
     trim = TrimResult(cycle, Config())
     trim.__dict__["_validity"] = validity
     point = BranchPoint(0.1, [1.0, 2.0], [[1.0, 2.0]], {}, [[0.5, 0.0]], [0.5], True, {}, 0.0, 1.0, 2, 1e-12,

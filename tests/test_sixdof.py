@@ -84,7 +84,7 @@ def test_frozen_wing_multipliers_are_the_glide_eigenvalues(default_config):
     fv, J = (np.array(v) for v in F(xe))
     assert np.abs(fv).max() < 1e-10
     lam = np.sort_complex(np.append(np.linalg.eigvals(J), 0.0))
-    T = six.ode.period_s
+    T = six.ode.forcing_period
     fl = floquet(six.ode, np.append(xe, 0.0), p6, OrbitMethod(points=3, steps_per_period=600))
     ln = np.sort_complex(np.log(fl.multipliers.astype(complex)) / T)
     np.testing.assert_allclose(ln.real, lam.real, rtol=1e-6, atol=1e-6)

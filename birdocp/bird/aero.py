@@ -48,7 +48,9 @@ def induced_matrices(centres, nodes, collocation="quarter", chord=None, c_hat=No
     Returns
     -------
     tuple of casadi.SX
-        ``(Vx, Vy, K)``, see above.
+        ``(Vx, Vy, K)``, each 16 x 16: ``Vx[j, m]`` and ``Vy[j, m]`` the e1 and e2 components [1/m]
+        of the velocity induced at centre j by a unit circulation Gamma_m of element m, and
+        ``K[j, m]`` the downwash (the induced velocity along the section normal d_j) per unit Gamma_m.
     """
     n_c, n_n = len(centres), len(nodes)
     # Tube strengths from circulations: gamma = D Gamma (17 x 16).
@@ -337,7 +339,10 @@ def inflow(state, r, v_kin, c_hat, up, tau, Wx, Wy):
     Returns
     -------
     tuple of casadi.SX
-        ``(V, |Vp|, alpha, vind)``, see above.
+        ``(V, |Vp|, alpha, vind)``: ``V`` (3 x n) the relative air velocity [m/s] at the centres
+        without the induced velocity, ``|Vp|`` (1 x n) its speed in the section plane [m/s],
+        ``alpha`` (1 x n) its geometric angle of attack [rad], ``vind`` (3 x n) the induced velocity
+        ``(Wx q, Wy q, 0)`` [m/s] with ``q = |Vp| alpha``.
     """
     V = _body_velocity(state, r, v_kin)
     Vp_norm, alpha, vind = _inflow_from_velocity(V, c_hat, up, tau, Wx, Wy)

@@ -25,7 +25,7 @@ from birdocp.bird.layout import (DATA_BLOCKS, DATA_OFFSETS, N_DATA, N_EL, N_MASS
 from birdocp.bird.loads import load_terms, section_terms, unsteady_data_offset  # noqa: F401
 from birdocp.engine.cache import register_cache
 from birdocp.engine.lazy import LazyFunction
-from birdocp.engine.problem import PeriodicODE
+from birdocp.engine.ode import ODE
 
 GRAPH_FUNCTIONS = ("pre", "post", "rhs", "data", "geometry", "loads_d", "detail_d", "rhs_wind",
                    "loads_wind")
@@ -87,7 +87,7 @@ class BirdModel:
       attack) composed in MX;
     * with wing masses, ``mass_points(t, p)`` and ``wing_power_d(x, d, p)`` (else None).
 
-    ``ode`` (the :class:`~birdocp.engine.problem.PeriodicODE` the engine solves) has the data as the
+    ``ode`` (the :class:`~birdocp.engine.ode.ODE` the engine solves) has the data as the
     MX composition of ``pre`` and ``post`` (the same numbers as ``data``).
 
     ``graph_source`` says where the graphs came from: ``"built"``, ``"cache"`` (read) or
@@ -142,7 +142,7 @@ class BirdModel:
                     "size_out": [list(self.post.size_out(0))]}
         data_mx = LazyFunction(self._compose_data, data_sig) if isinstance(self.pre, LazyFunction) \
             else self._compose_data()
-        self.ode = PeriodicODE(rhs=self.rhs, data=data_mx, period_s=self.period_s,
+        self.ode = ODE(rhs=self.rhs, data=data_mx, forcing_period=self.period_s,
                                state_names=structure.state_names, param_names=PARAM_NAMES,
                                pre=self.pre, post=self.post, pre_params=self.pre_params,
                                graph_key=graphcache.key_digest(key) if use_cache else "")

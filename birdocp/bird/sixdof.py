@@ -57,7 +57,7 @@ from birdocp.bird.loads import unsteady_params, unsteady_data_offset
 from birdocp.bird.model import N_DATA, N_EL, BirdModel, Structure, get_model, unpack_data
 from birdocp.bird.sides import SIDE_PARAM_NAMES, side_data_functions
 from birdocp.engine.cache import owned_cache
-from birdocp.engine.problem import PeriodicODE
+from birdocp.engine.ode import ODE
 
 __all__ = ["rhs_expression", "SectionLaw", "STATE_NAMES", "LONGITUDINAL", "LATERAL", "HEADING", "LATERAL_PARAM_NAMES", "LateralInertia",
            "SixDofModel", "sixdof_model", "embed_planar_state", "body_loads", "drag_terms", "air_velocity",
@@ -398,7 +398,7 @@ def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None, sec
 class SixDofModel:
     """The six-degree-of-freedom ODE of one planar :class:`~birdocp.bird.model.Structure`.
 
-    ``ode`` is the :class:`~birdocp.engine.problem.PeriodicODE` the engine solves: state
+    ``ode`` is the :class:`~birdocp.engine.ode.ODE` the engine solves: state
     :data:`STATE_NAMES`, parameters :data:`~birdocp.bird.config.PARAM_NAMES` +
     :data:`LATERAL_PARAM_NAMES`, the planar model's data (its ``pre``/``post`` split kept);
     ``rhs(x, d, p)`` and ``loads_d(x, d, p) -> (X, Y, Z, L, M, N)`` are SX Functions built once;
@@ -447,16 +447,16 @@ class SixDofModel:
             pre_params = planar.pre_params
         self.data = data
         self.period_s = planar.period_s
-        self.ode = PeriodicODE(rhs=self.rhs, data=data, period_s=planar.period_s, state_names=self.state_names,
+        self.ode = ODE(rhs=self.rhs, data=data, forcing_period=planar.period_s, state_names=self.state_names,
                                param_names=names, pre=pre, post=post, pre_params=pre_params)
         # the heading excluded (nothing depends on it): the ODE of a cycle periodic up to its heading
         x8 = ca.SX.sym("x", 8 + n_sec)
         f8 = rhs_expression(ca.vertcat(x8[:HEADING], 0, x8[HEADING:]), d, p6, structure=structure, section=self.section)
         rhs8 = ca.Function("rhs6_no_heading", [x8, d, p6], [ca.vertcat(f8[:HEADING], f8[HEADING + 1:])],
                            ["x", "d", "p"], ["xdot"])
-        self.ode_no_heading = PeriodicODE(rhs=rhs8, data=data, period_s=planar.period_s,
-                                          state_names=self.state_names[:HEADING] + self.state_names[HEADING + 1:],
-                                          param_names=names, pre=pre, post=post, pre_params=pre_params)
+        self.ode_no_heading = ODE(rhs=rhs8, data=data, forcing_period=planar.period_s,
+                                  state_names=self.state_names[:HEADING] + self.state_names[HEADING + 1:],
+                                  param_names=names, pre=pre, post=post, pre_params=pre_params)
 
     @property
     def model(self) -> "SixDofModel":

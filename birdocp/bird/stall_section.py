@@ -77,7 +77,8 @@ def _lift_slope(alpha, f, cla, cd90, alpha1, total):
 # Time-only data of the unsteady terms (per element; appended to the bird's data vector).
 def lu_solve(A, b):
     """x = A^-1 b by Gaussian elimination without pivoting, written out in SX (about n^3/3
-    multiply-adds: a third of a symbolic QR). For the lifting-line matrices I + D K, whose eigenvalues
+    multiply-adds: a third of a symbolic QR): the factors of :func:`_lu_factors`, then the
+    substitutions of :func:`factored_solve`. For the lifting-line matrices I + D K, whose eigenvalues
     keep a positive real part (docs/model_unsteady.md, well-posedness); no branches on the values.
 
     Parameters
@@ -91,28 +92,12 @@ def lu_solve(A, b):
     -------
     casadi.SX
     """
-    n = A.shape[0]
-    a = [[A[i, j] for j in range(n)] for i in range(n)]
-    y = [b[i] for i in range(n)]
-    for k in range(n):
-        inv = 1.0 / a[k][k]
-        for i in range(k + 1, n):
-            m = a[i][k] * inv
-            for j in range(k + 1, n):
-                a[i][j] = a[i][j] - m * a[k][j]
-            y[i] = y[i] - m * y[k]
-    x = [None] * n
-    for i in reversed(range(n)):
-        acc = y[i]
-        for j in range(i + 1, n):
-            acc = acc - a[i][j] * x[j]
-        x[i] = acc / a[i][i]
-    return ca.vertcat(*x)
+    return factored_solve(_lu_factors(A), b)
 
 
-def _lu_factors(A) -> list:
-    """The elimination of :func:`lu_solve` on A alone: rows of U (upper triangle) with the multipliers
-    below the diagonal, as nested lists of expressions."""
+def _lu_factors(A) -> ca.SX:
+    """Gaussian elimination without pivoting on A alone: the packed factors (n x n), U on and above
+    the diagonal, the multipliers (the unit lower triangle) below."""
     n = A.shape[0]
     a = [[A[i, j] for j in range(n)] for i in range(n)]
     for k in range(n):
@@ -122,7 +107,7 @@ def _lu_factors(A) -> list:
             for j in range(k + 1, n):
                 a[i][j] = a[i][j] - m * a[k][j]
             a[i][k] = m
-    return a
+    return ca.vertcat(*[ca.horzcat(*row) for row in a])
 
 
 @functools.lru_cache(maxsize=8)
@@ -130,17 +115,15 @@ def _frozen_factorization(n: int) -> ca.Function:
     """A (n x n) -> its :func:`_lu_factors` (multipliers below the diagonal, U on and above), as a
     Function called (never inlined) with its derivative declared zero: the Newton matrix held fixed."""
     A = ca.SX.sym("A", n, n)
-    a = _lu_factors(A)
-    F = ca.vertcat(*[ca.horzcat(*row) for row in a])
-    return ca.Function(f"frozen_lu_{n}", [A], [F], {"never_inline": True, "is_diff_in": [False]})
+    return ca.Function(f"frozen_lu_{n}", [A], [_lu_factors(A)], {"never_inline": True, "is_diff_in": [False]})
 
 
 register_cache("bird.stall_frozen_factorizations", _frozen_factorization)  # one called Function per size
 
 
 def factored_solve(F, b):
-    """x = A^-1 b from the factors F of :func:`_lu_factors` (the same operations, in the same order, as
-    :func:`lu_solve`; about n^2 multiply-adds).
+    """x = A^-1 b from the factors F of :func:`_lu_factors`: the forward and the back substitution
+    (about n^2 multiply-adds).
 
     Parameters
     ----------

@@ -377,7 +377,7 @@ def periodic_validity(cfg: Config, x0, p=None, t0_s: float = 0.0, steps_per_peri
         The time of ``x0`` [s].
     steps_per_period : int, optional
         RK4 steps of the period integrated.
-    ode : PeriodicODE, optional
+    ode : ODE, optional
         The ODE to integrate with (default the model's).
 
     Returns
@@ -443,7 +443,7 @@ def grid_validity(cfg: Config, x, p=None, t0_s: float = 0.0, steps_per_period: i
         Time of the first state [s].
     steps_per_period : int, optional
         N.
-    ode : PeriodicODE, optional
+    ode : ODE, optional
         The ODE (the model's or its compiled twin).
 
     Returns

@@ -2,8 +2,8 @@
 
 It knows nothing of birds (casadi, numpy and the standard library only). The names below are
 importable from here (``from birdocp.engine import OrbitProblem, solve``), loaded on first use
-(PEP 562), so importing the package costs nothing. One problem type (:class:`OrbitProblem`, of a
-:class:`PeriodicODE` or an :class:`ODE`), one method type (:class:`OrbitMethod`), one front
+(PEP 562), so importing the package costs nothing. One problem type (:class:`OrbitProblem`, of an
+:class:`ODE`, forced or autonomous), one method type (:class:`OrbitMethod`), one front
 (:func:`solve`), one result type (:class:`OrbitResult`).
 
 Examples
@@ -12,10 +12,10 @@ A forced linear oscillator ``x'' + c x' + x = cos(t)``: its periodic orbit is kn
 and its multipliers are ``exp(eig(A) T)``.
 
 >>> import casadi as ca, numpy as np
->>> from birdocp.engine import OrbitMethod, OrbitProblem, PeriodicODE, solve
+>>> from birdocp.engine import OrbitMethod, OrbitProblem, ODE, solve
 >>> x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 1)
 >>> f = ca.Function("f", [x, t, p], [ca.vertcat(x[1], -p[0] * x[1] - x[0] + ca.cos(t))])
->>> res = solve(OrbitProblem(PeriodicODE.from_rhs(f, 2 * np.pi), p=[0.5], x_guess=[0, 0]),
+>>> res = solve(OrbitProblem(ODE.from_rhs(f, 2 * np.pi), p=[0.5], x_guess=[0, 0]),
 ...             OrbitMethod(points=3, steps_per_period=60))
 >>> bool(res.success), bool(res.stable)
 (True, True)
@@ -28,7 +28,7 @@ True
 # like one of the engine's modules cannot be a face name (the module attribute that the import system
 # sets would shadow it): shooting.floquet and continuation.continuation stay in their modules.
 API = {
-    "problems": {"OrbitProblem": "birdocp.engine.problem", "PeriodicODE": "birdocp.engine.problem",
+    "problems": {"OrbitProblem": "birdocp.engine.problem",
                  "ODE": "birdocp.engine.ode", "MeanCondition": "birdocp.engine.problem"},
     "orbits": {"solve": "birdocp.engine.orbit_front", "OrbitMethod": "birdocp.engine.method",
                "OrbitResult": "birdocp.engine.orbit_result", "FloquetResult": "birdocp.engine.floquet"},

@@ -1,7 +1,7 @@
 """On-disk store of numeric arrays that are expensive to compute and depend on a few numbers only.
 
 The engine keeps here the values of an ODE's ``pre(t, p)`` on a stage-time grid (see
-:class:`birdocp.engine.problem.PeriodicODE`, ``graph_key``): for the bird, the wing's shape in the
+:class:`birdocp.engine.ode.ODE`, ``graph_key``): for the bird, the wing's shape in the
 arm frame at the 2N+1 RK4 stage times, 0.2 s to evaluate and the same in every process that flies
 the same wing. A later process reads it back in about a millisecond.
 

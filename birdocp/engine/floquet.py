@@ -1,4 +1,4 @@
-"""Floquet analysis of a periodic orbit of a (forced, non-autonomous) PeriodicODE.
+"""Floquet analysis of a periodic orbit of a (forced, non-autonomous) ODE.
 
 The monodromy matrix is the product of the segment Jacobians J_{M-2} ... J_0 (exact CasADi forward
 AD through the RK4 steps) evaluated at the shooting points; as an accuracy indicator it is compared

@@ -1,4 +1,4 @@
-"""Fixed-step RK4 on a :class:`~birdocp.engine.problem.PeriodicODE`, as CasADi Functions.
+"""Fixed-step RK4 on a :class:`~birdocp.engine.ode.ODE`, as CasADi Functions.
 
 Layout of the data (the time-dependent vector d(t, p)):
 
@@ -22,16 +22,12 @@ import numpy as np
 
 from birdocp.engine import datastore
 from birdocp.engine.cache import bounded_cache
+from birdocp.engine.ode import ODE
 from birdocp.engine.period_jacobian import PeriodJacobianFromFirst
-from birdocp.engine.problem import PeriodicODE
+from birdocp.engine.rk4 import accumulate, column_blocks, rk4_step, rk4_update
 from birdocp.engine.stage_grid import stage_block_index, stage_time_grid  # noqa: F401 (re-exported)
 
 __all__ = [
-    "rk4_update",
-    "rk4_step",
-    "accumulate",
-    "column_blocks",
-    "MAPACCUM_CHUNK",
     "stage_time_grid",
     "stage_block_index",
     "RK4Grid",
@@ -50,138 +46,6 @@ def clear_stage_data() -> None:
     """Forget the memoised stage data of every grid (the next solve evaluates the data again; the
     on-disk store of pre values is not touched)."""
     _DATA_VALUES.clear()
-
-
-def rk4_update(f, x, D3, h, *args):
-    """One classical RK4 step of ``x' = f(x, d, *args)`` with the data at the stage times
-    ``D3 = [d(t), d(t + h/2), d(t + h)]``: the one RK4 formula of the package (shooting, simulation,
-    C export). Returns ``(x_next, (x1, x2, x3, x4))``, the stage states for quadratures.
-
-    Parameters
-    ----------
-    f : callable
-        ``f(x, d, *args) -> x'``.
-    x : casadi.SX or MX
-        State at t.
-    D3 : casadi.SX or MX
-        Data at the three stage times (3 columns).
-    h : casadi.SX or float
-        Step [s].
-    *args
-        Further arguments of ``f``.
-
-    Returns
-    -------
-    tuple
-        ``(x_next, (x1, x2, x3, x4))``.
-    """
-    d0, dm, d1 = D3[:, 0], D3[:, 1], D3[:, 2]
-    x1 = x
-    k1 = f(x1, d0, *args)
-    x2 = x + h / 2 * k1
-    k2 = f(x2, dm, *args)
-    x3 = x + h / 2 * k2
-    k3 = f(x3, dm, *args)
-    x4 = x + h * k3
-    k4 = f(x4, d1, *args)
-    return x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4), (x1, x2, x3, x4)
-
-
-def rk4_step(ode: PeriodicODE, outputs=()) -> ca.Function:
-    """One RK4 step ``step(x, D3, p, h) -> (x_next, q_inc)``; D3 = [d(t), d(t+h/2), d(t+h)].
-
-    ``q_inc`` (nq x 1) is the RK4 increment of the integral of each output in ``outputs`` (an output
-    may return a column: its entries are integrated together, in order).
-
-    Parameters
-    ----------
-    ode : PeriodicODE
-        System.
-    outputs : sequence of casadi.Function
-        Outputs integrated along the step.
-
-    Returns
-    -------
-    casadi.Function
-    """
-    nx, nd, np_ = ode.nx, ode.nd, ode.np
-    x = ca.SX.sym("x", nx)
-    D3 = ca.SX.sym("D3", nd, 3)
-    p = ca.SX.sym("p", np_)
-    h = ca.SX.sym("h")
-    xn, (x1, x2, x3, x4) = rk4_update(ode.rhs, x, D3, h, p)
-    d0, dm, d1 = D3[:, 0], D3[:, 1], D3[:, 2]
-    qs = []
-    for g in outputs:
-        qs.append(h / 6 * (g(x1, d0, p) + 2 * g(x2, dm, p) + 2 * g(x3, dm, p) + g(x4, d1, p)))
-    q = ca.vertcat(*qs) if qs else ca.SX(0, 1)
-    return ca.Function("rk4_step", [x, D3, p, h], [xn, q], ["x", "D3", "p", "h"], ["xn", "q"])
-
-
-MAPACCUM_CHUNK = 74
-"""Longest ``mapaccum`` built in one piece. CasADi's ``mapaccum`` of the bird's RK4 step took 0.16 s to
-build at 148 steps against 0.01 s at 37 or 74 (measured, CasADi 3.8.2); longer runs are chained chunks,
-the same steps in the same order (results bit-identical)."""
-
-
-def accumulate(f: ca.Function, n: int, x, D, *args, name: str = "acc") -> list:
-    """``f.mapaccum(n)(x, D, *args)`` for a step ``f(x, D3, *args) -> (x_next, ...)``: n steps, the
-    state fed back, D holding 3 data columns per step, ``args`` the same at every step. Returns the
-    outputs hstacked over the n steps (as ``mapaccum``), built in chunks of at most
-    :data:`MAPACCUM_CHUNK` steps.
-
-    Parameters
-    ----------
-    f : casadi.Function
-        One step.
-    n : int
-        Number of steps.
-    x : casadi.MX
-        Initial state.
-    D : casadi.MX
-        Data, 3 columns per step.
-    *args
-        Further inputs of ``f``, the same at every step.
-    name : str
-        Name of the mapaccum Functions.
-
-    Returns
-    -------
-    list of casadi.MX
-    """
-    n = int(n)
-    k = max(d for d in range(1, min(n, MAPACCUM_CHUNK) + 1) if n % d == 0)
-    if k == n or k < 8:  # short, or no useful divisor (e.g. a prime count of steps): one piece
-        return f.mapaccum(name, n).call([x, D, *args])
-    acc = f.mapaccum(name, k)
-    parts, xi = [], x
-    for c, Dc in enumerate(column_blocks(D, n // k)):
-        out = acc.call([xi, Dc, *args])
-        parts.append(out)
-        xi = out[0][:, -1]
-    return [ca.horzcat(*[o[i] for o in parts]) for i in range(len(parts[0]))]
-
-
-def column_blocks(D, count: int) -> list:
-    """``D`` cut into ``count`` blocks of equal column counts, left to right (one ``horzsplit`` node:
-    slicing an MX column range builds an index list of every nonzero, ~3 ms per block of the bird's
-    stage data).
-
-    Parameters
-    ----------
-    D : casadi.MX
-        Matrix whose column count is a multiple of ``count``.
-    count : int
-        Number of blocks.
-
-    Returns
-    -------
-    list of casadi.MX
-    """
-    n = D.size2()
-    if n % count:
-        raise ValueError(f"{n} columns do not split into {count} equal blocks")
-    return ca.horzsplit(D, list(range(0, n + 1, n // count)))
 
 
 class RK4Grid:
@@ -208,14 +72,14 @@ class RK4Grid:
     x0 (chain rule: the exact Jacobian of the one-period map, as one forward-AD pass through it).
     """
 
-    def __init__(self, ode: PeriodicODE, steps_per_period: int, n_segments: int, outputs=()):
+    def __init__(self, ode: ODE, steps_per_period: int, n_segments: int, outputs=()):
         if steps_per_period % n_segments:
             raise ValueError("steps_per_period must be a multiple of the number of segments (points - 1)")
         self.ode = ode
         self.N = int(steps_per_period)
         self.S = int(n_segments)
         self.n = self.N // self.S
-        self.h = ode.period_s / self.N
+        self.h = ode.forcing_period / self.N
         self.nq = sum(int(g.numel_out(0)) for g in outputs)  # an output may be a column
         self._outputs = tuple(outputs)
         self._pre_grid = self._post_grid = None
@@ -297,7 +161,14 @@ class RK4Grid:
         the step h as a fourth input: one library serves every grid. When the whole step has more
         instructions than the hook compiles (its ``max_instructions``), the step is built from four
         calls of the compiled right-hand side with its nx tangents (:meth:`rhs_tangent`, a quarter of
-        the size): :meth:`staged_variational_step`."""
+        the size): :meth:`staged_variational_step`.
+
+        Returns
+        -------
+        casadi.Function
+            ``(s, D3, p) -> s_next`` (or ``(s, D3, p, h) -> s_next`` when built for the hook), with
+            s = [x; vec(Phi); q; vec(dq/dx0)].
+        """
         ode = self.ode
         src = getattr(ode.numeric, "source", None)
         if src is None:
@@ -312,7 +183,13 @@ class RK4Grid:
 
     def rhs_tangent(self) -> ca.Function:
         """``(x, d, p, T) -> (f(x, d, p), df/dx T)`` with T nx x nx: the right-hand side and its
-        directional derivatives along the nx columns of T (SX, forward AD)."""
+        directional derivatives along the nx columns of T (SX, forward AD).
+
+        Returns
+        -------
+        casadi.Function
+            ``(x, d, p, T) -> (f, fT)``.
+        """
         ode = self.ode
         x, d, p = ca.SX.sym("x", ode.nx), ca.SX.sym("d", ode.nd), ca.SX.sym("p", ode.np)
         T = ca.SX.sym("T", ode.nx, ode.nx)
@@ -323,7 +200,18 @@ class RK4Grid:
         """The step of :meth:`variational_step` (with h an input) as RK4 on the state and its
         sensitivity together, [x; vec(Phi)]' = [f; vec(df/dx Phi)], each stage one call of
         ``tangent`` (:meth:`rhs_tangent`, e.g. compiled): the same derivative (the stages' tangents
-        are those of the RK4 step), the sums in another order (equal to round-off)."""
+        are those of the RK4 step), the sums in another order (equal to round-off).
+
+        Parameters
+        ----------
+        tangent : casadi.Function
+            ``(x, d, p, T) -> (f(x, d, p), df/dx T)`` (:meth:`rhs_tangent` or a compiled twin).
+
+        Returns
+        -------
+        casadi.Function
+            ``(s, D3, p, h) -> s_next`` with s = [x; vec(Phi); q; vec(dq/dx0)].
+        """
         nx, nd, np_, nq = self.ode.nx, self.ode.nd, self.ode.np, self.nq
         s, D3 = ca.SX.sym("s", nx + nx * nx + nq + nq * nx), ca.SX.sym("D3", nd, 3)
         p, h = ca.SX.sym("p", np_), ca.SX.sym("h")
@@ -352,8 +240,18 @@ class RK4Grid:
         Phi+ = A Phi, dq/dx0+ = dq/dx0 + B Phi with A, B the step's Jacobians (the chain rule through
         the same RK4 steps: the exact Jacobian of the discrete segment, as forward AD gives it).
         Measured on the bird (148 steps, 4 segments): 10 ms per segment against 25 ms for
-        ``casadi.jacobian`` of the MX segment (forward AD through ``mapaccum``). ``h_input``: the step
-        h is a fourth input (``s, D3, p, h``) instead of the grid's constant."""
+        ``casadi.jacobian`` of the MX segment (forward AD through ``mapaccum``).
+
+        Parameters
+        ----------
+        h_input : bool
+            The step h [s] is a fourth input (``s, D3, p, h``) instead of the grid's constant.
+
+        Returns
+        -------
+        casadi.Function
+            ``(s, D3, p[, h]) -> s_next`` (SX).
+        """
         nx, nd, np_, nq = self.ode.nx, self.ode.nd, self.ode.np, self.nq
         s = ca.SX.sym("s", nx + nx * nx + nq + nq * nx)
         D3 = ca.SX.sym("D3", nd, 3)
@@ -423,8 +321,14 @@ class RK4Grid:
         ----------
         X : (nx, S) array
             The segments' start states.
-        D, p :
-            Stage data and parameter vector (as for :attr:`segments`).
+        D : casadi.DM
+            Stage blocks, nd x 3N (:meth:`blocks_numeric`).
+        p : array_like
+            Parameter vector (np,).
+        floor : float
+            Below this abs(x_j) the step is ``rel_step * floor`` (the state's units).
+        rel_step : float
+            Relative step.
 
         Returns
         -------
@@ -451,7 +355,18 @@ class RK4Grid:
 
     # -- data ---------------------------------------------------------------------------------
     def times(self, t0: float) -> np.ndarray:
-        return stage_time_grid(t0, self.ode.period_s, self.N)
+        """The data grid's times ``t0 + k h/2``, k = 0..2N (:func:`~birdocp.engine.stage_grid.stage_time_grid`).
+
+        Parameters
+        ----------
+        t0 : float
+            Start of the period (the system's time units).
+
+        Returns
+        -------
+        ndarray, shape (2N + 1,)
+        """
+        return stage_time_grid(t0, self.ode.forcing_period, self.N)
 
     @functools.cached_property
     def data_grid(self) -> ca.Function:
@@ -486,7 +401,20 @@ class RK4Grid:
 
         Memoised by (the ODE's data Function, N, t0, p) in one process-wide bounded cache, so every grid
         of the same data and step count (shooting, validity, power; an ODE with a compiled RHS and the
-        same data) shares the numbers of a gait instead of evaluating the data again."""
+        same data) shares the numbers of a gait instead of evaluating the data again.
+
+        Parameters
+        ----------
+        t0 : float
+            Start of the period.
+        p : array_like
+            Parameter vector (np,).
+
+        Returns
+        -------
+        casadi.DM
+            nd x 3N: the data at (t, t + h/2, t + h) of each step.
+        """
         p = np.asarray(p, float).ravel()
         key = ("stage", id(self.ode.data), self.N, float(t0), p.tobytes())
         hit = _DATA_VALUES.get(key)
@@ -506,7 +434,20 @@ class RK4Grid:
     def pre_numeric(self, t0: float, p) -> ca.DM:
         """pre(t, p) on the data grid (nl x (2N+1)), memoised by (pre, N, t0, the pre parameters'
         values); with ``ode.graph_key`` also kept on disk for later processes
-        (:mod:`birdocp.engine.datastore`)."""
+        (:mod:`birdocp.engine.datastore`).
+
+        Parameters
+        ----------
+        t0 : float
+            Start of the period.
+        p : array_like
+            Parameter vector (np,); only the ``ode.pre_params`` entries matter.
+
+        Returns
+        -------
+        casadi.DM
+            nl x (2N+1), nl the size of pre's output.
+        """
         p = np.asarray(p, float).ravel()
         ode = self.ode
         pre_values = p[list(ode.pre_params)]
@@ -517,7 +458,7 @@ class RK4Grid:
         disk_key = None
         out = None
         if ode.graph_key:
-            disk_key = {"pre": ode.graph_key, "steps": self.N, "period_s": repr(float(ode.period_s)),
+            disk_key = {"pre": ode.graph_key, "steps": self.N, "period_s": repr(float(ode.forcing_period)),
                         "t0": repr(float(t0)), "pre_params": list(ode.pre_params),
                         "values": [repr(float(v)) for v in pre_values]}
             arr = datastore.load("pre-grid", disk_key)
@@ -535,7 +476,7 @@ class RK4Grid:
     @functools.cached_property
     def numeric_post_grid(self) -> ca.Function:
         """:attr:`post_grid` for numbers only (never differentiated): the ODE's compiled ``post``
-        mapped where it offers one (``PeriodicODE.numeric``), else :attr:`post_grid` itself."""
+        mapped where it offers one (``ODE.numeric``), else :attr:`post_grid` itself."""
         ode = self.ode
         return self.post_grid if ode.numeric is None else ode.fast(ode.post, "post").map(2 * self.N + 1)
 
@@ -547,16 +488,31 @@ class RK4Grid:
         return self._post_grid
 
     def blocks_symbolic(self, t0: float, p: ca.MX) -> ca.MX:
+        """Stage blocks (nd x 3N) as an expression of symbolic parameters (free parameters enter the
+        data: the graph carries ``data.map`` on the grid).
+
+        Parameters
+        ----------
+        t0 : float
+            Start of the period.
+        p : casadi.MX
+            Parameter vector (np).
+
+        Returns
+        -------
+        casadi.MX
+            nd x 3N.
+        """
         grid = self.data_grid(ca.DM(self.times(t0)), p)
         return grid[:, self.block_index]
 
 
-def simulate(ode: PeriodicODE, x0, p, steps_per_period: int = 148, n_periods: int = 1, t0: float = 0.0):
+def simulate(ode: ODE, x0, p, steps_per_period: int = 148, n_periods: int = 1, t0: float = 0.0):
     """Plain RK4 from x0 over ``n_periods`` periods. Returns (t[K+1], X[K+1, nx]).
 
     Parameters
     ----------
-    ode : PeriodicODE
+    ode : ODE
         System.
     x0 : array_like
         State at ``t0``.

@@ -10,8 +10,8 @@ the bounds ``lo <= z <= hi``. Two step-acceptance rules, named by ``accept``:
   A globalised Newton: far from the solution it takes short, gradient-like steps, near it Newton
   steps (quadratic convergence).
 * ``"always"``: every step is kept (``lam /= 10`` if the max residual went down, else ``x 10``),
-  the Algorithm 1 of the reference paper, kept for :class:`~birdocp.engine.method.OrbitMethod` on a ``PeriodicODE``
-  ``solver="lm"`` so that its published iteration counts are reproduced.
+  the Algorithm 1 of the reference paper, kept for :class:`~birdocp.engine.method.OrbitMethod` on an ODE with data
+  and ``solver="lm"`` so that its published iteration counts are reproduced.
 
 ``prepare(z)`` (optional) is called at every accepted iterate before its step: the orbit solver uses
 it to re-anchor its Poincare section at the current iterate (the phase row then reads 0 there).

@@ -6,7 +6,7 @@ left ``None`` takes the default of that formulation (:meth:`OrbitMethod.resolved
 every solve are those of its formulation's own defaults:
 
 ============================  =====================================  ==================================
-setting                       ``PeriodicODE`` (data-split, forced)   ``ODE`` (time scaled by T)
+setting                       ``"data_split"`` (ODE with data)       ``"time_scaled"`` (ODE, no data)
 ============================  =====================================  ==================================
 ``steps_per_period=None``     148 (the paper's grid)                 refined until ``accuracy`` is met
 ``solver=None``               ``"ipopt"``                            ``"lm"``
@@ -29,14 +29,14 @@ PHASE_CONDITIONS = ("moving", "fixed")
 SOLVER_NAMES = ("ipopt", "lm")
 """The solvers of the engine's solver table (:data:`birdocp.engine.orbit_front.SOLVERS`)."""
 PAPER_STEPS_PER_PERIOD = 148
-"""RK4 steps per period of a ``PeriodicODE`` by default: the paper's grid (M = 5: 37 per segment)."""
+"""RK4 steps per period of an ODE with data by default: the paper's grid (M = 5: 37 per segment)."""
 
 IPOPT_DEFAULTS = {
     # Full (undamped) Newton-type steps, like the paper's LM which accepts every step. Measured on a
     # forced Duffing oscillator from a poor guess (max residual 1.2): IPOPT's filter line search
     # ended in Infeasible_Problem_Detected for M = 2, 3, 9 (and with an exact Hessian, or a
     # regularisation objective 1e-8..1e-2, for all M) while full steps converged in 7-18 iterations.
-    # When this first attempt fails, the PeriodicODE solve retries once with IPOPT's filter line
+    # When this first attempt fails, the ODE solve retries once with IPOPT's filter line
     # search (OrbitMethod.ipopt_fallback).
     "ipopt.accept_every_trial_step": "yes",
 }
@@ -53,57 +53,57 @@ class OrbitMethod:
     points
         M, shooting points INCLUDING the closing one (M-1 segments), M >= 2.
     steps_per_period
-        N, integrator steps over the period, a multiple of points-1. None: 148 for a ``PeriodicODE``;
-        for an ``ODE`` chosen by doubling from ``min_steps`` until the error estimate is below
+        N, integrator steps over the period, a multiple of points-1. None: 148 for an ODE with
+        data; without, chosen by doubling from ``min_steps`` until the error estimate is below
         ``accuracy``.
     integrator
-        The stepper: "rk4" | "radau" (stiff systems) | "gauss" (``PeriodicODE``: "rk4" only).
+        The stepper: "rk4" | "radau" (stiff systems) | "gauss" (an ODE with data: "rk4" only).
     solver
         "ipopt" (feasibility NLP through the exact Jacobian) | "lm" (Levenberg-Marquardt on the exact
-        shooting matrix); None: "ipopt" for a ``PeriodicODE``, "lm" for an ``ODE``.
+        shooting matrix); None: "ipopt" for an ODE with data, "lm" without.
     derivatives
         "exact" (CasADi AD) | "fd" (forward differences of the segment flow, relative step
-        1e-3*x_j, absolute step 1e-3*fd_floor when abs(x_j) < fd_floor; ``PeriodicODE`` with lm only).
+        1e-3*x_j, absolute step 1e-3*fd_floor when abs(x_j) < fd_floor; an ODE with data and lm only).
     tol
         Max abs(residual) for success (absolute, all equations); None: see the module table.
     max_iter
         Iterations of the solver (per grid).
     accuracy
-        Relative error tolerance of period, x0 and multipliers (``ODE``: the error estimate's target).
+        Relative error tolerance of period, x0 and multipliers (without data: the error estimate's target).
     error_estimate
         Re-solve with 2N steps and estimate the discretisation error plus the solver-tolerance error
-        (``OrbitResult.error_estimate``); None: False for a ``PeriodicODE``, True for an ``ODE``.
+        (``OrbitResult.error_estimate``); None: False for an ODE with data, True without.
     ipopt_options
         Extra IPOPT options (merged over the defaults).
     fd_floor
         See ``derivatives``.
     regularization
-        ``PeriodicODE`` with ipopt: objective weight w in w/2 abs(z - z_guess)^2 (default 0: pure
+        ODE with data and ipopt: objective weight w in w/2 abs(z - z_guess)^2 (default 0: pure
         feasibility; measured: no weight in 1e-8..1e-2 helped IPOPT converge).
     ipopt_fallback
-        ``PeriodicODE``: if the first IPOPT attempt (full steps) fails, retry once with IPOPT's
+        ODE with data: if the first IPOPT attempt (full steps) fails, retry once with IPOPT's
         filter line search; iterations and histories are concatenated.
     min_amplitude
-        ``ODE``: relative amplitude below which a solution is an equilibrium (failure).
+        ODE without data: relative amplitude below which a solution is an equilibrium (failure).
     min_steps, max_steps_per_period
-        ``ODE``: the first and the largest N when N is chosen by refinement.
+        ODE without data: the first and the largest N when N is chosen by refinement.
     period_bounds
-        ``ODE``, autonomous: (lo, hi) as factors of the period guess.
+        Autonomous ODE: (lo, hi) as factors of the period guess.
     phase
-        ``ODE``, autonomous: "moving" (default; the Poincare section is re-anchored at the current
+        Autonomous ODE: "moving" (default; the Poincare section is re-anchored at the current
         iterate's X_0, orthogonal to the flow there, before every Newton step: the equation always
         has a solution) | "fixed" (one section through the phase point for the whole solve).
     period_search
-        ``ODE``, autonomous: before the first Newton step from a single guess point, start from the
+        Autonomous ODE: before the first Newton step from a single guess point, start from the
         trajectory's closest return to the section through it (between 1/1.6 and 1.6 times the
         period guess) when it closes better than the guess.
     min_period_check
-        ``ODE``, autonomous: test whether the converged orbit is a k-fold cover of a shorter one and
+        Autonomous ODE: test whether the converged orbit is a k-fold cover of a shorter one and
         reduce it to the minimal period (``covers`` = k).
     max_refinements_after_failure
-        ``ODE`` with ``steps_per_period=None``: how many grid doublings a failed solve is retried on.
+        ODE without data, ``steps_per_period=None``: how many grid doublings a failed solve is retried on.
     time_limit_s
-        ``ODE``: wall-clock budget of one solve (all grids) in seconds, or None.
+        ODE without data: wall-clock budget of one solve (all grids) in seconds, or None.
     """
 
     points: int = 5
@@ -135,13 +135,13 @@ class OrbitMethod:
         Parameters
         ----------
         data_split : bool
-            True for a ``PeriodicODE`` problem (forced, data-split formulation), False for an ``ODE``.
+            True for a problem of an ODE with data (the data-split formulation), False without.
 
         Returns
         -------
         OrbitMethod
             A copy (or ``self`` when nothing was left open) whose ``solver``, ``tol`` and
-            ``error_estimate`` are set (``steps_per_period`` too for a ``PeriodicODE``).
+            ``error_estimate`` are set (``steps_per_period`` too with data).
         """
         solver = self.solver or ("ipopt" if data_split else "lm")
         tol = self.tol if self.tol is not None else (1e-10 if solver == "ipopt" or not data_split else 1e-5)
@@ -153,9 +153,9 @@ class OrbitMethod:
             else replace(self, solver=solver, tol=float(tol), error_estimate=est, steps_per_period=n)
         out.validate()
         if data_split and out.integrator != "rk4":
-            raise ValueError(f"OrbitMethod.integrator must be 'rk4' for a PeriodicODE, got {out.integrator!r}")
+            raise ValueError(f"OrbitMethod.integrator must be 'rk4' for an ODE with data, got {out.integrator!r}")
         if out.derivatives == "fd" and not (data_split and out.solver == "lm"):
-            raise ValueError("OrbitMethod.derivatives='fd' is only available with solver='lm' on a PeriodicODE")
+            raise ValueError("OrbitMethod.derivatives='fd' is only available with solver='lm' on an ODE with data")
         return out
 
     def validate(self) -> None:

@@ -10,20 +10,20 @@ from birdocp.engine.results import result_dict, serial
 
 __all__ = ["OrbitResult", "FORMULATIONS", "JSON_OMITS"]
 
-FORMULATIONS = ("periodic_ode", "ode")
-"""How a result was computed: ``"periodic_ode"`` (a :class:`~birdocp.engine.problem.PeriodicODE`:
-forced, data-split, period fixed, mean conditions) or ``"ode"`` (an :class:`~birdocp.engine.ode.ODE`:
-time scaled by the period, autonomous or forced)."""
+FORMULATIONS = ("data_split", "time_scaled")
+"""How a result was computed: ``"data_split"`` (an :class:`~birdocp.engine.ode.ODE` with a data
+function: forced, period fixed, mean conditions) or ``"time_scaled"`` (an ODE without data: time
+scaled by the period, autonomous or forced)."""
 
 JSON_OMITS = {
-    "periodic_ode": ("error_estimate", "solver_status", "period", "autonomous", "amplitude", "arc_length",
-                     "trivial_multiplier", "trivial_multiplier_error", "nontrivial_multipliers", "accurate",
-                     "phase_point", "covers", "reduced_from_period"),
-    "ode": ("shooting_times", "means", "eigenvectors", "floquet_exponents", "doubling_times_s",
-            "monodromy_vs_full_period_jacobian"),
+    "data_split": ("error_estimate", "solver_status", "period", "autonomous", "amplitude", "arc_length",
+                   "trivial_multiplier", "trivial_multiplier_error", "nontrivial_multipliers", "accurate",
+                   "phase_point", "covers", "reduced_from_period"),
+    "time_scaled": ("shooting_times", "means", "eigenvectors", "floquet_exponents", "doubling_times_s",
+                    "monodromy_vs_full_period_jacobian"),
 }
-"""The fields each formulation leaves out of ``to_dict()`` (those it does not compute, and for a
-``PeriodicODE`` the error estimate, which callers that compute it add: ``birdocp trim``)."""
+"""The fields each formulation leaves out of ``to_dict()`` (those it does not compute, and for
+``"data_split"`` the error estimate, which callers that compute it add: ``birdocp trim``)."""
 
 
 def _empty():
@@ -38,12 +38,12 @@ class OrbitResult:
     ----------
     success : bool
         Converged: the max residual of all equations is finite and at most the tolerance (10 x tol
-        for IPOPT on a ``PeriodicODE``), whatever the solver's status says; finite multipliers; for
-        an ``ODE`` also a true orbit (not an equilibrium) of minimal period.
+        for IPOPT on an ODE with data), whatever the solver's status says; finite multipliers; for
+        an ODE without data also a true orbit (not an equilibrium) of minimal period.
     status : str
-        ``PeriodicODE``: IPOPT's ``return_status`` (e.g. "Solve_Succeeded") or the LM's "converged",
+        With data: IPOPT's ``return_status`` (e.g. "Solve_Succeeded") or the LM's "converged",
         "max_iter", "stalled", "nan"; "residual_above_tol" when a status claims convergence but the
-        residual exceeds the tolerance. ``ODE``: "converged", "equilibrium", "not_converged", "nan",
+        residual exceeds the tolerance. Without data: "converged", "equilibrium", "not_converged", "nan",
         "bad_phase_point", "bad_period", "multiple_cover" (see ``covers``).
     message : str
         What happened, in a sentence (why, for a failure, when known).
@@ -68,18 +68,18 @@ class OrbitResult:
     max_residual : float
         Max abs of all equations at the result.
     means : dict
-        ``PeriodicODE``: the period mean of each mean-condition output and extra output (by name).
+        With data: the period mean of each mean-condition output and extra output (by name).
     monodromy : numpy.ndarray or None
         The monodromy matrix (product of the segment Jacobians).
     multipliers : numpy.ndarray or None
         All Floquet multipliers, largest modulus first (autonomous: the trivial one included).
     eigenvectors, floquet_exponents, doubling_times_s : numpy.ndarray or None
-        ``PeriodicODE``: the multipliers' eigenvectors (one column per mode), ``log(multiplier)/T``
+        With data: the multipliers' eigenvectors (one column per mode), ``log(multiplier)/T``
         (1/s) and ``ln 2 / Re(exponent)``, signed (:mod:`birdocp.engine.floquet`).
     stable : bool or None
         All (non-trivial) multipliers inside the unit circle.
     monodromy_vs_full_period_jacobian : float
-        ``PeriodicODE``: max abs difference between the monodromy and the Jacobian of the one-period
+        With data: max abs difference between the monodromy and the Jacobian of the one-period
         map from x0 (accuracy indicator).
     method : dict
         The method's settings as used.
@@ -97,20 +97,20 @@ class OrbitResult:
     autonomous : bool
         Whether the period was an unknown.
     amplitude, arc_length : float
-        ``ODE``: max_t of the largest abs(x(t) - x0) component; the polygon length of the orbit.
+        Without data: max_t of the largest abs(x(t) - x0) component; the polygon length of the orbit.
     trivial_multiplier, trivial_multiplier_error, nontrivial_multipliers
-        ``ODE``: the multiplier closest to 1 (autonomous), abs(it - 1), and the others (``stable`` is
+        Without data: the multiplier closest to 1 (autonomous), abs(it - 1), and the others (``stable`` is
         decided on these).
     accurate : bool or None
-        ``ODE``: every relative error estimate <= the method's accuracy.
+        Without data: every relative error estimate <= the method's accuracy.
     phase_point : numpy.ndarray or None
-        ``ODE``, autonomous: the point of the final Poincare section.
+        Autonomous ODE: the point of the final Poincare section.
     covers, reduced_from_period
-        ``ODE``: k > 1 when the solve converged on a k-fold cover of the orbit and was reduced to the
+        Without data: k > 1 when the solve converged on a k-fold cover of the orbit and was reduced to the
         minimal period (``reduced_from_period`` holds the converged multiple), or could not be (status
         ``"multiple_cover"``).
     formulation : str
-        ``"periodic_ode"`` or ``"ode"`` (:data:`FORMULATIONS`); not in the JSON.
+        ``"data_split"`` or ``"time_scaled"`` (:data:`FORMULATIONS`); not in the JSON.
     """
 
     success: bool = False
@@ -149,7 +149,7 @@ class OrbitResult:
     phase_point: np.ndarray | None = None
     covers: int = 1
     reduced_from_period: float | None = None
-    formulation: str = field(default="ode", metadata=serial(skip=True))
+    formulation: str = field(default="time_scaled", metadata=serial(skip=True))
 
     def to_dict(self, *, exclude=(), rename=None, extra=None) -> dict:
         """JSON-ready dict (:func:`birdocp.engine.results.result_dict`): complex numbers as ``[re, im]``

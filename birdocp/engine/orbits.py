@@ -98,7 +98,7 @@ def solve_ode(problem: OrbitProblem, method: OrbitMethod, warm_start: OrbitResul
     Returns
     -------
     OrbitResult
-        ``formulation="ode"``; ``success`` means the residual is below ``method.tol``, the orbit is
+        ``formulation="time_scaled"``; ``success`` means the residual is below ``method.tol``, the orbit is
         not an equilibrium and its period is minimal (or was reduced to it).
     """
     method = method.resolved(False)
@@ -440,7 +440,7 @@ def _failed(problem, method, status, message, x_ref, p, T):
                        residual_history=np.zeros(0), max_residual=float("nan"), period=float(T), x0=nan, p=p,
                        shooting_points=np.full((method.points, nx), np.nan), trajectory_t=np.zeros(0),
                        trajectory_x=np.zeros((0, nx)), autonomous=problem.ode.autonomous, error_estimate={},
-                       phase_point=np.asarray(x_ref, float), formulation="ode")
+                       phase_point=np.asarray(x_ref, float), formulation="time_scaled")
 
 
 def _assemble(problem, method, ev: OrbitSystem, G: OrbitGraphs, z, sstat, message, iters, hist, x_ref) -> OrbitResult:
@@ -477,7 +477,7 @@ def _assemble(problem, method, ev: OrbitSystem, G: OrbitGraphs, z, sstat, messag
     res = OrbitResult(success=success, status=status, message=message, solver_status=str(sstat),
                       iterations=int(iters), residual_history=np.asarray(hist, float), max_residual=r, period=T,
                       x0=X[:, 0].copy(), p=p, shooting_points=X.T.copy(), trajectory_t=tt, trajectory_x=traj,
-                      amplitude=amp, arc_length=arc, autonomous=ode.autonomous, error_estimate={}, formulation="ode",
+                      amplitude=amp, arc_length=arc, autonomous=ode.autonomous, error_estimate={}, formulation="time_scaled",
                       shooting_times=problem.t0 + T * np.arange(G.S + 1) / G.S,
                       method={"points": method.points, "steps_per_period": G.N, "integrator": method.integrator,
                               "solver": method.solver, "tol": method.tol, "accuracy": method.accuracy},

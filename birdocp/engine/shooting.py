@@ -1,5 +1,5 @@
-"""The PeriodicODE formulation of :func:`birdocp.engine.orbit_front.solve`: multiple shooting for the
-periodic orbits of a forced, data-split :class:`~birdocp.engine.problem.PeriodicODE` (IPOPT or
+"""The data-split formulation of :func:`birdocp.engine.orbit_front.solve`: multiple shooting for the
+periodic orbits of a forced :class:`~birdocp.engine.ode.ODE` with a data function (IPOPT or
 Levenberg-Marquardt), with free parameters held by period-mean conditions.
 
 Unknowns: the shooting points X_0 .. X_{M-1} at t0 + i T/(M-1) (M counts the closing point, as in
@@ -36,10 +36,11 @@ from birdocp.engine.lm import levenberg_marquardt
 from birdocp.engine.nlp import run_ipopt
 from birdocp.engine.method import OrbitMethod
 from birdocp.engine.orbit_result import OrbitResult
-from birdocp.engine.problem import OrbitProblem, PeriodicODE, finite_vector
+from birdocp.engine.problem import OrbitProblem, finite_vector
+from birdocp.engine.ode import ODE
 from birdocp.engine.shooting_graphs import ShootingGraphs, initial_points, rk4_grid, shooting_graphs
 
-__all__ = ["solve_periodic_ode", "SOLVERS", "estimate_error", "clear_cache", "floquet", "ShootingGraphs",
+__all__ = ["solve_data_split", "SOLVERS", "estimate_error", "clear_cache", "floquet", "ShootingGraphs",
            "shooting_graphs", "initial_points", "rk4_grid"]
 
 def clear_cache() -> None:
@@ -69,7 +70,7 @@ def _fd_jacobian(b: ShootingGraphs, problem, z, r0, floor):
     mapped call per state), the shooting matrix assembled around them; free-parameter columns by
     forward differences of the whole residual."""
     nx, S, nf, nm = problem.ode.nx, b.S, b.nf, b.nm
-    T = problem.ode.period_s
+    T = problem.ode.forcing_period
     X = z[: nx * (S + 1)].reshape(S + 1, nx).T
     pfull = problem.p.copy()
     if nf:
@@ -102,9 +103,9 @@ def _run_ipopt(solver, z0, method, lbx, ubx):
     return out.z, out.status, out.success, out.iterations, out.history, out.message
 
 
-def solve_periodic_ode(problem: OrbitProblem, method: OrbitMethod,
+def solve_data_split(problem: OrbitProblem, method: OrbitMethod,
                        warm_start: OrbitResult | None = None) -> OrbitResult:
-    """The PeriodicODE formulation of :func:`birdocp.engine.orbit_front.solve` (use that front).
+    """The data-split formulation of :func:`birdocp.engine.orbit_front.solve` (use that front).
 
     ``success`` means converged: the max residual of all equations at the result is finite and at
     most the method's tolerance (10 x tol for IPOPT), whatever the solver's status says (IPOPT's
@@ -116,17 +117,17 @@ def solve_periodic_ode(problem: OrbitProblem, method: OrbitMethod,
     Parameters
     ----------
     problem : OrbitProblem
-        A problem of a :class:`~birdocp.engine.problem.PeriodicODE`.
+        A problem of an :class:`~birdocp.engine.ode.ODE` with a data function.
     method : OrbitMethod
         Shooting points, RK4 steps per period, solver, derivatives, tolerances (``None`` settings
-        resolved for a PeriodicODE: :meth:`~birdocp.engine.method.OrbitMethod.resolved`).
+        resolved for an ODE with data: :meth:`~birdocp.engine.method.OrbitMethod.resolved`).
     warm_start : OrbitResult, optional
         A previous result on the same grid whose shooting points (and free values) start the solve.
 
     Returns
     -------
     OrbitResult
-        ``formulation="periodic_ode"``: ``success``, ``status``, ``x0``, ``shooting_points``, the
+        ``formulation="data_split"``: ``success``, ``status``, ``x0``, ``shooting_points``, the
         trajectory, ``monodromy``, ``multipliers`` (largest modulus first), ``eigenvectors``,
         ``floquet_exponents``, ``stable``, ``means`` and ``free_values``.
     """
@@ -197,7 +198,7 @@ def estimate_error(problem: OrbitProblem, method: OrbitMethod, result: OrbitResu
     e_solver = solver_error(J, g)
     fine_m = replace(method, steps_per_period=2 * int(method.steps_per_period), solver="lm", error_estimate=False,
                      tol=min(method.tol, 1e-10), max_iter=20)
-    fine = solve_periodic_ode(problem, fine_m, result)
+    fine = solve_data_split(problem, fine_m, result)
     lam = np.asarray(result.multipliers)
     out = {"solver": e_solver, "steps_per_period_fine": fine_m.steps_per_period, "fine_status": fine.status}
     if fine.success and fine.multipliers is not None:
@@ -271,12 +272,12 @@ def _run_ipopt_attempts(problem, method, b, z0, lo, hi):
 
 
 SOLVERS = {"ipopt": _run_ipopt_attempts, "lm": _run_lm}
-"""The solver table of the PeriodicODE formulation: name -> run(problem, method, graphs, z0, lo, hi)."""
+"""The solver table of the data-split formulation: name -> run(problem, method, graphs, z0, lo, hi)."""
 
 
 def _residual_at(problem, b, z, pfull, Dn):
     """Residual g, trajectory Xt and means at z (numerically, from the data Dn; NaN without it)."""
-    grid, nx, S, T = b.grid, problem.ode.nx, b.S, problem.ode.period_s
+    grid, nx, S, T = b.grid, problem.ode.nx, b.S, problem.ode.forcing_period
     targets = np.array([m.target for m in problem.means], float)
     if Dn is None:
         return np.full(b.ng, np.nan), np.full((nx, b.N), np.nan), np.full(grid.nq, np.nan)
@@ -292,7 +293,7 @@ def _result(problem, method, b, z, p_init, D_init, outcome, wall):
     (g, X, Dn, pd) for the Floquet analysis."""
     status, success, message, iters, hist = outcome
     solver_status = status
-    nx, S, N, T, t0, free_idx, nf = problem.ode.nx, b.S, b.N, problem.ode.period_s, float(problem.t0), b.free_idx, b.nf
+    nx, S, N, T, t0, free_idx, nf = problem.ode.nx, b.S, b.N, problem.ode.forcing_period, float(problem.t0), b.free_idx, b.nf
     nzx = nx * (S + 1)
     pfull = problem.p.copy() if nf else p_init.copy()
     if nf:
@@ -322,7 +323,7 @@ def _result(problem, method, b, z, p_init, D_init, outcome, wall):
     shooting_times = t0 + T / S * np.arange(S + 1)
     res = OrbitResult(
         success=bool(success), status=status, message=message, iterations=int(iters),
-        residual_history=hist, wall_s=wall, formulation="periodic_ode", autonomous=False,
+        residual_history=hist, wall_s=wall, formulation="data_split", autonomous=False,
         solver_status=solver_status,
         period=float(shooting_times[-1] - shooting_times[0]),
         shooting_times=shooting_times, shooting_points=X, x0=X[0].copy(), p=pfull,
@@ -350,7 +351,7 @@ def _attach_floquet(res, b, z, X, Dn, pd):
             x1 = res.trajectory_x[grid.n]
         # the one-period map's Jacobian along the trajectory from x0: its first segment is the solver's
         _, Jfull = grid.period_jacobian_from_first(ca.DM(x1), ca.DM(Js[0]), Dn, pd)
-        fr = floquet_from_jacobians(Js, np.asarray(Jfull), b.ode.period_s)
+        fr = floquet_from_jacobians(Js, np.asarray(Jfull), b.ode.forcing_period)
         res.monodromy, res.multipliers, res.eigenvectors = fr.monodromy, fr.multipliers, fr.eigenvectors
         res.floquet_exponents, res.doubling_times_s = fr.floquet_exponents, fr.doubling_times_s
         res.stable = fr.stable
@@ -363,12 +364,12 @@ def _attach_floquet(res, b, z, X, Dn, pd):
         res.message += "; non-finite Floquet multipliers"
 
 
-def floquet(ode: PeriodicODE, x0, p, method=None, *, t0: float = 0.0, points=None, grid=None, blocks=None) -> FloquetResult:
+def floquet(ode: ODE, x0, p, method=None, *, t0: float = 0.0, points=None, grid=None, blocks=None) -> FloquetResult:
     """Floquet analysis at the periodic orbit through ``x0`` (at time ``t0``) for parameters ``p``.
 
     Parameters
     ----------
-    ode : PeriodicODE
+    ode : ODE
         The ODE.
     x0 : array_like (nx,)
         A state on the periodic orbit at ``t0``.
@@ -398,11 +399,11 @@ def floquet(ode: PeriodicODE, x0, p, method=None, *, t0: float = 0.0, points=Non
     monodromy is ``exp(2 pi A)``, whose determinant is ``exp(-0.5 * 2 pi)`` (Liouville's formula).
 
     >>> import casadi as ca, numpy as np
-    >>> from birdocp.engine import OrbitMethod, PeriodicODE
+    >>> from birdocp.engine import OrbitMethod, ODE
     >>> from birdocp.engine.shooting import floquet
     >>> x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 1)
     >>> f = ca.Function("f", [x, t, p], [ca.vertcat(x[1], -p[0] * x[1] - x[0] + ca.cos(t))])
-    >>> fl = floquet(PeriodicODE.from_rhs(f, 2 * np.pi), [0.0, 2.0], [0.5], OrbitMethod(points=3, steps_per_period=200))
+    >>> fl = floquet(ODE.from_rhs(f, 2 * np.pi), [0.0, 2.0], [0.5], OrbitMethod(points=3, steps_per_period=200))
     >>> bool(fl.stable), bool(np.isclose(np.linalg.det(fl.monodromy), np.exp(-np.pi), rtol=1e-8))
     (True, True)
     """
@@ -422,4 +423,4 @@ def floquet(ode: PeriodicODE, x0, p, method=None, *, t0: float = 0.0, points=Non
     Jcat = np.asarray(Jcat)
     Js = [Jcat[:, i * nx:(i + 1) * nx] for i in range(S)]
     _, Jfull = grid.period_jacobian_from_first(Xe[:, 0], ca.DM(Js[0]), D, pd)  # the one-period map's, from pts[:, 0]
-    return floquet_from_jacobians(Js, np.asarray(Jfull), ode.period_s)
+    return floquet_from_jacobians(Js, np.asarray(Jfull), ode.forcing_period)

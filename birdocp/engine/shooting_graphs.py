@@ -9,7 +9,8 @@ import casadi as ca
 import numpy as np
 
 from birdocp.engine.cache import owned_cache
-from birdocp.engine.integrate import RK4Grid, column_blocks
+from birdocp.engine.integrate import RK4Grid
+from birdocp.engine.rk4 import column_blocks
 from birdocp.engine.oracle import ConstraintOracle, Evaluator, ipopt_options
 from birdocp.engine.method import IPOPT_DEFAULTS, OrbitMethod
 from birdocp.engine.problem import OrbitProblem
@@ -22,7 +23,7 @@ def rk4_grid(ode, method: OrbitMethod, outputs) -> RK4Grid:
 
     Parameters
     ----------
-    ode : PeriodicODE
+    ode : ODE
         System.
     method : OrbitMethod
         Method (its grid).
@@ -154,7 +155,7 @@ class ShootingGraphs(Evaluator):
 
     def _sens_function(self, X, pf, dsym, pp, tgt, D, pfull, dD, seed_p):
         """The Function ``shooting_sens``: residual, segment Jacobians, mean rows, means and d g / d pf."""
-        grid, nx, S, nf, nm, T = self.grid, self.nx, self.S, self.nf, self.nm, self.ode.period_s
+        grid, nx, S, nf, nm, T = self.grid, self.nx, self.S, self.nf, self.nm, self.ode.forcing_period
         Xe, Q, J, JQ = grid.segment_sensitivities(X[:, :S], D, pfull)
         means = ca.sum2(Q) / T if grid.nq else ca.MX(0, 1)
         mres = means[list(range(nm))] - tgt if nm else ca.MX(0, 1)
@@ -333,7 +334,7 @@ class ShootingGraphs(Evaluator):
             X, pf, dsym, pp, tgt, D, pfull = self._sym
             S, nm = self.S, self.nm
             Xe, _, Q = self.grid.segments(X[:, :S], D, pfull)
-            means = ca.sum2(Q) / self.ode.period_s if self.grid.nq else ca.MX(0, 1)
+            means = ca.sum2(Q) / self.ode.forcing_period if self.grid.nq else ca.MX(0, 1)
             mres = means[list(range(nm))] - tgt if nm else ca.MX(0, 1)
             g = ca.vertcat(ca.vec(Xe - X[:, 1:]), X[:, S] - X[:, 0], mres)
             self._resid = ca.Function("resid", [X, pf, dsym, pp, tgt], [g])

@@ -26,7 +26,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from birdocp.engine.integrate import MAPACCUM_CHUNK, column_blocks, rk4_step
+from birdocp.engine.rk4 import MAPACCUM_CHUNK, column_blocks, rk4_step
 
 __all__ = ["PeriodSensitivities"]
 
@@ -50,7 +50,7 @@ class PeriodSensitivities:
         self.n_data = int(n_data if n_data is not None else n_dir)  # directions given per call
         self.n_state = 0 if self.combined else nx                    # identity state directions first
         nz = self.n_state + self.n_dir
-        self.h = h = ode.period_s / self.N
+        self.h = h = ode.forcing_period / self.N
         step = rk4_step(ode, outputs)
         x = ca.SX.sym("x", nx)
         D3 = ca.SX.sym("D3", nd, 3)

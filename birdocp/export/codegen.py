@@ -35,7 +35,8 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config
-from birdocp.engine.integrate import rk4_update, stage_time_grid
+from birdocp.engine.rk4 import rk4_update
+from birdocp.engine.stage_grid import stage_time_grid
 from birdocp.engine.results import result_dict
 from birdocp.io.files import atomic_folder
 from birdocp.io.runs import LOCK_NAME

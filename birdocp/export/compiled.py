@@ -42,7 +42,7 @@ import casadi as ca
 from birdocp.engine import graphcache
 from birdocp.io.files import atomic_target
 from birdocp.engine.cache import owned_cache
-from birdocp.engine.problem import PeriodicODE
+from birdocp.engine.ode import ODE
 
 __all__ = ["CompiledFallbackWarning", "cache_dir", "find_compiler", "compile_functions", "compiled_ode",
            "NumericCompiler", "MAX_INSTRUCTIONS",
@@ -240,7 +240,7 @@ def compiled_rhs(rhs: ca.Function, key_extra: str = "", directory: Path | None =
 
 
 class NumericCompiler:
-    """The ``numeric`` hook of a compiled :class:`PeriodicODE`: a Function the engine evaluates for
+    """The ``numeric`` hook of a compiled :class:`ODE`: a Function the engine evaluates for
     numbers only (``post`` on the stage grid, ``post`` with its derivatives along free parameters) is
     generated as C, compiled once into the cache and loaded as a ``casadi.external`` (bit-identical
     numbers, 4-5x faster on the bird's ``post``: measured 17 -> 3.6 ms on 297 stage times). A Function
@@ -258,7 +258,7 @@ class NumericCompiler:
         variational step from compiled pieces, :meth:`birdocp.engine.integrate.RK4Grid.variational_function`)."""
         return MAX_INSTRUCTIONS
 
-    def __init__(self, key_extra: str = "", directory: Path | None = None, source: PeriodicODE | None = None):
+    def __init__(self, key_extra: str = "", directory: Path | None = None, source: ODE | None = None):
         self.key_extra = key_extra
         self.directory = directory
         self.source = source
@@ -282,8 +282,8 @@ class NumericCompiler:
         return out
 
 
-def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None = None) -> PeriodicODE | None:
-    """A :class:`PeriodicODE` equal to ``ode`` but whose ``rhs`` is compiled C (an external) and whose
+def compiled_ode(ode: ODE, key_extra: str = "", directory: Path | None = None) -> ODE | None:
+    """An :class:`ODE` equal to ``ode`` but whose ``rhs`` is compiled C (an external) and whose
     numeric-only data Functions are compiled on first use (:class:`NumericCompiler`), or None with a
     :class:`CompiledFallbackWarning` when compiling or loading the RHS fails.
 
@@ -292,7 +292,7 @@ def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None =
 
     Parameters
     ----------
-    ode : PeriodicODE
+    ode : ODE
         The ODE to compile.
     key_extra : str
         Extra text for the cache key (e.g. the configuration's structure).
@@ -301,8 +301,9 @@ def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None =
 
     Returns
     -------
-    PeriodicODE or None
-        The compiled ODE, or None when compiling failed (see above).
+    ODE or None
+        The compiled ODE, or None when compiling or loading the right-hand side failed (a
+        :class:`CompiledFallbackWarning` says why).
     """
     cache = owned_cache(ode, "compiled", 1)
     hit = cache.get("compiled_ode")
@@ -311,7 +312,7 @@ def compiled_ode(ode: PeriodicODE, key_extra: str = "", directory: Path | None =
     try:
         ext = compiled_rhs(ode.rhs, key_extra, directory, f"{ode.graph_key}:rhs" if ode.graph_key else "")
         # pre/post kept symbolic (the engine differentiates post); their numbers come from compiled C
-        out = PeriodicODE(rhs=ext, data=ode.data, period_s=ode.period_s, state_names=ode.state_names,
+        out = ODE(rhs=ext, data=ode.data, forcing_period=ode.forcing_period, state_names=ode.state_names,
                           param_names=ode.param_names, pre=ode.pre, post=ode.post, pre_params=ode.pre_params,
                           graph_key=ode.graph_key, numeric=NumericCompiler(key_extra, directory, source=ode))
     except Exception as e:  # never fail the solve because of the compiler

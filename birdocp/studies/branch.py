@@ -211,7 +211,7 @@ def bird_problem(cfg, m, ode, model_key: str, level: bool, climb_rate_mps: float
         Configuration.
     m : BirdModel
         Model of ``cfg``.
-    ode : PeriodicODE
+    ode : ODE
         The ODE solved (``m.ode`` or its compiled twin).
     model_key : str
         Dotted key of the continuation parameter.
@@ -270,7 +270,7 @@ def validity_events(cfg, steps_per_period: int, ode=None, stop: bool = False):
         Configuration (its ``[validity]`` limits).
     steps_per_period : int
         RK4 steps of the validity period.
-    ode : PeriodicODE, optional
+    ode : ODE, optional
         The ODE integrated (default: the model's).
     stop : bool
         Stop the continuation at the located boundary.
@@ -310,7 +310,7 @@ def add_validity(cfg, br: Branch, steps_per_period: int | None = None, ode=None)
         Branch, changed in place.
     steps_per_period : int, optional
         RK4 steps of the validity period (default: the branch's).
-    ode : PeriodicODE, optional
+    ode : ODE, optional
         The ODE integrated.
 
     Returns

@@ -97,7 +97,7 @@ class PerModel:
 class _Linearisation(PerModel):
     """CasADi Functions of one interval of the beat for (model, steps, N): end state, state Jacobian
     and directional derivatives along the data/parameter directions of the controls. ``model``: any
-    object with ``ode`` (a :class:`~birdocp.engine.problem.PeriodicODE` of nx states), ``data`` (its
+    object with ``ode`` (a :class:`~birdocp.engine.ode.ODE` of nx states), ``data`` (its
     data Function) and ``model`` (the identity it is cached by)."""
 
     def __init__(self, model, steps: int, n_intervals: int):

@@ -19,8 +19,9 @@ from birdocp.bird.keys import AMPLITUDE_BOUNDS_DEG
 from birdocp.engine.oracle import active_bounds
 from birdocp.engine.oracle import ipopt_options as one_ipopt_front  # the one set of IPOPT options
 from birdocp.engine.results import result_dict, serial
-from birdocp.studies.gait_cycle import (AMPLITUDE_KEY, JURY_MARGIN, POSITIVE_EPS_W, Evaluation,  # noqa: F401
-                                        ReducedLevelCycle, check_free_bounds, check_free_keys, jury_conditions)
+from birdocp.studies.gait_cycle import (AMPLITUDE_KEY, JURY_MARGIN, POSITIVE_EPS_W,  # noqa: F401
+                                        ReducedLevelCycle, jury_conditions)
+from birdocp.studies.gait_types import Evaluation, check_free_bounds, check_free_keys  # noqa: F401
 from birdocp.studies.gait_problem import ReducedProblem
 from birdocp.studies.lateral_optimize import reduced_level_cycle
 from birdocp.studies.power_curves import SPEED_KEY, curve_optima, level_at_speed, power_curve  # noqa: F401
@@ -140,7 +141,9 @@ class GaitSolverOptions:
     ipopt_options : dict, optional
         Extra IPOPT options.
     hessian : {"sr1", "fd", "fixed"}
-        How IPOPT gets second derivatives (see above).
+        How IPOPT gets second derivatives: "sr1" limited-memory SR1 updates; "fd" exact-Hessian mode
+        on the forward difference of the exact constraint gradients (perturbed points evaluated
+        ``threads`` at a time); "fixed" exact-Hessian mode on ``second_derivatives`` held fixed.
     radius_start_factor : float
         With the stability objective, r starts at this factor times the start's spectral radius.
     threads : int
@@ -225,7 +228,9 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     x_guess : array_like (4,), optional
         State at t = 0 of the start's level cycle, if known (default: a trim of the start gait).
     valid : bool
-        Every limit of ``cfg.validity`` a smooth constraint (see above).
+        Every limit of ``cfg.validity`` a smooth constraint (:mod:`birdocp.bird.validity_smooth`); a
+        limit the optimum still crosses exactly is tightened by the difference and the problem solved
+        again, at most ``valid_rounds`` solves.
     solver : GaitSolverOptions, optional
         How IPOPT solves (default :class:`GaitSolverOptions`).
     **solver_options

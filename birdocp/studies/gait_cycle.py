@@ -23,18 +23,17 @@ from __future__ import annotations
 
 import math
 import threading
-from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, Config, ConfigError, get_value, suggest, with_values
+from birdocp.bird.config import PARAM_NAMES, Config, with_values
 from birdocp.engine.cache import owned_cache
-from birdocp.engine.floquet import sort_multipliers
+from birdocp.studies.gait_types import Evaluation, WarmStart
 from birdocp.studies.jury import dominant_block, jury_conditions, jury_function, jury_values  # noqa: F401
 
-__all__ = ["ReducedLevelCycle", "Evaluation", "WarmStart", "jury_conditions", "dominant_block", "jury_values", "check_free_bounds", "check_free_keys",
-           "AMPLITUDE_KEY", "JURY_MARGIN", "POSITIVE_EPS_W", "NEWTON_RESCUE_STEPS"]
+__all__ = ["ReducedLevelCycle", "jury_conditions", "dominant_block", "jury_values", "AMPLITUDE_KEY", "JURY_MARGIN",
+           "POSITIVE_EPS_W", "NEWTON_RESCUE_STEPS"]
 
 from birdocp.bird.keys import AMPLITUDE_KEY, JURY_MARGIN  # noqa: E402 (one definition of each)
 POSITIVE_EPS_W = 0.05
@@ -47,101 +46,6 @@ still falling (``ReducedLevelCycle._newton``)."""
 _OUT = ("vertical_speed_mps", "forward_speed_mps", "flapping_power_W", "aerodynamic_power_W",
         "positive_power_smooth_W")
 
-def check_free_bounds(cfg, free: dict) -> None:
-    """ConfigError unless every free key is a known parameter other than the amplitude, with finite
-    bounds lower < upper that hold the configured value and lie in the key's physical range (each
-    bound is a valid configuration value). Needs no model: callers check this before building one.
-
-    Parameters
-    ----------
-    cfg : Config
-        Configuration.
-    free : dict of str to (float, float)
-        Free key to (lower, upper) bound.
-    """
-    for k, (lo, hi) in free.items():
-        if k not in PARAM_NAMES:
-            raise ConfigError(k, "unknown parameter for --free" + suggest(k, PARAM_NAMES))
-        if k == AMPLITUDE_KEY:
-            raise ConfigError(k, "the flapping amplitude is solved for level flight; free other keys")
-        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
-            raise ConfigError(k, f"bounds must be finite with lower < upper, got ({lo}, {hi})")
-        v = float(get_value(cfg, k))
-        if not lo <= v <= hi:
-            raise ConfigError(k, f"configured value {v:g} lies outside its bounds ({lo:g}, {hi:g}); "
-                                 f"widen --bounds {k}=LO:HI")
-        for end, value in (("lower", lo), ("upper", hi)):
-            try:
-                with_values(cfg, {k: float(value)})
-            except ConfigError as exc:
-                raise ConfigError(k, f"the {end} bound {value:g} is not a valid value ({exc}); "
-                                     f"narrow --bounds {k}=LO:HI") from None
-
-
-def check_free_keys(m, cfg, free: dict) -> None:
-    """ConfigError unless every free key can be a reduced variable (:func:`check_free_bounds`, and
-    not reshaping the wing in the arm frame, which the model ``m`` tells).
-
-    Parameters
-    ----------
-    m : BirdModel
-        Model of ``cfg``.
-    cfg : Config
-        Configuration.
-    free : dict of str to (float, float)
-        Free key to (lower, upper) bound.
-    """
-    check_free_bounds(cfg, free)
-    for k in free:
-        if PARAM_NAMES.index(k) in m.pre_params:
-            raise ConfigError(k, "changes the wing's shape in the arm frame (elbow, wrist, morphology): "
-                                 "free shoulder joints, wing.root_ahead_m or body/aero/drag keys")
-
-
-@dataclass(frozen=True)
-class WarmStart:
-    """Where a :class:`ReducedLevelCycle`'s next Newton solve starts: read it with
-    :attr:`ReducedLevelCycle.warm_start`, set it with :meth:`ReducedLevelCycle.restart_from`.
-
-    y: the level cycle's unknowns (x0, A) [state units, deg]; theta: the free parameters it was solved
-    at (None: not yet solved with gradients); dy: d(x0, A)/d theta there (5 x n_theta), None for no
-    first-order prediction (Newton then starts from y itself).
-    """
-
-    y: np.ndarray
-    theta: np.ndarray | None = None
-    dy: np.ndarray | None = None
-
-
-@dataclass
-class Evaluation:
-    """The level cycle at one theta and its exact gradients (per unit of each free key)."""
-
-    theta: np.ndarray
-    x0: np.ndarray
-    amplitude_deg: float
-    means: dict            # _OUT name -> period mean
-    grads: dict            # name -> d mean / d theta; also "amplitude_deg"
-    monodromy: np.ndarray
-    d_monodromy: np.ndarray | None  # 16 x n_theta (column-major vec), second order only
-    residual: float
-    newton_iterations: int
-    dy: np.ndarray | None = None    # d(x0, A)/d theta (5 x n_theta), with the gradients
-    Ry: np.ndarray | None = None    # the level-cycle residual's Jacobian in (x0, A), with the gradients
-    blocks: list | None = None      # further 4 x 4 monodromy blocks that count, [(M, dM or None)] (6-DOF: lateral)
-
-    @property
-    def y(self) -> np.ndarray:
-        """The level cycle's unknowns (x0, A)."""
-        return np.append(self.x0, self.amplitude_deg)
-
-    @property
-    def multipliers(self) -> np.ndarray:
-        """The eigenvalues of the monodromy and of every further block (:attr:`blocks`), largest first."""
-        mats = [self.monodromy] + [b[0] for b in self.blocks or []]
-        if any(m is None or not np.all(np.isfinite(m)) for m in mats):
-            return np.full(4 * len(mats), np.nan, complex)
-        return sort_multipliers(np.concatenate([np.linalg.eigvals(m) for m in mats]))
 
 
 def _graphs(m, cfg: Config, N: int, vidx: tuple, nt: int, second: bool, valid: bool) -> dict:
@@ -262,16 +166,50 @@ class ReducedLevelCycle:
         """``[(M, dM)]``: the 4 x 4 monodromy blocks whose eigenvalues are the multipliers that count,
         with their derivatives (16 x n_theta, column-major vec; None without the second order): the
         planar monodromy, and the further :attr:`Evaluation.blocks` (the lateral block of a
-        six-degree-of-freedom cycle, :class:`birdocp.studies.lateral_optimize.LateralLevelCycle`)."""
+        six-degree-of-freedom cycle, :class:`birdocp.studies.lateral_optimize.LateralLevelCycle`).
+
+        Parameters
+        ----------
+        ev : Evaluation
+            A cycle (its monodromy and, second order, its derivatives).
+
+        Returns
+        -------
+        list of (ndarray, ndarray or None)
+        """
         return [(ev.monodromy, ev.d_monodromy)] + list(ev.blocks or [])
 
     def multiplier_split(self, ev: Evaluation) -> dict | None:
         """The multipliers of ``ev`` split by block for the JSON (None: one block, nothing to split;
-        six degrees of freedom: :func:`birdocp.studies.lateral_optimize.multiplier_split`)."""
+        six degrees of freedom: :func:`birdocp.studies.lateral_optimize.multiplier_split`).
+
+        Parameters
+        ----------
+        ev : Evaluation
+            A cycle.
+
+        Returns
+        -------
+        dict or None
+        """
         return None
 
     # -- pieces ----------------------------------------------------------------------------------
     def pfull(self, theta, A):
+        """The full parameter vector: the configured values with theta and the amplitude put in.
+
+        Parameters
+        ----------
+        theta : array_like
+            The free parameters (n_theta,), in the units of their keys.
+        A : float
+            Flapping amplitude [deg].
+
+        Returns
+        -------
+        ndarray
+            (len(PARAM_NAMES),).
+        """
         p = self.p0.copy()
         p[self.idx] = theta
         p[self.ia] = A
@@ -281,7 +219,22 @@ class ReducedLevelCycle:
         return self.grid.blocks_numeric(0.0, p)  # one Function (the slicing of a DM in Python cost a third)
 
     def residual(self, y, theta):
-        """(R, means): the level-cycle residual (x_T - x0, mean W - climb) and the period means."""
+        """(R, means): the level-cycle residual (x_T - x0, mean W - climb) and the period means.
+
+        Parameters
+        ----------
+        y : ndarray
+            The unknowns (x0, A): state at t = 0 (state units) and flapping amplitude [deg].
+        theta : array_like
+            The free parameters (n_theta,), in the units of their keys.
+
+        Returns
+        -------
+        R : ndarray
+            (nx + 1,): x_T - x0 (state units), mean vertical speed - climb rate [m/s].
+        means : ndarray
+            Period mean of each quadrature output (``out_names``, their units).
+        """
         p = self.pfull(theta, y[self.nx])
         nx = self.nx
         xT, _, q = self.grid.period_map(ca.DM(y[:nx]), self._D(p), ca.DM(p))
@@ -325,21 +278,52 @@ class ReducedLevelCycle:
         """``(D, seeds, columns)``: the stage data at the parameters ``p``, the parameter directions and
         the data's columns along them -- the inputs of a
         :class:`~birdocp.engine.variational.PeriodSensitivities` pass on this cycle's grid
-        (``sens(x0, D, p, dp=seeds, columns=columns)``)."""
+        (``sens(x0, D, p, dp=seeds, columns=columns)``).
+
+        Parameters
+        ----------
+        p : array_like
+            Full parameter vector (len(PARAM_NAMES),).
+
+        Returns
+        -------
+        tuple
+            ``(D, seeds, columns)``.
+        """
         D, cols = self._data(ca.DM(np.asarray(p, float)))
         return D, self._seeds, cols
 
     def restart_from(self, start: WarmStart) -> None:
         """Start the next Newton solves from ``start`` (the only writer of the warm start besides
         :meth:`evaluate` and :meth:`set_guess`); the cached evaluations, the last Jacobian and the
-        accepted point (:meth:`accept`) are kept."""
+        accepted point (:meth:`accept`) are kept.
+
+        Parameters
+        ----------
+        start : WarmStart
+            The unknowns (x0, A), and optionally the theta they were solved at and dy/dtheta there.
+
+        Returns
+        -------
+        None
+        """
         self._y = np.array(start.y, float)
         self._theta = None if start.theta is None else np.array(start.theta, float)
         self._dy = None if start.dy is None else np.array(start.dy, float)
 
     def set_guess(self, x0) -> None:
         """Start the first Newton solve from the state ``x0`` (at the configured amplitude; a body
-        state of 4 numbers gets its aerodynamic states on the quasi-steady manifold)."""
+        state of 4 numbers gets its aerodynamic states on the quasi-steady manifold).
+
+        Parameters
+        ----------
+        x0 : array_like
+            State at t = 0 (body: u, w [m/s], q [rad/s], theta [rad]; then the aerodynamic states).
+
+        Returns
+        -------
+        None
+        """
         self._y[:self.nx] = self.m.complete_state(x0, self.p0)
         self._started = True
 
@@ -361,7 +345,23 @@ class ReducedLevelCycle:
         fails (near a fold of cycles the prediction ``dy/dtheta`` is large and can throw Newton onto
         another cycle), from the last solved point, then from the last accepted point
         (:meth:`accept`). A non-finite residual, a growing one, or an amplitude outside
-        ``amplitude_range_deg`` is a failure: the optimiser sees an evaluation error and cuts its step."""
+        ``amplitude_range_deg`` is a failure: the optimiser sees an evaluation error and cuts its step.
+
+        Parameters
+        ----------
+        theta : array_like
+            The free parameters (n_theta,), in the units of their keys.
+        grads : bool
+            Also the exact gradients and the monodromy.
+        tol : float
+            Newton tolerance on the max abs residual (state units, m/s).
+        max_newton : int
+            Newton steps per start.
+
+        Returns
+        -------
+        Evaluation
+        """
         theta = np.asarray(theta, float).ravel()
         key = theta.tobytes()
         ev = self._cache.get(key)
@@ -413,7 +413,17 @@ class ReducedLevelCycle:
         ev.dy, ev.Ry = dy, Ry
 
     def fill_monodromy(self, ev: Evaluation) -> None:
-        """Set ``ev.monodromy`` if it has none (state directions only: no gradients, no second order)."""
+        """Set ``ev.monodromy`` if it has none (state directions only: no gradients, no second order).
+
+        Parameters
+        ----------
+        ev : Evaluation
+            A cycle, filled in place.
+
+        Returns
+        -------
+        None
+        """
         if ev.monodromy is None:
             p = self.pfull(ev.theta, ev.amplitude_deg)
             ev.monodromy = np.asarray(self.sens_mono(ev.x0, self._D(p), p)["J"])
@@ -424,7 +434,24 @@ class ReducedLevelCycle:
 
         Side-effect-free (no warm-start state read or written, nothing cached; only the evaluation
         counters change, under a lock), so safe in threads and a pure function of (theta, base): the
-        perturbed points of a finite-difference Hessian. Raises RuntimeError if Newton fails."""
+        perturbed points of a finite-difference Hessian. Raises RuntimeError if Newton fails.
+
+        Parameters
+        ----------
+        theta : array_like
+            The free parameters (n_theta,), in the units of their keys.
+        base : Evaluation
+            A nearby cycle with gradients (``dy`` and ``Ry`` set).
+        tol : float
+            Newton tolerance on the max abs residual.
+        max_newton : int
+            Newton steps.
+
+        Returns
+        -------
+        Evaluation
+            With its gradients.
+        """
         theta = np.asarray(theta, float).ravel()
         y0 = base.y + base.dy @ (theta - base.theta)
         ev = self._newton(y0, theta, tol, max_newton, Ry=base.Ry, keep=False)
@@ -432,12 +459,33 @@ class ReducedLevelCycle:
         return ev
 
     def cached(self, theta) -> Evaluation | None:
-        """The evaluation at exactly theta if it is among the last few, else None (no computation)."""
+        """The evaluation at exactly theta if it is among the last few, else None (no computation).
+
+        Parameters
+        ----------
+        theta : array_like
+            The free parameters (n_theta,), in the units of their keys.
+
+        Returns
+        -------
+        Evaluation or None
+        """
         return self._cache.get(np.asarray(theta, float).ravel().tobytes())
 
     def accept(self, theta) -> None:
-        """Mark the (already evaluated) cycle at theta as a good restart point for Newton."""
-        ev = self._cache.get(np.asarray(theta, float).ravel().tobytes())
+        """Mark the (already evaluated) cycle at theta as a good restart point for Newton.
+
+        Parameters
+        ----------
+        theta : array_like
+            Free parameters of a cycle among the last few evaluations (:meth:`cached`); any other
+            theta changes nothing.
+
+        Returns
+        -------
+        None
+        """
+        ev = self.cached(theta)
         if ev is not None:
             self._anchor = np.append(ev.x0, ev.amplitude_deg)
 
@@ -481,9 +529,31 @@ class ReducedLevelCycle:
     def solve_speed(self, speed_mps: float, theta, k: int = 0, bounds=None, tol: float = 1e-9,
                     max_iter: int = 30) -> Evaluation:
         """Level flight at mean forward speed ``speed_mps``: Newton on theta[k] (the others fixed),
-        exact derivative dU/dtheta_k; damped, kept within ``bounds``. RuntimeError when the speed is
-        not reached; when dU/dtheta_k vanishes or changes sign between two iterates that both fall short
-        on the same side, the speed lies beyond a local extremum of U(theta_k) and the message gives it."""
+        exact derivative dU/dtheta_k; damped (at most 3 units of the key per step), kept within
+        ``bounds``. Raises RuntimeError when the speed is not reached; when dU/dtheta_k vanishes or
+        changes sign between two iterates that both fall short on the same side, the speed lies beyond
+        a local extremum of U(theta_k) and the message gives it.
+
+        Parameters
+        ----------
+        speed_mps : float
+            Target mean forward speed [m/s].
+        theta : array_like
+            The free parameters (n_theta,), in the units of their keys.
+        k : int
+            Index of the free parameter that is varied.
+        bounds : (float, float), optional
+            Bounds of theta[k].
+        tol : float
+            Tolerance on the speed [m/s].
+        max_iter : int
+            Newton steps.
+
+        Returns
+        -------
+        Evaluation
+            The level cycle at the speed.
+        """
         theta = np.asarray(theta, float).copy()
         prev = None
         for _ in range(max_iter):

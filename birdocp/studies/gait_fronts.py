@@ -60,7 +60,8 @@ def stability_pareto(cfg: Config | None, speed_mps: float, bounds, *, free: dict
     progress : callable, optional
         ``progress(text)``, one line per point.
     executor : Executor, optional
-        Solve the points in parallel waves (see above).
+        Solve the points in parallel waves (processes or Dask), each from its nearest solved
+        neighbour (:func:`birdocp.studies.pareto.pareto_parallel`); no halving then, one row per bound.
     anchors : sequence
         Known solutions to start points from (with ``executor``).
     start_bound : float, optional
@@ -71,7 +72,10 @@ def stability_pareto(cfg: Config | None, speed_mps: float, bounds, *, free: dict
     Returns
     -------
     list of dict
-        One row per bound tried (see above).
+        One row per bound tried (inserted ones included, ``"inserted": True``), each with ``bound``,
+        ``success``, ``status``, ``objective_value``, ``largest_modulus``, ``free``, ``amplitude_deg``,
+        ``x0``, ``iterations``, ``kkt_residual``, ``wall_s`` and the verification's
+        ``power_difference_W``, ``validity``, ``valid`` and ``validity_constraints``.
     """
     if executor is not None:
         from birdocp.studies.pareto import pareto_parallel

@@ -8,7 +8,8 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import get_value
-from birdocp.studies.gait_cycle import JURY_MARGIN, Evaluation, ReducedLevelCycle, jury_function, jury_values
+from birdocp.studies.gait_cycle import JURY_MARGIN, ReducedLevelCycle, jury_function, jury_values
+from birdocp.studies.gait_types import Evaluation
 
 __all__ = ["ReducedProblem"]
 

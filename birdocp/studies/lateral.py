@@ -315,7 +315,7 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     amplitude = float(cyc.free_values.get(AMPLITUDE_KEY, cfg.gait.shoulder_flap.amplitude_deg))
     if asym:
         return _split_asymmetric(cfg, six, cyc, method, inertia, amplitude)
-    return _split(cfg, cyc, six.ode.period_s, method, inertia, amplitude)
+    return _split(cfg, cyc, six.ode.forcing_period, method, inertia, amplitude)
 
 
 def _start_state(cfg: Config, method: OrbitMethod) -> list[float]:

@@ -51,7 +51,7 @@ def branch_problem(cfg: Config, model_key: str, level: bool, climb_rate_mps: flo
 
     Returns
     -------
-    ode : PeriodicODE
+    ode : ODE
     problem : OrbitProblem
     """
     six = sixdof_model(cfg, sides=asymmetric(cfg) or model_key in SIDE_PARAM_NAMES)
@@ -100,7 +100,7 @@ def validity_point(x0, p, ode):
     ----------
     x0, p : array_like
         State and parameter vector of the point.
-    ode : PeriodicODE
+    ode : ODE
         Heading-free ODE of the branch.
 
     Returns
@@ -131,7 +131,7 @@ def add_lateral_split(cfg: Config, branch, steps_per_period: int, points: int, o
         RK4 steps of the variational period.
     points : int
         Shooting points of the branch.
-    ode : PeriodicODE, optional
+    ode : ODE, optional
         The heading-free ODE (default: ``cfg``'s).
     """
     from birdocp.engine.shooting import floquet
@@ -144,7 +144,7 @@ def add_lateral_split(cfg: Config, branch, steps_per_period: int, points: int, o
     for pt in branch.points:
         M = np.asarray(floquet(ode, pt.x0, pt.p, method).monodromy)
         if sides:
-            modes = coupled_modes(M, ode.period_s, float(pt.x0[0]))
+            modes = coupled_modes(M, ode.forcing_period, float(pt.x0[0]))
             L = {"longitudinal": sort_multipliers([m["multiplier"] for m in modes if m["label"] == "longitudinal"]),
                  "lateral": sort_multipliers([m["multiplier"] for m in modes if m["label"] != "longitudinal"])}
         else:

@@ -32,7 +32,7 @@ def state_transition_history(ode, x0, p, steps_per_period: int):
 
     Parameters
     ----------
-    ode : PeriodicODE
+    ode : ODE
         The system.
     x0 : array_like
         Start state (on the cycle).

@@ -29,7 +29,8 @@ from birdocp.bird.sides import SIDE_PARAM_NAMES
 from birdocp.bird.sixdof import LATERAL, LONGITUDINAL, LateralInertia, embed_planar_state, sixdof_model
 from birdocp.engine.cache import owned_cache
 from birdocp.engine.floquet import matched_distances, sort_multipliers
-from birdocp.studies.gait_cycle import Evaluation, ReducedLevelCycle
+from birdocp.studies.gait_cycle import ReducedLevelCycle
+from birdocp.studies.gait_types import Evaluation
 
 __all__ = ["LateralLevelCycle", "reduced_level_cycle", "multiplier_split", "lateral_check"]
 

@@ -36,7 +36,8 @@ import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, ConfigError
 from birdocp.bird.sixdof import HEADING, STATE_NAMES, rhs_expression
-from birdocp.engine.integrate import RK4Grid, rk4_update, stage_block_index
+from birdocp.engine.integrate import RK4Grid, stage_block_index
+from birdocp.engine.rk4 import rk4_update
 from birdocp.engine.results import result_dict, serial
 from birdocp.studies.control import PerModel
 from birdocp.studies.simulate import MAX_SPEED_MPS, wind_vector, interval_data, parse_state_values

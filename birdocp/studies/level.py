@@ -247,7 +247,7 @@ def mean_sensitivity(result, key: str = AMPLITUDE_KEY, output: str = "vertical_s
     p = ca.vertcat(*pels)
     D = grid.blocks_symbolic(float(cyc.trajectory_t[0]), p)
     xT, _, q = grid.period_map(x, D, p)
-    mean = q / ode.period_s
+    mean = q / ode.forcing_period
     F = ca.Function("sens", [x, a], [mean, ca.jacobian(xT, x), ca.jacobian(xT, a), ca.jacobian(mean, x),
                                      ca.jacobian(mean, a)])
     mv, Px, Pa, mx, ma = (np.asarray(v) for v in F(np.asarray(cyc.x0, float), pn[i]))

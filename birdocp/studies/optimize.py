@@ -41,7 +41,8 @@ from birdocp.engine.floquet import matched_distances, sort_multipliers
 from birdocp.engine.oracle import ConstraintOracle, active_bounds, ipopt_options
 from birdocp.engine.results import result_dict, serial
 from birdocp.io.progress import text_reporter
-from birdocp.studies.gait_cycle import check_free_keys, jury_conditions, jury_function, jury_values  # noqa: F401
+from birdocp.studies.gait_cycle import jury_conditions, jury_function, jury_values  # noqa: F401
+from birdocp.studies.gait_types import check_free_keys
 from birdocp.studies.gait_validity import WARM_IPOPT
 
 __all__ = ["DEFAULT_FREE", "METHODS", "check_free_keys", "optimize_stability", "StabilityOptimum", "jury_conditions"]
@@ -243,21 +244,14 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     derivatives fixed (one fine gradient per iteration). ``method="full"``: the full-space
     single-shooting NLP (state, parameters, amplitude and r as unknowns; quasi-Newton).
 
-    With ``coarse_steps`` (default ``"auto"``: :data:`COARSE_STEPS` of the method, 32 RK4 steps per
-    period for the reduced method, 48 for the full one, none with aerodynamic states; None: no coarse stage) the optimum is first
-    found on that coarse grid and then refined on the full grid (``steps_per_period``, default
-    ``cfg.solve.steps_per_period``) from the coarse optimum; ``max_iter`` counts per stage. The answer
-    is verified independently: numpy eigenvalues of the monodromy, a multiple-shooting trim from the
-    optimum's state and a trim from scratch at the optimal gait.
-
-    ``progress``: False (silent), True (one line per evaluation on stderr) or a callable taking that
-    line's text (e.g. from :func:`birdocp.io.progress.progress_callback`).
+    With ``coarse_steps`` (default ``"auto"``: 32 RK4 steps per period for the reduced method, 48 for
+    the full one, none with aerodynamic states) the optimum is first found on that coarse grid, then
+    refined on the full grid (``steps_per_period``) from it; ``max_iter`` counts per stage.
 
     Aerodynamic states (reduced method): r bounds the full monodromy's spectral radius (its dominant block).
 
-    ``valid``: the limits of ``cfg.validity`` are smooth constraints in every stage (reduced method
-    only; :func:`birdocp.studies.gait.optimize_gait`'s ``valid``); the result carries
-    ``validity_constraints`` and its exact ``validity`` is ``valid`` unless the rounds ran out.
+    ``valid``: :func:`birdocp.studies.gait.optimize_gait`'s ``valid`` in every stage; the exact
+    ``validity`` of the result is ``valid`` unless the rounds ran out.
 
     Parameters
     ----------
@@ -276,17 +270,23 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     tol : float
         IPOPT's tolerance.
     verify : bool
-        Verify the optimum independently (see above).
+        Verify the optimum independently: numpy eigenvalues of the monodromy, a multiple-shooting
+        trim from the optimum's state and a trim from scratch at the optimal gait.
     progress : bool or callable
-        See above.
+        False (silent), True (one line per evaluation on stderr) or a callable taking that line's
+        text (e.g. from :func:`birdocp.io.progress.progress_callback`).
     coarse_steps : int, None or "auto"
-        Steps of the coarse stage (see above).
+        RK4 steps per period of the coarse stage, whose optimum starts the fine one; "auto":
+        :data:`COARSE_STEPS` of the method (none with aerodynamic states); None: no coarse stage.
     method : {"reduced", "full"}
-        The formulation (see above).
+        "reduced": the reduced-space NLP of :func:`birdocp.studies.gait.optimize_gait` (free
+        parameters and r as IPOPT's unknowns, the level cycle solved by Newton); "full": the
+        full-space single-shooting NLP (state, parameters, amplitude and r; quasi-Newton).
     threads : int
         Perturbed points evaluated at a time (reduced method).
     valid : bool
-        The validity limits as smooth constraints (see above).
+        The limits of ``cfg.validity`` as smooth constraints in every stage (reduced method only);
+        the result then carries ``validity_constraints``.
 
     Returns
     -------

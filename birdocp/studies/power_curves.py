@@ -9,7 +9,8 @@ import numpy as np
 from birdocp.bird.config import Config, get_value, with_values
 from birdocp.bird.validity import periodic_validity
 from birdocp.io.progress import text_reporter
-from birdocp.studies.gait_cycle import AMPLITUDE_KEY, Evaluation, ReducedLevelCycle, WarmStart
+from birdocp.studies.gait_cycle import AMPLITUDE_KEY, ReducedLevelCycle
+from birdocp.studies.gait_types import Evaluation, WarmStart
 
 __all__ = ["level_at_speed", "power_curve", "curve_optima", "SPEED_KEY"]
 

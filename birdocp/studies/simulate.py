@@ -37,7 +37,8 @@ import numpy as np
 from birdocp.bird.config import PARAM_NAMES, ConfigError
 from birdocp.bird.model import air_state, get_model
 from birdocp.bird.validity import effective_angles
-from birdocp.engine.integrate import RK4Grid, rk4_update, stage_block_index
+from birdocp.engine.integrate import RK4Grid, stage_block_index
+from birdocp.engine.rk4 import rk4_update
 from birdocp.engine.problem import finite_vector
 from birdocp.engine.results import result_dict, serial
 from birdocp.studies.control import PerModel

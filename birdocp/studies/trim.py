@@ -42,7 +42,7 @@ def solver_ode(m, compiled: bool = False):
 
     Returns
     -------
-    PeriodicODE
+    ODE
     """
     if not compiled:
         return m.ode

@@ -21,14 +21,15 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from birdocp.engine.continuation import continuation
-from birdocp.engine.problem import OrbitProblem, PeriodicODE
+from birdocp.engine.problem import OrbitProblem
+from birdocp.engine.ode import ODE
 
 x = ca.SX.sym("x", 2)
 t = ca.SX.sym("t")
 p = ca.SX.sym("p", 1)
 lam = p[0]
 rhs = ca.vertcat((1 + 0.5 * x[1]) * (lam - x[0] ** 2), -x[1] + ca.sin(2 * np.pi * t))
-ode = PeriodicODE.from_rhs(ca.Function("fold", [x, t, p], [rhs]), 1.0, ("x", "y"), ("lam",))
+ode = ODE.from_rhs(ca.Function("fold", [x, t, p], [rhs]), 1.0, ("x", "y"), ("lam",))
 
 problem = OrbitProblem(ode, [1.0], [1.0, 0.0])
 branch = continuation(problem, "lam", 1.0, -1.0, points=3, steps_per_period=40)
@@ -77,7 +78,7 @@ def pd_rhs(x, t, lam):
     return A @ x + ca.vertcat(ca.sin(2 * np.pi * t), 0)
 
 
-pd_ode = PeriodicODE.from_rhs(ca.Function("pd", [x, t, p], [pd_rhs(x, t, lam)]), 1.0, ("x", "y"), ("lam",))
+pd_ode = ODE.from_rhs(ca.Function("pd", [x, t, p], [pd_rhs(x, t, lam)]), 1.0, ("x", "y"), ("lam",))
 pd_branch = continuation(OrbitProblem(pd_ode, [-0.5], [0.0, 0.0]), "lam", -0.5, 0.5,
                          points=3, steps_per_period=120)
 for sp in pd_branch.special_points:

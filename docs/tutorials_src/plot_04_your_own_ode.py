@@ -15,14 +15,15 @@ resonance curve).
 # %%
 # Pose the problem
 # ----------------
-# ``PeriodicODE.from_rhs(f, T, state_names, param_names)`` wraps ``f(x, t, p)``; the period T is the
+# ``ODE.from_rhs(f, T, state_names, param_names)`` wraps ``f(x, t, p)`` (the data is the time); the period T is the
 # forcing's. ``OrbitProblem`` adds the parameter values and a guess of the state at t = 0.
 import casadi as ca
 import matplotlib.pyplot as plt
 import numpy as np
 
 from birdocp.engine.integrate import simulate
-from birdocp.engine.problem import OrbitProblem, PeriodicODE
+from birdocp.engine.problem import OrbitProblem
+from birdocp.engine.ode import ODE
 from birdocp.engine import OrbitMethod, solve
 
 omega = 1.3
@@ -32,7 +33,7 @@ t = ca.SX.sym("t")
 p = ca.SX.sym("p", 4)
 c, k, beta, F = p[0], p[1], p[2], p[3]
 xdot = ca.vertcat(x[1], -c * x[1] - k * x[0] - beta * x[0] ** 3 + F * ca.cos(omega * t))
-ode = PeriodicODE.from_rhs(ca.Function("duffing", [x, t, p], [xdot]), T, ("x", "v"), ("c", "k", "beta", "F"))
+ode = ODE.from_rhs(ca.Function("duffing", [x, t, p], [xdot]), T, ("x", "v"), ("c", "k", "beta", "F"))
 params = np.array([0.1, 1.0, 0.2, 0.3])   # c, k, beta, F
 
 # %%

@@ -1,6 +1,6 @@
 """Pseudo-arclength continuation of periodic orbits in one parameter, with special-point detection.
 
-Works for any :class:`~birdocp.engine.problem.OrbitProblem` of a :class:`~birdocp.engine.problem.PeriodicODE`: the unknowns are the shooting points
+Works for any :class:`~birdocp.engine.problem.OrbitProblem` of a :class:`~birdocp.engine.ode.ODE`: the unknowns are the shooting points
 ``X_0 .. X_{M-1}``, the problem's free parameters (each held by one of its period-mean conditions,
 e.g. the flapping amplitude held by mean W = 0 for level flight) and the continuation parameter
 ``lam``. The equations ``G = [continuity; periodicity; mean conditions]`` are one fewer than the

@@ -17,13 +17,13 @@ def iter_branch(problem, param, start_value: float, stop_value: float, *, start=
 
     One front for the three kinds of branch; what is followed depends on ``problem`` and ``start``:
 
-    * an :class:`~birdocp.engine.problem.OrbitProblem` of a ``PeriodicODE``: its forced periodic orbits
+    * an :class:`~birdocp.engine.problem.OrbitProblem` of an ODE with data: its forced periodic orbits
       (:class:`~birdocp.engine.continuation.iterate.OrbitBranchIterator`; ``start`` an optional
       converged cycle);
-    * an :class:`~birdocp.engine.ode.ODE` with ``start`` a converged
+    * an :class:`~birdocp.engine.ode.ODE` (without data) with ``start`` a converged
       :class:`~birdocp.engine.orbit_result.OrbitResult`: the autonomous orbits through it (the period
       varies; :func:`~birdocp.engine.continuation.autonomous.autonomous_branch_iterator`);
-    * an :class:`~birdocp.engine.ode.ODE` with ``start`` an
+    * an :class:`~birdocp.engine.ode.ODE` (without data) with ``start`` an
       :class:`~birdocp.engine.equilibria.Equilibrium` or a state: its equilibria
       (:class:`~birdocp.engine.equilibria.EquilibriumBranchIterator`).
 
@@ -37,8 +37,9 @@ def iter_branch(problem, param, start_value: float, stop_value: float, *, start=
         The parameter interval: the branch starts at ``start_value`` (the start is corrected there)
         and ends at ``stop_value`` or earlier (the iterator's ``end_reason`` / ``status`` says why).
     start : object, optional
-        A cycle (an ``OrbitResult``, ``TrimResult.cycle``), an ``OrbitResult`` of the ODE or an
-        ``Equilibrium`` / a state near the start, as above.
+        What the branch starts from: for an ``OrbitProblem``, optionally a converged cycle of it
+        (an ``OrbitResult``, e.g. ``TrimResult.cycle``); for an ``ODE``, a converged ``OrbitResult``
+        of it (autonomous orbits), or an ``Equilibrium`` or a state near an equilibrium (equilibria).
     **settings
         For orbits: the fields of :class:`~birdocp.engine.continuation.options.ContinuationOptions`
         (``step``, ``max_points``, ``error_estimate``, ...; or ``options=``) and ``accept``,
@@ -69,7 +70,7 @@ def iter_branch(problem, param, start_value: float, stop_value: float, *, start=
     if isinstance(problem, OrbitProblem) and problem.data_split:
         return OrbitBranchIterator(problem, param, start_value, stop_value, start=start, **settings)
     if not isinstance(problem, ODE):
-        raise TypeError(f"iter_branch: problem must be an OrbitProblem of a PeriodicODE or an ODE, "
+        raise TypeError(f"iter_branch: problem must be an OrbitProblem of an ODE with data or an ODE, "
                         f"got {type(problem).__name__}")
     if start is None:
         raise ValueError("iter_branch: an ODE needs start= (an OrbitResult, an Equilibrium or a state)")

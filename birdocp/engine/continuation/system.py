@@ -95,7 +95,7 @@ class Continuation:
         -------
         float
         """
-        return float(self.ode.period_s)
+        return float(self.ode.forcing_period)
 
     def p_of(self, z) -> np.ndarray:
         """The full parameter vector at unknowns ``z``.
