@@ -9,7 +9,6 @@ import pytest
 from birdocp.engine import ODE, OrbitMethod, OrbitProblem, solve
 from birdocp.engine import orbit_system
 from birdocp.engine.integrate import RK4Grid
-from birdocp.engine.problem import PeriodicODE
 from birdocp.engine.steppers import make_step, make_variational_step
 
 
@@ -45,7 +44,7 @@ def test_period_jacobian_from_the_first_segment_is_the_one_in_one_go():
     # a forced Duffing oscillator with one period-mean output (the grid then has a state-only twin)
     x, t, p = ca.SX.sym("x", 2), ca.SX.sym("t"), ca.SX.sym("p", 2)
     rhs = ca.Function("duffing", [x, t, p], [ca.vertcat(x[1], -p[0] * x[1] - x[0] - p[1] * x[0] ** 3 + ca.cos(t))])
-    ode = PeriodicODE.from_rhs(rhs, 2 * np.pi)
+    ode = ODE.from_rhs(rhs, 2 * np.pi)
     out = ca.Function("energy", [x, t, p], [x[0] ** 2 + x[1] ** 2])
     grid = RK4Grid(ode, 64, 4, (out,))
     pd = ca.DM([0.3, 0.5])
