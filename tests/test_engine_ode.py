@@ -257,6 +257,22 @@ def test_lyapunov_of_a_forced_system_and_of_a_stable_forced_orbit():
     assert abs(le - lam1) < 3 * se + 1e-3, (le, lam1, se)
 
 
+def test_lyapunov_of_an_ode_with_data_is_that_of_the_same_system_in_time():
+    """An ODE whose forcing comes through its data function (d = cos t) has the exponents of the same
+    system written with t in its right-hand side (the tangent steps take the data at each time)."""
+    A = ca.DM([[-0.5, 1.0], [-1.0, -0.5]])
+    x, d, p, t = ca.SX.sym("x", 2), ca.SX.sym("d"), ca.SX.sym("p", 1), ca.SX.sym("t")
+    rhs = ca.Function("f", [x, d, p], [ca.mtimes(A, x) + ca.vertcat(0, p[0] * d) + 0.1 * ca.vertcat(x[1] ** 3, 0)])
+    data = ca.Function("data", [t, p], [ca.cos(t)])
+    with_data = ODE(rhs=rhs, data=data, forcing_period=2 * np.pi)
+    in_time = ODE.from_function(lambda x, t, p: ca.mtimes(A, x) + ca.vertcat(0, p[0] * ca.cos(t))
+                                + 0.1 * ca.vertcat(x[1] ** 3, 0), 2, 1, forcing_period=2 * np.pi)
+    kw = dict(t_total=10.0, dt=0.01, t_transient=2.0, renorm_time=0.5)
+    a = lyapunov_exponents(with_data, [1.0, 0.0], [2.0], **kw).exponents
+    b = lyapunov_exponents(in_time, [1.0, 0.0], [2.0], **kw).exponents
+    np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
+
+
 def test_lorenz_spectrum_sum_and_largest_exponent():
     import lorenz
 

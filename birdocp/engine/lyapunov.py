@@ -74,7 +74,11 @@ def _chunk(ode: ODE, k: int, n_sub: int, integrator: str) -> ca.Function:
 
 
 def _build_chunk(ode: ODE, k: int, n_sub: int, integrator: str) -> ca.Function:
-    step = make_step(ode.rhs, integrator)
+    rhs = ode.rhs
+    if ode.data is not None:  # rhs(x, d, p) with d = data(t, p): the steppers take f(x, t, p)
+        xs, ts, ps = ca.MX.sym("x", ode.nx), ca.MX.sym("t"), ca.MX.sym("p", ode.np)
+        rhs = ca.Function("time_rhs", [xs, ts, ps], [ode.time_rhs(xs, ts, ps)])
+    step = make_step(rhs, integrator)
     S = ca.SX if step.is_a("SXFunction") else ca.MX
     x, W = S.sym("x", ode.nx), S.sym("W", ode.nx, k)
     t, p, h = S.sym("t"), S.sym("p", ode.np), S.sym("h")
