@@ -81,3 +81,16 @@ def test_checker_compares_a_scratch_run(tmp_path, monkeypatch):
     (row,) = check_results.compare_files(e, run, 1e-9)
     assert row["status"] == "differs" and row["differences"][0]["key"] == "/period_s"
     assert row["differences"][0]["relative"] == pytest.approx(0.0001 / 0.2501)
+    loose = check_results.entry("study", "scripts/study.py", "study", ["study/result.json"], rtol=1e-3)
+    assert [f["status"] for f in check_results.compare_files(loose, run, 1e-9)] == ["identical"]
+
+
+def test_eigenvector_up_to_a_unit_factor_and_log_of_small_multiplier():
+    vec = {"v_mps": [-0.449, -0.155], "p_radps": [1.0, 0.0], "r_radps": [0.325, 0.248]}
+    flipped = {k: [-x for x in v] for k, v in vec.items()}
+    assert compare({"eigenvector": vec}, {"eigenvector": flipped}) == []
+    assert compare({"vector": vec}, {"vector": flipped})                      # only eigenvectors are rephased
+    other = {**flipped, "r_radps": [-0.3, -0.248]}
+    assert compare({"eigenvector": vec}, {"eigenvector": other})[0][0] == "/eigenvector/r_radps/0"
+    assert compare({"beats_to_double": -0.0268764596}, {"beats_to_double": -0.0268764476}) == []
+    assert compare({"beats_to_double": 2.5}, {"beats_to_double": 2.6})
