@@ -35,14 +35,17 @@ ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "results"
 
 
-def entry(name, script, out, files, args=(), seed=(), recorded=(), skip=None, out_file=None, rtol=0.0):
+def entry(name, script, out, files, args=(), seed=(), recorded=(), skip=None, out_file=None, rtol=0.0,
+          then=()):
     """One registered script: ``out`` the results sub-folder it writes (``--out``), ``files`` the globs
     (relative to results/) compared, ``seed`` committed inputs copied beside the scratch output first,
     ``recorded`` ``(file, key, ...)`` paths whose sum is its recorded duration in seconds, ``skip`` a reason
     not to run it, ``out_file`` when ``--out`` takes a file (relative to results/) rather than a folder,
-    ``rtol`` a floor on ``--rtol`` for this script's files (:data:`OPTIMUM_RTOL`)."""
+    ``rtol`` a floor on ``--rtol`` for this script's files (:data:`OPTIMUM_RTOL`), ``then`` argument lists
+    of further runs of the same script into the same folder (a result written in several steps)."""
     return {"name": name, "script": script, "out": out, "files": list(files), "args": list(args),
-            "seed": list(seed), "recorded": list(recorded), "skip": skip, "out_file": out_file, "rtol": rtol}
+            "seed": list(seed), "recorded": list(recorded), "skip": skip, "out_file": out_file, "rtol": rtol,
+            "then": [list(t) for t in then]}
 
 
 #: The relative tolerance of the optimisers' results: an optimum solved to a KKT residual of ~1e-8
@@ -112,7 +115,7 @@ REGISTRY = [
     entry("stability", "scripts/stability_study.py", ".", ["stability_optimum/result.json"],
           recorded=[("stability_optimum/result.json", "script_wall_s")], rtol=OPTIMUM_RTOL),
     entry("energetics-optimize-stability", "scripts/energetics_study.py", "energetics",
-          ["energetics/most_stable_gait.json"], args=["--only", "optimize-stability"],
+          ["energetics/result.json"], args=["--only", "optimize-stability"],
           seed=["energetics/result.json", "stability_optimum/result.json"], rtol=OPTIMUM_RTOL),
     entry("energetics", "scripts/energetics_study.py", "energetics",
           ["energetics/result.json", "energetics/power_curve.json", "energetics/optimal_gait.json",
@@ -124,7 +127,7 @@ REGISTRY = [
           args=["--optimize"], recorded=[("tail/optimum_valid.json", "script_wall_s")], rtol=OPTIMUM_RTOL),
     entry("stability-valid", "scripts/stability_valid_study.py", "stability_optimum/valid",
           ["stability_optimum/valid/result.json"],
-          recorded=[("stability_optimum/valid/result.json", "free_speed", "script_wall_s")], rtol=OPTIMUM_RTOL),
+          recorded=[("stability_optimum/valid/result.json", g, "script_wall_s") for g in ("free_speed", "at_speed")], rtol=OPTIMUM_RTOL),
     entry("energetics-valid", "scripts/energetics_valid_study.py", "energetics/valid",
           ["energetics/valid/result.json"], seed=["stability_optimum/valid/result.json"],
           recorded=[("energetics/valid/result.json", "wall_s")], rtol=OPTIMUM_RTOL),
@@ -145,9 +148,15 @@ REGISTRY = [
         ("benchmark_model", "benchmark_model.json"), ("benchmark_sixdof", "benchmark_sixdof.json"),
         ("benchmark_aero", "aero/benchmark*.json"), ("benchmark_validity", "stability_optimum/benchmark_validity.json"),
         ("benchmark_engine", "engine/[br]e*.json"))],
-    entry("reference-uvlm", "scripts/reference_uvlm/run_uvlm.py", "aero/uvlm", ["aero/uvlm/*.json",
+    entry("uvlm-inputs", "scripts/reference_uvlm/make_inputs.py", "aero/uvlm", ["aero/uvlm/inputs.json"]),
+    entry("uvlm-compare", "scripts/reference_uvlm/compare.py", "aero/uvlm", ["aero/uvlm/result.json"],
+          args=["--unsteady", "none"], then=[["--unsteady", "wagner"]],
+          seed=["aero/uvlm/inputs.json", "aero/uvlm/uvlm.json"]),
+    entry("reference-uvlm", "scripts/reference_uvlm/run_uvlm.py", "aero/uvlm", ["aero/uvlm/uvlm.json",
                                                                                   "aero/uvlm/steady/*.json"],
           skip=EXTERNAL),
+    entry("wing-kinematics", "scripts/plot_wing_kinematics.py", ".", [],
+          skip="a figure only (results/wing_kinematics.png), no JSON to compare"),
     entry("reference-aerosandbox", "scripts/reference_aerosandbox/run_aerosandbox.py", "lateral/glide",
           ["lateral/glide/aerosandbox*.json"], skip=EXTERNAL),
 ]
@@ -172,10 +181,10 @@ def _committed(e) -> list[Path]:
     return sorted({p for g in e["files"] for p in RESULTS.glob(g) if p.is_file()})
 
 
-def _command(e, run_root: Path) -> list[str]:
+def _command(e, run_root: Path, args=None) -> list[str]:
     out = run_root / (e["out_file"] or e["out"])
     head = e["script"].split() if e["script"].startswith("-m ") else [str(ROOT / e["script"])]
-    return [sys.executable, *head, *e["args"], "--out", str(out)]
+    return [sys.executable, *head, *(e["args"] if args is None else args), "--out", str(out)]
 
 
 def _prepare(e, run_root: Path) -> None:
@@ -220,13 +229,13 @@ def check(e, runs: Path, budget_s: float, rtol: float, compare_only: bool = Fals
     if e["skip"]:
         return {**row, "status": "skipped", "reason": e["skip"]}
     run_root = runs / e["name"]
+    if row["recorded_s"] is not None and row["recorded_s"] > budget_s and not (run_root / "run.json").exists():
+        return {**row, "status": "skipped", "reason": f"too slow: recorded {row['recorded_s']:.0f} s > "
+                                                        f"--budget-s {budget_s:.0f}"}
     if compare_only:
         if not (run_root / "run.json").exists():
             return {**row, "status": "skipped", "reason": "not run (compare-only, no earlier run in --out)"}
         row.update(json.loads((run_root / "run.json").read_text()))
-    elif row["recorded_s"] is not None and row["recorded_s"] > budget_s:
-        return {**row, "status": "skipped", "reason": f"too slow: recorded {row['recorded_s']:.0f} s > "
-                                                        f"--budget-s {budget_s:.0f}"}
     else:
         row.update(_run(e, run_root, budget_s))
     if row["returncode"] in (124, 130, -2, 137):
@@ -242,14 +251,19 @@ def check(e, runs: Path, budget_s: float, rtol: float, compare_only: bool = Fals
 def _run(e, run_root: Path, budget_s: float) -> dict:
     """Run the script of ``e`` into ``run_root`` under ``timeout``; what happened (also in run.json)."""
     _prepare(e, run_root)
-    cmd = _command(e, run_root)
-    t0 = time.perf_counter()
-    try:
-        p = subprocess.run(["timeout", "-s", "INT", "-k", "30", str(budget_s), *cmd], cwd=run_root,
-                           capture_output=True, text=True)
-    except KeyboardInterrupt:
-        raise SystemExit(130) from None
-    (run_root / "stdout.txt").write_text(p.stdout + "\n--- stderr ---\n" + p.stderr)
+    t0, text = time.perf_counter(), ""
+    for args in [e["args"], *e["then"]]:
+        cmd = _command(e, run_root, args)
+        left = max(1.0, budget_s - (time.perf_counter() - t0))
+        try:
+            p = subprocess.run(["timeout", "-s", "INT", "-k", "30", f"{left:.0f}", *cmd], cwd=run_root,
+                               capture_output=True, text=True)
+        except KeyboardInterrupt:
+            raise SystemExit(130) from None
+        text += f"$ {' '.join(cmd)}\n{p.stdout}\n--- stderr ---\n{p.stderr}\n"
+        if p.returncode != 0:
+            break
+    (run_root / "stdout.txt").write_text(text)
     run = {"wall_s": round(time.perf_counter() - t0, 1), "command": " ".join(cmd), "returncode": p.returncode,
            "budget_s": budget_s, "stderr_tail": p.stderr.strip().splitlines()[-3:],
            "load_average_after": " ".join(f"{x:.2f}" for x in os.getloadavg())}
@@ -282,7 +296,7 @@ def uncovered() -> dict:
     """Scripts that no registry entry runs, and committed JSON files that no entry compares."""
     registered = {e["script"] for e in REGISTRY}
     helpers = {"script_common.py", "result_compare.py", "check_results.py", "example_common.py",
-               "reference_toolbox.py"}
+               "reference_toolbox.py", "cycle_phase.py", "report.py"}  # modules the scripts import
     scripts = sorted(p.relative_to(ROOT).as_posix() for p in (ROOT / "scripts").rglob("*.py")
                      if p.name not in helpers and p.relative_to(ROOT).as_posix() not in registered)
     covered = {p for e in REGISTRY for p in _committed(e)}
@@ -297,7 +311,8 @@ def markdown(report: dict) -> str:
              f"`python scripts/check_results.py --out DIR` on {report['revision']} (birdocp imported from "
              f"`{report.get('birdocp')}`), `--rtol {report['rtol']:g}`, "
              f"`--budget-s {report['budget_s']:.0f}`, load average {report['load_average']} at the start.",
-             "Timing, host and provenance keys ignored (`scripts/result_compare.py`).", "", "```"]
+             "Timing, host and provenance keys ignored (`scripts/result_compare.py`); what was found and "
+             "re-committed: docs/reproducibility.md.", "", "```"]
     lines += [line(r) for r in report["rows"]] + ["```", ""]
     for r in report["rows"]:
         for f in r.get("files", []):

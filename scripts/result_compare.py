@@ -12,7 +12,7 @@ Rules:
 - numbers written inside strings (a solver message such as ``max|g| = 3.983e-12``) are compared with
   the noise tolerance below, as they are printed rounded to a few digits; the rest of the string exactly;
 - a key whose name says it is a timing, a host or a provenance record (:data:`IGNORED_KEY`: wall or CPU
-  seconds, load average, dates, versions, revisions, host names) is skipped with everything below it;
+  seconds, load average, dates, versions, revisions, host names, the run folder's path) is skipped with everything below it;
 - a per-key override (``{regex: (rtol, atol)}``, the regex matched against the key's name) replaces the
   tolerances for that key and everything below it, for solver-noise quantities (residuals, error
   estimates) whose value is only meaningful as "below the tolerance";
@@ -32,7 +32,7 @@ import re
 IGNORED_KEY = re.compile(
     r"(wall|cpu_s|cpu_total|cpu_count|cpus$|load_?average|load_1min|uptime|timestamp|hostname|^machine$"
     r"|^date$|^python(_version)?$|^casadi(_version)?$|_version$|^version$|revision|^git$|^commit$"
-    r"|^provenance$|speedup|warmup|_call_s$|^time_per_iteration_s$|^(cold_)?(solve|total)_s$|^floquet_s$"
+    r"|^provenance$|^run_dir$|speedup|warmup|_call_s$|^time_per_iteration_s$|^(cold_)?(solve|total)_s$|^floquet_s$"
     r"|^build_s$|^compile_s$|^first_solve|^reference_wall_s$|^with_error_estimate_s$)",
     re.IGNORECASE)
 
@@ -51,8 +51,12 @@ CHAOS = (0.0, 0.03)
 #: The default per-key overrides (regex on the key's name -> (rtol, atol)).
 #: Quantities derived through the logarithm of a multiplier that may be far below 1 (``beats_to_double``
 #: of a mode with |Lambda| ~ 1e-10: the multiplier's round-off, 1e-16 absolute, is a 1e-6 relative
-#: change of |Lambda| and ~5e-8 of its logarithm): 1e-6 relative.
+#: change of |Lambda| and ~5e-8 of its logarithm): 1e-6 relative. Two values both within
+#: :data:`ZERO_MULTIPLIER_BEATS` of 0 belong to multipliers below 2**-33 ~ 1e-10 beside multipliers of
+#: order one, i.e. numerical zeros of the monodromy (one may even be exactly 0, beats_to_double 0.0):
+#: equal.
 LOG_OF_MULTIPLIER = (1e-6, 0.0)
+ZERO_MULTIPLIER_BEATS = 0.03
 OVERRIDES = {r"lyapunov": CHAOS, r"beats_to_double|doubling_time|halving_time": LOG_OF_MULTIPLIER,
              r"residual|error|difference|distance|_vs_|^solver$|^relative(_solver)?$|kkt|violation"
              r"|observed_order": NOISE}
@@ -148,7 +152,8 @@ def _walk(a, b, path, tol, overrides, out, limit) -> None:
         for i, (x, y) in enumerate(zip(a, b)):
             _walk(x, y, f"{path}/{i}", t, overrides, out, limit)
     elif _number(a) and _number(b) and (isinstance(a, float) or isinstance(b, float)):
-        if not _close(float(a), float(b), *tol):
+        zero = path.endswith("/beats_to_double") and max(abs(a), abs(b)) < ZERO_MULTIPLIER_BEATS
+        if not zero and not _close(float(a), float(b), *tol):
             out.append((path, a, b))
     elif isinstance(a, str) and isinstance(b, str):
         if a != b and not _same_text(a, b):

@@ -94,3 +94,5 @@ def test_eigenvector_up_to_a_unit_factor_and_log_of_small_multiplier():
     assert compare({"eigenvector": vec}, {"eigenvector": other})[0][0] == "/eigenvector/r_radps/0"
     assert compare({"beats_to_double": -0.0268764596}, {"beats_to_double": -0.0268764476}) == []
     assert compare({"beats_to_double": 2.5}, {"beats_to_double": 2.6})
+    assert compare({"beats_to_double": 0.0}, {"beats_to_double": -0.0195}) == []   # |Lambda| ~ 4e-16 vs 0
+    assert compare({"beats_to_double": -0.05}, {"beats_to_double": -0.0195})
