@@ -1,0 +1,188 @@
+"""Compare two result JSON documents number by number (standard library only; used by
+``scripts/check_results.py`` and its test).
+
+Rules:
+
+- integers, strings, booleans and ``None`` must be equal (a bool is never a number here);
+- two floats (or a float and an integer) are equal within a relative tolerance: ``|a - b| <= rtol *
+  max(|a|, |b|) + atol`` (default ``rtol`` 1e-9, ``atol`` 1e-14: below that a number is a round-off zero
+  of an order-one quantity); two NaNs are equal;
+- in a list of numbers (a vector, or a list of vectors such as multipliers ``[re, im]``), the tolerance
+  is relative to the list's largest magnitude (a multiplier of 1e-18 beside one of 1 is zero);
+- numbers written inside strings (a solver message such as ``max|g| = 3.983e-12``) are compared with
+  the noise tolerance below, as they are printed rounded to a few digits; the rest of the string exactly;
+- a key whose name says it is a timing, a host or a provenance record (:data:`IGNORED_KEY`: wall or CPU
+  seconds, load average, dates, versions, revisions, host names, the run folder's path) is skipped with everything below it;
+- a per-key override (``{regex: (rtol, atol)}``, the regex matched against the key's name) replaces the
+  tolerances for that key and everything below it, for solver-noise quantities (residuals, error
+  estimates) whose value is only meaningful as "below the tolerance";
+- an eigenvector (``eigenvector`` key) is compared up to a unit complex factor (its sign for a real
+  mode), which its normalisation leaves to round-off;
+- dictionaries must have the same keys (ignored keys aside), lists the same length.
+
+A difference is reported as ``(path, committed, regenerated)``; ``path`` is a ``/``-separated list of keys
+and list indices.
+"""
+from __future__ import annotations
+
+import math
+import re
+
+#: Keys that record how, where or how fast a result was produced, not what it is.
+IGNORED_KEY = re.compile(
+    r"(wall|cpu_s|cpu_total|cpu_count|cpus$|load_?average|load_1min|uptime|timestamp|hostname|^machine$"
+    r"|^date$|^python(_version)?$|^casadi(_version)?$|_version$|^version$|revision|^git$|^commit$"
+    r"|^provenance$|^run_dir$|speedup|warmup|_call_s$|^time_per_iteration_s$|^(cold_)?(solve|total)_s$|^floquet_s$"
+    r"|^build_s$|^compile_s$|^first_solve|^reference_wall_s$|^with_error_estimate_s$)",
+    re.IGNORECASE)
+
+#: Round-off-dominated quantities: differences of nearly equal numbers (residuals, error estimates,
+#: distances between two solutions (``a_vs_b`` keys), the trivial multiplier's distance to 1, and the
+#: observed convergence order, a ratio of logarithms of such errors). A change of one unit in the
+#: last place of the operands changes them by ~1e-16 in absolute terms, i.e. by a large relative amount;
+#: they are compared to 1e-2 relative or 1e-11 absolute (an error estimate of 1.8190e-8 against
+#: 1.8191e-8, a KKT residual of 2.474e-8 against 2.482e-8, are the same statement; 1.8e-8 against
+#: 2.0e-8 is flagged).
+NOISE = (1e-2, 1e-11)
+#: Lyapunov exponents of a chaotic trajectory (and their standard errors) are statistics of a
+#: trajectory that round-off changes after a few Lyapunov times: compared to 0.03 absolute, about three
+#: times the largest standard error the examples report (0.0096 1/s).
+CHAOS = (0.0, 0.03)
+#: The default per-key overrides (regex on the key's name -> (rtol, atol)).
+#: Quantities derived through the logarithm of a multiplier that may be far below 1 (``beats_to_double``
+#: of a mode with |Lambda| ~ 1e-10: the multiplier's round-off, 1e-16 absolute, is a 1e-6 relative
+#: change of |Lambda| and ~5e-8 of its logarithm): 1e-6 relative. Two values both within
+#: :data:`ZERO_MULTIPLIER_BEATS` of 0 belong to multipliers below 2**-33 ~ 1e-10 beside multipliers of
+#: order one, i.e. numerical zeros of the monodromy (one may even be exactly 0, beats_to_double 0.0):
+#: equal.
+LOG_OF_MULTIPLIER = (1e-6, 0.0)
+ZERO_MULTIPLIER_BEATS = 0.03
+OVERRIDES = {r"lyapunov": CHAOS, r"beats_to_double|doubling_time|halving_time": LOG_OF_MULTIPLIER,
+             r"residual|error|difference|distance|_vs_|^solver$|^relative(_solver)?$|kkt|violation"
+             r"|observed_order": NOISE}
+#: Keys holding an eigenvector as ``[re, im]`` pairs: compared after scaling the regenerated one by the
+#: unit complex factor (a sign, for a real mode) that matches its largest component to the committed
+#: one's, as an eigenvector normalised by its largest magnitude keeps LAPACK's arbitrary sign or phase.
+EIGENVECTOR_KEYS = ("eigenvector", "eigenvectors")
+NUMBER_IN_TEXT = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
+
+
+def is_ignored(key: str) -> bool:
+    """True when ``key`` names a timing, host or provenance record."""
+    return bool(IGNORED_KEY.search(str(key)))
+
+
+def _number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def _close(a: float, b: float, rtol: float, atol: float) -> bool:
+    if math.isnan(a) or math.isnan(b):
+        return math.isnan(a) and math.isnan(b)
+    if math.isinf(a) or math.isinf(b):
+        return a == b
+    return abs(a - b) <= rtol * max(abs(a), abs(b)) + atol
+
+
+def _tolerance(key, tol, overrides):
+    """The tolerance below ``key``: an override only loosens the one inherited from the parents."""
+    for pattern, t in overrides.items():
+        if re.search(pattern, str(key)):
+            return max(tol[0], t[0]), max(tol[1], t[1])
+    return tol
+
+
+def compare(old, new, rtol: float = 1e-9, atol: float = 1e-14, overrides: dict | None = None,
+            limit: int = 20) -> list[tuple[str, object, object]]:
+    """The differences between the committed ``old`` and the regenerated ``new`` (at most ``limit``),
+    each ``(path, old value, new value)``; ``[]`` when they agree. ``overrides`` defaults to
+    :data:`OVERRIDES` (``{}`` for none)."""
+    overrides = OVERRIDES if overrides is None else overrides
+    out: list = []
+    _walk(old, new, "", (rtol, atol), overrides, out, limit)
+    return out
+
+
+def _pairs(v) -> list | None:
+    """A dict or list of ``[re, im]`` pairs as a list of complex numbers (keys sorted), else None."""
+    items = [v[k] for k in sorted(v)] if isinstance(v, dict) else v if isinstance(v, list) else None
+    if not items or not all(isinstance(x, list) and len(x) == 2 and all(_number(y) for y in x) for x in items):
+        return None
+    return [complex(x[0], x[1]) for x in items]
+
+
+def _rephased(a, b):
+    """``b`` multiplied by the unit complex factor that makes its largest component ``a``'s (an
+    eigenvector is defined up to such a factor), in ``b``'s layout; ``b`` itself when not an eigenvector."""
+    ca, cb = _pairs(a), _pairs(b)
+    if ca is None or cb is None or len(ca) != len(cb):
+        return b
+    k = max(range(len(ca)), key=lambda i: abs(ca[i]))
+    if cb[k] == 0 or not math.isclose(abs(ca[k]), abs(cb[k]), rel_tol=1e-6):
+        return b
+    f = ca[k] / cb[k]
+    f /= abs(f)
+    keys = sorted(b) if isinstance(b, dict) else range(len(b))
+    new = [[(z * f).real, (z * f).imag] for z in cb]
+    return dict(zip(keys, new)) if isinstance(b, dict) else new
+
+
+def _walk(a, b, path, tol, overrides, out, limit) -> None:
+    if len(out) >= limit:
+        return
+    if path.rsplit("/", 1)[-1] in EIGENVECTOR_KEYS:
+        b = _rephased(a, b)
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in list(a) + [k for k in b if k not in a]:
+            if is_ignored(k):
+                continue
+            p = f"{path}/{k}"
+            if k not in b or k not in a:
+                out.append((p, a.get(k, "<missing>"), b.get(k, "<missing>")))
+            else:
+                _walk(a[k], b[k], p, _tolerance(k, tol, overrides), overrides, out, limit)
+            if len(out) >= limit:
+                return
+    elif isinstance(a, list) and isinstance(b, list):
+        if len(a) != len(b):
+            out.append((f"{path}/len", len(a), len(b)))
+            return
+        scale = _scale(a)
+        t = tol if scale is None else (tol[0], max(tol[1], tol[0] * scale))
+        for i, (x, y) in enumerate(zip(a, b)):
+            _walk(x, y, f"{path}/{i}", t, overrides, out, limit)
+    elif _number(a) and _number(b) and (isinstance(a, float) or isinstance(b, float)):
+        zero = path.endswith("/beats_to_double") and max(abs(a), abs(b)) < ZERO_MULTIPLIER_BEATS
+        if not zero and not _close(float(a), float(b), *tol):
+            out.append((path, a, b))
+    elif isinstance(a, str) and isinstance(b, str):
+        if a != b and not _same_text(a, b):
+            out.append((path, a, b))
+    elif type(a) is not type(b) or a != b:
+        out.append((path, a, b))
+
+
+def _scale(v) -> float | None:
+    """The largest magnitude of a list of numbers or of a list of lists of numbers, else None."""
+    flat = [y for x in v for y in (x if isinstance(x, list) else [x])]
+    if not flat or not all(_number(x) for x in flat):
+        return None
+    finite = [abs(float(x)) for x in flat if math.isfinite(float(x))]
+    return max(finite) if finite else None
+
+
+def _same_text(a: str, b: str) -> bool:
+    """Two sentences (with a space: not hashes or names) equal once their numbers are compared with
+    :data:`NOISE`."""
+    if " " not in a or NUMBER_IN_TEXT.sub("#", a) != NUMBER_IN_TEXT.sub("#", b):
+        return False
+    na, nb = NUMBER_IN_TEXT.findall(a), NUMBER_IN_TEXT.findall(b)
+    return all(_close(float(x), float(y), *NOISE) for x, y in zip(na, nb))
+
+
+def relative_gap(a, b) -> float | None:
+    """``|a - b| / max(|a|, |b|)`` for two numbers (``None`` otherwise): how far apart a difference is."""
+    if not (_number(a) and _number(b)):
+        return None
+    m = max(abs(a), abs(b))
+    return 0.0 if m == 0 else abs(a - b) / m

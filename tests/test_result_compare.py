@@ -1,0 +1,98 @@
+"""The comparison behind scripts/check_results.py (committed results against a re-run): tolerances,
+ignored timing/host keys, and that a real difference is reported with both values. No study is run."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+import check_results  # noqa: E402
+from result_compare import compare, is_ignored  # noqa: E402
+
+sys.path.pop(0)
+
+RESULT = {"period_s": 0.25, "iterations": 7, "status": "Solve_Succeeded", "multipliers": [[1.4, 0.0], [1e-18, 0.0]],
+          "wall_s": 3.1, "provenance": {"hostname": "a"}, "max_residual": 1e-13,
+          "message": "max|g| = 3.983e-12 <= tol = 1.0e-10", "lyapunov": {"exponents": [0.069, -5.39]}}
+
+
+def _changed(**kw):
+    return {**RESULT, **kw}
+
+
+def test_identical_and_float_within_rtol():
+    assert compare(RESULT, dict(RESULT)) == []
+    assert compare(RESULT, _changed(period_s=0.25 * (1 + 5e-10))) == []
+    assert compare(RESULT, _changed(period_s=0.25 * (1 + 5e-9))) == [("/period_s", 0.25, 0.25 * (1 + 5e-9))]
+    assert compare(RESULT, _changed(period_s=0.25 * (1 + 5e-9)), rtol=1e-8) == []
+
+
+def test_integers_and_strings_exact():
+    assert compare(RESULT, _changed(iterations=8)) == [("/iterations", 7, 8)]
+    assert compare(RESULT, _changed(status="Maximum_Iterations_Exceeded"))[0][0] == "/status"
+    assert compare({"ok": True}, {"ok": 1}) == [("/ok", True, 1)]  # a bool is not a number
+
+
+def test_timing_host_and_provenance_keys_ignored():
+    assert compare(RESULT, _changed(wall_s=99.0, provenance={"hostname": "b", "git": "x"})) == []
+    for key in ("wall_s", "trim_wall_s", "cpu_total", "load_average_start", "timestamp_utc", "casadi_version",
+                "git_revision", "hostname"):
+        assert is_ignored(key), key
+    for key in ("period_s", "t_s", "shooting_times_s", "doubling_time_s", "multipliers", "residual"):
+        assert not is_ignored(key), key
+
+
+def test_vector_relative_tolerance_and_round_off_zero():
+    # a multiplier of 1e-18 beside one of 1.4 is a round-off zero; the large one still must agree
+    assert compare(RESULT, _changed(multipliers=[[1.4, 0.0], [-3e-18, 0.0]])) == []
+    assert compare(RESULT, _changed(multipliers=[[1.4001, 0.0], [1e-18, 0.0]]))[0][0] == "/multipliers/0/0"
+
+
+def test_noise_keys_and_numbers_in_messages():
+    assert compare(RESULT, _changed(max_residual=4e-13)) == []            # both far below any tolerance
+    assert compare(RESULT, _changed(max_residual=1e-6))[0][0] == "/max_residual"
+    assert compare(RESULT, _changed(message="max|g| = 3.981e-12 <= tol = 1.0e-10")) == []
+    assert compare(RESULT, _changed(message="max|g| = 3.9e-08 <= tol = 1.0e-10"))[0][0] == "/message"
+    assert compare(RESULT, _changed(lyapunov={"exponents": [0.0746, -5.40]})) == []   # a chaotic statistic
+    assert compare(RESULT, _changed(lyapunov={"exponents": [0.2, -5.40]}))[0][0] == "/lyapunov/exponents/0"
+    assert compare(RESULT, _changed(max_residual=4e-13), overrides={})[0][0] == "/max_residual"
+
+
+def test_structure_differences_reported():
+    new = {k: v for k, v in RESULT.items() if k != "period_s"} | {"index": 0}
+    assert compare(RESULT, new) == [("/period_s", 0.25, "<missing>"), ("/index", "<missing>", 0)]
+    assert compare({"p": [1, 2]}, {"p": [1, 2, 3]}) == [("/p/len", 2, 3)]
+    assert compare({"x": float("nan")}, {"x": float("nan")}) == []
+
+
+def test_checker_compares_a_scratch_run(tmp_path, monkeypatch):
+    committed = tmp_path / "results"
+    (committed / "study").mkdir(parents=True)
+    (committed / "study" / "result.json").write_text('{"period_s": 0.25, "wall_s": 1.0}')
+    monkeypatch.setattr(check_results, "RESULTS", committed)
+    e = check_results.entry("study", "scripts/study.py", "study", ["study/result.json"])
+    run = tmp_path / "run"
+    (run / "study").mkdir(parents=True)
+    (run / "study" / "result.json").write_text('{"period_s": 0.25, "wall_s": 9.0}')
+    assert [f["status"] for f in check_results.compare_files(e, run, 1e-9)] == ["identical"]
+    (run / "study" / "result.json").write_text('{"period_s": 0.2501, "wall_s": 9.0}')
+    (row,) = check_results.compare_files(e, run, 1e-9)
+    assert row["status"] == "differs" and row["differences"][0]["key"] == "/period_s"
+    assert row["differences"][0]["relative"] == pytest.approx(0.0001 / 0.2501)
+    loose = check_results.entry("study", "scripts/study.py", "study", ["study/result.json"], rtol=1e-3)
+    assert [f["status"] for f in check_results.compare_files(loose, run, 1e-9)] == ["identical"]
+
+
+def test_eigenvector_up_to_a_unit_factor_and_log_of_small_multiplier():
+    vec = {"v_mps": [-0.449, -0.155], "p_radps": [1.0, 0.0], "r_radps": [0.325, 0.248]}
+    flipped = {k: [-x for x in v] for k, v in vec.items()}
+    assert compare({"eigenvector": vec}, {"eigenvector": flipped}) == []
+    assert compare({"vector": vec}, {"vector": flipped})                      # only eigenvectors are rephased
+    other = {**flipped, "r_radps": [-0.3, -0.248]}
+    assert compare({"eigenvector": vec}, {"eigenvector": other})[0][0] == "/eigenvector/r_radps/0"
+    assert compare({"beats_to_double": -0.0268764596}, {"beats_to_double": -0.0268764476}) == []
+    assert compare({"beats_to_double": 2.5}, {"beats_to_double": 2.6})
+    assert compare({"beats_to_double": 0.0}, {"beats_to_double": -0.0195}) == []   # |Lambda| ~ 4e-16 vs 0
+    assert compare({"beats_to_double": -0.05}, {"beats_to_double": -0.0195})
