@@ -17,25 +17,28 @@ contracting part):
   and ``J = I - M_PP - M_PF M_FP`` (two forward-AD passes of ``p`` directions, ``M V`` then
   ``M Q Q^T M V``: RK4 steps of the state and of its sensitivity along the seeds, the exact
   derivative of the discrete map);
-* every iteration: the state alone over the period (``r = x_T - x0``), then one direction
-  ``u = M Q r_F``; ``a = J^-1 (r_P + u_P)``, ``b = r_F + u_F + G a``, and ``x0 += V a + Q b``.
+* every iteration: ``a = J^-1 (r_P + u_P)``, ``b = r_F + u_F + G a``, ``x0 += V a + Q b`` with
+  ``u ~ M Q r_F``; then one pass over the period at the new x0, the state and one sensitivity
+  direction: ``r`` and ``w = M Q s`` along the previous residual's fast part ``s`` (the residuals of
+  a linearly converging iteration line up, as in a power iteration), so that the next
+  ``u = w (s . r_F) / |s|^2``. The first iteration takes ``u = M Q r_F`` itself (one more pass).
 
 The error falls by about the square of the complement's contraction per iteration (plus the chord's
-error). The growth of the complement along its current direction,
-``|Q^T M Q b0| / |b0|`` (a power-iteration estimate of its spectral radius), is recorded at every
+error and that of ``u``). The growth of the complement along its current direction,
+``|Q^T M Q s| / |s|`` (a power-iteration estimate of its spectral radius), is recorded at every
 iteration; when it stays above ``OrbitMethod.picard_max_rate`` (twice in a row), or the residual
 falls by less than that factor three times in a row, or becomes non-finite, the complement is not
 contracting enough and the solve stops with status ``"not_contracting"`` at its best iterate (the
-solver table's entry then runs the full Newton from there). Convergence is the max-norm of the full residual (every state) at most
-``tol``: on the multiple-shooting points built from the trajectory the continuity equations hold
-exactly and the periodicity rows are ``r``. Free parameters (mean conditions) are not supported
+solver table's entry then runs the full Newton from there). Convergence is the max-norm of the full
+residual (every state) at most ``tol``: on the multiple-shooting points built from the trajectory the continuity equations hold
+to round-off and the periodicity rows are ``r``. Free parameters (mean conditions) are not supported
 (ValueError: use ``"ipopt"`` or ``"lm"``).
 
-Cost per iteration: one state pass plus ``p + 1`` sensitivity directions (against ``nx`` for the full
-Newton); the exact monodromy (all multipliers) is then one full variational pass at the converged
-cycle. Measured on the ibis with Wagner lags (36 states, 4 Newton states): the directional pass of 4
-directions is 0.054 s of CPU time against 0.35 s for the full variational pass and 0.022 s for the
-state alone.
+Cost per iteration: one pass over the period with one sensitivity direction (against ``nx`` for the
+full Newton), plus two passes of ``p`` directions whenever the chord matrices are refreshed; the exact
+monodromy (all multipliers) is then one full variational pass at the converged cycle. Measured on the
+ibis with Wagner lags (36 states, 4 Newton states), CPU time: the state alone over the period 0.022 s,
+with 4 directions 0.054 s, the full variational pass 0.35 s.
 """
 from __future__ import annotations
 
@@ -73,8 +76,8 @@ class NewtonPicardOutcome:
     history : list of float
         Max-norm of the residual at every iterate (the start included).
     picard_rates : list of float
-        ``|Q^T M Q b0| / |b0|`` at every iteration (the complement's growth along its current
-        direction; NaN when ``b0 = 0``).
+        ``|Q^T M Q s| / |s|`` at every iteration (the complement's growth along the seed s, the
+        previous residual's fast part; NaN when ``s = 0``).
     """
 
     z: np.ndarray
@@ -87,7 +90,8 @@ class NewtonPicardOutcome:
 
 def directional_pass(grid: RK4Grid, directions: int) -> ca.Function:
     """The one-period map with its derivatives along ``directions`` seed vectors, the output
-    integrals with theirs: ``(x0, Y[nx x d], D, p) -> (x_T, M Y, q, dq/dx0 Y)``.
+    integrals with theirs, and the trajectory: ``(x0, Y[nx x d], D, p) -> (x_T, M Y, q, dq/dx0 Y,
+    X[nx x N])``.
 
     RK4 steps of the state and of its sensitivity along the seeds (forward AD of the grid's step,
     ``casadi.jtimes``: the exact derivative of the discrete map), accumulated over the period. Built
@@ -127,10 +131,11 @@ def _build_pass(grid: RK4Grid, d: int) -> ca.Function:
     x0, Ym = ca.MX.sym("x", nx), ca.MX.sym("Y", nx, d)
     Dm, pm = ca.MX.sym("D", nd, 3 * g.N), ca.MX.sym("p", ode.np)
     s0 = ca.vertcat(x0, ca.vec(Ym), ca.DM.zeros(nq + nq * d))
-    S = accumulate(step, g.N, s0, Dm, pm, name="directional_acc")[0][:, -1]
-    outs = [S[:nx], ca.reshape(S[nx:k], nx, d), S[k:k + nq], ca.reshape(S[k + nq:], nq, d)]
+    Sall = accumulate(step, g.N, s0, Dm, pm, name="directional_acc")[0]
+    S = Sall[:, -1]
+    outs = [S[:nx], ca.reshape(S[nx:k], nx, d), S[k:k + nq], ca.reshape(S[k + nq:], nq, d), Sall[:nx, :]]
     return ca.Function("directional_pass", [x0, Ym, Dm, pm], outs, ["x", "Y", "D", "p"],
-                       ["x_T", "MY", "q", "dq"])
+                       ["x_T", "MY", "q", "dq", "X"])
 
 
 def shooting_unknowns(grid: RK4Grid, x0, X, x_T) -> np.ndarray:
@@ -196,6 +201,13 @@ class _Iteration:
         x_T, X, _ = (np.asarray(v) for v in self.grid.period_map(ca.DM(x), self.D, self.p))
         return _State(x, x_T.ravel(), X, x_T.ravel() - x)
 
+    def state_along(self, x, seed):
+        """The state pass at x0 with the one direction ``Q seed``: (state, ``M Q seed``)."""
+        Y = np.zeros((len(x), 1))
+        Y[self.F, 0] = seed
+        x_T, MY, _, _, X = (np.asarray(v) for v in self.pass_1(ca.DM(x), ca.DM(Y), self.D, self.p))
+        return _State(x, x_T.ravel(), X, x_T.ravel() - x), MY.ravel()
+
 
 def newton_picard(graphs, problem, z0, newton_states, *, tol: float, max_iter: int,
                   max_rate: float = 0.5) -> NewtonPicardOutcome:
@@ -227,16 +239,21 @@ def newton_picard(graphs, problem, z0, newton_states, *, tol: float, max_iter: i
     st = pb.state(np.asarray(z0, float)[:problem.ode.nx].copy())
     best, hist, rates, it, reduced, fresh = st, [st.max_residual], [], 0, None, False
     status = "nan" if not np.isfinite(hist[0]) else "max_iter"
+    seed, w = None, None
     while status == "max_iter" and hist[-1] > tol and it < max_iter:
         interrupts.check()
         if reduced is None or (not fresh and hist[-1] > REFRESH_RATIO * hist[-2]):
             reduced, fresh = _reduced(pb, st), True
         else:
             fresh = False
-        dx, rate = _step(pb, st, reduced)
+        if seed is None:  # the first iteration: M Q r_F itself
+            seed = st.r[pb.F]
+            w = pb.state_along(st.x, seed)[1]
+        u, rate = _picard_term(pb, st, seed, w)
         rates.append(rate)
+        seed = st.r[pb.F]
+        st, w = pb.state_along(st.x + _step(pb, st, reduced, u), seed)
         it += 1
-        st = pb.state(st.x + dx)
         hist.append(st.max_residual)
         if np.isfinite(hist[-1]) and hist[-1] < best.max_residual:
             best = st
@@ -273,21 +290,25 @@ def _reduced(pb: _Iteration, st: _State):
     return np.eye(len(P)) - MV[P] - MW[P], MV[F] + MW[F]
 
 
-def _step(pb: _Iteration, st: _State, reduced):
-    """One Newton-Picard step at ``st`` with the chord matrices ``reduced``: (dx0, Picard growth)."""
+def _picard_term(pb: _Iteration, st: _State, seed, w):
+    """``u ~ M Q r_F`` at ``st`` from ``w = M Q seed`` (the pass along the previous residual's fast
+    part): ``u = w (seed . r_F) / |seed|^2``; and the complement's growth ``|Q^T w| / |seed|``."""
+    F = pb.F
+    ns2 = float(seed @ seed)
+    if not ns2 > 0:
+        return np.zeros(len(st.x)), float("nan")
+    return w * (float(seed @ st.r[F]) / ns2), float(np.linalg.norm(w[F]) / np.sqrt(ns2))
+
+
+def _step(pb: _Iteration, st: _State, reduced, u):
+    """The Newton-Picard step at ``st`` with the chord matrices ``reduced`` and ``u ~ M Q r_F``."""
     P, F = pb.P, pb.F
     J, G = reduced
-    rF = st.r[F]
-    Y = np.zeros((len(st.x), 1))
-    Y[F, 0] = rF
-    u = np.asarray(pb.pass_1(ca.DM(st.x), ca.DM(Y), pb.D, pb.p)[1]).ravel()  # M Q r_F
-    nr = float(np.linalg.norm(rF))
-    rate = float(np.linalg.norm(u[F]) / nr) if nr > 0 else float("nan")
     a = np.linalg.solve(J, st.r[P] + u[P])
     dx = np.zeros(len(st.x))
     dx[P] = a
-    dx[F] = rF + u[F] + G @ a
-    return dx, rate
+    dx[F] = st.r[F] + u[F] + G @ a
+    return dx
 
 
 def _message(status, it, hist, rates, max_rate) -> str:
