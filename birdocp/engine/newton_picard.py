@@ -68,7 +68,8 @@ class NewtonPicardOutcome:
         The unknowns of the multiple-shooting formulation (the points from the trajectory) at the
         best iterate (smallest residual).
     status : str
-        ``"converged"``, ``"max_iter"``, ``"not_contracting"`` or ``"nan"``.
+        ``"converged"``, ``"max_iter"``, ``"not_contracting"``, ``"singular"`` (the reduced Newton
+        matrix) or ``"nan"``.
     message : str
         What happened, with the last residual and the contraction estimate.
     iterations : int
@@ -164,7 +165,7 @@ def shooting_unknowns(grid: RK4Grid, x0, X, x_T) -> np.ndarray:
 
 @dataclass
 class _State:
-    """One iterate: x0, the data, the state pass (x_T, the trajectory), the residual."""
+    """One iterate: x0, the pass's x_T and trajectory X, the residual r = x_T - x0."""
 
     x: np.ndarray
     x_T: np.ndarray
@@ -252,7 +253,12 @@ def newton_picard(graphs, problem, z0, newton_states, *, tol: float, max_iter: i
         u, rate = _picard_term(pb, st, seed, w)
         rates.append(rate)
         seed = st.r[pb.F]
-        st, w = pb.state_along(st.x + _step(pb, st, reduced, u), seed)
+        try:
+            dx = _step(pb, st, reduced, u)
+        except np.linalg.LinAlgError:
+            status = "singular"
+            break
+        st, w = pb.state_along(st.x + dx, seed)
         it += 1
         hist.append(st.max_residual)
         if np.isfinite(hist[-1]) and hist[-1] < best.max_residual:
@@ -311,12 +317,18 @@ def _step(pb: _Iteration, st: _State, reduced, u):
     return dx
 
 
+def _last_ratio(hist) -> str:
+    """The last residual over the one before, formatted (n/a before the first step)."""
+    return f"{hist[-1] / hist[-2]:.3g}" if len(hist) >= 2 and hist[-2] > 0 else "n/a"
+
+
 def _message(status, it, hist, rates, max_rate) -> str:
     """One line: the outcome, the iterations, the residual, the Picard growth."""
     finite = [r for r in rates if np.isfinite(r)]
     rho = f"{max(finite[-3:]):.3g}" if finite else "n/a"
     head = {"converged": "converged", "max_iter": "iteration limit reached",
-            "not_contracting": f"the Picard complement is not contracting (growth {rho} > {max_rate:g} per period): "
+            "not_contracting": f"the Picard complement is not contracting enough (limit {max_rate:g} per "
+                               f"period; growth {rho}, last residual ratio {_last_ratio(hist)}): "
                                "use the full Newton (solver 'lm' or 'ipopt') or more newton_states",
-            "nan": "non-finite residual"}[status]
+            "singular": "the reduced Newton matrix is singular", "nan": "non-finite residual"}[status]
     return f"newton-picard: {head} after {it} iterations, max residual {hist[-1]:.2e}, Picard growth {rho}"

@@ -277,10 +277,11 @@ def _run_ipopt_attempts(problem, method, b, z0, lo, hi):
 
 def _run_newton_picard(problem, method, b, z0, lo, hi):
     """Newton-Picard (:func:`birdocp.engine.newton_picard.newton_picard`); when its complement is not
-    contracting, the paper's LM on the full state from its best iterate (histories concatenated)."""
+    contracting (or its reduced matrix singular), the paper's LM on the full state from its best
+    iterate (histories concatenated)."""
     out = newton_picard(b, problem, z0, method.newton_states, tol=method.tol, max_iter=method.max_iter,
                         max_rate=method.picard_max_rate)
-    if out.status != "not_contracting":
+    if out.status not in ("not_contracting", "singular"):
         return out.z, out.status, out.status == "converged", out.message, out.iterations, np.asarray(out.history)
     start = out.z if np.all(np.isfinite(out.z)) else z0
     z, status, success, message, iters, hist = _run_lm(problem, method, b, start, lo, hi)
