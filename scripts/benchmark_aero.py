@@ -1,7 +1,9 @@
 """Cost of the unsteady and stall-aware aerodynamics, as ratios measured in one run.
 
 1. A trim of the paper's gait (5 points, 148 steps) with ``aero.unsteady = "wagner"`` and with
-   ``wagner`` + ``dynamic-stall``, against the default trim: wall time of the solve with the graphs
+   ``wagner`` + ``dynamic-stall`` (the default ``solve.solver = "auto"``: Newton-Picard; the rows
+   ``<case>_full_newton``: IPOPT on the full state, and ``newton_picard_vs_full_newton`` the largest
+   differences of x0 and of the multipliers between the two), against the default trim: wall time of the solve with the graphs
    already built (each case is trimmed twice, the second time is measured), and the size of the state
    right-hand side and of one RK4 step of the variational equations (the state and its Jacobian: what
    the shooting evaluates 148 times per iterate; CasADi instructions). Targets: wagner <= 4x,
@@ -36,6 +38,9 @@ from script_common import parse_with_out, script_parser  # noqa: E402
 CASES = {"default": {}, "wagner": {"aero.unsteady": "wagner"}, "wagner_stall": {"aero.unsteady": "wagner",
                                                                                  "aero.section": "stall"},
          "wagner_dynamic_stall": {"aero.unsteady": "wagner", "aero.section": "dynamic-stall"}}
+CASES.update({f"{k}_full_newton": {**v, "solve.solver": "ipopt"} for k, v in list(CASES.items()) if k != "default"})
+"""The cases: ``solve.solver = "auto"`` (Newton-Picard for the models with aerodynamic states) and, as
+``<case>_full_newton``, the same trims by IPOPT on the full state (the solver before Newton-Picard)."""
 TARGETS = {"wagner": 4.0, "wagner_dynamic_stall": 6.0}
 
 
@@ -70,7 +75,9 @@ def trim_cost(overrides: dict, repeats: int = 2, x_guess=None, compiled: bool = 
             "wall_parts_s": {k: float(v) for k, v in r.wall_s.items()}, "iterations": int(r.iterations),
             "rhs_instructions": count(m.rhs, 1), "states": int(m.ode.nx),
             "variational_step_instructions": count(grid.variational_step(), 4),
-            "lambda1": float(abs(r.multipliers[0])) if r.success else None,
+            "lambda1": float(abs(r.multipliers[0])) if r.success else None, "solver": r.cycle.method["solver"],
+            "x0": [float(v) for v in r.x0], "multipliers": [[float(v.real), float(v.imag)] for v in r.multipliers]
+            if r.multipliers is not None else None,
             **({"libraries": builds} if compiled else {})}
 
 
@@ -107,6 +114,26 @@ def element_scaling(unsteady: str, section: str, n: int, evals: int = 200) -> di
     return out
 
 
+def _agreement(rows: dict) -> dict:
+    """Max |x0 difference| and max |multiplier difference| (matched) of each Newton-Picard trim against
+    the same trim by the full Newton (``<case>_full_newton``)."""
+    import numpy as np
+
+    from birdocp.engine.floquet import matched_distances
+
+    out = {}
+    for k, full in rows.items():
+        mine = rows.get(k.replace("_full_newton", ""))
+        if not k.endswith("_full_newton") or mine is None or not (mine["multipliers"] and full["multipliers"]):
+            continue
+        lam = [complex(*v) for v in mine["multipliers"]]
+        ref = [complex(*v) for v in full["multipliers"]]
+        out[k.replace("_full_newton", "")] = {
+            "x0_max_abs_diff": float(np.max(np.abs(np.subtract(mine["x0"], full["x0"])))),
+            "multipliers_max_abs_diff": float(np.max(matched_distances(lam, ref)))}
+    return out
+
+
 def main(argv=None) -> int:
     ap = script_parser(__doc__, "results/aero")
     ap.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES),
@@ -133,6 +160,7 @@ def main(argv=None) -> int:
         res["ratios_compiled_to_default"] = {k: v["wall_s"] / base for k, v in res["trim"].items()
                                              if k.endswith("_compiled")}
     res["targets"] = TARGETS
+    res["newton_picard_vs_full_newton"] = _agreement(res["trim"])
     res["elements"] = {f"{u}+{s}": [element_scaling(u, s, n) for n in (8, 16, 32, 64) if n <= args.max_elements]
                        for u, s in (("wagner", "linear"), ("wagner", "stall"),
                                     ("wagner", "dynamic-stall"))}
@@ -143,7 +171,10 @@ def main(argv=None) -> int:
         tgt = TARGETS.get(k)
         print(f"  {k:22s} {v['wall_s']:7.2f} s  x{res['ratios'][k]:5.2f} (CPU x{res['ratios_cpu'][k]:5.2f})"
               + (f" (target <= {tgt:g}x)" if tgt else "") + f"  states {v['states']}, rhs {v['rhs_instructions']}, "
-              f"variational step {v['variational_step_instructions']} instr., {v['iterations']} iterations")
+              f"variational step {v['variational_step_instructions']} instr., {v['iterations']} iterations ({v['solver']})")
+    for k, v in res["newton_picard_vs_full_newton"].items():
+        print(f"  {k}: Newton-Picard against the full Newton: max |dx0| {v['x0_max_abs_diff']:.1e}, "
+              f"max |dmultiplier| {v['multipliers_max_abs_diff']:.1e}")
     for k, v in res.get("ratios_compiled", {}).items():
         print(f"  {k:22s} x{v:5.2f} of default_compiled; first solve {res['trim'][k]['first_wall_s']:.1f} s, "
               f"builds {res['trim'][k]['libraries']}")

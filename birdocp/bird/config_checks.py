@@ -25,6 +25,7 @@ __all__ = [
     "UNSTEADY_PARAMS", "SIX_DOF_UNSUPPORTED", "WING_MASS_SHARES", "ANGLE_LIMIT_DEG", "MAX_POINTS",
     "MAX_STEPS_PER_PERIOD", "MAX_SOLVE_ITERATIONS", "MAX_GUESS_SPEED_MPS", "get_value", "flat_keys", "suggest", "coerce",
     "check_number", "parse_scalar", "validate", "require_body_states", "has_aero_states", "SIDE_KEYS", "asymmetric",
+    "SOLVE_SOLVERS",
 ]
 
 
@@ -253,6 +254,10 @@ def _check_range(key: str, value: float) -> None:
         raise ConfigError(key, f"must be at most {hi:g} {unit}".rstrip() + f", got {value!r}")
 
 
+SOLVE_SOLVERS = ("auto", "ipopt", "lm", "newton-picard")
+"""The values of ``solve.solver``."""
+
+
 def _validate_solve(cfg: Any) -> None:
     """The checks of ``[solve]`` (part of :func:`validate`)."""
     s = cfg.solve
@@ -266,8 +271,8 @@ def _validate_solve(cfg: Any) -> None:
     if s.steps_per_period < 1 or s.steps_per_period % (s.points - 1):
         raise ConfigError("solve.steps_per_period",
                           f"must be a positive multiple of points - 1 = {s.points - 1}, got {s.steps_per_period!r}")
-    if s.solver not in ("ipopt", "lm"):
-        raise ConfigError("solve.solver", f"must be 'ipopt' or 'lm', got {s.solver!r}")
+    if s.solver not in SOLVE_SOLVERS:
+        raise ConfigError("solve.solver", f"must be one of {', '.join(SOLVE_SOLVERS)}, got {s.solver!r}")
     if s.derivatives not in ("exact", "fd"):
         raise ConfigError("solve.derivatives", f"must be 'exact' or 'fd', got {s.derivatives!r}")
     if s.derivatives == "fd" and s.solver != "lm":
@@ -278,6 +283,10 @@ def _validate_solve(cfg: Any) -> None:
     if not 0.0 <= s.tol < 1.0:
         raise ConfigError("solve.tol", f"must lie in [0, 1) (0: the solver's default, 1e-10 for ipopt, 1e-5 for "
                                        f"lm), got {s.tol!r}")
+    if s.solver == "newton-picard" and not has_aero_states(cfg):
+        raise ConfigError("solve.solver", "'newton-picard' needs aerodynamic states to iterate by Picard "
+                                          "(aero.unsteady = 'wagner' or aero.section = 'dynamic-stall'); use 'auto', "
+                                          "'ipopt' or 'lm'")
     if len(s.initial_guess) != 4:
         raise ConfigError("solve.initial_guess", f"needs 4 numbers (u, w, q, theta), got {len(s.initial_guess)}")
     for i, v in enumerate(s.initial_guess):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import time
 
+from birdocp.bird.config_checks import SOLVE_SOLVERS
 from birdocp.cli.common import (add_compiled_flag, add_plot_flag, compiled_requested, EXIT_OK, finish_result,
                                 format_trim_table, power_figure, resolve_config, run_folder)
 
@@ -21,7 +22,9 @@ def solve_shortcuts(p: argparse.ArgumentParser) -> None:
     s = p.add_argument_group("solve (shorthands for the solve.* keys of the configuration)")
     s.add_argument("--points", type=int, metavar="M", help="shooting points per period, closing point included (solve.points)")
     s.add_argument("--steps", type=int, metavar="N", help="RK4 steps per period, a multiple of M-1 (solve.steps_per_period)")
-    s.add_argument("--solver", choices=("ipopt", "lm"), help="nonlinear solver (solve.solver)")
+    s.add_argument("--solver", choices=SOLVE_SOLVERS,
+                   help="nonlinear solver (solve.solver; auto: newton-picard for the trim of a model with "
+                        "aerodynamic states, ipopt otherwise)")
     s.add_argument("--derivatives", choices=("exact", "fd"), help="Jacobians by AD or finite differences (solve.derivatives)")
     s.add_argument("--max-iter", dest="solve_max_iter", type=int, metavar="N",
                    help="iteration limit of the limit-cycle solve (solve.max_iter, default 100)")

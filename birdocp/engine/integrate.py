@@ -85,6 +85,11 @@ class RK4Grid:
         self._pre_grid = self._post_grid = None
         self.block_index = stage_block_index(self.N)
 
+    @property
+    def outputs(self) -> tuple:
+        """The outputs integrated along the steps (casadi.Function ``g(x, d, p)`` each)."""
+        return self._outputs
+
     # -- the time-stepping Functions (built on first use: a grid used for its data builds none) ----
     @functools.cached_property
     def step(self) -> ca.Function:

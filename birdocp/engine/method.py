@@ -10,7 +10,8 @@ setting                       ``"data_split"`` (ODE with data)       ``"time_sca
 ============================  =====================================  ==================================
 ``steps_per_period=None``     148 (the paper's grid)                 refined until ``accuracy`` is met
 ``solver=None``               ``"ipopt"``                            ``"lm"``
-``tol=None``                  1e-10 (ipopt), 1e-5 (lm, the paper's)  1e-10
+``tol=None``                  1e-10 (ipopt, newton-picard), 1e-5    1e-10
+                              (lm, the paper's)
 ``error_estimate=None``       False (it costs a second solve)        True
 ``integrator``                ``"rk4"`` only                         ``"rk4"``, ``"radau"``, ``"gauss"``
 ============================  =====================================  ==================================
@@ -26,7 +27,7 @@ from birdocp.engine.steppers import METHOD_ORDER
 __all__ = ["OrbitMethod", "IPOPT_DEFAULTS", "PHASE_CONDITIONS", "SOLVER_NAMES", "PAPER_STEPS_PER_PERIOD"]
 
 PHASE_CONDITIONS = ("moving", "fixed")
-SOLVER_NAMES = ("ipopt", "lm")
+SOLVER_NAMES = ("ipopt", "lm", "newton-picard")
 """The solvers of the engine's solver table (:data:`birdocp.engine.orbit_front.SOLVERS`)."""
 PAPER_STEPS_PER_PERIOD = 148
 """RK4 steps per period of an ODE with data by default: the paper's grid (M = 5: 37 per segment)."""
@@ -60,7 +61,9 @@ class OrbitMethod:
         The stepper: "rk4" | "radau" (stiff systems) | "gauss" (an ODE with data: "rk4" only).
     solver
         "ipopt" (feasibility NLP through the exact Jacobian) | "lm" (Levenberg-Marquardt on the exact
-        shooting matrix); None: "ipopt" for an ODE with data, "lm" without.
+        shooting matrix) | "newton-picard" (an ODE with data only: Newton on the states
+        ``newton_states``, Picard iteration on the others, which must be strongly contracting;
+        :mod:`birdocp.engine.newton_picard`); None: "ipopt" for an ODE with data, "lm" without.
     derivatives
         "exact" (CasADi AD) | "fd" (forward differences of the segment flow, relative step
         1e-3*x_j, absolute step 1e-3*fd_floor when abs(x_j) < fd_floor; an ODE with data and lm only).
@@ -104,6 +107,13 @@ class OrbitMethod:
         ODE without data, ``steps_per_period=None``: how many grid doublings a failed solve is retried on.
     time_limit_s
         ODE without data: wall-clock budget of one solve (all grids) in seconds, or None.
+    newton_states
+        ``solver="newton-picard"``: the indices of the states of the Newton subspace (the dominant,
+        slowly decaying or growing directions, e.g. a flier's rigid-body states); required with it.
+    picard_max_rate
+        ``solver="newton-picard"``: the largest growth per period of the Picard complement along its
+        current direction that is accepted; above it on two iterations in a row the complement is
+        not contracting and the full Newton (``"lm"``) takes over from the last iterate.
     """
 
     points: int = 5
@@ -128,6 +138,8 @@ class OrbitMethod:
     min_period_check: bool = True
     max_refinements_after_failure: int = 2
     time_limit_s: float | None = None
+    newton_states: tuple | None = None
+    picard_max_rate: float = 0.5
 
     def resolved(self, data_split: bool) -> "OrbitMethod":
         """This method with every ``None`` default filled in for the formulation, validated.
@@ -144,7 +156,7 @@ class OrbitMethod:
             ``error_estimate`` are set (``steps_per_period`` too with data).
         """
         solver = self.solver or ("ipopt" if data_split else "lm")
-        tol = self.tol if self.tol is not None else (1e-10 if solver == "ipopt" or not data_split else 1e-5)
+        tol = self.tol if self.tol is not None else (1e-5 if solver == "lm" and data_split else 1e-10)
         est = bool(self.error_estimate) if self.error_estimate is not None else not data_split
         n = self.steps_per_period
         if data_split and n is None:
@@ -156,6 +168,10 @@ class OrbitMethod:
             raise ValueError(f"OrbitMethod.integrator must be 'rk4' for an ODE with data, got {out.integrator!r}")
         if out.derivatives == "fd" and not (data_split and out.solver == "lm"):
             raise ValueError("OrbitMethod.derivatives='fd' is only available with solver='lm' on an ODE with data")
+        if out.solver == "newton-picard" and not data_split:
+            raise ValueError("OrbitMethod.solver='newton-picard' is only available for an ODE with data; use 'lm' or 'ipopt'")
+        if out.solver == "newton-picard" and not out.newton_states:
+            raise ValueError("OrbitMethod.newton_states must name the Newton states (indices) for solver='newton-picard'")
         return out
 
     def validate(self) -> None:
@@ -164,7 +180,7 @@ class OrbitMethod:
         if self.integrator not in METHOD_ORDER:
             raise ValueError(f"OrbitMethod.integrator must be one of {sorted(METHOD_ORDER)}, got {self.integrator!r}")
         if self.solver is not None and self.solver not in SOLVER_NAMES:
-            raise ValueError(f"OrbitMethod.solver must be 'ipopt' or 'lm', got {self.solver!r}")
+            raise ValueError(f"OrbitMethod.solver must be one of {SOLVER_NAMES}, got {self.solver!r}")
         if self.derivatives not in ("exact", "fd"):
             raise ValueError(f"OrbitMethod.derivatives must be 'exact' or 'fd', got {self.derivatives!r}")
         if self.tol is not None and not self.tol > 0:
@@ -179,6 +195,8 @@ class OrbitMethod:
             raise ValueError(f"OrbitMethod.phase must be one of {PHASE_CONDITIONS}, got {self.phase!r}")
         if self.time_limit_s is not None and not self.time_limit_s > 0:
             raise ValueError(f"OrbitMethod.time_limit_s must be positive or None, got {self.time_limit_s!r}")
+        if not 0 < self.picard_max_rate < 1:
+            raise ValueError(f"OrbitMethod.picard_max_rate must lie in (0, 1), got {self.picard_max_rate!r}")
         lo, hi = (float(v) for v in self.period_bounds)
         if not 0 < lo <= 1 <= hi:
             raise ValueError(f"OrbitMethod.period_bounds must be factors (lo, hi) with 0 < lo <= 1 <= hi, "

@@ -12,7 +12,9 @@ the paper, so there are M-1 segments) and the free parameters.  Equations:
 The solver table :data:`SOLVERS`: ``"ipopt"``, a pure feasibility NLP (objective 0; the system is
 square when there is one mean condition per free parameter), limited-memory Hessian, MUMPS;
 ``"lm"``, the paper's Algorithm 1 (Levenberg-Marquardt on the shooting matrix, every step accepted,
-lambda /10 or x10).
+lambda /10 or x10); ``"newton-picard"``, Newton on the method's ``newton_states`` and Picard on the
+strongly contracting rest (:mod:`birdocp.engine.newton_picard`; the full blocks are formed once, at
+the converged cycle, for the multipliers).
 
 The problem, method and result types are the engine's one of each
 (:class:`~birdocp.engine.problem.OrbitProblem`, :class:`~birdocp.engine.method.OrbitMethod`,
@@ -33,6 +35,7 @@ from birdocp.engine import interrupts
 from birdocp.engine.cache import clear_caches
 from birdocp.engine.floquet import FloquetResult, floquet_from_jacobians
 from birdocp.engine.lm import levenberg_marquardt
+from birdocp.engine.newton_picard import newton_picard
 from birdocp.engine.nlp import run_ipopt
 from birdocp.engine.method import OrbitMethod
 from birdocp.engine.orbit_result import OrbitResult
@@ -152,7 +155,9 @@ def _solve(problem, method, warm_start):
     res, ev = _result(problem, method, b, z, p_init, D_init, (status, success, message, iters, hist), wall)
     if np.all(np.isfinite(z)) and np.all(np.isfinite(ev[0])):  # also after a failure: useful for diagnosis
         tf = time.perf_counter()
-        _attach_floquet(res, b, z, *ev[1:])
+        # Newton-Picard never formed the full blocks: one variational pass gives them, without the
+        # second pass of the one-period Jacobian that only checks them (NaN)
+        _attach_floquet(res, b, z, *ev[1:], check=method.solver != "newton-picard")
         wall["floquet"] = time.perf_counter() - tf
     wall["total"] = time.perf_counter() - t_total
     if method.error_estimate and res.success:
@@ -271,7 +276,21 @@ def _run_ipopt_attempts(problem, method, b, z0, lo, hi):
     return z, status, success, "; retried: ".join(msgs), iters, np.concatenate(hists)
 
 
-SOLVERS = {"ipopt": _run_ipopt_attempts, "lm": _run_lm}
+def _run_newton_picard(problem, method, b, z0, lo, hi):
+    """Newton-Picard (:func:`birdocp.engine.newton_picard.newton_picard`); when its complement is not
+    contracting (or its reduced matrix singular), the paper's LM on the full state from its best
+    iterate (histories concatenated)."""
+    out = newton_picard(b, problem, z0, method.newton_states, tol=method.tol, max_iter=method.max_iter,
+                        max_rate=method.picard_max_rate)
+    if out.status not in ("not_contracting", "singular"):
+        return out.z, out.status, out.status == "converged", out.message, out.iterations, np.asarray(out.history)
+    start = out.z if np.all(np.isfinite(out.z)) else z0
+    z, status, success, message, iters, hist = _run_lm(problem, method, b, start, lo, hi)
+    return (z, status, success, f"{out.message}; full Newton (lm) from its best iterate: {message}",
+            out.iterations + iters, np.concatenate([out.history, hist]))
+
+
+SOLVERS = {"ipopt": _run_ipopt_attempts, "lm": _run_lm, "newton-picard": _run_newton_picard}
 """The solver table of the data-split formulation: name -> run(problem, method, graphs, z0, lo, hi)."""
 
 
@@ -337,8 +356,9 @@ def _result(problem, method, b, z, p_init, D_init, outcome, wall):
     return res, (g, X, Dn, ca.DM(pfull))
 
 
-def _attach_floquet(res, b, z, X, Dn, pd):
-    """Multipliers, eigenvectors and exponents at z (the solver's last segment blocks when at z)."""
+def _attach_floquet(res, b, z, X, Dn, pd, check=True):
+    """Multipliers, eigenvectors and exponents at z (the solver's last segment blocks when at z);
+    ``check``: compare the monodromy with the one-period Jacobian (a second variational pass)."""
     grid, nx, S = b.grid, b.nx, b.S
     try:
         Js = b.blocks_at(z)  # IPOPT's (or LM's) last Jacobian evaluation, when at z
@@ -350,8 +370,9 @@ def _attach_floquet(res, b, z, X, Dn, pd):
         else:  # the first segment's end on the residual's trajectory (the same integration, the same numbers)
             x1 = res.trajectory_x[grid.n]
         # the one-period map's Jacobian along the trajectory from x0: its first segment is the solver's
-        _, Jfull = grid.period_jacobian_from_first(ca.DM(x1), ca.DM(Js[0]), Dn, pd)
-        fr = floquet_from_jacobians(Js, np.asarray(Jfull), b.ode.forcing_period)
+        Jfull = (np.asarray(grid.period_jacobian_from_first(ca.DM(x1), ca.DM(Js[0]), Dn, pd)[1]) if check
+                 else None)
+        fr = floquet_from_jacobians(Js, Jfull, b.ode.forcing_period)
         res.monodromy, res.multipliers, res.eigenvectors = fr.monodromy, fr.multipliers, fr.eigenvectors
         res.floquet_exponents, res.doubling_times_s = fr.floquet_exponents, fr.doubling_times_s
         res.stable = fr.stable

@@ -200,7 +200,7 @@ def level(cfg: Config | None = None, free: str = AMPLITUDE_KEY, bounds=None, cli
     ws = warm_start.cycle if isinstance(warm_start, TrimResult) else warm_start
     if ws is not None and not all(hasattr(ws, a) for a in ("p", "shooting_points", "x0")):
         raise TypeError(f"warm_start must be a TrimResult or OrbitResult, got {type(ws).__name__}")
-    res = _solve(problem, method_of(cfg, **method_over), warm_start=ws)
+    res = _solve(problem, method_of(cfg, free=True, **method_over), warm_start=ws)
     return TrimResult(res, cfg)
 
 

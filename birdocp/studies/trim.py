@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config
+from birdocp.bird.config_checks import has_aero_states
+from birdocp.io.errors import ConfigError
 from birdocp.bird.flight import flight_outputs, flight_path_angle_deg
 from birdocp.bird.model import get_model
 from birdocp.bird.validity import CycleValidity, cycle_validity, grid_validity
@@ -25,7 +27,7 @@ from birdocp.engine.orbit_result import JSON_OMITS, OrbitResult
 from birdocp.engine.problem import OrbitProblem
 from birdocp.engine.results import finite_or_none, result_dict
 
-__all__ = ["TrimResult", "CYCLE_FIELDS", "trim", "method_of", "solver_ode"]
+__all__ = ["TrimResult", "CYCLE_FIELDS", "trim", "method_of", "solver_of", "solver_ode", "BODY_STATE_INDICES"]
 
 def solver_ode(m, compiled: bool = False):
     """The ODE the engine solves for the configured model ``m``: ``m.ode``, or with ``compiled`` its
@@ -51,13 +53,47 @@ def solver_ode(m, compiled: bool = False):
     return compiled_ode(m.ode, key_extra=repr(m.structure)) or m.ode
 
 
-def method_of(cfg: Config, **over) -> OrbitMethod:
-    """The :class:`~birdocp.engine.method.OrbitMethod` of ``cfg.solve`` (fields overridden by ``over``).
+BODY_STATE_INDICES = (0, 1, 2, 3)
+"""The Newton states of the ``"newton-picard"`` solver: u, w, q, theta (the aerodynamic states, strongly
+damped, are iterated by Picard)."""
+
+
+def solver_of(cfg: Config, free: bool = False) -> str:
+    """The engine solver of ``cfg.solve.solver``: ``"auto"`` is ``"newton-picard"`` for a trim (no free
+    parameters) of a model with aerodynamic states, ``"ipopt"`` otherwise.
 
     Parameters
     ----------
     cfg : Config
         Configuration.
+    free : bool
+        The solve has free parameters (level flight): Newton-Picard does not handle them.
+
+    Returns
+    -------
+    str
+        ``"ipopt"``, ``"lm"`` or ``"newton-picard"``.
+    """
+    s = cfg.solve.solver
+    if s == "auto":
+        return "newton-picard" if has_aero_states(cfg) and not free else "ipopt"
+    if s == "newton-picard" and free:
+        raise ConfigError("solve.solver", "'newton-picard' solves trims only (no free parameters): use 'auto', "
+                                          "'ipopt' or 'lm' for level flight")
+    return s
+
+
+def method_of(cfg: Config, free: bool = False, **over) -> OrbitMethod:
+    """The :class:`~birdocp.engine.method.OrbitMethod` of ``cfg.solve`` (fields overridden by ``over``;
+    the solver from :func:`solver_of`; with ``"newton-picard"`` the Newton states are the body's,
+    :data:`BODY_STATE_INDICES`).
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration.
+    free : bool
+        The solve has free parameters (level flight).
     **over
         Fields of :class:`~birdocp.engine.method.OrbitMethod` overridden.
 
@@ -66,9 +102,11 @@ def method_of(cfg: Config, **over) -> OrbitMethod:
     OrbitMethod
     """
     s = cfg.solve
-    kw = dict(points=s.points, steps_per_period=s.steps_per_period, solver=s.solver,
+    kw = dict(points=s.points, steps_per_period=s.steps_per_period, solver=solver_of(cfg, free),
               derivatives=s.derivatives, max_iter=s.max_iter, tol=s.tol if s.tol > 0 else None)
     kw.update(over)
+    if kw["solver"] == "newton-picard":
+        kw.setdefault("newton_states", BODY_STATE_INDICES)
     return OrbitMethod(**kw)
 
 

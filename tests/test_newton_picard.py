@@ -1,0 +1,80 @@
+"""Newton-Picard (engine/newton_picard.py) on a forced Duffing oscillator coupled to fast linear lags:
+the same cycle and multipliers as the full Newton, and
+an honest hand-over to the full Newton when the Picard complement does not contract."""
+import casadi as ca
+import numpy as np
+import pytest
+
+from birdocp.engine import OrbitMethod, solve
+from birdocp.engine.ode import ODE
+from birdocp.engine.problem import MeanCondition, OrbitProblem
+
+OMEGA = 1.3
+T = 2 * np.pi / OMEGA
+RATES = (3.0, 5.0, 8.0, 12.0)  # lag rates [1/s]: multipliers exp(-k T) <= 2e-7
+
+
+def lagged_duffing(rates=RATES, feedback=0.3):
+    """x'' + c x' + k x + beta x^3 + feedback * sum(y) = F cos(w t), y_i' = -k_i (y_i - x): the lags
+    feed back on the oscillator, so the complement couples to the Newton states both ways."""
+    n = len(rates)
+    x, t, p = ca.SX.sym("x", 2 + n), ca.SX.sym("t"), ca.SX.sym("p", 4)
+    c, k, beta, F = p[0], p[1], p[2], p[3]
+    y = x[2:]
+    acc = -c * x[1] - k * x[0] - beta * x[0] ** 3 - feedback * ca.sum1(y) + F * ca.cos(OMEGA * t)
+    ydot = ca.vertcat(*[-r * (y[i] - x[0]) for i, r in enumerate(rates)])
+    f = ca.Function("lagged_duffing", [x, t, p], [ca.vertcat(x[1], acc, ydot)])
+    return ODE.from_rhs(f, T)
+
+
+P = np.array([0.25, 1.0, 0.8, 0.6])
+NP_METHOD = OrbitMethod(points=5, steps_per_period=240, solver="newton-picard", newton_states=(0, 1))
+
+
+def _compare(problem, **np_over):
+    full = solve(problem, OrbitMethod(points=5, steps_per_period=240, solver="lm", tol=1e-12))
+    np_ = solve(problem, OrbitMethod(points=5, steps_per_period=240, solver="newton-picard",
+                                     newton_states=(0, 1), tol=1e-12, **np_over))
+    assert full.success and np_.success, (full.message, np_.message)
+    return full, np_
+
+
+def test_same_cycle_and_multipliers_as_the_full_newton():
+    ode = lagged_duffing()
+    full, np_ = _compare(OrbitProblem(ode, P, np.zeros(ode.nx)))
+    assert np.max(np.abs(np_.x0 - full.x0)) < 1e-10
+    assert np.max(np.abs(np_.multipliers - full.multipliers)) < 1e-10
+    assert np_.max_residual <= 1e-12 and "newton-picard: converged" in np_.message
+    assert np.isnan(np_.monodromy_vs_full_period_jacobian)  # the check pass is not run
+    # the two oscillator multipliers agree with the full Newton's to round-off too (largest first)
+    assert np.max(np.abs(np_.multipliers[:2] - full.multipliers[:2])) < 1e-12
+
+
+def test_free_parameters_refused():
+    ode = lagged_duffing()
+    x2, d, p = ca.SX.sym("x", ode.nx), ca.SX.sym("d", 1), ca.SX.sym("p", 4)
+    energy = MeanCondition(ca.Function("e", [x2, d, p], [0.5 * x2[1] ** 2 + 0.5 * x2[0] ** 2]), 0.3, "energy")
+    prob = OrbitProblem(ode, P, np.zeros(ode.nx), free={3: (0.0, 5.0)}, means=[energy])
+    with pytest.raises(ValueError, match="free parameters"):
+        solve(prob, NP_METHOD)
+
+
+def test_not_contracting_complement_hands_over_to_the_full_newton():
+    # a slow lag (rate 0.05/s: multiplier 0.79) named as a Picard state: Newton-Picard says so and the
+    # full Newton converges from its last iterate
+    ode = lagged_duffing(rates=(0.05, 8.0), feedback=0.3)
+    r = solve(OrbitProblem(ode, P, np.zeros(ode.nx)), OrbitMethod(points=5, steps_per_period=240,
+                                                               solver="newton-picard", newton_states=(0, 1)))
+    assert "not contracting" in r.message and "full Newton (lm)" in r.message, r.message
+    assert r.success and r.max_residual <= 1e-10
+
+
+def test_bad_input():
+    ode = lagged_duffing()
+    prob = OrbitProblem(ode, P, np.zeros(ode.nx))
+    with pytest.raises(ValueError, match="newton_states"):
+        solve(prob, OrbitMethod(solver="newton-picard"))
+    with pytest.raises(ValueError, match="newton_states"):
+        solve(prob, OrbitMethod(solver="newton-picard", newton_states=(0, 9)))
+    with pytest.raises(ValueError, match="picard_max_rate"):
+        OrbitMethod(picard_max_rate=1.5).validate()

@@ -1,0 +1,43 @@
+"""The bird's use of Newton-Picard: ``solve.solver = "auto"`` picks it for the trim of a model with
+aerodynamic states (body states by Newton) and nothing else changes for the default model; the wagner
+cycle and its multipliers are the full Newton's."""
+import numpy as np
+import pytest
+
+from birdocp.bird.config import Config, with_values
+from birdocp.engine.method import OrbitMethod
+from birdocp.io.errors import ConfigError
+from birdocp.studies.trim import method_of, solver_of, trim
+
+WAGNER = {"aero.unsteady": "wagner"}
+
+
+def test_auto_is_ipopt_for_the_default_model_and_newton_picard_for_an_aero_trim():
+    assert Config().solve.solver == "auto" and solver_of(Config()) == "ipopt"
+    # the default model's method object is the one it had before the option existed
+    assert method_of(Config()) == OrbitMethod(points=5, steps_per_period=148, solver="ipopt",
+                                              derivatives="exact", max_iter=100, tol=None)
+    cfg = with_values(Config(), WAGNER)
+    assert solver_of(cfg) == "newton-picard" and method_of(cfg).newton_states == (0, 1, 2, 3)
+    assert solver_of(cfg, free=True) == "ipopt"  # level flight: free parameters, the full Newton
+    assert solver_of(with_values(cfg, {"solve.solver": "lm"})) == "lm"
+    with pytest.raises(ConfigError, match="solve.solver"):
+        solver_of(with_values(cfg, {"solve.solver": "newton-picard"}), free=True)
+
+
+def test_newton_picard_needs_aerodynamic_states():
+    with pytest.raises(ConfigError, match="solve.solver"):
+        with_values(Config(), {"solve.solver": "newton-picard"})
+    with pytest.raises(ConfigError, match="solve.solver"):
+        with_values(Config(), {"solve.solver": "newton"})
+
+
+@pytest.mark.slow
+def test_wagner_cycle_is_the_full_newtons():
+    cfg = with_values(Config(), {**WAGNER, "solve.steps_per_period": 60})
+    np_ = trim(cfg)
+    full = trim(with_values(cfg, {"solve.solver": "ipopt"}))
+    assert np_.success and full.success, (np_.cycle.message, full.cycle.message)
+    assert np_.cycle.method["solver"] == "newton-picard" and full.cycle.method["solver"] == "ipopt"
+    assert np.max(np.abs(np_.x0 - full.x0)) < 1e-9
+    assert np.max(np.abs(np_.multipliers - full.multipliers)) < 1e-10
