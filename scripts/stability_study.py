@@ -61,9 +61,12 @@ def validity_cell(v: dict) -> str:
     return "**NOT valid**: " + "; ".join(v["reasons"])
 
 
-def stability_optimum(out: Path, reuse: bool = False):
+def stability_optimum(out: Path, reuse: bool = False, method: str = "reduced"):
     """The optimum (``reuse``: the stored result.json, whose cycle gets its validity by re-integrating
-    one period from its x0; the optimisation itself takes ~6 min)."""
+    one period from its x0; the optimisation itself takes ~6 min). ``method``: the optimiser
+    (:func:`optimize_stability`'s ``method``, "reduced" by default; the committed result.json was
+    written by the full-space one, "full", before the reduced optimiser became the default: see
+    docs/reproducibility.md)."""
     out.mkdir(parents=True, exist_ok=True)
     from birdocp.bird.validity import periodic_validity
     from birdocp.studies.level import level
@@ -73,7 +76,7 @@ def stability_optimum(out: Path, reuse: bool = False):
         d["validity_source"] = "re-evaluation of the stored optimal cycle (one RK4 period from x0, 148 steps)"
     else:
         t0 = time.perf_counter()
-        res = optimize_stability(Config(), progress=True)
+        res = optimize_stability(Config(), progress=True, method=method)
         d = res.to_dict()
         d["script_wall_s"] = time.perf_counter() - t0
         d["validity_source"] = "optimize_stability"
@@ -172,8 +175,11 @@ def main(argv=None):
     ap.add_argument("--reuse-optimum", action="store_true",
                     help="take the optimum from OUT/stability_optimum/result.json (validity re-evaluated, "
                          "table and figure redrawn) instead of optimising again (~6 min)")
+    ap.add_argument("--method", choices=("reduced", "full"), default="reduced",
+                    help="the optimiser: 'reduced' (the level cycle eliminated; default, as optimize-stability) "
+                         "or 'full' (the full-space NLP that wrote the committed result.json)")
     args, out = parse_with_out(ap, argv)
-    stability_optimum(out / "stability_optimum", reuse=args.reuse_optimum)
+    stability_optimum(out / "stability_optimum", reuse=args.reuse_optimum, method=args.method)
     print((out / "stability_optimum" / "table.md").read_text())
 
 
