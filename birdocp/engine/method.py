@@ -10,8 +10,8 @@ setting                       ``"data_split"`` (ODE with data)       ``"time_sca
 ============================  =====================================  ==================================
 ``steps_per_period=None``     148 (the paper's grid)                 refined until ``accuracy`` is met
 ``solver=None``               ``"ipopt"``                            ``"lm"``
-``tol=None``                  1e-10 (ipopt, newton-picard), 1e-5    1e-10
-                              (lm, the paper's)
+``tol=None``                  1e-10 (ipopt, newton-picard);          1e-10
+                              1e-5 (lm, the paper's)
 ``error_estimate=None``       False (it costs a second solve)        True
 ``integrator``                ``"rk4"`` only                         ``"rk4"``, ``"radau"``, ``"gauss"``
 ============================  =====================================  ==================================
