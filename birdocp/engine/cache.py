@@ -19,6 +19,7 @@ from typing import Any, Callable, Hashable
 __all__ = ["BoundedCache", "bounded_cache", "register_cache", "owned_cache", "clear_caches", "cache_sizes"]
 
 _REGISTRY: dict[str, Any] = {}
+_MISSING = object()  # a cached value may be None
 _OWNED: "weakref.WeakSet[BoundedCache]" = weakref.WeakSet()  # the owned caches of live objects
 _OWNED_ATTRIBUTE = "_owned_caches"
 
@@ -88,13 +89,11 @@ class BoundedCache:
         -------
         Any
         """
-        try:
-            self._data.move_to_end(key)
-        except KeyError:
+        value = self.get(key, _MISSING)
+        if value is _MISSING:
             value = make()
             self.put(key, value)
-            return value
-        return self._data[key]
+        return value
 
     def clear(self) -> None:
         """Drop every entry."""
