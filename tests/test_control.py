@@ -121,8 +121,8 @@ def test_zero_wind_is_the_cycle_exactly_and_a_constant_wind_shifts_the_velocity(
     for t in (0.013, 0.11, 0.2):
         d = m.data(t, p)
         x = np.array([15.0, 0.7, 0.3, 0.1]) + rng.normal(size=4) * 0.1
-        assert np.array_equal(np.array(m.rhs_wind(x, d, p, [0, 0])), np.array(m.rhs(x, d, p)))
-        assert np.array_equal(np.array(m.loads_wind(x, d, p, [0, 0])), np.array(m.loads_d(x, d, p)))
+        assert np.array_equal(np.array(m.rhs_wind(x, d, p, [0, 0], [0, 0])), np.array(m.rhs(x, d, p)))
+        assert np.array_equal(np.array(m.loads_wind(x, d, p, [0, 0], [0, 0])), np.array(m.loads_d(x, d, p)))
     # the simulation with a zero constant wind is the engine's open-loop RK4 cycle
     grid = RK4Grid(m.ode, STEPS, 1)
     X = np.asarray(grid.period_map(ca.DM(cycle.x0), grid.blocks_numeric(0.0, p), ca.DM(p))[1]).T

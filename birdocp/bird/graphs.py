@@ -19,8 +19,8 @@ from birdocp.bird import subdivide
 from birdocp.bird import unsteady
 from birdocp.bird import wing
 from birdocp.bird.config import JOINT_NAMES, PARAM_NAMES, WING_MASS_SHARES
-from birdocp.bird.layout import (DATA_BLOCKS, N_EL, Structure, air_state, param as _p, unpack_data,
-                                 unpack_mass)
+from birdocp.bird.layout import (DATA_BLOCKS, N_EL, Structure, air_state, air_wind_rate, param as _p,
+                                 unpack_data, unpack_mass)
 from birdocp.bird.loads import load_terms, unsteady_data_offset, unsteady_params as _unsteady_params
 
 def _joint_angles(t, p, frequency_hz):
@@ -355,14 +355,18 @@ def build(s: Structure) -> tuple[dict, tuple]:
 def _state_functions(s: Structure, p) -> dict:
     """The state part: ``rhs``, ``loads_d``, ``detail_d``, their wind versions, ``wing_power_d`` and
     the section Functions. The aerodynamics sees the air-relative state (``air_state``: the wind in the
-    inertial frame, rotated into the body frame, subtracted from u, w); rhs/loads_d/detail_d are the
-    same graphs with the wind substituted by zero (the exact graphs of before)."""
+    inertial frame, rotated into the body frame, subtracted from u, w); with ``wagner`` the added mass
+    also sees the wind's rate (``air_wind_rate``: its rate along the trajectory, the ``wind_rate_mps2``
+    input, and the frame's rotation); rhs/loads_d/detail_d are the same graphs with the wind and its
+    rate substituted by zero (the exact graphs of before)."""
     fns = {}
     x = ca.SX.sym("x", 4 + s.n_aero_states)
     wind = ca.SX.sym("wind_mps", 2)
+    wind_rate = ca.SX.sym("wind_rate_mps2", 2)
     xa = ca.vertcat(air_state(x, wind), x[4:])
     dsym = ca.SX.sym("d", unsteady_data_offset(s) + (unsteady.data_size(N_EL) if s.aero_extra else 0))
-    lt = load_terms(s, xa, dsym, p, x_inertial=x)
+    lt = load_terms(s, xa, dsym, p, x_inertial=x,
+                    wind_rate=air_wind_rate(x, wind, wind_rate) if s.unsteady == "wagner" else None)
     Fx, Fz, My, Gamma, alpha, vp, F = (lt[k] for k in ("Fx_N", "Fz_N", "My_Nm", "Gamma", "alpha", "Vp_norm",
                                                       "F_code"))
     m = _p(p, "body.mass_kg")
@@ -382,17 +386,17 @@ def _state_functions(s: Structure, p) -> dict:
         xdot = ca.vertcat(nudot, q)
         pw = inertia.wing_powers(x, nudot, sums, grav)
         powers = ca.vertcat(*[pw[kk] for kk in WING_POWER_NAMES])
-    fns["rhs_wind"] = ca.Function("rhs_wind", [x, dsym, p, wind], [xdot], ["x", "d", "p", "wind_mps"], ["xdot"])
-    fns["loads_wind"] = ca.Function("loads_wind", [x, dsym, p, wind], [ca.vertcat(Fx, Fz, My)],
-                                    ["x", "d", "p", "wind_mps"], ["loads"])
-    zero = [ca.SX.zeros(2)]
+    ins, names = [x, dsym, p, wind, wind_rate], ["x", "d", "p", "wind_mps", "wind_rate_mps2"]
+    fns["rhs_wind"] = ca.Function("rhs_wind", ins, [xdot], names, ["xdot"])
+    fns["loads_wind"] = ca.Function("loads_wind", ins, [ca.vertcat(Fx, Fz, My)], names, ["loads"])
+    winds, zero = [wind, wind_rate], [ca.SX.zeros(2), ca.SX.zeros(2)]
     xdot, loads, detail = ca.substitute([xdot, ca.vertcat(Fx, Fz, My), ca.vertcat(Gamma, alpha, vp, ca.vec(F))],
-                                        [wind], zero)
+                                        winds, zero)
     # (x, d, p) -> the powers WING_POWER_NAMES [W] (and T_rel [J]) at one instant
     fns["wing_power_d"] = None if powers is None else ca.Function(
-        "wing_power_d", [x, dsym, p], ca.substitute([powers], [wind], zero), ["x", "d", "p"], ["powers"])
+        "wing_power_d", [x, dsym, p], ca.substitute([powers], winds, zero), ["x", "d", "p"], ["powers"])
     if s.aero_extra:
-        fns.update(_section_functions(s, x, dsym, p, lt, wind))
+        fns.update(_section_functions(s, x, dsym, p, lt, winds))
     else:
         fns.update(section_d=None, aero_guess_d=None, held_d=None)
     fns["rhs"] = ca.Function("rhs", [x, dsym, p], [xdot], ["x", "d", "p"], ["xdot"])
@@ -411,7 +415,7 @@ relative Newton residual max|R| / max|Gamma| of the stall circulation (0 for a l
 element lengths and the geometric angles."""
 
 
-def _section_functions(s: Structure, x, d, p, lt, wind) -> dict:
+def _section_functions(s: Structure, x, d, p, lt, winds) -> dict:
     """``section_d`` (:data:`SECTION_OUTPUTS`) and ``aero_guess_d(x4, d, p)``: the aerodynamic states on
     the quasi-steady manifold (z_i = eps A_i g with A0 = 1 and z = 0, f = f0(alpha_E)) at body state x4."""
     sec = lt["sec"]
@@ -426,9 +430,9 @@ def _section_functions(s: Structure, x, d, p, lt, wind) -> dict:
     vind_qs = qs["vind"]
     a_qs, _ = aero.section_angle(V + vind_qs, b["c_hat"], b["up"], b["tau"])
     outs = [sec["alpha_E"], a_qs.T, sec["f"].T, sec["Gamma"], sec["newton_residual"], b["ds_m"], sec["alpha"].T]
-    outs = ca.substitute(outs, [wind], [ca.SX.zeros(2)])
+    outs = ca.substitute(outs, winds, [ca.SX.zeros(2)] * len(winds))
     fns = {"section_d": ca.Function("section_d", [x, d, p], outs, ["x", "d", "p"], list(SECTION_OUTPUTS))}
-    held = ca.substitute([lt["xdot_aero"], lt["loads_held"]], [wind], [ca.SX.zeros(2)])
+    held = ca.substitute([lt["xdot_aero"], lt["loads_held"]], winds, [ca.SX.zeros(2)] * len(winds))
     fns["held_d"] = ca.Function("held_d", [x, d, p], held, ["x", "d", "p"], ["xdot_aero", "loads"])
     x4 = ca.SX.sym("x4", 4)
     prm = dict(_unsteady_params(p), a0=1.0)

@@ -167,6 +167,36 @@ def air_state(x, wind_mps):
                       x[1] - (s * wind_mps[0] + c * wind_mps[1]), x[2], th)
 
 
+def air_wind_rate(x, wind_mps, wind_rate_mps2):
+    """The time derivative of the wind's body-frame components (wind_u, wind_w) of :func:`air_state`
+    along the motion [m/s^2]: ``R(theta) dW/dt - omega x W_b``, i.e.
+    ``(cos(theta) dW_X - sin(theta) dW_Z - q wind_w, sin(theta) dW_X + cos(theta) dW_Z + q wind_u)``.
+
+    ``wind_rate_mps2`` is the inertial rate of the wind at G along the trajectory, ``dW/dt + dW/dX' X'``
+    (its own time rate plus its change along the flight path); the second part is the rotation of
+    the body frame with the pitch rate q (the wind is uniform over the bird: no air rotation).
+
+    Parameters
+    ----------
+    x : casadi.SX
+        Body state (u, w, q, theta, ...).
+    wind_mps : sequence
+        (W_X, W_Z), inertial frame (X forward horizontal, Z down) [m/s].
+    wind_rate_mps2 : sequence
+        (dW_X/dt, dW_Z/dt) along the trajectory [m/s^2].
+
+    Returns
+    -------
+    casadi.SX
+        (d wind_u/dt, d wind_w/dt) [m/s^2].
+    """
+    q, th = x[2], x[3]
+    c, s = ca.cos(th), ca.sin(th)
+    wind_u = c * wind_mps[0] - s * wind_mps[1]
+    wind_w = s * wind_mps[0] + c * wind_mps[1]
+    return ca.vertcat(c * wind_rate_mps2[0] - s * wind_rate_mps2[1] - q * wind_w,
+                      s * wind_rate_mps2[0] + c * wind_rate_mps2[1] + q * wind_u)
+
 def param(p, name):
     """The entry ``name`` (:data:`birdocp.bird.config.PARAM_NAMES`) of the parameter vector p.
 

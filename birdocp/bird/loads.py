@@ -82,7 +82,7 @@ def section_terms(structure: Structure, x, d, p) -> dict:
     return unsteady.section_loads(_opts(structure), x[0:3], x[4:], base, ud, wake, unsteady_params(p))
 
 
-def load_terms(structure: Structure, x, d, p, x_inertial=None) -> dict:
+def load_terms(structure: Structure, x, d, p, x_inertial=None, wind_rate=None) -> dict:
     """Every aerodynamic load term at state x (SX), data d and parameters p, as expressions.
 
     The one code path for the dynamics (:class:`BirdModel` ``rhs``) and the power outputs
@@ -97,7 +97,8 @@ def load_terms(structure: Structure, x, d, p, x_inertial=None) -> dict:
     ``dF`` is then the attached force at the quarter chord, and the extra keys are ``sec`` (the dict of
     :func:`birdocp.bird.unsteady.section_loads`), ``dF_mid`` (separated + added-mass force at mid-chord,
     3 x 16), ``couple`` (1 x 16 added-mass couples about tau_hat, N m), ``nudot`` (u', w', q' with the
-    added mass on the left) and ``xdot_aero``; the body loads include the added-mass reaction.
+    added mass on the left) and ``xdot_aero``; the body loads include the added-mass reaction, to the
+    air-relative acceleration nu' - (wind_rate, 0) with a wind rate (``wagner`` only).
 
     Parameters
     ----------
@@ -111,6 +112,9 @@ def load_terms(structure: Structure, x, d, p, x_inertial=None) -> dict:
         Parameter vector.
     x_inertial : casadi.SX, optional
         Inertial body state (default ``x``).
+    wind_rate : casadi.SX, optional
+        d/dt of the wind's body-frame components (:func:`birdocp.bird.layout.air_wind_rate`) [m/s^2];
+        None: no wind rate (today's graph).
 
     Returns
     -------
@@ -153,15 +157,18 @@ def load_terms(structure: Structure, x, d, p, x_inertial=None) -> dict:
         Fx, Fz, My = Fx - Dt, Fz - Lt, My + Mt
         out["tail"] = (Lt, Dt, Mt)
     if sec is not None:
-        Fx, Fz, My = _with_added_mass(out, sec, Fx, Fz, My, x if x_inertial is None else x_inertial, p)
+        Fx, Fz, My = _with_added_mass(out, sec, Fx, Fz, My, x if x_inertial is None else x_inertial, p,
+                                      wind_rate)
         F = F + ca.sum2(out["dF_mid"] - sec["dF_mid"])  # the added-mass force (code frame)
     out.update(F_code=F, Fx_N=Fx, Fz_N=Fz, My_Nm=My)
     return out
 
 
-def _with_added_mass(out, sec, Fx, Fz, My, xi, p):
+def _with_added_mass(out, sec, Fx, Fz, My, xi, p, wind_rate=None):
     """Body accelerations with the added mass on the left, (M_b + M_A) nu' = b + b_nc, and the body loads
-    with the added-mass reaction; fills ``nudot``, ``xdot_aero``, ``dF_mid``, ``couple``, ``sec`` of ``out``."""
+    with the added-mass reaction; fills ``nudot``, ``xdot_aero``, ``dF_mid``, ``couple``, ``sec`` of ``out``.
+    With ``wind_rate`` (body frame) the added mass sees the air-relative acceleration nu' - W', W' =
+    (wind_rate, 0): b_nc gains M_A W' (the wind is uniform, so q' and the couples are unchanged)."""
     m = _p(p, "body.mass_kg")
     I = _p(p, "body.pitch_inertia_kgm2")
     grav = _p(p, "body.gravity_mps2")
@@ -177,13 +184,17 @@ def _with_added_mass(out, sec, Fx, Fz, My, xi, p):
         return Fx, Fz, My
     bvec = ca.vertcat(m * (-q * w - grav * ca.sin(theta)) + Fx + sec["b_nc"][0],
                       m * (q * u + grav * ca.cos(theta)) + Fz + sec["b_nc"][1], My + sec["b_nc"][2])
-    MA = sec["M_A"]
+    MA, b_nc, rel = sec["M_A"], sec["b_nc"], ca.SX.zeros(3, 1)
+    if wind_rate is not None:
+        rel = ca.vertcat(wind_rate[0], wind_rate[1], 0)  # the air's acceleration in the body frame
+        b_nc = b_nc + MA @ rel
+        bvec = bvec + MA @ rel
     nudot = unsteady.solve_sym3(ca.diag(ca.vertcat(m, m, I)) + MA, bvec)
-    react = sec["b_nc"] - MA @ nudot
+    react = b_nc - MA @ nudot
     out["nudot"] = nudot
-    out["loads_held"] = ca.vertcat(Fx, Fz, My) + sec["b_nc"]  # body accelerations held at zero
-    # added-mass force per element along n_hat and the couples, with the solved accelerations
-    nc = sec["nc_coef"] + sec["m_a_chi"] * (nudot.T @ sec["a"])
+    out["loads_held"] = ca.vertcat(Fx, Fz, My) + b_nc  # body accelerations held at zero
+    # added-mass force per element along n_hat and the couples, with the solved air-relative accelerations
+    nc = sec["nc_coef"] + sec["m_a_chi"] * ((nudot - rel).T @ sec["a"])
     out["dF_mid"] = sec["dF_mid"] + ca.repmat(nc, 3, 1) * sec["n_hat"]
     out["couple"] = sec["couple0"] - sec["m_theta_chi"] * sec["tau1"] * nudot[2]
     return Fx + react[0], Fz + react[1], My + react[2]

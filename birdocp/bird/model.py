@@ -80,9 +80,12 @@ class BirdModel:
     * ``pre(t, p)`` (the wing in the arm frame) and ``post(local, t, p) -> d``, with
       ``data = post(pre(t, p), t, p)``; ``pre`` depends on the parameters ``pre_params`` only;
     * ``rhs(x, d, p) -> xdot`` and ``loads_d(x, d, p) -> [Fx_N, Fz_N, My_Nm]``;
-    * ``rhs_wind(x, d, p, wind_mps)`` and ``loads_wind``: the same with a uniform wind (inertial frame,
-      X forward, Z down, m/s) in the air velocity of every wing element and of the tail
-      (:func:`air_state`); with a zero wind they equal ``rhs`` and ``loads_d`` exactly;
+    * ``rhs_wind(x, d, p, wind_mps, wind_rate_mps2)`` and ``loads_wind``: the same with a uniform wind
+      (inertial frame, X forward, Z down, m/s) in the air velocity of every wing element and of the
+      tail (:func:`air_state`); ``wind_rate_mps2`` its rate along the trajectory [m/s^2], which with
+      ``aero.unsteady = "wagner"`` makes the added mass react to the air-relative acceleration
+      (:func:`birdocp.bird.layout.air_wind_rate`, frame rotation included; unused otherwise); with a
+      zero wind and rate they equal ``rhs`` and ``loads_d`` exactly;
     * ``f(x, t, p) -> xdot``, ``loads(x, t, p)`` and ``aero_detail(x, t, p)`` (circulations, angles of
       attack) composed in MX;
     * with wing masses, ``mass_points(t, p)`` and ``wing_power_d(x, d, p)`` (else None).

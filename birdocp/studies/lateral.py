@@ -13,6 +13,8 @@ mean forward speed, p and r by the wingbeat frequency, phi as is): a complex pai
 ``dutch_roll_like``; of the real modes the one with the smallest modulus is ``roll_subsidence``
 when its roll-rate share is the largest of the real modes, the one nearest 1 is ``spiral``, others
 ``lateral_real``. Every mode carries its time to double (positive) or halve (negative) in wingbeats.
+Its reported eigenvector (so scaled) is divided by its largest entry, which becomes exactly 1: its sign
+and phase do not depend on the eigensolver's round-off.
 
 An asymmetric gait couples the blocks: its 8 x 8 monodromy (the heading left out) is not split.
 Each of its modes is then classified by its eigenvector's content (:func:`coupled_modes`): with the
@@ -84,8 +86,12 @@ def _scales(names, period_s: float, speed_mps: float) -> np.ndarray:
 
 
 def _mode(lam, vec, names, scale) -> dict:
+    """One mode's dict; the scaled eigenvector divided by its largest-modulus entry, which becomes 1
+    (real, positive): sign and phase do not depend on the eigensolver's round-off."""
     v = vec * scale
-    v = v / np.max(np.abs(v))
+    k = int(np.argmax(np.abs(v)))
+    v = v / v[k]
+    v[k] = 1.0  # exactly (a complex quotient z / z may round to 1 - 1e-16)
     return {"multiplier": complex(lam), "beats_to_double": beats_to_double(lam),
             "eigenvector": {k: complex(v[j]) for j, k in enumerate(names)},
             "dominant_state": names[int(np.argmax(np.abs(v)))], "label": "lateral_real"}

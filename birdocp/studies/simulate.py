@@ -11,6 +11,11 @@ G's position):
   L))`` for ``X_s <= X <= X_s + L`` (A the peak, m/s; L the length in metres, or in wingbeats times
   the distance the cycle flies per beat; X_s its start, by default one beat ahead).
 
+With ``aero.unsteady = "wagner"`` the added mass reacts to the air-relative acceleration: the model
+gets the wind's rate along the path, ``dW/dX' X'`` (the gusts are frozen in the air: no own time rate;
+a constant wind has none), and turns it into the body frame with the pitch rate
+(:func:`birdocp.bird.layout.air_wind_rate`).
+
 Closed loop: at the start of each of the N intervals of a beat the controller's gait corrections
 ``du = -K_i (x - x_i)`` are applied (held over the interval), saturated at the joint limits.
 
@@ -71,18 +76,11 @@ class _Stepper(PerModel):
         d = ca.SX.sym("d", nd)
         p = ca.SX.sym("p", np_)
         g = ca.SX.sym("g", 8)  # constant (h, v), amplitudes (h, v), start/length (h), start/length (v)
-        X = z[4]
-
-        def shape(start, length):
-            s = (X - start) / length
-            return ca.if_else(ca.logic_and(s > 0, s < 1), 0.5 * (1 - ca.cos(2 * math.pi * s)), 0)
-
-        wind_X = g[0] + g[2] * shape(g[4], g[5])
-        wind_up = g[1] + g[3] * shape(g[6], g[7])
         u, w, th = z[0], z[1], z[3]
-        wind = ca.vertcat(wind_X, -wind_up)
-        xdot = self.model.rhs_wind(ca.vertcat(z[:4], z[6:]), d, p, wind)
-        zdot = ca.vertcat(xdot[:4], u * ca.cos(th) + w * ca.sin(th), -u * ca.sin(th) + w * ca.cos(th), xdot[4:])
+        X_dot = u * ca.cos(th) + w * ca.sin(th)
+        wind, wind_rate = planar_wind(z[4], X_dot, g)
+        xdot = self.model.rhs_wind(ca.vertcat(z[:4], z[6:]), d, p, wind, wind_rate)
+        zdot = ca.vertcat(xdot[:4], X_dot, -u * ca.sin(th) + w * ca.cos(th), xdot[4:])
         f = ca.Function("f_sim", [z, d, p, g], [zdot])
         xa = air_state(z, wind)
         if nx > 4 or self.model.structure.aero_extra:
@@ -106,6 +104,37 @@ class _Stepper(PerModel):
     def data(self, i: int, p) -> ca.DM:
         """Stage blocks of interval i for parameters p (the arm-frame shape ``pre`` memoised)."""
         return interval_data(self, i, p)
+
+
+def planar_wind(X, X_dot, g):
+    """The wind at G and its rate along the path, from the steppers' 8 wind numbers
+    (:func:`wind_vector`): ``W = (W_X, W_Z)`` (inertial, X forward, Z down) [m/s], the constant wind
+    plus the 1 - cos gusts frozen in the air at G's horizontal position X, and ``dW/dt = dW/dX X'``
+    [m/s^2] (exact derivative of the gust shape; the gusts have no own time rate, the constant
+    wind none).
+
+    Parameters
+    ----------
+    X : casadi.SX
+        Horizontal inertial position of G (a symbol) [m].
+    X_dot : casadi.SX
+        Its rate, u cos(theta) + w sin(theta) [m/s].
+    g : casadi.SX
+        The 8 wind numbers.
+
+    Returns
+    -------
+    wind : casadi.SX
+        (W_X, W_Z) [m/s].
+    wind_rate : casadi.SX
+        (dW_X/dt, dW_Z/dt) [m/s^2].
+    """
+    def shape(start, length):
+        s = (X - start) / length
+        return ca.if_else(ca.logic_and(s > 0, s < 1), 0.5 * (1 - ca.cos(2 * math.pi * s)), 0)
+
+    wind = ca.vertcat(g[0] + g[2] * shape(g[4], g[5]), -(g[1] + g[3] * shape(g[6], g[7])))
+    return wind, ca.jtimes(wind, X, X_dot)
 
 
 def interval_data(stepper, i: int, p) -> ca.DM:
