@@ -25,13 +25,21 @@ finishes, then DIR/optimized.json and DIR/optimized.md (r*, KKT residual, validi
     python scripts/aero_valid_study.py --optimize --cases wagner --out results/aero/valid
 
 Converging them (docs/model_unsteady.md): ``--hessian fd --from-reached --label fd_reached`` solves again
-from the point an earlier row reached (its gait, amplitude and full state) with the exact-Hessian mode,
-``--max-wall-s`` and ``--valid-rounds`` bound the cost; ``--own-state`` re-trims each optimum from its own
-state; ``--stall-at-optimum N`` trims ``wagner`` + ``stall`` at each optimum's gait (at most N iterations)
-and then solves its level flight.
+from the point an earlier row reached (its gait, amplitude and full state; ``--from-label`` names that
+row, default the unlabelled one) with the exact-Hessian mode; ``--max-iter`` and ``--valid-rounds`` bound
+the cost (iteration counts, never wall time: a run reproduces); ``--own-state`` re-trims each optimum
+from its own state; ``--stall-at-optimum N`` trims ``wagner`` + ``stall`` at each optimum's gait (at most N
+iterations) and then solves its level flight.
 
-    python scripts/aero_valid_study.py --optimize --gaits free_speed tail --cases wagner --hessian fd \
-        --from-reached --max-iter 40 --max-wall-s 2000 --valid-rounds 2 --label fd_reached --out results/aero/valid
+    python scripts/aero_valid_study.py --optimize --gaits free_speed --cases wagner --hessian fd \
+        --from-reached --max-iter 40 --valid-rounds 2 --label fd_reached --out results/aero/valid
+
+The tail optimum on 96 steps (48 move |Lambda1| by 0.06 at its 18 m/s: the lag's fast pole nears RK4's
+limit), from the point the exact-Hessian run on 48 steps reached:
+
+    python scripts/aero_valid_study.py --optimize --gaits tail --cases wagner --hessian fd --steps 96 \
+        --from-reached --from-label fd_reached --max-iter 30 --valid-rounds 2 --own-state --label fd96 \
+        --out results/aero/valid
 """
 from __future__ import annotations
 
@@ -73,8 +81,7 @@ def optimize_case(gait: str, name: str, steps: int, max_iter: int, run: dict | N
     """The most stable valid level gait of problem ``gait`` with model ``name``, from the quasi-steady
     optimum (its gait, amplitude and body state) or, with ``run["reached"]`` (a committed ``--optimize``
     row), from that row's point (gait, amplitude and full state); ``run`` also holds the ``hessian``,
-    ``threads``, ``max_wall_s`` (IPOPT's wall-time limit per solve) and ``valid_rounds``. The optimum's
-    summary."""
+    ``threads`` and ``valid_rounds``. The optimum's summary."""
     from birdocp.bird.config import Config, with_values
     from birdocp.studies.gait import optimize_gait
 
@@ -85,12 +92,11 @@ def optimize_case(gait: str, name: str, steps: int, max_iter: int, run: dict | N
     free = {k: tuple(v) for k, v in qs["bounds"].items()}
     reached = (run.get("reached") or {}).get("optimum")
     start, x_guess = (gait_values(reached), reached["x0"]) if reached else (gait_values(qs), qs["x0"][:4])
-    ipopt = {"ipopt.max_wall_time": float(run["max_wall_s"])} if run.get("max_wall_s") else None
     t0 = time.perf_counter()
     o = optimize_gait(cfg, free, objective="stability", speed_mps=PROBLEMS[gait]["speed_mps"], valid=True,
                       steps_per_period=steps, start=start, x_guess=x_guess, max_iter=max_iter,
                       hessian=run.get("hessian", "sr1"), threads=int(run.get("threads", 2)),
-                      ipopt_options=ipopt, valid_rounds=run.get("valid_rounds"), progress=bool(run.get("progress")))
+                      valid_rounds=run.get("valid_rounds"), progress=bool(run.get("progress")))
     d = json.loads(json.dumps(o.to_dict(), default=str))
     keep = ("success", "status", "message", "iterations", "objective_value", "largest_modulus", "free",
             "amplitude_deg", "multipliers", "kkt_residual", "constraint_violation", "validity",
@@ -98,7 +104,7 @@ def optimize_case(gait: str, name: str, steps: int, max_iter: int, run: dict | N
             "ipopt_multipliers")
     return {"gait": gait, "case": name, "steps_per_period": steps, "quasi_steady_radius": qs.get("radius"),
             "label": run.get("label", ""), "hessian": run.get("hessian", "sr1"), "max_iter": max_iter,
-            "start": f"point reached by opt_{gait}_{name}.json" if reached else "quasi-steady optimum",
+            "start": f"point reached by {run.get('reached_file')}" if reached else "quasi-steady optimum",
             "overrides": tail | CASES[name], "optimum": {k: d.get(k) for k in keep},
             "active_limits": [k for k, c in (d.get("validity_constraints") or {}).items() if c.get("active")],
             "active_bounds": [k for k, v in (d.get("free") or {}).items()
@@ -239,9 +245,10 @@ def optimize_all(args, out: Path) -> int:
             path = out / "cases" / f"opt_{gait}_{name}{suffix}.json"
             if not path.exists():
                 run = {"label": args.label, "hessian": args.hessian, "threads": args.threads,
-                       "max_wall_s": args.max_wall_s, "valid_rounds": args.valid_rounds, "progress": args.progress}
+                       "valid_rounds": args.valid_rounds, "progress": args.progress}
                 if args.from_reached:
-                    run["reached"] = json.loads((out / "cases" / f"opt_{gait}_{name}.json").read_text())
+                    run["reached_file"] = f"opt_{gait}_{name}{'_' + args.from_label if args.from_label else ''}.json"
+                    run["reached"] = json.loads((out / "cases" / run["reached_file"]).read_text())
                 print(f"optimize {gait} {name}{suffix} ...", flush=True)
                 atomic_write_json(path, optimize_case(gait, name, args.steps, args.max_iter, run))
             row = json.loads(path.read_text())
@@ -330,7 +337,7 @@ def main(argv=None) -> int:
     ap.add_argument("--from-reached", action="store_true",
                     help="--optimize starts from the point of DIR/cases/opt_<gait>_<case>.json (gait, amplitude, "
                          "full state) instead of the quasi-steady optimum")
-    ap.add_argument("--max-wall-s", type=float, default=None, help="IPOPT's wall-time limit per solve [s]")
+    ap.add_argument("--from-label", default="", help="--from-reached starts from DIR/cases/opt_<gait>_<case>_<label>.json")
     ap.add_argument("--valid-rounds", type=int, default=None, help="validity rounds of --optimize at most")
     ap.add_argument("--own-state", action="store_true",
                     help="--optimize also re-trims each optimum from its own state (own_state_trim)")

@@ -198,6 +198,30 @@ def test_combined_second_order_pass_equals_all_directions():
     assert np.allclose(ev.monodromy, s["Mon"], rtol=0, atol=1e-13)
 
 
+def test_second_order_pass_on_given_state_columns_equals_the_full_pass_times_them():
+    """``state_columns=k`` carries the monodromy on k given columns S0 only (forward directions instead
+    of the step Jacobian): its Mon and dMon equal the full pass's M S0 and dM S0, direction by direction;
+    without S0 it refuses (one line naming S0)."""
+    from birdocp.engine.variational import PeriodSensitivities
+
+    rc = ReducedLevelCycle(small(), KEYS, second_order=True)
+    ev = rc.evaluate(np.array([14.0, -19.0]))
+    p = rc.pfull(ev.theta, ev.amplitude_deg)
+    D, seeds, cols = rc.sensitivity_inputs(p)
+    part = PeriodSensitivities(rc.m.ode, STEPS, (rc.outputs,), rc.nt, True, combined=True, n_data=rc.nt + 1,
+                               state_columns=3)
+    S0 = np.random.default_rng(3).normal(size=(4, 3))
+    W = np.vstack([np.eye(rc.nt), ev.dy[4]])
+    s = part(ev.x0, D, p, dp=seeds, columns=cols, W=W, dx0=ev.dy[:4], S0=S0)
+    assert np.allclose(s["Mon"], ev.monodromy @ S0, rtol=0, atol=1e-12)
+    for c in range(rc.nt):
+        want = ev.d_monodromy[:, c].reshape(4, 4, order="F") @ S0
+        got = s["dMon"][:, c].reshape(4, 3, order="F")
+        assert np.allclose(got, want, rtol=0, atol=1e-12 * np.max(np.abs(want)))
+    with pytest.raises(ValueError, match="S0"):
+        part(ev.x0, D, p, dp=seeds, columns=cols, W=W, dx0=ev.dy[:4])
+
+
 def test_trial_point_values_equal_the_gradient_evaluation_values():
     """A line-search trial point (values only) gets the monodromy alone (4 state directions): its
     constraint values, Jury rows included, equal those of the full evaluation with second-order

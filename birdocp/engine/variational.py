@@ -14,6 +14,11 @@ parameter directions (``W``, n_data x n_dir) with initial state tangents ``dx0``
 directions: e.g. the total derivatives along a reduced space's parameters once ``dx0/dtheta`` is
 known from a first-order pass, at a fraction of the second-order cost of all nx + n_data directions.
 
+With ``state_columns=k`` (second order) the state Jacobian is carried on k given columns ``S0`` (nx x k)
+instead of the identity: ``Mon`` is then ``M S0`` (nx x k) and ``dMon`` its derivatives (nx k rows), at
+about k / nx of the cost -- e.g. a monodromy's derivatives on its dominant invariant subspace, when the
+other directions are not needed.
+
 Every RK4 step propagates the state, its tangents and (second order) the tangents of the state
 Jacobian as one SX Function (``jtimes`` with a seed matrix; structural zeros pruned), accumulated by
 ``mapaccum`` over the N steps. Measured on the bird (148 steps, 5 parameter directions, 2 cores):
@@ -42,9 +47,10 @@ class PeriodSensitivities:
     """
 
     def __init__(self, ode, steps_per_period: int, outputs=(), n_dir: int = 0, second_order: bool = False,
-                 combined: bool = False, n_data: int | None = None):
+                 combined: bool = False, n_data: int | None = None, state_columns: int | None = None):
         self.ode, self.N, self.n_dir, self.second = ode, int(steps_per_period), int(n_dir), bool(second_order)
         nx, nd, np_ = ode.nx, ode.nd, ode.np
+        self.ns = nx if state_columns is None else int(state_columns)  # columns of the carried state Jacobian
         self.nx, self.nd = nx, nd
         self.combined = bool(combined)
         self.n_data = int(n_data if n_data is not None else n_dir)  # directions given per call
@@ -67,11 +73,14 @@ class PeriodSensitivities:
             seedD = ca.horzcat(ca.SX.zeros(3 * nd, nx), *[ca.vec(dD3[:, 3 * k:3 * k + 3]) for k in range(self.n_dir)])
             seedP = ca.horzcat(ca.SX.zeros(np_, nx), dP[:, :self.n_dir])
         if self.second:
-            S = ca.SX.sym("S", nx, nx)                     # dx/dx0 so far
-            Jx = ca.jacobian(ca.vertcat(xn, qi), x)
+            S = ca.SX.sym("S", nx, self.ns)                # dx/dx0 (times S0) so far
+            if self.ns == nx:
+                JS = ca.jacobian(ca.vertcat(xn, qi), x) @ S
+            else:  # S's few columns as forward directions: no full step Jacobian to differentiate
+                JS = ca.jtimes(ca.vertcat(xn, qi), x, S)
             Y = ca.vertcat(x, ca.vec(S))
-            Yn = ca.vertcat(xn, ca.vec(Jx[:nx, :] @ S))
-            Qn = ca.vertcat(qi, ca.vec(Jx[nx:, :] @ S))
+            Yn = ca.vertcat(xn, ca.vec(JS[:nx, :]))
+            Qn = ca.vertcat(qi, ca.vec(JS[nx:, :]))
         else:
             Y, Yn, Qn = x, xn, qi
         nY = Y.numel()
@@ -141,14 +150,20 @@ class PeriodSensitivities:
         dDall = np.hstack([np.asarray(d, float) for d in dD])[:, self._direction_columns()]
         return ca.DM(dDall.reshape(self.nd * 3 * self.n_data, self.N, order="F"))
 
-    def __call__(self, x0, D, p, dD=(), dp=None, columns=None, W=None, dx0=None) -> dict:
+    def __call__(self, x0, D, p, dD=(), dp=None, columns=None, W=None, dx0=None, S0=None) -> dict:
         """Sensitivities at x0; ``dD`` the data directions (list), or ``columns`` their per-step
         layout from :meth:`direction_columns`; ``dp`` (np x n_data) the parameter directions.
         Combined (``combined=True``): direction c is ``sum_v W[v, c]`` (data and parameter direction v)
-        with initial state tangent ``dx0[:, c]``."""
+        with initial state tangent ``dx0[:, c]``. ``S0`` (nx x state_columns, second order): the state
+        columns carried (default the identity; needed when ``state_columns`` was given)."""
         nx, nd, N, nv = self.nx, self.nd, self.N, self.n_data
         x0 = np.asarray(x0, float).ravel()
-        Y0 = np.concatenate([x0, np.eye(nx).ravel(order="F")]) if self.second else x0
+        if S0 is None:
+            if self.ns != nx:
+                raise ValueError(f"S0 (nx x {self.ns}) is needed: these sensitivities carry {self.ns} state columns")
+            S0 = np.eye(nx)
+        S0 = np.asarray(S0, float).reshape(nx, self.ns)
+        Y0 = np.concatenate([x0, S0.ravel(order="F")]) if self.second else x0
         dY0 = np.zeros((self.nY, self.nz))
         dY0[:nx, :self.n_state] = np.eye(nx)[:, :self.n_state]
         Wv = np.zeros(max(nv, 1) * max(self.n_dir, 1))
@@ -171,6 +186,6 @@ class PeriodSensitivities:
         dQ = aT[nQ:].reshape(nQ, nz, order="F")
         out = {"x_T": YT[:nx], "J": dYT[:nx], "q": aT[:nq], "Jq": dQ[:nq]}
         if self.second:
-            out["Mon"] = YT[nx:].reshape(nx, nx, order="F")
+            out["Mon"] = YT[nx:].reshape(nx, self.ns, order="F")
             out["dMon"] = dYT[nx:]
         return out

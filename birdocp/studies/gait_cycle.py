@@ -33,9 +33,12 @@ from birdocp.studies.gait_types import Evaluation, WarmStart
 from birdocp.studies.jury import dominant_block, jury_conditions, jury_function, jury_values  # noqa: F401
 
 __all__ = ["ReducedLevelCycle", "jury_conditions", "dominant_block", "jury_values", "AMPLITUDE_KEY", "JURY_MARGIN",
-           "POSITIVE_EPS_W", "NEWTON_RESCUE_STEPS"]
+           "POSITIVE_EPS_W", "NEWTON_RESCUE_STEPS", "DOMINANT_COLUMNS"]
 
 from birdocp.bird.keys import AMPLITUDE_KEY, JURY_MARGIN  # noqa: E402 (one definition of each)
+DOMINANT_COLUMNS = 4
+"""Columns of the dominant block (:func:`birdocp.studies.jury.dominant_block`): with aerodynamic states the
+second-order pass carries the monodromy on them only (``Evaluation.d_monodromy`` is then d(M V)/dtheta)."""
 POSITIVE_EPS_W = 0.05
 """Smoothing of max(P, 0) in the positive-power objective, 1/2 (P + sqrt(P^2 + eps^2)), error <= eps/2."""
 NEWTON_RESCUE_STEPS = 4
@@ -89,7 +92,11 @@ def _build_graphs(m, cfg: Config, N: int, vidx: tuple, nt: int, second: bool, va
     g = {"model": m.model, "out_names": out_names, "outputs": outputs, "grid": grid, "sens": sens,
          # second order only along the nt total directions (x0 and A moving with theta), known once
          # the first-order pass gave dy/dtheta: about half the cost of all 4 + nt + 1 directions
-         "sens2": (PeriodSensitivities(m.ode, N, (outputs,), nt, True, combined=True, n_data=nv) if second else None),
+         # with aerodynamic states only the dominant block's derivatives count (jury_values: P dM V),
+         # so the state Jacobian is carried on V's 4 columns: 4 / nx of the cost (nx 36: a 9th)
+         "sens2": (PeriodSensitivities(m.ode, N, (outputs,), nt, True, combined=True, n_data=nv,
+                                       state_columns=DOMINANT_COLUMNS if m.ode.nx > DOMINANT_COLUMNS else None)
+                   if second else None),
          # the monodromy alone (the 4 state directions): what a line-search trial point's stability
          # constraint needs, at a fraction of a gradient evaluation's cost
          "sens_mono": PeriodSensitivities(m.ode, N, (), 0) if second else None,
@@ -408,8 +415,13 @@ class ReducedLevelCycle:
         ev.monodromy = np.asarray(s["J"][:, :nx])
         if self.second:  # along theta_c with x0 and A following: dy[:nx, c], dy[nx, c]
             W = np.vstack([np.eye(self.nt), dy[nx]])
-            s2 = self.sens2(ev.x0, D, p, dp=self._seeds, columns=cols, W=W, dx0=dy[:nx])
-            ev.d_monodromy, ev.monodromy = s2["dMon"], np.asarray(s2["Mon"])
+            if nx > DOMINANT_COLUMNS:  # d(M V), V the dominant subspace of this M (jury_values finds the same V)
+                V = dominant_block(ev.monodromy, DOMINANT_COLUMNS)[2]
+                s2 = self.sens2(ev.x0, D, p, dp=self._seeds, columns=cols, W=W, dx0=dy[:nx], S0=V)
+                ev.d_monodromy = s2["dMon"]
+            else:
+                s2 = self.sens2(ev.x0, D, p, dp=self._seeds, columns=cols, W=W, dx0=dy[:nx])
+                ev.d_monodromy, ev.monodromy = s2["dMon"], np.asarray(s2["Mon"])
         ev.dy, ev.Ry = dy, Ry
 
     def fill_monodromy(self, ev: Evaluation) -> None:

@@ -91,7 +91,7 @@ class Evaluation:
     means: dict            # quadrature output name -> period mean
     grads: dict            # name -> d mean / d theta; also "amplitude_deg"
     monodromy: np.ndarray
-    d_monodromy: np.ndarray | None  # 16 x n_theta (column-major vec), second order only
+    d_monodromy: np.ndarray | None  # dM/dtheta (nx^2 x n_theta, column-major vec), or d(M V)/dtheta (4 nx x n_theta) on the dominant block's V with aerodynamic states; second order only
     residual: float
     newton_iterations: int
     dy: np.ndarray | None = None    # d(x0, A)/d theta (5 x n_theta), with the gradients

@@ -121,7 +121,8 @@ def jury_values(jury, M, r, d_monodromy=None):
     r : float
         Radius bound R.
     d_monodromy : array_like, optional
-        dM/dtheta (column-major vec, n^2 x n_theta).
+        dM/dtheta (column-major vec, n^2 x n_theta), or d(M V)/dtheta (4 n x n_theta) with V the
+        :func:`dominant_block`'s of ``M`` (a second-order pass carried on V only).
 
     Returns
     -------
@@ -132,8 +133,10 @@ def jury_values(jury, M, r, d_monodromy=None):
     jv, jj = (np.asarray(v) for v in jury(ca.DM(B), r))
     dB = d_monodromy
     if d_monodromy is not None and P is not None:
-        n = M.shape[0]
+        n = np.shape(M)[0]
         dM = np.asarray(d_monodromy, float)
-        dB = np.column_stack([(P @ dM[:, c].reshape(n, n, order="F") @ V).ravel(order="F")
+        k = dM.shape[0] // n  # n: dM/dtheta; 4: d(M V)/dtheta on this V already
+        dB = np.column_stack([(P @ (dM[:, c].reshape(n, k, order="F") @ V if k == n else
+                                    dM[:, c].reshape(n, k, order="F"))).ravel(order="F")
                               for c in range(dM.shape[1])])
     return jv.ravel(), (None if dB is None else jj[:, :16] @ dB), jj[:, 16]
