@@ -53,14 +53,16 @@ def state():
 
 
 def test_the_model_option_is_glide_refineds_tangency_line(state):
-    """Two code paths: the 6-DOF model with the option (its data and right-hand side graphs) has the
-    load derivatives of glide_refined's NumPy line with the tangency law at split 1, to round-off."""
-    option = load_derivatives_at(with_values(attached_config(), {**MODEL_C, "aero.normalwash": "tangency"}),
-                                 state["u_mps"], state["w_mps"])
-    line = refined_load_derivatives(attached_config(), state["u_mps"], state["w_mps"], 1, "step", "element",
-                                    "three_quarter", "tangency")
-    for k, v in option.items():
-        assert abs(line[k] - v) <= 1e-10 * max(1.0, abs(v)), (k, line[k], v)
+    """Two code paths: the 6-DOF model with the option (its data and right-hand side graphs; 16 and,
+    with aero.span_subdivisions = 2, 32 elements) has the load derivatives of glide_refined's NumPy line
+    with the tangency law at split 1 and 2, to round-off."""
+    for split in (1, 2):
+        option = load_derivatives_at(with_values(attached_config(), {
+            **MODEL_C, "aero.normalwash": "tangency", "aero.span_subdivisions": split}), state["u_mps"], state["w_mps"])
+        line = refined_load_derivatives(attached_config(), state["u_mps"], state["w_mps"], split, "step", "element",
+                                        "three_quarter", "tangency")
+        for k, v in option.items():
+            assert abs(line[k] - v) <= 1e-10 * max(1.0, abs(v)), (split, k, line[k], v)
 
 
 def test_the_roll_damping_gap_of_the_two_laws_is_the_lift_slope_cos_alpha(state):
