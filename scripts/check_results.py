@@ -82,6 +82,8 @@ REGISTRY = [
           seed=["lateral/glide/aerosandbox.json", "lateral/glide/aerosandbox_linear.json"]),
     entry("glide-induced-check", "scripts/glide_induced_check.py", "lateral/glide",
           ["lateral/glide/induced_check.json"], seed=["lateral/glide/aerosandbox_linear.json"]),
+    entry("glide-section-law", "scripts/glide_section_law.py", "lateral/glide",
+          ["lateral/glide/section_law.json"]),
     entry("lateral-asymmetric", "scripts/lateral_asymmetric.py", "lateral/asymmetric",
           ["lateral/asymmetric/result.json"], recorded=[("lateral/asymmetric/result.json", "wall_s")]),
     entry("lateral-figures", "scripts/lateral_figures.py", "lateral/modes", ["lateral/modes/modes.json"],

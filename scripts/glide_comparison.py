@@ -11,8 +11,8 @@ writes ``geometry.json`` (birdocp's frozen lifting line and glide: the input of
 ``comparison.md`` (the roll-subsidence root, the Dutch-roll frequency and the other roots and
 derivatives side by side, with the relative differences; and the roots of (a) the paper's model,
 (b) the model with ``aero.span_direction = "element"`` and (c) also with ``aero.collocation =
-"three_quarter"`` (Weissinger's extended lifting line), alone and with the vortex lattice's
-flow-tangency section law, each also with every element cut into ``--split`` pieces,
+"three_quarter"`` (Weissinger's extended lifting line), alone and with ``aero.normalwash = "tangency"``
+(the vortex lattice's flow-tangency section law), each also with every element cut into ``--split`` pieces,
 ``birdocp.studies.glide_refined``; the VLM runs of :data:`OTHER_REFERENCES` (linear planform, 16
 chordwise panels, one panel an element) are listed when present).
 """
@@ -52,8 +52,8 @@ def refinement(glide: dict, ref: dict, split: int, others: tuple = ()) -> list[d
     leading-line span direction), its lifting line cut ``split`` times, (b) the model with
     ``aero.span_direction = "element"`` (16 elements, then cut 2, 4 and ``split`` times), (c) the model
     with also ``aero.collocation = "three_quarter"`` (Weissinger's extended lifting line; 16 elements,
-    cut 2 and ``split`` times), and (c) with the vortex lattice's flow-tangency section law (lift linear
-    in the sine of the angle: the like-for-like comparison), the VLM of the same stepped planform
+    cut 2 and ``split`` times), and (c) with ``aero.normalwash = "tangency"``, the vortex lattice's
+    flow-tangency section law (lift linear in the sine of the angle: the like-for-like comparison), the VLM of the same stepped planform
     (``ref``, body-axis wake; the reference of the differences) and the VLM runs ``others`` ((name,
     result) pairs); each through birdocp's exact lateral matrix (:func:`lateral_matrix_with`)."""
     cfg, s = attached_config(), glide["state"]
@@ -68,8 +68,12 @@ def refinement(glide: dict, ref: dict, split: int, others: tuple = ()) -> list[d
                       refined_load_derivatives(cfg, s["u_mps"], s["w_mps"], n, "step", "element")))
     cases.append(("(c) aero.collocation = three_quarter, span_direction = element: 16 elements",
                   load_derivatives_at(weissinger, s["u_mps"], s["w_mps"])))
-    for law, name in (("angle", "(c)"), ("tangency", "(c) with the VLM's flow-tangency law")):
-        for n in ([1] if law == "tangency" else []) + sorted({2, split} - {1}):
+    tangency = "(c) + aero.normalwash = tangency (the VLM's flow-tangency section law)"
+    for law, name in (("angle", "(c)"), ("tangency", tangency)):
+        if law == "tangency":  # the model option at 16 elements
+            cases.append((f"{tangency}: 16 elements", load_derivatives_at(
+                with_values(weissinger, {"aero.normalwash": "tangency"}), s["u_mps"], s["w_mps"])))
+        for n in sorted({2, split} - {1}):
             cases.append((f"{name}: {16 * n} elements", refined_load_derivatives(
                 cfg, s["u_mps"], s["w_mps"], n, "step", "element", "three_quarter", law)))
     cases.append(("AeroSandbox VLM, stepped planform, body-axis wake", ref["body_axis_wake"]["derivatives"]))

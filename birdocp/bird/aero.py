@@ -18,7 +18,7 @@ import math
 
 import casadi as ca
 
-from birdocp.bird.collocation import three_quarter_downwash
+from birdocp.bird.collocation import NORMALWASHES, three_quarter_downwash
 
 N_ELEMENTS = 16
 
@@ -148,7 +148,7 @@ def _matrix_power(M, k):
     return result if result is not None else ca.SX.eye(M.shape[0])
 
 
-def element_forces(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho) -> dict:
+def element_forces(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho, normalwash="angle") -> dict:
     """Per-element velocities and Kutta-Joukowski forces (code frame), the terms of :func:`_element_loads`.
 
     Returns a dict of 3 x 16 matrices ``V`` (relative air velocity U_inf - Omega x r - v_kin, m/s,
@@ -172,13 +172,15 @@ def element_forces(state, r, v_kin, c_hat, up, tau, ds, G, Wx, Wy, rho) -> dict:
         Lifting-line matrices (:func:`circulation_matrices`).
     rho : float
         Air density [kg/m^3].
+    normalwash : {"angle", "tangency"}
+        ``aero.normalwash``, the section law (:data:`~birdocp.bird.collocation.NORMALWASHES`).
 
     Returns
     -------
     dict
         The matrices and rows above.
     """
-    return forces_from_velocity(_body_velocity(state, r, v_kin), c_hat, up, tau, ds, G, Wx, Wy, rho)
+    return forces_from_velocity(_body_velocity(state, r, v_kin), c_hat, up, tau, ds, G, Wx, Wy, rho, normalwash)
 
 
 def forces_from_velocity(V, c_hat, up, tau, ds, G, Wx, Wy, rho, normalwash="angle") -> dict:
@@ -199,9 +201,9 @@ def forces_from_velocity(V, c_hat, up, tau, ds, G, Wx, Wy, rho, normalwash="angl
     rho : float
         Air density [kg/m^3].
     normalwash : {"angle", "tangency"}
-        The section's normalwash ``q_j`` of ``Gamma = G q``: ``|Vp_j| alpha_j`` (the model's section
-        law, lift linear in the angle) or ``|Vp_j| sin(alpha_j)`` (the flow tangency of a flat plate, the
-        law a vortex lattice solves: ``birdocp.studies.glide_refined``'s like-for-like comparison).
+        The section's normalwash ``q_j`` of ``Gamma = G q`` (``aero.normalwash``, :data:`~birdocp.bird.collocation.NORMALWASHES`):
+        ``|Vp_j| alpha_j`` (the paper's section law, lift linear in the angle) or ``|Vp_j| sin(alpha_j)``
+        (the flow tangency of a flat plate, the law a vortex lattice solves).
 
     Returns
     -------
@@ -209,7 +211,7 @@ def forces_from_velocity(V, c_hat, up, tau, ds, G, Wx, Wy, rho, normalwash="angl
         As :func:`element_forces`.
     """
     Vp_norm, alpha, vind = _inflow_from_velocity(V, c_hat, up, tau, Wx, Wy, normalwash)
-    Gamma = G @ (Vp_norm * (alpha if normalwash == "angle" else ca.sin(alpha))).T
+    Gamma = G @ section_normalwash(Vp_norm, alpha, normalwash).T
     W = V + vind
     # (V + v) x tau
     cross = ca.vertcat(W[1, :] * tau[2, :] - W[2, :] * tau[1, :],
@@ -310,12 +312,35 @@ def _inflow_from_velocity(V, c_hat, up, tau, Wx, Wy, normalwash="angle"):
     section speed, the geometric angle of attack and the induced velocity ``(Wx q, Wy q, 0)`` of the
     lifting line with ``q = |Vp| alpha`` (``normalwash = "tangency"``: ``|Vp| sin(alpha)``)."""
     alpha, Vp_norm = section_angle(V, c_hat, up, tau)
-    qv = (Vp_norm * (alpha if normalwash == "angle" else ca.sin(alpha))).T
+    qv = section_normalwash(Vp_norm, alpha, normalwash).T
     vind = ca.vertcat((Wx @ qv).T, (Wy @ qv).T, ca.DM.zeros(1, V.shape[1]))
     return Vp_norm, alpha, vind
 
 
-def inflow(state, r, v_kin, c_hat, up, tau, Wx, Wy):
+def section_normalwash(Vp_norm, alpha, normalwash="angle"):
+    """The section law's normalwash ``q`` of ``Gamma = G q`` (:data:`~birdocp.bird.collocation.NORMALWASHES`):
+    ``|Vp| alpha`` or ``|Vp| sin(alpha)``.
+
+    Parameters
+    ----------
+    Vp_norm : casadi.SX, shape (1, n)
+        Section speed ``|Vp|`` [m/s].
+    alpha : casadi.SX, shape (1, n)
+        Section angle of attack [rad].
+    normalwash : {"angle", "tangency"}
+        ``aero.normalwash``.
+
+    Returns
+    -------
+    casadi.SX, shape (1, n)
+        ``q`` [m/s].
+    """
+    if normalwash not in NORMALWASHES:
+        raise ValueError(f"aero.normalwash must be one of {', '.join(NORMALWASHES)}, got {normalwash!r}")
+    return Vp_norm * (alpha if normalwash == "angle" else ca.sin(alpha))
+
+
+def inflow(state, r, v_kin, c_hat, up, tau, Wx, Wy, normalwash="angle"):
     """Relative air velocity at the element centres (code frame) and its angles.
 
     Returns ``(V 3xn, |Vp| 1xn, alpha 1xn [rad], vind 3xn)``: ``V = U_inf - Omega x r - v_kin`` without
@@ -335,6 +360,8 @@ def inflow(state, r, v_kin, c_hat, up, tau, Wx, Wy):
         Chordwise, section-normal and spanwise unit vectors.
     Wx, Wy : casadi.SX, shape (n, n)
         Induced-velocity matrices (:func:`circulation_matrices`).
+    normalwash : {"angle", "tangency"}
+        ``aero.normalwash``, the section law (:data:`~birdocp.bird.collocation.NORMALWASHES`).
 
     Returns
     -------
@@ -345,5 +372,5 @@ def inflow(state, r, v_kin, c_hat, up, tau, Wx, Wy):
         ``(Wx q, Wy q, 0)`` [m/s] with ``q = |Vp| alpha``.
     """
     V = _body_velocity(state, r, v_kin)
-    Vp_norm, alpha, vind = _inflow_from_velocity(V, c_hat, up, tau, Wx, Wy)
+    Vp_norm, alpha, vind = _inflow_from_velocity(V, c_hat, up, tau, Wx, Wy, normalwash)
     return V, Vp_norm, alpha, vind

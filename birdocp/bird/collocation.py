@@ -35,6 +35,13 @@ import math
 COLLOCATIONS = ("quarter", "three_quarter")
 """The values of ``aero.collocation``."""
 
+NORMALWASHES = ("angle", "tangency")
+"""``aero.normalwash``, the section law's normalwash ``q_j`` of ``Gamma = G q``: ``angle``
+``|Vp_j| alpha_j`` (lift linear in the section angle: the paper's model) or ``tangency``
+``|Vp_j| sin(alpha_j) = Vp_j . up_j`` (the flow tangency of a flat plate, lift linear in the sine of
+the angle: the exact two-dimensional potential-flow lift of a flat plate, and the law a vortex lattice
+solves). At a section angle alpha they differ by the lift slope, ``C_la`` against ``C_la cos(alpha)``."""
+
 
 def _segment(P, A, B):
     """Velocity at P (3-vector) of a unit vortex segment A -> B (Biot-Savart)."""

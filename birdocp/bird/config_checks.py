@@ -15,7 +15,7 @@ import tomllib
 from dataclasses import fields, is_dataclass
 from typing import Any
 
-from birdocp.bird.collocation import COLLOCATIONS
+from birdocp.bird.collocation import COLLOCATIONS, NORMALWASHES
 from birdocp.bird.span import SPAN_DIRECTIONS
 from birdocp.bird.subdivide import MAX_SUBDIVISIONS
 from birdocp.io.errors import ConfigError
@@ -298,7 +298,8 @@ def _validate_solve(cfg: Any) -> None:
 
 def _validate_span(cfg: Any) -> None:
     """``aero.span_direction``, ``aero.span_subdivisions`` (1..8, > 1 with the linear section only) and
-    ``aero.collocation`` (``three_quarter`` with the linear section only)."""
+    ``aero.collocation`` (``three_quarter`` with the linear section only) and ``aero.normalwash``
+    (``tangency`` with the linear section only)."""
     if cfg.aero.span_direction not in SPAN_DIRECTIONS:
         raise ConfigError("aero.span_direction",
                           f"must be one of {', '.join(SPAN_DIRECTIONS)}; got {cfg.aero.span_direction!r}")
@@ -314,6 +315,12 @@ def _validate_span(cfg: Any) -> None:
     if c != "quarter" and (cfg.aero.unsteady != "none" or cfg.aero.section != "linear"):
         raise ConfigError("aero.collocation", f"{c!r} needs the quasi-steady linear section "
                           "(aero.unsteady = 'none', aero.section = 'linear'); set it to 'quarter'")
+    law = cfg.aero.normalwash
+    if law not in NORMALWASHES:
+        raise ConfigError("aero.normalwash", f"must be one of {', '.join(NORMALWASHES)}; got {law!r}")
+    if law != "angle" and (cfg.aero.unsteady != "none" or cfg.aero.section != "linear"):
+        raise ConfigError("aero.normalwash", f"{law!r} needs the quasi-steady linear section "
+                          "(aero.unsteady = 'none', aero.section = 'linear'); set it to 'angle'")
 
 
 def validate(cfg: Any) -> None:

@@ -154,6 +154,11 @@ class Aero:
     """``quarter``: each section sees the wake at its centre on the lifting line (the paper's model);
     ``three_quarter``: Weissinger's three-quarter-chord flow tangency (:mod:`birdocp.bird.collocation`;
     linear quasi-steady section only)."""
+    normalwash: str = "angle"
+    """The section law's normalwash (:data:`birdocp.bird.collocation.NORMALWASHES`): ``angle``: ``|Vp| alpha``,
+    lift linear in the section angle (the paper's model); ``tangency``: ``|Vp| sin(alpha)``, the flow
+    tangency of a flat plate (lift linear in the sine of the angle, local lift slope ``C_la cos(alpha)``;
+    the law a vortex lattice solves; linear quasi-steady section only)."""
     unsteady: str = "none"
     """``none``: quasi-steady section; ``wagner``: two lag states per element on the effective
     normalwash (Jones's indicial response), the 3/4-chord pitch-rate term and the added-mass loads."""

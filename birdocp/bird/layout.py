@@ -233,6 +233,7 @@ class Structure:
     span_direction: str = "leading_line"
     span_subdivisions: int = 1
     collocation: str = "quarter"
+    normalwash: str = "angle"
 
     @property
     def n_elements(self) -> int:
@@ -265,5 +266,6 @@ class Structure:
                          unsteady=a.unsteady, section=a.section,
                          newton_steps=int(a.newton_steps) if a.section != "linear" else 5,
                          smooth_geometry=bool(cfg.wing.smooth_geometry), span_direction=a.span_direction,
-                         span_subdivisions=int(a.span_subdivisions), collocation=a.collocation)
+                         span_subdivisions=int(a.span_subdivisions), collocation=a.collocation,
+                         normalwash=a.normalwash)
 

@@ -132,7 +132,7 @@ def load_terms(structure: Structure, x, d, p, x_inertial=None, wind_rate=None) -
         F, M = sec["F"], sec["M"]
     else:
         e = aero.element_forces(x, b["r_m"], b["v_kin_mps"], b["c_hat"], b["up"], b["tau"], b["ds_m"],
-                                b["G"], b["Wx"], b["Wy"], rho)
+                                b["G"], b["Wx"], b["Wy"], rho, structure.normalwash)
         F = ca.sum2(e["dF"])
         M = aero.moment_about_G(r, e["dF"])
     out = {"r": r, "v_kin": b["v_kin_mps"], "V": e["V"], "Vp": e["Vp"], "vind": e["vind"], "dF": e["dF"],

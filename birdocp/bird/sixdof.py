@@ -162,7 +162,8 @@ def _section_element_terms(law: SectionLaw, x, V, b: dict, d, p) -> dict:
     return e
 
 
-def body_loads(x, d, p, with_tail=False, with_drag=False, section: SectionLaw | None = None):
+def body_loads(x, d, p, with_tail=False, with_drag=False, section: SectionLaw | None = None,
+               normalwash: str = "angle"):
     """Body-axis aerodynamic force (X, Y, Z) [N] and moment (L, M, N) [N m] about G at the 9-state
     ``x`` (then the aerodynamic states of ``section``), planar data ``d`` and parameters ``p`` (SX),
     with the per-element terms.
@@ -191,6 +192,8 @@ def body_loads(x, d, p, with_tail=False, with_drag=False, section: SectionLaw | 
         Add the optional drag terms.
     section : SectionLaw, optional
         The unsteady or stall-aware section (default: the linear quasi-steady lifting line).
+    normalwash : {"angle", "tangency"}
+        ``aero.normalwash``, the linear section's law (:data:`birdocp.bird.collocation.NORMALWASHES`).
 
     Returns
     -------
@@ -203,7 +206,7 @@ def body_loads(x, d, p, with_tail=False, with_drag=False, section: SectionLaw | 
     V = air_velocity(x, r, b["v_kin_mps"])
     if section is None:
         e = aero.forces_from_velocity(V, b["c_hat"], b["up"], b["tau"], b["ds_m"], b["G"], b["Wx"], b["Wy"],
-                                      _p(p, "aero.air_density_kgm3"))
+                                      _p(p, "aero.air_density_kgm3"), normalwash)
     else:
         e = _section_element_terms(section, x, V, b, d, p)
     dF = e["dF"]
@@ -368,7 +371,8 @@ def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None, sec
         raise ValueError("six degrees of freedom: aero.unsteady = 'wagner' (lag states and added mass in 3-D) is "
                          "not written yet; use aero.unsteady = 'none'")
     Fb, Mb, e = body_loads(x if x_air is None else x_air, d, p, with_tail=bool(structure and structure.tail),
-                           with_drag=bool(structure and structure.drag), section=section)
+                           with_drag=bool(structure and structure.drag), section=section,
+                           normalwash=getattr(structure, "normalwash", "angle"))
     X, Y, Z = Fb[0], Fb[1], Fb[2]
     L, M, N = Mb[0], Mb[1], Mb[2]
     cth, sth, cph, sph = ca.cos(th), ca.sin(th), ca.cos(phi), ca.sin(phi)
@@ -428,7 +432,8 @@ class SixDofModel:
         self.structure = structure
         self.rhs = ca.Function("rhs6", [x, d, p6], [rhs_expression(x, d, p6, structure=structure, section=self.section)],
                                ["x", "d", "p"], ["xdot"])
-        Fb, Mb, _ = body_loads(x, d, p6[:n], with_tail=structure.tail, with_drag=structure.drag, section=self.section)
+        Fb, Mb, _ = body_loads(x, d, p6[:n], with_tail=structure.tail, with_drag=structure.drag, section=self.section,
+                               normalwash=getattr(structure, "normalwash", "angle"))
         self.loads_d = ca.Function("loads6", [x, d, p6], [ca.vertcat(Fb, Mb)], ["x", "d", "p"], ["loads"])
         self.wing_sums = None
         if self.sides:

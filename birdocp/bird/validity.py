@@ -46,7 +46,7 @@ __all__ = ["CycleValidity", "cycle_validity", "model_angles", "grid_validity", "
            "validity_columns", "validity_margins", "LIMIT_NAMES", "SIDE_ELEMENTS", "sixdof_angles"]
 
 
-def effective_angles(n_data: int | None = None) -> "ca.Function":
+def effective_angles(n_data: int | None = None, normalwash: str = "angle") -> "ca.Function":
     """``angles(x, d, p) -> (alpha_eff_rad 16x1, alpha_geo_rad 16x1, ds_m 16x1)`` for one time.
 
     ``alpha_eff``: the angle of the relative velocity plus the induced velocity in each element's
@@ -59,6 +59,8 @@ def effective_angles(n_data: int | None = None) -> "ca.Function":
     ----------
     n_data : int, optional
         Length of the data vector.
+    normalwash : {"angle", "tangency"}
+        ``aero.normalwash``, the section law of the induced velocity.
 
     Returns
     -------
@@ -75,7 +77,8 @@ def effective_angles(n_data: int | None = None) -> "ca.Function":
     d = ca.SX.sym("d", int(n_data or N_DATA))
     p = ca.SX.sym("p", len(PARAM_NAMES))
     b = unpack_data(d)
-    V, _, alpha, vind = aero.inflow(x, b["r_m"], b["v_kin_mps"], b["c_hat"], b["up"], b["tau"], b["Wx"], b["Wy"])
+    V, _, alpha, vind = aero.inflow(x, b["r_m"], b["v_kin_mps"], b["c_hat"], b["up"], b["tau"], b["Wx"], b["Wy"],
+                                  normalwash)
     alpha_eff, _ = aero.section_angle(V + vind, b["c_hat"], b["up"], b["tau"])
     return ca.Function("effective_angles", [x, d, p], [alpha_eff.T, alpha.T, b["ds_m"]],
                        ["x", "d", "p"], ["alpha_eff_rad", "alpha_geo_rad", "ds_m"])
@@ -105,7 +108,7 @@ def _model_angles(model) -> "ca.Function":
     import casadi as ca
 
     if not model.structure.aero_extra:
-        ea = effective_angles(model.ode.nd)
+        ea = effective_angles(model.ode.nd, model.structure.normalwash)
         x, d, p = (ca.SX.sym(k, *ea.size_in(i)) for i, k in enumerate(("x", "d", "p")))
         ae, ag, ds = ea(x, d, p)
         return ca.Function("model_angles", [x, d, p], [ae, ag, ds, ae, ca.DM.ones(ae.shape), ca.DM.zeros(1, 1)])
@@ -482,13 +485,14 @@ SIDE_ELEMENTS = {"left": slice(0, 8), "right": slice(8, 16)}
 
 
 @functools.lru_cache(maxsize=8)
-def sixdof_angles(nx: int, nd: int, n_times: int, section=None) -> "ca.Function":
+def sixdof_angles(nx: int, nd: int, n_times: int, section=None, normalwash: str = "angle") -> "ca.Function":
     """``(X nx x n, D nd x n, p6) -> (alpha_eff_rad 16 x n, alpha_geo_rad 16 x n, ds_m 16 x n)`` of the
     six-degree-of-freedom model (:func:`birdocp.bird.sixdof.body_loads`: sideslip and roll and yaw
     rates in every element's velocity, both wings apart) for ``nx`` = 9 or 8 (the heading dropped)
     states (then the aerodynamic states of ``section``) and data vectors of ``nd`` values, mapped over
     ``n_times`` times (built once). With a stall ``section`` (:class:`birdocp.bird.sixdof.SectionLaw`)
-    the effective angle is the one its section law sees (alpha_E)."""
+    the effective angle is the one its section law sees (alpha_E); ``normalwash``: ``aero.normalwash``
+    of the linear section."""
     import casadi as ca
 
     from birdocp.bird import aero
@@ -496,7 +500,7 @@ def sixdof_angles(nx: int, nd: int, n_times: int, section=None) -> "ca.Function"
 
     x, d, p = ca.SX.sym("x", nx), ca.SX.sym("d", nd), ca.SX.sym("p", len(PARAM_NAMES))
     x9 = x if section is None or nx - section.n_states == 9 else ca.vertcat(x[:HEADING], 0, x[HEADING:])
-    _, _, e = body_loads(x9, d, p, section=section)
+    _, _, e = body_loads(x9, d, p, section=section, normalwash=normalwash)
     if section is None:
         ae, _ = aero.section_angle(e["V"] + e["vind"], *(unpack_blocks(d, ("c_hat", "up", "tau"))))
     else:
@@ -554,7 +558,7 @@ def _sixdof_verdict(cfg: Config, grid, X, t, D, p6) -> CycleValidity:
     from birdocp.bird.sixdof import LONGITUDINAL
 
     n = X.shape[0]
-    f = sixdof_angles(int(grid.ode.nx), int(grid.ode.nd), n, _section_of(cfg, grid.ode))
+    f = sixdof_angles(int(grid.ode.nx), int(grid.ode.nd), n, _section_of(cfg, grid.ode), cfg.aero.normalwash)
     ae, ag, ds = (np.asarray(v) for v in f(ca.DM(X.T), grid.step_start_data(D), ca.DM(p6[:len(PARAM_NAMES)])))
     u, v, w = X[:, 0], X[:, 1], X[:, 2]
     extra = {"max_sideslip_deg": float(np.degrees(np.abs(np.arctan2(v, np.hypot(u, w)))).max()),

@@ -121,20 +121,20 @@ def smooth_integrands(cfg: Config, n_data: int, model=None):
     v = cfg.validity
     aero_model = model if model is not None and model.ode.nx > 4 else None
     args = (float(v.stall_angle_deg), float(v.min_forward_speed_mps), float(v.max_abs_pitch_deg),
-            float(v.max_airflow_body_angle_deg), int(n_data))
+            float(v.max_airflow_body_angle_deg), int(n_data), str(cfg.aero.normalwash))
     if model is None:
         return _integrands(*args)
     return owned_cache(model).build(("smooth_integrands",) + args, lambda: _integrands(*args, aero_model))
 
 
-def _integrands(stall_deg, umin, pitch_deg, airflow_deg, n_data, aero_model=None):
+def _integrands(stall_deg, umin, pitch_deg, airflow_deg, n_data, normalwash="angle", aero_model=None):
     import casadi as ca
 
     from birdocp.bird.validity import effective_angles, model_angles
 
     nx = 4 if aero_model is None else aero_model.ode.nx
     x, d, p = ca.SX.sym("x", nx), ca.SX.sym("d", n_data), ca.SX.sym("p", len(PARAM_NAMES))
-    angles = effective_angles(n_data) if aero_model is None else model_angles(aero_model)
+    angles = effective_angles(n_data, normalwash) if aero_model is None else model_angles(aero_model)
     ae, _, ds = angles(x, d, p)[:3]
     a = ae * (180.0 / math.pi)
     w = STALL_WIDTH_DEG

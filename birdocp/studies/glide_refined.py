@@ -38,7 +38,7 @@ from birdocp.bird.span import element_frames
 from birdocp.bird.sixdof import air_velocity, body_axis_loads, sixdof_model
 from birdocp.studies.glide import frozen_config
 
-__all__ = ["refined_line", "refined_load_derivatives"]
+__all__ = ["refined_line", "refined_load_derivatives", "section_law_terms"]
 
 
 def _node_chords(chords: np.ndarray) -> np.ndarray:
@@ -121,14 +121,29 @@ def refined_load_derivatives(cfg: Config | None, u_mps: float, w_mps: float, spl
     collocation : {"quarter", "three_quarter"}
         Where the sections see the wake (the model's ``aero.collocation``, :mod:`birdocp.bird.collocation`).
     normalwash : {"angle", "tangency"}
-        The section law (:func:`birdocp.bird.aero.forces_from_velocity`): the model's lift linear in the
-        angle, or the flat plate's flow tangency that a vortex lattice solves (lift linear in its sine).
+        The section law (the model's ``aero.normalwash``, :data:`birdocp.bird.collocation.NORMALWASHES`):
+        lift linear in the angle, or the flat plate's flow tangency that a vortex lattice solves (lift
+        linear in its sine).
 
     Returns
     -------
     dict
         ``Y_v``, ``Y_p``, ``Y_r`` [N s/m, N s], ``L_*`` and ``N_*`` [N s, N m s]; ``elements`` (16 split).
     """
+    xs, r, e, line = _refined_terms(cfg, split, planform, span_direction, collocation, normalwash)
+    Fb, Mb = body_axis_loads(r, e["dF"])
+    loads = ca.vertcat(Fb, Mb)
+    J = np.asarray(ca.Function("dl", [xs], [ca.jacobian(loads, xs)])([u_mps, 0, w_mps, 0, 0, 0]))
+    rows, cols = {"Y": 1, "L": 3, "N": 5}, {"v": 1, "p": 3, "r": 5}
+    out = {f"{a}_{b}": float(J[i, j]) for a, i in rows.items() for b, j in cols.items()}
+    out["elements"] = int(line["chord_m"].size)
+    return out
+
+
+def _refined_terms(cfg, split, planform, span_direction, collocation, normalwash):
+    """``(xs, r, e, line)``: the 6-vector symbol (u, v, w, p, q, r), the element centres (DM), the
+    element terms of :func:`birdocp.bird.aero.forces_from_velocity` as functions of ``xs`` and the
+    :func:`refined_line`."""
     line = refined_line(cfg, split, planform, span_direction)
     nodes = [ca.DM(p) for p in line["nodes_m"].T]
     centres = [ca.DM(p) for p in line["r_m"].T]
@@ -140,10 +155,75 @@ def refined_load_derivatives(cfg: Config | None, u_mps: float, w_mps: float, spl
     V = air_velocity(xs, r, ca.DM.zeros(*line["r_m"].shape))
     e = aero.forces_from_velocity(V, ca.DM(line["c_hat"]), ca.DM(line["up"]), ca.DM(line["tau"]),
                                   ca.DM(line["ds_m"]), G, Wx, Wy, line["air_density_kgm3"], normalwash)
-    Fb, Mb = body_axis_loads(r, e["dF"])
-    loads = ca.vertcat(Fb, Mb)
-    J = np.asarray(ca.Function("dl", [xs], [ca.jacobian(loads, xs)])([u_mps, 0, w_mps, 0, 0, 0]))
-    rows, cols = {"Y": 1, "L": 3, "N": 5}, {"v": 1, "p": 3, "r": 5}
-    out = {f"{a}_{b}": float(J[i, j]) for a, i in rows.items() for b, j in cols.items()}
-    out["elements"] = int(line["chord_m"].size)
-    return out
+    return xs, r, e, line
+
+
+def section_law_terms(cfg: Config | None, u_mps: float, w_mps: float, normalwash: str = "angle", split: int = 1,
+                      span_direction: str = "element", collocation: str = "three_quarter") -> dict:
+    """Per element, how the section law (``aero.normalwash``) answers a roll rate p at the body velocity
+    (u, w) of the frozen wing's lifting line (:func:`refined_line`, step planform): the roll-rate
+    derivatives of the section's velocity components and of its normalwash ``q`` and circulation, and
+    each element's share of the roll damping L_p, split into the circulation's answer and the turning of
+    the Kutta-Joukowski force with the velocity at the steady circulation.
+
+    Parameters
+    ----------
+    cfg : Config or None
+        The configuration (default: the reference case); amplitudes set to 0 here.
+    u_mps, w_mps : float
+        Body-axis velocity of the centre of mass [m/s] (v = p = q = r = 0).
+    normalwash : {"angle", "tangency"}
+        The section law (:data:`birdocp.bird.collocation.NORMALWASHES`).
+    split : int
+        Sub-elements per element.
+    span_direction : {"section", "element"}
+        See :func:`refined_line`.
+    collocation : {"quarter", "three_quarter"}
+        Where the sections see the wake.
+
+    Returns
+    -------
+    dict
+        Lists over the elements (left tip to right tip): ``alpha_deg`` (geometric section angle),
+        ``speed_mps`` (section speed ``|Vp|``), ``dVn_dp``, ``dVc_dp``, ``dVs_dp`` [m/s per rad/s] (the
+        roll-rate derivatives of the velocity along the section normal, the chord and the span
+        direction), ``dalpha_dp`` [rad per rad/s], ``dspeed_dp`` [m/s per rad/s], ``dq_dp`` [m/s per
+        rad/s], ``Gamma_m2ps``, ``dGamma_dp`` [m^2/s per rad/s], ``L_p`` [N m s] (each element's roll
+        moment by p), ``L_p_circulation`` (its part from the circulation's change) and
+        ``L_p_force_turning`` (from the velocity's change at the steady circulation); ``L_p_total``.
+    """
+    xs, r, e, line = _refined_terms(cfg, split, "step", span_direction, collocation, normalwash)
+    x0 = [u_mps, 0.0, w_mps, 0.0, 0.0, 0.0]
+    frames = {k: ca.DM(line[k]) for k in ("up", "c_hat", "tau")}
+    Vn, Vc, Vs = (ca.sum1(e["V"] * frames[k]).T for k in ("up", "c_hat", "tau"))
+    q = aero.section_normalwash(e["Vp_norm"], e["alpha"], normalwash).T
+    steady = ca.Function("steady", [xs], [e["Gamma"], e["vind"]])(x0)
+    # the force with the circulation (and its induced velocity) held at the steady values
+    held = _kutta_joukowski(e["V"] + steady[1], frames["tau"], steady[0], line)
+    rows = [e["alpha"].T, e["Vp_norm"].T, e["Gamma"]]
+    rates = [Vn, Vc, Vs, e["alpha"].T, e["Vp_norm"].T, q, e["Gamma"], _roll_moments(r, e["dF"]),
+             _roll_moments(r, held)]
+    f = ca.Function("terms", [xs], rows + [ca.jacobian(v, xs)[:, 3] for v in rates])
+    out = [np.asarray(v).ravel() for v in f(x0)]
+    alpha, speed, gamma = out[:3]
+    dVn, dVc, dVs, dalpha, dspeed, dq, dgamma, lp, lp_turn = out[3:]
+    lists = {"alpha_deg": np.degrees(alpha), "speed_mps": speed, "dVn_dp": dVn, "dVc_dp": dVc, "dVs_dp": dVs,
+             "dalpha_dp": dalpha, "dspeed_dp": dspeed, "dq_dp": dq, "Gamma_m2ps": gamma, "dGamma_dp": dgamma,
+             "L_p": lp, "L_p_circulation": lp - lp_turn, "L_p_force_turning": lp_turn}
+    res = {k: [float(x) for x in v] for k, v in lists.items()}
+    res["L_p_total"] = float(lp.sum())
+    return res
+
+
+def _kutta_joukowski(W, tau, gamma, line):
+    """``rho (W x tau) Gamma ds`` (3 x n, code frame, N): the lifting-line force of
+    :func:`birdocp.bird.aero.forces_from_velocity` at the velocity ``W`` (induced part included)."""
+    cross = ca.vertcat(W[1, :] * tau[2, :] - W[2, :] * tau[1, :], W[2, :] * tau[0, :] - W[0, :] * tau[2, :],
+                       W[0, :] * tau[1, :] - W[1, :] * tau[0, :])
+    return line["air_density_kgm3"] * cross * ca.repmat((ca.DM(gamma) * ca.DM(line["ds_m"])).T, 3, 1)
+
+
+def _roll_moments(r, dF):
+    """Each element's body-axis roll moment about G [N m] (n x 1; :func:`birdocp.bird.sixdof.body_axis_loads`'
+    L = -(r x dF)_3 in the code frame)."""
+    return -(r[0, :] * dF[1, :] - r[1, :] * dF[0, :]).T

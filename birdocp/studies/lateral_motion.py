@@ -83,7 +83,8 @@ def _gamma_function(six):
     x = ca.SX.sym("x", 9)
     d = ca.SX.sym("d", six.ode.nd)
     p = ca.SX.sym("p", six.ode.np)
-    return ca.Function("gamma6", [x, d, p], [body_loads(x, d, p[:six.ode.np - len(LATERAL_PARAM_NAMES)], section=six.section)[2]["Gamma"]])
+    return ca.Function("gamma6", [x, d, p], [body_loads(x, d, p[:six.ode.np - len(LATERAL_PARAM_NAMES)], section=six.section,
+                                                          normalwash=six.structure.normalwash)[2]["Gamma"]])
 
 
 def lateral_motion(cfg: Config, flight: dict, frames: np.ndarray, p6) -> dict:

@@ -278,7 +278,7 @@ def _stalled_shares(st, Zi, air, D, pk, stall_deg: float) -> np.ndarray:
     from birdocp.bird.validity import SIDE_ELEMENTS, sixdof_angles
 
     n = Zi.shape[0]
-    f = sixdof_angles(9, st.model.ode.nd, n, st.model.section)
+    f = sixdof_angles(9, st.model.ode.nd, n, st.model.section, st.model.structure.normalwash)
     X_air = np.vstack([air, Zi[:, 3:9].T])
     ae, _, ds = (np.asarray(v) for v in f(ca.DM(X_air), D[:, 2::3], ca.DM(pk[:len(PARAM_NAMES)])))
     stalled = np.degrees(np.abs(ae)) > stall_deg

@@ -88,7 +88,7 @@ class _Stepper(PerModel):
 
             ae, _, ds, _, _, _ = model_angles(self.model)(ca.vertcat(xa, z[6:]), d, p)
         else:
-            ae, _, ds = effective_angles(nd)(xa, d, p)
+            ae, _, ds = effective_angles(nd, self.model.structure.normalwash)(xa, d, p)
         # at each step end: effective angles [deg] and element lengths (16 each), airflow-body angle
         # [deg] and air-relative forward speed [m/s]
         self.validity = ca.Function("beat_validity", [z, d, p, g], [
