@@ -48,18 +48,19 @@ def test_wagner_cycle_is_the_full_newtons():
 
 
 @pytest.mark.slow
-def test_wagner_stall_level_flight_by_newton_picard():
-    # level flight with wagner + stall (IPOPT had not converged there in session 9) from the default
-    # guess on a coarse grid: Newton-Picard with the amplitude in its Newton subspace converges, and its
+def test_wagner_stall_level_flight_by_newton_picard(tmp_path, capsys):
+    # `birdocp level --set aero.unsteady=wagner --set aero.section=stall --json` from the default guess
+    # on a coarse grid: Newton-Picard with the amplitude in its Newton subspace converges, and its
     # amplitude and |Lambda1| are those IPOPT found on the 148-step grid (results/aero, the grid's
     # discretisation error apart: 0.015 deg and 2e-5 measured)
-    from birdocp.studies.level import level
+    from birdocp.cli.main import main
 
-    cfg = with_values(Config(), {**WAGNER, "aero.section": "stall", "solve.steps_per_period": 64})
-    lv = level(cfg)
-    assert lv.success and lv.cycle.method["solver"] == "newton-picard", lv.cycle.message
-    assert "newton-picard: converged" in lv.cycle.message and lv.max_residual <= 1e-10
-    assert abs(lv.mean_vertical_speed_mps) < 1e-9 and lv.validity.valid
+    assert main(["level", "--set", "aero.unsteady=wagner", "--set", "aero.section=stall", "--steps", "64",
+                 "--json", "--out", str(tmp_path / "run")]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["success"] and d["method"]["solver"] == "newton-picard", d["message"]
+    assert "newton-picard: converged" in d["message"] and d["max_residual"] <= 1e-10
+    assert abs(d["mean_vertical_speed_mps"]) < 1e-9 and d["validity"]["valid"]
     ref = json.loads((Path(__file__).parents[1] / "results/aero/cases/wagner_stall.json").read_text())["level"]
-    assert abs(lv.amplitude_deg - ref["amplitude_deg"]) < 0.05
-    assert abs(abs(lv.multipliers[0]) - ref["lambda1"]) < 2e-3
+    assert abs(d["amplitude_deg"] - ref["amplitude_deg"]) < 0.05
+    assert abs(d["moduli"][0] - ref["lambda1"]) < 2e-3
