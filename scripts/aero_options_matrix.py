@@ -20,6 +20,12 @@ with the times (the machine may be shared).
 
 Writes DIR/cases/<unsteady>_<section>.json as each combination finishes (a rerun skips finished
 ones), then DIR/matrix.json and DIR/matrix.md. Exit status 1 when any solve did not converge.
+
+``--optimum-scan`` (instead of the matrix): why ``wagner`` + ``stall`` level flight at the speed-free
+``wagner`` optimum's gait (results/aero/valid/optimized.json) does not converge. Trims with ``wagner``
++ ``stall`` at that gait over a range of flapping amplitudes (from the optimum's amplitude down, then
+up, each from the previous cycle) give the mean vertical speed against the amplitude:
+DIR/optimum_stall_scan.json and .md.
 """
 from __future__ import annotations
 
@@ -116,6 +122,51 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+SCAN_DOWN = (41.0, 38.0, 35.0, 32.0, 29.0)
+SCAN_UP = (44.5, 45.0, 48.0, 50.0, 53.0, 56.0, 60.0, 65.0)
+
+
+def optimum_stall_scan(steps: int, compiled: bool) -> dict:
+    """Trims with ``wagner`` + ``stall`` at the speed-free ``wagner`` optimum's gait (the converged
+    ``fd_reached`` row of results/aero/valid/optimized.json) over the flapping amplitude."""
+    from birdocp.bird.config import Config, with_values
+    from birdocp.studies.trim import trim
+
+    rows = json.loads((Path(__file__).resolve().parents[1] / "results/aero/valid/optimized.json").read_text())["rows"]
+    row = next(r for r in rows if r.get("label") == "fd_reached" and r["optimum"]["success"])
+    o = row["optimum"]
+    base = row["overrides"] | {"aero.section": "stall"} | o["free"] | {"solve.steps_per_period": steps}
+    points, load0 = [], os.getloadavg()[0]
+    for amps in ((o["amplitude_deg"],) + SCAN_DOWN, SCAN_UP):
+        ws = None if not points else points[0]["_result"]
+        for a in amps:
+            cfg = with_values(Config(), base | {"gait.shoulder_flap.amplitude_deg": float(a)})
+            tr, w, c = _timed(lambda: trim(cfg, x_guess=o["x0"] if ws is None else None, warm_start=ws,
+                                           compiled=compiled))
+            points.append({**_cycle(tr, w, c), "mean_forward_speed_mps": float(tr.mean_forward_speed_mps),
+                           "_result": tr})
+            ws = tr if tr.success else ws
+    for p in points:
+        p.pop("_result")
+    points.sort(key=lambda p: p["amplitude_deg"])
+    best = max((p for p in points if p["converged"]), key=lambda p: p["mean_vertical_speed_mps"])
+    return {"gait": o["free"], "optimum_amplitude_deg": o["amplitude_deg"], "overrides": base, "points": points,
+            "max_mean_vertical_speed_mps": best["mean_vertical_speed_mps"], "at_amplitude_deg": best["amplitude_deg"],
+            "all_converged": all(p["converged"] for p in points), "load_average_start": load0,
+            "load_average_end": os.getloadavg()[0]}
+
+
+def scan_table(scan: dict) -> str:
+    """The markdown table of :func:`optimum_stall_scan`."""
+    lines = ["| amplitude [deg] | converged | mean vertical speed [m/s] | forward speed [m/s] | \\|Λ1\\| | valid |",
+             "|---|---|---|---|---|---|"]
+    for p in scan["points"]:
+        lines.append(f"| {p['amplitude_deg']:.2f} | {'yes' if p['converged'] else 'NO'} "
+                     f"| {p['mean_vertical_speed_mps']:.4f} | {p['mean_forward_speed_mps']:.3f} | {_f(p['lambda1'])} "
+                     f"| {p['valid']} |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv=None) -> int:
     ap = script_parser(__doc__, "results/aero/options_matrix")
     ap.add_argument("--steps", type=int, default=64, help="RK4 steps per period (default 64)")
@@ -123,9 +174,17 @@ def main(argv=None) -> int:
     ap.add_argument("--sections", nargs="*", default=list(SECTIONS), choices=SECTIONS)
     ap.add_argument("--branch-to", type=float, default=44.0, help="end of the amplitude continuation [deg]")
     ap.add_argument("--branch-points", type=int, default=4, help="points of the continuation (at most)")
+    ap.add_argument("--optimum-scan", action="store_true",
+                    help="instead of the matrix: wagner + stall trims over the amplitude at the wagner optimum's gait")
     args, out = parse_with_out(ap, argv)
     from birdocp.io.files import atomic_write_json, atomic_write_text
 
+    if args.optimum_scan:
+        scan = optimum_stall_scan(args.steps, args.compiled)
+        atomic_write_json(out / "optimum_stall_scan.json", scan)
+        atomic_write_text(out / "optimum_stall_scan.md", scan_table(scan))
+        print(scan_table(scan))
+        return 0 if scan["all_converged"] else 1
     (out / "cases").mkdir(exist_ok=True)
     rows = []
     for u in args.unsteady:
