@@ -26,6 +26,10 @@ ones), then DIR/matrix.json and DIR/matrix.md. Exit status 1 when any solve did 
 + ``stall`` at that gait over a range of flapping amplitudes (from the optimum's amplitude down, then
 up, each from the previous cycle) give the mean vertical speed against the amplitude:
 DIR/optimum_stall_scan.json and .md.
+
+``--level-solvers`` (instead of the matrix): level flight of ``wagner`` and ``wagner`` + ``stall`` at the
+paper's gait by Newton-Picard and by IPOPT, each warm-started from the trim and solved twice (the
+second solve timed: graphs built), wall and CPU time in one run: DIR/level_solvers.json.
 """
 from __future__ import annotations
 
@@ -167,6 +171,29 @@ def scan_table(scan: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def level_solvers(steps: int, compiled: bool) -> dict:
+    """Level flight by Newton-Picard and by IPOPT (second solves timed) for ``wagner`` (+ ``stall``)."""
+    from birdocp.bird.config import Config, with_values
+    from birdocp.studies.level import level
+    from birdocp.studies.trim import trim
+
+    rows = []
+    for sec in ("linear", "stall"):
+        cfg = with_values(Config(), {"aero.unsteady": "wagner", "aero.section": sec, "solve.steps_per_period": steps})
+        tr = trim(cfg, compiled=compiled)
+        timed = {}
+        for solver in ("newton-picard", "ipopt") * 2:
+            c = with_values(cfg, {"solve.solver": solver})
+            timed[solver] = _timed(lambda: level(c, warm_start=tr, compiled=compiled))
+        row = {"section": sec, "load_average": os.getloadavg()[0]}
+        for solver, (lv, w, c) in timed.items():
+            row[solver] = {**_cycle(lv, w, c), "solve_wall_s": lv.cycle.wall_s.get("solve")}
+        row["cpu_ratio_ipopt_over_newton_picard"] = row["ipopt"]["cpu_s"] / row["newton-picard"]["cpu_s"]
+        row["amplitude_difference_deg"] = abs(row["ipopt"]["amplitude_deg"] - row["newton-picard"]["amplitude_deg"])
+        rows.append(row)
+    return {"steps_per_period": steps, "rows": rows}
+
+
 def main(argv=None) -> int:
     ap = script_parser(__doc__, "results/aero/options_matrix")
     ap.add_argument("--steps", type=int, default=64, help="RK4 steps per period (default 64)")
@@ -176,8 +203,16 @@ def main(argv=None) -> int:
     ap.add_argument("--branch-points", type=int, default=4, help="points of the continuation (at most)")
     ap.add_argument("--optimum-scan", action="store_true",
                     help="instead of the matrix: wagner + stall trims over the amplitude at the wagner optimum's gait")
+    ap.add_argument("--level-solvers", action="store_true",
+                    help="instead of the matrix: level flight by Newton-Picard and by IPOPT, timed")
     args, out = parse_with_out(ap, argv)
     from birdocp.io.files import atomic_write_json, atomic_write_text
+
+    if args.level_solvers:
+        res = level_solvers(args.steps, args.compiled)
+        atomic_write_json(out / "level_solvers.json", res)
+        print(json.dumps(res, indent=1))
+        return 0 if all(r[s]["converged"] for r in res["rows"] for s in ("ipopt", "newton-picard")) else 1
 
     if args.optimum_scan:
         scan = optimum_stall_scan(args.steps, args.compiled)
