@@ -114,6 +114,11 @@ REGISTRY = [
                                                           "lag_three_quarter_chord", "wagner_stall",
                                                           "wagner_dynamic_stall")
                     for k in ("trim_wall_s", "level_wall_s")]),
+    entry("aero-options-matrix", "scripts/aero_options_matrix.py", "aero/options_matrix",
+          ["aero/options_matrix/matrix.json", "aero/options_matrix/cases/*.json",
+           "aero/options_matrix/optimum_stall_scan.json", "aero/options_matrix/level_solvers.json"],
+          then=[["--optimum-scan"], ["--level-solvers"]],
+          recorded=[("aero/options_matrix/cases/*.json", k, "wall_s") for k in ("trim", "level", "continuation")]),
     entry("stability", "scripts/stability_study.py", ".", ["stability_optimum/result.json"],
           recorded=[("stability_optimum/result.json", "script_wall_s")], rtol=OPTIMUM_RTOL),
     entry("energetics-optimize-stability", "scripts/energetics_study.py", "energetics",

@@ -1,6 +1,6 @@
 """Newton-Picard (engine/newton_picard.py) on a forced Duffing oscillator coupled to fast linear lags:
-the same cycle and multipliers as the full Newton, and
-an honest hand-over to the full Newton when the Picard complement does not contract."""
+the same cycle and multipliers as the full Newton (also with a free parameter held by a mean
+condition), and an honest hand-over to the full Newton when the Picard complement does not contract."""
 import casadi as ca
 import numpy as np
 import pytest
@@ -50,13 +50,31 @@ def test_same_cycle_and_multipliers_as_the_full_newton():
     assert np.max(np.abs(np_.multipliers[:2] - full.multipliers[:2])) < 1e-12
 
 
-def test_free_parameters_refused():
-    ode = lagged_duffing()
+def _energy_problem(ode, target=0.3):
+    """The forcing amplitude F free (bounds 0..5), the period mean of an energy that also reads a lag
+    state held at ``target`` (so the mean rows see the Picard states too)."""
     x2, d, p = ca.SX.sym("x", ode.nx), ca.SX.sym("d", 1), ca.SX.sym("p", 4)
-    energy = MeanCondition(ca.Function("e", [x2, d, p], [0.5 * x2[1] ** 2 + 0.5 * x2[0] ** 2]), 0.3, "energy")
-    prob = OrbitProblem(ode, P, np.zeros(ode.nx), free={3: (0.0, 5.0)}, means=[energy])
-    with pytest.raises(ValueError, match="free parameters"):
-        solve(prob, NP_METHOD)
+    e = 0.5 * x2[1] ** 2 + 0.5 * x2[0] ** 2 + 0.2 * x2[0] * x2[2]
+    energy = MeanCondition(ca.Function("e", [x2, d, p], [e]), target, "energy")
+    return OrbitProblem(ode, P, np.zeros(ode.nx), free={3: (0.0, 5.0)}, means=[energy])
+
+
+def test_free_parameter_same_cycle_as_lm_and_ipopt():
+    # a free parameter held by a mean condition joins the Newton subspace (newton_picard_free): the
+    # same cycle, free value and multipliers as the full Newton (LM) and IPOPT, to 1e-10
+    ode = lagged_duffing()
+    prob = _energy_problem(ode)
+    full, np_ = _compare(prob)
+    ip = solve(prob, OrbitMethod(points=5, steps_per_period=240, solver="ipopt", tol=1e-12))
+    assert ip.success, ip.message
+    assert "newton-picard: converged" in np_.message and np_.max_residual <= 1e-12
+    for ref in (full, ip):
+        assert abs(np_.free_values["p3"] - ref.free_values["p3"]) < 1e-10
+        assert np.max(np.abs(np_.x0 - ref.x0)) < 1e-10
+        assert np.max(np.abs(np_.multipliers - ref.multipliers)) < 1e-10
+    assert abs(np_.means["energy"] - 0.3) < 1e-12
+    assert 0.6 != pytest.approx(np_.free_values["p3"], abs=1e-3)  # the free value moved from its start
+    assert np_.iterations < 15  # Newton-like: a few iterations, not a Picard crawl
 
 
 def test_not_contracting_complement_hands_over_to_the_full_newton():
@@ -78,3 +96,21 @@ def test_bad_input():
         solve(prob, OrbitMethod(solver="newton-picard", newton_states=(0, 9)))
     with pytest.raises(ValueError, match="picard_max_rate"):
         OrbitMethod(picard_max_rate=1.5).validate()
+
+
+def test_compiled_ode_with_a_free_parameter(tmp_path, monkeypatch):
+    # Newton-Picard on an ODE whose RHS is compiled C (the CLI's --compiled): the directional passes
+    # and the mean rows' gradient are built from its interpreted source; the same cycle as interpreted
+    from birdocp.export.compiled import compiled_ode, find_compiler
+
+    if find_compiler() is None:
+        pytest.skip("no C compiler")
+    monkeypatch.setenv("BIRDOCP_CACHE", str(tmp_path))
+    ode = lagged_duffing()
+    code = compiled_ode(ode)
+    assert code is not None and code.numeric.source is ode
+    method = OrbitMethod(points=5, steps_per_period=240, solver="newton-picard", newton_states=(0, 1), tol=1e-12)
+    a, b = solve(_energy_problem(ode), method), solve(_energy_problem(code), method)
+    assert a.success and b.success and "newton-picard: converged" in b.message, b.message
+    assert abs(a.free_values["p3"] - b.free_values["p3"]) < 1e-12
+    assert np.max(np.abs(a.multipliers - b.multipliers)) < 1e-12

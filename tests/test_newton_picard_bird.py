@@ -1,6 +1,10 @@
 """The bird's use of Newton-Picard: ``solve.solver = "auto"`` picks it for the trim of a model with
-aerodynamic states (body states by Newton) and nothing else changes for the default model; the wagner
-cycle and its multipliers are the full Newton's."""
+aerodynamic states (body states by Newton), and for its level flight (the free amplitude joins the
+Newton subspace), and nothing else changes for the default model; the wagner cycle and its multipliers
+are the full Newton's; wagner + stall level flight converges."""
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -19,10 +23,10 @@ def test_auto_is_ipopt_for_the_default_model_and_newton_picard_for_an_aero_trim(
                                               derivatives="exact", max_iter=100, tol=None)
     cfg = with_values(Config(), WAGNER)
     assert solver_of(cfg) == "newton-picard" and method_of(cfg).newton_states == (0, 1, 2, 3)
-    assert solver_of(cfg, free=True) == "ipopt"  # level flight: free parameters, the full Newton
+    # level flight too: the free amplitude joins the Newton subspace (engine/newton_picard_free.py)
+    assert solver_of(cfg, free=True) == "newton-picard" and method_of(cfg, free=True).newton_states == (0, 1, 2, 3)
+    assert solver_of(Config(), free=True) == "ipopt"  # the default model's level flight is unchanged
     assert solver_of(with_values(cfg, {"solve.solver": "lm"})) == "lm"
-    with pytest.raises(ConfigError, match="solve.solver"):
-        solver_of(with_values(cfg, {"solve.solver": "newton-picard"}), free=True)
 
 
 def test_newton_picard_needs_aerodynamic_states():
@@ -41,3 +45,22 @@ def test_wagner_cycle_is_the_full_newtons():
     assert np_.cycle.method["solver"] == "newton-picard" and full.cycle.method["solver"] == "ipopt"
     assert np.max(np.abs(np_.x0 - full.x0)) < 1e-9
     assert np.max(np.abs(np_.multipliers - full.multipliers)) < 1e-10
+
+
+@pytest.mark.slow
+def test_wagner_stall_level_flight_by_newton_picard(tmp_path, capsys):
+    # `birdocp level --set aero.unsteady=wagner --set aero.section=stall --json` from the default guess
+    # on a coarse grid: Newton-Picard with the amplitude in its Newton subspace converges, and its
+    # amplitude and |Lambda1| are those IPOPT found on the 148-step grid (results/aero, the grid's
+    # discretisation error apart: 0.015 deg and 2e-5 measured)
+    from birdocp.cli.main import main
+
+    assert main(["level", "--set", "aero.unsteady=wagner", "--set", "aero.section=stall", "--steps", "64",
+                 "--json", "--out", str(tmp_path / "run")]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["success"] and d["method"]["solver"] == "newton-picard", d["message"]
+    assert "newton-picard: converged" in d["message"] and d["max_residual"] <= 1e-10
+    assert abs(d["mean_vertical_speed_mps"]) < 1e-9 and d["validity"]["valid"]
+    ref = json.loads((Path(__file__).parents[1] / "results/aero/cases/wagner_stall.json").read_text())["level"]
+    assert abs(d["amplitude_deg"] - ref["amplitude_deg"]) < 0.05
+    assert abs(d["moduli"][0] - ref["lambda1"]) < 2e-3

@@ -240,10 +240,11 @@ class Solve:
     steps_per_period: int = 148
     """RK4 steps per period; a multiple of (points - 1)."""
     solver: str = "auto"
-    """Nonlinear solver: "ipopt", "lm" (the paper's Levenberg-Marquardt), "newton-picard" (a trim of a
-    model with aerodynamic states: Newton on the 4 body states, Picard iteration on the strongly damped
-    aerodynamic states; the multipliers from one exact variational pass at the cycle) or "auto"
-    ("newton-picard" for the trim of a model with aerodynamic states, "ipopt" otherwise)."""
+    """Nonlinear solver: "ipopt", "lm" (the paper's Levenberg-Marquardt), "newton-picard" (a model
+    with aerodynamic states: Newton on the 4 body states and the free parameter of level flight, Picard
+    iteration on the strongly damped aerodynamic states; the multipliers from one exact variational
+    pass at the cycle) or "auto" ("newton-picard" for a model with aerodynamic states, "ipopt"
+    otherwise)."""
     derivatives: str = "exact"
     """Jacobians: "exact" (automatic differentiation) or "fd" (finite differences; lm only)."""
     initial_guess: tuple[float, ...] = (18.0, 0.5, 0.1, 0.01)

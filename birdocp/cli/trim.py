@@ -23,7 +23,7 @@ def solve_shortcuts(p: argparse.ArgumentParser) -> None:
     s.add_argument("--points", type=int, metavar="M", help="shooting points per period, closing point included (solve.points)")
     s.add_argument("--steps", type=int, metavar="N", help="RK4 steps per period, a multiple of M-1 (solve.steps_per_period)")
     s.add_argument("--solver", choices=SOLVE_SOLVERS,
-                   help="nonlinear solver (solve.solver; auto: newton-picard for the trim of a model with "
+                   help="nonlinear solver (solve.solver; auto: newton-picard for a model with "
                         "aerodynamic states, ipopt otherwise)")
     s.add_argument("--derivatives", choices=("exact", "fd"), help="Jacobians by AD or finite differences (solve.derivatives)")
     s.add_argument("--max-iter", dest="solve_max_iter", type=int, metavar="N",

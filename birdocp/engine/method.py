@@ -63,7 +63,8 @@ class OrbitMethod:
         "ipopt" (feasibility NLP through the exact Jacobian) | "lm" (Levenberg-Marquardt on the exact
         shooting matrix) | "newton-picard" (an ODE with data only: Newton on the states
         ``newton_states``, Picard iteration on the others, which must be strongly contracting;
-        :mod:`birdocp.engine.newton_picard`); None: "ipopt" for an ODE with data, "lm" without.
+        :mod:`birdocp.engine.newton_picard`; free parameters join the Newton subspace,
+        :mod:`birdocp.engine.newton_picard_free`); None: "ipopt" for an ODE with data, "lm" without.
     derivatives
         "exact" (CasADi AD) | "fd" (forward differences of the segment flow, relative step
         1e-3*x_j, absolute step 1e-3*fd_floor when abs(x_j) < fd_floor; an ODE with data and lm only).

@@ -31,8 +31,8 @@ falls by less than that factor three times in a row, or becomes non-finite, the 
 contracting enough and the solve stops with status ``"not_contracting"`` at its best iterate (the
 solver table's entry then runs the full Newton from there). Convergence is the max-norm of the full
 residual (every state) at most ``tol``: on the multiple-shooting points built from the trajectory the continuity equations hold
-to round-off and the periodicity rows are ``r``. Free parameters (mean conditions) are not supported
-(ValueError: use ``"ipopt"`` or ``"lm"``).
+to round-off and the periodicity rows are ``r``. Free parameters held by mean conditions:
+:mod:`birdocp.engine.newton_picard_free` (they join the Newton subspace).
 
 Cost per iteration: one pass over the period with one sensitivity direction (against ``nx`` for the
 full Newton), plus two passes of ``p`` directions whenever the chord matrices are refreshed; the exact
@@ -52,7 +52,8 @@ from birdocp.engine.cache import owned_cache
 from birdocp.engine.integrate import RK4Grid
 from birdocp.engine.rk4 import accumulate
 
-__all__ = ["newton_picard", "NewtonPicardOutcome", "directional_pass", "shooting_unknowns", "REFRESH_RATIO"]
+__all__ = ["newton_picard", "NewtonPicardOutcome", "directional_pass", "shooting_unknowns", "REFRESH_RATIO",
+           "not_contracting", "outcome_message"]
 
 REFRESH_RATIO = 0.25
 """The chord matrices are recomputed at an iterate whose residual fell by less than this factor."""
@@ -261,18 +262,32 @@ def newton_picard(graphs, problem, z0, newton_states, *, tol: float, max_iter: i
         hist.append(st.max_residual)
         if np.isfinite(hist[-1]) and hist[-1] < best.max_residual:
             best = st
-        if _not_contracting(hist, rates, max_rate):
+        if not_contracting(hist, rates, max_rate):
             status = "not_contracting"
     if best.max_residual <= tol:
         status = "converged"
     z = shooting_unknowns(pb.grid, best.x, best.X, best.x_T)
-    return NewtonPicardOutcome(z, status, _message(status, it, hist, rates, max_rate), it, hist, rates)
+    return NewtonPicardOutcome(z, status, outcome_message(status, it, hist, rates, max_rate), it, hist, rates)
 
 
-def _not_contracting(hist, rates, max_rate) -> bool:
-    """The complement does not contract enough: a non-finite residual, the Picard growth above
+def not_contracting(hist, rates, max_rate) -> bool:
+    """Whether the complement does not contract enough: a non-finite residual, the Picard growth above
     ``max_rate`` twice in a row, or the residual falling by less than ``max_rate`` three times in a row
-    (converging, it falls by about the square of the complement's contraction)."""
+    (converging, it falls by about the square of the complement's contraction).
+
+    Parameters
+    ----------
+    hist : list of float
+        Max-norm of the residual at every iterate.
+    rates : list of float
+        The complement's growth at every iteration.
+    max_rate : float
+        Largest acceptable growth per period.
+
+    Returns
+    -------
+    bool
+    """
     if not np.isfinite(hist[-1]):
         return True
     if len(rates) >= 2 and min(rates[-2:]) > max_rate:
@@ -320,8 +335,26 @@ def _last_ratio(hist) -> str:
     return f"{hist[-1] / hist[-2]:.3g}" if len(hist) >= 2 and hist[-2] > 0 else "n/a"
 
 
-def _message(status, it, hist, rates, max_rate) -> str:
-    """One line: the outcome, the iterations, the residual, the Picard growth."""
+def outcome_message(status, it, hist, rates, max_rate) -> str:
+    """One line: the outcome, the iterations, the residual, the Picard growth.
+
+    Parameters
+    ----------
+    status : str
+        The status (see :class:`NewtonPicardOutcome`).
+    it : int
+        Iterations.
+    hist : list of float
+        Max-norm of the residual at every iterate.
+    rates : list of float
+        The complement's growth at every iteration.
+    max_rate : float
+        Largest acceptable growth per period.
+
+    Returns
+    -------
+    str
+    """
     finite = [r for r in rates if np.isfinite(r)]
     rho = f"{max(finite[-3:]):.3g}" if finite else "n/a"
     head = {"converged": "converged", "max_iter": "iteration limit reached",

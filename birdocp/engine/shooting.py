@@ -13,7 +13,8 @@ The solver table :data:`SOLVERS`: ``"ipopt"``, a pure feasibility NLP (objective
 square when there is one mean condition per free parameter), limited-memory Hessian, MUMPS;
 ``"lm"``, the paper's Algorithm 1 (Levenberg-Marquardt on the shooting matrix, every step accepted,
 lambda /10 or x10); ``"newton-picard"``, Newton on the method's ``newton_states`` and Picard on the
-strongly contracting rest (:mod:`birdocp.engine.newton_picard`; the full blocks are formed once, at
+strongly contracting rest (:mod:`birdocp.engine.newton_picard`, with free parameters
+:mod:`birdocp.engine.newton_picard_free`; the full blocks are formed once, at
 the converged cycle, for the multipliers).
 
 The problem, method and result types are the engine's one of each
@@ -36,6 +37,7 @@ from birdocp.engine.cache import clear_caches
 from birdocp.engine.floquet import FloquetResult, floquet_from_jacobians
 from birdocp.engine.lm import levenberg_marquardt
 from birdocp.engine.newton_picard import newton_picard
+from birdocp.engine.newton_picard_free import newton_picard_free
 from birdocp.engine.nlp import run_ipopt
 from birdocp.engine.method import OrbitMethod
 from birdocp.engine.orbit_result import OrbitResult
@@ -279,9 +281,14 @@ def _run_ipopt_attempts(problem, method, b, z0, lo, hi):
 def _run_newton_picard(problem, method, b, z0, lo, hi):
     """Newton-Picard (:func:`birdocp.engine.newton_picard.newton_picard`); when its complement is not
     contracting (or its reduced matrix singular), the paper's LM on the full state from its best
-    iterate (histories concatenated)."""
-    out = newton_picard(b, problem, z0, method.newton_states, tol=method.tol, max_iter=method.max_iter,
-                        max_rate=method.picard_max_rate)
+    iterate (histories concatenated). With free parameters
+    :func:`birdocp.engine.newton_picard_free.newton_picard_free` (they join the Newton subspace)."""
+    if b.nf:
+        out = newton_picard_free(b, problem, z0, method.newton_states, lo, hi, tol=method.tol,
+                                 max_iter=method.max_iter, max_rate=method.picard_max_rate)
+    else:
+        out = newton_picard(b, problem, z0, method.newton_states, tol=method.tol, max_iter=method.max_iter,
+                            max_rate=method.picard_max_rate)
     if out.status not in ("not_contracting", "singular"):
         return out.z, out.status, out.status == "converged", out.message, out.iterations, np.asarray(out.history)
     start = out.z if np.all(np.isfinite(out.z)) else z0

@@ -17,7 +17,6 @@ import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, Config
 from birdocp.bird.config_checks import has_aero_states
-from birdocp.io.errors import ConfigError
 from birdocp.bird.flight import flight_outputs, flight_path_angle_deg
 from birdocp.bird.model import get_model
 from birdocp.bird.validity import CycleValidity, cycle_validity, grid_validity
@@ -59,15 +58,16 @@ damped, are iterated by Picard)."""
 
 
 def solver_of(cfg: Config, free: bool = False) -> str:
-    """The engine solver of ``cfg.solve.solver``: ``"auto"`` is ``"newton-picard"`` for a trim (no free
-    parameters) of a model with aerodynamic states, ``"ipopt"`` otherwise.
+    """The engine solver of ``cfg.solve.solver``: ``"auto"`` is ``"newton-picard"`` for a model with
+    aerodynamic states (trim, and level flight, whose free parameter joins the Newton subspace:
+    :mod:`birdocp.engine.newton_picard_free`), ``"ipopt"`` otherwise.
 
     Parameters
     ----------
     cfg : Config
         Configuration.
     free : bool
-        The solve has free parameters (level flight): Newton-Picard does not handle them.
+        The solve has free parameters held by mean conditions (level flight); the choice is the same.
 
     Returns
     -------
@@ -76,10 +76,7 @@ def solver_of(cfg: Config, free: bool = False) -> str:
     """
     s = cfg.solve.solver
     if s == "auto":
-        return "newton-picard" if has_aero_states(cfg) and not free else "ipopt"
-    if s == "newton-picard" and free:
-        raise ConfigError("solve.solver", "'newton-picard' solves trims only (no free parameters): use 'auto', "
-                                          "'ipopt' or 'lm' for level flight")
+        return "newton-picard" if has_aero_states(cfg) else "ipopt"
     return s
 
 
