@@ -299,7 +299,8 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     ----------
     cfg : Config, optional
         The configuration (default: the paper's reference case). The static stall section, the tail, wing masses and
-        the optional drag are taken in 3-D (``dynamic-stall`` and ``wagner`` are refused).
+        the optional drag are taken in 3-D, so are ``dynamic-stall`` and ``wagner`` (their aerodynamic states
+        split into symmetric and antisymmetric parts, :mod:`birdocp.studies.lateral_aero`).
     inertia : LateralInertia, optional
         Roll and yaw inertia [kg m^2]; default ``cfg.model``'s.
     level : bool
