@@ -39,8 +39,10 @@ terms (momentum, angular momentum, products of inertia) are added by
 body's own about its centre of mass G_b, as in the planar model with wing masses. With the tail
 (``tail.opening_angle_deg`` > 0) its planar loads are added (:func:`tail_body_loads`); with the optional
 drag (``[drag]``) the profile drag of every element and the body's parasite drag (:func:`drag_terms`). With the
-stall-aware section (``aero.section = "stall"``) the planar section law is called per element over both wings in
-the asymmetric flow (:class:`SectionLaw`). For a symmetric cycle (v = p = r = phi = 0) the longitudinal equations
+stall-aware sections (``aero.section = "stall"``, ``"dynamic-stall"``) and Wagner's section (``aero.unsteady =
+"wagner"``) the planar section law is called per element over both wings in the asymmetric flow
+(:class:`SectionLaw`; lag and separation states after the 9 body states), Wagner's added mass a 6 x 6 matrix on
+the left (:mod:`birdocp.bird.sixdof_unsteady`). For a symmetric cycle (v = p = r = phi = 0) the longitudinal equations
 are the planar model's.
 """
 
@@ -340,7 +342,7 @@ def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None, sec
     loads of :func:`body_loads` at ``x_air`` (the state as the air sees it, with a wind; default ``x``)
     and, with ``structure.wing_mass``, the wing masses of :mod:`birdocp.bird.sixdof_inertia` (whose
     sums follow the planar data in ``d``); ``structure.tail`` adds the tail; ``section`` the planar
-    model's stall-aware section (its separation states after the 9 body states with ``dynamic-stall``).
+    model's unsteady or stall-aware section (its lag and separation states after the 9 body states).
 
     Parameters
     ----------
@@ -355,7 +357,7 @@ def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None, sec
     structure : Structure, optional
         Structure of the model.
     section : SectionLaw, optional
-        The stall-aware section (default: the linear quasi-steady lifting line).
+        The unsteady or stall-aware section (default: the linear quasi-steady lifting line).
 
     Returns
     -------
