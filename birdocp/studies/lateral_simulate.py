@@ -362,9 +362,11 @@ def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | No
 
     if int(beats) < 1:
         raise ConfigError("--beats", f"must be >= 1, got {beats}")
-    from birdocp.bird.config_checks import require_body_states
-
-    require_body_states(cfg, "the six-degree-of-freedom simulation (9 body states)", "trim")
+    if cfg.aero.unsteady != "none" or cfg.aero.section == "dynamic-stall":
+        key = "aero.unsteady" if cfg.aero.unsteady != "none" else "aero.section"
+        raise ConfigError(key, "the six-degree-of-freedom simulation carries the 9 body states only (no lag or "
+                               "separation states yet): use trim, or aero.unsteady = 'none' with aero.section = "
+                               "'linear' or 'stall'")
     six = sixdof_model(cfg, sides=True)
     x0 = np.zeros(9)
     x0[:len(np.ravel(x0_cycle))] = np.ravel(x0_cycle)
