@@ -88,6 +88,8 @@ REGISTRY = [
           ["lateral/asymmetric/result.json"], recorded=[("lateral/asymmetric/result.json", "wall_s")]),
     entry("lateral-figures", "scripts/lateral_figures.py", "lateral/modes", ["lateral/modes/modes.json"],
           args=["--gif", ""]),
+    entry("lateral-unsteady", "scripts/lateral_unsteady.py", "lateral/unsteady", ["lateral/unsteady/result.json"],
+          recorded=[("lateral/unsteady/result.json", "wall_s")]),
     entry("lateral-sweep", "scripts/lateral_sweep.py", "lateral/sweep", ["lateral/sweep/result.json"],
           recorded=[("lateral/sweep/result.json", "wall_s")]),
     entry("lateral-optimum", "scripts/lateral_optimum.py", "lateral/optimum", ["lateral/optimum/result.json"],

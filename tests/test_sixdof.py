@@ -94,8 +94,8 @@ def test_frozen_wing_multipliers_are_the_glide_eigenvalues(default_config):
 def test_planar_terms_not_in_3d_are_refused():
     from birdocp.bird.config import with_values
 
-    with pytest.raises(ValueError, match="aero.unsteady"):
-        with_values(Config(), {"model.degrees_of_freedom": 6, "aero.unsteady": "wagner"})
+    with pytest.raises(ValueError, match="aero.unsteady"):  # Wagner's added mass with wing masses: neither in 4 DOF
+        with_values(Config(), {"model.degrees_of_freedom": 6, "aero.unsteady": "wagner", "wing.mass_kg": 0.1})
     with pytest.raises(ValueError, match="roll_inertia_kgm2"):
         LateralInertia(roll_inertia_kgm2=0.0)
 

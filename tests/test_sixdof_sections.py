@@ -12,7 +12,7 @@ import sys
 import numpy as np
 import pytest
 
-from birdocp.bird.config import Config, ConfigError, param_vector, with_values
+from birdocp.bird.config import Config, param_vector, with_values
 from birdocp.bird.model import get_model
 from birdocp.bird.sides import side_vector, swap_sides
 from birdocp.bird.sixdof import LATERAL, LONGITUDINAL, embed_planar_state, sixdof_model
@@ -78,9 +78,3 @@ def test_stall_cycle_of_a_symmetric_gait_is_the_planar_stall_cycle_through_the_c
     np.testing.assert_allclose(lon, np.sort_complex(planar.multipliers), rtol=0, atol=1e-9)
     assert abs(r["heading_multiplier"] - 1) < 1e-12 and len(r["lateral_multipliers"]) == 4
     assert r["validity"]["max_newton_residual"] < 1e-10  # the stall circulation solved on the cycle
-
-
-def test_sections_not_written_in_3d_are_refused_in_one_line():
-    for key, value in (("aero.unsteady", "wagner"), ("aero.section", "dynamic-stall")):
-        with pytest.raises(ConfigError, match=key):
-            with_values(Config(), {"model.degrees_of_freedom": 6, key: value})

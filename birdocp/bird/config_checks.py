@@ -48,8 +48,7 @@ see docs/model_unsteady.md)."""
 SIX_DOF_UNSUPPORTED: tuple = ()
 """Planar terms not yet written in three dimensions, as (key, what) pairs: with model.degrees_of_freedom
 = 6 each of these keys must be 0 (none left: the tail, the wing masses with symmetric and asymmetric
-gaits and the optional drag terms are written in 3-D; the unsteady and stall-aware sections are
-refused by their own check)."""
+gaits, the optional drag terms and the unsteady and stall-aware sections are written in 3-D)."""
 
 def get_value(cfg: Any, key: str) -> Any:
     """The value of a dotted key (``"gait.shoulder_flap.amplitude_deg"``, ``"wing.feather_lengths_m.3"``).
@@ -433,14 +432,6 @@ def _validate_model(cfg: Any) -> None:
         if get_value(cfg, key) != 0:
             raise ConfigError(key, f"{what}: not yet written in six degrees of freedom; set {key} = 0 "
                                    "or model.degrees_of_freedom = 4")
-    if cfg.aero.section == "dynamic-stall":
-        raise ConfigError("aero.section", "'dynamic-stall' (separation states split into symmetric and antisymmetric "
-                                          "parts) is not yet written in six degrees of freedom; use 'stall' or "
-                                          "model.degrees_of_freedom = 4")
-    if cfg.aero.unsteady != "none":
-        raise ConfigError("aero.unsteady", "'wagner' (lag states and added mass in 3-D) is not yet written in six "
-                                           "degrees of freedom; set aero.unsteady = 'none' or "
-                                           "model.degrees_of_freedom = 4")
 
 
 def has_aero_states(cfg: Any) -> bool:

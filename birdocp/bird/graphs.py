@@ -273,6 +273,40 @@ def _unsteady_data(pre: dict, L, blocks: dict, t) -> ca.SX:
     return unsteady_blocks([L], pre["n_aero"], pre["n_before_deriv"], blocks, t)
 
 
+def time_derivative(locals_, n_aero: int, n_before_deriv: int, t):
+    """``ddt(e)``: the time derivative of an expression ``e`` of the assembled data made from the
+    arm-frame wings ``locals_`` (one ``pre`` output, or the right and the left wing's): AD in t through
+    the assembly, each wing's arm-frame derivatives read from its ``pre`` output.
+
+    Parameters
+    ----------
+    locals_ : list of casadi.SX
+        ``pre`` outputs the data was assembled from.
+    n_aero : int
+        Values of the aerodynamic shape in a ``pre`` output.
+    n_before_deriv : int
+        Values before its time derivatives.
+    t : casadi.SX
+        Time [s].
+
+    Returns
+    -------
+    callable
+        ``ddt(e) -> casadi.SX``.
+    """
+    na, nb = n_aero, n_before_deriv
+    tangents = [ca.vertcat(L[nb:nb + na], ca.SX.zeros(nb - na), L[nb + na:nb + 2 * na], ca.SX.zeros(na))
+                for L in locals_]
+
+    def ddt(e):
+        out = ca.jtimes(e, locals_[0], tangents[0])
+        for L, tangent in zip(locals_[1:], tangents[1:]):
+            out = out + ca.jtimes(e, L, tangent)
+        return out + ca.jtimes(e, t, ca.SX(1))
+
+    return ddt
+
+
 def unsteady_blocks(locals_, n_aero: int, n_before_deriv: int, blocks: dict, t) -> ca.SX:
     """The unsteady data blocks (:func:`birdocp.bird.unsteady.element_data`, packed) of the assembled
     ``blocks`` (:func:`aero_blocks`) made from the arm-frame wings ``locals_`` (one ``pre`` output, or the
@@ -296,17 +330,7 @@ def unsteady_blocks(locals_, n_aero: int, n_before_deriv: int, blocks: dict, t) 
     -------
     casadi.SX
     """
-    na, nb = n_aero, n_before_deriv
-
-    tangents = [ca.vertcat(L[nb:nb + na], ca.SX.zeros(nb - na), L[nb + na:nb + 2 * na], ca.SX.zeros(na))
-                for L in locals_]
-
-    def ddt(e):
-        out = ca.jtimes(e, locals_[0], tangents[0])
-        for L, tangent in zip(locals_[1:], tangents[1:]):
-            out = out + ca.jtimes(e, L, tangent)
-        return out + ca.jtimes(e, t, ca.SX(1))
-
+    ddt = time_derivative(locals_, n_aero, n_before_deriv, t)
     ud = unsteady.element_data(blocks["r_m"], blocks["v_kin_mps"], blocks["c_hat"], blocks["up"], blocks["tau"],
                                blocks["chord_m"], blocks["ds_m"], ddt)
     return unsteady.pack(ud, N_EL)

@@ -18,9 +18,10 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import PARAM_NAMES, SIDE_KEYS, Config, get_value
-from birdocp.bird.graphs import unsteady_blocks
+from birdocp.bird.graphs import time_derivative, unsteady_blocks
 from birdocp.bird.model import DATA_BLOCKS, N_EL, BirdModel, Structure, aero_blocks
 from birdocp.bird.sixdof_inertia import sums_function
+from birdocp.bird.sixdof_unsteady import added_mass_data
 from birdocp.engine.cache import owned_cache
 
 __all__ = ["SIDE_PARAM_NAMES", "side_vector", "side_parameters", "side_data_functions", "swap_sides"]
@@ -103,9 +104,11 @@ def _sides_post(structure: Structure, n_local: int) -> ca.Function:
     pr, pl = ca.SX.sym("p_right", n), ca.SX.sym("p_left", n)
     blocks = aero_blocks(structure, Lr, t, pr, left=(Ll, pl))
     d = ca.vertcat(*[ca.vec(blocks[name]) for name, _ in DATA_BLOCKS])
-    if structure.aero_extra:  # the unsteady data of the two differing wings (stall section)
+    if structure.aero_extra:  # the unsteady data of the two differing wings (stall section, Wagner)
         n_aero = 4 * 3 * N_EL + N_EL
         d = ca.vertcat(d, unsteady_blocks([Lr, Ll], n_aero, n_local - 2 * n_aero, blocks, t))
+        if structure.unsteady == "wagner":  # then the 6-DOF added-mass data
+            d = ca.vertcat(d, added_mass_data(blocks, time_derivative([Lr, Ll], n_aero, n_local - 2 * n_aero, t)))
     return ca.Function("wing_assemble_sides", [Lr, Ll, t, pr, pl], [d],
                        ["local_right", "local_left", "t", "p_right", "p_left"], ["d"])
 
@@ -133,8 +136,6 @@ def side_data_functions(planar: BirdModel, n_params: int, first_offset: int):
         ``(pre, post, data, pre_params)``.
     """
     n = len(PARAM_NAMES)
-    if planar.structure.unsteady != "none":
-        raise ValueError("asymmetric gaits: aero.unsteady = 'wagner' is not written in six degrees of freedom")
     nl = planar.pre.size1_out(0)
     post2 = owned_cache(planar).build(("sides_post", nl), lambda: _sides_post(planar.structure, nl))
     tm, pm = ca.MX.sym("t"), ca.MX.sym("p", n_params)

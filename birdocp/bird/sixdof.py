@@ -39,8 +39,10 @@ terms (momentum, angular momentum, products of inertia) are added by
 body's own about its centre of mass G_b, as in the planar model with wing masses. With the tail
 (``tail.opening_angle_deg`` > 0) its planar loads are added (:func:`tail_body_loads`); with the optional
 drag (``[drag]``) the profile drag of every element and the body's parasite drag (:func:`drag_terms`). With the
-stall-aware section (``aero.section = "stall"``) the planar section law is called per element over both wings in
-the asymmetric flow (:class:`SectionLaw`). For a symmetric cycle (v = p = r = phi = 0) the longitudinal equations
+stall-aware sections (``aero.section = "stall"``, ``"dynamic-stall"``) and Wagner's section (``aero.unsteady =
+"wagner"``) the planar section law is called per element over both wings in the asymmetric flow
+(:class:`SectionLaw`; lag and separation states after the 9 body states), Wagner's added mass a 6 x 6 matrix on
+the left (:mod:`birdocp.bird.sixdof_unsteady`). For a symmetric cycle (v = p = r = phi = 0) the longitudinal equations
 are the planar model's.
 """
 
@@ -52,6 +54,7 @@ import casadi as ca
 
 from birdocp.bird import aero, tail, unsteady
 from birdocp.bird import sixdof_inertia as wing3
+from birdocp.bird import sixdof_unsteady as am6
 from birdocp.bird.config import PARAM_NAMES, Config, asymmetric
 from birdocp.bird.loads import unsteady_params, unsteady_data_offset
 from birdocp.bird.model import N_DATA, N_EL, BirdModel, Structure, get_model, unpack_data
@@ -342,7 +345,7 @@ def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None, sec
     loads of :func:`body_loads` at ``x_air`` (the state as the air sees it, with a wind; default ``x``)
     and, with ``structure.wing_mass``, the wing masses of :mod:`birdocp.bird.sixdof_inertia` (whose
     sums follow the planar data in ``d``); ``structure.tail`` adds the tail; ``section`` the planar
-    model's stall-aware section (its separation states after the 9 body states with ``dynamic-stall``).
+    model's unsteady or stall-aware section (its lag and separation states after the 9 body states).
 
     Parameters
     ----------
@@ -357,19 +360,22 @@ def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None, sec
     structure : Structure, optional
         Structure of the model.
     section : SectionLaw, optional
-        The stall-aware section (default: the linear quasi-steady lifting line).
+        The unsteady or stall-aware section (default: the linear quasi-steady lifting line).
 
     Returns
     -------
     casadi.SX, shape (9 + aerodynamic states, 1)
     """
+    return _dynamics(x, d, p6, x_air, structure, section)[0]
+
+
+def _dynamics(x, d, p6, x_air, structure, section):
+    """``(xdot, F_body, M_body)`` of :func:`rhs_expression`; with ``wagner`` the loads include the
+    added-mass reaction at the solved accelerations."""
     p = p6[:len(PARAM_NAMES)]
     ixx, izz, ixz = (p6[len(PARAM_NAMES) + i] for i in range(3))
     m, iyy, g = _p(p, "body.mass_kg"), _p(p, "body.pitch_inertia_kgm2"), _p(p, "body.gravity_mps2")
     u, v, w, pr, q, rr, phi, th = (x[i] for i in range(8))
-    if section is not None and section.unsteady != "none":
-        raise ValueError("six degrees of freedom: aero.unsteady = 'wagner' (lag states and added mass in 3-D) is "
-                         "not written yet; use aero.unsteady = 'none'")
     Fb, Mb, e = body_loads(x if x_air is None else x_air, d, p, with_tail=bool(structure and structure.tail),
                            with_drag=bool(structure and structure.drag), section=section,
                            normalwash=getattr(structure, "normalwash", "angle"))
@@ -393,10 +399,17 @@ def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None, sec
         s = wing3.unpack_mass3(d[d.shape[0] - wing3.N_MASS3:])
         udot, vdot, wdot, pdot, qdot, rdot = ca.vertsplit(wing3.wing_corrected_accelerations(
             ca.vertcat(udot, vdot, wdot, pdot, qdot, rdot), x, s, m, J_b, g * ca.vertcat(-sth, sph * cth, cph * cth)))
+    if section is not None and section.unsteady == "wagner":  # the added mass on the left (6 x 6)
+        J_b = ca.blockcat([[ixx, 0, -ixz], [0, iyy, 0], [-ixz, 0, izz]])
+        nudot, react = am6.wagner_accelerations(ca.vertcat(udot, vdot, wdot, pdot, qdot, rdot),
+                                                x if x_air is None else x_air, d, p, e["sec"], section.data_offset,
+                                                m, J_b)
+        udot, vdot, wdot, pdot, qdot, rdot = ca.vertsplit(nudot)
+        Fb, Mb = Fb + react[:3], Mb + react[3:]
     turn = q * sph + rr * cph
     return ca.vertcat(udot, vdot, wdot, pdot, qdot, rdot,
                       pr + turn * ca.tan(th), q * cph - rr * sph, turn / cth,
-                      *([e["zdot"]] if section is not None and section.n_states else []))
+                      *([e["zdot"]] if section is not None and section.n_states else [])), Fb, Mb
 
 
 class SixDofModel:
@@ -411,9 +424,9 @@ class SixDofModel:
 
     def __init__(self, planar: BirdModel, sides: bool = False):
         structure = planar.structure
-        if getattr(structure, "unsteady", "none") != "none":
-            raise ValueError("six degrees of freedom: aero.unsteady = 'wagner' (lag states and added mass in 3-D) "
-                             "is not written yet; use aero.unsteady = 'none'")
+        if structure.unsteady == "wagner" and structure.wing_mass:
+            raise ValueError("six degrees of freedom: aero.unsteady = 'wagner' with wing masses is not supported; "
+                             "set wing.mass_kg = 0")
         self.planar = planar
         self.sides = bool(sides)
         n = len(PARAM_NAMES)
@@ -427,13 +440,18 @@ class SixDofModel:
         x = ca.SX.sym("x", 9 + n_sec)
         n_planar = (N_DATA + (unsteady.data_size(N_EL) if self.section else 0)) if self.sides \
             else planar.rhs.size1_in(1)
+        wag = structure.unsteady == "wagner"  # the 6-DOF added-mass data after the planar data
+        n_planar += am6.data_size(N_EL) if wag else 0
         d = ca.SX.sym("d", n_planar + (wing3.N_MASS3 if structure.wing_mass else 0))
         p6 = ca.SX.sym("p", len(names))
         self.structure = structure
         self.rhs = ca.Function("rhs6", [x, d, p6], [rhs_expression(x, d, p6, structure=structure, section=self.section)],
                                ["x", "d", "p"], ["xdot"])
-        Fb, Mb, _ = body_loads(x, d, p6[:n], with_tail=structure.tail, with_drag=structure.drag, section=self.section,
-                               normalwash=getattr(structure, "normalwash", "angle"))
+        if wag:  # the loads with the added-mass reaction at the solved accelerations
+            _, Fb, Mb = _dynamics(x, d, p6, None, structure, self.section)
+        else:
+            Fb, Mb, _ = body_loads(x, d, p6[:n], with_tail=structure.tail, with_drag=structure.drag,
+                                   section=self.section, normalwash=getattr(structure, "normalwash", "angle"))
         self.loads_d = ca.Function("loads6", [x, d, p6], [ca.vertcat(Fb, Mb)], ["x", "d", "p"], ["loads"])
         self.wing_sums = None
         if self.sides:
@@ -444,6 +462,8 @@ class SixDofModel:
             pre = ca.Function("pre6", [tm, pm], [planar.pre(tm, pb)], ["t", "p"], ["local"])
             loc = ca.MX.sym("local", planar.pre.size1_out(0))
             d_post = planar.post(loc, tm, pb)
+            if wag:
+                d_post = ca.vertcat(d_post, am6.extra_data_function(structure, loc.shape[0])(loc, tm, pb))
             if structure.wing_mass:  # the 3-D wing-mass sums after the planar data
                 self.wing_sums = wing3.sums_function(planar.mass_points)
                 d_post = ca.vertcat(d_post, self.wing_sums(tm, pb))
@@ -502,7 +522,7 @@ class SixDofModel:
         for phi = 0 they are the planar model's."""
         cache = self.__dict__.setdefault("_outputs", {})
         if n_states not in cache:
-            x = ca.SX.sym("x", n_states)
+            x = ca.SX.sym("x", n_states + len(self.state_names) - len(STATE_NAMES))  # then the aerodynamic states
             d = ca.SX.sym("d", self.rhs.size1_in(1))
             p = ca.SX.sym("p", self.ode.np)
             u, v, w, phi, th = x[0], x[1], x[2], x[6], x[7]

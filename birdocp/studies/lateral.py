@@ -43,6 +43,7 @@ from birdocp.engine.results import result_dict, serial
 from birdocp.engine.method import OrbitMethod
 from birdocp.engine.orbit_front import solve
 from birdocp.engine.orbit_result import OrbitResult
+from birdocp.studies.lateral_aero import body_share_modes, mirror_basis, mirror_names, split_indices
 from birdocp.studies.lateral_options import level_keywords
 from birdocp.studies.level import default_bounds
 from birdocp.studies.trim import check_physical
@@ -114,9 +115,14 @@ def _label_lateral(modes: list, roll: list) -> None:
             min(rest, key=lambda m: abs(abs(m["multiplier"]) - 1.0))["label"] = "spiral"
 
 
-def lateral_modes(monodromy, period_s: float, speed_mps: float) -> list[dict]:
+def lateral_modes(monodromy, period_s: float, speed_mps: float, air_names=()) -> list[dict]:
     """The lateral multipliers of a 9 x 9 monodromy (its (v, p, r, phi) block), each with its label,
     beats to double/halve and its eigenvector over (v, p, r, phi) scaled as the module says.
+
+    With aerodynamic states (``air_names``, the model's names after the 9) the monodromy is in the
+    mirror basis (:func:`birdocp.studies.lateral_aero.mirror_basis`) and the lateral block holds the
+    antisymmetric aerodynamic states too: of its modes the four whose scaled eigenvectors lie most in
+    (v, p, r, phi) are labelled by the rule of the module, the others ``aerodynamic``.
 
     Parameters
     ----------
@@ -126,20 +132,34 @@ def lateral_modes(monodromy, period_s: float, speed_mps: float) -> list[dict]:
         Period [s].
     speed_mps : float
         Mean forward speed [m/s] (scales the eigenvectors).
+    air_names : sequence of str
+        Names of the aerodynamic states (none by default).
 
     Returns
     -------
     list of dict
     """
-    idx = list(LATERAL)
-    names = [STATE_NAMES[i] for i in idx]
+    n_air = len(air_names)
+    _, idx = split_indices((), LATERAL, len(STATE_NAMES), n_air)
+    names = mirror_names(list(STATE_NAMES) + list(air_names), len(STATE_NAMES))
+    names = [names[i] for i in idx]
     lam, vec, _, _, _ = multipliers_info(np.asarray(monodromy)[np.ix_(idx, idx)], period_s)
-    modes = [_mode(lam[k], vec[:, k], names, _scales(names, period_s, speed_mps)) for k in range(len(lam))]
-    _label_lateral(modes, [abs(m["eigenvector"]["p_radps"]) for m in modes])
+    scale = _scales(names, period_s, speed_mps)
+    body = body_share_modes(vec * scale[:, None], len(LATERAL), len(LATERAL), lam) if n_air else range(len(lam))
+    modes = [_mode(lam[k], vec[:, k], names, scale) for k in range(len(lam))]
+    for k, m in enumerate(modes):
+        if n_air:  # the share of the scaled eigenvector's squared norm in (v, p, r, phi)
+            w = np.abs(vec[:, k] * scale) ** 2
+            m["body_share"] = float(w[:len(LATERAL)].sum() / w.sum())
+        if k not in body:
+            m["label"] = "aerodynamic"
+    lat = [m for m in modes if m["label"] != "aerodynamic"]
+    _label_lateral(lat, [abs(m["eigenvector"]["p_radps"]) / max(abs(m["eigenvector"][k]) for k in names[:4])
+                         if n_air else abs(m["eigenvector"]["p_radps"]) for m in lat])
     return modes
 
 
-def coupled_modes(monodromy, period_s: float, speed_mps: float) -> list[dict]:
+def coupled_modes(monodromy, period_s: float, speed_mps: float, air_names=()) -> list[dict]:
     """Every mode of a monodromy whose longitudinal and lateral blocks couple (an asymmetric gait: the
     8 states without the heading, or all 9), labelled by its eigenvector's content.
 
@@ -157,22 +177,30 @@ def coupled_modes(monodromy, period_s: float, speed_mps: float) -> list[dict]:
         Period [s].
     speed_mps : float
         Mean forward speed [m/s].
+    air_names : sequence of str
+        Names of the aerodynamic states after the body states: the modes beyond the body states' count
+        whose scaled eigenvectors lie least in the body states are ``aerodynamic``, the shares of the
+        others taken over their body components.
 
     Returns
     -------
     list of dict
     """
     M = np.asarray(monodromy)
-    names = list(STATE_NAMES[:M.shape[0]])
+    nb = M.shape[0] - len(air_names)
+    names = list(STATE_NAMES[:nb]) + list(air_names)
     lam, vec, _, _, _ = multipliers_info(M, period_s)
     scale = _scales(names, period_s, speed_mps)
-    modes, lat = [], [i for i, k in enumerate(names) if STATE_NAMES.index(k) in LATERAL]
+    body = body_share_modes(vec * scale[:, None], nb, nb, lam) if len(air_names) else range(len(lam))
+    modes, lat = [], [i for i, k in enumerate(names[:nb]) if STATE_NAMES.index(k) in LATERAL]
     for k in range(len(lam)):
         m = _mode(lam[k], vec[:, k], names, scale)
-        v = np.array(list(m["eigenvector"].values()))
+        v = np.array(list(m["eigenvector"].values()))[:nb]
         m["lateral_share"] = float(np.sum(np.abs(v[lat]) ** 2) / np.sum(np.abs(v) ** 2))
         m["roll"] = float(abs(v[names.index("p_radps")]) / np.max(np.abs(v[lat])))
         m["label"] = "lateral_real" if m["lateral_share"] >= LATERAL_SHARE_MIN else "longitudinal"
+        if k not in body:
+            m["label"] = "aerodynamic"
         modes.append(m)
     lateral = [m for m in modes if m["label"] == "lateral_real"]
     _label_lateral(lateral, [m.pop("roll") for m in lateral])
@@ -277,7 +305,8 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     ----------
     cfg : Config, optional
         The configuration (default: the paper's reference case). The static stall section, the tail, wing masses and
-        the optional drag are taken in 3-D (``dynamic-stall`` and ``wagner`` are refused).
+        the optional drag are taken in 3-D, so are ``dynamic-stall`` and ``wagner`` (their aerodynamic states
+        split into symmetric and antisymmetric parts, :mod:`birdocp.studies.lateral_aero`).
     inertia : LateralInertia, optional
         Roll and yaw inertia [kg m^2]; default ``cfg.model``'s.
     level : bool
@@ -307,14 +336,14 @@ def lateral_trim(cfg: Config | None = None, inertia: LateralInertia | None = Non
     p6 = six.params(param_vector(cfg), inertia, side_vector(cfg) if asym else None)
     method = method or OrbitMethod(**{"points": cfg.solve.points, "steps_per_period": cfg.solve.steps_per_period,
                                            "max_iter": cfg.solve.max_iter, "tol": cfg.solve.tol or None, **method_over})
-    guess = _start_state(cfg, method) if x_guess is None else x_guess
+    guess = _start_state(cfg, method) if x_guess is None else _with_aero_states(cfg, x_guess)
     outputs = six.flight_outputs(8 if asym else 9)
     free, means = {}, []
     if level:
         free = {AMPLITUDE_KEY: tuple(bounds) if bounds is not None else default_bounds(cfg, AMPLITUDE_KEY)}
         means = [MeanCondition(outputs["vertical_speed_mps"], float(climb_rate_mps), "vertical_speed_mps")]
     problem = OrbitProblem(ode=six.ode_no_heading if asym else six.ode, p=p6,
-                           x_guess=list(guess)[:8] if asym else guess, free=free, means=means,
+                           x_guess=list(guess)[:HEADING] + list(guess)[HEADING + 1:] if asym else guess, free=free, means=means,
                            outputs={k: f for k, f in outputs.items() if not (level and k == "vertical_speed_mps")})
     ws = getattr(warm_start, "cycle", warm_start)
     cyc = check_physical(solve(problem, method, warm_start=ws))  # u <= 0 somewhere: not a forward flight, as the planar trim
@@ -330,15 +359,28 @@ def _start_state(cfg: Config, method: OrbitMethod) -> list[float]:
     :func:`birdocp.studies.trim.linear_section_start`) and, with ``dynamic-stall``, the separation
     states on the quasi-steady manifold there."""
     x4 = cfg.solve.initial_guess
-    if cfg.aero.section == "linear":
+    if cfg.aero.section == "linear" and cfg.aero.unsteady == "none":
         return embed_planar_state(x4)
-    from birdocp.bird.model import get_model
     from birdocp.studies.trim import linear_section_start
 
-    lin = linear_section_start(cfg, points=method.points, steps_per_period=method.steps_per_period)
-    x4 = x4 if lin is None else lin
+    if cfg.aero.section != "linear":
+        lin = linear_section_start(cfg, points=method.points, steps_per_period=method.steps_per_period)
+        x4 = x4 if lin is None else lin
+    return _with_aero_states(cfg, embed_planar_state(x4))
+
+
+def _with_aero_states(cfg: Config, x9) -> list[float]:
+    """A 9-state start completed with the aerodynamic states (lag, separation) on the quasi-steady
+    manifold of its planar part (the planar model's ``complete_state``; the start is symmetric); a
+    start that has them is kept."""
+    from birdocp.bird.model import get_model
+
+    x9 = [float(v) for v in x9]
+    n_air = len(sixdof_model(cfg).state_names) - len(STATE_NAMES)
+    if not n_air or len(x9) != len(STATE_NAMES):
+        return x9
     m = get_model(cfg)
-    return embed_planar_state(x4) + [float(v) for v in m.complete_state(x4, m.p0)[4:]]
+    return x9 + [float(v) for v in m.complete_state([x9[i] for i in LONGITUDINAL], m.p0)[4:]]
 
 
 def solve_point(cfg: Config, *, level: bool = False, level_options: dict | None = None, warm_start=None,
@@ -390,7 +432,8 @@ def heading_trajectory(six, cycle, steps_per_period: int | None = None):
     """
     from birdocp.engine.integrate import simulate as rk4
 
-    x0 = list(np.asarray(cycle.x0, float))[:8] + [0.0]
+    x0 = list(np.asarray(cycle.x0, float))
+    x0 = x0[:HEADING] + [0.0] + x0[HEADING + (len(x0) == len(six.ode.state_names)):]
     steps = int(steps_per_period or cycle.method["steps_per_period"])
     return rk4(six.ode, x0, cycle.p, steps_per_period=steps)
 
@@ -404,7 +447,8 @@ def _split_asymmetric(cfg, six, cyc, method, inertia, amplitude) -> LateralTrimR
     lon, lat = list(LONGITUDINAL), list(LATERAL)
     coupling = float(max(np.abs(M[np.ix_(lon, lat)]).max(), np.abs(M[np.ix_(lat, lon)]).max()))
     _, X = heading_trajectory(six, cyc, method.steps_per_period)
-    modes = coupled_modes(M, six.period_s, float(np.mean(X[:, 0])))
+    modes = coupled_modes(M, six.period_s, float(np.mean(X[:, 0])), six.state_names[len(STATE_NAMES):])
+    modes = [m for m in modes if m["label"] != "aerodynamic"]  # in ``multipliers`` only
     validity = periodic_validity(cfg, cyc.x0, p=cyc.p, steps_per_period=method.steps_per_period,
                                  ode=six.ode_no_heading)
     return LateralTrimResult(
@@ -422,13 +466,18 @@ def _split(cfg, cyc, T, method, inertia, amplitude) -> LateralTrimResult:
         return LateralTrimResult(cyc, nan, nan, nan, float("nan"), float("nan"), [], _inertia_dict(inertia),
                                  amplitude)
     M = np.asarray(cyc.monodromy)
-    lon, lat = list(LONGITUDINAL), list(LATERAL) + [HEADING]
+    air = tuple(sixdof_model(cfg).state_names[len(STATE_NAMES):])
+    B = mirror_basis(len(STATE_NAMES), len(air))  # aerodynamic states: symmetric and antisymmetric parts
+    M = B @ M @ B.T
+    lon, lat = split_indices(LONGITUDINAL, list(LATERAL) + [HEADING], len(STATE_NAMES), len(air))
     coupling = float(max(np.abs(M[np.ix_(lon, lat)]).max(), np.abs(M[np.ix_(lat, lon)]).max()))
     speed = float(np.mean(cyc.trajectory_x[:, 0])) if cyc.trajectory_x is not None else float(cyc.x0[0])
-    modes = lateral_modes(M, T, speed)
+    modes = lateral_modes(M, T, speed, air)
     p = param_vector(cfg)
     p[list(PARAM_NAMES).index(AMPLITUDE_KEY)] = amplitude
-    validity = periodic_validity(cfg, np.asarray(cyc.x0)[lon], p=p, steps_per_period=method.steps_per_period)
+    x0 = np.asarray(cyc.x0)
+    validity = periodic_validity(cfg, np.concatenate([x0[list(LONGITUDINAL)], x0[len(STATE_NAMES):]]), p=p,
+                                 steps_per_period=method.steps_per_period)
     return LateralTrimResult(
         cycle=cyc, multipliers=sort_multipliers(cyc.multipliers),
         longitudinal_multipliers=sort_multipliers(np.linalg.eigvals(M[np.ix_(lon, lon)])),

@@ -322,6 +322,18 @@ def _wind_of(st, x0, N, p_cyc, side_gust, gusts, wind_mps):
     return np.concatenate([side, planar]), beat_m, spans
 
 
+def _checked_model(cfg):
+    """The per-side 6-DOF model of ``cfg``; one line for a model with lag or separation states (the
+    stepper carries the 9 body states)."""
+    from birdocp.bird.sixdof import sixdof_model
+
+    if cfg.aero.unsteady != "none" or cfg.aero.section == "dynamic-stall":
+        raise ConfigError("aero.unsteady" if cfg.aero.unsteady != "none" else "aero.section",
+                          "the six-degree-of-freedom simulation carries the 9 body states only (no lag or separation "
+                          "states yet): use trim, or aero.unsteady = 'none' with aero.section = 'linear' or 'stall'")
+    return sixdof_model(cfg, sides=True)
+
+
 def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | None = None, perturbation=None,
                      side_gust: SideGust | None = None, gusts=(), wind_mps=(0.0, 0.0), controller=None,
                      progress=None) -> LateralSimulation:
@@ -358,11 +370,9 @@ def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | No
     -------
     LateralSimulation
     """
-    from birdocp.bird.sixdof import sixdof_model
-
     if int(beats) < 1:
         raise ConfigError("--beats", f"must be >= 1, got {beats}")
-    six = sixdof_model(cfg, sides=True)
+    six = _checked_model(cfg)
     x0 = np.zeros(9)
     x0[:len(np.ravel(x0_cycle))] = np.ravel(x0_cycle)
     dx0 = np.zeros(9) if perturbation is None else np.asarray(perturbation, float).ravel()
