@@ -340,6 +340,9 @@ def _six_dof_inputs(args: argparse.Namespace):
 def _cmd_lateral_simulate(args: argparse.Namespace, command_line: list[str], cfg, t0: float) -> int:
     """``birdocp simulate`` with a 6-DOF configuration: one run folder (result.json, arrays.npz,
     simulation.png); the exit code."""
+    from birdocp.studies.lateral_simulate import check_lateral_simulation_config
+
+    check_lateral_simulation_config(cfg)
     dx0, gust, gusts, wind = _six_dof_inputs(args)
     ctl, sim_cfg, ctl_result = _check_beats_and_controller(args, cfg)
     with cli.run_folder(args, "simulate", command_line) as run:

@@ -322,15 +322,32 @@ def _wind_of(st, x0, N, p_cyc, side_gust, gusts, wind_mps):
     return np.concatenate([side, planar]), beat_m, spans
 
 
-def _checked_model(cfg):
-    """The per-side 6-DOF model of ``cfg``; one line for a model with lag or separation states (the
-    stepper carries the 9 body states)."""
-    from birdocp.bird.sixdof import sixdof_model
+def check_lateral_simulation_config(cfg) -> None:
+    """Refuse, before anything is built, a 6-DOF configuration the simulation cannot march.
 
+    Parameters
+    ----------
+    cfg : birdocp.bird.config.Config
+        The 6-DOF configuration to simulate.
+
+    Returns
+    -------
+    None
+        Returns when the model has the 9 body states only; raises
+        :class:`~birdocp.bird.config.ConfigError` naming ``aero.unsteady`` or ``aero.section`` otherwise
+        (the stepper does not march the lag and separation states of ``wagner`` and ``dynamic-stall``).
+    """
     if cfg.aero.unsteady != "none" or cfg.aero.section == "dynamic-stall":
         raise ConfigError("aero.unsteady" if cfg.aero.unsteady != "none" else "aero.section",
                           "the six-degree-of-freedom simulation carries the 9 body states only (no lag or separation "
                           "states yet): use trim, or aero.unsteady = 'none' with aero.section = 'linear' or 'stall'")
+
+
+def _checked_model(cfg):
+    """The per-side 6-DOF model of ``cfg``, after :func:`check_lateral_simulation_config`."""
+    from birdocp.bird.sixdof import sixdof_model
+
+    check_lateral_simulation_config(cfg)
     return sixdof_model(cfg, sides=True)
 
 
