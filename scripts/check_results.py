@@ -100,6 +100,8 @@ REGISTRY = [
           recorded=[("lateral/result.json", "wall_s")]),
     entry("lateral-masses", "scripts/lateral_masses.py", "lateral/masses", ["lateral/masses/result.json"],
           recorded=[("lateral/masses/result.json", "wall_s")]),
+    entry("lateral-stall", "scripts/lateral_stall.py", "lateral/stall", ["lateral/stall/result.json"],
+          recorded=[("lateral/stall/result.json", "wall_s")]),
     entry("control", "scripts/control_study.py", "control", ["control/result.json"],
           recorded=[("control/result.json", "wall_s")]),
     entry("inertia", "scripts/inertia_study.py", "inertia", ["inertia/result.json"],
