@@ -36,6 +36,7 @@ from birdocp.engine.cache import clear_caches
 from birdocp.engine.floquet import FloquetResult, floquet_from_jacobians
 from birdocp.engine.lm import levenberg_marquardt
 from birdocp.engine.newton_picard import newton_picard
+from birdocp.engine.step_jacobians import batched_segment_jacobians
 from birdocp.engine.nlp import run_ipopt
 from birdocp.engine.method import OrbitMethod
 from birdocp.engine.orbit_result import OrbitResult
@@ -157,7 +158,8 @@ def _solve(problem, method, warm_start):
         tf = time.perf_counter()
         # Newton-Picard never formed the full blocks: one variational pass gives them, without the
         # second pass of the one-period Jacobian that only checks them (NaN)
-        _attach_floquet(res, b, z, *ev[1:], check=method.solver != "newton-picard")
+        np_ = method.solver == "newton-picard"
+        _attach_floquet(res, b, z, *ev[1:], check=not np_, batched=np_)
         wall["floquet"] = time.perf_counter() - tf
     wall["total"] = time.perf_counter() - t_total
     if method.error_estimate and res.success:
@@ -356,13 +358,18 @@ def _result(problem, method, b, z, p_init, D_init, outcome, wall):
     return res, (g, X, Dn, ca.DM(pfull))
 
 
-def _attach_floquet(res, b, z, X, Dn, pd, check=True):
+def _attach_floquet(res, b, z, X, Dn, pd, check=True, batched=False):
     """Multipliers, eigenvectors and exponents at z (the solver's last segment blocks when at z);
-    ``check``: compare the monodromy with the one-period Jacobian (a second variational pass)."""
+    ``check``: compare the monodromy with the one-period Jacobian (a second variational pass);
+    ``batched``: without the solver's blocks, the segment Jacobians from the stage Jacobians in batch
+    (:func:`birdocp.engine.step_jacobians.batched_segment_jacobians`) instead of the variational pass."""
     grid, nx, S = b.grid, b.nx, b.S
     try:
         Js = b.blocks_at(z)  # IPOPT's (or LM's) last Jacobian evaluation, when at z
-        if Js is None:
+        if Js is None and batched:  # the stage Jacobians in batch, chained in numpy
+            Js = batched_segment_jacobians(grid, X[:S].T, res.trajectory_x[1:].T, Dn, pd)
+            x1 = res.trajectory_x[grid.n]
+        elif Js is None:
             Xe, Jcat = grid.segment_jacobians(ca.DM(X[:S].T), Dn, pd)
             Jcat = np.asarray(Jcat)
             Js = [Jcat[:, i * nx:(i + 1) * nx] for i in range(S)]
