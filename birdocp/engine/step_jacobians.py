@@ -74,7 +74,7 @@ def _build(grid: RK4Grid) -> ca.Function:
     _, stages = rk4_update(ode.rhs, x, D3, grid.h, p)
     F = ca.horzcat(*[jac(xs, D3[:, c], p) for xs, c in zip(stages, (0, 1, 1, 2))])
     step = ca.Function("rk4_stage_jacobians", [x, D3, p], [F], ["x", "D3", "p"], ["F"])
-    return step.map(grid.n)
+    return step.map("rk4_stage_jacobians_segment", "serial", grid.n, [2], [])
 
 
 def _step_jacobians(F: np.ndarray, nx: int, n: int, h: float) -> np.ndarray:
@@ -87,6 +87,22 @@ def _step_jacobians(F: np.ndarray, nx: int, n: int, h: float) -> np.ndarray:
     K3 = S[:, 2] @ (eye + h / 2 * K2)
     K4 = S[:, 3] @ (eye + h * K3)
     return eye + h / 6 * (K1 + 2 * K2 + 2 * K3 + K4)
+
+
+def _dense_call(fn: ca.Function, args) -> np.ndarray:
+    """``fn(*args)`` (dense numpy inputs, one dense output) through CasADi's function buffer: the
+    output written straight into a numpy array (``DM.full()`` of the bird's 52 x 7696 stage Jacobians
+    of a segment took 29 ms, a fifth of their evaluation)."""
+    ins = [np.ascontiguousarray(np.asarray(a, float).ravel(order="F")) for a in args]
+    if not fn.sparsity_out(0).is_dense() or any(fn.nnz_in(i) != a.size for i, a in enumerate(ins)):
+        return fn(*args).full()
+    res = np.empty(fn.nnz_out(0))
+    buf, evaluate = fn.buffer()
+    for i, a in enumerate(ins):
+        buf.set_arg(i, memoryview(a))
+    buf.set_res(0, memoryview(res))
+    evaluate()
+    return res.reshape(fn.size1_out(0), fn.size2_out(0), order="F")
 
 
 def batched_segment_jacobians(grid: RK4Grid, points, trajectory, D, p) -> list:
@@ -115,11 +131,11 @@ def batched_segment_jacobians(grid: RK4Grid, points, trajectory, D, p) -> list:
     """
     nx, n, S = grid.ode.nx, grid.n, grid.S
     pts, Xt = np.asarray(points, float), np.asarray(trajectory, float)
-    fn, pd = stage_jacobians(grid), ca.DM(p)
+    fn, pv = stage_jacobians(grid), np.asarray(p, float).ravel()
     out = []
     for i, Di in enumerate(np.split(np.asarray(D, float), S, axis=1)):
         starts = np.column_stack([pts[:, i], Xt[:, i * n:(i + 1) * n - 1]])
-        A = _step_jacobians(fn(starts, Di, pd).full(), nx, n, grid.h)
+        A = _step_jacobians(_dense_call(fn, (starts, Di, pv)), nx, n, grid.h)
         J = A[0]
         for k in range(1, n):
             J = A[k] @ J
