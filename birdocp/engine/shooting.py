@@ -156,8 +156,8 @@ def _solve(problem, method, warm_start):
     res, ev = _result(problem, method, b, z, p_init, D_init, (status, success, message, iters, hist), wall)
     if np.all(np.isfinite(z)) and np.all(np.isfinite(ev[0])):  # also after a failure: useful for diagnosis
         tf = time.perf_counter()
-        # Newton-Picard never formed the full blocks: one variational pass gives them, without the
-        # second pass of the one-period Jacobian that only checks them (NaN)
+        # Newton-Picard never formed the full blocks: the stage Jacobians in batch give them
+        # (engine.step_jacobians), without the second pass of the one-period Jacobian that only checks them (NaN)
         np_ = method.solver == "newton-picard"
         _attach_floquet(res, b, z, *ev[1:], check=not np_, batched=np_)
         wall["floquet"] = time.perf_counter() - tf
