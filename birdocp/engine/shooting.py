@@ -358,6 +358,16 @@ def _result(problem, method, b, z, p_init, D_init, outcome, wall):
     return res, (g, X, Dn, ca.DM(pfull))
 
 
+def _batched_or_none(grid, points, trajectory, Dn, pd):
+    """:func:`birdocp.engine.step_jacobians.batched_segment_jacobians`, or None when its graphs cannot
+    be built or evaluated (e.g. a right-hand side without SX derivatives): the variational pass then."""
+    try:
+        return batched_segment_jacobians(grid, points, trajectory, Dn, pd)
+    except Exception as e:  # noqa: BLE001 - any failure: the variational pass
+        interrupts.check_from(e)
+        return None
+
+
 def _attach_floquet(res, b, z, X, Dn, pd, check=True, batched=False):
     """Multipliers, eigenvectors and exponents at z (the solver's last segment blocks when at z);
     ``check``: compare the monodromy with the one-period Jacobian (a second variational pass);
@@ -367,9 +377,8 @@ def _attach_floquet(res, b, z, X, Dn, pd, check=True, batched=False):
     try:
         Js = b.blocks_at(z)  # IPOPT's (or LM's) last Jacobian evaluation, when at z
         if Js is None and batched:  # the stage Jacobians in batch, chained in numpy
-            Js = batched_segment_jacobians(grid, X[:S].T, res.trajectory_x[1:].T, Dn, pd)
-            x1 = res.trajectory_x[grid.n]
-        elif Js is None:
+            Js = _batched_or_none(grid, X[:S].T, res.trajectory_x[1:].T, Dn, pd)
+        if Js is None:
             Xe, Jcat = grid.segment_jacobians(ca.DM(X[:S].T), Dn, pd)
             Jcat = np.asarray(Jcat)
             Js = [Jcat[:, i * nx:(i + 1) * nx] for i in range(S)]
