@@ -38,6 +38,7 @@ from birdocp.engine.floquet import FloquetResult, floquet_from_jacobians
 from birdocp.engine.lm import levenberg_marquardt
 from birdocp.engine.newton_picard import newton_picard
 from birdocp.engine.newton_picard_free import newton_picard_free
+from birdocp.engine.step_jacobians import batched_segment_jacobians
 from birdocp.engine.nlp import run_ipopt
 from birdocp.engine.method import OrbitMethod
 from birdocp.engine.orbit_result import OrbitResult
@@ -157,9 +158,10 @@ def _solve(problem, method, warm_start):
     res, ev = _result(problem, method, b, z, p_init, D_init, (status, success, message, iters, hist), wall)
     if np.all(np.isfinite(z)) and np.all(np.isfinite(ev[0])):  # also after a failure: useful for diagnosis
         tf = time.perf_counter()
-        # Newton-Picard never formed the full blocks: one variational pass gives them, without the
-        # second pass of the one-period Jacobian that only checks them (NaN)
-        _attach_floquet(res, b, z, *ev[1:], check=method.solver != "newton-picard")
+        # Newton-Picard never formed the full blocks: the stage Jacobians in batch give them
+        # (engine.step_jacobians), without the second pass of the one-period Jacobian that only checks them (NaN)
+        np_ = method.solver == "newton-picard"
+        _attach_floquet(res, b, z, *ev[1:], check=not np_, batched=np_)
         wall["floquet"] = time.perf_counter() - tf
     wall["total"] = time.perf_counter() - t_total
     if method.error_estimate and res.success:
@@ -363,12 +365,26 @@ def _result(problem, method, b, z, p_init, D_init, outcome, wall):
     return res, (g, X, Dn, ca.DM(pfull))
 
 
-def _attach_floquet(res, b, z, X, Dn, pd, check=True):
+def _batched_or_none(grid, points, trajectory, Dn, pd):
+    """:func:`birdocp.engine.step_jacobians.batched_segment_jacobians`, or None when its graphs cannot
+    be built or evaluated (e.g. a right-hand side without SX derivatives): the variational pass then."""
+    try:
+        return batched_segment_jacobians(grid, points, trajectory, Dn, pd)
+    except Exception as e:  # noqa: BLE001 - any failure: the variational pass
+        interrupts.check_from(e)
+        return None
+
+
+def _attach_floquet(res, b, z, X, Dn, pd, check=True, batched=False):
     """Multipliers, eigenvectors and exponents at z (the solver's last segment blocks when at z);
-    ``check``: compare the monodromy with the one-period Jacobian (a second variational pass)."""
+    ``check``: compare the monodromy with the one-period Jacobian (a second variational pass);
+    ``batched``: without the solver's blocks, the segment Jacobians from the stage Jacobians in batch
+    (:func:`birdocp.engine.step_jacobians.batched_segment_jacobians`) instead of the variational pass."""
     grid, nx, S = b.grid, b.nx, b.S
     try:
         Js = b.blocks_at(z)  # IPOPT's (or LM's) last Jacobian evaluation, when at z
+        if Js is None and batched:  # the stage Jacobians in batch, chained in numpy
+            Js = _batched_or_none(grid, X[:S].T, res.trajectory_x[1:].T, Dn, pd)
         if Js is None:
             Xe, Jcat = grid.segment_jacobians(ca.DM(X[:S].T), Dn, pd)
             Jcat = np.asarray(Jcat)

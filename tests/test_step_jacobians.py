@@ -1,0 +1,62 @@
+"""The segment Jacobians from the stage Jacobians in batch (engine/step_jacobians.py) are the
+variational pass's (RK4Grid.segment_jacobians), to round-off: a second method for the same exact
+derivative of the discrete map, on a system whose right-hand side Jacobian is built by forward AD and
+one where reverse AD has fewer instructions (pairwise interactions)."""
+import casadi as ca
+import numpy as np
+import pytest
+
+from birdocp.engine.integrate import RK4Grid
+from birdocp.engine.ode import ODE
+from birdocp.engine.step_jacobians import batched_segment_jacobians, stage_jacobians
+
+OMEGA = 1.3
+
+
+def duffing_with_lags(n=4, coupled=False):
+    """A forced Duffing oscillator with n lags driven by it and feeding back on it; ``coupled``: the
+    lags also interact pairwise (``sum_j sin(y_i - y_j)``: nodes of two states that each reach one
+    equation, where reverse AD has fewer instructions than forward AD)."""
+    x, t, p = ca.SX.sym("x", 2 + n), ca.SX.sym("t"), ca.SX.sym("p", 2)
+    y = x[2:]
+    acc = -p[0] * x[1] - x[0] - x[0] ** 3 - 0.3 * ca.sum1(y) + p[1] * ca.cos(OMEGA * t)
+    ydot = [-(3.0 + i) * (y[i] - x[0]) for i in range(n)]
+    if coupled:
+        ydot = [v + sum(0.2 * ca.sin(y[i] - y[j]) * ca.cos(y[j]) for j in range(n) if j != i) for i, v in enumerate(ydot)]
+    return ODE.from_rhs(ca.Function("f", [x, t, p], [ca.vertcat(x[1], acc, *ydot)]), 2 * np.pi / OMEGA)
+
+
+@pytest.mark.parametrize("coupled", [False, True])
+def test_batched_segment_jacobians_are_the_variational_passes(coupled):
+    ode = duffing_with_lags(6, coupled)
+    grid = RK4Grid(ode, 120, 4)
+    p = np.array([0.25, 0.6])
+    D = grid.blocks_numeric(0.0, p)
+    x0 = np.linspace(-0.4, 0.5, ode.nx)
+    X = np.asarray(grid.period_map(ca.DM(x0), D, ca.DM(p))[1])
+    # segment starts slightly off the trajectory (as shooting points before convergence), each
+    # segment's trajectory integrated from its own start
+    pts = np.column_stack([x0] + [X[:, grid.n * (i + 1) - 1] + 1e-3 for i in range(grid.S - 1)])
+    _, Xt, _ = (np.asarray(v) for v in grid.segments(ca.DM(pts), D, ca.DM(p)))
+    new = batched_segment_jacobians(grid, pts, Xt, D, p)
+    Jcat = np.asarray(grid.segment_jacobians(ca.DM(pts), D, ca.DM(p))[1])
+    old = [Jcat[:, i * ode.nx:(i + 1) * ode.nx] for i in range(grid.S)]
+    assert len(new) == grid.S
+    for a, b in zip(new, old):
+        assert np.max(np.abs(a - b)) <= 1e-12 * max(1.0, np.max(np.abs(b)))
+    assert np.max(np.abs(np.linalg.eigvals(np.linalg.multi_dot(new[::-1]))
+                         - np.linalg.eigvals(np.linalg.multi_dot(old[::-1])))) < 1e-12
+    assert stage_jacobians(grid) is stage_jacobians(grid)  # built once per grid
+
+
+def test_the_two_systems_cover_forward_and_reverse_ad():
+    """The cheaper AD mode differs between the two systems above (so both branches are exercised)."""
+    cheaper = []
+    for coupled in (False, True):
+        ode = duffing_with_lags(6, coupled)
+        x, d, p = ca.SX.sym("x", ode.nx), ca.SX.sym("d", 1), ca.SX.sym("p", 2)
+        f = ode.rhs(x, d, p)
+        fwd = ca.Function("fwd", [x, d, p], [ca.jacobian(f, x)]).n_instructions()
+        rev = ca.Function("rev", [x, d, p], [ca.jtimes(f, x, ca.DM.eye(ode.nx), True)]).n_instructions()
+        cheaper.append("reverse" if rev < fwd else "forward")
+    assert cheaper == ["forward", "reverse"]
