@@ -19,7 +19,7 @@ import numpy as np
 from birdocp.bird.config import JOINT_NAMES, Config, get_value, with_values
 from birdocp.io.files import atomic_write_json, atomic_write_text
 from birdocp.bird.kinematics import joint_angles
-from birdocp.studies.optimize import optimize_stability
+from birdocp.studies.optimize import COARSE_STEPS, optimize_stability
 from script_common import parse_with_out, script_parser
 
 
@@ -80,6 +80,7 @@ def stability_optimum(out: Path, reuse: bool = False, method: str = "reduced"):
         d = res.to_dict()
         d["script_wall_s"] = time.perf_counter() - t0
         d["validity_source"] = "optimize_stability"
+        d["coarse_steps"] = COARSE_STEPS[method]  # the method's coarse grid (RK4 steps per period)
     cfg_best = with_values(Config(), {**d["free"], AMP: d["amplitude_deg"]})
     N = 148
     if d.get("validity") is None or reuse:
@@ -116,7 +117,8 @@ def stability_optimum(out: Path, reuse: bool = False, method: str = "reduced"):
                  f"next to a fold of cycles.")
     stable = bool(np.max(np.abs(lam_best)) < 1)
     text = ("# The most stable level-flight gait within the default bounds\n\n" + "\n".join(rows) + "\n\n"
-            f"IPOPT: {d['status']}, {d['iterations']} iterations (coarse 48-step grid, then 148 steps), "
+            f"IPOPT ({d.get('method', 'full')} method): {d['status']}, {d['iterations']} iterations (coarse "
+            f"{d.get('coarse_steps', 48)}-step grid, then 148 steps), "
             f"{d['wall_s'].get('total', 0):.0f} s. Verification: multiple shooting (5 points) from the optimum's "
             f"state converges ({v.get('trim_success')}) to the same cycle (x0 within {v.get('trim_x0_difference'):.1e}) "
             f"and multipliers within {v.get('max_multiplier_difference'):.1e} (numpy eigenvalues), mean vertical "

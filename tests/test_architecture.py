@@ -1,5 +1,11 @@
 """The package's structure: the layers hold, no module reaches into another's private names, no
-import cycle, public functions are documented, ruff finds nothing."""
+import cycle, public functions are documented, ruff finds nothing.
+
+Issue 27's "Done when", item by item: one Levenberg-Marquardt and one IPOPT front in the engine
+(test_engine_has_one_levenberg_marquardt_and_one_ipopt_front), no package function over 80 lines
+(test_package_functions_fit_on_a_screen_except_the_known_offenders, LONG_FUNCTION_ALLOWED empty), no
+module over 600 lines (test_modules_are_small), a non-empty public API that imports (test_public_faces),
+the README under 200 lines (test_readme_is_a_front_page)."""
 from __future__ import annotations
 
 import ast
@@ -206,6 +212,52 @@ def test_engine_has_one_levenberg_marquardt_and_one_ipopt_front():
     assert _calls_with_keyword(engine / "nlp.py", "lbg") or "lbg" in (engine / "nlp.py").read_text(encoding="utf-8")
     assert not lm_copies, f"a second Levenberg-Marquardt in the engine: {lm_copies}"
     assert not fronts, f"IPOPT run outside engine/nlp.py: {fronts}"
+    runners = solver_runners(sorted(engine.rglob("*.py")))
+    assert runners, "no LM or IPOPT runner found: the name patterns of solver_runners are stale"
+    stray = [r for r in runners if not r.endswith(("-> lm.levenberg_marquardt", "-> nlp.run_ipopt"))]
+    assert not stray, f"a solver runner of the engine that is not the one LM / IPOPT front: {stray}"
+
+
+RUNNER_NAMES = {"lm": re.compile(r"(^|_)lm($|_)|levenberg|marquardt", re.IGNORECASE),
+                "ipopt": re.compile(r"run_ipopt", re.IGNORECASE)}
+FRONTS = {"lm": ("lm.py", "levenberg_marquardt"), "ipopt": ("nlp.py", "run_ipopt")}
+
+
+def solver_runners(paths) -> list:
+    """``"path:name -> module.front"`` for every engine function named as a Levenberg-Marquardt or IPOPT
+    runner (RUNNER_NAMES) outside the front's own module, where ``front`` is what it reaches through
+    the calls of its module (``-> none`` when it does not reach its front: a second solver loop)."""
+    out = []
+    for path in paths:
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        funcs = {n.name: n for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))}
+
+        def reaches(name, front, seen):
+            calls = {c.func.id if isinstance(c.func, ast.Name) else getattr(c.func, "attr", "")
+                     for c in ast.walk(funcs[name]) if isinstance(c, ast.Call)}
+            return front in calls or any(reaches(c, front, seen | {c}) for c in calls - seen if c in funcs)
+
+        for name in funcs:
+            for kind, pattern in RUNNER_NAMES.items():
+                module, front = FRONTS[kind]
+                if pattern.search(name) and path.name != module:
+                    hit = f"{module[:-3]}.{front}" if reaches(name, front, {name}) else "none"
+                    out.append(f"{path.relative_to(ROOT)}:{name} -> {hit}")
+    return out
+
+
+def test_solver_runner_check_finds_a_second_lm(tmp_path):
+    """The checker itself: a runner that reaches the front is fine, a hand-written LM loop is not."""
+    (tmp_path / "a.py").write_text("def _run_lm(s, z):\n    return _inner(s, z)\n\n\n"
+                                   "def _inner(s, z):\n    return levenberg_marquardt(s, z)\n\n\n"
+                                   "def my_lm(J, g, lam):\n    return -(J.T @ J + lam) @ g\n")
+    global ROOT
+    root, ROOT = ROOT, tmp_path
+    try:
+        found = solver_runners([tmp_path / "a.py"])
+    finally:
+        ROOT = root
+    assert found == ["a.py:_run_lm -> lm.levenberg_marquardt", "a.py:my_lm -> none"]
 
 
 def _engine_classes():
@@ -238,6 +290,15 @@ def test_engine_has_one_ode_orbit_problem_method_front_and_result():
     assert odes == ["birdocp/engine/ode.py:ODE"], odes
     assert [n for n in engine.__all__ if n.startswith("solve")] == ["solve"]
     assert engine.API["orbits"]["solve"] == "birdocp.engine.orbit_front"
+
+
+MAX_README_LINES = 200
+
+
+def test_readme_is_a_front_page():
+    """README.md stays a front page (issue 27: under MAX_README_LINES lines; the manual is docs/)."""
+    n = len((ROOT / "README.md").read_text(encoding="utf-8").splitlines())
+    assert n < MAX_README_LINES, f"README.md has {n} lines (under {MAX_README_LINES}: move details to docs/)"
 
 
 def test_modules_are_small():
