@@ -47,7 +47,7 @@ from birdocp.studies.trim import check_physical
 
 __all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "coupled_modes", "LATERAL_SHARE_MIN", "beats_to_double", "lateral_sensitivities",
            "LATERAL_SENSITIVITY_KEYS", "heading_trajectory", "TAIL_SENSITIVITY_KEY", "level_keywords",
-           "solve_point"]
+           "solve_point", "eigenvector_scales"]
 
 
 def beats_to_double(multiplier: complex) -> float:
@@ -76,9 +76,24 @@ LATERAL_SHARE_MIN = 0.5
 eigenvector's squared norm lies in (v, p, r, phi) (:func:`coupled_modes`)."""
 
 
-def _scales(names, period_s: float, speed_mps: float) -> np.ndarray:
+def eigenvector_scales(names, period_s: float, speed_mps: float) -> np.ndarray:
     """The eigenvector scaling of the module: velocities by the mean forward speed, rates by the
-    period, angles as they are."""
+    period, angles as they are.
+
+    Parameters
+    ----------
+    names : sequence of str
+        State names (:data:`birdocp.bird.sixdof.STATE_NAMES`).
+    period_s : float
+        Period [s].
+    speed_mps : float
+        Mean forward speed [m/s].
+
+    Returns
+    -------
+    ndarray
+        One factor per state.
+    """
     return np.array([1.0 / max(speed_mps, 1e-9) if k.endswith("_mps") else period_s if k.endswith("_radps")
                      else 1.0 for k in names])
 
@@ -128,7 +143,7 @@ def lateral_modes(monodromy, period_s: float, speed_mps: float) -> list[dict]:
     idx = list(LATERAL)
     names = [STATE_NAMES[i] for i in idx]
     lam, vec, _, _, _ = multipliers_info(np.asarray(monodromy)[np.ix_(idx, idx)], period_s)
-    modes = [_mode(lam[k], vec[:, k], names, _scales(names, period_s, speed_mps)) for k in range(len(lam))]
+    modes = [_mode(lam[k], vec[:, k], names, eigenvector_scales(names, period_s, speed_mps)) for k in range(len(lam))]
     _label_lateral(modes, [abs(m["eigenvector"]["p_radps"]) for m in modes])
     return modes
 
@@ -159,7 +174,7 @@ def coupled_modes(monodromy, period_s: float, speed_mps: float) -> list[dict]:
     M = np.asarray(monodromy)
     names = list(STATE_NAMES[:M.shape[0]])
     lam, vec, _, _, _ = multipliers_info(M, period_s)
-    scale = _scales(names, period_s, speed_mps)
+    scale = eigenvector_scales(names, period_s, speed_mps)
     modes, lat = [], [i for i, k in enumerate(names) if STATE_NAMES.index(k) in LATERAL]
     for k in range(len(lam)):
         m = _mode(lam[k], vec[:, k], names, scale)

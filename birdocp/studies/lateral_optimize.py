@@ -213,10 +213,12 @@ def lateral_check(cfg_best: Config, x0, multipliers, steps_per_period: int) -> d
                                     "beats_to_double": float(m["beats_to_double"])} for m in tr.lateral_modes]}
 
 
-def reduced_level_cycle(cfg: Config, keys, **options) -> ReducedLevelCycle:
+def reduced_level_cycle(cfg: Config, keys, turn: bool = False, **options) -> ReducedLevelCycle:
     """The :class:`~birdocp.studies.gait_cycle.ReducedLevelCycle` of ``cfg`` over the free ``keys``
     (``options``: its other arguments); with ``model.degrees_of_freedom = 6`` the
-    :class:`LateralLevelCycle`, whose multipliers also count the lateral ones.
+    :class:`LateralLevelCycle`, whose multipliers also count the lateral ones, or, for a turn (``turn``,
+    or :func:`birdocp.studies.turn_cycle.is_turn`: a per-side offset set or free), the
+    :class:`~birdocp.studies.turn_cycle.TurnLevelCycle` in the 8 heading-free states.
 
     Parameters
     ----------
@@ -224,6 +226,8 @@ def reduced_level_cycle(cfg: Config, keys, **options) -> ReducedLevelCycle:
         Configuration.
     keys : sequence of str
         Free keys.
+    turn : bool
+        Solve the cycle as a turn (six degrees of freedom).
     **options
         Further arguments of the cycle.
 
@@ -232,5 +236,9 @@ def reduced_level_cycle(cfg: Config, keys, **options) -> ReducedLevelCycle:
     ReducedLevelCycle
     """
     if cfg.model.degrees_of_freedom == 6:
+        from birdocp.studies.turn_cycle import TurnLevelCycle, is_turn
+
+        if turn or is_turn(cfg, keys):
+            return TurnLevelCycle(cfg, keys, **options)
         return LateralLevelCycle(cfg, keys, **options)
     return ReducedLevelCycle(cfg, keys, **options)
