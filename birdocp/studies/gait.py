@@ -207,18 +207,14 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     the optimum, at most ``valid_rounds`` solves in all. The result always carries the exact
     ``validity``; with ``valid`` also ``validity_constraints``.
 
-    Six degrees of freedom with a per-side offset set or free (``gait.right_offset.*``,
-    ``gait.left_offset.*``), or with ``turn_deg_per_beat``: the level cycle is a steady turn, solved in
-    its 8 heading-free states (:class:`birdocp.studies.turn_cycle.TurnLevelCycle`); its multipliers are
-    the 8 of the heading-free monodromy; only ``objective="stability"`` (the 3-D power is not written).
+    6 DOF, per-side offsets or ``turn_deg_per_beat``: a turn (:mod:`birdocp.studies.turn_cycle`).
 
     Parameters
     ----------
     cfg : Config, optional
         The configuration (default: the paper's reference case).
     free : dict, optional
-        Gait key -> (lo, hi) (default :data:`DEFAULT_GAIT_FREE`); in six degrees of freedom also
-        per-side offsets.
+        Gait key -> (lo, hi) (default :data:`DEFAULT_GAIT_FREE`; 6 DOF: also per-side offsets).
     objective : {"power", "cost-of-transport", "positive-power", "stability"}
         What is minimised.
     speed_mps : float, optional
@@ -240,8 +236,7 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
         limit the optimum still crosses exactly is tightened by the difference and the problem solved
         again, at most ``valid_rounds`` solves.
     turn_deg_per_beat : float, optional
-        Six degrees of freedom: the heading change per wingbeat held [deg] (positive to the right; the
-        period mean of the heading rate times the period), an equality constraint (None: free).
+        6 DOF: heading change per wingbeat held [deg] (positive to the right; None: free).
     solver : GaitSolverOptions, optional
         How IPOPT solves (default :class:`GaitSolverOptions`).
     **solver_options

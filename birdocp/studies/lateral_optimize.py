@@ -14,9 +14,10 @@ on the planar cycle's own data and data directions (the 6-DOF data is the planar
 whose 3-D sums the planar data lacks, forward AD through the 9-state period map of
 :class:`birdocp.studies.sensitivity.SecondOrderMaps`).
 
-An asymmetric gait (per-side offsets) is refused, naming the first non-zero offset: its cycle is a turn,
-periodic up to its heading, not the planar one; the optimisation problem is well posed there (docs), but
-its level cycle, power outputs and validity integrands in the 8 heading-free states are not written.
+An asymmetric gait (per-side offsets set or free, or a turn rate held) is a turn, periodic up to its
+heading, not the planar cycle: :func:`reduced_level_cycle` gives it the
+:class:`~birdocp.studies.turn_cycle.TurnLevelCycle` in the 8 heading-free states (:class:`LateralLevelCycle`
+itself refuses it, naming the first non-zero offset).
 """
 
 from __future__ import annotations
@@ -72,9 +73,8 @@ class LateralLevelCycle(ReducedLevelCycle):
     def __init__(self, cfg: Config, keys, **options):
         if asymmetric(cfg):
             key = next(k for k in SIDE_PARAM_NAMES if get_value(cfg, k) != 0)
-            raise ConfigError(key, "the 6-DOF gait optimisers take a symmetric gait: their level cycle is the planar "
-                                   "one, a turn's 8-state cycle is not written in them (docs/studies/lateral.md); set "
-                                   "the per-side offsets to 0")
+            raise ConfigError(key, "LateralLevelCycle takes a symmetric gait (its level cycle is the planar one); "
+                                   "a turn is a TurnLevelCycle (reduced_level_cycle chooses it)")
         super().__init__(cfg, keys, **options)
         from birdocp.studies.sensitivity import SecondOrderMaps
 

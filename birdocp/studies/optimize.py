@@ -249,7 +249,6 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     refined on the full grid (``steps_per_period``) from it; ``max_iter`` counts per stage.
 
     Aerodynamic states (reduced method): r bounds the full monodromy's spectral radius (its dominant block).
-
     ``valid``: :func:`birdocp.studies.gait.optimize_gait`'s ``valid`` in every stage; the exact
     ``validity`` of the result is ``valid`` unless the rounds ran out.
 
@@ -288,8 +287,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
         The limits of ``cfg.validity`` as smooth constraints in every stage (reduced method only);
         the result then carries ``validity_constraints``.
     turn_deg_per_beat : float, optional
-        Six degrees of freedom: the heading change per wingbeat held [deg] (a steady turn; also the
-        cycle of any gait with per-side offsets set or free, :mod:`birdocp.studies.turn_cycle`).
+        6 DOF: heading change per wingbeat held [deg] (a turn, :mod:`birdocp.studies.turn_cycle`).
 
     Returns
     -------
