@@ -78,7 +78,7 @@ def figure(d: dict, path: Path) -> None:
         z = np.array([complex(*p) for p in o["multipliers"]])
         valid = "valid" if (o.get("validity") or {}).get("valid") else "NOT valid"
         a.plot(z.real, z.imag, mark, ms=8, mfc="none" if mark == "o" else None,
-               label=f"{label}: r* = {o['radius']:.4f} ({valid})")
+               label=f"{label}: max |Λ| = {max(o['moduli']):.4f} ({valid})")
     a.set_aspect("equal")
     a.set_xlabel("Re Λ")
     a.set_ylabel("Im Λ")
@@ -113,7 +113,8 @@ def table(d: dict) -> str:
              f"| turn rate [deg/s] | {s.get('turn_rate_degps', 0.0):.4f} | {t['turn_rate_degps']:.4f} |",
              f"| longitudinal multipliers | {_pairs(s['longitudinal_multipliers'])} | {_pairs(t['longitudinal_multipliers'])} |",
              f"| lateral multipliers | {_pairs(s['lateral_multipliers'])} | {_pairs(t['lateral_multipliers'])} |",
-             f"| r* (largest of the eight) | {s['radius']:.5f} | {t['radius']:.5f} |",
+             f"| IPOPT's r | {s['radius']:.5f} | {t['radius']:.5f} |",
+             f"| largest modulus of the eight | {max(s['moduli']):.5f} | {max(t['moduli']):.5f} |",
              f"| model validity | {v(s)} | {v(t)} |"]
     run = lambda o: (f"{o['status']}, {o['iterations']} iterations, {o['wall_s'].get('total', float('nan')):.0f} s, "  # noqa: E731
                      f"KKT residual {o.get('kkt_residual')}")
