@@ -14,15 +14,19 @@ Both on ``--steps`` RK4 steps per period (default 32, the optimisers' coarse gri
 with the exact validity of its optimal cycle (both wings, sideslip); ``--valid`` adds the validity
 limits as constraints.
 
-    python scripts/lateral_turn_optimum.py [--out DIR] [--turn-rate DEG] [--steps N] [--valid]
+With ``--jobs 2`` (default) the straight-flight optimum is solved in a worker process while this one
+solves the turn.
+
+    python scripts/lateral_turn_optimum.py [--out DIR] [--turn-rate DEG] [--steps N] [--valid] [--jobs N]
 """
 
+import functools
 import time
 from pathlib import Path
 
 import numpy as np
 
-from script_common import parse_with_out, script_parser
+from script_common import Beside, parse_with_out, script_parser
 
 from birdocp.bird.config import Config, with_values
 from birdocp.io.files import atomic_write_json, atomic_write_text
@@ -37,7 +41,7 @@ def log(*a):
     print(time.strftime("%H:%M:%S"), *a, flush=True)
 
 
-def optimum(steps: int, max_iter: int, valid: bool, turn: float | None) -> dict:
+def optimum(turn: float | None, steps: int, max_iter: int, valid: bool) -> dict:
     """optimize_stability in six degrees of freedom (straight: default keys; turn: with SIDE_FREE and the
     heading change held), as its JSON."""
     from birdocp.studies.optimize import DEFAULT_FREE, optimize_stability
@@ -135,17 +139,20 @@ def main(argv=None) -> None:
     ap.add_argument("--steps", type=int, default=32, help="RK4 steps per period (default %(default)s)")
     ap.add_argument("--max-iter", type=int, default=100, help="IPOPT iterations at most (default %(default)s)")
     ap.add_argument("--valid", action="store_true", help="the limits of [validity] as constraints")
+    ap.add_argument("--jobs", type=int, default=2, help="processes (2: straight flight beside the turn)")
     args, out = parse_with_out(ap, argv)
     t0 = time.perf_counter()
     d = {"problem": "optimize_stability, model.degrees_of_freedom = 6, default keys and bounds; the turn also "
                     "frees " + ", ".join(f"{k} {list(b)}" for k, b in SIDE_FREE.items()),
          "turn_rate_deg_per_beat": args.turn_rate, "steps_per_period": args.steps, "valid": bool(args.valid)}
+    job = functools.partial(optimum, steps=args.steps, max_iter=args.max_iter, valid=args.valid)
+    straight = Beside(job, None, args.jobs)
     log(f"turn of {args.turn_rate} deg per beat")
-    d["turn"] = optimum(args.steps, args.max_iter, args.valid, args.turn_rate)
+    d["turn"] = job(args.turn_rate)
     log(f"  {d['turn']['status']}: r* {d['turn']['radius']:.5f}")
     d["turn_trajectory"] = turn_trajectory(d["turn"], args.steps)
     log("straight flight")
-    d["straight"] = optimum(args.steps, args.max_iter, args.valid, None)
+    d["straight"] = straight.result()
     log(f"  {d['straight']['status']}: r* {d['straight']['radius']:.5f}")
     d["script_wall_s"] = time.perf_counter() - t0
     atomic_write_json(out / "result.json", d)
