@@ -47,7 +47,7 @@ API = {
     "simulation": {"simulate": "birdocp.studies.simulate", "SimulationResult": "birdocp.studies.simulate",
                    "Gust": "birdocp.studies.simulate_inputs", "gust_envelope": "birdocp.studies.simulate"},
     "six degrees of freedom": {"lateral_trim": "birdocp.studies.lateral", "LateralTrimResult": "birdocp.studies.lateral",
-                               "lateral_sensitivities": "birdocp.studies.lateral",
+                               "lateral_sensitivities": "birdocp.studies.lateral_sensitivity",
                                "design_lateral_controller": "birdocp.studies.lateral_control",
                                "simulate_lateral": "birdocp.studies.lateral_simulate",
                                "SideGust": "birdocp.studies.lateral_simulate"},

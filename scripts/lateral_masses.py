@@ -23,7 +23,8 @@ import numpy as np
 from birdocp.bird.config import Config, get_value, with_values
 from birdocp.engine.results import to_jsonable
 from birdocp.io.files import atomic_write_json, atomic_write_text
-from birdocp.studies.lateral import lateral_sensitivities, lateral_trim
+from birdocp.studies.lateral import lateral_trim
+from birdocp.studies.lateral_sensitivity import lateral_sensitivities
 from birdocp.studies.lateral_checks import vacuum_drift
 from birdocp.studies.trim import trim
 from script_common import parse_with_out, script_parser

@@ -17,7 +17,8 @@ import numpy as np
 from birdocp.bird.config import Config, with_values
 from birdocp.engine.results import to_jsonable
 from birdocp.io.files import atomic_write_json, atomic_write_text
-from birdocp.studies.lateral import LATERAL_SENSITIVITY_KEYS, lateral_sensitivities, lateral_trim
+from birdocp.studies.lateral import lateral_trim
+from birdocp.studies.lateral_sensitivity import LATERAL_SENSITIVITY_KEYS, lateral_sensitivities
 from script_common import parse_with_out, script_parser
 
 ROOT_AHEAD_CM = tuple(np.round(np.arange(2.0, 8.01, 0.5), 2))

@@ -202,7 +202,7 @@ def test_swapping_the_wings_mirrors_the_solved_cycle_with_wing_masses(coarse):
 def test_sensitivities_of_an_asymmetric_cycle_against_central_differences(coarse):
     """Exact derivatives of the 8 multipliers of a turn (the heading-free ODE, cycle change included)
     with respect to one wing's sweep offset, against central differences of re-solved cycles."""
-    from birdocp.studies.lateral import lateral_sensitivities
+    from birdocp.studies.lateral_sensitivity import lateral_sensitivities
 
     cfg = _six(**TURN)
     res = lateral_trim(cfg, **coarse)

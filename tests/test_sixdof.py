@@ -146,7 +146,7 @@ def test_lateral_sensitivity_against_central_differences(mass_tail_config, coars
     and the tail opening, with wing masses and the tail, against central differences of re-solved
     cycles."""
     from birdocp.bird.config import get_value, with_values
-    from birdocp.studies.lateral import lateral_sensitivities
+    from birdocp.studies.lateral_sensitivity import lateral_sensitivities
 
     method = OrbitMethod(**coarse)
     keys = ["gait.shoulder_flap.offset_deg", "tail.opening_angle_deg"]

@@ -44,7 +44,7 @@ from birdocp.bird.config import PARAM_NAMES, Config
 from birdocp.engine.cache import owned_cache
 
 __all__ = ["SMOOTH_LIMITS", "STALL_WIDTH_DEG", "KS_RHO", "smooth_integrands", "integrand_names",
-           "smooth_measures", "limit_bounds", "smoothing_info", "cycle_smooth_measures"]
+           "smooth_measures", "limit_bounds", "smoothing_info", "cycle_smooth_measures", "sixdof_integrands"]
 
 SMOOTH_LIMITS = ("stalled_fraction", "min_forward_speed_mps", "max_abs_pitch_deg", "max_airflow_body_angle_deg")
 """The limits of ``[validity]`` as smooth measures (names of the exact measures)."""
@@ -136,19 +136,64 @@ def _integrands(stall_deg, umin, pitch_deg, airflow_deg, n_data, normalwash="ang
     x, d, p = ca.SX.sym("x", nx), ca.SX.sym("d", n_data), ca.SX.sym("p", len(PARAM_NAMES))
     angles = effective_angles(n_data, normalwash) if aero_model is None else model_angles(aero_model)
     ae, _, ds = angles(x, d, p)[:3]
-    a = ae * (180.0 / math.pi)
+    g = _integrand_rows((stall_deg, umin, pitch_deg, airflow_deg), ae, ds, x[0], x[3], ca.atan2(x[1], x[0]))
+    return ca.Function("validity_integrands", [x, d, p], [g], ["x", "d", "p"], ["g"])
+
+
+def _integrand_rows(thresholds, ae_rad, ds, u, theta_rad, airflow_rad):
+    """The four integrands of :data:`SMOOTH_LIMITS` from the elements' effective angles and lengths,
+    the forward speed u, the pitch and the airflow-to-body angle (CasADi expressions)."""
+    import casadi as ca
+
+    stall_deg, umin, pitch_deg, airflow_deg = thresholds
+    a = ae_rad * (180.0 / math.pi)
     w = STALL_WIDTH_DEG
     logistic = lambda z: 1.0 / (1.0 + ca.exp(-z))  # noqa: E731
     stall = ca.sum1(ds * (logistic((a - stall_deg) / w) + logistic((-a - stall_deg) / w))) / ca.sum1(ds)
     e = lambda z: ca.exp(ca.fmin(z, _CAP))  # noqa: E731
-    u, wv, th = x[0], x[1], x[3] * (180.0 / math.pi)
-    phi = ca.atan2(wv, u) * (180.0 / math.pi)
+    th, phi = theta_rad * (180.0 / math.pi), airflow_rad * (180.0 / math.pi)
     r = KS_RHO
     speed = e(r["min_forward_speed_mps"] * (umin - u))
     pitch = e(r["max_abs_pitch_deg"] * (th - pitch_deg)) + e(r["max_abs_pitch_deg"] * (-th - pitch_deg))
     air = e(r["max_airflow_body_angle_deg"] * (phi - airflow_deg)) + e(r["max_airflow_body_angle_deg"] * (-phi - airflow_deg))
-    return ca.Function("validity_integrands", [x, d, p], [ca.vertcat(stall, speed, pitch, air)],
-                       ["x", "d", "p"], ["g"])
+    return ca.vertcat(stall, speed, pitch, air)
+
+
+def sixdof_integrands(cfg: Config, nx: int, n_data: int, section=None):
+    """``g(x, d, p) -> 4 x 1``: the integrands of :data:`SMOOTH_LIMITS` of a six-degree-of-freedom
+    cycle (``nx`` = 9 states, or 8 without the heading; then the aerodynamic states of ``section``):
+    the effective angles of all 16 elements of both wings in the asymmetric flow (as the exact 6-DOF
+    check, :func:`birdocp.bird.validity.sixdof_angles`; the stall integrand is the share of the whole
+    span, the exact measure the larger of the two wings' shares), the forward speed u, the pitch theta
+    and the 3-D airflow-to-body angle ``atan2(sqrt(v^2 + w^2), u)`` (sideslip counts). ``p``: the
+    planar parameters (the first :data:`PARAM_NAMES` of the 6-DOF vector). A new Function per call.
+
+    Parameters
+    ----------
+    cfg : Config
+        Configuration (its ``[validity]`` thresholds).
+    nx : int
+        Number of states (9, or 8 without the heading, then the section's).
+    n_data : int
+        Length of the data vector.
+    section : SectionLaw, optional
+        The stall-aware section of the model.
+
+    Returns
+    -------
+    casadi.Function
+    """
+    import casadi as ca
+
+    from birdocp.bird.validity import sixdof_angles
+
+    v = cfg.validity
+    x, d, p = ca.SX.sym("x", nx), ca.SX.sym("d", n_data), ca.SX.sym("p", len(PARAM_NAMES))
+    ae, _, ds = sixdof_angles(nx, n_data, 1, section)(x, d, p)
+    air = ca.atan2(ca.sqrt(x[1] ** 2 + x[2] ** 2 + 1e-12), x[0])
+    g = _integrand_rows((float(v.stall_angle_deg), float(v.min_forward_speed_mps), float(v.max_abs_pitch_deg),
+                         float(v.max_airflow_body_angle_deg)), ae, ds, x[0], x[7], air)
+    return ca.Function("validity_integrands6", [x, d, p], [g], ["x", "d", "p"], ["g"])
 
 
 def smooth_measures(cfg: Config, means, grads=None):

@@ -147,7 +147,8 @@ def add_bounds_option(g, help: str) -> None:
 
 def parse_bounds(texts: Sequence[str] | None) -> dict[str, tuple[float, float]]:
     """{model key: (lo, hi)} from ``--bounds KEY=LO:HI`` texts: KEY a dotted key or an alias
-    (:func:`birdocp.bird.keys.resolve_key`), LO < HI finite; ConfigError on ``--bounds`` otherwise.
+    (:func:`birdocp.bird.keys.resolve_key`) or a per-side offset ``gait.right_offset.*`` /
+    ``gait.left_offset.*``, LO < HI finite; ConfigError on ``--bounds`` otherwise.
 
     Parameters
     ----------
@@ -167,7 +168,8 @@ def parse_bounds(texts: Sequence[str] | None) -> dict[str, tuple[float, float]]:
             raise ConfigError("--bounds", f"expected KEY=LO:HI, got '{text}'") from None
         if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
             raise ConfigError("--bounds", f"need finite LO < HI, got '{text}'")
-        bounds[resolve_key(key.strip(), "--bounds")] = (lo, hi)
+        key = key.strip()  # a per-side offset (six degrees of freedom) is a key of its own
+        bounds[key if key in C.SIDE_KEYS else resolve_key(key, "--bounds")] = (lo, hi)
     return bounds
 
 

@@ -75,7 +75,7 @@ def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
         raise ConfigError("--max-multiplier", f"must be a positive number, got {args.max_multiplier}")
     if not math.isfinite(args.climb_rate):
         raise ConfigError("--climb-rate", f"must be finite, got {args.climb_rate}")
-    free = checked_free(args, cfg, DEFAULT_GAIT_FREE)
+    free = checked_free(args, cfg, DEFAULT_GAIT_FREE, args.objective)
     with cli.run_folder(args, "optimize-gait", command_line) as run:
         run_dir = run.dir
         with run.solving():

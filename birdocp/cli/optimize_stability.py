@@ -8,7 +8,7 @@ from birdocp.bird.config import require_body_states
 import math
 import sys
 
-from birdocp.bird.config import ConfigError
+from birdocp.bird.config import ConfigError, get_value
 from birdocp.bird.keys import AMPLITUDE_KEY
 from birdocp.bird.validity import validity_text
 from birdocp.cli import common as cli
@@ -45,6 +45,9 @@ def register(sub, common) -> None:
                    help="reduced: IPOPT over the gait parameters and r, the level cycle eliminated (default); "
                         "full: the full-space single-shooting NLP (state, parameters, amplitude, r)")
     add_valid_flag(p)
+    p.add_argument("--turn-rate", type=float, default=None, metavar="DEG",
+                   help="six degrees of freedom: hold the heading change per wingbeat at DEG (a steady turn, "
+                        "positive to the right); free per-side offsets (--free gait.right_offset.KEY) to reach it")
     p.add_argument("--threads", type=int, default=2, metavar="N",
                    help="threads evaluating the finite-difference Hessian's points (reduced method; default 2; "
                         "the result does not depend on it)")
@@ -142,7 +145,9 @@ def invalid_failure(res, result: dict, run_dir) -> str | None:
 def _free_with_bounds(args: argparse.Namespace, defaults: dict) -> dict:
     """key -> (lo, hi) from ``--free KEY`` (default: the keys of ``defaults``) and ``--bounds KEY=LO:HI``
     (default: ``defaults``' range); ConfigError (exit 2) on an unknown key or a malformed range."""
-    keys = [check_key(k, "--free") for k in (args.free or [])] or list(defaults)
+    from birdocp.bird.sides import SIDE_PARAM_NAMES  # per-side offsets: six degrees of freedom (checked later)
+
+    keys = [k if k in SIDE_PARAM_NAMES else check_key(k, "--free") for k in (args.free or [])] or list(defaults)
     bounds = cli.parse_bounds(args.bounds)
     free = {}
     for k in keys:
@@ -160,7 +165,7 @@ def _free_with_bounds(args: argparse.Namespace, defaults: dict) -> dict:
     return free
 
 
-def checked_free(args: argparse.Namespace, cfg, defaults: dict) -> dict:
+def checked_free(args: argparse.Namespace, cfg, defaults: dict, objective: str = "stability") -> dict:
     """:func:`_free_with_bounds`, then every free key checked against the model before any run folder
     exists (:func:`birdocp.studies.optimize.check_free_keys`: not the amplitude, not reshaping the
     wing in the arm frame, the configured value inside its bounds); ConfigError (exit 2) otherwise.
@@ -173,6 +178,9 @@ def checked_free(args: argparse.Namespace, cfg, defaults: dict) -> dict:
         Resolved configuration.
     defaults : dict
         Default free keys and bounds of the command.
+    objective : str
+        The command's objective: a turn (six degrees of freedom with per-side offsets set or free, or
+        ``--turn-rate``) takes only the stability objective.
 
     Returns
     -------
@@ -182,8 +190,18 @@ def checked_free(args: argparse.Namespace, cfg, defaults: dict) -> dict:
     from birdocp.studies.gait import check_free_bounds
     from birdocp.studies.optimize import check_free_keys
 
+    from birdocp.bird.sides import SIDE_PARAM_NAMES
+    from birdocp.studies.turn_cycle import check_turn, is_turn
+
     free = _free_with_bounds(args, defaults)
     check_free_bounds(cfg, free)  # everything that needs no model, before building it
+    turn_rate = getattr(args, "turn_rate", None)
+    turn = is_turn(cfg, free, turn_rate)
+    if turn and objective != "stability":  # name the offset that makes the gait a turn
+        key = next((k for k in SIDE_PARAM_NAMES if k in free or float(get_value(cfg, k)) != 0.0), "--objective")
+        raise ConfigError(key, "an asymmetric gait flies a turn, whose 3-D shoulder power is not written: "
+                               "optimize-stability takes it; set the per-side offsets to 0 here")
+    check_turn(cfg, objective, turn_rate, turn)
     with cli.stdout_to_stderr():
         from birdocp.bird.model import get_model
 
@@ -224,7 +242,8 @@ def cmd_optimize(args: argparse.Namespace, command_line: list[str]) -> int:
         say, bar = progress_callback("optimize-stability", args.quiet)
         with run.solving(), bar:
             res = optimize_stability(cfg, free, climb_rate_mps=args.climb_rate, max_iter=args.max_iter, progress=say,
-                                     method=args.method, threads=args.threads, valid=args.valid)
+                                     method=args.method, threads=args.threads, valid=args.valid,
+                                     turn_deg_per_beat=args.turn_rate)
         result = res.to_dict()
         result["run_dir"] = str(run.dir)
         run.write(res.cfg or cfg, result)

@@ -132,7 +132,7 @@ def _resolve_six_key(key: str, resolve_key) -> str:
 
 def run_six_dof_sensitivity(args: argparse.Namespace, command_line: list[str], cfg, t_start: float) -> int:
     """``birdocp sensitivity`` with ``model.degrees_of_freedom = 6``: the exact derivatives of every
-    multiplier of the 6-DOF cycle at fixed amplitude (:func:`birdocp.studies.lateral.lateral_sensitivities`),
+    multiplier of the 6-DOF cycle at fixed amplitude (:func:`birdocp.studies.lateral_sensitivity.lateral_sensitivities`),
     one row per parameter with the derivative of each lateral mode's modulus; the exit code.
 
     Parameters
@@ -160,7 +160,8 @@ def run_six_dof_sensitivity(args: argparse.Namespace, command_line: list[str], c
         raise ConfigError("--top", f"must be >= 1, got {args.top}")
     with run_folder(args, "sensitivity", command_line) as run:
         with run.solving():
-            from birdocp.studies.lateral import lateral_sensitivities, lateral_trim
+            from birdocp.studies.lateral import lateral_trim
+            from birdocp.studies.lateral_sensitivity import lateral_sensitivities
 
             base = lateral_trim(cfg)
         result = base.to_dict()

@@ -24,6 +24,7 @@ from birdocp.studies.gait_cycle import (AMPLITUDE_KEY, JURY_MARGIN, POSITIVE_EPS
 from birdocp.studies.gait_types import Evaluation, check_free_bounds, check_free_keys  # noqa: F401
 from birdocp.studies.gait_problem import ReducedProblem
 from birdocp.studies.lateral_optimize import reduced_level_cycle
+from birdocp.studies.turn_cycle import check_turn, is_turn, turn_check
 from birdocp.studies.power_curves import SPEED_KEY, curve_optima, level_at_speed, power_curve  # noqa: F401
 
 __all__ = ["ReducedLevelCycle", "ReducedProblem", "GaitOptimum", "GaitSolverOptions", "optimize_gait", "OBJECTIVES", "DEFAULT_GAIT_FREE",
@@ -186,7 +187,8 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
                   speed_mps: float | None = None, max_multiplier: float | None = None,
                   climb_rate_mps: float = 0.0, amplitude_bounds=AMPLITUDE_BOUNDS_DEG,
                   steps_per_period: int | None = None, start: dict | None = None, x_guess=None,
-                  valid: bool = False, solver: GaitSolverOptions | None = None, **solver_options) -> GaitOptimum:
+                  valid: bool = False, turn_deg_per_beat: float | None = None, solver: GaitSolverOptions | None = None,
+                  **solver_options) -> GaitOptimum:
     """Minimise mean power (``objective="power"``), cost of transport, smoothed positive-work power,
     or the stability radius (``"stability"``) over the gait parameters ``free`` (key -> (lo, hi);
     default :data:`DEFAULT_GAIT_FREE`), in level flight (mean W = ``climb_rate_mps``, the amplitude
@@ -205,12 +207,14 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     the optimum, at most ``valid_rounds`` solves in all. The result always carries the exact
     ``validity``; with ``valid`` also ``validity_constraints``.
 
+    6 DOF, per-side offsets or ``turn_deg_per_beat``: a turn (:mod:`birdocp.studies.turn_cycle`).
+
     Parameters
     ----------
     cfg : Config, optional
         The configuration (default: the paper's reference case).
     free : dict, optional
-        Gait key -> (lo, hi) (default :data:`DEFAULT_GAIT_FREE`).
+        Gait key -> (lo, hi) (default :data:`DEFAULT_GAIT_FREE`; 6 DOF: also per-side offsets).
     objective : {"power", "cost-of-transport", "positive-power", "stability"}
         What is minimised.
     speed_mps : float, optional
@@ -231,6 +235,8 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
         Every limit of ``cfg.validity`` a smooth constraint (:mod:`birdocp.bird.validity_smooth`); a
         limit the optimum still crosses exactly is tightened by the difference and the problem solved
         again, at most ``valid_rounds`` solves.
+    turn_deg_per_beat : float, optional
+        6 DOF: heading change per wingbeat held [deg] (positive to the right; None: free).
     solver : GaitSolverOptions, optional
         How IPOPT solves (default :class:`GaitSolverOptions`).
     **solver_options
@@ -253,7 +259,8 @@ def optimize_gait(cfg: Config | None = None, free: dict | None = None, *, object
     cfg = cfg or Config()
     options = {k: v for k, v in asdict(opts).items() if k != "valid_rounds"} | dict(
         objective=objective, speed_mps=speed_mps, max_multiplier=max_multiplier, climb_rate_mps=climb_rate_mps,
-        amplitude_bounds=amplitude_bounds, steps_per_period=steps_per_period, start=start, x_guess=x_guess)
+        amplitude_bounds=amplitude_bounds, steps_per_period=steps_per_period, start=start, x_guess=x_guess,
+        turn_deg_per_beat=turn_deg_per_beat)
     return solve_valid(_solve_gait, cfg, free, valid, options,
                        VALID_ROUNDS if opts.valid_rounds is None else opts.valid_rounds)
 
@@ -312,7 +319,7 @@ def _nlp_solver(prob: ReducedProblem, opts: GaitSolverOptions, warm: bool = Fals
 
 def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, max_multiplier, climb_rate_mps,
                 amplitude_bounds, steps_per_period, start, x_guess, valid_bounds: dict | None = None,
-                **solver_options) -> GaitOptimum:
+                turn_deg_per_beat: float | None = None, **solver_options) -> GaitOptimum:
     """One reduced-space solve (:func:`optimize_gait`; ``solver_options``: the fields of
     :class:`GaitSolverOptions`); ``valid_bounds``: limit -> (bound, 'max' or 'min') of the smooth
     validity constraints (None: none). Sets the optimum's exact ``validity``."""
@@ -325,10 +332,12 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
         start = {k: float(np.clip(v, *free[k])) if k in free else v for k, v in start.items()}
     cfg_start = with_values(cfg, start) if start else cfg
     check_free_keys(get_model(cfg), cfg_start, free)
+    turn = is_turn(cfg_start, free, turn_deg_per_beat)
+    check_turn(cfg_start, objective, turn_deg_per_beat, turn)
     t_all, cpu_all = time.perf_counter(), time.process_time()
     keys = list(free)
     t0 = time.perf_counter()
-    rc = reduced_level_cycle(cfg_start, keys, steps_per_period=steps_per_period, climb_rate_mps=climb_rate_mps,
+    rc = reduced_level_cycle(cfg_start, keys, turn=turn, steps_per_period=steps_per_period, climb_rate_mps=climb_rate_mps,
                              second_order=objective == "stability" or max_multiplier is not None,
                              valid=bool(valid_bounds),
                              amplitude_range_deg=(amplitude_bounds[0] - 10.0, amplitude_bounds[1] + 10.0))
@@ -343,7 +352,7 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
     except RuntimeError as e:
         return fail(f"start: {e}")
     wall["start"] = time.perf_counter() - t0
-    prob = ReducedProblem(rc, objective, speed_mps, max_multiplier, amplitude_bounds, valid_bounds)
+    prob = ReducedProblem(rc, objective, speed_mps, max_multiplier, amplitude_bounds, valid_bounds, turn_deg_per_beat)
     prob.progress = opts.progress
     z0, lbx, ubx = _scaled_start(prob, ev0, lo, hi, opts.radius_start_factor)
     start_value = float(prob.both(z0)[0][0]) if not prob.with_r else float(np.max(np.abs(ev0.multipliers)))
@@ -370,7 +379,7 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
         out.second_derivatives = fd.last[1] * scale2
     if opts.verify:
         t0 = time.perf_counter()
-        out.verification = _verify_gait(out, cfg, rc.N)
+        out.verification = turn_check(out, cfg, rc.N) if turn else _verify_gait(out, cfg, rc.N)
         out.cfg = out.verification.pop("cfg")
         wall["verify"] = time.perf_counter() - t0
     wall["total"] = time.perf_counter() - t_all

@@ -18,7 +18,6 @@ optionally all multipliers inside the circle of radius R (Jury conditions on Mon
 :mod:`birdocp.studies.optimize`).
 """
 
-
 from __future__ import annotations
 
 import math
@@ -48,7 +47,6 @@ still falling (``ReducedLevelCycle._newton``)."""
 # rows of the quadrature output vector
 _OUT = ("vertical_speed_mps", "forward_speed_mps", "flapping_power_W", "aerodynamic_power_W",
         "positive_power_smooth_W")
-
 
 
 def _graphs(m, cfg: Config, N: int, vidx: tuple, nt: int, second: bool, valid: bool) -> dict:
@@ -185,6 +183,25 @@ class ReducedLevelCycle:
         list of (ndarray, ndarray or None)
         """
         return [(ev.monodromy, ev.d_monodromy)] + list(ev.blocks or [])
+
+    def exact_validity(self, cfg_best: Config, x0) -> dict:
+        """The exact validity (:func:`birdocp.bird.validity.periodic_validity`, on this cycle's grid) of
+        the cycle through ``x0`` at the gait ``cfg_best``.
+
+        Parameters
+        ----------
+        cfg_best : Config
+            Configuration of the gait (free values and amplitude in it).
+        x0 : array_like
+            State at t = 0.
+
+        Returns
+        -------
+        dict
+        """
+        from birdocp.bird.config import param_vector
+        from birdocp.bird.validity import periodic_validity
+        return periodic_validity(cfg_best, x0, param_vector(cfg_best), steps_per_period=self.N).to_dict()
 
     def multiplier_split(self, ev: Evaluation) -> dict | None:
         """The multipliers of ``ev`` split by block for the JSON (None: one block, nothing to split;

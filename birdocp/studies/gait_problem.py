@@ -20,8 +20,10 @@ class ReducedProblem:
     stability objective); :meth:`jacobian_near` gives a finite-difference Hessian's perturbed points."""
 
     def __init__(self, rc: ReducedLevelCycle, objective: str, speed, max_multiplier, amplitude_bounds,
-                 valid_bounds: dict | None = None):
+                 valid_bounds: dict | None = None, turn_deg_per_beat: float | None = None):
         self.rc, self.objective, self.speed, self.R = rc, objective, speed, max_multiplier
+        self.turn = turn_deg_per_beat
+        """Heading change per wingbeat held [deg] (a turn, :class:`birdocp.studies.turn_cycle.TurnLevelCycle`), or None."""
         self.amp = amplitude_bounds
         self.with_r = objective == "stability"
         self.jury = jury_function() if (max_multiplier is not None or self.with_r) else None
@@ -30,6 +32,7 @@ class ReducedProblem:
         self.valid_bounds = dict(valid_bounds or {})
         """limit -> (bound used, 'max' or 'min') of the smooth validity constraints (empty: none)."""
         self.names = ["amplitude_deg"] + (["forward_speed_mps"] if speed is not None else []) \
+            + (["heading_change_deg"] if turn_deg_per_beat is not None else []) \
             + ([f"jury{i}" + (f"_block{b}" if b else "") for b in range(rc.n_blocks) for i in range(5)]
                if self.jury is not None else []) \
             + ["valid_" + k for k in self.valid_bounds]
@@ -53,6 +56,9 @@ class ReducedProblem:
         if self.speed is not None:
             lo.append(self.speed)
             hi.append(self.speed)
+        if self.turn is not None:
+            lo.append(self.turn)
+            hi.append(self.turn)
         if self.jury is not None:
             lo += [JURY_MARGIN] * 5 * self.rc.n_blocks
             hi += [np.inf] * 5 * self.rc.n_blocks
@@ -109,9 +115,12 @@ class ReducedProblem:
         None
         """
         g = ev.grads
-        P = max(abs(ev.means["flapping_power_W"]), 1e-3)
-        sig = np.maximum.reduce([np.abs(g["forward_speed_mps"]), np.abs(g["flapping_power_W"]) / (0.1 * P),
-                                 np.abs(g["amplitude_deg"]), np.full(self.rc.nt, 1e-2)])
+        rows = [np.abs(g["forward_speed_mps"]), np.abs(g["amplitude_deg"]), np.full(self.rc.nt, 1e-2)]
+        if "flapping_power_W" in g:  # a turn has no power output
+            rows.append(np.abs(g["flapping_power_W"]) / (0.1 * max(abs(ev.means["flapping_power_W"]), 1e-3)))
+        if "turn_rate_degps" in g:  # a turn: 1 deg of heading change per beat
+            rows.append(np.abs(g["turn_rate_degps"]) * self.rc.T)
+        sig = np.maximum.reduce(rows)
         self.sigma = np.concatenate([sig, [1.0] if self.with_r else []])
 
     def both(self, z, grads: bool = True):
@@ -137,7 +146,8 @@ class ReducedProblem:
             return np.full(self.ng, np.nan), np.full((self.ng, self.nz), np.nan)
         if ev.grads is None:  # values only (a line-search trial point)
             G = np.array([z[-1] if self.with_r else self._value(ev)] + [ev.amplitude_deg]
-                         + ([ev.means["forward_speed_mps"]] if self.speed is not None else []))
+                         + ([ev.means["forward_speed_mps"]] if self.speed is not None else [])
+                         + ([ev.means["turn_rate_degps"] * self.rc.T] if self.turn is not None else []))
             if self.jury is not None:  # the monodromy alone: no gradients at a trial point
                 self.rc.fill_monodromy(ev)
                 r = z[-1] if self.with_r else self.R
@@ -164,6 +174,9 @@ class ReducedProblem:
         i = 2
         if self.speed is not None:
             G[i], J[i, :nt] = ev.means["forward_speed_mps"], ev.grads["forward_speed_mps"]
+            i += 1
+        if self.turn is not None:  # the heading change per beat [deg]
+            G[i], J[i, :nt] = ev.means["turn_rate_degps"] * self.rc.T, ev.grads["turn_rate_degps"] * self.rc.T
             i += 1
         if self.jury is not None:
             r = z[-1] if self.with_r else self.R

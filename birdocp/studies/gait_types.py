@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from birdocp.bird.config import PARAM_NAMES, ConfigError, get_value, suggest, with_values
+from birdocp.bird.config import PARAM_NAMES, SIDE_KEYS, ConfigError, get_value, suggest, with_values
 from birdocp.bird.keys import AMPLITUDE_KEY
 from birdocp.engine.floquet import sort_multipliers
 
@@ -16,7 +16,8 @@ __all__ = ["check_free_bounds", "check_free_keys", "WarmStart", "Evaluation"]
 
 
 def check_free_bounds(cfg, free: dict) -> None:
-    """ConfigError unless every free key is a known parameter other than the amplitude, with finite
+    """ConfigError unless every free key is a known parameter other than the amplitude (in six degrees
+    of freedom also a per-side offset, :data:`birdocp.bird.sides.SIDE_PARAM_NAMES`), with finite
     bounds lower < upper that hold the configured value and lie in the key's physical range (each
     bound is a valid configuration value). Needs no model: callers check this before building one.
 
@@ -27,8 +28,11 @@ def check_free_bounds(cfg, free: dict) -> None:
     free : dict of str to (float, float)
         Free key to (lower, upper) bound.
     """
+    six = cfg.model.degrees_of_freedom == 6
     for k, (lo, hi) in free.items():
-        if k not in PARAM_NAMES:
+        if k in SIDE_KEYS and not six:
+            raise ConfigError(k, "a per-side offset needs six degrees of freedom: add --set model.degrees_of_freedom=6")
+        if k not in PARAM_NAMES and k not in SIDE_KEYS:
             raise ConfigError(k, "unknown parameter for --free" + suggest(k, PARAM_NAMES))
         if k == AMPLITUDE_KEY:
             raise ConfigError(k, "the flapping amplitude is solved for level flight; free other keys")
@@ -60,8 +64,8 @@ def check_free_keys(m, cfg, free: dict) -> None:
         Free key to (lower, upper) bound.
     """
     check_free_bounds(cfg, free)
-    for k in free:
-        if PARAM_NAMES.index(k) in m.pre_params:
+    for k in free:  # (a per-side offset: checked by the turn's cycle, on the per-side model)
+        if k in PARAM_NAMES and PARAM_NAMES.index(k) in m.pre_params:
             raise ConfigError(k, "changes the wing's shape in the arm frame (elbow, wrist, morphology): "
                                  "free shoulder joints, wing.root_ahead_m or body/aero/drag keys")
 

@@ -47,14 +47,10 @@ def attach_validity(out, prob, ev, lam_g, cfg: Config) -> None:
     cfg : Config
         Configuration.
     """
-    from birdocp.bird.config import param_vector
-    from birdocp.bird.validity import periodic_validity
-
     if not out.free or not np.all(np.isfinite(out.x0)):
         return
     cfg_best = with_values(cfg, dict(out.free) | {AMPLITUDE_KEY: float(out.amplitude_deg)})
-    out.validity = periodic_validity(cfg_best, out.x0, param_vector(cfg_best),
-                                     steps_per_period=prob.rc.N).to_dict()
+    out.validity = prob.rc.exact_validity(cfg_best, out.x0)
     if prob.valid_bounds:
         smooth = prob.smooth_validity(ev, grads=False)[0]
         first = prob.ng - 1 - len(prob.valid_bounds)  # rows of lam_g (no objective row)

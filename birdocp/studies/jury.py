@@ -6,7 +6,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-__all__ = ["jury_conditions", "jury_function", "dominant_block", "jury_values"]
+__all__ = ["jury_conditions", "jury_function", "dominant_block", "invariant_block", "jury_values"]
 
 
 def jury_conditions(A):
@@ -97,7 +97,37 @@ def dominant_block(M, k: int = 4):
     m = int(np.argmax(ratios)) + 1
     if not ratios[m - 1] > 1.0 + 1e-9:
         raise RuntimeError(f"no dominant multipliers: the {k + 1} largest have the same modulus {mod[0]:.6g}")
-    sel = order[:m]
+    return invariant_block(M, lam, Vc, order[:m], k)
+
+
+def invariant_block(M, lam, Vc, sel, k: int = 4):
+    """``(B, P, V)`` with ``B = P M V`` (k x k, real) holding the eigenvalues ``lam[sel]`` of ``M`` (a set
+    closed under conjugation, at most k of them; padded with zeros to k x k): V spans their right
+    invariant subspace, P their left one with ``P V = I``. A perturbation dM moves them, to first
+    order, as the eigenvalues of ``B + P dM V`` (exact first derivatives while they stay apart from
+    the other eigenvalues; only the eigenvalues themselves, not their moduli, must differ).
+
+    Parameters
+    ----------
+    M : array_like
+        Matrix (n x n).
+    lam : array_like
+        Its eigenvalues (n,).
+    Vc : array_like
+        Its right eigenvectors (columns, n x n), as :func:`numpy.linalg.eig` gives them.
+    sel : sequence of int
+        Indices of the eigenvalues of the block.
+    k : int
+        Size of the block.
+
+    Returns
+    -------
+    tuple
+        ``(B, P, V)``: k x k, k x n and n x k.
+    """
+    M, lam, Vc = np.asarray(M, float), np.asarray(lam), np.asarray(Vc)
+    sel = list(sel)
+    n, m = M.shape[0], len(sel)
     V = _real_basis(Vc[:, sel], lam[sel])
     U = _real_basis(np.linalg.inv(Vc)[sel], lam[sel], columns=False)  # rows: the left eigenvectors
     P = np.linalg.solve(U @ V, U)

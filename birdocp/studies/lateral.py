@@ -32,11 +32,10 @@ import numpy as np
 from birdocp.bird.config import PARAM_NAMES, Config, param_vector
 from birdocp.bird.flight import flight_path_angle_deg
 from birdocp.bird.keys import AMPLITUDE_KEY
-from birdocp.bird.sides import SIDE_PARAM_NAMES, side_vector
+from birdocp.bird.sides import side_vector
 from birdocp.bird.sixdof import HEADING, LATERAL, LONGITUDINAL, STATE_NAMES, LateralInertia, embed_planar_state, \
     sixdof_model
 from birdocp.bird.validity import CycleValidity, periodic_validity
-from birdocp.engine.cache import owned_cache
 from birdocp.engine.floquet import doubling_time_s, multipliers_info, sort_multipliers
 from birdocp.engine.problem import MeanCondition, OrbitProblem
 from birdocp.engine.results import result_dict, serial
@@ -48,9 +47,8 @@ from birdocp.studies.lateral_options import level_keywords
 from birdocp.studies.level import default_bounds
 from birdocp.studies.trim import check_physical
 
-__all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "coupled_modes", "LATERAL_SHARE_MIN", "beats_to_double", "lateral_sensitivities",
-           "LATERAL_SENSITIVITY_KEYS", "heading_trajectory", "TAIL_SENSITIVITY_KEY", "level_keywords",
-           "solve_point"]
+__all__ = ["LateralTrimResult", "lateral_trim", "lateral_modes", "coupled_modes", "LATERAL_SHARE_MIN", "beats_to_double",
+           "heading_trajectory", "level_keywords", "solve_point", "eigenvector_scales"]
 
 
 def beats_to_double(multiplier: complex) -> float:
@@ -79,9 +77,24 @@ LATERAL_SHARE_MIN = 0.5
 eigenvector's squared norm lies in (v, p, r, phi) (:func:`coupled_modes`)."""
 
 
-def _scales(names, period_s: float, speed_mps: float) -> np.ndarray:
+def eigenvector_scales(names, period_s: float, speed_mps: float) -> np.ndarray:
     """The eigenvector scaling of the module: velocities by the mean forward speed, rates by the
-    period, angles as they are."""
+    period, angles as they are.
+
+    Parameters
+    ----------
+    names : sequence of str
+        State names (:data:`birdocp.bird.sixdof.STATE_NAMES`).
+    period_s : float
+        Period [s].
+    speed_mps : float
+        Mean forward speed [m/s].
+
+    Returns
+    -------
+    ndarray
+        One factor per state.
+    """
     return np.array([1.0 / max(speed_mps, 1e-9) if k.endswith("_mps") else period_s if k.endswith("_radps")
                      else 1.0 for k in names])
 
@@ -144,7 +157,7 @@ def lateral_modes(monodromy, period_s: float, speed_mps: float, air_names=()) ->
     names = mirror_names(list(STATE_NAMES) + list(air_names), len(STATE_NAMES))
     names = [names[i] for i in idx]
     lam, vec, _, _, _ = multipliers_info(np.asarray(monodromy)[np.ix_(idx, idx)], period_s)
-    scale = _scales(names, period_s, speed_mps)
+    scale = eigenvector_scales(names, period_s, speed_mps)
     body = body_share_modes(vec * scale[:, None], len(LATERAL), len(LATERAL), lam) if n_air else range(len(lam))
     modes = [_mode(lam[k], vec[:, k], names, scale) for k in range(len(lam))]
     for k, m in enumerate(modes):
@@ -190,7 +203,7 @@ def coupled_modes(monodromy, period_s: float, speed_mps: float, air_names=()) ->
     nb = M.shape[0] - len(air_names)
     names = list(STATE_NAMES[:nb]) + list(air_names)
     lam, vec, _, _, _ = multipliers_info(M, period_s)
-    scale = _scales(names, period_s, speed_mps)
+    scale = eigenvector_scales(names, period_s, speed_mps)
     body = body_share_modes(vec * scale[:, None], nb, nb, lam) if len(air_names) else range(len(lam))
     modes, lat = [], [i for i, k in enumerate(names[:nb]) if STATE_NAMES.index(k) in LATERAL]
     for k in range(len(lam)):
@@ -489,112 +502,3 @@ def _split(cfg, cyc, T, method, inertia, amplitude) -> LateralTrimResult:
 def _inertia_dict(inertia: LateralInertia) -> dict:
     return {"roll_inertia_kgm2": inertia.roll_inertia_kgm2, "yaw_inertia_kgm2": inertia.yaw_inertia_kgm2,
             "product_inertia_xz_kgm2": inertia.product_inertia_xz_kgm2}
-
-
-LATERAL_SENSITIVITY_KEYS = ("gait.shoulder_flap.offset_deg", "gait.shoulder_sweep.offset_deg",
-                            "gait.elbow_flex.offset_deg", "gait.wrist_flex.offset_deg",
-                            "gait.shoulder_incidence.offset_deg", "model.roll_inertia_kgm2",
-                            "model.yaw_inertia_kgm2")
-"""Default parameters of :func:`lateral_sensitivities`: the shoulder elevation (dihedral: the flap
-joint's offset), sweep, elbow and wrist offsets, the wing incidence and the lateral inertias (and, for a
-configuration with the tail, :data:`TAIL_SENSITIVITY_KEY`)."""
-
-TAIL_SENSITIVITY_KEY = "tail.opening_angle_deg"
-"""Added to the default parameters of :func:`lateral_sensitivities` when the configuration has the tail
-(at opening 0 the tail's span and every derivative of its loads vanish, so the key says nothing there)."""
-
-
-def lateral_sensitivities(res: LateralTrimResult, cfg: Config | None = None, parameters=None):
-    """Exact derivatives of every multiplier of a converged 6-DOF cycle (fixed amplitude) with respect
-    to ``parameters`` (keys of :data:`birdocp.bird.config.PARAM_NAMES` or
-    :data:`birdocp.bird.sixdof.LATERAL_PARAM_NAMES`), the change of the cycle included (second-order
-    AD through the RK4 period map, :func:`birdocp.studies.sensitivity.cycle_derivatives`; the heading
-    is left out of the periodicity condition, its multiplier 1 being structural). An asymmetric gait's
-    cycle (a turn) is differentiated in the heading-free 8 states it was solved in. The per-side offsets
-    (``gait.right_offset.*``, ``gait.left_offset.*``, :data:`birdocp.bird.sides.SIDE_PARAM_NAMES`) are
-    parameters of every 6-DOF cycle: a symmetric cycle is differentiated with the model with per-side
-    joint laws at zero offsets (the same right-hand side bit for bit), where mirror symmetry makes a
-    right offset's derivative equal the left one's.
-
-    Parameters
-    ----------
-    res : LateralTrimResult
-        A converged fixed-amplitude 6-DOF cycle (:func:`lateral_trim` without ``level``).
-    cfg : Config, optional
-        Its configuration (default: the reference case).
-    parameters : sequence of str, optional
-        Parameter keys (default :data:`LATERAL_SENSITIVITY_KEYS`, with :data:`TAIL_SENSITIVITY_KEY`
-        when ``cfg`` has the tail); per-side offsets allowed.
-
-    Returns
-    -------
-    list of dict
-        One row per parameter: ``parameter``, ``d_moduli`` (per multiplier, in the order of
-        ``res.multipliers``' labels: ``labels``), ``d_multipliers`` ([re, im] pairs), per unit of the
-        parameter (deg, kg m^2).
-    """
-    from birdocp.studies.sensitivity import SecondOrderMaps, cycle_derivatives
-
-    cfg = cfg or Config()
-    c = res.cycle
-    if not c.success:
-        raise ValueError("the 6-DOF trim did not converge: sensitivities need a converged cycle")
-    if c.free_values:
-        raise ValueError("lateral_sensitivities needs a fixed-amplitude cycle (solve level flight, then trim at "
-                         "its amplitude)")
-    six = sixdof_model(cfg)
-    if parameters is None:
-        parameters = LATERAL_SENSITIVITY_KEYS + ((TAIL_SENSITIVITY_KEY,) if six.structure.tail else ())
-    p = np.asarray(c.p, float)
-    if not six.sides and set(parameters) & set(SIDE_PARAM_NAMES):
-        # per-side keys of a symmetric cycle: the model with per-side joint laws at zero offsets (its data
-        # is the symmetric model's bit for bit), the parameter vector with the 42 zeros appended
-        six = sixdof_model(cfg, sides=True)
-        p = np.concatenate([p, np.zeros(len(SIDE_PARAM_NAMES))])
-    names = list(six.ode.param_names)
-    for k in parameters:
-        if k not in names:
-            raise ValueError(f"unknown parameter {k!r}")
-    steps = int(c.method["steps_per_period"])
-    if not res.symmetric:  # an asymmetric gait: the heading-free 8 states the cycle was solved in
-        so = SecondOrderMaps.get(_heading_free(six), steps, six.flight_outputs(HEADING)["vertical_speed_mps"])
-        states = list(range(HEADING))
-    else:
-        so = SecondOrderMaps.get(six, steps, six.flight_outputs()["vertical_speed_mps"])
-        states = [i for i in range(9) if i != HEADING]
-    lam, dL, dmod, _, _ = cycle_derivatives(so, six.period_s, c.x0, p, [names.index(k) for k in parameters], states)
-    labels = _labels(lam, res)
-    return [{"parameter": k, "labels": labels, "multipliers": lam, "d_moduli": dmod[i], "d_multipliers": dL[i]}
-            for i, k in enumerate(parameters)]
-
-
-class _HeadingFree:
-    """A per-side 6-DOF model seen through its heading-free ODE (the model interface of
-    :class:`birdocp.studies.sensitivity.SecondOrderMaps`: ``model``, ``ode``, ``data``)."""
-
-    def __init__(self, six):
-        self.ode, self.data = six.ode_no_heading, six.data
-
-    @property
-    def model(self) -> "_HeadingFree":
-        """The identity the maps are cached by."""
-        return self
-
-
-def _heading_free(six) -> _HeadingFree:
-    """The heading-free view of ``six`` (one per model, kept by it: the maps are cached by it)."""
-    return owned_cache(six).build("heading_free", lambda: _HeadingFree(six))
-
-
-def _labels(lam, res: LateralTrimResult) -> list[str]:
-    """A label per multiplier: the lateral modes' labels, 'heading', or 'longitudinal'."""
-    out = []
-    for z in lam:
-        lab = "longitudinal"
-        if res.symmetric and abs(z - res.heading_multiplier) < 1e-9 and abs(z.imag) < 1e-12:
-            lab = "heading"
-        for m in res.lateral_modes:
-            if abs(z - m["multiplier"]) < 1e-9 * max(1.0, abs(z)):
-                lab = m["label"]
-        out.append(lab)
-    return out

@@ -14,9 +14,10 @@ on the planar cycle's own data and data directions (the 6-DOF data is the planar
 whose 3-D sums the planar data lacks, forward AD through the 9-state period map of
 :class:`birdocp.studies.sensitivity.SecondOrderMaps`).
 
-An asymmetric gait (per-side offsets) is refused, naming the first non-zero offset: its cycle is a turn,
-periodic up to its heading, not the planar one; the optimisation problem is well posed there (docs), but
-its level cycle, power outputs and validity integrands in the 8 heading-free states are not written.
+An asymmetric gait (per-side offsets set or free, or a turn rate held) is a turn, periodic up to its
+heading, not the planar cycle: :func:`reduced_level_cycle` gives it the
+:class:`~birdocp.studies.turn_cycle.TurnLevelCycle` in the 8 heading-free states (:class:`LateralLevelCycle`
+itself refuses it, naming the first non-zero offset).
 """
 
 from __future__ import annotations
@@ -72,9 +73,8 @@ class LateralLevelCycle(ReducedLevelCycle):
     def __init__(self, cfg: Config, keys, **options):
         if asymmetric(cfg):
             key = next(k for k in SIDE_PARAM_NAMES if get_value(cfg, k) != 0)
-            raise ConfigError(key, "the 6-DOF gait optimisers take a symmetric gait: their level cycle is the planar "
-                                   "one, a turn's 8-state cycle is not written in them (docs/studies/lateral.md); set "
-                                   "the per-side offsets to 0")
+            raise ConfigError(key, "LateralLevelCycle takes a symmetric gait (its level cycle is the planar one); "
+                                   "a turn is a TurnLevelCycle (reduced_level_cycle chooses it)")
         super().__init__(cfg, keys, **options)
         from birdocp.studies.sensitivity import SecondOrderMaps
 
@@ -213,10 +213,12 @@ def lateral_check(cfg_best: Config, x0, multipliers, steps_per_period: int) -> d
                                     "beats_to_double": float(m["beats_to_double"])} for m in tr.lateral_modes]}
 
 
-def reduced_level_cycle(cfg: Config, keys, **options) -> ReducedLevelCycle:
+def reduced_level_cycle(cfg: Config, keys, turn: bool = False, **options) -> ReducedLevelCycle:
     """The :class:`~birdocp.studies.gait_cycle.ReducedLevelCycle` of ``cfg`` over the free ``keys``
     (``options``: its other arguments); with ``model.degrees_of_freedom = 6`` the
-    :class:`LateralLevelCycle`, whose multipliers also count the lateral ones.
+    :class:`LateralLevelCycle`, whose multipliers also count the lateral ones, or, for a turn (``turn``,
+    or :func:`birdocp.studies.turn_cycle.is_turn`: a per-side offset set or free), the
+    :class:`~birdocp.studies.turn_cycle.TurnLevelCycle` in the 8 heading-free states.
 
     Parameters
     ----------
@@ -224,6 +226,8 @@ def reduced_level_cycle(cfg: Config, keys, **options) -> ReducedLevelCycle:
         Configuration.
     keys : sequence of str
         Free keys.
+    turn : bool
+        Solve the cycle as a turn (six degrees of freedom).
     **options
         Further arguments of the cycle.
 
@@ -232,5 +236,9 @@ def reduced_level_cycle(cfg: Config, keys, **options) -> ReducedLevelCycle:
     ReducedLevelCycle
     """
     if cfg.model.degrees_of_freedom == 6:
+        from birdocp.studies.turn_cycle import TurnLevelCycle, is_turn
+
+        if turn or is_turn(cfg, keys):
+            return TurnLevelCycle(cfg, keys, **options)
         return LateralLevelCycle(cfg, keys, **options)
     return ReducedLevelCycle(cfg, keys, **options)

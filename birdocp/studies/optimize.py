@@ -228,7 +228,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
                        amplitude_bounds=AMPLITUDE_BOUNDS_DEG, steps_per_period: int | None = None,
                        max_iter: int = 400, tol: float = 1e-7, verify: bool = True,
                        progress=False, coarse_steps: int | None | str = "auto", method: str = "reduced",
-                       threads: int = 2, valid: bool = False) -> StabilityOptimum:
+                       threads: int = 2, valid: bool = False, turn_deg_per_beat: float | None = None) -> StabilityOptimum:
     """Minimise the largest multiplier modulus of a level-flight cycle over the gait parameters
     ``free`` (key -> (lower, upper); default :data:`DEFAULT_FREE`): minimise r subject to the Jury
     conditions of ``Mon / r`` (each >= :data:`JURY_MARGIN`), level flight held by the flapping
@@ -249,7 +249,6 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     refined on the full grid (``steps_per_period``) from it; ``max_iter`` counts per stage.
 
     Aerodynamic states (reduced method): r bounds the full monodromy's spectral radius (its dominant block).
-
     ``valid``: :func:`birdocp.studies.gait.optimize_gait`'s ``valid`` in every stage; the exact
     ``validity`` of the result is ``valid`` unless the rounds ran out.
 
@@ -287,6 +286,8 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     valid : bool
         The limits of ``cfg.validity`` as smooth constraints in every stage (reduced method only);
         the result then carries ``validity_constraints``.
+    turn_deg_per_beat : float, optional
+        6 DOF: heading change per wingbeat held [deg] (a turn, :mod:`birdocp.studies.turn_cycle`).
 
     Returns
     -------
@@ -302,7 +303,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
                               steps_per_period=steps_per_period, max_iter=max_iter, tol=tol, verify=verify,
                               progress=progress, coarse_steps=coarse_steps)
     return _optimize_reduced(cfg, free, climb_rate_mps, amplitude_bounds, steps_per_period, coarse_steps,
-                             max_iter, tol, verify, progress, threads, valid)
+                             max_iter, tol, verify, progress, threads, valid, turn_deg_per_beat)
 
 
 def _check_options(method: str, threads, valid: bool, cfg: Config | None = None) -> None:
@@ -320,7 +321,7 @@ def _check_options(method: str, threads, valid: bool, cfg: Config | None = None)
 
 
 def _optimize_reduced(cfg, free, climb_rate_mps, amplitude_bounds, steps_per_period, coarse_steps, max_iter,
-                      tol, verify, progress, threads, valid) -> StabilityOptimum:
+                      tol, verify, progress, threads, valid, turn=None) -> StabilityOptimum:
     """The reduced-space formulation of :func:`optimize_stability` (coarse stage, then the full grid)."""
     from birdocp.bird.model import get_model
 
@@ -331,11 +332,12 @@ def _optimize_reduced(cfg, free, climb_rate_mps, amplitude_bounds, steps_per_per
     N = int(steps_per_period or cfg.solve.steps_per_period)
     stages = [coarse_steps, N] if coarse_steps and coarse_steps < N else [N]
     opt, first, iterations, wall, notes = _reduced_stages(cfg, free, stages, climb_rate_mps, amplitude_bounds,
-                                                          max_iter, tol, progress, threads, valid)
+                                                          max_iter, tol, progress, threads, valid, turn)
     return _stability_result(cfg, free, opt, first, iterations, wall, notes, N, verify, valid, t_start)
 
 
-def _reduced_stages(cfg, free, stages, climb_rate_mps, amplitude_bounds, max_iter, tol, progress, threads, valid):
+def _reduced_stages(cfg, free, stages, climb_rate_mps, amplitude_bounds, max_iter, tol, progress, threads, valid,
+                    turn=None):
     """The reduced solves on the grids ``stages`` (coarse first, each from the last one's optimum and
     second derivatives): (last optimum, first optimum, iterations in all, wall times, notes)."""
     wall, iterations, notes = {}, 0, []
@@ -344,7 +346,7 @@ def _reduced_stages(cfg, free, stages, climb_rate_mps, amplitude_bounds, max_ite
         last = k == len(stages) - 1  # a coarse stage only needs to find the basin: looser tolerance
         opt = _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter,
                              tol if last else max(tol, COARSE_TOL), progress, start, x_guess,
-                             opt.second_derivatives if opt is not None else None, threads, valid, last)
+                             opt.second_derivatives if opt is not None else None, threads, valid, last, turn)
         first = first or opt
         iterations += opt.iterations
         tag = "coarse_" if k < len(stages) - 1 else ""
@@ -378,7 +380,13 @@ def _stability_result(cfg, free, opt, first, iterations, wall, notes, N, verify,
         opt.validity_rounds
     out.six_dof = opt.six_dof
     cfg_best = with_values(cfg, dict(opt.free) | {AMPLITUDE_KEY: opt.amplitude_deg})
-    if verify and finite:
+    if verify and finite and out.six_dof and out.six_dof.get("symmetric") is False:  # a turn: a 6-DOF trim
+        from birdocp.studies.turn_cycle import turn_check
+
+        opt.start_x0 = opt.start_x0 if opt.start_x0 is not None else first.start_x0
+        out.verification = turn_check(opt, cfg, N)
+        out.cfg = out.verification.pop("cfg")
+    elif verify and finite:
         t0 = time.perf_counter()
         _verify(out, cfg, N)
         wall["verify"] = time.perf_counter() - t0
@@ -393,7 +401,7 @@ def _stability_result(cfg, free, opt, first, iterations, wall, notes, N, verify,
 
 
 def _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter, tol, progress, start, x_guess,
-                   second=None, threads=2, valid=False, final=True):
+                   second=None, threads=2, valid=False, final=True, turn=None):
     """One reduced-space solve (:func:`birdocp.studies.gait.optimize_gait`, objective "stability") on
     ``steps`` RK4 steps per period.
 
@@ -417,7 +425,7 @@ def _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter,
                          tol=tol, verify=False, progress=progress, start=start, x_guess=x_guess,
                          hessian=hessian, radius_start_factor=1.001 if warm else 1.05,
                          ipopt_options=opts, threads=threads, second_derivatives=second if hessian == "fixed" else None,
-                         valid=valid, valid_rounds=None if final else 1)
+                         valid=valid, valid_rounds=None if final else 1, turn_deg_per_beat=turn)
 
 
 def _verify(out: StabilityOptimum, cfg: Config, N: int, jury=None) -> None:
