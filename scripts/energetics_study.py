@@ -174,7 +174,7 @@ def main():
 
 def optimize_stability_part(cfg, threads):
     """optimize-stability on the reference problem (free speed, its default keys and bounds), reduced
-    space, against the full-space result committed in results/stability_optimum."""
+    space, against the result committed in results/stability_optimum (its method recorded with it)."""
     log(f"optimize-stability (reduced space) on the reference problem, {threads} threads")
     from birdocp.studies.optimize import optimize_stability
 
@@ -192,7 +192,8 @@ def optimize_stability_part(cfg, threads):
            "verification": {k: d["verification"].get(k) for k in (
                "trim_success", "max_multiplier_difference", "trim_x0_difference", "radius_minus_spectral_radius",
                "scratch_trim_success", "scratch_finds_another_cycle")}},
-        "full_space_committed": {k: full.get(k) for k in ("iterations", "radius", "moduli", "free", "amplitude_deg")}
+        "committed_optimum": {k: full.get(k) for k in ("method", "coarse_steps", "iterations", "radius", "moduli", "free",
+                                                      "amplitude_deg")}
         | {"wall_s_total": (full.get("wall_s") or {}).get("total"), "source": "results/stability_optimum/result.json"},
     }
     log(f"  r {so.radius:.6f}, {so.iterations} iterations, {so.wall_s['total']:.1f} s, KKT {so.kkt_residual:.1e}")
@@ -282,7 +283,7 @@ def summary_md(out):
     lines += ["", f"Power non-increasing as R loosens: {out['pareto_monotone']}; tracing took "
               f"{out['pareto_wall_s']:.0f} s."]
     so = out["optimize_stability"]
-    red, ful = so["reduced"], so["full_space_committed"]
+    red, ful = so["reduced"], so["committed_optimum"]
     coarse = re.search(r"coarse stage \((\d+) steps\): \w+, (\d+) iterations", red["message"])
     split = f" (coarse {coarse[2]} on {coarse[1]} steps + fine {red['iterations'] - int(coarse[2])})" if coarse else ""
     w = red["wall_s"]
@@ -296,7 +297,8 @@ def summary_md(out):
               f"(CPU {red['cpu_s_total']:.1f}{stages}) | {red['radius']:.6f} | {max(red['moduli']):.6f} | "
               f"{red['kkt_residual']:.1e} |"]
     if ful.get("iterations") is not None:
-        lines.append(f"| full space (committed, {ful['source']}) | {ful['iterations']} | {ful['wall_s_total']:.1f} | "
+        lines.append(f"| {ful.get('method') or 'full'} space (committed, {ful['source']}) | {ful['iterations']} | "
+                     f"{ful['wall_s_total']:.1f} | "
                      f"{ful['radius']:.6f} | {max(ful['moduli']):.6f} | - |")
     return "\n".join(lines) + "\n"
 
