@@ -52,8 +52,8 @@ from birdocp.engine.cache import owned_cache
 from birdocp.engine.integrate import RK4Grid
 from birdocp.engine.rk4 import accumulate
 
-__all__ = ["newton_picard", "NewtonPicardOutcome", "directional_pass", "shooting_unknowns", "REFRESH_RATIO",
-           "not_contracting", "outcome_message"]
+__all__ = ["newton_picard", "NewtonPicardOutcome", "ChordOps", "chord_iterations", "directional_pass",
+           "shooting_unknowns", "REFRESH_RATIO", "not_contracting", "outcome_message"]
 
 REFRESH_RATIO = 0.25
 """The chord matrices are recomputed at an iterate whose residual fell by less than this factor."""
@@ -237,27 +237,78 @@ def newton_picard(graphs, problem, z0, newton_states, *, tol: float, max_iter: i
     """
     pb = _Iteration(graphs, problem, newton_states)
     st = pb.state(np.asarray(z0, float)[:problem.ode.nx].copy())
+    ops = ChordOps(lambda s: _reduced(pb, s), lambda s, seed: pb.state_along(s.x, seed)[1],
+                   lambda s, seed, w: _picard_term(pb, s, seed, w), lambda s, red, u: _step(pb, s, red, u),
+                   lambda s, dx, seed: pb.state_along(s.x + dx, seed))
+    best, status, it, hist, rates = chord_iterations(st, pb.F, ops, tol=tol, max_iter=max_iter, max_rate=max_rate)
+    z = shooting_unknowns(pb.grid, best.x, best.X, best.x_T)
+    return NewtonPicardOutcome(z, status, outcome_message(status, it, hist, rates, max_rate), it, hist, rates)
+
+
+@dataclass(frozen=True)
+class ChordOps:
+    """The five operations of a Newton-Picard iteration that depend on the unknowns (a cycle, or a cycle
+    with free parameters), for :func:`chord_iterations`.
+
+    ``reduced(state)``: the chord matrices; ``along(state, seed)``: ``M Q seed`` at the state;
+    ``picard(state, seed, w)``: the Picard term ``u`` and the complement's growth; ``step(state, reduced,
+    u)``: the Newton move; ``advance(state, move, seed)``: the next state and its ``M Q seed``.
+    """
+
+    reduced: object
+    along: object
+    picard: object
+    step: object
+    advance: object
+
+
+def chord_iterations(st, fast, ops: ChordOps, *, tol: float, max_iter: int, max_rate: float):
+    """The Newton-Picard loop shared by the fixed and the free-parameter iterations: chord matrices
+    refreshed when the residual stops falling by :data:`REFRESH_RATIO`, the Picard term along the last
+    fast residual, the Newton move, and the contraction test (:func:`not_contracting`).
+
+    Parameters
+    ----------
+    st : object
+        The start state (``max_residual``, ``r``).
+    fast : sequence of int
+        Indices of the Picard (fast) states in the residual ``st.r``.
+    ops : ChordOps
+        The operations on states of this kind.
+    tol : float
+        Max-norm of the residual for convergence.
+    max_iter : int
+        Iteration limit.
+    max_rate : float
+        Largest acceptable growth per period of the Picard complement.
+
+    Returns
+    -------
+    tuple
+        ``(best state, status, iterations, residual history, growth rates)``; status ``"converged"``,
+        ``"max_iter"``, ``"nan"``, ``"singular"`` or ``"not_contracting"``.
+    """
     best, hist, rates, it, reduced, fresh = st, [st.max_residual], [], 0, None, False
     status = "nan" if not np.isfinite(hist[0]) else "max_iter"
     seed, w = None, None
     while status == "max_iter" and hist[-1] > tol and it < max_iter:
         interrupts.check()
         if reduced is None or (not fresh and hist[-1] > REFRESH_RATIO * hist[-2]):
-            reduced, fresh = _reduced(pb, st), True
+            reduced, fresh = ops.reduced(st), True
         else:
             fresh = False
         if seed is None:  # the first iteration: M Q r_F itself
-            seed = st.r[pb.F]
-            w = pb.state_along(st.x, seed)[1]
-        u, rate = _picard_term(pb, st, seed, w)
+            seed = st.r[fast]
+            w = ops.along(st, seed)
+        u, rate = ops.picard(st, seed, w)
         rates.append(rate)
-        seed = st.r[pb.F]
+        seed = st.r[fast]
         try:
-            dx = _step(pb, st, reduced, u)
+            move = ops.step(st, reduced, u)
         except np.linalg.LinAlgError:
             status = "singular"
             break
-        st, w = pb.state_along(st.x + dx, seed)
+        st, w = ops.advance(st, move, seed)
         it += 1
         hist.append(st.max_residual)
         if np.isfinite(hist[-1]) and hist[-1] < best.max_residual:
@@ -266,8 +317,7 @@ def newton_picard(graphs, problem, z0, newton_states, *, tol: float, max_iter: i
             status = "not_contracting"
     if best.max_residual <= tol:
         status = "converged"
-    z = shooting_unknowns(pb.grid, best.x, best.X, best.x_T)
-    return NewtonPicardOutcome(z, status, outcome_message(status, it, hist, rates, max_rate), it, hist, rates)
+    return best, status, it, hist, rates
 
 
 def not_contracting(hist, rates, max_rate) -> bool:

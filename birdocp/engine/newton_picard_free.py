@@ -33,10 +33,9 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from birdocp.engine import interrupts
 from birdocp.engine.cache import owned_cache
 from birdocp.engine.integrate import RK4Grid
-from birdocp.engine.newton_picard import (REFRESH_RATIO, NewtonPicardOutcome, directional_pass, not_contracting,
+from birdocp.engine.newton_picard import (ChordOps, NewtonPicardOutcome, chord_iterations, directional_pass,
                                           outcome_message, shooting_unknowns)
 
 __all__ = ["newton_picard_free", "mean_gradient", "FD_STEP", "GROWTH_LIMIT", "HALVINGS"]
@@ -177,35 +176,11 @@ def newton_picard_free(graphs, problem, z0, newton_states, lo, hi, *, tol: float
     z0 = np.asarray(z0, float)
     nx, nf = problem.ode.nx, len(pb.free)
     st = pb.state(z0[:nx].copy(), np.clip(z0[len(z0) - nf:], pb.lo, pb.hi))
-    best, hist, rates, it, reduced, fresh = st, [st.max_residual], [], 0, None, False
-    status = "nan" if not np.isfinite(hist[0]) else "max_iter"
-    seed, w = None, None
-    while status == "max_iter" and hist[-1] > tol and it < max_iter:
-        interrupts.check()
-        if reduced is None or (not fresh and hist[-1] > REFRESH_RATIO * hist[-2]):
-            reduced, fresh = _free_reduced(pb, st), True
-        else:
-            fresh = False
-        if seed is None:  # the first iteration: M Q r_F itself
-            seed = st.r[pb.F]
-            w = pb.state_along(st.x, st.pf, seed)[1]
-        u, rate = _free_picard_term(pb, st, seed, w)
-        rates.append(rate)
-        seed = st.r[pb.F]
-        try:
-            dx, pf = _free_step(pb, st, reduced, u)
-        except np.linalg.LinAlgError:
-            status = "singular"
-            break
-        st, w = _damped(pb, st, dx, pf, seed)
-        it += 1
-        hist.append(st.max_residual)
-        if np.isfinite(hist[-1]) and hist[-1] < best.max_residual:
-            best = st
-        if not_contracting(hist, rates, max_rate):
-            status = "not_contracting"
-    if best.max_residual <= tol:
-        status = "converged"
+    ops = ChordOps(lambda s: _free_reduced(pb, s), lambda s, seed: pb.state_along(s.x, s.pf, seed)[1],
+                   lambda s, seed, w: _free_picard_term(pb, s, seed, w),
+                   lambda s, red, u: _free_step(pb, s, red, u),
+                   lambda s, move, seed: _damped(pb, s, move[0], move[1], seed))
+    best, status, it, hist, rates = chord_iterations(st, pb.F, ops, tol=tol, max_iter=max_iter, max_rate=max_rate)
     z = np.concatenate([shooting_unknowns(pb.grid, best.x, best.X, best.x_T), best.pf])
     return NewtonPicardOutcome(z, status, outcome_message(status, it, hist, rates, max_rate), it, hist, rates)
 
