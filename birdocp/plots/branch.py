@@ -191,7 +191,12 @@ def _locus_figure(branches: dict, labels: list, path: Path):
     fig, axes = plt.subplots(1, len(labels), figsize=(6.2 * len(labels), 5.8), squeeze=False)
     for ax, lab in zip(axes[0], labels):
         _locus_panel(fig, ax, branches[lab], lab)
-    fig.tight_layout()
+    uniq = {}
+    for ax in axes[0]:  # one legend for the panels, below them: never over the data
+        h, l_ = ax.get_legend_handles_labels()
+        uniq |= dict(zip(l_, h))
+    fig.legend(uniq.values(), uniq.keys(), fontsize=8, loc="lower center", ncol=3)
+    fig.tight_layout(rect=(0, 0.13, 1, 1))
     out = save_figure(fig, path)
     plt.close(fig)
     return out
@@ -226,7 +231,6 @@ def _locus_panel(fig, ax, b: Branch, lab: str) -> None:
     ax.set_title(f"{lab}: multipliers along the branch")
     cb = fig.colorbar(sc, ax=ax, shrink=0.7)
     cb.set_label(xl)
-    _unique_legend(ax, loc="upper left")
 
 
 def _moduli_figure(branches: dict, labels: list, path: Path, span):
