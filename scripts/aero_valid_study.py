@@ -22,20 +22,28 @@ and each ``--cases`` model, started from the quasi-steady optimum's gait on ``--
 period (default 48: the wagner trim diverges at 32). Writes DIR/cases/opt_<gait>_<case>.json as each
 finishes, then DIR/optimized.json and DIR/optimized.md (r*, KKT residual, validity, active limits).
 
-    python scripts/aero_valid_study.py --optimize --cases wagner --out results/aero/valid
+The committed rows (``scripts/check_results.py``'s ``aero-valid-optimize-*`` entries run exactly these): the
+SR1 stage of each problem from the quasi-steady optimum (three independent runs),
 
-Converging them (docs/model_unsteady.md): ``--hessian fd --from-reached --label fd_reached`` solves again
-from the point an earlier row reached (its gait, amplitude and full state; ``--from-label`` names that
-row, default the unlabelled one) with the exact-Hessian mode; ``--max-iter`` and ``--valid-rounds`` bound
+    python scripts/aero_valid_study.py --optimize --cases wagner --gaits at_speed --out results/aero/valid
+    python scripts/aero_valid_study.py --optimize --cases wagner --gaits free_speed --out results/aero/valid
+    python scripts/aero_valid_study.py --optimize --cases wagner --gaits tail --out results/aero/valid
+
+then, converging them (docs/model_unsteady.md), the exact-Hessian stage from the point the SR1 row reached
+(``--hessian fd --from-reached --label fd_reached``: its gait, amplitude and full state; ``--from-label``
+names another row to start from, default the unlabelled one); ``--max-iter`` and ``--valid-rounds`` bound
 the cost (iteration counts, never wall time: a run reproduces); ``--own-state`` re-trims each optimum
 from its own state; ``--stall-at-optimum N`` trims ``wagner`` + ``stall`` at each optimum's gait (at most N
-iterations) and then solves its level flight.
+iterations) and then solves its level flight. The tail stage stops at 8 iterations, not converged:
 
-    python scripts/aero_valid_study.py --optimize --gaits free_speed --cases wagner --hessian fd \
-        --from-reached --max-iter 40 --valid-rounds 2 --label fd_reached --out results/aero/valid
+    python scripts/aero_valid_study.py --optimize --cases wagner --gaits free_speed --hessian fd --from-reached \
+        --valid-rounds 2 --own-state --stall-at-optimum 30 --label fd_reached --max-iter 40 --out results/aero/valid
+    python scripts/aero_valid_study.py --optimize --cases wagner --gaits tail --hessian fd --from-reached \
+        --valid-rounds 2 --own-state --stall-at-optimum 30 --label fd_reached --max-iter 8 --out results/aero/valid
 
-The tail optimum on 96 steps (48 move |Lambda1| by 0.06 at its 18 m/s: the lag's fast pole nears RK4's
-limit), from the point the exact-Hessian run on 48 steps reached:
+Not committed: the tail optimum on 96 steps (at its 18 m/s the lag's fast pole nears RK4's limit on 48
+steps: |Lambda1| 1.016 on 48 against 0.958 on 96 at an earlier point), from the point the exact-Hessian
+run on 48 steps reached:
 
     python scripts/aero_valid_study.py --optimize --gaits tail --cases wagner --hessian fd --steps 96 \
         --from-reached --from-label fd_reached --max-iter 30 --valid-rounds 2 --own-state --label fd96 \

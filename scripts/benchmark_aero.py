@@ -1,7 +1,8 @@
 """Cost of the unsteady and stall-aware aerodynamics, as ratios measured in one run.
 
 1. A trim of the paper's gait (5 points, 148 steps) with ``aero.unsteady = "wagner"`` and with
-   ``wagner`` + ``dynamic-stall`` (the default ``solve.solver = "auto"``: Newton-Picard; the rows
+   ``wagner`` + ``dynamic-stall`` (the default ``solve.solver = "auto"``: Newton-Picard, for the trim
+   with the monodromy chord, ``OrbitMethod.chord``; each row's ``message`` says which; the rows
    ``<case>_full_newton``: IPOPT on the full state, and ``newton_picard_vs_full_newton`` the largest
    differences of x0 and of the multipliers between the two), against the default trim: wall time of the solve with the graphs
    already built (each case is trimmed twice, the second time is measured), and the size of the state
@@ -76,6 +77,7 @@ def trim_cost(overrides: dict, repeats: int = 2, x_guess=None, compiled: bool = 
             "rhs_instructions": count(m.rhs, 1), "states": int(m.ode.nx),
             "variational_step_instructions": count(grid.variational_step(), 4),
             "lambda1": float(abs(r.multipliers[0])) if r.success else None, "solver": r.cycle.method["solver"],
+            "message": r.cycle.message,
             "x0": [float(v) for v in r.x0], "multipliers": [[float(v.real), float(v.imag)] for v in r.multipliers]
             if r.multipliers is not None else None,
             **({"libraries": builds} if compiled else {})}

@@ -29,7 +29,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from result_compare import compare, relative_gap  # noqa: E402
+from result_compare import compare, compare_text, relative_gap  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "results"
@@ -59,6 +59,25 @@ OPTIMUM_RTOL = 1e-6
 #: speed of -6.99e-12 against -6.93e-12, a KKT residual of 6.02e-8 against 6.21e-8, inactive multipliers
 #: of -1.17366e-10 against -1.17355e-10, with the same optimum).
 OPTIMUM_ATOL = 1e-8
+
+
+#: ``scripts/aero_valid_study.py --optimize`` (results/aero/valid/cases/opt_*): the SR1 stage of each problem
+#: from the quasi-steady optimum (at_speed, free_speed, tail: independent runs), then the exact-Hessian stage
+#: (:data:`AERO_FD`) of free_speed and tail from the point their SR1 stage reached, read from the out folder.
+#: Each stage is its own entry, so the five run in parallel (``--only 'aero-valid-optimize*'`` in separate
+#: calls): an exact-Hessian stage's folder is seeded with the *committed* SR1 row it starts from (checked
+#: identical by that stage's own entry), as the committed row was made from it. The tail stage's folder is
+#: seeded with the four other committed rows, so its run writes optimized.json and optimized.md from all five,
+#: as the last of the committed runs did. Iteration bounds only: the tail exact-Hessian stage stops at 8
+#: iterations, where the committed run stopped (it was cut by a wall-clock limit, removed since).
+AERO_OPTIMIZE = ["--optimize", "--cases", "wagner"]
+AERO_FD = ["--hessian", "fd", "--from-reached", "--valid-rounds", "2", "--own-state", "--stall-at-optimum", "30",
+           "--label", "fd_reached"]
+
+
+def _opt(gait: str, label: str = "") -> str:
+    """The case file (relative to results/) of an ``--optimize`` row of ``gait`` with ``wagner``."""
+    return f"aero/valid/cases/opt_{gait}_wagner{'_' + label if label else ''}.json"
 
 
 EXAMPLES = ("forced_van_der_pol", "goodwin", "lorenz", "redox", "rossler", "stuart_landau")
@@ -96,10 +115,15 @@ REGISTRY = [
           args=["--gif", ""]),
     entry("lateral-unsteady", "scripts/lateral_unsteady.py", "lateral/unsteady", ["lateral/unsteady/result.json"],
           recorded=[("lateral/unsteady/result.json", "wall_s")]),
+    entry("lateral-simulate-aero", "scripts/lateral_simulate_aero.py", "lateral/simulate_aero",
+          ["lateral/simulate_aero/result.json"], recorded=[("lateral/simulate_aero/result.json", "wall_s")]),
     entry("lateral-sweep", "scripts/lateral_sweep.py", "lateral/sweep", ["lateral/sweep/result.json"],
           recorded=[("lateral/sweep/result.json", "wall_s")]),
     entry("lateral-optimum", "scripts/lateral_optimum.py", "lateral/optimum", ["lateral/optimum/result.json"],
           recorded=[("lateral/optimum/result.json", "script_wall_s")], rtol=OPTIMUM_RTOL),
+    entry("lateral-turn-power", "scripts/lateral_turn_power.py", "lateral/turn_power",
+          ["lateral/turn_power/result.json"], recorded=[("lateral/turn_power/result.json", "wall_s")],
+          rtol=OPTIMUM_RTOL),
     entry("lateral-control", "scripts/lateral_control_study.py", "lateral/control",
           ["lateral/control/result.json"], recorded=[("lateral/control/result.json", "wall_s")]),
     entry("lateral-study", "scripts/lateral_study.py", "lateral", ["lateral/result.json"],
@@ -152,10 +176,23 @@ REGISTRY = [
           ["aero/valid/table.json", "aero/valid/cases/at_speed_*.json", "aero/valid/cases/free_speed_*.json"],
           recorded=[(f"aero/valid/cases/{g}_{c}.json", "trim_wall_s") for g in ("at_speed", "free_speed")
                     for c in ("today", "wagner", "wagner_stall")]),
-    entry("aero-valid-optimize", "scripts/aero_valid_study.py", "aero/valid",
-          ["aero/valid/optimized.json", "aero/valid/cases/opt_*.json"], args=["--optimize", "--cases", "wagner"],
-          recorded=[(f"aero/valid/cases/opt_{g}_wagner.json", "wall_s") for g in ("at_speed", "free_speed",
-                                                                                   "tail")], rtol=OPTIMUM_RTOL),
+    *[entry(f"aero-valid-optimize-{g.replace('_', '-')}", "scripts/aero_valid_study.py", "aero/valid", [_opt(g)],
+            args=[*AERO_OPTIMIZE, "--gaits", g], recorded=[(_opt(g), "wall_s")], rtol=OPTIMUM_RTOL)
+      for g in ("at_speed", "free_speed", "tail")],
+    entry("aero-valid-optimize-free-speed-fd", "scripts/aero_valid_study.py", "aero/valid",
+          [_opt("free_speed", "fd_reached")], seed=[_opt("free_speed")], rtol=OPTIMUM_RTOL,
+          args=[*AERO_OPTIMIZE, "--gaits", "free_speed", *AERO_FD, "--max-iter", "40"],
+          recorded=[(_opt("free_speed", "fd_reached"), "wall_s")]),
+    entry("aero-valid-optimize-tail-fd", "scripts/aero_valid_study.py", "aero/valid",
+          [_opt("tail", "fd_reached"), "aero/valid/optimized.json", "aero/valid/optimized.md"],
+          seed=[_opt("at_speed"), _opt("free_speed"), _opt("tail"), _opt("free_speed", "fd_reached")],
+          args=[*AERO_OPTIMIZE, "--gaits", "tail", *AERO_FD, "--max-iter", "8"], rtol=OPTIMUM_RTOL,
+          recorded=[(_opt("tail", "fd_reached"), "wall_s")]),
+    entry("aero-stall-optimum", "scripts/aero_stall_optimum.py", "aero/stall_optimum",
+          ["aero/stall_optimum/result.json", "aero/stall_optimum/scan.json", "aero/stall_optimum/cases/opt_*.json"],
+          args=["--max-iter", "6", "--label", "explore6"],
+          then=[["--from-label", "explore6", "--max-iter", "10", "--label", "fd16"]],
+          recorded=[("aero/stall_optimum/cases/opt_*.json", "wall_s")], rtol=OPTIMUM_RTOL),
     entry("reference-trim", "-m birdocp trim", "animation/reference_trim",
           ["animation/reference_trim/result.json"], recorded=[("animation/reference_trim/result.json", "wall_s")]),
     entry("hostile-cases", "scripts/hostile_cases.py", "reliability", ["reliability/hostile_cases.json"],
@@ -222,7 +259,9 @@ def _normalise(text: str, run_root: Path) -> str:
 
 
 def compare_files(e, run_root: Path, rtol: float) -> list[dict]:
-    """One row per committed file of entry ``e``: identical, differs (first differences) or missing."""
+    """One row per committed file of entry ``e``: identical, differs (first differences) or missing. JSON
+    files are compared by :func:`result_compare.compare`, others (a Markdown table) by
+    :func:`result_compare.compare_text`."""
     rows = []
     for old in _committed(e):
         rel = old.relative_to(RESULTS).as_posix()
@@ -230,8 +269,10 @@ def compare_files(e, run_root: Path, rtol: float) -> list[dict]:
         if not new.exists():
             rows.append({"file": rel, "status": "missing", "differences": []})
             continue
-        diffs = compare(json.loads(old.read_text()), json.loads(_normalise(new.read_text(), run_root)),
-                        rtol=max(rtol, e["rtol"]), atol=OPTIMUM_ATOL if e["rtol"] >= OPTIMUM_RTOL else 1e-14)
+        text = _normalise(new.read_text(), run_root)
+        diffs = compare(json.loads(old.read_text()), json.loads(text), rtol=max(rtol, e["rtol"]),
+                        atol=OPTIMUM_ATOL if e["rtol"] >= OPTIMUM_RTOL else 1e-14) if old.suffix == ".json" \
+            else compare_text(old.read_text(), text)
         rows.append({"file": rel, "status": "differs" if diffs else "identical",
                      "differences": [{"key": k, "committed": a, "regenerated": b, "relative": relative_gap(a, b)}
                                      for k, a, b in diffs]})

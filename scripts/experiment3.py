@@ -97,9 +97,10 @@ def trim_checks(halves: dict, fixed: Branch, compiled: bool = False) -> list:
     return checks
 
 
-def figures_and_checks(ex, jobs: int, res: list, out: Path, compiled: bool = False):
+def figures_and_checks(ex, jobs: int, res: list, out: Path, compiled: bool = False, checks: list | None = None):
     """The branch figures (drawn by the executor's workers, in a thread of this process, while this
-    process runs the independent trims) and the trim checks."""
+    process runs the independent trims) and the trim checks; given ``checks`` (a redraw, ``--reuse``),
+    the figures only, drawn in this process."""
     halves = {r["name"]: Branch.from_dict(r["branch"]) for r in res}
     fams = {"fixed": merge(halves["fixed_down"], halves["fixed_up"]),
             "level": merge(halves["level_down"], halves["level_up"])}
@@ -109,7 +110,12 @@ def figures_and_checks(ex, jobs: int, res: list, out: Path, compiled: bool = Fal
              {"branches": {LABELS["level"]: fams["level"].to_dict()}, "prefix": "level_", "span": span,
               "out": str(out)}]
     drawn: list = []
-    if jobs > 1:
+    if checks is not None:
+        drawn = [plot_job(job) for job in plots]
+    elif jobs > 1:
+        # the workers belong to the thread that starts them (parent-death signal): started by the
+        # drawing thread they would be killed when it ends, and closing the pool would then wait forever
+        ex.start()
         th = threading.Thread(target=lambda: drawn.extend(ex.map(plot_job, plots)))
         th.start()
         checks = trim_checks(halves, fams["fixed"], compiled)
@@ -122,11 +128,27 @@ def figures_and_checks(ex, jobs: int, res: list, out: Path, compiled: bool = Fal
     return halves, fams, [Path(p) for ps in drawn for p in ps], checks
 
 
+def reused_run(out: Path, jobs: list) -> tuple[list, dict | None]:
+    """``--reuse``: the half-branches of an earlier run of this script in ``out``, and that run's
+    result.json (None if there is none): its trim checks, wall times and executor are kept as it
+    measured them (no trim is redone), so that a redraw writes result.json again byte for byte."""
+    res = [{"name": j["name"], "branch": json.loads((out / f"branch_{j['name']}.json").read_text())}
+           for j in jobs]
+    try:
+        prev = json.loads((out / "result.json").read_text())
+        prev = {k: prev[k] for k in ("trim_checks", "wall_s", "executor")}
+    except (OSError, ValueError, KeyError):
+        prev = None
+    return res, prev
+
+
 def main():
     ap = script_parser(__doc__, "results/experiment3")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--rear-sm", type=float, default=-5.0, help="how far towards the rear (SM %%) to continue")
-    ap.add_argument("--reuse", action="store_true", help="reuse the branch_*.json of --out (no continuation)")
+    ap.add_argument("--reuse", action="store_true",
+                    help="reuse the branch_*.json of --out (no continuation) and the trim checks and wall times "
+                         "of its result.json (no trim): redraw the figures and tables")
     a, out = parse_with_out(ap)
     t0 = time.perf_counter()
     # longest first (measured: level-down ~16 s, fixed-down ~5.5 s, level-up ~5 s, fixed-up ~1.8 s), so
@@ -135,22 +157,14 @@ def main():
              "to_sm": (-32.5 if d == "up" else a.rear_sm), "step": 0.5,
              "max_dparam": 1.0, "max_dstate": 1.5, "compiled": a.compiled}
             for d in ("down", "up") for fam in ("level", "fixed")]
-    if a.reuse:  # the half-branches of an earlier run of this script (figures, checks and tables redone)
-        res = []
-        for j in jobs:
-            d = json.loads((out / f"branch_{j['name']}.json").read_text())
-            res.append({"name": j["name"], "branch": d})
-        wall_branches = None
-        try:  # keep the wall time of the run that computed the branches
-            wall_branches = json.loads((out / "result.json").read_text())["wall_s"]["branches_total"]
-        except (OSError, ValueError, KeyError):
-            pass
+    res, prev = reused_run(out, jobs) if a.reuse else (None, None)
     ex = get_executor(jobs=a.jobs)
     with ex:
         if not a.reuse:
             res = ex.map(run_half, jobs)
-            wall_branches = time.perf_counter() - t0
-        halves, fams, figs, checks = figures_and_checks(ex, a.jobs, res, out, a.compiled)
+        wall_branches = time.perf_counter() - t0
+        halves, fams, figs, checks = figures_and_checks(ex, a.jobs, res, out, a.compiled,
+                                                        prev["trim_checks"] if prev else None)
     job_wall = {r["name"]: r["branch"].get("job_wall_s", r["branch"]["wall_s"]) for r in res}
     for r in res:
         atomic_write_json(out / f"branch_{r['name']}.json", r["branch"])
@@ -197,6 +211,8 @@ def main():
               "grid": {"points": fams["fixed"].settings.get("points"),
                        "steps_per_period": fams["fixed"].settings.get("steps_per_period")},
               "figures": [p.name for p in figs]}
+    if prev is not None:  # a redraw: as the run that computed the branches and the checks measured them
+        result.update(wall_s=prev["wall_s"], executor=prev["executor"])
     atomic_write_json(out / "result.json", result)
 
     lines = ["# Experiment 3: wing-root position (stability margin), continued branches", "",

@@ -17,8 +17,7 @@ import numpy as np
 
 from birdocp.bird.config import Config, with_values
 from birdocp.bird.sixdof import LONGITUDINAL
-from birdocp.io.files import atomic_write_json, atomic_write_text
-from script_common import parse_with_out, script_parser
+from script_common import parse_with_out, script_parser, write_result
 
 SIX = {"model.degrees_of_freedom": 6}
 TURN = {"gait.right_offset.shoulder_flap.amplitude_deg": 1.0, "gait.right_offset.shoulder_sweep.offset_deg": -1.0}
@@ -149,9 +148,7 @@ def main(argv=None) -> dict:
     t0 = time.perf_counter()
     res = {"turn": turn(), "vacuum": vacuum(), "branch": branch(), "gust": gust(), "drag": drag()}
     res["wall_s"] = time.perf_counter() - t0
-    atomic_write_json(out / "result.json", res)
-    atomic_write_text(out / "table.md", table(res))
-    print(table(res))
+    write_result(out, res, table(res))
     return res
 
 

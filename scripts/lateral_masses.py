@@ -22,12 +22,11 @@ import numpy as np
 
 from birdocp.bird.config import Config, get_value, with_values
 from birdocp.engine.results import to_jsonable
-from birdocp.io.files import atomic_write_json, atomic_write_text
 from birdocp.studies.lateral import lateral_trim
 from birdocp.studies.lateral_sensitivity import lateral_sensitivities
 from birdocp.studies.lateral_checks import vacuum_drift
 from birdocp.studies.trim import trim
-from script_common import parse_with_out, script_parser
+from script_common import parse_with_out, script_parser, write_result
 
 CASES = {"wing masses": {"wing.mass_kg": 0.086}, "tail": {"tail.opening_angle_deg": 20.0},
          "wing masses and tail": {"wing.mass_kg": 0.086, "tail.opening_angle_deg": 20.0}}
@@ -130,9 +129,7 @@ def main(argv=None) -> None:
     print("cases done", flush=True)
     res["sensitivities"] = sensitivities(CASES["wing masses and tail"])
     res["wall_s"] = time.perf_counter() - t0
-    atomic_write_json(out / "result.json", to_jsonable(res))
-    atomic_write_text(out / "table.md", table(res))
-    print(table(res))
+    write_result(out, to_jsonable(res), table(res))
 
 
 if __name__ == "__main__":

@@ -15,8 +15,7 @@ import numpy as np
 
 from birdocp.bird.config import Config, with_values
 from birdocp.bird.sixdof import LATERAL, LONGITUDINAL
-from birdocp.io.files import atomic_write_json, atomic_write_text
-from script_common import parse_with_out, script_parser
+from script_common import parse_with_out, script_parser, write_result
 
 SIX = {"model.degrees_of_freedom": 6}
 STALL = {"aero.section": "stall"}
@@ -126,9 +125,7 @@ def main(argv=None) -> dict:
     t0 = time.perf_counter()
     res = {"method": method, "symmetric": symmetric(method), "turn": turn(method)}
     res["wall_s"] = time.perf_counter() - t0
-    atomic_write_json(out / "result.json", res)
-    atomic_write_text(out / "table.md", table(res))
-    print(table(res))
+    write_result(out, res, table(res))
     return res
 
 

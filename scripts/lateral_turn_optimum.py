@@ -14,10 +14,12 @@ Both on ``--steps`` RK4 steps per period (default 32, the optimisers' coarse gri
 with the exact validity of its optimal cycle (both wings, sideslip); ``--valid`` adds the validity
 limits as constraints.
 
-With ``--jobs 2`` (default) the straight-flight optimum is solved in a worker process while this one
-solves the turn.
+The turn is found by continuation in the turn rate (``--turn-steps N``): from the straight optimum's
+gait, the straight optimum again (its stage 0), then the turn rate held at k/N of its target, k = 1..N,
+each solve from the last optimum; ``--max-iter`` IPOPT iterations per solve.
 
-    python scripts/lateral_turn_optimum.py [--out DIR] [--turn-rate DEG] [--steps N] [--valid] [--jobs N]
+    python scripts/lateral_turn_optimum.py [--out DIR] [--turn-rate DEG] [--steps N] [--turn-steps N]
+                                           [--max-iter N] [--valid]
 """
 
 import functools
@@ -26,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from script_common import Beside, parse_with_out, script_parser
+from script_common import parse_with_out, script_parser
 
 from birdocp.bird.config import Config, with_values
 from birdocp.io.files import atomic_write_json, atomic_write_text
@@ -41,15 +43,18 @@ def log(*a):
     print(time.strftime("%H:%M:%S"), *a, flush=True)
 
 
-def optimum(turn: float | None, steps: int, max_iter: int, valid: bool) -> dict:
+def optimum(turn: float | None, steps: int, max_iter: int, valid: bool, turn_steps: int = 0,
+            start: dict | None = None) -> dict:
     """optimize_stability in six degrees of freedom (straight: default keys; turn: with SIDE_FREE and the
-    heading change held), as its JSON."""
+    heading change held, by continuation in the turn rate over ``turn_steps`` steps, from the gait
+    ``start``), as its JSON."""
     from birdocp.studies.optimize import DEFAULT_FREE, optimize_stability
 
     free = dict(DEFAULT_FREE) | (SIDE_FREE if turn is not None else {})
-    res = optimize_stability(with_values(Config(), SIX), free, steps_per_period=steps, coarse_steps=None,
-                             max_iter=max_iter, valid=valid, turn_deg_per_beat=turn,
-                             progress=lambda s: log("  ", s))
+    tag = "turn" if turn is not None else "straight"
+    res = optimize_stability(with_values(Config(), SIX | (start or {})), free, steps_per_period=steps, coarse_steps=None,
+                             max_iter=max_iter, valid=valid, turn_deg_per_beat=turn, turn_steps=turn_steps,
+                             progress=lambda s: log(f"  {tag}:", s))
     d = res.to_dict()
     d["free_keys"] = list(free)
     return d
@@ -137,23 +142,28 @@ def main(argv=None) -> None:
     ap = script_parser(__doc__, str(ROOT / "results" / "lateral" / "turn_optimum"))
     ap.add_argument("--turn-rate", type=float, default=5.0, help="heading change per wingbeat held [deg]")
     ap.add_argument("--steps", type=int, default=32, help="RK4 steps per period (default %(default)s)")
-    ap.add_argument("--max-iter", type=int, default=100, help="IPOPT iterations at most (default %(default)s)")
+    ap.add_argument("--max-iter", type=int, default=30, help="IPOPT iterations per solve (default %(default)s)")
+    ap.add_argument("--turn-steps", type=int, default=5,
+                    help="continuation in the turn rate: the straight optimum, then k/N of the turn rate, "
+                         "k = 1..N, each from the last optimum (default %(default)s)")
     ap.add_argument("--valid", action="store_true", help="the limits of [validity] as constraints")
-    ap.add_argument("--jobs", type=int, default=2, help="processes (2: straight flight beside the turn)")
     args, out = parse_with_out(ap, argv)
     t0 = time.perf_counter()
     d = {"problem": "optimize_stability, model.degrees_of_freedom = 6, default keys and bounds; the turn also "
                     "frees " + ", ".join(f"{k} {list(b)}" for k, b in SIDE_FREE.items()),
-         "turn_rate_deg_per_beat": args.turn_rate, "steps_per_period": args.steps, "valid": bool(args.valid)}
+         "turn_rate_deg_per_beat": args.turn_rate, "steps_per_period": args.steps, "valid": bool(args.valid),
+         "turn_steps": args.turn_steps, "max_iter_per_solve": args.max_iter}
     job = functools.partial(optimum, steps=args.steps, max_iter=args.max_iter, valid=args.valid)
-    straight = Beside(job, None, args.jobs)
-    log(f"turn of {args.turn_rate} deg per beat")
-    d["turn"] = job(args.turn_rate)
+    log("straight flight")
+    d["straight"] = job(None)
+    log(f"  {d['straight']['status']}: r* {d['straight']['radius']:.5f}")
+    log(f"turn of {args.turn_rate} deg per beat, from the straight optimum's gait")
+    bounds = d["straight"]["bounds"]  # an interior-point optimum lies on an active bound only to ~1e-6
+    start = {k: float(np.clip(v, *bounds[k])) for k, v in d["straight"]["free"].items()}
+    start["gait.shoulder_flap.amplitude_deg"] = d["straight"]["amplitude_deg"]
+    d["turn"] = job(args.turn_rate, turn_steps=args.turn_steps, start=start)
     log(f"  {d['turn']['status']}: r* {d['turn']['radius']:.5f}")
     d["turn_trajectory"] = turn_trajectory(d["turn"], args.steps)
-    log("straight flight")
-    d["straight"] = straight.result()
-    log(f"  {d['straight']['status']}: r* {d['straight']['radius']:.5f}")
     d["script_wall_s"] = time.perf_counter() - t0
     atomic_write_json(out / "result.json", d)
     atomic_write_text(out / "table.md", table(d))

@@ -20,7 +20,10 @@ Rules:
   estimates) whose value is only meaningful as "below the tolerance";
 - an eigenvector (``eigenvector`` key) is compared up to a unit complex factor (its sign for a real
   mode), which its normalisation leaves to round-off;
-- dictionaries must have the same keys (ignored keys aside), lists the same length.
+- dictionaries must have the same keys (ignored keys aside), lists the same length;
+- a text result (a Markdown table such as ``optimized.md``, rendered from a JSON result compared by the
+  rules above) is compared line by line (:func:`compare_text`), each line as a sentence: its numbers, printed
+  rounded, within the noise tolerance, ``N iterations`` left out, the rest exactly.
 
 A difference is reported as ``(path, committed, regenerated)``; ``path`` is a ``/``-separated list of keys
 and list indices.
@@ -193,6 +196,16 @@ def _same_text(a: str, b: str) -> bool:
         return False
     na, nb = NUMBER_IN_TEXT.findall(a), NUMBER_IN_TEXT.findall(b)
     return all(_close(float(x), float(y), *NOISE) for x, y in zip(na, nb))
+
+
+def compare_text(old: str, new: str, limit: int = 20) -> list[tuple[str, object, object]]:
+    """The differences between a committed text result ``old`` and the regenerated ``new`` (at most
+    ``limit``), each ``("line N", old line, new line)`` (``("lines", n_old, n_new)`` when their numbers of
+    lines differ); a line agrees when equal or equal as a sentence (:func:`_same_text`)."""
+    a, b = old.splitlines(), new.splitlines()
+    out: list = [("lines", len(a), len(b))] if len(a) != len(b) else []
+    out += [(f"line {i + 1}", x, y) for i, (x, y) in enumerate(zip(a, b)) if x != y and not _same_text(x, y)]
+    return out[:limit]
 
 
 def relative_gap(a, b) -> float | None:

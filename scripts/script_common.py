@@ -6,6 +6,8 @@ import os
 import threading
 from pathlib import Path
 
+from birdocp.io.files import atomic_write_json, atomic_write_text
+
 
 def script_parser(doc: str, default_out: str, **kwargs) -> argparse.ArgumentParser:
     """The script's options: ``--out DIR`` (default ``default_out``) first; the script adds its own."""
@@ -29,6 +31,14 @@ def parse_with_out(ap: argparse.ArgumentParser, argv=None) -> tuple[argparse.Nam
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     return args, out
+
+
+def write_result(out: Path, result, table_md: str) -> None:
+    """Write ``out/result.json`` (``result``) and ``out/table.md`` (``table_md``) atomically, then print
+    the table: the common end of the scripts that make one result and its table."""
+    atomic_write_json(out / "result.json", result)
+    atomic_write_text(out / "table.md", table_md)
+    print(table_md)
 
 
 class Beside:

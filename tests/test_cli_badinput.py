@@ -83,8 +83,9 @@ LATE_IMPORT_CASES = [
     ("continue-climb-rate-without-level", ["continue", "root_ahead_m", "--from", "0.05", "--to", "0.04",
                                            "--climb-rate", "1"], "--climb-rate", "add --level"),
     ("optimize-free-amplitude", ["optimize-stability", "--free", "amplitude"], "--free", "free other keys"),
-    ("six-dof-simulate-lag-states", ["simulate", "--beats", "2", "--set", "model.degrees_of_freedom=6", "--set",
-                                     "aero.unsteady=wagner"], "aero.unsteady", "9 body states only"),
+    ("six-dof-simulate-wagner-step-gust", ["simulate", "--beats", "2", "--side-gust", "step=2", "--set",
+                                           "model.degrees_of_freedom=6", "--set", "aero.unsteady=wagner"],
+     "--side-gust", "use a pulse"),
     ("simulate-gust-start-without-gust", ["simulate", "--beats", "2", "--gust-start", "3"], "--gust-start",
      "add --gust"),
     # checked on the model (get_model) before the run folder is claimed (runs/ was created, then emptied)

@@ -1,5 +1,7 @@
 """The reported lateral eigenvectors do not depend on the eigensolver's sign or phase
 (birdocp.studies.lateral.lateral_modes, coupled_modes): each is divided by its largest entry."""
+import warnings
+
 import numpy as np
 
 from birdocp.bird.sixdof import LATERAL, LONGITUDINAL
@@ -42,3 +44,22 @@ def test_dominant_entry_is_one_and_the_two_solvers_agree():
         assert len(pair) == 2
         v0, v1 = (np.array(list(m["eigenvector"].values())) for m in pair)
         assert np.max(np.abs(v0 - np.conj(v1))) < 1e-12
+
+
+def test_block_diagonal_monodromy_has_exact_shares_and_no_zero_division():
+    """Without coupling (a block-diagonal monodromy, as of a symmetric gait) the longitudinal modes'
+    lateral share is exactly 0 and no 0/0 is evaluated (warnings are errors); the lateral modes have a
+    share of 1 and the labels of the split monodromy."""
+    for seed in range(4):
+        M = _monodromy(seed)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            coupled = coupled_modes(M[:8, :8], T, U)
+        lon = [m for m in coupled if m["label"] == "longitudinal"]
+        lat = [m for m in coupled if m["label"] != "longitudinal"]
+        assert len(lon) == len(lat) == 4
+        assert all(m["lateral_share"] == 0.0 for m in lon)
+        assert all(abs(m["lateral_share"] - 1.0) < 1e-15 for m in lat)
+        split = lateral_modes(M, T, U)
+        assert sorted((m["label"], round(abs(m["multiplier"]), 12)) for m in lat) == \
+            sorted((m["label"], round(abs(m["multiplier"]), 12)) for m in split)

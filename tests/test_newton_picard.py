@@ -87,6 +87,52 @@ def test_not_contracting_complement_hands_over_to_the_full_newton():
     assert r.success and r.max_residual <= 1e-10
 
 
+def test_monodromy_chord_same_cycle_and_multipliers_as_the_full_newton():
+    # chord="monodromy" (engine/newton_picard_chord.py): every state by Newton with a frozen monodromy
+    # at the start and Broyden updates; the same cycle and multipliers as the full Newton
+    ode = lagged_duffing()
+    full, mono = _compare(OrbitProblem(ode, P, np.zeros(ode.nx)), chord="monodromy")
+    assert "newton-picard: converged" in mono.message and "monodromy chord" in mono.message
+    assert np.max(np.abs(mono.x0 - full.x0)) < 1e-10
+    assert np.max(np.abs(mono.multipliers - full.multipliers)) < 1e-10
+    assert mono.max_residual <= 1e-12 and mono.iterations < 10
+
+
+def test_monodromy_chord_needs_no_contracting_complement():
+    # the slow lag that the subspace chord cannot iterate by Picard (previous test) is a Newton state
+    # here: converged by the chord itself, no hand-over
+    ode = lagged_duffing(rates=(0.05, 8.0), feedback=0.3)
+    prob = OrbitProblem(ode, P, np.zeros(ode.nx))
+    r = solve(prob, OrbitMethod(points=5, steps_per_period=240, solver="newton-picard", newton_states=(0, 1),
+                                chord="monodromy"))
+    assert r.success and "newton-picard: converged" in r.message and "full Newton" not in r.message, r.message
+    full = solve(prob, OrbitMethod(points=5, steps_per_period=240, solver="lm", tol=1e-12))
+    assert np.max(np.abs(r.multipliers - full.multipliers)) < 1e-9
+
+
+def test_monodromy_chord_without_state_jacobians_is_the_subspace_chord(monkeypatch):
+    # a right-hand side whose SX state Jacobian cannot be built: the subspace chord runs instead
+    import birdocp.engine.newton_picard_chord as chord
+
+    def fail(grid):
+        raise NotImplementedError("no SX derivatives")
+
+    monkeypatch.setattr(chord, "step_start_jacobians", fail)
+    ode = lagged_duffing()
+    r = solve(OrbitProblem(ode, P, np.zeros(ode.nx)), OrbitMethod(points=5, steps_per_period=240, solver="newton-picard",
+                                                               newton_states=(0, 1), chord="monodromy"))
+    assert r.success and "Picard growth" in r.message and "monodromy chord" not in r.message, r.message
+
+
+def test_monodromy_chord_with_a_free_parameter_is_the_subspace_chord():
+    # free parameters: the subspace chord (newton_picard_free), whatever OrbitMethod.chord says
+    prob = _energy_problem(lagged_duffing())
+    a, b = (solve(prob, OrbitMethod(points=5, steps_per_period=240, solver="newton-picard", newton_states=(0, 1),
+                                    tol=1e-12, chord=c)) for c in ("subspace", "monodromy"))
+    assert a.success and "monodromy chord" not in b.message and b.iterations == a.iterations
+    assert np.array_equal(a.x0, b.x0)
+
+
 def test_bad_input():
     ode = lagged_duffing()
     prob = OrbitProblem(ode, P, np.zeros(ode.nx))
@@ -96,6 +142,8 @@ def test_bad_input():
         solve(prob, OrbitMethod(solver="newton-picard", newton_states=(0, 9)))
     with pytest.raises(ValueError, match="picard_max_rate"):
         OrbitMethod(picard_max_rate=1.5).validate()
+    with pytest.raises(ValueError, match="OrbitMethod.chord"):
+        OrbitMethod(chord="exact").validate()
 
 
 def test_compiled_ode_with_a_free_parameter(tmp_path, monkeypatch):

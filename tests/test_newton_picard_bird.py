@@ -23,6 +23,8 @@ def test_auto_is_ipopt_for_the_default_model_and_newton_picard_for_an_aero_trim(
                                               derivatives="exact", max_iter=100, tol=None)
     cfg = with_values(Config(), WAGNER)
     assert solver_of(cfg) == "newton-picard" and method_of(cfg).newton_states == (0, 1, 2, 3)
+    # the trim's chord is the frozen monodromy (engine/newton_picard_chord.py); level flight's the subspace
+    assert method_of(cfg).chord == "monodromy" and method_of(cfg, free=True).chord == "subspace"
     # level flight too: the free amplitude joins the Newton subspace (engine/newton_picard_free.py)
     assert solver_of(cfg, free=True) == "newton-picard" and method_of(cfg, free=True).newton_states == (0, 1, 2, 3)
     assert solver_of(Config(), free=True) == "ipopt"  # the default model's level flight is unchanged

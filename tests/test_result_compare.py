@@ -9,7 +9,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
 import check_results  # noqa: E402
-from result_compare import compare, is_ignored  # noqa: E402
+from result_compare import compare, compare_text, is_ignored  # noqa: E402
 
 sys.path.pop(0)
 
@@ -103,3 +103,51 @@ def test_eigenvector_up_to_a_unit_factor_and_log_of_small_multiplier():
     assert compare({"beats_to_double": 2.5}, {"beats_to_double": 2.6})
     assert compare({"beats_to_double": 0.0}, {"beats_to_double": -0.0195}) == []   # |Lambda| ~ 4e-16 vs 0
     assert compare({"beats_to_double": -0.05}, {"beats_to_double": -0.0195})
+
+
+TABLE = ("| problem | start; Hessian; iterations | status | r / |L1| | KKT | valid |\n|---|---|---|---|---|---|\n"
+         "| tail | point reached; exact (FD); 8 | Maximum_Iterations_Exceeded | 1.0549 / 1.0161 | 3.2e-01 | True |\n")
+
+
+def test_text_results_line_by_line():
+    assert compare_text(TABLE, TABLE) == []
+    assert compare_text(TABLE, TABLE.replace("1.0161", "1.0162")) == []          # printed rounding
+    assert compare_text(TABLE, TABLE.replace("3.2e-01", "3.3e-01"))[0][0] == "line 3"   # 3 %, more than noise
+    assert compare_text(TABLE, TABLE.replace("True", "False")) == [("line 3", TABLE.splitlines()[2],
+                                                                    TABLE.replace("True", "False").splitlines()[2])]
+    assert compare_text(TABLE, TABLE.replace("Iterations", "WallTime"))[0][0] == "line 3"
+    assert compare_text(TABLE, TABLE + "\nLevel flight there.\n")[0] == ("lines", 3, 5)
+
+
+def test_checker_compares_a_markdown_table_as_text(tmp_path, monkeypatch):
+    committed = tmp_path / "results"
+    (committed / "study").mkdir(parents=True)
+    (committed / "study" / "table.md").write_text(TABLE)
+    monkeypatch.setattr(check_results, "RESULTS", committed)
+    e = check_results.entry("study", "scripts/study.py", "study", ["study/table.md"])
+    run = tmp_path / "run"
+    (run / "study").mkdir(parents=True)
+    (run / "study" / "table.md").write_text(TABLE.replace("1.0549", "1.0548"))
+    assert [f["status"] for f in check_results.compare_files(e, run, 1e-9)] == ["identical"]
+    (run / "study" / "table.md").write_text(TABLE.replace("| 8 |", "| 40 |").replace("1.0549", "0.9580"))
+    (row,) = check_results.compare_files(e, run, 1e-9)
+    assert row["status"] == "differs" and row["differences"][0]["key"] == "line 3"
+
+
+def test_aero_valid_optimize_stages_are_chained_through_committed_seeds():
+    entries = {e["name"]: e for e in check_results.REGISTRY if e["name"].startswith("aero-valid-optimize")}
+    assert len(entries) == 5
+    written = {f for e in entries.values() for f in e["files"]}
+    for e in entries.values():
+        args = e["args"]
+        assert "--max-iter" in args or "--hessian" not in args     # iteration bounds, never wall time
+        if "--from-reached" in args:                               # starts from a row it does not write
+            gait = args[args.index("--gaits") + 1]
+            assert check_results._opt(gait) in e["seed"] and check_results._opt(gait) not in e["files"]
+        assert all(s in written for s in e["seed"])                # every seed is checked by its own entry
+    tail = entries["aero-valid-optimize-tail-fd"]
+    assert tail["args"][tail["args"].index("--max-iter") + 1] == "8"
+    assert {"aero/valid/optimized.json", "aero/valid/optimized.md"} <= set(tail["files"])
+    committed = {p.relative_to(check_results.RESULTS).as_posix()
+                 for p in (check_results.RESULTS / "aero" / "valid").rglob("opt*")}
+    assert committed <= written                                    # every file --optimize wrote is checked

@@ -158,15 +158,15 @@ def test_lateral_level_cycle_with_wing_masses():
     assert np.max(np.abs(np.sort_complex(lat) - np.sort_complex(tr.lateral_multipliers))) < 1e-8
 
 
-def test_optimize_gait_refuses_an_asymmetric_gait_naming_the_offset(tmp_path):
-    """optimize-gait's power objectives need the 3-D shoulder power of a turn, which is not written
-    (optimize-stability takes a turn: tests/test_turn_optimize.py)."""
+def test_optimize_gait_refuses_an_asymmetric_gait_in_four_dof_naming_the_offset(tmp_path):
+    """optimize-gait takes an asymmetric gait in six degrees of freedom (a turn: tests/test_sixdof_power.py);
+    with four it is refused before any computation, naming the offset."""
     import subprocess
     import sys
 
     key = "gait.left_offset.shoulder_sweep.offset_deg"
     for command, extra in (("optimize-gait", ["--speed", "17"]),):
-        proc = subprocess.run([sys.executable, "-m", "birdocp", command, *extra, "--set", "model.degrees_of_freedom=6",
+        proc = subprocess.run([sys.executable, "-m", "birdocp", command, *extra,
                                "--set", f"{key}=-1", "--out", str(tmp_path / command)],
                               capture_output=True, text=True, timeout=120)
         assert proc.returncode == 2 and not (tmp_path / command).exists(), proc.stderr

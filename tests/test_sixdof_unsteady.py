@@ -134,3 +134,42 @@ def test_wagner_cycle_of_a_symmetric_gait_is_the_planar_wagner_cycle():
     labels = sorted(m["label"] for m in six.lateral_modes if m["label"] != "aerodynamic")
     assert labels == ["dutch_roll_like", "dutch_roll_like", "roll_subsidence", "spiral"]
     assert len(six.lateral_multipliers) == 4 + 16 and six.validity.valid
+
+
+@pytest.mark.slow
+def test_one_added_mass_law_serves_the_planar_and_the_sixdof_model(monkeypatch):
+    """The planar and the 6-DOF Wagner sections put their added mass through the one element law
+    (:func:`birdocp.bird.unsteady.added_mass_loads`, counted by a spy), and for a symmetric gait at a
+    symmetric state (v = p = r = 0) the 6-DOF law on (u, v, w, p, q, r) gives the planar M_A and b_nc on
+    (u, w, q) (the planar data against the 6-DOF assembly of the lateral rows, 1e-12 relative), with no
+    longitudinal-lateral coupling in M_A (mirror symmetry, 1e-12)."""
+    from birdocp.bird.loads import section_terms, unsteady_params
+
+    cfg = _six(**WAGNER)
+    six, planar = sixdof_model(cfg), get_model(with_values(Config(), WAGNER)).model
+    calls = []
+    law = unsteady.added_mass_loads
+    monkeypatch.setattr(unsteady, "added_mass_loads", lambda nu, *a: calls.append(nu.shape[0]) or law(nu, *a))
+    p = param_vector(cfg)
+    p6 = six.params(p)
+    x, d = ca.SX.sym("x", six.ode.nx), ca.SX.sym("d", six.ode.nd)
+    _, _, e = body_loads(x, d, ca.SX(p6[:len(p)]), section=six.section)
+    b = unpack_data(d)
+    k0 = six.section.data_offset
+    ud = unsteady.unpack(d[k0:k0 + unsteady.data_size(N_EL)], N_EL)
+    terms = am6.added_mass_terms(e["sec"], ud, d[k0 + unsteady.data_size(N_EL):],
+                                 {"r": b["r_m"], "chord": b["chord_m"], "ds": b["ds_m"]}, x[0:6], unsteady_params(p))
+    x4, d4 = ca.SX.sym("x4", planar.ode.nx), ca.SX.sym("d4", planar.ode.nd)
+    sec4 = section_terms(planar.structure, x4, d4, ca.SX(p))
+    assert sorted(calls) == [3, 6]
+    f6 = ca.Function("f6", [x, d], [terms["M_A"], terms["b_nc"]])
+    f4 = ca.Function("f4", [x4, d4], [sec4["M_A"], sec4["b_nc"]])
+    xv = _state(six, np.random.default_rng(7), symmetric=True)
+    lon = [0, 2, 4]
+    for t in (0.04, 0.19):
+        MA6, b6 = (np.asarray(v) for v in f6(xv, six.data(t, p6)))
+        MA4, b4 = (np.asarray(v) for v in f4(np.concatenate([xv[lon + [7]], xv[9:]]), planar.data(t, p)))
+        np.testing.assert_allclose(MA6[np.ix_(lon, lon)], MA4, rtol=0, atol=1e-12 * np.abs(MA4).max())
+        np.testing.assert_allclose(b6[lon], b4, rtol=0, atol=1e-12 * np.abs(b4).max())
+        assert np.abs(MA6[np.ix_(lon, [1, 3, 5])]).max() < 1e-12 * np.abs(MA4).max()
+        assert np.abs(MA6[np.ix_([1, 3, 5], [1, 3, 5])]).min() >= 0 and np.abs(MA6[1, 1]) > 1e-6

@@ -8,7 +8,7 @@ import pytest
 
 from birdocp.engine.integrate import RK4Grid
 from birdocp.engine.ode import ODE
-from birdocp.engine.step_jacobians import batched_segment_jacobians, stage_jacobians
+from birdocp.engine.step_jacobians import batched_segment_jacobians, frozen_monodromy, stage_jacobians
 
 OMEGA = 1.3
 
@@ -60,3 +60,39 @@ def test_the_two_systems_cover_forward_and_reverse_ad():
         rev = ca.Function("rev", [x, d, p], [ca.jtimes(f, x, ca.DM.eye(ode.nx), True)]).n_instructions()
         cheaper.append("reverse" if rev < fwd else "forward")
     assert cheaper == ["forward", "reverse"]
+
+
+def _exact_monodromy(grid, x0, D, p):
+    """The variational pass's one-period Jacobian from x0 (RK4Grid.segment_jacobians, multiplied)."""
+    X = np.asarray(grid.period_map(ca.DM(x0), D, ca.DM(p))[1])
+    pts = np.column_stack([x0] + [X[:, grid.n * (i + 1) - 1] for i in range(grid.S - 1)])
+    Jcat = np.asarray(grid.segment_jacobians(ca.DM(pts), D, ca.DM(p))[1])
+    nx = len(x0)
+    return np.linalg.multi_dot([Jcat[:, i * nx:(i + 1) * nx] for i in range(grid.S)][::-1]), X
+
+
+def test_frozen_monodromy_is_exact_for_a_linear_system():
+    # x' = A x: the right-hand side's Jacobian does not change along a step, and RK4's step matrix is
+    # I + hA + (hA)^2/2 + (hA)^3/6 + (hA)^4/24 exactly
+    A = np.array([[0.0, 1.0, 0.0], [-2.0, -0.3, 0.5], [0.4, 0.0, -3.0]])
+    x, t, p = ca.SX.sym("x", 3), ca.SX.sym("t"), ca.SX.sym("p", 1)
+    ode = ODE.from_rhs(ca.Function("f", [x, t, p], [ca.mtimes(ca.DM(A), x) + p * ca.cos(t)]), 2 * np.pi)
+    grid = RK4Grid(ode, 60, 3)
+    D = grid.blocks_numeric(0.0, [0.2])
+    x0 = np.array([0.3, -0.1, 0.2])
+    exact, X = _exact_monodromy(grid, x0, D, [0.2])
+    assert np.max(np.abs(frozen_monodromy(grid, x0, X, D, [0.2]) - exact)) < 1e-13
+
+
+def test_frozen_monodromy_error_is_first_order_in_the_step():
+    # nonlinear: the Jacobian frozen at each step's start errs by O(h) (h times its change along the
+    # step); halving h halves the error
+    ode = duffing_with_lags(4, True)
+    p, x0 = np.array([0.25, 0.6]), np.linspace(-0.4, 0.5, 6)
+    errs = []
+    for N in (80, 160):
+        grid = RK4Grid(ode, N, 4)
+        D = grid.blocks_numeric(0.0, p)
+        exact, X = _exact_monodromy(grid, x0, D, p)
+        errs.append(np.max(np.abs(frozen_monodromy(grid, x0, X, D, p) - exact)) / np.max(np.abs(exact)))
+    assert 1e-5 < errs[0] < 1e-1 and 1.7 < errs[0] / errs[1] < 2.3, errs

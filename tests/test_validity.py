@@ -156,3 +156,42 @@ def test_periodic_validity_from_x0_matches_the_trajectory():
     for k in ("alpha_eff_max_deg", "alpha_eff_min_deg", "stalled_fraction", "min_forward_speed_mps",
               "max_airflow_body_angle_deg", "pitch_min_deg"):
         assert abs(a[k] - b[k]) < 1e-8, k
+
+
+@pytest.mark.slow
+def test_validity_follows_the_element_count_of_a_subdivided_line():
+    """``aero.span_subdivisions = 2`` (32 elements): the effective angles are the 32 of the numpy
+    construction, and the six-degree-of-freedom validity of a symmetric state splits the elements into
+    the two wings by the element count (left 0..15, right 16..31), so the two wings' stalled shares are
+    equal and equal the planar stalled share (it took elements 0..7 and 8..15: two parts of the left wing)."""
+    from birdocp.bird.config import param_vector
+    from birdocp.bird.sixdof import LONGITUDINAL, sixdof_model
+    from birdocp.bird.validity import effective_angles, grid_validity
+
+    vals = {"aero.span_subdivisions": 2, "validity.stall_angle_deg": 9.0}
+    cfg = with_values(Config(), vals)
+    model, p = get_model(cfg).model, param_vector(cfg)
+    d = model.data(0.06, p)
+    ae, ag, ds = (np.asarray(v).ravel() for v in effective_angles(model.ode.nd, model.structure.normalwash)(STATE, d, p))
+    assert ae.shape == ag.shape == ds.shape == (32,)
+    b = {k: np.asarray(v) for k, v in unpack_data(d).items()}
+    r, vk, ch, up, tau = b["r_m"], b["v_kin_mps"], b["c_hat"], b["up"], b["tau"]
+    V = np.vstack([-vk[0], STATE[1] + STATE[2] * r[2] - vk[1], STATE[0] - STATE[2] * r[1] - vk[2]])
+    Vp = V - tau * np.sum(tau * V, axis=0)
+    alpha = np.arctan2(np.sum(Vp * up, axis=0), np.sum(Vp * ch, axis=0))
+    qv = np.linalg.norm(Vp, axis=0) * alpha
+    W = V + np.vstack([b["Wx"] @ qv, b["Wy"] @ qv, np.zeros(32)])
+    Wp = W - tau * np.sum(tau * W, axis=0)
+    np.testing.assert_allclose(ag, alpha, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(ae, np.arctan2(np.sum(Wp * up, axis=0), np.sum(Wp * ch, axis=0)), rtol=0, atol=1e-12)
+
+    cfg6 = with_values(Config(), {**vals, "model.degrees_of_freedom": 6})
+    six = sixdof_model(cfg6)
+    n = 8
+    X6 = np.tile([17.5, 0.0, -1.0, 0.0, 0.2, 0.0, 0.0, -0.1, 0.0], (n, 1))
+    v6 = grid_validity(cfg6, X6, six.params(p), steps_per_period=n, ode=six.ode).measures
+    v4 = grid_validity(cfg, X6[:, list(LONGITUDINAL)], p, steps_per_period=n).measures
+    assert 0.05 < v4["stalled_fraction"] < 0.95
+    assert abs(v6["stalled_fraction_left"] - v6["stalled_fraction_right"]) < 1e-12
+    assert abs(v6["stalled_fraction_left"] - v4["stalled_fraction"]) < 1e-12
+    assert abs(v6["stalled_fraction"] - v4["stalled_fraction"]) < 1e-12

@@ -459,22 +459,54 @@ def _section_functions(s: Structure, x, d, p, lt, winds) -> dict:
     held = ca.substitute([lt["xdot_aero"], lt["loads_held"]], winds, [ca.SX.zeros(2)] * len(winds))
     fns["held_d"] = ca.Function("held_d", [x, d, p], held, ["x", "d", "p"], ["xdot_aero", "loads"])
     x4 = ca.SX.sym("x4", 4)
+    k0 = unsteady_data_offset(s)
+    z = quasi_steady_aero_states({"unsteady": s.unsteady, "section": s.section, "newton_steps": s.newton_steps},
+                                 x4[0:3], d, k0, p)
+    fns["aero_guess_d"] = ca.Function("aero_guess_d", [x4, d, p], [z], ["x", "d", "p"], ["z"])
+    return fns
+
+
+def quasi_steady_aero_states(opts: dict, nu, d, data_offset: int, p, flow: dict | None = None):
+    """The aerodynamic states on the quasi-steady manifold at one instant: the lag states
+    ``z_i = eps A_i g`` (the circulation ``g`` of the section law with A0 = 1 and z = 0) and the separation
+    point ``f = f0(alpha_E)``, in :func:`birdocp.bird.unsteady.aero_state_names` order; the planar
+    model's start of its aerodynamic states and, with ``flow``, the six-degree-of-freedom model's.
+
+    Parameters
+    ----------
+    opts : dict
+        ``unsteady``, ``section``, ``newton_steps`` (the model's section).
+    nu : casadi.SX
+        Air-relative (u, w, q) [m/s, m/s, rad/s].
+    d : casadi.SX
+        Data vector (the planar blocks, the unsteady blocks from ``data_offset``).
+    data_offset : int
+        Index of the first unsteady data value in ``d``.
+    p : casadi.SX
+        Planar parameter vector.
+    flow : dict, optional
+        Six degrees of freedom: ``V`` and ``Omega`` (:func:`birdocp.bird.unsteady.section_loads`).
+
+    Returns
+    -------
+    casadi.SX
+        The aerodynamic states (column).
+    """
+    b = unpack_data(d)
     prm = dict(_unsteady_params(p), a0=1.0)
     base = {"r": b["r_m"], "v_kin": b["v_kin_mps"], "c_hat": b["c_hat"], "up": b["up"], "tau": b["tau"],
             "ds": b["ds_m"], "chord": b["chord_m"]}
-    k0 = unsteady_data_offset(s)
-    ud = unsteady.unpack(d[k0:k0 + unsteady.data_size(N_EL)], N_EL)
-    lin = {"unsteady": s.unsteady, "section": "stall" if s.section != "linear" else "linear",
-           "newton_steps": s.newton_steps}
-    g0 = unsteady.section_loads(lin, x4[0:3], ca.SX.zeros(2 * N_EL if s.unsteady == "wagner" else 0, 1), base, ud,
-                                {"K": b["G"], "Vx": b["Wx"], "Vy": b["Wy"]}, prm)
+    ud = unsteady.unpack(d[data_offset:data_offset + unsteady.data_size(N_EL)], N_EL)
+    lin = {"unsteady": opts["unsteady"], "section": "stall" if opts["section"] != "linear" else "linear",
+           "newton_steps": opts["newton_steps"]}
+    g0 = unsteady.section_loads(lin, nu, ca.SX.zeros(2 * N_EL if opts["unsteady"] == "wagner" else 0, 1), base, ud,
+                                {"K": b["G"], "Vx": b["Wx"], "Vy": b["Wy"]}, prm, flow=flow)
     vp = g0["Vp_norm"].T
     g = g0["alpha_E"] * vp  # with A0 = 1 and z = 0, g_E = g
     z = []
-    if s.unsteady == "wagner":
+    if opts["unsteady"] == "wagner":
         z += [prm["eps"] * unsteady.A1 * g, prm["eps"] * unsteady.A2 * g]
-    if s.section == "dynamic-stall":
+    if opts["section"] == "dynamic-stall":
         z.append(unsteady.separation_point(g0["alpha_E"], prm["alpha1"]))
-    fns["aero_guess_d"] = ca.Function("aero_guess_d", [x4, d, p], [ca.vertcat(*z)], ["x", "d", "p"], ["z"])
-    return fns
+    return ca.vertcat(*z)
 

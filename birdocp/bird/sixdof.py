@@ -340,12 +340,16 @@ def tail_body_loads(x, b, gamma, p):
                                                           "incidence_deg")])
 
 
-def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None, section: SectionLaw | None = None):
+def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None, section: SectionLaw | None = None,
+                   wind_rate=None):
     """The state derivative (9, then the aerodynamic states') of the rigid body with the aerodynamic
     loads of :func:`body_loads` at ``x_air`` (the state as the air sees it, with a wind; default ``x``)
     and, with ``structure.wing_mass``, the wing masses of :mod:`birdocp.bird.sixdof_inertia` (whose
     sums follow the planar data in ``d``); ``structure.tail`` adds the tail; ``section`` the planar
     model's unsteady or stall-aware section (its lag and separation states after the 9 body states).
+    With Wagner's added mass and a wind, ``wind_rate`` is the time derivative of the wind's body-axis
+    components along the motion (``C dW/dt - omega x C W``, uniform air: no air rotation): the added
+    mass then reacts to the air-relative acceleration ``nu' - (wind_rate, 0, 0, 0)``.
 
     Parameters
     ----------
@@ -361,17 +365,21 @@ def rhs_expression(x, d, p6, x_air=None, structure: Structure | None = None, sec
         Structure of the model.
     section : SectionLaw, optional
         The unsteady or stall-aware section (default: the linear quasi-steady lifting line).
+    wind_rate : casadi.SX, optional
+        Rate of the wind's body-axis components (u, v, w) along the motion [m/s^2] (default: none, the
+        graph without it).
 
     Returns
     -------
     casadi.SX, shape (9 + aerodynamic states, 1)
     """
-    return _dynamics(x, d, p6, x_air, structure, section)[0]
+    return _dynamics(x, d, p6, x_air, structure, section, wind_rate)[0]
 
 
-def _dynamics(x, d, p6, x_air, structure, section):
+def _dynamics(x, d, p6, x_air, structure, section, wind_rate=None):
     """``(xdot, F_body, M_body)`` of :func:`rhs_expression`; with ``wagner`` the loads include the
-    added-mass reaction at the solved accelerations."""
+    added-mass reaction at the solved accelerations (relative to the air with a ``wind_rate``:
+    ``(M_rb + M_A) nu_air' = M_rb (nu'_0 - wind_rate) + b_nc``, ``nu' = nu_air' + wind_rate``)."""
     p = p6[:len(PARAM_NAMES)]
     ixx, izz, ixz = (p6[len(PARAM_NAMES) + i] for i in range(3))
     m, iyy, g = _p(p, "body.mass_kg"), _p(p, "body.pitch_inertia_kgm2"), _p(p, "body.gravity_mps2")
@@ -401,10 +409,12 @@ def _dynamics(x, d, p6, x_air, structure, section):
             ca.vertcat(udot, vdot, wdot, pdot, qdot, rdot), x, s, m, J_b, g * ca.vertcat(-sth, sph * cth, cph * cth)))
     if section is not None and section.unsteady == "wagner":  # the added mass on the left (6 x 6)
         J_b = ca.blockcat([[ixx, 0, -ixz], [0, iyy, 0], [-ixz, 0, izz]])
-        nudot, react = am6.wagner_accelerations(ca.vertcat(udot, vdot, wdot, pdot, qdot, rdot),
+        nudot0 = ca.vertcat(udot, vdot, wdot, pdot, qdot, rdot)
+        shift = None if wind_rate is None else ca.vertcat(wind_rate, ca.SX.zeros(3))  # none: the graph of before
+        nudot, react = am6.wagner_accelerations(nudot0 if shift is None else nudot0 - shift,
                                                 x if x_air is None else x_air, d, p, e["sec"], section.data_offset,
                                                 m, J_b)
-        udot, vdot, wdot, pdot, qdot, rdot = ca.vertsplit(nudot)
+        udot, vdot, wdot, pdot, qdot, rdot = ca.vertsplit(nudot if shift is None else nudot + shift)
         Fb, Mb = Fb + react[:3], Mb + react[3:]
     turn = q * sph + rr * cph
     return ca.vertcat(udot, vdot, wdot, pdot, qdot, rdot,
@@ -441,7 +451,7 @@ class SixDofModel:
         n_planar = (N_DATA + (unsteady.data_size(N_EL) if self.section else 0)) if self.sides \
             else planar.rhs.size1_in(1)
         wag = structure.unsteady == "wagner"  # the 6-DOF added-mass data after the planar data
-        n_planar += am6.data_size(N_EL) if wag else 0
+        n_planar += am6.N_ROWS * N_EL if wag else 0
         d = ca.SX.sym("d", n_planar + (wing3.N_MASS3 if structure.wing_mass else 0))
         p6 = ca.SX.sym("p", len(names))
         self.structure = structure

@@ -21,37 +21,23 @@ with a_theta,j = (0, 0, 0, -tau3, tau1, -tau2). So the body accelerations solve
 (M_rb = diag(m, m, m, J_b), nu'_0 the accelerations without the added mass, b_nc the added-mass
 generalised force with nu' = 0): M_A is symmetric positive semi-definite, on (u, w, q) the planar
 one. The rows (u, w, q) of a_j and their rates are the planar data's; the 6-DOF data appends the rates
-of the three other rows and of tau_hat (:func:`added_mass_data`, AD in t through the assembly).
+of the three other rows and of tau_hat (:func:`added_mass_data`, AD in t through the assembly). The
+element law (the force, the couple, b_nc and M_A) is the planar model's,
+:func:`birdocp.bird.unsteady.added_mass_loads`, on the six rows (:func:`added_mass_terms`), and so is the
+section pitch rate :func:`birdocp.bird.unsteady.section_pitch_rate`.
 """
 
 from __future__ import annotations
-
-import math
 
 import casadi as ca
 
 from birdocp.bird import unsteady
 
-__all__ = ["data_size", "added_mass_data", "extra_data_function", "lateral_rows", "added_mass_terms",
+__all__ = ["N_ROWS", "added_mass_data", "extra_data_function", "lateral_rows", "added_mass_terms",
            "solve_spd", "accelerations", "wagner_accelerations"]
 
 N_ROWS = 6
 """Rows per element of the 6-DOF added-mass data: d/dt of a_v, a_p, a_r, then d/dt of tau_hat (3)."""
-
-
-def data_size(n: int) -> int:
-    """Length of the 6-DOF added-mass data block (:func:`added_mass_data`) for n elements.
-
-    Parameters
-    ----------
-    n : int
-        Number of elements.
-
-    Returns
-    -------
-    int
-    """
-    return N_ROWS * n
 
 
 def lateral_rows(r, n_hat, tau_hat, crow):
@@ -77,10 +63,6 @@ def lateral_rows(r, n_hat, tau_hat, crow):
     return ca.vertcat(-n_hat[0, :], m3 - 0.25 * crow * tau_hat[2, :], m2 - 0.25 * crow * tau_hat[1, :])
 
 
-def _unit_columns(M):
-    return M / ca.repmat(ca.sqrt(ca.sum1(M * M)), M.shape[0], 1)
-
-
 def added_mass_data(blocks: dict, ddt):
     """The 6-DOF added-mass data of one instant (one column):
     the time derivatives of :func:`lateral_rows` (3 x n) then of tau_hat (3 x n), from the assembled
@@ -97,9 +79,9 @@ def added_mass_data(blocks: dict, ddt):
     Returns
     -------
     casadi.SX
-        Column of :func:`data_size` values.
+        Column of :data:`N_ROWS` n values.
     """
-    n_hat, tau_hat = _unit_columns(blocks["up"]), _unit_columns(blocks["tau"])
+    n_hat, tau_hat = unsteady.unit_columns(blocks["up"]), unsteady.unit_columns(blocks["tau"])
     lat = lateral_rows(blocks["r_m"], n_hat, tau_hat, blocks["chord_m"].T)
     return ca.vertcat(ca.vec(ddt(lat)), ca.vec(ddt(tau_hat)))
 
@@ -166,21 +148,11 @@ def added_mass_terms(sec: dict, ud: dict, d6, base: dict, nu, prm: dict) -> dict
     a6 = ca.vertcat(a[0, :], lat[0, :], a[1, :], lat[1, :], a[2, :], lat[2, :])
     a6_dot = ca.vertcat(a_dot[0, :], lat_dot[0, :], a_dot[1, :], lat_dot[1, :], a_dot[2, :], lat_dot[2, :])
     a_th = ca.vertcat(ca.SX.zeros(3, n), -th[2, :], th[0, :], -th[1, :])
-    chi, rho = prm["chi_nc"], prm["rho"]
-    nu_row = ca.repmat(nu, 1, n)
-    w_mid = ca.sum1(a6 * nu_row) + ud["w0"]
-    wdot0 = ca.sum1(a6_dot * nu_row) + ud["w0_dot"]
-    m_a = rho * ud["m_a"]
-    nc_coef = chi * (m_a * wdot0 + rho * ud["m_a_dot"] * w_mid)
     om = ca.vertcat(nu[4], -nu[5], -nu[3])   # Omega in the code frame
-    omega_dot0 = ud["omega_k_dot"] + om[0] * th_dot[0, :] + om[1] * th_dot[1, :] + om[2] * th_dot[2, :]
-    couple0 = -chi * rho * math.pi * (crow / 2) ** 3 * ds.T * (0.5 * sec["Vp_norm"] * sec["omega"]
-                                                               + (crow / 2) * omega_dot0 / 8)
-    b_nc = -(a6 @ nc_coef.T) + a_th @ couple0.T
-    m_th = chi * rho * ud["m_theta"]
-    M_A = chi * (a6 @ ca.diag(m_a) @ a6.T) + a_th @ ca.diag(m_th) @ a_th.T
-    return {"M_A": M_A, "b_nc": b_nc, "nc_coef": nc_coef, "couple0": couple0, "a": a6, "a_theta": a_th,
-            "m_a_chi": chi * m_a, "m_theta_chi": m_th}
+    geo = {"Vp_norm": sec["Vp_norm"], "chord": crow, "ds": ds, "omega": sec["omega"],
+           "omega_dot0": unsteady.section_pitch_rate(ud["omega_k_dot"], om, th_dot)}
+    out = unsteady.added_mass_loads(nu, {"a": a6, "a_dot": a6_dot, "a_theta": a_th}, ud, prm, geo)
+    return dict(out, a=a6, a_theta=a_th)
 
 
 def solve_spd(A, b):
@@ -275,7 +247,7 @@ def wagner_accelerations(nudot0, x_air, d, p, sec: dict, data_offset: int, m, J_
 
     n_u = unsteady.data_size(N_EL)
     ud = unsteady.unpack(d[data_offset:data_offset + n_u], N_EL)
-    d6 = d[data_offset + n_u:data_offset + n_u + data_size(N_EL)]
+    d6 = d[data_offset + n_u:data_offset + n_u + N_ROWS * N_EL]
     b = unpack_data(d)
     base = {"r": b["r_m"], "chord": b["chord_m"], "ds": b["ds_m"]}
     terms = added_mass_terms(sec, ud, d6, base, x_air[0:6], unsteady_params(p))

@@ -30,7 +30,8 @@ A1, A2, B1, B2 = 0.165, 0.335, 0.0455, 0.3
 
 __all__ = ["A1", "A2", "B1", "B2", "jones_transfer", "wagner_indicial_jones", "separation_point",
            "lift_coefficient", "separated_drag_coefficient", "element_data", "section_loads",
-           "solve_sym3", "DATA_BLOCKS", "n_aero_states", "aero_state_names"]
+           "solve_sym3", "DATA_BLOCKS", "n_aero_states", "aero_state_names", "unit_columns", "section_pitch_rate",
+           "added_mass_loads"]
 
 
 def jones_transfer(k: float, weight: float = 1.0) -> complex:
@@ -143,8 +144,47 @@ def data_size(n: int) -> int:
     return sum(r * c for _, r, c in block_sizes(n))
 
 
-def _unit_columns(M):
+def unit_columns(M):
+    """The columns of M scaled to unit length.
+
+    Parameters
+    ----------
+    M : casadi.SX
+        Matrix (3 x n).
+
+    Returns
+    -------
+    casadi.SX
+        3 x n.
+    """
     return M / ca.repmat(ca.sqrt(ca.sum1(M * M)), M.shape[0], 1)
+
+
+def section_pitch_rate(omega_k, Omega, tau_hat):
+    """The nose-up pitch rate of every section, omega_j = omega_k,j + Omega . tau_hat_j [rad/s]: the
+    kinematic (flapping) part plus the body rotation about the element's spanwise axis; with the
+    rates of the data (``omega_k_dot``, d tau_hat / dt) the part of omega_j' that holds the body
+    accelerations at zero.
+
+    Parameters
+    ----------
+    omega_k : casadi.SX
+        Kinematic section pitch rate [rad/s] (1 x n).
+    Omega : casadi.SX
+        Body rotation rate in the code frame [rad/s], its first k components (k x 1): the planar model
+        gives (q), six degrees of freedom (q, -r, -p).
+    tau_hat : casadi.SX
+        The first k rows of the unit spanwise vectors (k x n).
+
+    Returns
+    -------
+    casadi.SX
+        1 x n.
+    """
+    omega = omega_k
+    for i in range(Omega.shape[0]):
+        omega = omega + Omega[i] * tau_hat[i, :]
+    return omega
 
 
 def element_data(r, v_kin, c_hat, up, tau, chord, ds, ddt) -> dict:
@@ -169,7 +209,7 @@ def element_data(r, v_kin, c_hat, up, tau, chord, ds, ddt) -> dict:
     dict
         Block name to expression.
     """
-    n_hat, tau_hat = _unit_columns(up), _unit_columns(tau)
+    n_hat, tau_hat = unit_columns(up), unit_columns(tau)
     c_dot = ddt(c_hat)
     omega_k = -ca.sum1(c_dot * n_hat)                     # nose-up section pitch rate [rad/s]
     crow = chord.T
@@ -241,7 +281,9 @@ def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dic
     ``alpha1`` [rad], ``cd90``, ``Tf``, ``T2``; ``flow`` (six degrees of freedom): ``V`` the air velocity
     of every element without the induced part (3 x n, code frame, m/s: sideslip and roll and yaw rates
     included) and ``Omega`` the body's rotation rate (3 x 1, code frame, rad/s), which replace the planar
-    velocity and pitch rate made from ``nu`` (``nu`` then only feeds the added mass of the planar rows).
+    velocity and pitch rate made from ``nu`` (``nu`` is then unused, and the added-mass keys are left
+    out: the six body rows take them from :func:`added_mass_loads` through
+    :func:`birdocp.bird.sixdof_unsteady.added_mass_terms`).
 
     Returns a dict: ``dF_att`` (at r), ``dF_mid`` (at r_mid), ``r_mid`` (3 x n, N and m); ``F`` (3 x 1,
     code frame, circulatory + separated), ``M`` (moment about G, N m, nose-up); the non-circulatory
@@ -291,8 +333,9 @@ def section_loads(opts: dict, nu, zs, base: dict, ud: dict, wake: dict, prm: dic
                 "Vp_norm": Vn, "alpha": kin["alpha"], "omega": kin["omega"], "newton_residual": rel,
                 "wagner": wag, "n_hat": ud["n_hat"] if wag else None,
                 "r_mid_dot": ud["r_mid_dot"] if ud else None, "omega_k": ud["omega_k"] if wag else None})
-    out.update(_non_circulatory(nu, ud, prm, Vn, chord.T, base["ds"], kin["omega"]) if wag else
-               {"M_A": ca.SX.zeros(3, 3), "b_nc": ca.SX.zeros(3, 1)})
+    if flow is None:  # six degrees of freedom: the caller's rows (sixdof_unsteady.added_mass_terms)
+        out.update(_non_circulatory(nu, ud, prm, Vn, chord.T, base["ds"], kin["omega"]) if wag else
+                   {"M_A": ca.SX.zeros(3, 3), "b_nc": ca.SX.zeros(3, 1)})
     return out
 
 
@@ -312,13 +355,10 @@ def _section_flow(nu, base, ud, prm, wag, flow=None) -> dict:
         V = flow["V"]
     alpha, Vn = aero.section_angle(V, base["c_hat"], base["up"], tau)
     Vp = V - tau * ca.repmat(ca.sum1(tau * V), 3, 1)
-    if not wag:
-        omega = None
-    elif flow is None:
-        omega = ud["omega_k"] + q * ud["tau_hat"][0, :]
-    else:
-        th, Om = ud["tau_hat"], flow["Omega"]
-        omega = ud["omega_k"] + Om[0] * th[0, :] + Om[1] * th[1, :] + Om[2] * th[2, :]
+    omega = None
+    if wag:  # the planar body turns about e1 only
+        Om = nu[2] if flow is None else flow["Omega"]
+        omega = section_pitch_rate(ud["omega_k"], Om, ud["tau_hat"][0:Om.shape[0], :])
     q_t = (Vn * alpha).T
     if wag:
         q_t = q_t + prm["chi_w"] * 0.5 * base["chord"] * omega.T
@@ -369,24 +409,67 @@ def _circulatory_forces(section, prm, base, ud, wake, kin, Gamma, g, gE, aE, f, 
 
 
 def _non_circulatory(nu, ud, prm, Vn, crow, ds, omega) -> dict:
-    """Added-mass loads (Theodorsen's flat-plate apparent mass) with nu' = 0 and the mass matrix."""
-    chi = prm["chi_nc"]
-    q = nu[2]
-    a, a_dot = ud["a"], ud["a_dot"]
-    nu_row = ca.repmat(ca.vertcat(nu[0], nu[1], nu[2]), 1, a.shape[1])
+    """The planar added-mass terms (:func:`added_mass_loads` on (u, w, q): the couple acts on the q row
+    through tau_hat's e1 component)."""
+    n = crow.shape[1]
+    t1 = ud["tau_hat"][0, :]
+    rows = {"a": ud["a"], "a_dot": ud["a_dot"], "a_theta": ca.vertcat(ca.SX.zeros(2, n), t1)}
+    omega_dot0 = section_pitch_rate(ud["omega_k_dot"], nu[2], ud["tau_hat1_dot"])
+    out = added_mass_loads(ca.vertcat(nu[0], nu[1], nu[2]), rows, ud, prm,
+                           {"Vp_norm": Vn, "chord": crow, "ds": ds, "omega": omega, "omega_dot0": omega_dot0})
+    return dict(out, a=ud["a"], tau1=t1)
+
+
+def added_mass_loads(nu, rows: dict, ud: dict, prm: dict, sec: dict) -> dict:
+    """The non-circulatory (added-mass) loads of every element on k body velocity rows nu (Theodorsen's
+    flat-plate apparent mass, docs/model_unsteady.md), with the body accelerations nu' = 0, and the
+    added-mass matrix: the one element-level law of the planar (k = 3: u, w, q) and the 6-DOF (k = 6)
+    models.
+
+    Element j carries the force (m_a w_mid)' along n_hat at mid-chord, w_mid = a_j . nu + w0_j, and the
+    couple C_j = -pi rho (c/2)^3 ds (Vp omega / 2 + (c/2) omega' / 8) about tau_hat, acting on the
+    body rows along a_theta,j. With nu' = 0: ``nc_coef`` = chi (m_a (a_j' . nu + w0') + m_a' w_mid) [N],
+    ``couple0`` [N m]; ``b_nc = -sum_j nc_coef_j a_j + sum_j couple0_j a_theta,j``; ``M_A = chi sum_j
+    m_a,j a_j a_j^T + chi rho sum_j m_theta,j a_theta,j a_theta,j^T`` (symmetric positive
+    semi-definite), so that (M_rb + M_A) nu' = M_rb nu'_0 + b_nc.
+
+    Parameters
+    ----------
+    nu : casadi.SX
+        Air-relative body velocities (k x 1) [m/s, rad/s].
+    rows : dict
+        ``a``, ``a_dot`` (k x n: d w_mid / d nu and its time derivative) and ``a_theta`` (k x n: the
+        body rows of a unit couple about tau_hat).
+    ud : dict
+        The unsteady data blocks (:func:`unpack`): ``w0``, ``w0_dot``, ``m_a``, ``m_a_dot``, ``m_theta``.
+    prm : dict
+        ``rho`` [kg/m^3], ``chi_nc`` [-].
+    sec : dict
+        ``Vp_norm`` (1 x n) [m/s], ``chord`` (1 x n) [m], ``ds`` (n x 1) [m], ``omega`` (1 x n) the
+        section pitch rate and ``omega_dot0`` (1 x n) its rate with nu' = 0 [rad/s, rad/s^2]
+        (:func:`section_pitch_rate`).
+
+    Returns
+    -------
+    dict
+        ``M_A`` (k x k), ``b_nc`` (k x 1), per element ``nc_coef``, ``couple0``, ``w_mid`` (1 x n),
+        ``m_a_chi`` = chi rho m_a [kg] and ``m_theta_chi`` = chi rho m_theta [kg m^2] (1 x n).
+    """
+    chi, rho = prm["chi_nc"], prm["rho"]
+    a, a_dot, a_th = rows["a"], rows["a_dot"], rows["a_theta"]
+    crow = sec["chord"]
+    nu_row = ca.repmat(nu, 1, a.shape[1])
     w_mid = ca.sum1(a * nu_row) + ud["w0"]
     wdot0 = ca.sum1(a_dot * nu_row) + ud["w0_dot"]
-    rho = prm["rho"]
     m_a = rho * ud["m_a"]
     nc_coef = chi * (m_a * wdot0 + rho * ud["m_a_dot"] * w_mid)        # dF_nc with nu' = 0, along n_hat [N]
-    t1 = ud["tau_hat"][0, :]
-    omega_dot0 = ud["omega_k_dot"] + q * ud["tau_hat1_dot"]
-    couple0 = -chi * rho * math.pi * (crow / 2) ** 3 * ds.T * (0.5 * Vn * omega + (crow / 2) * omega_dot0 / 8)
-    b_nc = -(a @ nc_coef.T) + ca.vertcat(0, 0, ca.sum2(couple0 * t1))
-    M_A = chi * (a @ ca.diag(m_a) @ a.T)
-    M_A[2, 2] = M_A[2, 2] + chi * rho * ca.sum2(ud["m_theta"] * t1 ** 2)
-    return {"M_A": M_A, "b_nc": b_nc, "nc_coef": nc_coef, "couple0": couple0, "w_mid": w_mid, "a": a,
-            "m_a_chi": chi * m_a, "m_theta_chi": chi * rho * ud["m_theta"], "tau1": t1}
+    couple0 = -chi * rho * math.pi * (crow / 2) ** 3 * sec["ds"].T * (0.5 * sec["Vp_norm"] * sec["omega"]
+                                                                      + (crow / 2) * sec["omega_dot0"] / 8)
+    b_nc = -(a @ nc_coef.T) + a_th @ couple0.T
+    m_th = chi * rho * ud["m_theta"]
+    M_A = chi * (a @ ca.diag(m_a) @ a.T) + a_th @ ca.diag(m_th) @ a_th.T
+    return {"M_A": M_A, "b_nc": b_nc, "nc_coef": nc_coef, "couple0": couple0, "w_mid": w_mid,
+            "m_a_chi": chi * m_a, "m_theta_chi": m_th}
 
 
 def solve_sym3(M, b):

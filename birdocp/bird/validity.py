@@ -4,8 +4,8 @@ The bird model is a quasi-steady lifting line with a linear lift slope (no stall
 wake along the body axis. A periodic solution of it is a *flight* only where these assumptions
 hold. :func:`cycle_validity` measures, on the states of a cycle at the RK4 grid times of one period:
 
-* the **effective angle of attack** of each of the 16 lifting-line elements: the angle, in the
-  element's section plane, of the relative air velocity plus the lifting line's induced velocity
+* the **effective angle of attack** of each lifting-line element (16, or 16 k when cut k times): the
+  angle, in the element's section plane, of the relative air velocity plus the lifting line's induced velocity
   (``aero.section_angle(V + vind)``; the section lift coefficient is the lift slope times it);
 * the **stalled fraction**: the share of the span-time area (element lengths times time) whose
   effective angle exceeds the stall angle in absolute value, and, for information, the largest
@@ -43,17 +43,19 @@ from birdocp.bird.validity_report import VALIDITY_COLUMNS, validity_columns, val
 
 __all__ = ["CycleValidity", "cycle_validity", "model_angles", "grid_validity", "periodic_validity",
            "element_angles_function", "effective_angles", "invalid", "validity_text", "VALIDITY_COLUMNS",
-           "validity_columns", "validity_margins", "LIMIT_NAMES", "SIDE_ELEMENTS", "sixdof_angles"]
+           "validity_columns", "validity_margins", "LIMIT_NAMES", "SIDE_ELEMENTS", "side_elements",
+           "sixdof_angles"]
 
 
 def effective_angles(n_data: int | None = None, normalwash: str = "angle") -> "ca.Function":
-    """``angles(x, d, p) -> (alpha_eff_rad 16x1, alpha_geo_rad 16x1, ds_m 16x1)`` for one time.
+    """``angles(x, d, p) -> (alpha_eff_rad nx1, alpha_geo_rad nx1, ds_m nx1)`` for one time, n elements.
 
     ``alpha_eff``: the angle of the relative velocity plus the induced velocity in each element's
     section plane; ``alpha_geo``: the same without the induced velocity (the model's ``alpha``);
     ``ds_m``: the element lengths (span weights). ``n_data``: the size of the model's data vector
-    (default: the massless model's; wing masses append their terms after the aerodynamic blocks).
-    A new Function on each call (a model keeps its own: :func:`model_angles`).
+    (default: the massless model's; wing masses append their terms after the aerodynamic blocks):
+    it gives n (16, or 16 k with ``aero.span_subdivisions = k``). A new Function on each call (a
+    model keeps its own: :func:`model_angles`).
 
     Parameters
     ----------
@@ -120,7 +122,7 @@ def _model_angles(model) -> "ca.Function":
 
 
 def element_angles_function(cfg: Config, n_times: int, extended: bool = False) -> "ca.Function":
-    """``f(X[nx x n], T[1 x n], p) -> (alpha_eff 16 x n, alpha_geo 16 x n, ds 16 x n)`` (rad, m) for
+    """``f(X[nx x n], T[1 x n], p) -> (alpha_eff, alpha_geo, ds)`` (elements x n; rad, m) for
     the model of ``cfg``; built once per (n, extended), kept by the model. ``extended``: also
     ``alpha_eff_quasi_steady`` (16 x n), ``f_sep`` (16 x n) and ``newton_residual`` (1 x n) of
     :func:`model_angles`.
@@ -480,13 +482,32 @@ def grid_validity(cfg: Config, x, p=None, t0_s: float = 0.0, steps_per_period: i
     return _verdict(cfg, t, X, np.degrees(ae), np.degrees(ag), ds, _section_measures(cfg, aq, fs, ds, nr))
 
 
-SIDE_ELEMENTS = {"left": slice(0, 8), "right": slice(8, 16)}
-"""The lifting-line elements of each wing (left 0..7, right 8..15: the code frame's e1 points right)."""
+def side_elements(n_elements: int) -> dict:
+    """The lifting-line elements of each wing: the left half of the line, then the right (the code
+    frame's e1 points right), for the model's element count.
+
+    Parameters
+    ----------
+    n_elements : int
+        Elements of both wings (16, or 16 k with ``aero.span_subdivisions = k``).
+
+    Returns
+    -------
+    dict
+        ``{"left": slice, "right": slice}``.
+    """
+    half = int(n_elements) // 2
+    return {"left": slice(0, half), "right": slice(half, 2 * half)}
+
+
+SIDE_ELEMENTS = side_elements(16)
+"""The elements of each wing of the 16-element line (left 0..7, right 8..15); :func:`side_elements`
+for a subdivided one."""
 
 
 @functools.lru_cache(maxsize=8)
 def sixdof_angles(nx: int, nd: int, n_times: int, section=None, normalwash: str = "angle") -> "ca.Function":
-    """``(X nx x n, D nd x n, p6) -> (alpha_eff_rad 16 x n, alpha_geo_rad 16 x n, ds_m 16 x n)`` of the
+    """``(X nx x n, D nd x n, p6) -> (alpha_eff_rad, alpha_geo_rad, ds_m)`` (elements x n) of the
     six-degree-of-freedom model (:func:`birdocp.bird.sixdof.body_loads`: sideslip and roll and yaw
     rates in every element's velocity, both wings apart) for ``nx`` = 9 or 8 (the heading dropped)
     states (then the aerodynamic states of ``section``) and data vectors of ``nd`` values, mapped over
@@ -566,4 +587,4 @@ def _sixdof_verdict(cfg: Config, grid, X, t, D, p6) -> CycleValidity:
              "min_airspeed_mps": float(np.sqrt(u * u + v * v + w * w).min())}
     airflow = np.degrees(np.arctan2(np.hypot(v, w), u))
     return _verdict(cfg, t, X[:, list(LONGITUDINAL)], np.degrees(ae), np.degrees(ag), ds, extra, airflow_deg=airflow,
-                    sides=SIDE_ELEMENTS)
+                    sides=side_elements(ae.shape[0]))

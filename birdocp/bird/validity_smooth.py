@@ -17,7 +17,7 @@ The four smooth measures (names as the exact measures of
 
       g = sum_e ds_e [s((alpha_e - a_s) / w) + s((-alpha_e - a_s) / w)] / sum_e ds_e
 
-  (effective angles ``alpha_e`` of the 16 lifting-line elements in degrees, element lengths
+  (effective angles ``alpha_e`` of the lifting-line elements in degrees, element lengths
   ``ds_e``); the measure is the period mean of g. An element 1 width beyond stall counts 0.73,
   one width below 0.27;
 * ``min_forward_speed_mps``, ``max_abs_pitch_deg``, ``max_airflow_body_angle_deg``: the
@@ -162,7 +162,7 @@ def _integrand_rows(thresholds, ae_rad, ds, u, theta_rad, airflow_rad):
 def sixdof_integrands(cfg: Config, nx: int, n_data: int, section=None):
     """``g(x, d, p) -> 4 x 1``: the integrands of :data:`SMOOTH_LIMITS` of a six-degree-of-freedom
     cycle (``nx`` = 9 states, or 8 without the heading; then the aerodynamic states of ``section``):
-    the effective angles of all 16 elements of both wings in the asymmetric flow (as the exact 6-DOF
+    the effective angles of all elements of both wings in the asymmetric flow (as the exact 6-DOF
     check, :func:`birdocp.bird.validity.sixdof_angles`; the stall integrand is the share of the whole
     span, the exact measure the larger of the two wings' shares), the forward speed u, the pitch theta
     and the 3-D airflow-to-body angle ``atan2(sqrt(v^2 + w^2), u)`` (sideslip counts). ``p``: the

@@ -47,6 +47,9 @@ def register(sub, common) -> None:
     from birdocp.cli.optimize_stability import add_valid_flag
 
     add_valid_flag(p)
+    p.add_argument("--turn-rate", type=float, default=None, metavar="DEG",
+                   help="six degrees of freedom: hold the heading change per wingbeat at DEG (a steady turn, "
+                        "positive to the right); free per-side offsets (--free gait.right_offset.KEY) to reach it")
 
 
 def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
@@ -81,7 +84,7 @@ def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
         with run.solving():
             res = optimize_gait(cfg, free, objective=args.objective, speed_mps=args.speed,
                                 max_multiplier=args.max_multiplier, climb_rate_mps=args.climb_rate,
-                                valid=args.valid)
+                                valid=args.valid, turn_deg_per_beat=args.turn_rate)
         result = res.to_dict()
         cli.record_result(run_dir, res.cfg or cfg, result, command_line, "optimize-gait")
         if args.json:
@@ -108,12 +111,14 @@ def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
             print(f"  model validity of the optimal cycle: {validity_text(result.get('validity'))}")
             for line in validity_lines(result):
                 print(line)
+            for line in _power_lines(result):
+                print(line)
             v = res.verification
             if v:
                 ok = v.get("trim_success")
                 print(f"  check: trim at the optimum {'converged' if ok else 'FAILED'}"
-                      + (f", power differs by {v['power_difference_W']:.2e} W, multipliers by "
-                         f"{v['max_multiplier_difference']:.2e}" if ok else ""))
+                      + (f", power differs by {cli.fmt_num(v.get('power_difference_W'), '.2e')} W, multipliers by "
+                         f"{cli.fmt_num(v.get('max_multiplier_difference'), '.2e')}" if ok else ""))
             print(f"  written to {run_dir}")
         if not res.success:
             print(f"{cli.PROG}: optimisation did not converge (status {res.status}, {residuals(res)}: "
@@ -124,3 +129,14 @@ def cmd_optimize_gait(args: argparse.Namespace, command_line: list[str]) -> int:
             print(bad, file=sys.stderr)
             return cli.EXIT_NOT_CONVERGED
     return cli.EXIT_OK
+
+
+def _power_lines(result: dict) -> list[str]:
+    """The per-wing shoulder powers of a six-degree-of-freedom turn (none otherwise)."""
+    if "mean_right_shoulder_power_W" not in result:
+        return []
+    return [f"  shoulder power: right wing {cli.fmt_num(result['mean_right_shoulder_power_W'], '.6g')} W, left wing "
+            f"{cli.fmt_num(result['mean_left_shoulder_power_W'], '.6g')} W (positive work "
+            f"{cli.fmt_num(result.get('mean_right_positive_power_W'), '.6g')} W, "
+            f"{cli.fmt_num(result.get('mean_left_positive_power_W'), '.6g')} W); heading change "
+            f"{cli.fmt_num(result.get('heading_change_deg'), '.4g')} deg per wingbeat"]

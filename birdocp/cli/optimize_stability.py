@@ -8,7 +8,7 @@ from birdocp.bird.config import require_body_states
 import math
 import sys
 
-from birdocp.bird.config import ConfigError, get_value
+from birdocp.bird.config import ConfigError
 from birdocp.bird.keys import AMPLITUDE_KEY
 from birdocp.bird.validity import validity_text
 from birdocp.cli import common as cli
@@ -180,7 +180,7 @@ def checked_free(args: argparse.Namespace, cfg, defaults: dict, objective: str =
         Default free keys and bounds of the command.
     objective : str
         The command's objective: a turn (six degrees of freedom with per-side offsets set or free, or
-        ``--turn-rate``) takes only the stability objective.
+        ``--turn-rate``) takes the power objectives, not with Wagner's section.
 
     Returns
     -------
@@ -190,17 +190,12 @@ def checked_free(args: argparse.Namespace, cfg, defaults: dict, objective: str =
     from birdocp.studies.gait import check_free_bounds
     from birdocp.studies.optimize import check_free_keys
 
-    from birdocp.bird.sides import SIDE_PARAM_NAMES
     from birdocp.studies.turn_cycle import check_turn, is_turn
 
     free = _free_with_bounds(args, defaults)
     check_free_bounds(cfg, free)  # everything that needs no model, before building it
     turn_rate = getattr(args, "turn_rate", None)
     turn = is_turn(cfg, free, turn_rate)
-    if turn and objective != "stability":  # name the offset that makes the gait a turn
-        key = next((k for k in SIDE_PARAM_NAMES if k in free or float(get_value(cfg, k)) != 0.0), "--objective")
-        raise ConfigError(key, "an asymmetric gait flies a turn, whose 3-D shoulder power is not written: "
-                               "optimize-stability takes it; set the per-side offsets to 0 here")
     check_turn(cfg, objective, turn_rate, turn)
     with cli.stdout_to_stderr():
         from birdocp.bird.model import get_model

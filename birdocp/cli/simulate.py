@@ -342,8 +342,8 @@ def _cmd_lateral_simulate(args: argparse.Namespace, command_line: list[str], cfg
     simulation.png); the exit code."""
     from birdocp.studies.lateral_simulate import check_lateral_simulation_config
 
-    check_lateral_simulation_config(cfg)
     dx0, gust, gusts, wind = _six_dof_inputs(args)
+    check_lateral_simulation_config(cfg, gust)  # a bad combination refused before any computation
     ctl, sim_cfg, ctl_result = _check_beats_and_controller(args, cfg)
     with cli.run_folder(args, "simulate", command_line) as run:
         head = {"controller": str(args.controller) if args.controller else None, "run_dir": str(run.dir)}

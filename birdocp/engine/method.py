@@ -24,10 +24,12 @@ import numpy as np
 
 from birdocp.engine.steppers import METHOD_ORDER
 
-__all__ = ["OrbitMethod", "IPOPT_DEFAULTS", "PHASE_CONDITIONS", "SOLVER_NAMES", "PAPER_STEPS_PER_PERIOD"]
+__all__ = ["OrbitMethod", "IPOPT_DEFAULTS", "PHASE_CONDITIONS", "SOLVER_NAMES", "CHORDS", "PAPER_STEPS_PER_PERIOD"]
 
 PHASE_CONDITIONS = ("moving", "fixed")
 SOLVER_NAMES = ("ipopt", "lm", "newton-picard")
+CHORDS = ("subspace", "monodromy")
+"""The chords of the ``"newton-picard"`` solver (``OrbitMethod.chord``)."""
 """The solvers of the engine's solver table (:data:`birdocp.engine.orbit_front.SOLVERS`)."""
 PAPER_STEPS_PER_PERIOD = 148
 """RK4 steps per period of an ODE with data by default: the paper's grid (M = 5: 37 per segment)."""
@@ -115,6 +117,13 @@ class OrbitMethod:
         ``solver="newton-picard"``: the largest growth per period of the Picard complement along its
         current direction that is accepted; above it on two iterations in a row the complement is
         not contracting and the full Newton (``"lm"``) takes over from the last iterate.
+    chord
+        ``solver="newton-picard"``: how the Newton matrix is formed. ``"subspace"`` (default): along
+        the ``newton_states`` only, the complement by Picard sweeps
+        (:mod:`birdocp.engine.newton_picard`); ``"monodromy"``: the whole one-period Jacobian at the
+        start, from the stage Jacobians in batch, Broyden-updated along the steps, every state by
+        Newton (:mod:`birdocp.engine.newton_picard_chord`; cheaper when the stage Jacobians cost less
+        than about ten passes of the state; without free parameters: with them the subspace chord).
     """
 
     points: int = 5
@@ -141,6 +150,7 @@ class OrbitMethod:
     time_limit_s: float | None = None
     newton_states: tuple | None = None
     picard_max_rate: float = 0.5
+    chord: str = "subspace"
 
     def resolved(self, data_split: bool) -> "OrbitMethod":
         """This method with every ``None`` default filled in for the formulation, validated.
@@ -196,6 +206,8 @@ class OrbitMethod:
             raise ValueError(f"OrbitMethod.phase must be one of {PHASE_CONDITIONS}, got {self.phase!r}")
         if self.time_limit_s is not None and not self.time_limit_s > 0:
             raise ValueError(f"OrbitMethod.time_limit_s must be positive or None, got {self.time_limit_s!r}")
+        if self.chord not in CHORDS:
+            raise ValueError(f"OrbitMethod.chord must be one of {CHORDS}, got {self.chord!r}")
         if not 0 < self.picard_max_rate < 1:
             raise ValueError(f"OrbitMethod.picard_max_rate must lie in (0, 1), got {self.picard_max_rate!r}")
         lo, hi = (float(v) for v in self.period_bounds)

@@ -37,6 +37,7 @@ from birdocp.engine.cache import clear_caches
 from birdocp.engine.floquet import FloquetResult, floquet_from_jacobians
 from birdocp.engine.lm import levenberg_marquardt
 from birdocp.engine.newton_picard import newton_picard
+from birdocp.engine.newton_picard_chord import monodromy_chord_available, newton_picard_monodromy
 from birdocp.engine.newton_picard_free import newton_picard_free
 from birdocp.engine.step_jacobians import batched_segment_jacobians
 from birdocp.engine.nlp import run_ipopt
@@ -151,7 +152,7 @@ def _solve(problem, method, warm_start):
     nf = len(b.free_idx)
     lo, hi = problem.free_bounds() if nf else (np.zeros(0), np.zeros(0))
     wall = {"build": build_s, "data": 0.0, "solve": 0.0, "floquet": 0.0}
-    z0, p_init, D_init = _start(problem, b, warm_start, lo, hi, wall)
+    z0, p_init, D_init = _start(problem, b, warm_start, lo, hi, wall, method.solver == "newton-picard")
     ts = time.perf_counter()
     z, status, success, message, iters, hist = _run(problem, method, b, z0, lo, hi)
     wall["solve"] = time.perf_counter() - ts
@@ -218,9 +219,10 @@ def estimate_error(problem: OrbitProblem, method: OrbitMethod, result: OrbitResu
     return out
 
 
-def _start(problem, b, warm_start, lo, hi, wall):
+def _start(problem, b, warm_start, lo, hi, wall, first_only=False):
     """The initial unknowns (shooting points, free parameters), the start parameters and their data;
-    sets the graphs' context."""
+    sets the graphs' context. ``first_only``: the solver reads only the first point (Newton-Picard
+    integrates from it), so a start without a warm start repeats it instead of integrating the guess."""
     nx, S, t0, free_idx, nf = problem.ode.nx, b.S, float(problem.t0), b.free_idx, b.nf
     p_init = problem.p.copy()
     if warm_start is not None and np.shape(warm_start.p) == p_init.shape and nf:
@@ -237,7 +239,8 @@ def _start(problem, b, warm_start, lo, hi, wall):
         x_start = np.asarray(warm_start.x0, float) if warm_start is not None else problem.x_guess
         if not np.all(np.isfinite(x_start)):
             x_start = problem.x_guess
-        X0 = initial_points(b, x_start, D_init, p_init)
+        X0 = (np.tile(np.asarray(x_start, float)[:, None], (1, S + 1)) if first_only
+              else initial_points(b, x_start, D_init, p_init))
     z0 = np.concatenate([X0.T.ravel(), p_init[list(free_idx)]])
     targets = np.array([m.target for m in problem.means], float)
     if b.symbolic_data:
@@ -283,9 +286,14 @@ def _run_ipopt_attempts(problem, method, b, z0, lo, hi):
 def _run_newton_picard(problem, method, b, z0, lo, hi):
     """Newton-Picard (:func:`birdocp.engine.newton_picard.newton_picard`); when its complement is not
     contracting (or its reduced matrix singular), the paper's LM on the full state from its best
-    iterate (histories concatenated). With free parameters
+    iterate (histories concatenated). ``method.chord = "monodromy"``:
+    :func:`birdocp.engine.newton_picard_chord.newton_picard_monodromy` (not with free parameters, nor
+    without the SX state Jacobian it needs: the subspace chord then). With free parameters
     :func:`birdocp.engine.newton_picard_free.newton_picard_free` (they join the Newton subspace)."""
-    if b.nf:
+    if method.chord == "monodromy" and not b.nf and monodromy_chord_available(b.grid):
+        out = newton_picard_monodromy(b, problem, z0, tol=method.tol, max_iter=method.max_iter,
+                                      max_rate=method.picard_max_rate)
+    elif b.nf:
         out = newton_picard_free(b, problem, z0, method.newton_states, lo, hi, tol=method.tol,
                                  max_iter=method.max_iter, max_rate=method.picard_max_rate)
     else:

@@ -24,6 +24,12 @@ product 1 960 000).
 Used for the Floquet analysis after a Newton-Picard solve (the full blocks are formed only there);
 the solvers that form the full shooting Jacobian at every iterate keep the variational step (its
 blocks are reused at the solution).
+
+A cheaper approximation of the monodromy, for a chord matrix (:func:`frozen_monodromy`): the
+right-hand side's Jacobian ``F`` once per step, at the step's start, each step's Jacobian taken as
+``I + hF + (hF)^2/2 + (hF)^3/6 + (hF)^4/24`` (RK4's step of the linearisation frozen over the step;
+its error is of the order of h times F's change along the step, which only slows a chord iteration).
+One Jacobian instead of four per step: 0.14 s instead of 0.48 s on the ibis with dynamic stall.
 """
 from __future__ import annotations
 
@@ -34,7 +40,7 @@ from birdocp.engine.cache import owned_cache
 from birdocp.engine.integrate import RK4Grid
 from birdocp.engine.rk4 import rk4_update
 
-__all__ = ["stage_jacobians", "batched_segment_jacobians"]
+__all__ = ["stage_jacobians", "batched_segment_jacobians", "step_start_jacobians", "frozen_monodromy"]
 
 
 def stage_jacobians(grid: RK4Grid) -> ca.Function:
@@ -64,12 +70,23 @@ def _rhs_jacobian(ode, x, d, p):
     return rev if count[1] < count[0] else fwd
 
 
+def _state_jacobian(grid: RK4Grid) -> ca.Function:
+    """``(x, d, p) -> df/dx`` (dense), built once per grid (:func:`_rhs_jacobian`) from the interpreted
+    source of an ODE compiled to C."""
+    def make():
+        ode = getattr(grid.ode.numeric, "source", None) or grid.ode
+        x, d, p = ca.SX.sym("x", ode.nx), ca.SX.sym("d", ode.nd), ca.SX.sym("p", ode.np)
+        return ca.Function("rhs_state_jacobian", [x, d, p], [_rhs_jacobian(ode, x, d, p)])
+
+    return owned_cache(grid).build(("rhs_state_jacobian",), make)
+
+
 def _build(grid: RK4Grid) -> ca.Function:
     """:func:`stage_jacobians`, built."""
     ode = getattr(grid.ode.numeric, "source", None) or grid.ode
     nx, nd, np_ = ode.nx, ode.nd, ode.np
-    x, d, p = ca.SX.sym("x", nx), ca.SX.sym("d", nd), ca.SX.sym("p", np_)
-    jac = ca.Function("rhs_state_jacobian", [x, d, p], [_rhs_jacobian(ode, x, d, p)])
+    x, p = ca.SX.sym("x", nx), ca.SX.sym("p", np_)
+    jac = _state_jacobian(grid)
     D3 = ca.SX.sym("D3", nd, 3)
     _, stages = rk4_update(ode.rhs, x, D3, grid.h, p)
     F = ca.horzcat(*[jac(xs, D3[:, c], p) for xs, c in zip(stages, (0, 1, 1, 2))])
@@ -141,3 +158,56 @@ def batched_segment_jacobians(grid: RK4Grid, points, trajectory, D, p) -> list:
             J = A[k] @ J
         out.append(J)
     return out
+
+
+def step_start_jacobians(grid: RK4Grid) -> ca.Function:
+    """``(X[nx x N], D0[nd x N], p) -> F[nx x nx N]``: the right-hand side's state Jacobian at each of
+    the period's N step starts ``X`` (data ``D0``, each step's first stage column), hstacked. Built
+    once per grid (kept while the grid lives).
+
+    Parameters
+    ----------
+    grid : RK4Grid
+        The grid (its ODE and steps per period N).
+
+    Returns
+    -------
+    casadi.Function
+    """
+    return owned_cache(grid).build(("step_start_jacobians",), lambda: _state_jacobian(grid).map(
+        "rhs_state_jacobian_period", "serial", grid.N, [2], []))
+
+
+def frozen_monodromy(grid: RK4Grid, x0, X, D, p) -> np.ndarray:
+    """An approximation of the one-period Jacobian ``dx_T/dx0`` of the trajectory ``X`` from ``x0`` for
+    a chord matrix (module docstring): each RK4 step's Jacobian from the right-hand side's Jacobian
+    at the step's start, ``A = I + hF + (hF)^2/2 + (hF)^3/6 + (hF)^4/24``, multiplied in time order.
+
+    Parameters
+    ----------
+    grid : RK4Grid
+        The grid.
+    x0 : array_like (nx,)
+        The state at t0.
+    X : array_like (nx, N)
+        The states after each of the N steps from ``x0``.
+    D : casadi.DM
+        Stage blocks, nd x 3N (:meth:`RK4Grid.blocks_numeric`).
+    p : array_like or casadi.DM
+        Parameters.
+
+    Returns
+    -------
+    ndarray (nx, nx)
+    """
+    nx, N, h = grid.ode.nx, grid.N, grid.h
+    starts = np.column_stack([np.asarray(x0, float), np.asarray(X, float)[:, :N - 1]])
+    F = _dense_call(step_start_jacobians(grid), (starts, np.asarray(D, float)[:, 0::3],
+                                                 np.asarray(p, float).ravel()))
+    hF = h * F.reshape(nx, N, nx).transpose(1, 0, 2)  # step, row, column
+    hF2 = hF @ hF
+    A = np.eye(nx) + hF + hF2 / 2 + hF2 @ hF / 6 + hF2 @ hF2 / 24
+    M = A[0]
+    for k in range(1, N):
+        M = A[k] @ M
+    return M

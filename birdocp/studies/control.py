@@ -129,9 +129,10 @@ class WingbeatMap:
     cycle (:meth:`birdocp.bird.validity.CycleValidity.to_dict`; whether the model holds on the
     cycle the controller is designed around); param_names, state_names: the names of ``p`` and
     of the body states (the planar model's 4 by default; the six-degree-of-freedom map of
-    :mod:`birdocp.studies.lateral_control` has 8); manifold (N, n - 4, 4): with aerodynamic states, the
-    slope of their quasi-steady manifold (the lag and separation states that a body state implies,
-    :meth:`birdocp.bird.model.BirdModel.complete_state`) at each interval start.
+    :mod:`birdocp.studies.lateral_control` has 8); manifold (N, n - nb, nb), nb the body states:
+    with aerodynamic states, the slope of their quasi-steady manifold (the lag and separation states
+    that a body state implies, :meth:`birdocp.bird.model.BirdModel.complete_state`) at each interval
+    start.
 
     With aerodynamic states (``aero.unsteady = "wagner"`` or ``aero.section = "dynamic-stall"``) the
     state has n = 4 + 16 n_z components (body first) and A, B, x_starts, x0 are over all of them.

@@ -37,7 +37,8 @@ def manifold_slopes(m, x_starts, t_starts, p) -> np.ndarray:
 
 
 def body_gains(wm, K) -> np.ndarray:
-    """Gains (N, m, 4) on the body states alone from full-state gains (N, m, n): the aerodynamic
+    """Gains (N, m, nb) on the nb body states alone (4; 8 in six degrees of freedom, heading excluded)
+    from full-state gains (N, m, n): the aerodynamic
     states' columns folded in through the slope of their quasi-steady manifold at each interval start
     (``du = -(K_b + K_a S_i) dx_body``: the feedback a flier that senses only its flight state applies,
     assuming its lag and separation states follow the body state). Unchanged without aerodynamic states.
@@ -51,12 +52,13 @@ def body_gains(wm, K) -> np.ndarray:
 
     Returns
     -------
-    ndarray, shape (N, m, 4)
+    ndarray, shape (N, m, nb)
     """
     K = np.asarray(K, float)
-    if wm.manifold is None or K.shape[2] == wm.n_body:
+    nb = wm.n_body
+    if wm.manifold is None or K.shape[2] == nb:
         return K
-    return K[:, :, :4] + np.einsum("imk,ikj->imj", K[:, :, 4:], wm.manifold)
+    return K[:, :, :nb] + np.einsum("imk,ikj->imj", K[:, :, nb:], wm.manifold)
 
 
 def pad_weight(Q, n: int) -> np.ndarray:

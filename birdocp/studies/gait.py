@@ -112,7 +112,9 @@ class GaitOptimum:
             "moduli": np.abs(self.multipliers), "stable": bool(self.largest_modulus < 1),
             "mean_shoulder_power_W": self.means.get("flapping_power_W"),
             "mean_aerodynamic_power_W": self.means.get("aerodynamic_power_W"),
-            "mean_vertical_speed_mps": self.means.get("vertical_speed_mps")})
+            "mean_vertical_speed_mps": self.means.get("vertical_speed_mps")}
+            | {f"mean_{k}": self.means[k] for k in ("right_shoulder_power_W", "left_shoulder_power_W")
+               if k in self.means})
 
 
 @dataclass
@@ -340,7 +342,8 @@ def _solve_gait(cfg: Config, free: dict | None, *, objective: str, speed_mps, ma
     rc = reduced_level_cycle(cfg_start, keys, turn=turn, steps_per_period=steps_per_period, climb_rate_mps=climb_rate_mps,
                              second_order=objective == "stability" or max_multiplier is not None,
                              valid=bool(valid_bounds),
-                             amplitude_range_deg=(amplitude_bounds[0] - 10.0, amplitude_bounds[1] + 10.0))
+                             amplitude_range_deg=(amplitude_bounds[0] - 10.0, amplitude_bounds[1] + 10.0),
+                             **({"power": True} if turn and objective != "stability" else {}))
     wall = {"build": time.perf_counter() - t0}
     if x_guess is not None:
         rc.set_guess(x_guess)
@@ -431,6 +434,12 @@ def _optimum(prob: ReducedProblem, sol, st, msg, gbounds, ev0, start_value, free
                       float(np.max(np.abs(kkt))), viol, cfg=cfg)
     out.evaluations = {"full": rc.n_full, "residual": rc.n_resid, "no_level_cycle": len(prob.failures)}
     out.six_dof = rc.multiplier_split(ev)
+    if "right_shoulder_power_W" in ev.means:  # a turn's power objective: each wing's exact positive work
+        from birdocp.bird.sixdof_power import sampled_wing_powers
+
+        w = sampled_wing_powers(rc.six, ev.x0, rc.pfull(ev.theta, ev.amplitude_deg), rc.N)
+        out.six_dof = dict(out.six_dof or {}) | {k: w.pop(k) for k in list(w) if k.startswith("mean_")} \
+            | {"wing_power_samples": w}
     out.ipopt_multipliers = {"lam_g": lam_g.tolist(), "lam_x": (lam_x * prob.sigma).tolist()}
     from birdocp.studies.gait_validity import attach_validity
 

@@ -8,6 +8,7 @@ import casadi as ca
 import numpy as np
 
 from birdocp.bird.config import get_value
+from birdocp.io.progress import text_reporter
 from birdocp.studies.gait_cycle import JURY_MARGIN, ReducedLevelCycle, jury_function, jury_values
 from birdocp.studies.gait_types import Evaluation
 
@@ -41,6 +42,7 @@ class ReducedProblem:
         self.sigma = np.ones(self.nz)
         self.failures: list = []
         self.progress = None
+        self._reported = None
         mg = float(get_value(rc.cfg, "body.mass_kg") * get_value(rc.cfg, "body.gravity_mps2"))
         self.mg = mg
 
@@ -158,7 +160,7 @@ class ReducedProblem:
             return G, None
         return self._assemble(ev, z)
 
-    def _assemble(self, ev: Evaluation, z, report: bool = True):
+    def _assemble(self, ev: Evaluation, z):
         """(G, dG/dz) from an evaluation with gradients; z unscaled (theta, r)."""
         nt = self.rc.nt
         G = np.zeros(self.ng)
@@ -167,9 +169,6 @@ class ReducedProblem:
             G[0], J[0, -1] = z[-1], 1.0
         else:
             G[0], J[0, :nt] = self._obj(ev, z)
-        if report and callable(self.progress):
-            self.progress(f"{self.objective} {G[0]:.6g}, |L1| {np.max(np.abs(ev.multipliers)):.5f}, "
-                          f"A {ev.amplitude_deg:.3f} deg")
         G[1], J[1, :nt] = ev.amplitude_deg, ev.grads["amplitude_deg"]
         i = 2
         if self.speed is not None:
@@ -233,10 +232,22 @@ class ReducedProblem:
         -------
         ndarray
         """
-        J = self.both(z)[1]
+        G, J = self.both(z)
         if J is not None and np.all(np.isfinite(J)):  # IPOPT asks for derivatives at accepted points
-            self.rc.accept(np.asarray(z, float).ravel()[:self.rc.nt] / self.sigma[:self.rc.nt])
+            theta = np.asarray(z, float).ravel()[:self.rc.nt] / self.sigma[:self.rc.nt]
+            self.rc.accept(theta)
+            self._report(np.asarray(z, float).ravel(), G[0], self.rc.cached(theta))
         return J
+
+    def _report(self, z, value, ev) -> None:
+        """One progress line per new point where IPOPT asks for derivatives (it asks several times at
+        each iterate: objective gradient, constraint Jacobian, Hessian)."""
+        say = text_reporter(self.progress, "optimize-stability" if self.with_r else "optimize-gait")
+        if say is None or ev is None or (self._reported is not None and np.array_equal(self._reported, z)):
+            return
+        self._reported = z.copy()
+        say(f"{self.objective} {value:.6g}, |L1| {np.max(np.abs(ev.multipliers)):.5f}, A {ev.amplitude_deg:.3f} deg"
+            + (f", heading change {ev.means['turn_rate_degps'] * self.rc.T:.4f} deg/beat" if self.turn is not None else ""))
 
     def jacobian_near(self, zk, z):
         """dG/dz at ``zk`` next to ``z`` (where :meth:`jacobian` was just evaluated), side-effect-free
@@ -265,4 +276,4 @@ class ReducedProblem:
             ev = base if np.array_equal(zk[:nt], theta) else self.rc.evaluate_near(zk[:nt], base)
         except RuntimeError:
             return nan
-        return self._assemble(ev, zk, report=False)[1]
+        return self._assemble(ev, zk)[1]

@@ -206,19 +206,21 @@ def coupled_modes(monodromy, period_s: float, speed_mps: float, air_names=()) ->
     scale = eigenvector_scales(names, period_s, speed_mps)
     body = body_share_modes(vec * scale[:, None], nb, nb, lam) if len(air_names) else range(len(lam))
     modes, lat = [], [i for i, k in enumerate(names[:nb]) if STATE_NAMES.index(k) in LATERAL]
+    roll = []
     for k in range(len(lam)):
         m = _mode(lam[k], vec[:, k], names, scale)
         v = np.array(list(m["eigenvector"].values()))[:nb]
-        m["lateral_share"] = float(np.sum(np.abs(v[lat]) ** 2) / np.sum(np.abs(v) ** 2))
-        m["roll"] = float(abs(v[names.index("p_radps")]) / np.max(np.abs(v[lat])))
+        w2 = np.abs(v) ** 2
+        # no lateral component (a block-diagonal monodromy: no coupling) is a share of exactly 0, and a
+        # mode with no body component (an aerodynamic one) has none: no 0/0
+        m["lateral_share"] = float(np.sum(w2[lat]) / np.sum(w2)) if np.any(w2[lat]) else 0.0
         m["label"] = "lateral_real" if m["lateral_share"] >= LATERAL_SHARE_MIN else "longitudinal"
         if k not in body:
             m["label"] = "aerodynamic"
+        if m["label"] == "lateral_real":  # its roll share: |p| over its largest lateral component (> 0)
+            roll.append(float(abs(v[names.index("p_radps")]) / np.max(np.abs(v[lat]))))
         modes.append(m)
-    lateral = [m for m in modes if m["label"] == "lateral_real"]
-    _label_lateral(lateral, [m.pop("roll") for m in lateral])
-    for m in modes:
-        m.pop("roll", None)
+    _label_lateral([m for m in modes if m["label"] == "lateral_real"], roll)
     return modes
 
 

@@ -27,6 +27,8 @@ from birdocp.bird.sides import SIDE_PARAM_NAMES
 from birdocp.bird.sixdof import HEADING, STATE_NAMES, sixdof_model
 from birdocp.studies.control import (DEFAULT_LIMIT_DEG, Controller, WingbeatMap, bryson_weights,
                                      controller_on_map, default_limits, linearise, resolve_controls)
+from birdocp.studies.control_aero import pad_weight
+from birdocp.studies.lateral_simulate_aero import complete_state6, manifold_slopes6, n_aero_states
 
 __all__ = ["LATERAL_CONTROLS", "LATERAL_ALIASES", "ACCEPTABLE_STATE_6DOF", "resolve_lateral_controls",
            "lateral_wingbeat_map", "design_lateral_controller", "lateral_reference_cycle", "sides_parameters", "sides_parameter_vector"]
@@ -98,7 +100,9 @@ def lateral_wingbeat_map(res, cfg: Config | None = None, controls=LATERAL_CONTRO
     Returns
     -------
     WingbeatMap
-        ``A`` (N, 8, 8), ``B`` (N, 8, m); ``param_names`` the per-side model's.
+        ``A`` (N, n, n), ``B`` (N, n, m) with n = 8, or 8 + the aerodynamic states of ``aero.unsteady =
+        "wagner"`` / ``aero.section = "dynamic-stall"`` (then ``manifold`` holds the slope of their
+        quasi-steady manifold over the 8 body states); ``param_names`` the per-side model's.
     """
     cfg = cfg or with_values(Config(), {"model.degrees_of_freedom": 6})
     controls = resolve_lateral_controls(controls)
@@ -111,12 +115,13 @@ def lateral_wingbeat_map(res, cfg: Config | None = None, controls=LATERAL_CONTRO
     six = sixdof_model(cfg, sides=True)
     names = list(six.ode.param_names)
     p = sides_parameters(c.p)
-    x0 = np.asarray(c.x0, float)[:HEADING]
+    x0 = np.delete(complete_state6(six, c.x0, p), HEADING)  # the heading dropped; then the aerodynamic states
     model = SimpleNamespace(ode=six.ode_no_heading, data=six.data, model=six)
     xs, A, B = linearise(model, x0, p, steps, N, [names.index(k) for k in controls])
     v = res.validity
+    S = manifold_slopes6(six, xs, np.arange(N) * (six.period_s / N), p) if n_aero_states(six) else None
     return WingbeatMap(list(controls), N, steps, x0, p, xs, A, B, v.to_dict() if v is not None else None,
-                       param_names=tuple(names), state_names=STATE_NAMES[:HEADING])
+                       param_names=tuple(names), state_names=STATE_NAMES[:HEADING], manifold=S)
 
 
 def design_lateral_controller(res, cfg: Config | None = None, controls=LATERAL_CONTROLS,
@@ -143,12 +148,16 @@ def design_lateral_controller(res, cfg: Config | None = None, controls=LATERAL_C
     -------
     Controller
         Gains ``K`` (N, m, 8) in deg per state unit; ``to_dict`` as the planar controller's, with
-        ``state_names``.
+        ``state_names``. With aerodynamic states the LQR is designed on the full map (their memory
+        from beat to beat is part of the dynamics) with no weight on them, and the gains applied are on
+        the 8 body states, the aerodynamic columns folded in through the quasi-steady manifold's slope
+        (:func:`birdocp.studies.control_aero.body_gains`; ``K_full`` keeps the full-state gains, the
+        closed loop is evaluated on the full map).
     """
     cfg = cfg or with_values(Config(), {"model.degrees_of_freedom": 6})
     wm = lateral_wingbeat_map(res, cfg, controls, updates_per_beat)
     Qd, Rd = bryson_weights(cfg, wm.controls, ACCEPTABLE_STATE_6DOF)
-    Q = Qd if Q is None else np.asarray(Q, float)
+    Q = pad_weight(Qd if Q is None else Q, wm.n_states)  # no weight on the aerodynamic states
     R = Rd if R is None else np.asarray(R, float)
     limits = default_limits(cfg, wm.controls, wm.p, limit_deg, names=wm.param_names)
     return controller_on_map(wm, Q, R, limits)

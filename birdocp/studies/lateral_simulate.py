@@ -9,11 +9,20 @@ body axes by the 3-2-1 attitude (psi, theta, phi): the state as the air sees it 
 
 Side gust (:class:`SideGust`): an east wind (positive from the left, i.e. blowing towards the bird's
 right) as a function of time, a ``step`` from its start on, or a ``1 - cos`` ``pulse`` of a given
-length (beats). Equivalently a gust frozen in space along the cycle's path: the length in beats times
-``distance_per_beat_m``.
+length (beats; the shape of :func:`birdocp.studies.simulate.gust_shape`). Equivalently a gust frozen in
+space along the cycle's path: the length in beats times ``distance_per_beat_m``.
+
+Aerodynamic states (``aero.unsteady = "wagner"``, ``aero.section = "dynamic-stall"``): the lag and
+separation states are marched with the body states (after the position and time in the stepper's
+state), from the cycle's values (or on their quasi-steady manifold,
+:func:`birdocp.studies.lateral_simulate_aero.complete_state6`); with Wagner's added mass the rate of the
+wind's body-axis components along the motion enters the accelerations
+(:func:`birdocp.bird.sixdof.rhs_expression`'s ``wind_rate``), so a ``step`` side gust (an infinite
+rate) is refused with ``wagner`` (:func:`check_lateral_simulation_config`).
 
 A run stops with status ``diverged`` when the state leaves the model's range (non-finite, a speed
-above :data:`birdocp.studies.simulate.MAX_SPEED_MPS`, a rate above 1000 rad/s), with
+above :data:`birdocp.studies.simulate.MAX_SPEED_MPS`, a rate above 1000 rad/s; the histories keep the
+states up to the last one in range), with
 ``left_validity`` when the air-relative forward speed falls below ``validity.min_forward_speed_mps``,
 |pitch| exceeds ``validity.max_abs_pitch_deg``, the air meets the body axis at more than
 ``validity.max_airflow_body_angle_deg`` or, over a beat, more than ``validity.max_stalled_fraction`` of
@@ -29,7 +38,7 @@ positive up. They add to the side gust.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import casadi as ca
 import numpy as np
@@ -40,7 +49,8 @@ from birdocp.engine.integrate import RK4Grid, stage_block_index
 from birdocp.engine.rk4 import rk4_update
 from birdocp.engine.results import result_dict, serial
 from birdocp.studies.control import PerModel
-from birdocp.studies.simulate import MAX_SPEED_MPS, wind_vector, interval_data, parse_state_values
+from birdocp.studies.lateral_simulate_aero import complete_state6, n_aero_states
+from birdocp.studies.simulate import MAX_SPEED_MPS, gust_shape, interval_data, parse_state_values, wind_vector
 
 __all__ = ["SideGust", "LateralSimulation", "simulate_lateral", "parse_side_gust", "parse_lateral_perturbation",
            "LATERAL_STATE_ALIASES"]
@@ -144,36 +154,44 @@ def _dcm(phi, th, psi):
                       ca.horzcat(cf * st * cp + sf * sp, cf * st * sp - sf * cp, cf * ct))
 
 
-def _space_pulse(x_m, start_m, length_m):
-    """The 1 - cos shape (0..1) of a gust frozen in space along the cycle's initial heading, as the
-    planar simulation's (:mod:`birdocp.studies.simulate`)."""
-    s = (x_m - start_m) / length_m
-    return ca.if_else(ca.logic_and(s > 0, s < 1), 0.5 * (1 - ca.cos(2 * math.pi * s)), 0)
+def _wind_terms(z, g, C, x, wagner: bool):
+    """``(wind_b, wind_rate_b)``: the wind in body axes at G [m/s] (the side gust, a function of the time
+    ``z[12]``, and the planar winds and gusts frozen in space along the initial heading, met at the
+    north position ``z[9]``) and, for Wagner's added mass, the rate of its body-axis components along
+    the motion [m/s^2], ``C dW/dt - omega x (C W)`` (``dW/dt = dW/dt_side + dW/dN N'``; None otherwise)."""
+    t, north = z[12], z[9]
+    w8 = g[4:]  # the planar wind layout of birdocp.studies.simulate.wind_vector
+    east = g[0] * ca.if_else(g[3] > 0, ca.if_else(t >= g[1], 1, 0), gust_shape(t, g[1], g[2]))
+    forward = w8[0] + w8[2] * gust_shape(north, w8[4], w8[5])
+    up = w8[1] + w8[3] * gust_shape(north, w8[6], w8[7])
+    W = ca.vertcat(forward, east, -up)
+    wind_b = C @ W
+    if not wagner:
+        return wind_b, None
+    W_dot = ca.jtimes(W, ca.vertcat(north, t), ca.vertcat((C.T @ x[:3])[0], 1))
+    return wind_b, C @ W_dot - ca.cross(x[3:6], wind_b)
 
 
 class _SixStepper(PerModel):
-    """RK4 of the 9 states + position (N, E, D) + time with a side wind and the planar winds and gusts
-    (along the initial heading and vertical), for (model, steps, N)."""
+    """RK4 of z = (9 states, position N, E, D, time, aerodynamic states) with a side wind and the planar
+    winds and gusts (along the initial heading and vertical), for (model, steps, N)."""
 
     def __init__(self, six, steps: int, n_intervals: int):
         self.model = six
         self.grid = grid = RK4Grid(six.ode, steps, n_intervals)
         n, nd, np_ = grid.n, six.ode.nd, six.ode.np
-        z = ca.SX.sym("z", 13)
+        n_a = n_aero_states(six)
+        z = ca.SX.sym("z", 13 + n_a)
         # g: the side gust (A, t_s, L, step flag) then the planar wind layout of
         # birdocp.studies.simulate (constant horizontal, vertical; gust amplitudes; start/length of each)
         d, p, g = ca.SX.sym("d", nd), ca.SX.sym("p", np_), ca.SX.sym("g", 4 + 8)
-        x, t, north = z[:9], z[12], z[9]
-        s = (t - g[1]) / g[2]
-        pulse = ca.if_else(ca.logic_and(s > 0, s < 1), 0.5 * (1 - ca.cos(2 * math.pi * s)), 0)
-        east = g[0] * ca.if_else(g[3] > 0, ca.if_else(t >= g[1], 1, 0), pulse)
-        w8 = g[4:]
-        forward = w8[0] + w8[2] * _space_pulse(north, w8[4], w8[5])
-        up = w8[1] + w8[3] * _space_pulse(north, w8[6], w8[7])
+        x = ca.vertcat(z[:9], z[13:])
         C = _dcm(x[6], x[7], x[8])
-        wind_b = C @ ca.vertcat(forward, east, -up)
+        wagner = six.section is not None and six.section.unsteady == "wagner"
+        wind_b, wind_rate = _wind_terms(z, g, C, x, wagner)
         x_air = ca.vertcat(x[:3] - wind_b, x[3:])
-        zdot = ca.vertcat(rhs_expression(x, d, p, x_air, structure=six.structure, section=six.section), C.T @ x[:3], 1)
+        xdot = rhs_expression(x, d, p, x_air, structure=six.structure, section=six.section, wind_rate=wind_rate)
+        zdot = ca.vertcat(xdot[:9], C.T @ x[:3], 1, xdot[9:])
         f = ca.Function("f_sim6", [z, d, p, g], [zdot])
         D3 = ca.SX.sym("D3", nd, 3)
         step = ca.Function("sim6_step", [z, D3, p, g], [rk4_update(f, z, D3, grid.h, p, g)[0]])
@@ -215,6 +233,9 @@ class LateralSimulation:
     wind_mps: list = field(default_factory=lambda: [0.0, 0.0])  # constant (horizontal, vertical up)
     # largest stalled share of one wing's span-time area over a beat (checked every beat)
     max_stalled_fraction: float = field(default=0.0, metadata=serial(key="max_stalled_fraction_per_beat"))
+    # (n, n_a) the lag and separation states (aero.unsteady = "wagner", aero.section = "dynamic-stall")
+    aero_states: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)), metadata=serial(skip=True))
+    aero_state_names: list = field(default_factory=list)
 
     def to_dict(self) -> dict:
         """JSON-ready dict: the fields but the histories, with the peak bank and the final heading [deg],
@@ -248,15 +269,22 @@ class LateralSimulation:
         """
         return {"t_s": self.t_s, "states": self.states, "position_m": self.position_m,
                 "control_t_s": self.control_t_s, "controls": self.controls, "control_cycle": self.control_cycle,
-                "deviation_per_beat": self.deviation_per_beat}
+                "deviation_per_beat": self.deviation_per_beat,
+                **({"aero_states": self.aero_states} if self.aero_states.size else {})}
+
+
+def _in_range(z) -> np.ndarray:
+    """Per row of the stepper's z: finite, speed and body rates within the model's range."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        return (np.all(np.isfinite(z), axis=1) & (np.linalg.norm(z[:, :3], axis=1) <= MAX_SPEED_MPS)
+                & np.all(np.abs(z[:, 3:6]) <= MAX_RATE_RADPS, axis=1))
 
 
 def _limits_text(status_z, air, lim, stalled=None):
     """The reasons a step range leaves the model's range or validity (empty: none); ``stalled``: the
     beat's stalled share of the span-time area of each wing (left, right)."""
     z = status_z
-    speed = np.linalg.norm(z[:, :3], axis=1)
-    if not np.all(np.isfinite(z)) or np.any(speed > MAX_SPEED_MPS) or np.any(np.abs(z[:, 3:6]) > MAX_RATE_RADPS):
+    if not np.all(_in_range(z)):
         return "diverged", "the state left the model's range (non-finite, speed or rate too large)"
     inflow = np.degrees(np.arctan2(np.hypot(air[1], air[2]), air[0]))
     pitch = np.degrees(np.max(np.abs(z[:, 7])))
@@ -275,14 +303,15 @@ def _limits_text(status_z, air, lim, stalled=None):
 def _stalled_shares(st, Zi, air, D, pk, stall_deg: float) -> np.ndarray:
     """(2, n): the stalled share of each wing's span (left, right) at the n step ends of an interval,
     from the effective angles of the air-relative state (:func:`birdocp.bird.validity.sixdof_angles`)."""
-    from birdocp.bird.validity import SIDE_ELEMENTS, sixdof_angles
+    from birdocp.bird.validity import side_elements, sixdof_angles
 
     n = Zi.shape[0]
-    f = sixdof_angles(9, st.model.ode.nd, n, st.model.section, st.model.structure.normalwash)
-    X_air = np.vstack([air, Zi[:, 3:9].T])
+    f = sixdof_angles(9 + n_aero_states(st.model), st.model.ode.nd, n, st.model.section,
+                      st.model.structure.normalwash)
+    X_air = np.vstack([air, Zi[:, 3:9].T, Zi[:, 13:].T])  # then the aerodynamic states
     ae, _, ds = (np.asarray(v) for v in f(ca.DM(X_air), D[:, 2::3], ca.DM(pk[:len(PARAM_NAMES)])))
     stalled = np.degrees(np.abs(ae)) > stall_deg
-    return np.array([(stalled[j] * ds[j]).sum(axis=0) / ds[j].sum(axis=0) for j in SIDE_ELEMENTS.values()])
+    return np.array([(stalled[j] * ds[j]).sum(axis=0) / ds[j].sum(axis=0) for j in side_elements(ds.shape[0]).values()])
 
 
 def _beat(st, z, k, N, p_cyc, idx, u_cyc, controller, gvec, T, stall_deg=None):
@@ -316,39 +345,38 @@ def _wind_of(st, x0, N, p_cyc, side_gust, gusts, wind_mps):
     T = st.model.period_s
     side = side_gust.vector(T) if side_gust is not None else np.array([0.0, 0.0, 1.0, 0.0])
     calm = np.concatenate([[0.0, 0.0, 1.0, 0.0], wind_vector((), (0.0, 0.0), 1.0)[0]])
-    zc = _beat(st, np.concatenate([x0, [0.0] * 4]), 0, N, p_cyc, [], np.zeros(0), None, calm, T)[0]
+    zc = _beat(st, _augmented(x0), 0, N, p_cyc, [], np.zeros(0), None, calm, T)[0]
     beat_m = float(np.hypot(zc[9], zc[10]))
     planar, spans = wind_vector(gusts, wind_mps, beat_m)
     return np.concatenate([side, planar]), beat_m, spans
 
 
-def check_lateral_simulation_config(cfg) -> None:
-    """Refuse, before anything is built, a 6-DOF configuration the simulation cannot march.
+def _augmented(x_full) -> np.ndarray:
+    """The stepper's z of a full state (9 body states, then the aerodynamic states): position and time 0."""
+    x_full = np.asarray(x_full, float)
+    return np.concatenate([x_full[:9], [0.0] * 4, x_full[9:]])
+
+
+def check_lateral_simulation_config(cfg, side_gust: SideGust | None = None) -> None:
+    """Refuse, before anything is built, a 6-DOF simulation the model cannot march.
 
     Parameters
     ----------
     cfg : birdocp.bird.config.Config
         The 6-DOF configuration to simulate.
+    side_gust : SideGust, optional
+        The side gust.
 
     Returns
     -------
     None
-        Returns when the model has the 9 body states only; raises
-        :class:`~birdocp.bird.config.ConfigError` naming ``aero.unsteady`` or ``aero.section`` otherwise
-        (the stepper does not march the lag and separation states of ``wagner`` and ``dynamic-stall``).
+        Returns when the simulation can run; raises :class:`~birdocp.bird.config.ConfigError` naming
+        ``--side-gust`` for a ``step`` side gust with ``aero.unsteady = 'wagner'`` (the added mass
+        reacts to the wind's rate, infinite at the step: its impulse is not modelled).
     """
-    if cfg.aero.unsteady != "none" or cfg.aero.section == "dynamic-stall":
-        raise ConfigError("aero.unsteady" if cfg.aero.unsteady != "none" else "aero.section",
-                          "the six-degree-of-freedom simulation carries the 9 body states only (no lag or separation "
-                          "states yet): use trim, or aero.unsteady = 'none' with aero.section = 'linear' or 'stall'")
-
-
-def _checked_model(cfg):
-    """The per-side 6-DOF model of ``cfg``, after :func:`check_lateral_simulation_config`."""
-    from birdocp.bird.sixdof import sixdof_model
-
-    check_lateral_simulation_config(cfg)
-    return sixdof_model(cfg, sides=True)
+    if side_gust is not None and side_gust.shape == "step" and cfg.aero.unsteady == "wagner":
+        raise ConfigError("--side-gust", "a step has an infinite rate at its start, which Wagner's added mass "
+                                         "(aero.unsteady = 'wagner') reacts to: use a pulse (pulse=MPS:BEATS)")
 
 
 def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | None = None, perturbation=None,
@@ -360,8 +388,11 @@ def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | No
     ----------
     cfg : Config
         The configuration (``model.degrees_of_freedom = 6``; its ``[validity]`` thresholds).
-    x0_cycle : array (8,) or (9,)
-        The cycle's state at the beat start (psi = 0 when 8 are given).
+    x0_cycle : array
+        The cycle's state at the beat start: 8 (psi = 0) or 9 body states, then, with ``aero.unsteady =
+        "wagner"`` or ``aero.section = "dynamic-stall"``, the cycle's aerodynamic states (the trim's
+        ``cycle.x0``); body states alone get them on the quasi-steady manifold
+        (:func:`birdocp.studies.lateral_simulate_aero.complete_state6`).
     p : array
         The per-side model's parameter vector of the cycle
         (:func:`birdocp.studies.lateral_control.sides_parameters`).
@@ -369,8 +400,9 @@ def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | No
         Wingbeats to simulate (>= 1).
     steps_per_period : int, optional
         RK4 steps per beat (default ``cfg.solve.steps_per_period``; use the cycle's).
-    perturbation : array (9,), optional
-        State deviation at t = 0 (:func:`parse_lateral_perturbation`).
+    perturbation : array (9,) or (9 + aerodynamic states,), optional
+        State deviation at t = 0 (:func:`parse_lateral_perturbation`; the aerodynamic states unperturbed
+        when 9 are given).
     side_gust : SideGust, optional
         The side wind.
     gusts : sequence of Gust
@@ -379,7 +411,7 @@ def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | No
     wind_mps : (float, float)
         Constant wind (horizontal along the initial heading, vertical positive up) [m/s].
     controller : Controller, optional
-        A 6-DOF controller (gains (N, m, 8)); None = open loop.
+        A 6-DOF controller (gains (N, m, 8) on the body states, heading excluded); None = open loop.
     progress : callable, optional
         ``progress(text)`` at the start of every beat.
 
@@ -389,18 +421,14 @@ def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | No
     """
     if int(beats) < 1:
         raise ConfigError("--beats", f"must be >= 1, got {beats}")
-    six = _checked_model(cfg)
-    x0 = np.zeros(9)
-    x0[:len(np.ravel(x0_cycle))] = np.ravel(x0_cycle)
-    dx0 = np.zeros(9) if perturbation is None else np.asarray(perturbation, float).ravel()
+    six, x0, dx0 = _start(cfg, x0_cycle, p, perturbation, side_gust)
     N = int(getattr(controller, "updates_per_beat", 1)) if controller is not None else 1
     st = _SixStepper.get(six, int(steps_per_period or cfg.solve.steps_per_period), N)
     p_cyc = np.asarray(p, float)
-    names = list(six.ode.param_names)
     keys = list(controller.controls) if controller is not None else []
-    idx = [names.index(k) for k in keys]
+    idx = [list(six.ode.param_names).index(k) for k in keys]
     gvec, beat_m, spans = _wind_of(st, x0, N, p_cyc, side_gust, gusts, wind_mps)
-    z = np.concatenate([x0 + dx0, [0.0] * 4])
+    z = _augmented(x0 + dx0)
     traj, ctrl, dev = [z[None, :]], [], [float(np.linalg.norm(dx0[:HEADING]))]
     sat, status, message, diverged, airs, stall_max = False, "ok", f"{int(beats)} beats simulated", None, [], 0.0
     for k in range(int(beats)):
@@ -411,6 +439,8 @@ def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | No
         stalled = shares.mean(axis=1) if shares.shape[1] == Zk.shape[0] else np.zeros(0)  # per wing, over the beat
         stall_max = max([stall_max, *stalled])
         status, why = _limits_text(Zk, air, cfg.validity, stalled)
+        if status == "diverged":  # the histories keep the states up to the last one in range
+            Zk, air = Zk[:int(np.argmin(_in_range(Zk)))], air[:, :int(np.argmin(_in_range(Zk)))]
         sat, ctrl = sat or s, ctrl + applied
         traj.append(Zk)
         airs.append(air)
@@ -420,12 +450,37 @@ def simulate_lateral(cfg, x0_cycle, p, beats: int, *, steps_per_period: int | No
             message = f"{'diverged' if diverged else 'left the model validity'} in beat {k + 1}: {why}"
             break
     Z = np.vstack(traj)
-    A = np.hstack(airs) if airs else np.full((3, 1), np.nan)
+    min_air, max_inflow = _air_extremes(airs)
     return LateralSimulation(
         status == "ok", status, message, controller is not None, int(beats), np.asarray(Z[:, 12]), Z[:, :9],
         Z[:, 9:12], np.array([c[0] for c in ctrl]), np.array([c[1] for c in ctrl]) if ctrl else np.zeros((0, len(keys))),
-        keys, np.array(dev), sat, None if side_gust is None else {
-            "amplitude_mps": side_gust.amplitude_mps, "shape": side_gust.shape, "length_beats": side_gust.length_beats,
-            "start_beats": side_gust.start_beats}, dx0.tolist(), beat_m, float(np.nanmin(A[0])),
-        float(np.nanmax(np.degrees(np.arctan2(np.hypot(A[1], A[2]), A[0])))), diverged, p_cyc[idx],
-        gusts=spans, wind_mps=[float(v) for v in wind_mps], max_stalled_fraction=stall_max)
+        keys, np.array(dev), sat, None if side_gust is None else asdict(side_gust), dx0.tolist(), beat_m, min_air,
+        max_inflow, diverged, p_cyc[idx],
+        gusts=spans, wind_mps=[float(v) for v in wind_mps], max_stalled_fraction=stall_max, aero_states=Z[:, 13:],
+        aero_state_names=list(six.state_names[9:]))
+
+
+def _air_extremes(airs) -> tuple[float, float]:
+    """(smallest air-relative forward speed [m/s], largest airflow-body angle [deg]) of the air velocities
+    (3 x n blocks) met; NaN when no step stayed in range."""
+    A = np.hstack(airs) if airs else np.zeros((3, 0))
+    if not A.size:
+        return float("nan"), float("nan")
+    return float(np.nanmin(A[0])), float(np.nanmax(np.degrees(np.arctan2(np.hypot(A[1], A[2]), A[0]))))
+
+
+def _start(cfg, x0_cycle, p, perturbation, side_gust):
+    """``(six, x0, dx0)`` of :func:`simulate_lateral`: the per-side model, the cycle's full state and the
+    full perturbation, checked."""
+    from birdocp.bird.sixdof import sixdof_model
+
+    check_lateral_simulation_config(cfg, side_gust)
+    six = sixdof_model(cfg, sides=True)
+    x0 = complete_state6(six, x0_cycle, p)
+    dx0 = np.zeros(len(x0))
+    if perturbation is not None:
+        d = np.asarray(perturbation, float).ravel()
+        if d.size not in (9, len(x0)):
+            raise ValueError(f"the perturbation has 9 body states or all {len(x0)} states; got {d.size}")
+        dx0[:d.size] = d
+    return six, x0, dx0

@@ -44,6 +44,7 @@ from birdocp.io.progress import text_reporter
 from birdocp.studies.gait_cycle import jury_conditions, jury_function, jury_values  # noqa: F401
 from birdocp.studies.gait_types import check_free_keys
 from birdocp.studies.gait_validity import WARM_IPOPT
+from birdocp.studies.turn_cycle import turn_stages
 
 __all__ = ["DEFAULT_FREE", "METHODS", "check_free_keys", "optimize_stability", "StabilityOptimum", "jury_conditions"]
 
@@ -228,7 +229,8 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
                        amplitude_bounds=AMPLITUDE_BOUNDS_DEG, steps_per_period: int | None = None,
                        max_iter: int = 400, tol: float = 1e-7, verify: bool = True,
                        progress=False, coarse_steps: int | None | str = "auto", method: str = "reduced",
-                       threads: int = 2, valid: bool = False, turn_deg_per_beat: float | None = None) -> StabilityOptimum:
+                       threads: int = 2, valid: bool = False, turn_deg_per_beat: float | None = None,
+                       turn_steps: int = 0) -> StabilityOptimum:
     """Minimise the largest multiplier modulus of a level-flight cycle over the gait parameters
     ``free`` (key -> (lower, upper); default :data:`DEFAULT_FREE`): minimise r subject to the Jury
     conditions of ``Mon / r`` (each >= :data:`JURY_MARGIN`), level flight held by the flapping
@@ -269,8 +271,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
     tol : float
         IPOPT's tolerance.
     verify : bool
-        Verify the optimum independently: numpy eigenvalues of the monodromy, a multiple-shooting
-        trim from the optimum's state and a trim from scratch at the optimal gait.
+        Verify the optimum independently (numpy eigenvalues, trims from the optimum's state and from scratch).
     progress : bool or callable
         False (silent), True (one line per evaluation on stderr) or a callable taking that line's
         text (e.g. from :func:`birdocp.io.progress.progress_callback`).
@@ -278,16 +279,16 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
         RK4 steps per period of the coarse stage, whose optimum starts the fine one; "auto":
         :data:`COARSE_STEPS` of the method (none with aerodynamic states); None: no coarse stage.
     method : {"reduced", "full"}
-        "reduced": the reduced-space NLP of :func:`birdocp.studies.gait.optimize_gait` (free
-        parameters and r as IPOPT's unknowns, the level cycle solved by Newton); "full": the
+        "reduced": the reduced-space NLP of :func:`birdocp.studies.gait.optimize_gait`; "full": the
         full-space single-shooting NLP (state, parameters, amplitude and r; quasi-Newton).
     threads : int
         Perturbed points evaluated at a time (reduced method).
     valid : bool
-        The limits of ``cfg.validity`` as smooth constraints in every stage (reduced method only);
-        the result then carries ``validity_constraints``.
+        The limits of ``cfg.validity`` as smooth constraints in every stage (reduced method only).
     turn_deg_per_beat : float, optional
         6 DOF: heading change per wingbeat held [deg] (a turn, :mod:`birdocp.studies.turn_cycle`).
+    turn_steps : int
+        Steps of a continuation in the turn rate (0: none; :func:`birdocp.studies.turn_cycle.turn_stages`).
 
     Returns
     -------
@@ -303,7 +304,7 @@ def optimize_stability(cfg: Config | None = None, free: dict | None = None, *, c
                               steps_per_period=steps_per_period, max_iter=max_iter, tol=tol, verify=verify,
                               progress=progress, coarse_steps=coarse_steps)
     return _optimize_reduced(cfg, free, climb_rate_mps, amplitude_bounds, steps_per_period, coarse_steps,
-                             max_iter, tol, verify, progress, threads, valid, turn_deg_per_beat)
+                             max_iter, tol, verify, progress, threads, valid, turn_deg_per_beat, turn_steps)
 
 
 def _check_options(method: str, threads, valid: bool, cfg: Config | None = None) -> None:
@@ -321,8 +322,8 @@ def _check_options(method: str, threads, valid: bool, cfg: Config | None = None)
 
 
 def _optimize_reduced(cfg, free, climb_rate_mps, amplitude_bounds, steps_per_period, coarse_steps, max_iter,
-                      tol, verify, progress, threads, valid, turn=None) -> StabilityOptimum:
-    """The reduced-space formulation of :func:`optimize_stability` (coarse stage, then the full grid)."""
+                      tol, verify, progress, threads, valid, turn=None, turn_steps=0) -> StabilityOptimum:
+    """The reduced-space formulation of :func:`optimize_stability` (the stages of :func:`turn_stages`)."""
     from birdocp.bird.model import get_model
 
     cfg = cfg or Config()
@@ -330,29 +331,34 @@ def _optimize_reduced(cfg, free, climb_rate_mps, amplitude_bounds, steps_per_per
     check_free_keys(get_model(cfg), cfg, free)
     t_start = time.perf_counter()
     N = int(steps_per_period or cfg.solve.steps_per_period)
-    stages = [coarse_steps, N] if coarse_steps and coarse_steps < N else [N]
-    opt, first, iterations, wall, notes = _reduced_stages(cfg, free, stages, climb_rate_mps, amplitude_bounds,
-                                                          max_iter, tol, progress, threads, valid, turn)
+    stages = turn_stages([coarse_steps, N] if coarse_steps and coarse_steps < N else [N], free, turn, turn_steps)
+    opt, first, iterations, wall, notes = _reduced_stages(cfg, stages, climb_rate_mps, amplitude_bounds,
+                                                          max_iter, tol, progress, threads, valid)
     return _stability_result(cfg, free, opt, first, iterations, wall, notes, N, verify, valid, t_start)
 
 
-def _reduced_stages(cfg, free, stages, climb_rate_mps, amplitude_bounds, max_iter, tol, progress, threads, valid,
-                    turn=None):
-    """The reduced solves on the grids ``stages`` (coarse first, each from the last one's optimum and
-    second derivatives): (last optimum, first optimum, iterations in all, wall times, notes)."""
+def _reduced_stages(cfg, stages, climb_rate_mps, amplitude_bounds, max_iter, tol, progress, threads, valid):
+    """The reduced solves of ``stages`` (:func:`turn_stages`), each from the last one's optimum and, with
+    the same keys, its second derivatives: (last optimum, first optimum, iterations, wall times, notes)."""
     wall, iterations, notes = {}, 0, []
     start, x_guess, first, opt = None, None, None, None
-    for k, steps in enumerate(stages):
+    cont = len({(t, tuple(f)) for _, t, f in stages}) > 1  # a continuation in the turn rate
+    for k, (steps, turn, free) in enumerate(stages):
         last = k == len(stages) - 1  # a coarse stage only needs to find the basin: looser tolerance
+        same = opt is not None and list(opt.free) == list(free)
+        fd = cont and opt is not None and steps == stages[k - 1][0]  # a turn-rate step: fresh second derivatives
         opt = _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter,
                              tol if last else max(tol, COARSE_TOL), progress, start, x_guess,
-                             opt.second_derivatives if opt is not None else None, threads, valid, last, turn)
+                             opt.second_derivatives if same else None, threads, valid, last, turn,
+                             hessian="fd" if fd else None)
         first = first or opt
         iterations += opt.iterations
-        tag = "coarse_" if k < len(stages) - 1 else ""
+        tag = "" if last else (f"stage{k}_" if cont else "coarse_")
         wall |= {tag + key: v for key, v in opt.wall_s.items() if key != "cpu_total"}
         if tag:
-            notes.append(f"coarse stage ({steps} steps): {opt.status}, {opt.iterations} iterations")
+            notes.append(f"coarse stage ({steps} steps): {opt.status}, {opt.iterations} iterations" if not cont else
+                         f"stage {k} ({steps} steps, turn {turn} deg/beat): {opt.status}, {opt.iterations} "
+                         f"iterations, r {opt.objective_value:.6g}")
             if not opt.free or not np.all(np.isfinite(list(opt.free.values()))):
                 break
             start = dict(opt.free) | {AMPLITUDE_KEY: opt.amplitude_deg}
@@ -401,25 +407,24 @@ def _stability_result(cfg, free, opt, first, iterations, wall, notes, N, verify,
 
 
 def _reduced_stage(cfg, free, steps, climb_rate_mps, amplitude_bounds, max_iter, tol, progress, start, x_guess,
-                   second=None, threads=2, valid=False, final=True, turn=None):
+                   second=None, threads=2, valid=False, final=True, turn=None, hessian=None):
     """One reduced-space solve (:func:`birdocp.studies.gait.optimize_gait`, objective "stability") on
     ``steps`` RK4 steps per period.
 
     From the configured gait: exact-Hessian IPOPT on forward differences of the exact gradients, the
     perturbed points ``threads`` at a time (21 iterations on the reference problem; limited-memory SR1
     took 120 and wandered to another local minimum). From a previous stage's optimum (``start``,
-    ``x_guess``): r starts just above that optimum's spectral radius, the barrier parameter small (no
-    push away from the active Jury condition), and the Hessian is that stage's last finite-difference
-    second derivatives (``second``) held fixed: one gradient per iteration and Newton-like steps (6
-    iterations, 10 gradient evaluations on the reference problem, against 11 iterations and 27 with
-    SR1 updates, which remain the fallback when ``second`` is missing or not finite). ``valid``: the
-    validity constraints; a coarse stage (``final`` False) makes one solve, the final one its rounds."""
+    ``x_guess``): r starts just above that optimum's spectral radius, the barrier parameter small, and
+    the Hessian is that stage's last finite-difference second derivatives (``second``) held fixed (6
+    iterations, 10 gradient evaluations on the reference problem, against 11 and 27 with SR1 updates,
+    the fallback when ``second`` is missing or not finite), or ``hessian`` (a turn-rate step: "fd", the
+    cold barrier options, with which IPOPT does not creep). ``valid``: validity constraints."""
     from birdocp.studies.gait import optimize_gait
 
     warm = start is not None
-    opts = dict(WARM_IPOPT) if warm else None  # the one set of re-solve options (gait_validity)
+    opts = dict(WARM_IPOPT) if warm and not hessian else None  # the one set of re-solve options (gait_validity)
     fixed = second is not None and bool(np.all(np.isfinite(second)))
-    hessian = "fd" if not warm else ("fixed" if fixed else "sr1")
+    hessian = hessian or ("fd" if not warm else ("fixed" if fixed else "sr1"))
     return optimize_gait(cfg, free, objective="stability", climb_rate_mps=climb_rate_mps,
                          amplitude_bounds=amplitude_bounds, steps_per_period=steps, max_iter=max_iter,
                          tol=tol, verify=False, progress=progress, start=start, x_guess=x_guess,

@@ -129,12 +129,31 @@ def planar_wind(X, X_dot, g):
     wind_rate : casadi.SX
         (dW_X/dt, dW_Z/dt) [m/s^2].
     """
-    def shape(start, length):
-        s = (X - start) / length
-        return ca.if_else(ca.logic_and(s > 0, s < 1), 0.5 * (1 - ca.cos(2 * math.pi * s)), 0)
-
-    wind = ca.vertcat(g[0] + g[2] * shape(g[4], g[5]), -(g[1] + g[3] * shape(g[6], g[7])))
+    wind = ca.vertcat(g[0] + g[2] * gust_shape(X, g[4], g[5]), -(g[1] + g[3] * gust_shape(X, g[6], g[7])))
     return wind, ca.jtimes(wind, X, X_dot)
+
+
+def gust_shape(x, start, length):
+    """The aeronautical 1 - cos gust shape (0..1): ``(1 - cos(2 pi s)) / 2`` for ``0 < s < 1``,
+    ``s = (x - start) / length``, 0 elsewhere; ``x`` a position [m] (a gust frozen in space) or a
+    time [s] (the six-degree-of-freedom side gust), ``start`` and ``length`` in its unit. The one
+    shape of every simulated gust.
+
+    Parameters
+    ----------
+    x : casadi.SX
+        Position [m] or time [s].
+    start : casadi.SX or float
+        Where (when) the gust starts.
+    length : casadi.SX or float
+        Its length (duration), > 0.
+
+    Returns
+    -------
+    casadi.SX
+    """
+    s = (x - start) / length
+    return ca.if_else(ca.logic_and(s > 0, s < 1), 0.5 * (1 - ca.cos(2 * math.pi * s)), 0)
 
 
 def interval_data(stepper, i: int, p) -> ca.DM:

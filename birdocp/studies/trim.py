@@ -83,7 +83,9 @@ def solver_of(cfg: Config, free: bool = False) -> str:
 def method_of(cfg: Config, free: bool = False, **over) -> OrbitMethod:
     """The :class:`~birdocp.engine.method.OrbitMethod` of ``cfg.solve`` (fields overridden by ``over``;
     the solver from :func:`solver_of`; with ``"newton-picard"`` the Newton states are the body's,
-    :data:`BODY_STATE_INDICES`).
+    :data:`BODY_STATE_INDICES`, and without free parameters the chord is the exact monodromy,
+    ``chord="monodromy"``: its stage Jacobians cost less than the subspace chord's passes for the
+    bird's aerodynamic states).
 
     Parameters
     ----------
@@ -104,6 +106,8 @@ def method_of(cfg: Config, free: bool = False, **over) -> OrbitMethod:
     kw.update(over)
     if kw["solver"] == "newton-picard":
         kw.setdefault("newton_states", BODY_STATE_INDICES)
+        if not free:  # the trim: the exact monodromy as the chord (engine.newton_picard_chord)
+            kw.setdefault("chord", "monodromy")
     return OrbitMethod(**kw)
 
 

@@ -18,15 +18,20 @@ Period means (``out_names``): ``vertical_speed_mps`` (W, held), ``forward_speed_
 speed along the heading), ``turn_rate_degps`` (the heading rate ``(q sin phi + r cos phi) / cos theta``:
 its period mean times the period is the heading change per beat, positive to the right), and with
 ``valid`` the six-degree-of-freedom smooth validity integrands
-(:func:`birdocp.bird.validity_smooth.sixdof_integrands`). There is no power output: the 3-D shoulder power
-is not written, so the power objectives are refused for a turn.
+(:func:`birdocp.bird.validity_smooth.sixdof_integrands`); with ``power`` first the shoulder powers of
+both wings and of each (:data:`birdocp.bird.sixdof_power.CYCLE_POWER_OUTPUTS`: the power objectives of
+``optimize-gait`` for a turn).
 
 Stability: the 8 x 8 monodromy couples the longitudinal and lateral states, so its eigenvalues are split
-into two groups of four closed under conjugation, by the lateral share of their eigenvectors (the four
-with the smallest share first, :func:`turn_blocks`), and each group's invariant block (4 x 4, exact first
-derivatives, :func:`birdocp.studies.jury.invariant_block`) carries its own Jury conditions, as the
-planar and lateral blocks of a symmetric gait. In the symmetric limit the groups are exactly the planar
-and the lateral blocks.
+into two groups of four closed under conjugation, the split whose groups lie farthest apart in the
+complex plane (:func:`turn_blocks`), and each group's invariant block (4 x 4, exact first derivatives
+while the groups stay apart, :func:`birdocp.studies.jury.invariant_block`) carries its own Jury
+conditions. A split by the lateral share of the eigenvectors failed here: at the straight optimum the
+spiral (1.0304) and the phugoid pair (1.0302 +- 0.0015i) lie 1.5e-3 apart in different blocks, a turn
+couples them, and the optimiser met ill-conditioned blocks and groups that switched between iterates.
+
+A turn is optimised by continuation in the turn rate (:func:`turn_stages`): the straight optimum, then
+the heading change per beat held at a few fractions of its target, each solve from the last optimum.
 """
 
 from __future__ import annotations
@@ -44,7 +49,7 @@ from birdocp.studies.gait_cycle import ReducedLevelCycle
 from birdocp.studies.gait_types import Evaluation
 from birdocp.studies.jury import invariant_block
 
-__all__ = ["TurnLevelCycle", "TURN_OUTPUTS", "turn_blocks", "is_turn", "turn_split"]
+__all__ = ["TurnLevelCycle", "TURN_OUTPUTS", "turn_blocks", "is_turn", "turn_split", "turn_stages"]
 
 TURN_OUTPUTS = ("vertical_speed_mps", "forward_speed_mps", "turn_rate_degps")
 """Period means of a :class:`TurnLevelCycle` (then the smooth validity integrands with ``valid``)."""
@@ -73,6 +78,36 @@ def is_turn(cfg: Config, keys=(), turn_deg_per_beat: float | None = None) -> boo
             or any(float(v) != 0.0 for v in side_vector(cfg)))
 
 
+def turn_stages(grids, free: dict, turn_deg_per_beat: float | None, turn_steps: int = 0) -> list:
+    """The solves of the stability optimiser, ``(RK4 steps, heading change per beat held or None, free
+    keys)`` each: one per grid (coarse first); with a turn and ``turn_steps`` > 0, a continuation in
+    the turn rate on the first grid: the straight optimum (``free`` without the per-side keys), then the
+    turn rate at k / ``turn_steps`` of its target, k = 1 .. ``turn_steps``, then the other grids.
+
+    Parameters
+    ----------
+    grids : sequence of int
+        RK4 steps per period of each stage (coarse first).
+    free : dict
+        Free keys and bounds.
+    turn_deg_per_beat : float or None
+        Heading change per wingbeat held at the end [deg].
+    turn_steps : int
+        Turn-rate steps of the continuation (0: none).
+
+    Returns
+    -------
+    list of tuple
+    """
+    stages = [(int(n), turn_deg_per_beat, dict(free)) for n in grids]
+    if turn_deg_per_beat is None or int(turn_steps) <= 0:
+        return stages
+    straight = {k: b for k, b in free.items() if k not in SIDE_PARAM_NAMES}
+    n = int(turn_steps)
+    return [(stages[0][0], None, straight)] + [(stages[0][0], turn_deg_per_beat * k / n, dict(free))
+                                               for k in range(1, n + 1)] + stages[1:]
+
+
 class _TurnView:
     """The per-side model seen through its heading-free ODE: the owner of the turn cycle's graphs."""
 
@@ -80,7 +115,7 @@ class _TurnView:
         self.six, self.ode, self.data = six, six.ode_no_heading, six.data
 
 
-def _graphs(six, cfg: Config, N: int, valid: bool) -> dict:
+def _graphs(six, cfg: Config, N: int, valid: bool, power: bool = False) -> dict:
     """The CasADi Functions of a :class:`TurnLevelCycle` (built once per grid and validity thresholds,
     kept by the model): the RK4 grid with the outputs, ``base(x0, D, p) -> (x_T, q)``,
     ``mono(x0, D, p) -> Mon`` (8 x 8), their forward derivatives, the data's forward derivative."""
@@ -88,22 +123,30 @@ def _graphs(six, cfg: Config, N: int, valid: bool) -> dict:
     v = cfg.validity
     thr = (v.stall_angle_deg, v.min_forward_speed_mps, v.max_abs_pitch_deg, v.max_airflow_body_angle_deg) \
         if valid else None
-    return owned_cache(view, "turn_graphs", 4).build((int(N), thr), lambda: _build(six, cfg, int(N), valid))
+    return owned_cache(view, "turn_graphs", 4).build((int(N), thr, bool(power)),
+                                                     lambda: _build(six, cfg, int(N), valid, bool(power)))
 
 
-def _build(six, cfg: Config, N: int, valid: bool) -> dict:
+def _build(six, cfg: Config, N: int, valid: bool, power: bool = False) -> dict:
+    from birdocp.bird.sixdof_power import power_ode
     from birdocp.engine.integrate import RK4Grid
 
-    ode = six.ode_no_heading
+    ode = power_ode(six) if power else six.ode_no_heading  # with wing masses, each wing's sums in the data
     x, d, p = ca.SX.sym("x", ode.nx), ca.SX.sym("d", ode.nd), ca.SX.sym("p", ode.np)
     fo = six.flight_outputs(HEADING)
     q, r, phi, th = x[4], x[5], x[6], x[7]
     psidot = (q * ca.sin(phi) + r * ca.cos(phi)) / ca.cos(th) * (180.0 / np.pi)
-    out, names = ca.vertcat(fo["vertical_speed_mps"](x, d, p), fo["forward_speed_mps"](x, d, p), psidot), TURN_OUTPUTS
+    d0 = d[:six.ode_no_heading.nd]  # the model's data (then, with power and wing masses, the per-wing sums)
+    out, names = ca.vertcat(fo["vertical_speed_mps"](x, d0, p), fo["forward_speed_mps"](x, d0, p), psidot), TURN_OUTPUTS
+    if power:  # the shoulder powers of the two wings (bird.sixdof_power), on the same RK4 stages
+        from birdocp.bird.sixdof_power import CYCLE_POWER_OUTPUTS, cycle_power_outputs
+        from birdocp.studies.gait_graphs import POSITIVE_EPS_W
+
+        out, names = ca.vertcat(out, cycle_power_outputs(six, x, d, p, POSITIVE_EPS_W)), names + CYCLE_POWER_OUTPUTS
     if valid:
         from birdocp.bird.validity_smooth import integrand_names, sixdof_integrands
 
-        out = ca.vertcat(out, sixdof_integrands(cfg, ode.nx, ode.nd, six.section)(x, d, p[:len(PARAM_NAMES)]))
+        out = ca.vertcat(out, sixdof_integrands(cfg, ode.nx, d0.shape[0], six.section)(x, d0, p[:len(PARAM_NAMES)]))
         names = names + integrand_names()
     grid = RK4Grid(ode, N, 1, outputs=(ca.Function("turn_outputs", [x, d, p], [out]),))
     x0, D, pm = ca.MX.sym("x0", ode.nx), ca.MX.sym("D", ode.nd, 3 * N), ca.MX.sym("p", ode.np)
@@ -125,13 +168,14 @@ def _forward(g: dict, name: str, k: int):
 class TurnLevelCycle(ReducedLevelCycle):
     """The level turn of a six-degree-of-freedom gait with per-side offsets over the free ``keys``
     (module docstring); the other arguments are :class:`~birdocp.studies.gait_cycle.ReducedLevelCycle`'s.
-    ``y = (x0 (8 heading-free states), A)``; the monodromy is the 8 x 8 heading-free one."""
+    ``y = (x0 (8 heading-free states), A)``; the monodromy is the 8 x 8 heading-free one. ``power``: the
+    period means also hold the shoulder powers (:data:`birdocp.bird.sixdof_power.CYCLE_POWER_OUTPUTS`)."""
 
     n_blocks = 2
 
     def __init__(self, cfg: Config, keys, steps_per_period: int | None = None, climb_rate_mps: float = 0.0,
                  second_order: bool = False, amplitude_start_deg: float | None = None, valid: bool = False,
-                 amplitude_range_deg: tuple[float, float] = (0.0, 90.0)):
+                 amplitude_range_deg: tuple[float, float] = (0.0, 90.0), power: bool = False):
         import threading
 
         self.cfg = cfg
@@ -151,7 +195,7 @@ class TurnLevelCycle(ReducedLevelCycle):
         self.T = six.period_s
         self.valid, self.second = bool(valid), bool(second_order)
         self.nx = six.ode_no_heading.nx
-        self.g = _graphs(six, cfg, N, self.valid)
+        self.g = _graphs(six, cfg, N, self.valid, power)
         self.out_names, self.grid = self.g["names"], self.g["grid"]
         x0 = [float(v) for v in cfg.solve.initial_guess]
         self._y = np.array([x0[0], 0.0, x0[1], 0.0, x0[2], 0.0, 0.0, x0[3]]
@@ -354,10 +398,29 @@ class TurnLevelCycle(ReducedLevelCycle):
                                  ode=self.six.ode_no_heading).to_dict()
 
 
+def _units(lam) -> list:
+    """The eigenvalue indices of ``lam`` as units closed under conjugation: a real eigenvalue alone, a
+    complex one with its conjugate."""
+    units, seen = [], set()
+    for k in range(len(lam)):
+        if k in seen:
+            continue
+        unit = [k]
+        if abs(lam[k].imag) > 1e-12 * max(1.0, abs(lam[k])):  # its conjugate
+            j = min((j for j in range(len(lam)) if j != k and j not in seen), key=lambda j: abs(lam[j] - np.conj(lam[k])))
+            unit.append(int(j))
+        seen.update(unit)
+        units.append(unit)
+    return units
+
+
 def _groups(M, period_s: float, speed_mps: float):
     """``(lam, Vc, first, second)``: the eigen-decomposition of the 8 x 8 ``M`` and its two groups of four
-    eigenvalue indices (closed under conjugation): the four with the smallest lateral share first (a
-    pair that does not fit is passed over for the next real eigenvalue)."""
+    eigenvalue indices (closed under conjugation) farthest apart: of all such splits, the one with the
+    largest distance between an eigenvalue of one group and one of the other, ``first`` the group with
+    the smaller lateral share (of the scaled eigenvectors in (v, p, r, phi), summed; also the tie-break)."""
+    from itertools import combinations
+
     from birdocp.studies.lateral import eigenvector_scales
 
     lam, Vc = np.linalg.eig(np.asarray(M, float))
@@ -365,21 +428,18 @@ def _groups(M, period_s: float, speed_mps: float):
     Vs = Vc * eigenvector_scales(names, period_s, speed_mps)[:, None]
     lat = [i for i in range(len(names)) if i in LATERAL]
     share = np.sum(np.abs(Vs[lat]) ** 2, axis=0) / np.sum(np.abs(Vs) ** 2, axis=0)
-    units, seen = [], set()
-    for k in np.argsort(share, kind="stable"):
-        if k in seen:
+    units = _units(lam)
+    best = None
+    for pick in (c for n in range(1, len(units)) for c in combinations(range(len(units)), n)):
+        first = [k for u in pick for k in units[u]]
+        if len(first) != len(lam) // 2:
             continue
-        unit = [int(k)]
-        if abs(lam[k].imag) > 1e-12 * max(1.0, abs(lam[k])):  # its conjugate
-            j = min((j for j in range(len(lam)) if j != k and j not in seen), key=lambda j: abs(lam[j] - np.conj(lam[k])))
-            unit.append(int(j))
-        seen.update(unit)
-        units.append(unit)
-    first = []
-    for u in units:
-        if len(first) + len(u) <= 4:
-            first += u
-    return lam, Vc, first, [k for k in range(len(lam)) if k not in first]
+        second = [k for k in range(len(lam)) if k not in first]
+        gap = float(np.min(np.abs(lam[first][:, None] - lam[second][None, :])))
+        key = (round(gap, 12), -float(np.sum(share[first])))
+        if best is None or key > best[0]:
+            best = (key, first, second)
+    return lam, Vc, best[1], best[2]
 
 
 def turn_blocks(M, d_monodromy, period_s: float, speed_mps: float) -> list:
@@ -463,8 +523,8 @@ def turn_split(monodromy, period_s: float, means: dict) -> dict:
 
 def check_turn(cfg: Config, objective: str, turn_deg_per_beat: float | None, turn: bool) -> None:
     """ConfigError (naming the option) before any computation when a turn cannot be optimised as asked:
-    a turn rate without six degrees of freedom, a non-finite one, or a power objective for a turn (the
-    3-D power is not written).
+    a turn rate without six degrees of freedom, a non-finite one, or a power objective for a turn whose
+    per-wing power is not written (:func:`birdocp.bird.sixdof_power.check_power_model`: Wagner's section).
 
     Parameters
     ----------
@@ -483,8 +543,9 @@ def check_turn(cfg: Config, objective: str, turn_deg_per_beat: float | None, tur
         if not np.isfinite(turn_deg_per_beat):
             raise ConfigError("--turn-rate", f"must be a finite heading change per wingbeat in deg, got {turn_deg_per_beat}")
     if turn and objective != "stability":
-        raise ConfigError("--objective", "the cycle is a turn (per-side offsets or --turn-rate), whose 3-D shoulder "
-                                         "power is not written: use optimize-stability")
+        from birdocp.bird.sixdof_power import check_power_model
+
+        check_power_model(cfg, f"--objective {objective} of a turn")
 
 
 def turn_check(opt, cfg: Config, steps: int) -> dict:
