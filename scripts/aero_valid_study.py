@@ -203,20 +203,36 @@ def stall_table(rows: list[dict]) -> str:
             continue
         ok = t.get("success")
         nxt = ", ".join(f"{abs(complex(*z)):.4f}" for z in (t.get("multipliers") or [])[1:4])
-        lines.append(f"| {r['gait']} | {r.get('label') or '—'} | {t.get('status')} | {_f(t.get('max_residual'), '{:.1e}')} | "
+        lines.append(f"| {r['gait']} | {_label(r)} | {t.get('status')} | {_f(t.get('max_residual'), '{:.1e}')} | "
                      f"{_f(t.get('lambda1'))} | {nxt or '—'} | {_f(t.get('mean_vertical_speed_mps'), '{:+.3f}')} | "
                      f"{_f(t.get('max_abs_alpha_E_deg'), '{:.1f}')} | {_f(t.get('stalled_fraction'), '{:.3f}')} / "
                      f"{_f(t.get('separated_fraction'), '{:.3f}')} | {t.get('valid') if ok else 'not converged'} |")
     for r in rows:
         lv = r.get("stall_level_at_optimum")
         if lv:
-            lines.append(f"\nLevel flight there ({r['gait']}, {r.get('label') or '—'}; amplitude solved): "
+            lines.append(f"\nLevel flight there ({r['gait']}, {_label(r)}; amplitude solved): "
                          + (f"|Λ1| {lv['lambda1']:.4f}, amplitude {lv['amplitude_deg']:.2f} deg, "
                             f"{lv['mean_forward_speed_mps']:.2f} m/s, stalled / separated "
                             f"{_f(lv.get('stalled_fraction'), '{:.3f}')} / {_f(lv.get('separated_fraction'), '{:.3f}')}, "
                             f"valid {lv['valid']}{' (' + '; '.join(lv['reasons']) + ')' if lv.get('reasons') else ''}."
                             if lv["success"] else f"not converged ({lv['status']})."))
     return "\n".join(lines) + "\n" if len(lines) > 5 else ""
+
+
+def _label(r: dict) -> str:
+    """A row's label, marked when its optimiser stopped at its iteration cap (then the row is an iterate
+    of the optimiser's path, not an optimum: scripts/result_compare.py compares it by its statements)."""
+    capped = r["optimum"].get("status") == "Maximum_Iterations_Exceeded"
+    return (r.get("label") or "—") + (", an iterate at its iteration cap" if capped else "")
+
+
+def _active(r: dict) -> str:
+    """The active validity limits and the free keys at a bound of an optimum (two cells); an iterate at
+    its iteration cap has no active set."""
+    if r["optimum"].get("status") == "Maximum_Iterations_Exceeded":
+        return "— (not an optimum) | — (not an optimum)"
+    return (f"{', '.join(r['active_limits']) or '—'} | "
+            f"{', '.join(k.split('.', 1)[1] for k in r['active_bounds']) or '—'}")
 
 
 def optimized_table(rows: list[dict]) -> str:
@@ -236,8 +252,7 @@ def optimized_table(rows: list[dict]) -> str:
         lines.append(f"| {r['gait']} | {r['case']} | {run} | {r['steps_per_period']} | {o.get('status')} | "
                      f"{_f(o.get('objective_value'))} / {_f(o.get('largest_modulus'))} ({_f(r.get('quasi_steady_radius'))}) | "
                      f"{_f(lam[4] if len(lam) > 4 else None)} | {_f(o.get('kkt_residual'), '{:.1e}')} | "
-                     f"{(o.get('validity') or {}).get('valid')} | {', '.join(r['active_limits']) or '—'} | "
-                     f"{', '.join(k.split('.', 1)[1] for k in r['active_bounds']) or '—'} | {_f(v, '{:.1e}')}; "
+                     f"{(o.get('validity') or {}).get('valid')} | {_active(r)} | {_f(v, '{:.1e}')}; "
                      f"{_f(own.get('max_multiplier_difference'), '{:.1e}')} | "
                      f"{_f(fine.get('lambda1'))} ({_f(fine.get('mean_forward_speed_mps'), '{:.2f}')}) |")
     return "\n".join(lines) + "\n"

@@ -106,7 +106,7 @@ def test_eigenvector_up_to_a_unit_factor_and_log_of_small_multiplier():
 
 
 TABLE = ("| problem | start; Hessian; iterations | status | r / |L1| | KKT | valid |\n|---|---|---|---|---|---|\n"
-         "| tail | point reached; exact (FD); 8 | Maximum_Iterations_Exceeded | 1.0549 / 1.0161 | 3.2e-01 | True |\n")
+         "| tail | point reached; exact (FD); 8 | Solve_Succeeded | 1.0549 / 1.0161 | 3.2e-01 | True |\n")
 
 
 def test_text_results_line_by_line():
@@ -115,7 +115,7 @@ def test_text_results_line_by_line():
     assert compare_text(TABLE, TABLE.replace("3.2e-01", "3.3e-01"))[0][0] == "line 3"   # 3 %, more than noise
     assert compare_text(TABLE, TABLE.replace("True", "False")) == [("line 3", TABLE.splitlines()[2],
                                                                     TABLE.replace("True", "False").splitlines()[2])]
-    assert compare_text(TABLE, TABLE.replace("Iterations", "WallTime"))[0][0] == "line 3"
+    assert compare_text(TABLE, TABLE.replace("Solve_Succeeded", "Maximum_Iterations_Exceeded"))[0][0] == "line 3"
     assert compare_text(TABLE, TABLE + "\nLevel flight there.\n")[0] == ("lines", 3, 5)
 
 
@@ -132,6 +132,51 @@ def test_checker_compares_a_markdown_table_as_text(tmp_path, monkeypatch):
     (run / "study" / "table.md").write_text(TABLE.replace("| 8 |", "| 40 |").replace("1.0549", "0.9580"))
     (row,) = check_results.compare_files(e, run, 1e-9)
     assert row["status"] == "differs" and row["differences"][0]["key"] == "line 3"
+
+
+def _capped_row(r: float, lam: float, valid: bool = True, status: str = "Maximum_Iterations_Exceeded") -> dict:
+    return {"gait": "tail", "label": "fd", "active_limits": ["stalled_fraction"] if r < 0.9 else [],
+            "optimum": {"status": status, "objective_value": r, "x0": [r, 2 * r],
+                        "validity": {"valid": valid, "stalled_fraction": r / 10}},
+            "fine_grid_trim": {"success": True, "lambda1": lam, "mean_forward_speed_mps": 18 * r}}
+
+
+def test_an_iterate_at_its_iteration_cap_is_compared_by_its_statements():
+    # its numbers and its active set are the path's, not the problem's: not compared
+    assert compare(_capped_row(0.940, 0.97), _capped_row(0.710, 0.98), rtol=1e-6) == []
+    # what it states is: validity, stability of the cycle found there, status, identity
+    assert compare(_capped_row(0.94, 0.97), _capped_row(0.94, 0.97, valid=False)) == [
+        ("/optimum/validity/valid", True, False)]
+    assert compare(_capped_row(0.94, 0.97), _capped_row(0.94, 1.01)) == [
+        ("/fine_grid_trim/lambda1", "stable", "unstable")]
+    assert compare(_capped_row(0.94, 0.97), {**_capped_row(0.94, 0.97), "label": "fd96"}) == [
+        ("/label", "fd", "fd96")]
+    # a converged row on one side is compared as a status difference (then by its numbers when both converge)
+    assert compare(_capped_row(0.94, 0.97), _capped_row(0.94, 0.97, status="Solve_Succeeded")) == [
+        ("/status", "Maximum_Iterations_Exceeded", "Solve_Succeeded")]
+    converged = _capped_row(0.94, 0.97, status="Solve_Succeeded")
+    assert compare(converged, _capped_row(0.95, 0.97, status="Solve_Succeeded"), rtol=1e-6)
+    # the engine's own status of a failed trim, inside a list of rows
+    trim = {"status": "max_iter", "success": False, "max_residual": 1e-3, "lambda1": 0.99}
+    assert compare({"rows": [trim]}, {"rows": [{**trim, "max_residual": 2e-3, "lambda1": 0.995}]}) == []
+
+
+def test_a_line_about_a_capped_solve_is_compared_by_its_words():
+    line = "| tail | fd, an iterate at its iteration cap | converged | 6.4e-11 | 0.9697 | True |\n"
+    assert compare_text(line, line.replace("0.9697", "0.9590")) == []
+    assert compare_text(line, line.replace("True", "False"))
+    assert compare_text(line, line.replace("converged", "max_iter"))  # its words, the status among them
+    plain = line.replace(", an iterate at its iteration cap", "")
+    assert compare_text(plain, plain.replace("0.9697", "0.9590"))
+    assert compare_text(line, plain.replace("0.9697", "0.9590"))
+
+
+def test_an_optimum_verification_block_is_compared_below_its_accuracy():
+    v = {"status": "Solve_Succeeded", "verification": {"trim_x0_difference": 1.47e-7, "trim_mean_vertical_speed_mps": -6e-8}}
+    w = {"status": "Solve_Succeeded", "verification": {"trim_x0_difference": 1.84e-7, "trim_mean_vertical_speed_mps": 8e-8}}
+    assert compare(v, w, rtol=1e-6, atol=1e-8) == []
+    far = {"status": "Solve_Succeeded", "verification": {"trim_x0_difference": 3e-3, "trim_mean_vertical_speed_mps": 8e-8}}
+    assert compare(v, far, rtol=1e-6, atol=1e-8)[0][0] == "/verification/trim_x0_difference"
 
 
 def test_aero_valid_optimize_stages_are_chained_through_committed_seeds():
