@@ -69,7 +69,10 @@ OPTIMUM_ATOL = 1e-8
 #: identical by that stage's own entry), as the committed row was made from it. The tail stage's folder is
 #: seeded with the four other committed rows, so its run writes optimized.json and optimized.md from all five,
 #: as the last of the committed runs did. Iteration bounds only: the tail exact-Hessian stage stops at 8
-#: iterations, where the committed run stopped (it was cut by a wall-clock limit, removed since).
+#: iterations, where the committed run stopped (it was cut by a wall-clock limit, removed since). The rows
+#: of the stages stopped by their cap (the SR1 stages of free_speed and tail, the tail's exact-Hessian stage)
+#: are iterates of the optimiser's path and are compared by their statements (result_compare.capped); the
+#: converged optima (at_speed, free_speed's exact-Hessian stage) by their numbers, to :data:`OPTIMUM_RTOL`.
 AERO_OPTIMIZE = ["--optimize", "--cases", "wagner"]
 AERO_FD = ["--hessian", "fd", "--from-reached", "--valid-rounds", "2", "--own-state", "--stall-at-optimum", "30",
            "--label", "fd_reached"]

@@ -113,9 +113,6 @@ def figures_and_checks(ex, jobs: int, res: list, out: Path, compiled: bool = Fal
     if checks is not None:
         drawn = [plot_job(job) for job in plots]
     elif jobs > 1:
-        # the workers belong to the thread that starts them (parent-death signal): started by the
-        # drawing thread they would be killed when it ends, and closing the pool would then wait forever
-        ex.start()
         th = threading.Thread(target=lambda: drawn.extend(ex.map(plot_job, plots)))
         th.start()
         checks = trim_checks(halves, fams["fixed"], compiled)

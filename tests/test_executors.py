@@ -83,3 +83,21 @@ def test_process_workers_started_in_main_thread_serve_a_helper_thread():
         th.join(timeout=120)
         assert out == [4, 9]
         assert ex.map(_square, [5]) == [25]
+
+
+def test_process_workers_first_used_by_an_ended_thread_keep_serving():
+    """A pool first used by a helper thread outlives it (its workers belong to the executor's own thread,
+    not to the thread that first mapped: before, they died with it and the next map waited for ever)."""
+    import threading
+
+    with ProcessExecutor(1) as ex:
+        out: list = []
+        th = threading.Thread(target=lambda: out.extend(ex.map(_square, [2, 3])))
+        th.start()
+        th.join(timeout=120)
+        assert out == [4, 9]
+        done: list = []
+        again = threading.Thread(target=lambda: done.extend(ex.map(_square, [5])), daemon=True)
+        again.start()
+        again.join(timeout=120)
+        assert done == [25], "the map after the first thread ended did not finish in 120 s"

@@ -142,10 +142,41 @@ def _worker_init() -> None:
             pass
 
 
+def _pool_in_own_thread(jobs: int):
+    """A spawn pool of ``jobs`` workers started by a daemon thread that then waits for the returned event:
+    the workers' parent-death signal fires when that thread ends (the event set, or the process gone).
+
+    Returns
+    -------
+    tuple
+        ``(pool, event)``: set the event once the pool is closed.
+    """
+    import multiprocessing as mp
+    import threading
+
+    box: dict = {}
+    ready, done = threading.Event(), threading.Event()
+
+    def own() -> None:
+        try:
+            box["pool"] = mp.get_context("spawn").Pool(jobs, initializer=_worker_init)
+        except BaseException as e:  # noqa: BLE001 - re-raised in the calling thread
+            box["error"] = e
+        ready.set()
+        done.wait()
+
+    threading.Thread(target=own, name="birdocp-pool-owner", daemon=True).start()
+    ready.wait()
+    if "error" in box:
+        raise box["error"]
+    return box["pool"], done
+
+
 class ProcessExecutor(Executor):
     """Runs the items in ``jobs`` spawned worker processes (each builds its model once). The workers are
-    started by the first :meth:`map` (or :meth:`start`) and stop when the thread that started them ends
-    (Linux parent-death signal): to map from a helper thread, call :meth:`start` first."""
+    started by the first :meth:`map` (or :meth:`start`) from a thread of the executor's own, which lives
+    until :meth:`close` or :meth:`terminate`: the workers stop when the process ends (Linux parent-death
+    signal), never because the thread that first mapped has ended, so any thread may map."""
 
     name = "processes"
 
@@ -154,12 +185,11 @@ class ProcessExecutor(Executor):
             raise ValueError(f"jobs must be >= 1, got {jobs!r}")
         self.jobs = int(jobs)
         self._pool = None
+        self._owner_done = None
 
     def _get(self):
         if self._pool is None:
-            import multiprocessing as mp
-
-            self._pool = mp.get_context("spawn").Pool(self.jobs, initializer=_worker_init)
+            self._pool, self._owner_done = _pool_in_own_thread(self.jobs)
         return self._pool
 
     def start(self):
@@ -211,6 +241,7 @@ class ProcessExecutor(Executor):
             self._pool.close()
             self._pool.join()
             self._pool = None
+            self._owner_done.set()
 
     def terminate(self):
         """Returns
@@ -221,6 +252,7 @@ class ProcessExecutor(Executor):
             self._pool.terminate()
             self._pool.join()
             self._pool = None
+            self._owner_done.set()
 
     def describe(self):
         """What the results record about the executor (its name and worker count).
