@@ -94,6 +94,10 @@ ITERATION_CAP = re.compile(r"^(?:IPOPT: )?(?:Maximum_Iterations_Exceeded|max_ite
 #: of 1: stable or not.
 STATEMENT_KEY = re.compile(r"^(gait|case|label|hessian|start|max_iter|steps_per_period|overrides|problem|model"
                            r"|status|success|valid|lambda1)$")
+#: Inside a capped solve, the record of the rounds its solver took (``validity_rounds``: a round is re-solved
+#: with a tightened bound when the last one ended outside the exact limits, which for an iterate at its cap
+#: is a property of the path: measured, one round committed, two in a re-run, the row valid both times).
+PATH_RECORD = ("validity_rounds",)
 #: A Markdown line about a capped solve (its status, or the marker the scripts print beside its label).
 CAP_IN_TEXT = re.compile(r"Maximum_Iterations_Exceeded|\bmax_iter\b|iteration cap")
 NUMBER_IN_TEXT = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
@@ -222,6 +226,8 @@ def statements(d, path: str = "") -> dict:
     items = d.items() if isinstance(d, dict) else enumerate(d) if isinstance(d, list) else ()
     for k, v in items:
         p = f"{path}/{k}"
+        if isinstance(k, str) and (is_ignored(k) or k in PATH_RECORD):
+            continue
         if isinstance(k, str) and STATEMENT_KEY.match(k) and not isinstance(v, list):
             out[p] = (None if v is None else "stable" if v < 1 else "unstable") if k == "lambda1" \
                 and _number(v) else v

@@ -142,8 +142,11 @@ def _capped_row(r: float, lam: float, valid: bool = True, status: str = "Maximum
 
 
 def test_an_iterate_at_its_iteration_cap_is_compared_by_its_statements():
-    # its numbers and its active set are the path's, not the problem's: not compared
+    # its numbers, its active set and the rounds its solver took are the path's, not the problem's
     assert compare(_capped_row(0.940, 0.97), _capped_row(0.710, 0.98), rtol=1e-6) == []
+    rounds = {"validity_rounds": [{"status": "Maximum_Iterations_Exceeded", "success": False}]}
+    two = {"validity_rounds": rounds["validity_rounds"] * 2, "wall_s": {"start": 4.1}}
+    assert compare(_capped_row(0.94, 0.97) | rounds, _capped_row(0.94, 0.97) | two) == []
     # what it states is: validity, stability of the cycle found there, status, identity
     assert compare(_capped_row(0.94, 0.97), _capped_row(0.94, 0.97, valid=False)) == [
         ("/optimum/validity/valid", True, False)]
