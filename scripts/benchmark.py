@@ -551,7 +551,9 @@ def update_docs_table(res: dict, page: Path = ROOT / "docs" / "performance.md") 
              f"casadi {res['casadi']}):\n\n" + readme_table(res) + "\n\n" + breakdown_table(res) + "\n"
              + floor_text(res) + f"\n{end}")
     i, j = text.index(start), text.index(end) + len(end)
-    page.write_text(text[:i] + block + text[j:])
+    from birdocp.io.files import atomic_write_text
+
+    atomic_write_text(page, text[:i] + block + text[j:])
     return True
 
 
@@ -655,7 +657,9 @@ def main(argv=None) -> int:
                                            f"{d['n_mismatches']} mismatches {d['mismatches'][:3]}"))
     print("  targets met: " + ", ".join(f"{k} {'yes' if v else 'NO'}" for k, v in met.items()))
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(res, indent=1) + "\n")
+    from birdocp.io.files import atomic_write_json
+
+    atomic_write_json(Path(args.out), res)
     print(f"wrote {args.out}")
     if args.docs:
         print("docs table " + ("updated" if update_docs_table(res) else "markers not found: not updated"))

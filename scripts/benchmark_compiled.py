@@ -23,6 +23,7 @@ from pathlib import Path
 
 import casadi as ca
 import numpy as np
+from birdocp.io.files import atomic_write_json
 
 
 def median_time(fn, repeat, inner=1):
@@ -202,9 +203,7 @@ def main(argv=None):
     shutil.rmtree(tmp, ignore_errors=True)
 
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    tmp_out = Path(args.out).with_suffix(".json.tmp")
-    tmp_out.write_text(json.dumps(res, indent=2) + "\n")
-    os.replace(tmp_out, args.out)
+    atomic_write_json(Path(args.out), res)
 
     def row(label, d, unit=1e3, u="ms"):
         cells = "  ".join(f"{k} {v * unit:9.4g} {u}" for k, v in d.items())

@@ -32,6 +32,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
+from birdocp.io.files import atomic_write_json, atomic_write_text
 from birdocp.engine.ode import ODE
 from birdocp.engine import OrbitMethod, OrbitProblem, solve
 from script_common import parse_with_out, script_parser
@@ -166,7 +167,7 @@ def reference_examples() -> list:
 def write_reference(rows: list, out_dir: Path) -> None:
     out = {"load_average_at_start": os.getloadavg()[0], "python": sys.version.split()[0], "casadi": ca.__version__,
            "rows": rows}
-    (out_dir / "reference_examples.json").write_text(json.dumps(out, indent=2) + "\n")
+    atomic_write_json(out_dir / "reference_examples.json", out)
     lines = ["# Reference toolbox examples from their own guesses (scripts/benchmark_engine.py)", "",
              f"Load average at the start: {out['load_average_at_start']:.1f} (2 cores, shared).", "",
              "| example | accuracy | status | covers | period | steps | wall s | CPU s | reference s | "
@@ -179,7 +180,7 @@ def write_reference(rows: list, out_dir: Path) -> None:
                      f"{r.get('x0_error_vs_scipy', float('nan')):.1e} |")
     lines += ["", "Lorenz: the reference's ~4 s is for its Lorenz runs; compare the sum of the four rows. "
               "lorenz_10: no periodic orbit near the guess (r = 10), the time to the failure."]
-    (out_dir / "reference_examples.md").write_text("\n".join(lines) + "\n")
+    atomic_write_text(out_dir / "reference_examples.md", "\n".join(lines) + "\n")
 
 
 def main():
@@ -230,7 +231,7 @@ def rossler(out_dir: Path):
         "speedup_repeat_call": t_fd / t_warm,
         "python": sys.version.split()[0], "casadi": ca.__version__,
     }
-    (out_dir / "benchmark.json").write_text(json.dumps(out, indent=2) + "\n")
+    atomic_write_json(out_dir / "benchmark.json", out)
     print(f"birdocp: {t_cold:.3f} s first call (graph build included), {t_warm:.3f} s repeat, "
           f"{cold.iterations} iterations, T = {cold.period:.10f}")
     print(f"finite-difference multiple shooting: {t_fd:.3f} s, {it_fd} iterations, T = {T_fd:.10f}")

@@ -212,7 +212,9 @@ def main(argv=None) -> int:
     }
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
+    from birdocp.io.files import atomic_write_json
+
+    atomic_write_json(out, result)
     print(f"wrote {out}")
     return 0
 

@@ -26,6 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from script_common import parse_with_out, script_parser  # noqa: E402
 
+from birdocp.io.files import atomic_write_json, atomic_write_text  # noqa: E402
 from birdocp.bird.config import with_values  # noqa: E402
 from birdocp.studies.glide import (attached_config, glide_geometry, lateral_glide_modes,  # noqa: E402
                                    lateral_matrix_with, load_derivatives_at, steady_glide)
@@ -185,8 +186,8 @@ def main(argv=None) -> None:
     glide = steady_glide(cfg)
     if not glide["success"]:
         raise SystemExit(f"the steady glide did not converge (residual {glide['residual']:.3g})")
-    (out / "birdocp.json").write_text(json.dumps(glide, indent=1) + "\n")
-    (out / "geometry.json").write_text(json.dumps(glide_geometry(cfg, glide=glide), indent=1) + "\n")
+    atomic_write_json(out / "birdocp.json", glide)
+    atomic_write_json(out / "geometry.json", glide_geometry(cfg, glide=glide))
     v = glide["validity"]
     print(f"glide {'valid' if v['valid'] else 'NOT VALID: ' + '; '.join(v['reasons'])}: effective section angles "
           f"{v['alpha_eff_min_deg']:.2f}..{v['alpha_eff_max_deg']:.2f} deg")
@@ -202,8 +203,8 @@ def main(argv=None) -> None:
         cmp["glide"] = {"joint_offsets_deg": glide_geometry(cfg, glide=glide)["joint_offsets_deg"],
                         **{k: glide[k] for k in ("speed_mps", "alpha_body_deg", "flight_path_angle_deg")},
                         **{k: v[k] for k in ("valid", "alpha_eff_min_deg", "alpha_eff_max_deg")}}
-        (out / "comparison.json").write_text(json.dumps(cmp, indent=1) + "\n")
-        (out / "comparison.md").write_text(table(cmp))
+        atomic_write_json(out / "comparison.json", cmp)
+        atomic_write_text(out / "comparison.md", table(cmp))
         print(table(cmp))
     else:
         print(f"no {ref_file}: run scripts/reference_aerosandbox/run_aerosandbox.py in AeroSandbox's environment")

@@ -23,6 +23,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from script_common import parse_with_out, script_parser  # noqa: E402
 
+from birdocp.io.files import atomic_write_json  # noqa: E402
 import birdocp.bird.aero as aero  # noqa: E402
 from birdocp.studies.glide import attached_config, steady_glide  # noqa: E402
 from birdocp.studies.glide_refined import refined_load_derivatives  # noqa: E402
@@ -65,9 +66,9 @@ def main(argv=None) -> None:
     cfg = attached_config()
     s = steady_glide(cfg)["state"]
     variants = [("2-D (the model)", TWO_D, 1), ("2-D (the model)", TWO_D, 4),
-                ("3-D trailing filaments", lambda c, n: induced_3d(c, n, False), 1),
-                ("3-D trailing filaments", lambda c, n: induced_3d(c, n, False), 4),
-                ("3-D trailing filaments and bound vortices", lambda c, n: induced_3d(c, n, True), 1)]
+                ("3-D trailing filaments", lambda c, n, *_: induced_3d(c, n, False), 1),
+                ("3-D trailing filaments", lambda c, n, *_: induced_3d(c, n, False), 4),
+                ("3-D trailing filaments and bound vortices", lambda c, n, *_: induced_3d(c, n, True), 1)]
     rows = []
     try:
         for name, fn, split in variants:
@@ -80,7 +81,7 @@ def main(argv=None) -> None:
     if ref.exists():
         rows.append({"induced_velocity": "AeroSandbox VLM, body-axis wake", "elements": None,
                      "derivatives": json.loads(ref.read_text())["body_axis_wake"]["derivatives"]})
-    (out / "induced_check.json").write_text(json.dumps(rows, indent=1) + "\n")
+    atomic_write_json(out / "induced_check.json", rows)
     keys = ("L_p", "L_v", "N_v", "L_r", "N_r", "Y_p")
     print("| induced velocity | elements | " + " | ".join(keys) + " |")
     for r in rows:

@@ -15,7 +15,6 @@ one is its mirror image) and prints the table.
 """
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
@@ -25,6 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from script_common import parse_with_out, script_parser  # noqa: E402
 
+from birdocp.io.files import atomic_write_json, atomic_write_text  # noqa: E402
 from birdocp.bird.config import with_values  # noqa: E402
 from birdocp.studies.glide import (attached_config, lateral_glide_modes, lateral_matrix_with,  # noqa: E402
                                    load_derivatives_at, steady_glide)
@@ -116,9 +116,9 @@ def main(argv=None) -> None:
             "alpha_body_deg": own["alpha_body_deg"], "valid": own["validity"]["valid"],
             "reasons": own["validity"]["reasons"], "roll_subsidence_per_s": own["roll_subsidence_per_s"],
             "dutch_roll_frequency_radps": own["dutch_roll"]["frequency_radps"]}
-    (out / "section_law.json").write_text(json.dumps(result, indent=1) + "\n")
+    atomic_write_json(out / "section_law.json", result)
     text = table(result)
-    (out / "section_law.md").write_text(text)
+    atomic_write_text(out / "section_law.md", text)
     print(text)
 
 

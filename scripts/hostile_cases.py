@@ -16,6 +16,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from birdocp.io.files import atomic_write_json, atomic_write_text
 
 REPO = Path(__file__).resolve().parents[1]
 OUT = REPO / "results" / "reliability"
@@ -275,12 +276,12 @@ def main() -> None:
     print(codes, loser[0].strip() if loser else "")
 
     OUT.mkdir(parents=True, exist_ok=True)
-    (OUT / "hostile_cases.json").write_text(json.dumps(rows, indent=1) + "\n")
+    atomic_write_json(OUT / "hostile_cases.json", rows)
     md = ["| case | exit | JSON status | stderr (last line) | note |", "|---|---|---|---|---|"]
     for r in rows:
         line = r["last_line"].replace("|", "\\|").replace(str(root), "<tmp>")
         md.append(f"| {r['case']} | {r['exit']} | {r['json_status'] or ''} | {line[:160]} | {r['note']} |")
-    (OUT / "hostile_cases.md").write_text("\n".join(md) + "\n")
+    atomic_write_text(OUT / "hostile_cases.md", "\n".join(md) + "\n")
     print(f"wrote {OUT / 'hostile_cases.md'}")
 
 

@@ -23,6 +23,7 @@ matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 from script_common import parse_with_out, script_parser  # noqa: E402
 
+from birdocp.io.files import atomic_write_json  # noqa: E402
 from birdocp.bird.config import Config, with_values  # noqa: E402
 from birdocp.plots.animation_lateral import save_lateral_animation  # noqa: E402
 from birdocp.plots.lateral import plot_lateral_modes  # noqa: E402
@@ -51,7 +52,7 @@ def main(argv=None) -> None:
             "steps_per_period": int(res.cycle.method["steps_per_period"]), "figures": [f.name for f in figs],
             "modes": [{"label": m["label"], "multiplier": [m["multiplier"].real, m["multiplier"].imag],
                        "modulus": abs(m["multiplier"]), "beats_to_double": m["beats_to_double"]} for m in h["modes"]]}
-    (out / "modes.json").write_text(json.dumps(info, indent=1) + "\n")
+    atomic_write_json(out / "modes.json", info)
     print(json.dumps(info, indent=1))
     if args.gif:
         per = max(1, -(-96 // args.frames))
