@@ -20,6 +20,7 @@ forces.png (the last three for variant (a)) to --out.
 from __future__ import annotations
 
 import functools
+import hashlib
 import itertools
 import math
 import time
@@ -236,7 +237,8 @@ def main(argv=None) -> int:
     doc = {
         "experiment": "paper Experiment 1: reference case A = 42 deg, wing root 0.05 m ahead of G, "
                       "M = 5 shooting points, 148 RK4 steps per period",
-        "reference_file": str(REFERENCE),
+        "reference_file": REFERENCE.name,  # found in the shared folder or the checkout's copy: the same file
+        "reference_sha256": hashlib.sha256(REFERENCE.read_bytes()).hexdigest(),
         "reference": {
             "rk4_period_map_monodromy_multipliers": [[float(z.real), float(z.imag)] for z in ref_rk4],
             "reference_implementation_multipliers": [[float(z.real), float(z.imag)] for z in ref_impl_mults],
