@@ -184,6 +184,14 @@ def test_an_optimum_verification_block_is_compared_below_its_accuracy():
     assert compare(v, far, rtol=1e-6, atol=1e-8)[0][0] == "/verification/trim_x0_difference"
 
 
+def test_symmetry_zeros_and_eigenvector_shares():
+    assert compare({"coupling_max": 2.8e-12, "max_abs_lateral_x0": 3.2e-12}, {"coupling_max": 4.3e-11, "max_abs_lateral_x0": 3.7e-11}) == []
+    assert compare({"coupling_max": 2.8e-12}, {"coupling_max": 2e-9})         # above the solve's tolerance
+    assert compare({"coupling_max": 0.0123}, {"coupling_max": 0.0124})        # a real coupling: relative
+    assert compare({"body_share": 0.1903572481}, {"body_share": 0.1903572472}) == []
+    assert compare({"body_share": 0.19035}, {"body_share": 0.19036})
+
+
 def test_aero_valid_optimize_stages_are_chained_through_committed_seeds():
     entries = {e["name"]: e for e in check_results.REGISTRY if e["name"].startswith("aero-valid-optimize")}
     assert len(entries) == 5
