@@ -14,11 +14,13 @@ Converged solves from fixed inputs: the checker compares them by their numbers.
 
     python scripts/iterate_claims.py --out results/aero/iterate_claims
 
-Writes DIR/cases/<folder>_<row>.json as each row finishes (a rerun skips finished rows), then DIR/result.json and
+Writes DIR/cases/<folder>_<row>.json as each row finishes (a rerun skips the rows whose source file is
+unchanged: its SHA-256 is recorded), then DIR/result.json and
 DIR/table.md (each re-solved cycle beside the value the row itself recorded).
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import sys
 import time
@@ -26,19 +28,23 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from aero_valid_study import _f, fine_grid_trim, stall_level_at_optimum  # noqa: E402
+from result_compare import capped  # noqa: E402
 from script_common import parse_with_out, script_parser, write_result  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 ROWS = ("aero/valid/cases/opt_*.json", "aero/stall_optimum/cases/opt_*.json")
 """The committed optimiser rows (globs relative to results/) whose capped iterates are re-verified."""
-CAPPED = "Maximum_Iterations_Exceeded"
 
 
 def capped_rows() -> list[Path]:
-    """The committed rows of :data:`ROWS` stopped by their iteration cap that carry a ``fine_grid_trim``."""
+    """The committed rows of :data:`ROWS` stopped by their iteration cap (``result_compare.capped``, the
+    rule that compares them by their statements only) that carry a ``fine_grid_trim``."""
     paths = sorted(p for g in ROWS for p in (ROOT / "results").glob(g))
-    return [p for p in paths if (r := json.loads(p.read_text()))["optimum"].get("status") == CAPPED
-            and "fine_grid_trim" in r]
+    return [p for p in paths if capped(r := json.loads(p.read_text())) and "fine_grid_trim" in r]
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def _claim(recorded: dict | None, solved: dict) -> dict:
@@ -54,8 +60,9 @@ def verify_row(path: Path) -> dict:
     """The claims of one committed capped row, solved again from its committed gait and states."""
     row = json.loads(path.read_text())
     t0 = time.perf_counter()
-    out = {"source": path.relative_to(ROOT).as_posix(), "gait": row["gait"], "case": row["case"],
-           "label": row.get("label") or "", "overrides": row["overrides"], "status": row["optimum"]["status"],
+    out = {"source": path.relative_to(ROOT).as_posix(), "source_sha256": _sha256(path), "gait": row["gait"],
+           "case": row["case"], "label": row.get("label") or "", "overrides": row["overrides"],
+           "source_status": row["optimum"]["status"],
            "level": _claim(row.get("fine_grid_trim"), fine_grid_trim(row))}
     if (row.get("stall_level_at_optimum") or {}).get("success"):
         out["stall_level"] = _claim(row["stall_level_at_optimum"], stall_level_at_optimum(row))
@@ -88,12 +95,13 @@ def main(argv=None) -> int:
     rows = []
     for path in capped_rows():
         case = out / "cases" / f"{path.parent.parent.name}_{path.name}"
-        if not case.exists():
+        if not case.exists() or json.loads(case.read_text()).get("source_sha256") != _sha256(path):
             print(f"{path.relative_to(ROOT)} ...", flush=True)
             atomic_write_json(case, verify_row(path))
         rows.append(json.loads(case.read_text()))
     write_result(out, {"rows": rows, "rows_from": list(ROWS)}, table(rows))
-    return 0 if all(r["level"]["solved"]["success"] for r in rows) else 1
+    claims = [c for r in rows for c in (r["level"], r.get("stall_level")) if c is not None]
+    return 0 if all(c["solved"]["success"] for c in claims) else 1
 
 
 if __name__ == "__main__":

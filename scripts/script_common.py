@@ -43,9 +43,8 @@ def write_result(out: Path, result, table_md: str) -> None:
 
 class Beside:
     """``fn(arg)`` in one worker process while this process goes on (``jobs > 1``), or in this process
-    when :meth:`result` asks for it (``jobs == 1``). The worker is started from the calling (main)
-    thread, as local workers are tied to the thread that starts them; an error in the job is raised
-    again by :meth:`result`."""
+    when :meth:`result` asks for it (``jobs == 1``). The worker is started at once (``start()``), so its
+    start-up overlaps this process's work; an error in the job is raised again by :meth:`result`."""
 
     def __init__(self, fn, arg, jobs: int):
         self.fn, self.arg = fn, arg

@@ -73,7 +73,7 @@ def test_cli_grid_bad_input(capsys):
 
 def test_process_workers_started_in_main_thread_serve_a_helper_thread():
     """Workers started by ``start()`` in this thread serve a map from a helper thread and keep serving
-    after that thread has ended (they are tied to the thread that started them)."""
+    after that thread has ended."""
     import threading
 
     with ProcessExecutor(1).start() as ex:
@@ -90,7 +90,8 @@ def test_process_workers_first_used_by_an_ended_thread_keep_serving():
     not to the thread that first mapped: before, they died with it and the next map waited for ever)."""
     import threading
 
-    with ProcessExecutor(1) as ex:
+    ex = ProcessExecutor(1)
+    try:
         out: list = []
         th = threading.Thread(target=lambda: out.extend(ex.map(_square, [2, 3])))
         th.start()
@@ -101,3 +102,36 @@ def test_process_workers_first_used_by_an_ended_thread_keep_serving():
         again.start()
         again.join(timeout=120)
         assert done == [25], "the map after the first thread ended did not finish in 120 s"
+    finally:
+        # terminate, not close: a pool that lost its workers would make close() wait for ever
+        threading.Thread(target=ex.terminate, daemon=True).start()
+
+
+def test_process_pool_start_failure_and_concurrent_first_maps():
+    """A pool that cannot start raises in the caller (and leaves no thread waiting); two threads mapping
+    first at once share one pool."""
+    import threading
+
+    from birdocp.engine import executors
+
+    before = {t.name for t in threading.enumerate()}
+    bad = ProcessExecutor(1)
+    bad.jobs = 0  # multiprocessing refuses a pool of 0 processes
+    with pytest.raises(ValueError):
+        bad.map(_square, [1])
+    assert sum(t.name == "birdocp-pool-owner" for t in threading.enumerate()) == \
+        sum(n == "birdocp-pool-owner" for n in before)
+    made: list = []
+    real = executors._pool_in_own_thread
+    with ProcessExecutor(1) as ex:
+        executors._pool_in_own_thread = lambda jobs: made.append(jobs) or real(jobs)
+        try:
+            outs: list = [[], []]
+            ths = [threading.Thread(target=lambda i=i: outs[i].extend(ex.map(_square, [i + 2]))) for i in range(2)]
+            for t in ths:
+                t.start()
+            for t in ths:
+                t.join(timeout=120)
+        finally:
+            executors._pool_in_own_thread = real
+        assert outs == [[4], [9]] and made == [1]

@@ -12,6 +12,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "scripts"))
 import iterate_claims  # noqa: E402
+from result_compare import compare  # noqa: E402, F401  (imported here while scripts/ is on the path)
 
 sys.path.pop(0)
 
@@ -25,6 +26,18 @@ def test_it_takes_every_capped_row_with_a_cycle_and_no_converged_one():
     assert "opt_free_speed_wagner_fd_reached.json" not in names and "opt_at_speed_wagner.json" not in names
     committed = json.loads((ROOT / "results/aero/iterate_claims/result.json").read_text())
     assert [r["source"] for r in committed["rows"]] == [p.relative_to(ROOT).as_posix() for p in rows]
+
+
+def test_its_results_are_compared_by_their_numbers():
+    """The re-solves are converged solves from fixed inputs: the checker's rules compare every number of
+    them (they are not capped solves, whatever the status of the row they come from)."""
+    committed = json.loads((ROOT / "results/aero/iterate_claims/result.json").read_text())
+    changed = json.loads(json.dumps(committed))
+    changed["rows"][0]["level"]["solved"]["lambda1"] *= 1 + 1e-6
+    assert compare(committed, changed, capped_statements=True)[0][0] == "/rows/0/level/solved/lambda1"
+    flipped = json.loads(json.dumps(committed))
+    flipped["rows"][-1]["level"]["solved"]["valid"] = not flipped["rows"][-1]["level"]["solved"]["valid"]
+    assert compare(committed, flipped, capped_statements=True)
 
 
 def test_claim_is_the_resolved_cycle_beside_the_recorded_one():

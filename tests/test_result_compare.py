@@ -135,53 +135,73 @@ def test_checker_compares_a_markdown_table_as_text(tmp_path, monkeypatch):
 
 
 def _capped_row(r: float, lam: float, valid: bool = True, status: str = "Maximum_Iterations_Exceeded") -> dict:
-    return {"gait": "tail", "label": "fd", "active_limits": ["stalled_fraction"] if r < 0.9 else [],
+    return {"gait": "tail", "label": "fd", "quasi_steady_radius": 0.9129, "active_limits": ["stalled_fraction"] if r < 0.9 else [],
             "optimum": {"status": status, "objective_value": r, "x0": [r, 2 * r],
                         "validity": {"valid": valid, "stalled_fraction": r / 10}},
             "fine_grid_trim": {"success": True, "lambda1": lam, "mean_forward_speed_mps": 18 * r}}
 
 
-def test_an_iterate_at_its_iteration_cap_is_compared_by_its_statements():
+def _cap(old, new, **kw):
+    return compare(old, new, capped_statements=True, **kw)
+
+
+def test_an_iterate_at_its_iteration_cap_is_compared_by_what_it_is():
     # what it found (numbers, active set, flags, the cycles at its gait, its rounds) is the path's
-    assert compare(_capped_row(0.940, 0.97), _capped_row(0.710, 1.02, valid=False), rtol=1e-6) == []
+    assert _cap(_capped_row(0.940, 0.97), _capped_row(0.710, 1.02, valid=False), rtol=1e-6) == []
     rounds = {"validity_rounds": [{"status": "Maximum_Iterations_Exceeded", "success": False}]}
     two = {"validity_rounds": rounds["validity_rounds"] * 2, "wall_s": {"start": 4.1}}
-    assert compare(_capped_row(0.94, 0.97) | rounds, _capped_row(0.94, 0.97) | two) == []
-    # what it is is compared: problem, start, cap, status
-    assert compare(_capped_row(0.94, 0.97), {**_capped_row(0.94, 0.97), "label": "fd96"}) == [
-        ("/label", "fd", "fd96")]
-    assert compare(_capped_row(0.94, 0.97), {**_capped_row(0.94, 0.97), "max_iter": 40}) == [
-        ("/max_iter", "<missing>", 40)]
+    assert _cap(_capped_row(0.94, 0.97) | rounds, _capped_row(0.94, 0.97) | two) == []
+    # ... but only for the scripts registered as capped: elsewhere every number counts
+    assert compare(_capped_row(0.940, 0.97), _capped_row(0.710, 0.97))
+    # what it is is compared: problem, start (also a number of its start), cap, status, and its keys
+    assert _cap(_capped_row(0.94, 0.97), {**_capped_row(0.94, 0.97), "label": "fd96"}) == [("/label", "fd", "fd96")]
+    assert _cap(_capped_row(0.94, 0.97), {**_capped_row(0.94, 0.97), "quasi_steady_radius": 0.95})
+    missing = {k: v for k, v in _capped_row(0.94, 0.97).items() if k != "fine_grid_trim"}
+    assert _cap(_capped_row(0.94, 0.97), missing) == [("/fine_grid_trim", _capped_row(0.94, 0.97)["fine_grid_trim"],
+                                                       "<missing>")]
     # a converged row on one side is a status difference (and two converged rows are compared by numbers)
-    assert compare(_capped_row(0.94, 0.97), _capped_row(0.94, 0.97, status="Solve_Succeeded")) == [
+    assert _cap(_capped_row(0.94, 0.97), _capped_row(0.94, 0.97, status="Solve_Succeeded")) == [
         ("/status", "Maximum_Iterations_Exceeded", "Solve_Succeeded")]
     converged = _capped_row(0.94, 0.97, status="Solve_Succeeded")
-    assert compare(converged, _capped_row(0.95, 0.97, status="Solve_Succeeded"), rtol=1e-6)
-    assert compare(converged, _capped_row(0.94, 0.97, valid=False, status="Solve_Succeeded"))
+    assert _cap(converged, _capped_row(0.95, 0.97, status="Solve_Succeeded"), rtol=1e-6)
+    assert _cap(converged, _capped_row(0.94, 0.97, valid=False, status="Solve_Succeeded"))
     # the engine's own status of a failed trim, inside a list of rows
     trim = {"status": "max_iter", "success": False, "max_residual": 1e-3, "lambda1": 0.99}
-    assert compare({"rows": [trim]}, {"rows": [{**trim, "max_residual": 2e-3, "lambda1": 0.995}]}) == []
-    assert compare({"rows": [trim]}, {"rows": [{**trim, "status": "converged", "success": True}]})
+    assert _cap({"rows": [trim]}, {"rows": [{**trim, "max_residual": 2e-3, "lambda1": 0.995}]}) == []
+    assert _cap({"rows": [trim]}, {"rows": [{**trim, "status": "converged", "success": True}]})
 
 
-def test_a_line_about_a_capped_solve_is_compared_by_its_head():
+def test_a_line_about_a_capped_solve_is_compared_by_what_it_says_the_solve_is():
+    row = ("| tail | wagner | point reached; exact (FD); 8 | 48 | Maximum_Iterations_Exceeded | 0.9568 / 0.9591 | "
+           "True |\n")
+    assert compare_text(row, row.replace("0.9568", "0.7100").replace("True", "False"), capped_statements=True) == []
+    assert compare_text(row, row.replace("0.9568", "0.7100"))               # not a capped script: numbers count
+    for cell in ("| tail |", "| wagner |", "exact (FD); 8", "| 48 |"):
+        changed = row.replace(cell, {"| tail |": "| at_speed |", "| wagner |": "| today |",
+                                     "exact (FD); 8": "SR1; 60", "| 48 |": "| 96 |"}[cell])
+        assert compare_text(row, changed, capped_statements=True), cell
     line = "| tail | fd, an iterate at its iteration cap | converged | 6.4e-11 | 0.9697 | True |\n"
-    assert compare_text(line, line.replace("0.9697", "1.0590").replace("True", "False")) == []
-    assert compare_text(line, line.replace("| tail |", "| free_speed |"))
+    assert compare_text(line, line.replace("0.9697", "1.0590").replace("True", "False"), capped_statements=True) == []
     plain = line.replace(", an iterate at its iteration cap", "")
-    assert compare_text(plain, plain.replace("0.9697", "0.9590"))
-    assert compare_text(line, plain)
+    assert compare_text(plain, plain.replace("0.9697", "0.9590"), capped_statements=True)
+    assert compare_text(line, plain, capped_statements=True)
     sentence = "Level flight there (tail, fd, an iterate at its iteration cap; amplitude solved): |L1| 0.9696."
-    assert compare_text(sentence, sentence.replace("0.9696", "1.0100")) == []
-    assert compare_text(sentence, sentence.replace("(tail", "(free_speed"))
+    assert compare_text(sentence, sentence.replace("0.9696", "1.0100"), capped_statements=True) == []
+    assert compare_text(sentence, sentence.replace("(tail", "(free_speed"), capped_statements=True)
 
 
-def test_an_optimum_verification_block_is_compared_below_its_accuracy():
-    v = {"status": "Solve_Succeeded", "verification": {"trim_x0_difference": 1.47e-7, "trim_mean_vertical_speed_mps": -6e-8}}
-    w = {"status": "Solve_Succeeded", "verification": {"trim_x0_difference": 1.84e-7, "trim_mean_vertical_speed_mps": 8e-8}}
+def test_an_optimum_verification_block_is_compared_at_the_optimum_error():
+    v = {"status": "Solve_Succeeded", "verification": {"trim_x0_difference": 1.47e-7, "trim_mean_vertical_speed_mps": -6e-8,
+                                                        "power_difference_W": -7.2e-7, "trim_mean_shoulder_power_W": 8.2083786,
+                                                        "trim_multipliers": [[0.9694013, 0.0029679], [0.2840549, 0.0]]}}
+    w = {"status": "Solve_Succeeded", "verification": {"trim_x0_difference": 1.84e-7, "trim_mean_vertical_speed_mps": 8e-8,
+                                                        "power_difference_W": 9.0e-7, "trim_mean_shoulder_power_W": 8.2083799,
+                                                        "trim_multipliers": [[0.9694013, 0.0029660], [0.2840549, 0.0]]}}
     assert compare(v, w, rtol=1e-6, atol=1e-8) == []
-    far = {"status": "Solve_Succeeded", "verification": {"trim_x0_difference": 3e-3, "trim_mean_vertical_speed_mps": 8e-8}}
-    assert compare(v, far, rtol=1e-6, atol=1e-8)[0][0] == "/verification/trim_x0_difference"
+    for key, value in (("trim_x0_difference", 3e-3), ("trim_mean_shoulder_power_W", 8.27),
+                       ("trim_multipliers", [[0.9694013, 0.0129679], [0.2840549, 0.0]])):
+        far = {**v, "verification": {**v["verification"], key: value}}
+        assert compare(v, far, rtol=1e-6, atol=1e-8)[0][0].startswith(f"/verification/{key}"), key
 
 
 def test_symmetry_zeros_and_eigenvector_shares():

@@ -18,6 +18,7 @@ on which worker ran it or what ran there before.
 """
 from __future__ import annotations
 
+import threading
 from typing import Callable, Iterable
 
 __all__ = ["Executor", "SerialExecutor", "ProcessExecutor", "DaskExecutor", "get_executor"]
@@ -50,9 +51,8 @@ class Executor:
         raise NotImplementedError
 
     def start(self) -> "Executor":
-        """Make the workers ready now, in the calling thread (nothing to do for most executors). Call it
-        from the main thread before calling :meth:`map` from another thread: local worker processes
-        are tied to the thread that started them (they are stopped when it ends).
+        """Make the workers ready now rather than at the first :meth:`map` (nothing to do for most
+        executors): their start-up cost is then paid here.
 
         Returns
         -------
@@ -145,6 +145,7 @@ def _worker_init() -> None:
 def _pool_in_own_thread(jobs: int):
     """A spawn pool of ``jobs`` workers started by a daemon thread that then waits for the returned event:
     the workers' parent-death signal fires when that thread ends (the event set, or the process gone).
+    Interrupted while the pool starts (Ctrl-C), the owner thread terminates it once started.
 
     Returns
     -------
@@ -162,11 +163,20 @@ def _pool_in_own_thread(jobs: int):
             box["pool"] = mp.get_context("spawn").Pool(jobs, initializer=_worker_init)
         except BaseException as e:  # noqa: BLE001 - re-raised in the calling thread
             box["error"] = e
+            ready.set()
+            return
         ready.set()
         done.wait()
+        if box.get("abandoned"):
+            box["pool"].terminate()
 
     threading.Thread(target=own, name="birdocp-pool-owner", daemon=True).start()
-    ready.wait()
+    try:
+        ready.wait()
+    except BaseException:
+        box["abandoned"] = True
+        done.set()
+        raise
     if "error" in box:
         raise box["error"]
     return box["pool"], done
@@ -186,11 +196,13 @@ class ProcessExecutor(Executor):
         self.jobs = int(jobs)
         self._pool = None
         self._owner_done = None
+        self._lock = threading.Lock()
 
     def _get(self):
-        if self._pool is None:
-            self._pool, self._owner_done = _pool_in_own_thread(self.jobs)
-        return self._pool
+        with self._lock:
+            if self._pool is None:
+                self._pool, self._owner_done = _pool_in_own_thread(self.jobs)
+            return self._pool
 
     def start(self):
         """Returns
@@ -238,10 +250,12 @@ class ProcessExecutor(Executor):
         None
         """
         if self._pool is not None:
-            self._pool.close()
-            self._pool.join()
-            self._pool = None
-            self._owner_done.set()
+            pool, self._pool = self._pool, None
+            try:
+                pool.close()
+                pool.join()
+            finally:
+                self._owner_done.set()
 
     def terminate(self):
         """Returns
@@ -249,10 +263,12 @@ class ProcessExecutor(Executor):
         None
         """
         if self._pool is not None:
-            self._pool.terminate()
-            self._pool.join()
-            self._pool = None
-            self._owner_done.set()
+            pool, self._pool = self._pool, None
+            try:
+                pool.terminate()
+                pool.join()
+            finally:
+                self._owner_done.set()
 
     def describe(self):
         """What the results record about the executor (its name and worker count).
