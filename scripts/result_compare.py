@@ -50,7 +50,7 @@ IGNORED_KEY = re.compile(
     r"(wall|cpu_s|cpu_total|cpu_count|cpus$|load_?average|load_1min|uptime|timestamp|hostname|^machine$"
     r"|^date$|^python(_version)?$|^casadi(_version)?$|_version$|^version$|revision|^git$|^commit$"
     r"|^provenance$|^run_dir$|speedup|warmup|_call_s$|^time_per_iteration_s$|^(cold_)?(solve|total)_s$|^floquet_s$"
-    r"|^build_s$|^compile_s$|^first_solve|^reference_wall_s$|^with_error_estimate_s$)",
+    r"|^build_s$|^compile_s$|cpu_ratio|^first_solve|^reference_wall_s$|^with_error_estimate_s$)",
     re.IGNORECASE)
 
 #: Round-off-dominated quantities: differences of nearly equal numbers (residuals, error estimates,
