@@ -36,18 +36,18 @@ RESULTS = ROOT / "results"
 
 
 def entry(name, script, out, files, args=(), seed=(), recorded=(), skip=None, out_file=None, rtol=0.0,
-          then=(), capped=False):
+          then=(), unconverged=False):
     """One registered script: ``out`` the results sub-folder it writes (``--out``), ``files`` the globs
     (relative to results/) compared, ``seed`` committed inputs copied beside the scratch output first,
     ``recorded`` ``(file, key, ...)`` paths whose sum is its recorded duration in seconds, ``skip`` a reason
     not to run it, ``out_file`` when ``--out`` takes a file (relative to results/) rather than a folder,
     ``rtol`` a floor on ``--rtol`` for this script's files (:data:`OPTIMUM_RTOL`), ``then`` argument lists
-    of further runs of the same script into the same folder (a result written in several steps), ``capped``
-    that its solves stopped by their iteration cap are compared by their statements (the scripts whose
-    capped iterates were measured to move with the optimiser's path: result_compare.compare)."""
+    of further runs of the same script into the same folder (a result written in several steps), ``unconverged``
+    that its solves that did not converge are compared by their statements (the scripts whose failed
+    solves were measured to move with the solver's path: result_compare.compare)."""
     return {"name": name, "script": script, "out": out, "files": list(files), "args": list(args),
             "seed": list(seed), "recorded": list(recorded), "skip": skip, "out_file": out_file, "rtol": rtol,
-            "then": [list(t) for t in then], "capped": capped}
+            "then": [list(t) for t in then], "unconverged": unconverged}
 
 
 #: The relative tolerance of the optimisers' results: an optimum solved to a KKT residual of ~1e-8
@@ -73,7 +73,7 @@ OPTIMUM_ATOL = 1e-8
 #: as the last of the committed runs did. Iteration bounds only: the tail exact-Hessian stage stops at 8
 #: iterations, where the committed run stopped (it was cut by a wall-clock limit, removed since). The rows
 #: of the stages stopped by their cap (the SR1 stages of free_speed and tail, the tail's exact-Hessian stage)
-#: are iterates of the optimiser's path and are compared by their statements (result_compare.capped); the
+#: are iterates of the optimiser's path and are compared by their statements (result_compare.unconverged); the
 #: converged optima (at_speed, free_speed's exact-Hessian stage) by their numbers, to :data:`OPTIMUM_RTOL`.
 AERO_OPTIMIZE = ["--optimize", "--cases", "wagner"]
 AERO_FD = ["--hessian", "fd", "--from-reached", "--valid-rounds", "2", "--own-state", "--stall-at-optimum", "30",
@@ -174,7 +174,8 @@ REGISTRY = [
           args=["--optimize"], recorded=[("tail/optimum_valid.json", "script_wall_s")], rtol=OPTIMUM_RTOL),
     entry("stability-valid", "scripts/stability_valid_study.py", "stability_optimum/valid",
           ["stability_optimum/valid/result.json"],
-          recorded=[("stability_optimum/valid/result.json", g, "script_wall_s") for g in ("free_speed", "at_speed")], rtol=OPTIMUM_RTOL),
+          recorded=[("stability_optimum/valid/result.json", g, "script_wall_s") for g in ("free_speed", "at_speed")], rtol=OPTIMUM_RTOL,
+          unconverged=True),
     entry("energetics-valid", "scripts/energetics_valid_study.py", "energetics/valid",
           ["energetics/valid/result.json"], seed=["stability_optimum/valid/result.json"],
           recorded=[("energetics/valid/result.json", "wall_s")], rtol=OPTIMUM_RTOL),
@@ -183,22 +184,22 @@ REGISTRY = [
           recorded=[(f"aero/valid/cases/{g}_{c}.json", "trim_wall_s") for g in ("at_speed", "free_speed")
                     for c in ("today", "wagner", "wagner_stall")]),
     *[entry(f"aero-valid-optimize-{g.replace('_', '-')}", "scripts/aero_valid_study.py", "aero/valid", [_opt(g)],
-            args=[*AERO_OPTIMIZE, "--gaits", g], recorded=[(_opt(g), "wall_s")], rtol=OPTIMUM_RTOL, capped=True)
+            args=[*AERO_OPTIMIZE, "--gaits", g], recorded=[(_opt(g), "wall_s")], rtol=OPTIMUM_RTOL, unconverged=True)
       for g in ("at_speed", "free_speed", "tail")],
     entry("aero-valid-optimize-free-speed-fd", "scripts/aero_valid_study.py", "aero/valid",
           [_opt("free_speed", "fd_reached")], seed=[_opt("free_speed")], rtol=OPTIMUM_RTOL,
           args=[*AERO_OPTIMIZE, "--gaits", "free_speed", *AERO_FD, "--max-iter", "40"],
-          recorded=[(_opt("free_speed", "fd_reached"), "wall_s")], capped=True),
+          recorded=[(_opt("free_speed", "fd_reached"), "wall_s")], unconverged=True),
     entry("aero-valid-optimize-tail-fd", "scripts/aero_valid_study.py", "aero/valid",
           [_opt("tail", "fd_reached"), "aero/valid/optimized.json", "aero/valid/optimized.md"],
           seed=[_opt("at_speed"), _opt("free_speed"), _opt("tail"), _opt("free_speed", "fd_reached")],
           args=[*AERO_OPTIMIZE, "--gaits", "tail", *AERO_FD, "--max-iter", "8"], rtol=OPTIMUM_RTOL,
-          recorded=[(_opt("tail", "fd_reached"), "wall_s")], capped=True),
+          recorded=[(_opt("tail", "fd_reached"), "wall_s")], unconverged=True),
     entry("aero-stall-optimum", "scripts/aero_stall_optimum.py", "aero/stall_optimum",
           ["aero/stall_optimum/result.json", "aero/stall_optimum/scan.json", "aero/stall_optimum/cases/opt_*.json"],
           args=["--max-iter", "6", "--label", "explore6"],
           then=[["--from-label", "explore6", "--max-iter", "10", "--label", "fd16"]],
-          recorded=[("aero/stall_optimum/cases/opt_*.json", "wall_s")], rtol=OPTIMUM_RTOL, capped=True),
+          recorded=[("aero/stall_optimum/cases/opt_*.json", "wall_s")], rtol=OPTIMUM_RTOL, unconverged=True),
     entry("aero-iterate-claims", "scripts/iterate_claims.py", "aero/iterate_claims",
           ["aero/iterate_claims/result.json", "aero/iterate_claims/table.md", "aero/iterate_claims/cases/*.json"],
           recorded=[("aero/iterate_claims/cases/*.json", "wall_s")]),
@@ -280,8 +281,8 @@ def compare_files(e, run_root: Path, rtol: float) -> list[dict]:
             continue
         text = _normalise(new.read_text(), run_root)
         diffs = compare(json.loads(old.read_text()), json.loads(text), rtol=max(rtol, e["rtol"]),
-                        atol=OPTIMUM_ATOL if e["rtol"] >= OPTIMUM_RTOL else 1e-14, capped_statements=e["capped"]) \
-            if old.suffix == ".json" else compare_text(old.read_text(), text, capped_statements=e["capped"])
+                        atol=OPTIMUM_ATOL if e["rtol"] >= OPTIMUM_RTOL else 1e-14, unconverged_statements=e["unconverged"]) \
+            if old.suffix == ".json" else compare_text(old.read_text(), text, unconverged_statements=e["unconverged"])
         rows.append({"file": rel, "status": "differs" if diffs else "identical",
                      "differences": [{"key": k, "committed": a, "regenerated": b, "relative": relative_gap(a, b)}
                                      for k, a, b in diffs]})

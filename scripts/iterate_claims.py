@@ -28,7 +28,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from aero_valid_study import _f, fine_grid_trim, stall_level_at_optimum  # noqa: E402
-from result_compare import capped  # noqa: E402
+from result_compare import unconverged  # noqa: E402
 from script_common import parse_with_out, script_parser, write_result  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -37,10 +37,10 @@ ROWS = ("aero/valid/cases/opt_*.json", "aero/stall_optimum/cases/opt_*.json")
 
 
 def capped_rows() -> list[Path]:
-    """The committed rows of :data:`ROWS` stopped by their iteration cap (``result_compare.capped``, the
+    """The committed rows of :data:`ROWS` stopped by their iteration cap (``result_compare.unconverged``, the
     rule that compares them by their statements only) that carry a ``fine_grid_trim``."""
     paths = sorted(p for g in ROWS for p in (ROOT / "results").glob(g))
-    return [p for p in paths if capped(r := json.loads(p.read_text())) and "fine_grid_trim" in r]
+    return [p for p in paths if unconverged(r := json.loads(p.read_text())) and "fine_grid_trim" in r]
 
 
 def _sha256(path: Path) -> str:

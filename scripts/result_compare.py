@@ -21,19 +21,19 @@ Rules:
 - an eigenvector (``eigenvector`` key) is compared up to a unit complex factor (its sign for a real
   mode), which its normalisation leaves to round-off;
 - dictionaries must have the same keys (ignored keys aside), lists the same length;
-- in the results of the scripts registered as ``capped`` (whose capped solves were measured to move with
-  the optimiser's path), a solve stopped by its iteration cap (a dictionary whose ``status``, or whose
-  ``optimum``'s, is :data:`ITERATION_CAP`: IPOPT's ``Maximum_Iterations_Exceeded``, the engine's
-  ``max_iter``) is compared by its keys and by what it is (:data:`STATEMENT_KEY`: its problem, model,
-  start, cap and grid, and its status), not by what it found: its last iterate is a point of the path,
-  which a re-run moves (docs/reproducibility.md), and so is everything computed at it (what the docs cite
-  such an iterate for is re-solved from its committed gait by ``scripts/iterate_claims.py`` and compared
-  by its numbers);
+- in the results of the scripts registered ``unconverged=True`` (whose failed solves were measured to
+  move with the solver's path), a solve that did not converge (a dictionary with a ``status``, or whose
+  ``optimum`` has one, that is an iteration cap, :data:`ITERATION_CAP`, or comes with ``success`` False)
+  is compared by its keys, by what it is and by the fact that it failed (:data:`STATEMENT_KEY`: problem,
+  model, start, cap, grid, ``success``); not by how it failed nor by what it found: its last iterate is a
+  point of the path, which a re-run moves (docs/reproducibility.md), and so is everything computed at it
+  (what the docs cite such an iterate for is re-solved from its committed gait by
+  ``scripts/iterate_claims.py`` and compared by its numbers);
 - an optimum's ``verification`` block (its cycle trimmed again) differs from the optimum by the optimum's
   own error: its numbers to 1e-5 absolute (:data:`VERIFIED`) on top of the relative tolerance;
 - a text result (a Markdown table such as ``optimized.md``, rendered from a JSON result compared by the
   rules above) is compared line by line (:func:`compare_text`), each line as a sentence: its numbers, printed
-  rounded, within the noise tolerance, ``N iterations`` left out, the rest exactly; for a ``capped`` script,
+  rounded, within the noise tolerance, ``N iterations`` left out, the rest exactly; for an ``unconverged`` script,
   a line about a solve stopped by its cap (:data:`CAP_IN_TEXT` in both) by what it says the solve is (a
   table row's cells up to the one naming the cap, a sentence's words before its colon).
 
@@ -103,15 +103,17 @@ EIGENVECTOR_KEYS = ("eigenvector", "eigenvectors")
 #: of 1e-13 in the gradients moved a 60-iteration SR1 iterate from r 0.940 to 0.710 and an 8-iteration
 #: exact-Hessian one by 2e-6 (docs/reproducibility.md).
 ITERATION_CAP = re.compile(r"^(?:IPOPT: )?(?:Maximum_Iterations_Exceeded|max_iter)$")
-#: What a capped solve is compared by (at its own level and its ``optimum``'s): what it is (problem,
-#: model, start, cap, grid) and its status. Not what it found: neither its numbers, nor its success or
-#: validity flags, nor the cycles solved at it: measured, the same command moved the tailless stall
-#: optimiser's 10-iteration iterate from r 1.0074 to 1.0782, the level cycle at its gait from |Lambda1|
-#: 0.986 (stable) to 1.067, and the tail's 60-iteration SR1 iterate to a gait whose 148-step level flight
-#: fails (it converged at the committed one), and the speed-free SR1 stage took two validity rounds
-#: instead of one.
+#: What a solve that did not converge is compared by (at its own level and its ``optimum``'s): what it
+#: is (problem, model, start, cap, grid) and that it failed (``success``). Not how it failed (its status:
+#: a failed start of the 16-start design of stability_optimum/valid ended Infeasible_Problem_Detected,
+#: then Maximum_Iterations_Exceeded, then Infeasible_Problem_Detected again in three sessions), nor what
+#: it found: its numbers, its validity, the cycles solved at it. Measured: the same command moved the
+#: tailless stall optimiser's 10-iteration iterate from r 1.0074 to 1.0782, the level cycle at its gait
+#: from |Lambda1| 0.986 (stable) to 1.067, the tail's 60-iteration SR1 iterate to a gait whose 148-step
+#: level flight fails (it converged at the committed one), and the speed-free SR1 stage took two validity
+#: rounds instead of one.
 STATEMENT_KEY = re.compile(r"^(gait|case|label|hessian|start|started_from|inserted|max_iter|steps_per_period"
-                           r"|overrides|problem|model|quasi_steady_radius|speed_mps|status)$")
+                           r"|overrides|problem|model|quasi_steady_radius|speed_mps|success)$")
 #: A Markdown line about a capped solve (its status, or the marker the scripts print beside its label).
 CAP_IN_TEXT = re.compile(r"Maximum_Iterations_Exceeded|\bmax_iter\b|iteration cap")
 NUMBER_IN_TEXT = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
@@ -153,15 +155,15 @@ def _tolerance(key, tol, overrides):
 
 
 def compare(old, new, rtol: float = 1e-9, atol: float = 1e-14, overrides: dict | None = None,
-            limit: int = 20, capped_statements: bool = False) -> list[tuple[str, object, object]]:
+            limit: int = 20, unconverged_statements: bool = False) -> list[tuple[str, object, object]]:
     """The differences between the committed ``old`` and the regenerated ``new`` (at most ``limit``),
     each ``(path, old value, new value)``; ``[]`` when they agree. ``overrides`` defaults to
-    :data:`OVERRIDES` (``{}`` for none). With ``capped_statements`` (a registry entry's ``capped``: the
-    scripts whose capped solves were measured to move with the path), a solve stopped by its iteration
-    cap is compared by its statements (:func:`capped`, :data:`STATEMENT_KEY`)."""
+    :data:`OVERRIDES` (``{}`` for none). With ``unconverged_statements`` (a registry entry's ``unconverged``:
+    the scripts whose failed solves were measured to move with the solver's path), a solve that did not
+    converge is compared by its statements (:func:`unconverged`, :data:`STATEMENT_KEY`)."""
     overrides = OVERRIDES if overrides is None else overrides
     out: list = []
-    _walk(old, new, "", (rtol, atol), overrides, out, limit, capped_statements)
+    _walk(old, new, "", (rtol, atol), overrides, out, limit, unconverged_statements)
     return out
 
 
@@ -194,8 +196,8 @@ def _walk(a, b, path, tol, overrides, out, limit, cap=False) -> None:
         return
     if path.rsplit("/", 1)[-1] in EIGENVECTOR_KEYS:
         b = _rephased(a, b)
-    if cap and isinstance(a, dict) and isinstance(b, dict) and (capped(a) or capped(b)):
-        _compare_capped(a, b, path, tol, overrides, out, limit)
+    if cap and isinstance(a, dict) and isinstance(b, dict) and (unconverged(a) or unconverged(b)):
+        _compare_unconverged(a, b, path, tol, overrides, out, limit)
     elif isinstance(a, dict) and isinstance(b, dict):
         for k in list(a) + [k for k in b if k not in a]:
             if is_ignored(k):
@@ -226,20 +228,21 @@ def _walk(a, b, path, tol, overrides, out, limit, cap=False) -> None:
         out.append((path, a, b))
 
 
-def capped(d) -> bool:
-    """True when ``d`` is a solve stopped by its iteration cap: its ``status``, or its ``optimum``'s, is
-    :data:`ITERATION_CAP`."""
+def unconverged(d) -> bool:
+    """True when ``d`` records a solve that did not converge: it has a ``status`` (or its ``optimum`` has)
+    and that is an iteration cap (:data:`ITERATION_CAP`) or comes with ``success`` False."""
     if not isinstance(d, dict):
         return False
     inner = d.get("optimum") if isinstance(d.get("optimum"), dict) else {}
-    return any(isinstance(x.get("status"), str) and bool(ITERATION_CAP.match(x["status"])) for x in (d, inner))
+    return any(isinstance(x.get("status"), str) and (x.get("success") is False or bool(ITERATION_CAP.match(x["status"])))
+               for x in (d, inner))
 
 
-def _compare_capped(a: dict, b: dict, path: str, tol, overrides, out: list, limit: int) -> None:
-    """Compare two capped solves (:func:`capped`) by their keys and their statements (the
-    :data:`STATEMENT_KEY` entries of the solve and of its ``optimum``, each by the usual rules); a status
-    difference when only one is capped."""
-    if not (capped(a) and capped(b)):
+def _compare_unconverged(a: dict, b: dict, path: str, tol, overrides, out: list, limit: int) -> None:
+    """Compare two solves that did not converge (:func:`unconverged`) by their keys and their statements
+    (the :data:`STATEMENT_KEY` entries of the solve and of its ``optimum``, each by the usual rules); a
+    status difference when only one did not converge."""
+    if not (unconverged(a) and unconverged(b)):
         out.append((f"{path}/status", _status(a), _status(b)))
         return
     ka, kb = [k for k in a if not is_ignored(k)], [k for k in b if not is_ignored(k)]
@@ -280,16 +283,16 @@ def _same_text(a: str, b: str) -> bool:
     return all(_close(float(x), float(y), *NOISE) for x, y in zip(na, nb))
 
 
-def compare_text(old: str, new: str, limit: int = 20, capped_statements: bool = False) -> list[tuple[str, object, object]]:
+def compare_text(old: str, new: str, limit: int = 20, unconverged_statements: bool = False) -> list[tuple[str, object, object]]:
     """The differences between a committed text result ``old`` and the regenerated ``new`` (at most
     ``limit``), each ``("line N", old line, new line)`` (``("lines", n_old, n_new)`` when their numbers of
     lines differ); a line agrees when equal or equal as a sentence (:func:`_same_text`), or, with
-    ``capped_statements``, about a solve stopped by its iteration cap (:data:`CAP_IN_TEXT` in both), when
+    ``unconverged_statements``, about a solve stopped by its iteration cap (:data:`CAP_IN_TEXT` in both), when
     what it says the solve is agrees (:func:`_same_words`)."""
     a, b = old.splitlines(), new.splitlines()
     out: list = [("lines", len(a), len(b))] if len(a) != len(b) else []
     out += [(f"line {i + 1}", x, y) for i, (x, y) in enumerate(zip(a, b)) if x != y and not _same_text(x, y)
-            and not (capped_statements and _same_words(x, y))]
+            and not (unconverged_statements and _same_words(x, y))]
     return out[:limit]
 
 

@@ -142,7 +142,7 @@ def _capped_row(r: float, lam: float, valid: bool = True, status: str = "Maximum
 
 
 def _cap(old, new, **kw):
-    return compare(old, new, capped_statements=True, **kw)
+    return compare(old, new, unconverged_statements=True, **kw)
 
 
 def test_an_iterate_at_its_iteration_cap_is_compared_by_what_it_is():
@@ -165,6 +165,11 @@ def test_an_iterate_at_its_iteration_cap_is_compared_by_what_it_is():
     converged = _capped_row(0.94, 0.97, status="Solve_Succeeded")
     assert _cap(converged, _capped_row(0.95, 0.97, status="Solve_Succeeded"), rtol=1e-6)
     assert _cap(converged, _capped_row(0.94, 0.97, valid=False, status="Solve_Succeeded"))
+    # how it failed is the path's too (a failed multi-start row: iteration cap, then infeasibility detected)
+    failed = {"start": {"a": 1.0}, "success": False, "status": "Maximum_Iterations_Exceeded", "radius": 1.52}
+    other = {**failed, "status": "Infeasible_Problem_Detected", "radius": 1.12}
+    assert _cap({"rows": [failed]}, {"rows": [other]}) == []
+    assert _cap({"rows": [failed]}, {"rows": [{**other, "start": {"a": 2.0}}]}) == [("/rows/0/start/a", 1.0, 2.0)]
     # the engine's own status of a failed trim, inside a list of rows
     trim = {"status": "max_iter", "success": False, "max_residual": 1e-3, "lambda1": 0.99}
     assert _cap({"rows": [trim]}, {"rows": [{**trim, "max_residual": 2e-3, "lambda1": 0.995}]}) == []
@@ -174,20 +179,20 @@ def test_an_iterate_at_its_iteration_cap_is_compared_by_what_it_is():
 def test_a_line_about_a_capped_solve_is_compared_by_what_it_says_the_solve_is():
     row = ("| tail | wagner | point reached; exact (FD); 8 | 48 | Maximum_Iterations_Exceeded | 0.9568 / 0.9591 | "
            "True |\n")
-    assert compare_text(row, row.replace("0.9568", "0.7100").replace("True", "False"), capped_statements=True) == []
+    assert compare_text(row, row.replace("0.9568", "0.7100").replace("True", "False"), unconverged_statements=True) == []
     assert compare_text(row, row.replace("0.9568", "0.7100"))               # not a capped script: numbers count
     for cell in ("| tail |", "| wagner |", "exact (FD); 8", "| 48 |"):
         changed = row.replace(cell, {"| tail |": "| at_speed |", "| wagner |": "| today |",
                                      "exact (FD); 8": "SR1; 60", "| 48 |": "| 96 |"}[cell])
-        assert compare_text(row, changed, capped_statements=True), cell
+        assert compare_text(row, changed, unconverged_statements=True), cell
     line = "| tail | fd, an iterate at its iteration cap | converged | 6.4e-11 | 0.9697 | True |\n"
-    assert compare_text(line, line.replace("0.9697", "1.0590").replace("True", "False"), capped_statements=True) == []
+    assert compare_text(line, line.replace("0.9697", "1.0590").replace("True", "False"), unconverged_statements=True) == []
     plain = line.replace(", an iterate at its iteration cap", "")
-    assert compare_text(plain, plain.replace("0.9697", "0.9590"), capped_statements=True)
-    assert compare_text(line, plain, capped_statements=True)
+    assert compare_text(plain, plain.replace("0.9697", "0.9590"), unconverged_statements=True)
+    assert compare_text(line, plain, unconverged_statements=True)
     sentence = "Level flight there (tail, fd, an iterate at its iteration cap; amplitude solved): |L1| 0.9696."
-    assert compare_text(sentence, sentence.replace("0.9696", "1.0100"), capped_statements=True) == []
-    assert compare_text(sentence, sentence.replace("(tail", "(free_speed"), capped_statements=True)
+    assert compare_text(sentence, sentence.replace("0.9696", "1.0100"), unconverged_statements=True) == []
+    assert compare_text(sentence, sentence.replace("(tail", "(free_speed"), unconverged_statements=True)
 
 
 def test_an_optimum_verification_block_is_compared_at_the_optimum_error():
