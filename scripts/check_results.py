@@ -399,9 +399,11 @@ def markdown(report: dict) -> str:
 def write_report(report: dict, out: Path) -> None:
     """OUT/report.json and OUT/report.md (rewritten after every result, so an interrupted check keeps
     what it has)."""
+    from birdocp.io.files import atomic_write_json, atomic_write_text
+
     report["uncovered"] = uncovered()
-    (out / "report.json").write_text(json.dumps(report, indent=1) + "\n")
-    (out / "report.md").write_text(markdown(report))
+    atomic_write_json(out / "report.json", report)
+    atomic_write_text(out / "report.md", markdown(report))
 
 
 def _imported_birdocp() -> str:
