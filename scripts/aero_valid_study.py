@@ -219,17 +219,21 @@ def stall_table(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n" if len(lines) > 5 else ""
 
 
+def _capped(r: dict) -> bool:
+    """Whether a row's optimiser stopped at its iteration cap: the row is then an iterate of the
+    optimiser's path, not an optimum (scripts/result_compare.py compares it by its statements)."""
+    return r["optimum"].get("status") == "Maximum_Iterations_Exceeded"
+
+
 def _label(r: dict) -> str:
-    """A row's label, marked when its optimiser stopped at its iteration cap (then the row is an iterate
-    of the optimiser's path, not an optimum: scripts/result_compare.py compares it by its statements)."""
-    capped = r["optimum"].get("status") == "Maximum_Iterations_Exceeded"
-    return (r.get("label") or "—") + (", an iterate at its iteration cap" if capped else "")
+    """A row's label, marked when it is an iterate at its iteration cap (:func:`_capped`)."""
+    return (r.get("label") or "—") + (", an iterate at its iteration cap" if _capped(r) else "")
 
 
 def _active(r: dict) -> str:
     """The active validity limits and the free keys at a bound of an optimum (two cells); an iterate at
     its iteration cap has no active set."""
-    if r["optimum"].get("status") == "Maximum_Iterations_Exceeded":
+    if _capped(r):
         return "— (not an optimum) | — (not an optimum)"
     return (f"{', '.join(r['active_limits']) or '—'} | "
             f"{', '.join(k.split('.', 1)[1] for k in r['active_bounds']) or '—'}")

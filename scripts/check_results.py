@@ -331,11 +331,13 @@ def _run(e, run_root: Path, budget_s: float) -> dict:
         text += f"$ {' '.join(cmd)}\n{p.stdout}\n--- stderr ---\n{p.stderr}\n"
         if p.returncode != 0:
             break
-    (run_root / "stdout.txt").write_text(text)
+    from birdocp.io.files import atomic_write_json, atomic_write_text
+
+    atomic_write_text(run_root / "stdout.txt", text)
     run = {"wall_s": round(time.perf_counter() - t0, 1), "command": " ".join(cmd), "returncode": p.returncode,
            "budget_s": budget_s, "stderr_tail": p.stderr.strip().splitlines()[-3:],
            "load_average_after": " ".join(f"{x:.2f}" for x in os.getloadavg())}
-    (run_root / "run.json").write_text(json.dumps(run, indent=1) + "\n")
+    atomic_write_json(run_root / "run.json", run)
     return run
 
 

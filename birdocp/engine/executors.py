@@ -249,23 +249,21 @@ class ProcessExecutor(Executor):
         -------
         None
         """
-        if self._pool is not None:
-            pool, self._pool = self._pool, None
-            try:
-                pool.close()
-                pool.join()
-            finally:
-                self._owner_done.set()
+        self._stop(lambda pool: pool.close())
 
     def terminate(self):
         """Returns
         -------
         None
         """
+        self._stop(lambda pool: pool.terminate())
+
+    def _stop(self, end) -> None:
+        """``end(pool)`` (close or terminate), wait for the workers, and release the owner thread."""
         if self._pool is not None:
             pool, self._pool = self._pool, None
             try:
-                pool.terminate()
+                end(pool)
                 pool.join()
             finally:
                 self._owner_done.set()
