@@ -99,9 +99,9 @@ OVERRIDES = {r"^verification$": VERIFIED, r"coupling_max$|^max_abs_lateral": SYM
 #: one's, as an eigenvector normalised by its largest magnitude keeps LAPACK's arbitrary sign or phase.
 EIGENVECTOR_KEYS = ("eigenvector", "eigenvectors")
 #: The statuses of a solve stopped by its iteration cap (IPOPT's, with or without its prefix, and the
-#: engine's). Its last iterate depends on the path: two runs of one code are bit-identical, but a change
-#: of 1e-13 in the gradients moved a 60-iteration SR1 iterate from r 0.940 to 0.710 and an 8-iteration
-#: exact-Hessian one by 2e-6 (docs/reproducibility.md).
+#: engine's). Its last iterate depends on the path: a change of 1e-13 in the gradients moved a
+#: 60-iteration SR1 iterate from r 0.940 to 0.710 and an 8-iteration exact-Hessian one by 2e-6
+#: (docs/reproducibility.md).
 ITERATION_CAP = re.compile(r"^(?:IPOPT: )?(?:Maximum_Iterations_Exceeded|max_iter)$")
 #: What a solve that did not converge is compared by (at its own level and its ``optimum``'s): what it
 #: is (problem, model, start, cap, grid) and that it failed (``success``). Not how it failed (its status:
@@ -232,11 +232,15 @@ def _walk(a, b, path, tol, overrides, out, limit, cap=False) -> None:
 def unconverged(d) -> bool:
     """True when ``d`` records a solve that did not converge: it has a ``status`` (or its ``optimum`` has)
     and that is an iteration cap (:data:`ITERATION_CAP`) or comes with ``success`` False."""
-    if not isinstance(d, dict):
-        return False
-    inner = d.get("optimum") if isinstance(d.get("optimum"), dict) else {}
     return any(isinstance(x.get("status"), str) and (x.get("success") is False or bool(ITERATION_CAP.match(x["status"])))
-               for x in (d, inner))
+               for x in _records(d))
+
+
+def _records(d) -> list[dict]:
+    """The solve records of ``d``: itself and its ``optimum`` (when a dictionary); none for a non-dict."""
+    if not isinstance(d, dict):
+        return []
+    return [d] + ([d["optimum"]] if isinstance(d.get("optimum"), dict) else [])
 
 
 def _compare_unconverged(a: dict, b: dict, path: str, tol, overrides, out: list, limit: int) -> None:
@@ -259,8 +263,8 @@ def _compare_unconverged(a: dict, b: dict, path: str, tol, overrides, out: list,
 
 
 def _status(d: dict):
-    """The status of a solve or of its optimum."""
-    return d.get("status", (d.get("optimum") or {}).get("status") if isinstance(d.get("optimum"), dict) else None)
+    """The status of a solve or, when it has none, of its optimum."""
+    return next((x["status"] for x in _records(d) if "status" in x), None)
 
 
 def _scale(v) -> float | None:

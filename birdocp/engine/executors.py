@@ -153,7 +153,6 @@ def _pool_in_own_thread(jobs: int):
         ``(pool, event)``: set the event once the pool is closed.
     """
     import multiprocessing as mp
-    import threading
 
     box: dict = {}
     ready, done = threading.Event(), threading.Event()
